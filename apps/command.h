@@ -1,0 +1,35 @@
+// The `omnistereo` subcommands. Each is a thin function: flags -> options -> one library call ->
+// summary. A command returns the process exit code; user-facing errors are thrown as
+// omni::io::InputError (or std::runtime_error) and printed once, by main.
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace omni::apps {
+
+struct Command {
+  const char* name;
+  const char* summary;
+  std::vector<std::string> flags;  // the gflags this command reads, listed by --help
+  int (*run)();
+};
+
+const std::vector<Command>& Commands();
+
+int RunDesign();
+int RunRender();
+int RunDetect();
+int RunCalibrate();
+int RunProject();
+int RunUnproject();
+int RunTriangulate();
+int RunTolerance();
+int RunPanorama();
+int RunDepth();
+int RunDemo();
+
+// For commands that later issues will fill in: prints one line and returns 2.
+int NotYetImplemented(const char* name, const char* issue);
+
+}  // namespace omni::apps

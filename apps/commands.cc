@@ -1,0 +1,44 @@
+#include <cstdio>
+
+#include "apps/command.h"
+
+namespace omni::apps {
+
+const std::vector<Command>& Commands() {
+  static const std::vector<Command> commands = {
+      {"design", "maximise the baseline of an ideal rig design [optimization_of_baseline]",
+       {"config", "out", "curves_out"}, RunDesign},
+      {"render", "render a rig model and scene with POV-Ray, with ground truth",
+       {"model", "scene", "out"}, RunRender},
+      {"detect", "detect targets and lips in a session's images", {"session", "out"}, RunDetect},
+      {"calibrate", "bundle-adjust the non-central model from a session",
+       {"session", "out", "detections"}, RunCalibrate},
+      {"project", "project 3D points (CSV x_mm,y_mm,z_mm) to pixels via both mirrors",
+       {"model", "points", "out"}, RunProject},
+      {"unproject", "back-project pixels (CSV u,v) to rays", {"model", "pixels", "out"},
+       RunUnproject},
+      {"triangulate", "triangulate corners seen in both rings, with covariance",
+       {"model", "detections", "out"}, RunTriangulate},
+      {"tolerance", "check a calibrated rig against assembly tolerances", {"model", "config"},
+       RunTolerance},
+      {"panorama", "unwarp both rings into panoramas", {"model", "out"}, RunPanorama},
+      {"depth", "dense stereo on the panoramas to a point cloud", {"model", "out"}, RunDepth},
+      {"demo", "run the main job on the bundled default", {"out"}, RunDemo},
+  };
+  return commands;
+}
+
+int NotYetImplemented(const char* name, const char* issue) {
+  std::fprintf(stderr, "omnistereo %s: not implemented yet (%s)\n", name, issue);
+  return 2;
+}
+
+int RunRender() { return NotYetImplemented("render", "synthetic-session issue"); }
+int RunDetect() { return NotYetImplemented("detect", "detectors issue"); }
+int RunCalibrate() { return NotYetImplemented("calibrate", "calibration issue"); }
+int RunTriangulate() { return NotYetImplemented("triangulate", "3D sensing issue"); }
+int RunTolerance() { return NotYetImplemented("tolerance", "calibration issue"); }
+int RunPanorama() { return NotYetImplemented("panorama", "3D sensing issue"); }
+int RunDepth() { return NotYetImplemented("depth", "3D sensing issue"); }
+
+}  // namespace omni::apps

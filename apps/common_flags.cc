@@ -1,0 +1,10 @@
+#include "apps/common_flags.h"
+
+DEFINE_string(model, "", "model file (omnistereo-model/1 YAML)");
+DEFINE_string(out, "", "output file or folder");
+DEFINE_string(config, "", "configuration file (YAML)");
+DEFINE_string(session, "", "session file (omnistereo-session/1 YAML)");
+DEFINE_string(scene, "", "scene file (omnistereo-scene/1 YAML)");
+DEFINE_string(detections, "", "detections file (omnistereo-detections/1 YAML)");
+DEFINE_string(points, "", "CSV of 3D points in the camera frame, header x_mm,y_mm,z_mm");
+DEFINE_string(pixels, "", "CSV of pixels, header u,v");

@@ -1,0 +1,13 @@
+// Flags shared by several subcommands (gflags allows one definition per name).
+#pragma once
+
+#include <gflags/gflags.h>
+
+DECLARE_string(model);
+DECLARE_string(out);
+DECLARE_string(config);
+DECLARE_string(session);
+DECLARE_string(scene);
+DECLARE_string(detections);
+DECLARE_string(points);
+DECLARE_string(pixels);

@@ -1,0 +1,59 @@
+// The perspective camera of the rig (DESIGN.md §2): pinhole with skew and OpenCV's
+// radial-tangential distortion applied to normalised coordinates before K
+// [camera_intrinsic_matrix]. Pixel centres at integer coordinates.
+#pragma once
+
+#include <cmath>
+
+#include "model/types.h"
+
+namespace omni {
+
+template <typename T>
+struct Pinhole {
+  T fx, fy, cx, cy, skew;
+
+  template <typename U>
+  Pinhole<U> Cast() const {
+    return Pinhole<U>{U(fx), U(fy), U(cx), U(cy), U(skew)};
+  }
+  // u = fx x + s y + cx, v = fy y + cy for normalised (x, y) = (X/Z, Y/Z).
+  Vec2<T> PixelFromNormalized(const Vec2<T>& xy) const {
+    return Vec2<T>(fx * xy.x() + skew * xy.y() + cx, fy * xy.y() + cy);
+  }
+  // K^-1 [q1_bp].
+  Vec2<T> NormalizedFromPixel(const Vec2<T>& uv) const {
+    const T y = (uv.y() - cy) / fy;
+    return Vec2<T>((uv.x() - cx - skew * y) / fx, y);
+  }
+};
+
+// OpenCV radial-tangential coefficients, named dist_* so they never collide with the mirror k's.
+template <typename T>
+struct RadTan {
+  T dist_k1, dist_k2, dist_p1, dist_p2, dist_k3;
+
+  template <typename U>
+  RadTan<U> Cast() const {
+    return RadTan<U>{U(dist_k1), U(dist_k2), U(dist_p1), U(dist_p2), U(dist_k3)};
+  }
+  bool IsZero() const {
+    return dist_k1 == T(0) && dist_k2 == T(0) && dist_p1 == T(0) && dist_p2 == T(0) &&
+           dist_k3 == T(0);
+  }
+  // Distorted normalised coordinates of ideal normalised coordinates (OpenCV's model).
+  Vec2<T> Distort(const Vec2<T>& xy) const {
+    const T x = xy.x(), y = xy.y();
+    const T r2 = x * x + y * y;
+    const T radial = T(1) + r2 * (dist_k1 + r2 * (dist_k2 + r2 * dist_k3));
+    return Vec2<T>(x * radial + T(2) * dist_p1 * x * y + dist_p2 * (r2 + T(2) * x * x),
+                   y * radial + dist_p1 * (r2 + T(2) * y * y) + T(2) * dist_p2 * x * y);
+  }
+};
+
+// Inverts RadTan::Distort by Newton's method with the exact 2x2 Jacobian; converges to machine
+// precision in a few steps for realistic lenses. Returns false if it does not converge.
+bool Undistort(const RadTan<double>& dist, const Eigen::Vector2d& distorted,
+               Eigen::Vector2d* undistorted);
+
+}  // namespace omni

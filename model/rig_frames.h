@@ -1,0 +1,87 @@
+// Frames of a misaligned rig (DESIGN.md §2), templated on the scalar:
+//   cam_from_mirror_i: point_in_cam = R(rx, ry, 0) * point_in_mirror_i + (tx, ty, tz);
+//   the reflex plane, part of mirror 1's body: through (0, 0, d/2 + dz) in M1 with normal
+//   R(rx_ref, ry_ref, 0) * (0, 0, -1).
+// R(w) is the rotation of rotation vector w (Rodrigues); spin about the mirror axis is
+// unobservable and so never a parameter.
+#pragma once
+
+#include <cmath>
+
+#include "model/types.h"
+
+namespace omni {
+
+// Rotation matrix of the rotation vector (rx, ry, 0); exact at and near zero for Jets too.
+template <typename T>
+Mat3<T> RotationFromTilt(const T& rx, const T& ry) {
+  using std::cos;
+  using std::sin;
+  using std::sqrt;
+  const T theta2 = rx * rx + ry * ry;
+  T s, c1;  // sin(theta)/theta and (1 - cos(theta))/theta^2
+  if (theta2 > T(1e-12)) {
+    const T theta = sqrt(theta2);
+    s = sin(theta) / theta;
+    c1 = (T(1) - cos(theta)) / theta2;
+  } else {  // Taylor series, exact to double precision for theta < 1e-6
+    s = T(1) - theta2 / T(6);
+    c1 = T(0.5) - theta2 / T(24);
+  }
+  // R = I + s [w]x + c1 [w]x^2 with w = (rx, ry, 0).
+  Mat3<T> R;
+  R(0, 0) = T(1) - c1 * ry * ry;
+  R(0, 1) = c1 * rx * ry;
+  R(0, 2) = s * ry;
+  R(1, 0) = c1 * rx * ry;
+  R(1, 1) = T(1) - c1 * rx * rx;
+  R(1, 2) = -s * rx;
+  R(2, 0) = -s * ry;
+  R(2, 1) = s * rx;
+  R(2, 2) = T(1) - c1 * theta2;
+  return R;
+}
+
+// A rigid transform point_in_to = rotation * point_in_from + translation.
+template <typename T>
+struct Pose {
+  Mat3<T> rotation;
+  Vec3<T> translation;
+
+  Vec3<T> operator*(const Vec3<T>& p) const { return rotation * p + translation; }
+  Vec3<T> Rotate(const Vec3<T>& v) const { return rotation * v; }
+  Pose Inverse() const {
+    Pose inv;
+    inv.rotation = rotation.transpose();
+    inv.translation = -(inv.rotation * translation);
+    return inv;
+  }
+};
+
+// cam_from_mirror from a pose block [rx, ry, tx, ty, tz].
+template <typename T>
+Pose<T> PoseFromBlock(const T* block) {
+  return Pose<T>{RotationFromTilt(block[0], block[1]), Vec3<T>(block[2], block[3], block[4])};
+}
+
+// A plane {x : normal . x = offset}, unit normal.
+template <typename T>
+struct Plane {
+  Vec3<T> point;
+  Vec3<T> normal;
+};
+
+// The reflex plane in mirror 1's body frame from the reflex block [rx, ry, dz].
+template <typename T>
+Plane<T> ReflexPlaneInMirror1(const T* reflex_block, const T& d) {
+  const Mat3<T> R = RotationFromTilt(reflex_block[0], reflex_block[1]);
+  return Plane<T>{Vec3<T>(T(0), T(0), d / T(2) + reflex_block[2]), R * Vec3<T>(T(0), T(0), T(-1))};
+}
+
+// Mirror a point in a plane.
+template <typename T>
+Vec3<T> MirrorPoint(const Plane<T>& plane, const Vec3<T>& p) {
+  return p - T(2) * (p - plane.point).dot(plane.normal) * plane.normal;
+}
+
+}  // namespace omni

@@ -1,0 +1,27 @@
+#include "model/rig_params.h"
+
+#include "model/ideal_analysis.h"
+
+namespace omni {
+
+RigParams MakeIdealRig(const DesignParams& theta, double r_cam, const Pinhole<double>& cam,
+                       int image_width, int image_height) {
+  RigParams rig;
+  rig.kind = ModelKind::kIdeal;
+  rig.image_width = image_width;
+  rig.image_height = image_height;
+  rig.camera = {cam.fx, cam.fy, cam.cx, cam.cy, cam.skew};
+  rig.mirror1_shape = {theta.c1, theta.k1};
+  rig.mirror2_shape = {theta.c2, theta.k2};
+  rig.d = theta.d;
+  rig.r_sys = theta.r_sys;
+  rig.r_ref = ReflexRadius(theta);
+  rig.r_cam = r_cam;
+  const auto m1 = HyperboloidSheet<double>::Mirror1(theta.c1, theta.k1);
+  const auto m2 = HyperboloidSheet<double>::Mirror2(theta.c2, theta.k2, theta.d);
+  rig.lip1 = Lip{"blue", theta.r_sys, theta.r_sys + 3.0, m1.Z(theta.r_sys)};
+  rig.lip2 = Lip{"red", theta.r_sys, theta.r_sys + 3.0, m2.Z(theta.r_sys)};
+  return rig;
+}
+
+}  // namespace omni

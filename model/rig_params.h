@@ -1,0 +1,84 @@
+// The parameters of a (possibly misaligned) rig, grouped in the blocks a calibration fixes or
+// refines independently (DESIGN.md §2, shared/formats/model_example.yaml). Plain data: the maths
+// that uses them lives in rig_model.h (non-central) and ideal_model.h (SVP).
+#pragma once
+
+#include <array>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "model/camera.h"
+#include "model/ideal_model.h"
+
+namespace omni {
+
+enum class ModelKind { kIdeal, kNoncentral };
+
+// A flat coloured annulus at a mirror's rim, in that mirror's body frame: r_inner <= r <= r_outer
+// at height z.
+struct Lip {
+  std::string color;
+  double r_inner = 0, r_outer = 0, z = 0;
+};
+
+// What a calibration adds to a model file (`calibration:` section).
+struct CalibrationInfo {
+  std::vector<std::string> parameters;  // names in the order of the covariance, e.g. mirror1.tx
+  std::vector<double> values;
+  std::vector<double> sigma;
+  std::vector<double> covariance;       // row-major, parameters.size()^2
+  double rms_px = 0;
+  int n_observations = 0;
+  int n_outliers = 0;
+  std::vector<double> per_mirror_rms_px;
+  std::string session;
+  int images = 0;
+  std::string targets;
+  std::string tool_version;
+  std::string date;
+};
+
+struct RigParams {
+  ModelKind kind = ModelKind::kIdeal;
+  int image_width = 1280, image_height = 960;
+
+  // Parameter blocks (the order inside each block is fixed and named in the comments).
+  std::array<double, 5> camera{};        // fx, fy, cx, cy, skew
+  std::array<double, 5> distortion{};    // dist_k1, dist_k2, dist_p1, dist_p2, dist_k3
+  std::array<double, 2> mirror1_shape{}; // c1, k1
+  std::array<double, 2> mirror2_shape{}; // c2, k2
+  std::array<double, 5> mirror1_pose{};  // cam_from_mirror1: rx, ry (tilt), tx, ty, tz (mm)
+  std::array<double, 5> mirror2_pose{};  // cam_from_mirror2
+  std::array<double, 3> reflex{};        // in mirror 1's body: rx, ry (tilt), dz (mm)
+
+  // Fixed design data (mm).
+  double d = 0, r_sys = 0, r_ref = 0, r_cam = 0;
+  Lip lip1, lip2;
+
+  std::optional<CalibrationInfo> calibration;
+
+  Pinhole<double> Intrinsics() const {
+    return Pinhole<double>{camera[0], camera[1], camera[2], camera[3], camera[4]};
+  }
+  RadTan<double> Distortion() const {
+    return RadTan<double>{distortion[0], distortion[1], distortion[2], distortion[3],
+                          distortion[4]};
+  }
+  DesignParams Design() const {
+    return DesignParams{mirror1_shape[0], mirror2_shape[0], mirror1_shape[1], mirror2_shape[1], d,
+                        r_sys};
+  }
+  // The SVP model with the same design and intrinsics (misalignment and distortion dropped).
+  IdealModel Ideal() const {
+    return IdealModel{mirror1_shape[0], mirror2_shape[0], mirror1_shape[1], mirror2_shape[1], d,
+                      r_sys,            r_ref,            r_cam,            Intrinsics()};
+  }
+};
+
+// An ideal rig from a design: r_ref from the design, lips at each mirror's rim (3 mm wide,
+// blue on mirror 1, red on mirror 2).
+RigParams MakeIdealRig(const DesignParams& theta, double r_cam, const Pinhole<double>& cam,
+                       int image_width, int image_height);
+
+}  // namespace omni

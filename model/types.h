@@ -1,0 +1,29 @@
+// Small shared types of the geometry library: Eigen vectors templated on the scalar, rays.
+#pragma once
+
+#include <Eigen/Core>
+
+namespace omni {
+
+template <typename T>
+using Vec2 = Eigen::Matrix<T, 2, 1>;
+template <typename T>
+using Vec3 = Eigen::Matrix<T, 3, 1>;
+template <typename T>
+using Mat3 = Eigen::Matrix<T, 3, 3>;
+
+// Which optical path a pixel or projection belongs to. Mirror 1 forms the OUTER image ring (seen
+// directly); mirror 2 the INNER ring (seen through the reflex mirror).
+enum class Mirror { kOne = 1, kTwo = 2 };
+
+inline int MirrorIndex(Mirror m) { return static_cast<int>(m); }
+
+// A back-projected ray in the camera frame C: points origin + s * direction, s > 0, direction unit.
+// For a central (ideal) model the origin is the mirror's primary focus; for a non-central model it
+// is the reflection point on the mirror.
+struct Ray {
+  Eigen::Vector3d origin = Eigen::Vector3d::Zero();
+  Eigen::Vector3d direction = Eigen::Vector3d::UnitZ();
+};
+
+}  // namespace omni
