@@ -1,0 +1,186 @@
+#include "calib/synthetic/pov_scene.h"
+
+#include <sys/wait.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+
+#include "model/hyperboloid.h"
+#include "model/rig_frames.h"
+
+namespace omni::synthetic {
+namespace {
+
+std::string Num(double v) {
+  char buf[40];
+  std::snprintf(buf, sizeof(buf), "%.17g", v);
+  return buf;
+}
+
+std::string Vec(double x, double y, double z) {
+  return "<" + Num(x) + ", " + Num(y) + ", " + Num(z) + ">";
+}
+
+// POV-Ray `matrix` of the rigid transform p -> R p + t (POV-Ray multiplies row vectors, so the
+// first nine numbers are R's columns).
+std::string Matrix(const Eigen::Matrix3d& R, const Eigen::Vector3d& t) {
+  std::ostringstream s;
+  s << "matrix <";
+  for (int col = 0; col < 3; ++col)
+    for (int row = 0; row < 3; ++row) s << Num(R(row, col)) << ", ";
+  s << Num(t.x()) << ", " << Num(t.y()) << ", " << Num(t.z()) << ">";
+  return s.str();
+}
+
+// The sheet (z - z0)^2/a^2 - r^2/b^2 = 1 as POV-Ray's quadric A x^2 + B y^2 + C z^2 + ... + I z + J.
+std::string Quadric(const HyperboloidSheet<double>& h) {
+  const double ia2 = 1 / (h.a * h.a), ib2 = 1 / (h.b * h.b);
+  return "quadric { " + Vec(-ib2, -ib2, ia2) + ", <0, 0, 0>, " + Vec(0, 0, -2 * h.z0 * ia2) +
+         ", " + Num(h.z0 * h.z0 * ia2 - 1) + " }";
+}
+
+// A mirror sheet clipped to r_min <= r <= r_max on its own side of z0, in its body frame. The
+// reflective side faces the primary focus, which POV-Ray counts as the quadric's inside (checked by
+// the marker test: the camera sees interior_texture); the back is matte black.
+std::string MirrorObject(const HyperboloidSheet<double>& h, double r_min, double r_max) {
+  const double z_lo = h.z0 - 2000, z_hi = h.z0 + 2000;
+  std::ostringstream s;
+  s << "object { " << Quadric(h) << "\n"
+    << "    clipped_by { intersection {\n"
+    << "      cylinder { " << Vec(0, 0, z_lo) << ", " << Vec(0, 0, z_hi) << ", " << Num(r_max)
+    << " }\n";
+  if (r_min > 0) {
+    s << "      cylinder { " << Vec(0, 0, z_lo) << ", " << Vec(0, 0, z_hi) << ", " << Num(r_min)
+      << " inverse }\n";
+  }
+  // Keep the sheet's own side: plane{n, d} keeps n . x <= d.
+  s << "      plane { " << Vec(0, 0, -h.sheet) << ", " << Num(-h.sheet * h.z0) << " }\n"
+    << "    } }\n"
+    << "    texture { MatteBlack } interior_texture { MirrorFinish }\n  }";
+  return s.str();
+}
+
+}  // namespace
+
+std::string PovSceneText(const RigParams& rig, const SceneContent& content) {
+  const double fx = rig.camera[0], fy = rig.camera[1], cx = rig.camera[2], cy = rig.camera[3],
+               skew = rig.camera[4];
+  const double W = rig.image_width, H = rig.image_height;
+  // Camera vectors (see the header): right = W/fx, up = (s H/(fx fy), H/fy), direction (a, b, 1).
+  const double up_x = skew * H / (fx * fy), up_y = H / fy, right_x = W / fx;
+  const double b = (cy + 0.5 - H / 2) / fy;
+  const double a = -cx / fx + skew * cy / (fx * fy) - (0.5 - W / 2) / fx - up_x * (0.5 - 0.5 / H);
+
+  std::ostringstream s;
+  s << "// omnistereo: rig scene in the camera frame C mapped to POV-Ray by (x, -y, z).\n"
+    << "#version 3.7;\n"
+    << "global_settings { assumed_gamma 1.0 max_trace_level 12 }\n"
+    << "background { rgb 0 }\n"
+    << "#declare MirrorFinish = texture { pigment { rgb 0 } finish { reflection { 1.0 } "
+       "ambient 0 diffuse 0 emission 0 } }\n"
+    << "#declare MatteBlack = texture { pigment { rgb 0.02 } finish { ambient 0 diffuse 0 "
+       "emission 1 } }\n"
+    << "#declare SelfLit = finish { ambient 0 diffuse 0 emission 1 }\n"
+    << "camera { perspective location <0, 0, 0>\n"
+    << "  direction " << Vec(a, b, 1) << "\n"
+    << "  right " << Vec(right_x, 0, 0) << "\n"
+    << "  up " << Vec(up_x, up_y, 0) << " }\n"
+    << "union {  // everything below is in C\n";
+
+  if (content.draw_mirrors) {
+    const Pose<double> cam_from_m1 = PoseFromBlock(rig.mirror1_pose.data());
+    const Pose<double> cam_from_m2 = PoseFromBlock(rig.mirror2_pose.data());
+    const auto m1 = HyperboloidSheet<double>::Mirror1(rig.mirror1_shape[0], rig.mirror1_shape[1]);
+    const auto m2 = HyperboloidSheet<double>::Mirror2(rig.mirror2_shape[0], rig.mirror2_shape[1], rig.d);
+    const Plane<double> reflex = ReflexPlaneInMirror1(rig.reflex.data(), rig.d);
+    // Mirror 1's body: the hyperboloid from r_ref out to r_sys, the reflex disc, the blue lip.
+    s << "  union {  // mirror 1 body (frame M1)\n"
+      << "  " << MirrorObject(m1, rig.r_ref, rig.r_sys) << "\n"
+      << "  disc { " << Vec(reflex.point.x(), reflex.point.y(), reflex.point.z()) << ", "
+      << Vec(reflex.normal.x(), reflex.normal.y(), reflex.normal.z()) << ", " << Num(rig.r_ref)
+      << " texture { MirrorFinish } }\n"
+      << "  disc { " << Vec(0, 0, rig.lip1.z) << ", <0, 0, 1>, " << Num(rig.lip1.r_outer) << ", "
+      << Num(rig.lip1.r_inner) << " pigment { rgb <0, 0, 1> } finish { SelfLit } }\n"
+      << "  " << Matrix(cam_from_m1.rotation, cam_from_m1.translation) << "\n  }\n";
+    s << "  union {  // mirror 2 body (frame M2), with the camera hole of radius r_cam\n"
+      << "  " << MirrorObject(m2, rig.r_cam, rig.r_sys) << "\n"
+      << "  disc { " << Vec(0, 0, rig.lip2.z) << ", <0, 0, 1>, " << Num(rig.lip2.r_outer) << ", "
+      << Num(rig.lip2.r_inner) << " pigment { rgb <1, 0, 0> } finish { SelfLit } }\n"
+      << "  " << Matrix(cam_from_m2.rotation, cam_from_m2.translation) << "\n  }\n";
+  }
+
+  for (const Marker& m : content.markers) {
+    s << "  sphere { " << Vec(m.center_in_cam.x(), m.center_in_cam.y(), m.center_in_cam.z())
+      << ", " << Num(m.radius_mm) << " pigment { rgb 1 } finish { SelfLit } no_shadow }\n";
+  }
+
+  for (const Chessboard& board : content.chessboards) {
+    const double sq = board.square_mm;
+    // Squares span [-sq, cols*sq] x [-sq, rows*sq]; a white margin of one square around them.
+    s << "  union {  // chessboard " << board.rows << "x" << board.cols << " inner corners\n"
+      << "    box { " << Vec(-sq, -sq, 0) << ", " << Vec(board.cols * sq, board.rows * sq, 0.5)
+      << "\n      pigment { checker rgb 0, rgb 1 scale " << Num(sq) << " translate "
+      << Vec(0, 0, 0.5 * sq) << " } finish { SelfLit } }\n"
+      << "    box { " << Vec(-2 * sq, -2 * sq, 0.01) << ", "
+      << Vec((board.cols + 1) * sq, (board.rows + 1) * sq, 2)
+      << " pigment { rgb 1 } finish { SelfLit } }\n"
+      << "    " << Matrix(board.cam_from_target_rotation, board.cam_from_target_translation)
+      << "\n  }\n";
+  }
+
+  if (content.room) {
+    const double L = content.room_half_size_mm;
+    s << "  box { " << Vec(-L, -L, content.room_floor_mm) << ", "
+      << Vec(L, L, content.room_ceiling_mm) << " hollow\n"
+      << "    texture { pigment { granite color_map { [0 rgb 0.05] [0.3 rgb <0.8, 0.5, 0.2>] "
+         "[0.6 rgb <0.2, 0.6, 0.9>] [1 rgb 0.95] } scale 400 }\n"
+      << "      finish { SelfLit } }\n"
+      << "    texture { pigment { bozo color_map { [0 rgbt 1] [0.5 rgbt 1] [0.5 rgb 0.1] "
+         "[1 rgb 0.9] } scale 60 } finish { SelfLit } } }\n";
+  }
+
+  s << "  scale <1, -1, 1>  // C -> POV-Ray\n}\n";
+  return s.str();
+}
+
+bool RenderScene(const std::string& pov_text, const std::string& out_png,
+                 const RenderOptions& options, std::string* error) {
+  std::string pov_path = out_png;
+  const auto dot = pov_path.rfind('.');
+  pov_path = (dot == std::string::npos ? pov_path : pov_path.substr(0, dot)) + ".pov";
+  {
+    std::ofstream f(pov_path);
+    f << pov_text;
+    if (!f) {
+      *error = "cannot write " + pov_path;
+      return false;
+    }
+  }
+  std::ostringstream cmd;
+  cmd << "povray -D +I'" << pov_path << "' +O'" << out_png << "' +FN8 File_Gamma=1.0 +W" << options.width
+      << " +H" << options.height;
+  if (options.antialias) cmd << " +A0.0 +AM2 +R" << options.antialias_depth;
+  else cmd << " -A";
+  if (options.col1 > options.col0 && options.row1 > options.row0) {
+    // POV-Ray's window is 1-based and inclusive.
+    cmd << " +SC" << options.col0 + 1 << " +EC" << options.col1 << " +SR" << options.row0 + 1
+        << " +ER" << options.row1;
+  }
+  if (options.threads > 0) cmd << " +WT" << options.threads;
+  const std::string log_path = pov_path + ".log";
+  cmd << " > '" << log_path << "' 2>&1";
+  const int status = std::system(cmd.str().c_str());
+  if (status != 0) {
+    std::ifstream log(log_path);
+    std::string line, tail;
+    while (std::getline(log, line)) tail = line.empty() ? tail : line;
+    *error = "povray failed (exit " + std::to_string(WEXITSTATUS(status)) + "): " + tail;
+    return false;
+  }
+  std::remove(log_path.c_str());
+  return true;
+}
+
+}  // namespace omni::synthetic
