@@ -1,0 +1,147 @@
+// The reflection point of a light path on one hyperboloid sheet, for a NON-central rig.
+//
+// Given two points A (the eye: the camera centre or the virtual camera) and B (the world point) in
+// the mirror's body frame, the reflection point S on the sheet satisfies the law of reflection.
+// By Fermat's principle S is a stationary point of the optical path length
+//   L(x, y) = |S(x, y) - A| + |S(x, y) - B|,   S(x, y) = (x, y, Z(sqrt(x^2 + y^2)))   [func_z]
+// over the sheet's 2-D parameters (x, y). We solve grad L = 0 (not min L: on a concave part the
+// stationary point can be a saddle or a maximum) by Newton's method with the analytic Hessian,
+// safeguarded by a backtracking line search on the merit |grad L|^2 (the Newton direction is
+// always a descent direction of that merit) and a cap on the step length.
+//
+// Derivatives for ceres::Jet (any T): the iteration runs in double on the scalar parts; then ONE
+// Newton step is taken in T at the converged point, x_T = x_d - H_d^{-1} grad L_T(x_d). Since
+// grad L(x_d) = 0 to rounding, the value is unchanged and the Jet carries exactly the
+// implicit-function derivative dx/dtheta = -H^{-1} d(grad L)/dtheta; the iterations themselves
+// are never differentiated.
+#pragma once
+
+#include <cmath>
+
+#include <Eigen/Core>
+
+#include "model/hyperboloid.h"
+#include "model/types.h"
+
+namespace omni {
+
+// The double value of a scalar: itself for double, the (recursive) scalar part .a of a Jet.
+inline double ScalarPart(double x) { return x; }
+template <typename JetT>
+double ScalarPart(const JetT& x) {
+  return ScalarPart(x.a);
+}
+template <typename T>
+Eigen::Vector3d ScalarPart(const Vec3<T>& v) {
+  return Eigen::Vector3d(ScalarPart(v.x()), ScalarPart(v.y()), ScalarPart(v.z()));
+}
+template <typename T>
+HyperboloidSheet<double> ScalarPart(const HyperboloidSheet<T>& s) {
+  return HyperboloidSheet<double>{ScalarPart(s.z0), ScalarPart(s.a), ScalarPart(s.b), s.sheet};
+}
+
+struct ReflectionSolverOptions {
+  int max_iterations = 40;
+  // Converged when the Newton step is shorter than this (mm); quadratic convergence makes the
+  // error after such a step ~1e-20 mm, far below rounding.
+  double step_tolerance = 1e-10;
+  // Longest Newton step (mm); longer steps are scaled down.
+  double max_step = 20.0;
+  // Iterates leaving the disc x^2 + y^2 <= max_radius^2 (mm) are declared diverged.
+  double max_radius = 200.0;
+};
+
+struct ReflectionSolverInfo {
+  int iterations = 0;         // Newton iterations in double (the final step in T not counted)
+  bool converged = false;
+  double gradient_norm = 0;   // |grad L| at the returned point (dimensionless)
+};
+
+// The point of the sheet at parameters (x, y): z = Z(r) without a square root of r^2, so that
+// Jets are smooth on the axis.
+template <typename T>
+Vec3<T> SheetPoint(const HyperboloidSheet<T>& sheet, const T& x, const T& y) {
+  using std::sqrt;
+  const T q = sqrt(sheet.b * sheet.b + x * x + y * y);
+  return Vec3<T>(x, y, sheet.z0 + T(sheet.sheet) * sheet.a / sheet.b * q);
+}
+
+// grad L at (x, y) and, if hessian != nullptr, its 2x2 Hessian. False if S coincides with A or B.
+template <typename T>
+bool PathLengthGradient(const HyperboloidSheet<T>& sheet, const Vec3<T>& a, const Vec3<T>& b,
+                        const T& x, const T& y, Vec2<T>* grad,
+                        Eigen::Matrix<T, 2, 2>* hessian = nullptr) {
+  using std::sqrt;
+  const T q2 = sheet.b * sheet.b + x * x + y * y;
+  const T q = sqrt(q2);
+  const T k = T(sheet.sheet) * sheet.a / sheet.b;
+  const Vec3<T> s(x, y, sheet.z0 + k * q);
+  const T zx = k * x / q;
+  const T zy = k * y / q;
+  const Vec3<T> sa = s - a;
+  const Vec3<T> sb = s - b;
+  const T la = sa.norm();
+  const T lb = sb.norm();
+  if (!(la > T(0)) || !(lb > T(0))) return false;
+  const Vec3<T> ua = sa / la;
+  const Vec3<T> ub = sb / lb;
+  const Vec3<T> f = ua + ub;  // dL/dS
+  (*grad)(0) = f.x() + f.z() * zx;
+  (*grad)(1) = f.y() + f.z() * zy;
+  if (hessian) {
+    // H = J^T (d2L/dS2) J + f_z d2Z/dxy2, J = dS/d(x, y) = [1 0; 0 1; zx zy],
+    // d2L/dS2 = (I - ua ua^T)/la + (I - ub ub^T)/lb.
+    Eigen::Matrix<T, 3, 2> jac;
+    jac << T(1), T(0), T(0), T(1), zx, zy;
+    const Mat3<T> hs = (Mat3<T>::Identity() - ua * ua.transpose()) / la +
+                       (Mat3<T>::Identity() - ub * ub.transpose()) / lb;
+    const T q3 = q2 * q;
+    Eigen::Matrix<T, 2, 2> zxx;
+    zxx << k * (q2 - x * x) / q3, -k * x * y / q3, -k * x * y / q3, k * (q2 - y * y) / q3;
+    *hessian = jac.transpose() * hs * jac + f.z() * zxx;
+  }
+  return true;
+}
+
+// Newton iteration in double from the seed *xy. On success *xy is the stationary point and
+// *hessian the Hessian there.
+bool SolveReflectionPointDouble(const HyperboloidSheet<double>& sheet, const Eigen::Vector3d& a,
+                                const Eigen::Vector3d& b, const ReflectionSolverOptions& options,
+                                Eigen::Vector2d* xy, Eigen::Matrix2d* hessian,
+                                ReflectionSolverInfo* info);
+
+// The ideal (SVP) seed: where the line from the sheet's primary focus to B meets the sheet
+// ([lambda_1], [lambda_2] written in the mirror's own frame). Exact when A is the secondary
+// focus. False if that line misses the sheet.
+bool IdealReflectionSeed(const HyperboloidSheet<double>& sheet, const Eigen::Vector3d& b,
+                         Eigen::Vector2d* xy);
+
+// The reflection point S (mirror frame) of the path A -> S -> B on the sheet, for any scalar T;
+// false if the solver did not converge. See the file comment for the derivatives.
+template <typename T>
+bool SolveReflectionPoint(const HyperboloidSheet<T>& sheet, const Vec3<T>& a, const Vec3<T>& b,
+                          const ReflectionSolverOptions& options, Vec3<T>* point_on_mirror,
+                          ReflectionSolverInfo* info = nullptr) {
+  const HyperboloidSheet<double> sheet_d = ScalarPart(sheet);
+  const Eigen::Vector3d a_d = ScalarPart(a);
+  const Eigen::Vector3d b_d = ScalarPart(b);
+  Eigen::Vector2d xy;
+  if (!IdealReflectionSeed(sheet_d, b_d, &xy)) return false;
+  Eigen::Matrix2d hessian;
+  ReflectionSolverInfo local_info;
+  if (!info) info = &local_info;
+  if (!SolveReflectionPointDouble(sheet_d, a_d, b_d, options, &xy, &hessian, info)) return false;
+  // One Newton step in T at the converged point (implicit function theorem).
+  const T x0(xy.x()), y0(xy.y());
+  Vec2<T> grad;
+  if (!PathLengthGradient(sheet, a, b, x0, y0, &grad)) return false;
+  const double det = hessian(0, 0) * hessian(1, 1) - hessian(0, 1) * hessian(1, 0);
+  const double i00 = hessian(1, 1) / det, i01 = -hessian(0, 1) / det;
+  const double i10 = -hessian(1, 0) / det, i11 = hessian(0, 0) / det;
+  const T x = x0 - (i00 * grad(0) + i01 * grad(1));
+  const T y = y0 - (i10 * grad(0) + i11 * grad(1));
+  *point_on_mirror = SheetPoint(sheet, x, y);
+  return true;
+}
+
+}  // namespace omni

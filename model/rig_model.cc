@@ -1,0 +1,88 @@
+#include "model/rig_model.h"
+
+#include <cmath>
+
+namespace omni {
+
+RigFixed FixedOf(const RigParams& rig) {
+  RigFixed fixed;
+  fixed.d = rig.d;
+  fixed.r_sys = rig.r_sys;
+  fixed.r_ref = rig.r_ref;
+  fixed.r_cam = rig.r_cam;
+  fixed.solver.max_radius = 5 * rig.r_sys;
+  return fixed;
+}
+
+RigModel::RigModel(const RigParams& params)
+    : params_(params),
+      fixed_(FixedOf(params)),
+      path1_(Mirror1Path<double>::FromBlocks(params.camera.data(), params.distortion.data(),
+                                             params.mirror1_shape.data(),
+                                             params.mirror1_pose.data(), params.reflex.data(),
+                                             fixed_)),
+      path2_(Mirror2Path<double>::FromBlocks(params.camera.data(), params.distortion.data(),
+                                             params.mirror1_pose.data(), params.reflex.data(),
+                                             params.mirror2_shape.data(),
+                                             params.mirror2_pose.data(), fixed_)) {}
+
+std::optional<Eigen::Vector2d> RigModel::Project(const Eigen::Vector3d& point_in_cam,
+                                                 Mirror mirror, ProjectionInfo* info) const {
+  Eigen::Vector2d pixel;
+  const bool ok = mirror == Mirror::kOne ? path1_.Project(fixed_, point_in_cam, &pixel, info)
+                                         : path2_.Project(fixed_, point_in_cam, &pixel, info);
+  if (!ok || !pixel.allFinite()) return std::nullopt;
+  return pixel;
+}
+
+std::optional<MirrorRay> RigModel::Unproject(const Eigen::Vector2d& pixel) const {
+  if (!pixel.allFinite()) return std::nullopt;
+  Eigen::Vector2d xy;
+  if (!Undistort(path1_.dist, path1_.cam.NormalizedFromPixel(pixel), &xy)) return std::nullopt;
+  const Eigen::Vector3d dir_in_cam = Eigen::Vector3d(xy.x(), xy.y(), 1.0).normalized();
+
+  // Does the camera ray cross the reflex plane inside the disc?
+  const Plane<double>& reflex = path2_.reflex_in_cam;
+  const double approach = dir_in_cam.dot(reflex.normal);  // < 0 towards the plane
+  const double camera_side = -reflex.point.dot(reflex.normal);
+  if (camera_side > 0 && approach < 0) {
+    const Eigen::Vector3d crossing = (camera_side / -approach) * dir_in_cam;
+    if ((crossing - reflex.point).squaredNorm() <= fixed_.r_ref * fixed_.r_ref) {
+      // Reflected by the disc towards mirror 2.
+      const Eigen::Vector3d down_in_cam = Reflect(dir_in_cam, reflex.normal);
+      const Eigen::Vector3d origin = path2_.mirror_from_cam * crossing;
+      const Eigen::Vector3d dir = path2_.mirror_from_cam.Rotate(down_in_cam);
+      double t = 0;
+      if (!path2_.sheet.IntersectRay(origin, dir, &t)) return std::nullopt;
+      const Eigen::Vector3d s = origin + t * dir;
+      const double r2 = s.head<2>().squaredNorm();
+      if (r2 < fixed_.r_cam * fixed_.r_cam || r2 > fixed_.r_sys * fixed_.r_sys) return std::nullopt;
+      const Eigen::Vector3d normal = path2_.sheet.Normal(s);
+      if (!(dir.dot(normal) > 0)) return std::nullopt;  // hit from the back
+      MirrorRay out{Mirror::kTwo, Ray{}};
+      out.ray.origin = path2_.cam_from_mirror * s;
+      out.ray.direction = path2_.cam_from_mirror.Rotate(Reflect(dir, normal)).normalized();
+      if (!out.ray.origin.allFinite() || !out.ray.direction.allFinite()) return std::nullopt;
+      return out;
+    }
+  }
+  // Otherwise the ray continues to mirror 1.
+  const Eigen::Vector3d origin = path1_.mirror_from_cam.translation;
+  const Eigen::Vector3d dir = path1_.mirror_from_cam.Rotate(dir_in_cam);
+  double t = 0;
+  if (!path1_.sheet.IntersectRay(origin, dir, &t)) return std::nullopt;
+  const Eigen::Vector3d s = origin + t * dir;
+  if (s.head<2>().squaredNorm() > fixed_.r_sys * fixed_.r_sys) return std::nullopt;
+  const Plane<double>& reflex1 = path1_.reflex_in_mirror;
+  if (!((s - reflex1.point).dot(reflex1.normal) < 0)) return std::nullopt;  // below the disc
+  if (!((origin - reflex1.point).dot(reflex1.normal) > 0)) return std::nullopt;
+  const Eigen::Vector3d normal = path1_.sheet.Normal(s);
+  if (!(dir.dot(normal) > 0)) return std::nullopt;
+  MirrorRay out{Mirror::kOne, Ray{}};
+  out.ray.origin = path1_.cam_from_mirror * s;
+  out.ray.direction = path1_.cam_from_mirror.Rotate(Reflect(dir, normal)).normalized();
+  if (!out.ray.origin.allFinite() || !out.ray.direction.allFinite()) return std::nullopt;
+  return out;
+}
+
+}  // namespace omni

@@ -1,0 +1,248 @@
+// The generalised, NON-central rig model (DESIGN.md §1-§3): a pinhole camera with radial-tangential
+// distortion, two hyperboloidal mirror bodies each with its own misalignment cam_from_mirror_i, and
+// the planar reflex disc that is part of mirror 1's body. With every misalignment zero and no
+// distortion it equals IdealModel (ideal_model.h) to rounding.
+//
+// Forward projection exists ONCE per optical path, templated on the scalar (double, ceres::Jet),
+// as free functions over the raw parameter blocks of RigParams (COLMAP style), so that Ceres
+// differentiates the very code that the rest of the program runs:
+//   camera[5]        fx, fy, cx, cy, skew
+//   distortion[5]    dist_k1, dist_k2, dist_p1, dist_p2, dist_k3
+//   mirror1_shape[2] c1, k1            mirror2_shape[2] c2, k2
+//   mirror1_pose[5]  cam_from_mirror1: rx, ry, tx, ty, tz   (mirror2_pose[5] likewise)
+//   reflex[3]        the reflex plane in M1: rx, ry, dz
+// and RigFixed (d, r_sys, r_ref, r_cam: design data never refined, plus solver options).
+//
+// Mirror 1 path (outer ring): world point P -> reflection point S1 on mirror 1 -> camera centre O.
+//   S1 solves the law of reflection between P and O (reflection_solver.h) in M1's frame;
+//   pixel = K(distort(x/z, y/z)) of S1 in C.
+// Mirror 2 path (inner ring): P -> S2 on mirror 2 -> reflex plane at X -> O. Mirroring O in the
+//   reflex plane (cam_from_mirror1 * ReflexPlaneInMirror1) gives the virtual camera V; S2 solves
+//   the law of reflection between P and V in M2's frame, X is where the segment S2 -> V crosses
+//   the reflex plane, and pixel = K(distort(x/z, y/z)) of X.
+//
+// A projection is VALID (true) only if all of these hold, and otherwise returns false (never NaN,
+// never a pixel of the other ring):
+//  - the reflection-point solver converged (Newton on grad L = 0, see reflection_solver.h);
+//  - P lies in front of the mirror: the eye (O or V) and P are both on the reflective side of the
+//    tangent plane at S (which also rules out P inside the mirror's body and P on the far side);
+//  - mirror 1: r(S1) <= r_sys in M1, and S1 lies beyond the reflex plane (O and S1 on opposite
+//    sides), and the camera ray O -> S1 crosses the reflex plane OUTSIDE the reflex disc
+//    (|X - disc centre| > r_ref: otherwise the disc occludes S1);
+//  - mirror 2: r_cam <= r(S2) <= r_sys in M2 (the hole and the rim), S2 on the camera's side of the
+//    reflex plane and V behind it, and the path S2 -> V crosses the plane INSIDE the disc
+//    (|X - disc centre| <= r_ref);
+//  - the point the camera sees (S1, or X for mirror 2) is in front of the camera (z > 0 in C).
+// Not modelled: occlusion of a light path by the other mirror's body or the lips, vignetting by
+// the hole's rim, and the range where a strong lens distortion folds over (beyond the image).
+#pragma once
+
+#include <optional>
+
+#include <Eigen/Core>
+
+#include "model/camera.h"
+#include "model/hyperboloid.h"
+#include "model/reflection_solver.h"
+#include "model/rig_frames.h"
+#include "model/rig_params.h"
+#include "model/types.h"
+
+namespace omni {
+
+// Design data that a calibration never refines (mm), and the reflection solver's options.
+struct RigFixed {
+  double d = 0, r_sys = 0, r_ref = 0, r_cam = 0;
+  ReflectionSolverOptions solver;
+};
+RigFixed FixedOf(const RigParams& rig);
+
+// Diagnostics of one projection (double values).
+struct ProjectionInfo {
+  ReflectionSolverInfo solver;
+  Eigen::Vector3d point_on_mirror = Eigen::Vector3d::Zero();         // S, mirror's body frame
+  Eigen::Vector3d point_on_mirror_in_cam = Eigen::Vector3d::Zero();  // S in C
+  Eigen::Vector3d eye_in_mirror = Eigen::Vector3d::Zero();           // O (mirror 1) or V (mirror 2)
+  Eigen::Vector3d reflex_point_in_cam = Eigen::Vector3d::Zero();     // mirror 2: X in C
+};
+
+// The geometry of the mirror-1 path built from the parameter blocks.
+template <typename T>
+struct Mirror1Path {
+  Pinhole<T> cam;
+  RadTan<T> dist;
+  HyperboloidSheet<T> sheet;
+  Pose<T> mirror_from_cam;
+  Pose<T> cam_from_mirror;
+  Plane<T> reflex_in_mirror;
+
+  static Mirror1Path FromBlocks(const T* camera, const T* distortion, const T* mirror1_shape,
+                                const T* mirror1_pose, const T* reflex, const RigFixed& fixed) {
+    Mirror1Path p{Pinhole<T>{camera[0], camera[1], camera[2], camera[3], camera[4]},
+                  RadTan<T>{distortion[0], distortion[1], distortion[2], distortion[3],
+                            distortion[4]},
+                  HyperboloidSheet<T>::Mirror1(mirror1_shape[0], mirror1_shape[1]),
+                  Pose<T>{},
+                  PoseFromBlock(mirror1_pose),
+                  ReflexPlaneInMirror1(reflex, T(fixed.d))};
+    p.mirror_from_cam = p.cam_from_mirror.Inverse();
+    return p;
+  }
+
+  bool Project(const RigFixed& fixed, const Vec3<T>& point_in_cam, Vec2<T>* pixel,
+               ProjectionInfo* info = nullptr) const {
+    const Vec3<T> eye = mirror_from_cam.translation;  // the camera centre in M1
+    const Vec3<T> point = mirror_from_cam * point_in_cam;
+    Vec3<T> s;
+    if (!SolveReflectionPoint(sheet, eye, point, fixed.solver, &s,
+                              info ? &info->solver : nullptr)) {
+      return false;
+    }
+    if (!(s.x() * s.x() + s.y() * s.y() <= T(fixed.r_sys * fixed.r_sys))) return false;
+    const Vec3<T> normal = sheet.Normal(s);
+    if (!((eye - s).dot(normal) < T(0)) || !((point - s).dot(normal) < T(0))) return false;
+    const T eye_side = (eye - reflex_in_mirror.point).dot(reflex_in_mirror.normal);
+    const T s_side = (s - reflex_in_mirror.point).dot(reflex_in_mirror.normal);
+    if (!(eye_side > T(0)) || !(s_side < T(0))) return false;
+    const Vec3<T> crossing = eye + eye_side / (eye_side - s_side) * (s - eye);
+    if (!((crossing - reflex_in_mirror.point).squaredNorm() > T(fixed.r_ref * fixed.r_ref))) {
+      return false;  // the reflex disc occludes S1
+    }
+    const Vec3<T> s_in_cam = cam_from_mirror * s;
+    if (!(s_in_cam.z() > T(0))) return false;
+    *pixel = cam.PixelFromNormalized(
+        dist.Distort(Vec2<T>(s_in_cam.x() / s_in_cam.z(), s_in_cam.y() / s_in_cam.z())));
+    if (info) {
+      info->point_on_mirror = ScalarPart(s);
+      info->point_on_mirror_in_cam = ScalarPart(s_in_cam);
+      info->eye_in_mirror = ScalarPart(eye);
+      info->reflex_point_in_cam = Eigen::Vector3d::Zero();
+    }
+    return true;
+  }
+};
+
+// The geometry of the mirror-2 path built from the parameter blocks.
+template <typename T>
+struct Mirror2Path {
+  Pinhole<T> cam;
+  RadTan<T> dist;
+  HyperboloidSheet<T> sheet;
+  Pose<T> mirror_from_cam;
+  Pose<T> cam_from_mirror;
+  Plane<T> reflex_in_cam;
+  Vec3<T> virtual_camera_in_cam;  // O mirrored in the reflex plane
+
+  static Mirror2Path FromBlocks(const T* camera, const T* distortion, const T* mirror1_pose,
+                                const T* reflex, const T* mirror2_shape, const T* mirror2_pose,
+                                const RigFixed& fixed) {
+    const Pose<T> cam_from_mirror1 = PoseFromBlock(mirror1_pose);
+    const Plane<T> reflex_in_mirror1 = ReflexPlaneInMirror1(reflex, T(fixed.d));
+    const Plane<T> reflex_in_cam{cam_from_mirror1 * reflex_in_mirror1.point,
+                                 cam_from_mirror1.Rotate(reflex_in_mirror1.normal)};
+    Mirror2Path p{Pinhole<T>{camera[0], camera[1], camera[2], camera[3], camera[4]},
+                  RadTan<T>{distortion[0], distortion[1], distortion[2], distortion[3],
+                            distortion[4]},
+                  HyperboloidSheet<T>::Mirror2(mirror2_shape[0], mirror2_shape[1], T(fixed.d)),
+                  Pose<T>{},
+                  PoseFromBlock(mirror2_pose),
+                  reflex_in_cam,
+                  MirrorPoint(reflex_in_cam, Vec3<T>(T(0), T(0), T(0)))};
+    p.mirror_from_cam = p.cam_from_mirror.Inverse();
+    return p;
+  }
+
+  bool Project(const RigFixed& fixed, const Vec3<T>& point_in_cam, Vec2<T>* pixel,
+               ProjectionInfo* info = nullptr) const {
+    const Vec3<T> eye = mirror_from_cam * virtual_camera_in_cam;
+    const Vec3<T> point = mirror_from_cam * point_in_cam;
+    Vec3<T> s;
+    if (!SolveReflectionPoint(sheet, eye, point, fixed.solver, &s,
+                              info ? &info->solver : nullptr)) {
+      return false;
+    }
+    const T r2 = s.x() * s.x() + s.y() * s.y();
+    if (!(r2 >= T(fixed.r_cam * fixed.r_cam)) || !(r2 <= T(fixed.r_sys * fixed.r_sys))) {
+      return false;
+    }
+    const Vec3<T> normal = sheet.Normal(s);
+    if (!((eye - s).dot(normal) < T(0)) || !((point - s).dot(normal) < T(0))) return false;
+    const Vec3<T> s_in_cam = cam_from_mirror * s;
+    const T camera_side = -reflex_in_cam.point.dot(reflex_in_cam.normal);
+    const T s_side = (s_in_cam - reflex_in_cam.point).dot(reflex_in_cam.normal);
+    const T v_side = (virtual_camera_in_cam - reflex_in_cam.point).dot(reflex_in_cam.normal);
+    if (!(camera_side > T(0)) || !(s_side > T(0)) || !(v_side < T(0))) return false;
+    const Vec3<T> crossing = s_in_cam + s_side / (s_side - v_side) * (virtual_camera_in_cam - s_in_cam);
+    if (!((crossing - reflex_in_cam.point).squaredNorm() <= T(fixed.r_ref * fixed.r_ref))) {
+      return false;  // the path misses the reflex disc
+    }
+    if (!(crossing.z() > T(0))) return false;
+    *pixel = cam.PixelFromNormalized(
+        dist.Distort(Vec2<T>(crossing.x() / crossing.z(), crossing.y() / crossing.z())));
+    if (info) {
+      info->point_on_mirror = ScalarPart(s);
+      info->point_on_mirror_in_cam = ScalarPart(s_in_cam);
+      info->eye_in_mirror = ScalarPart(eye);
+      info->reflex_point_in_cam = ScalarPart(crossing);
+    }
+    return true;
+  }
+};
+
+// Pixel of point_in_cam via mirror 1 (outer ring); false if invalid (see the file comment).
+template <typename T>
+bool ProjectViaMirror1(const T* camera, const T* distortion, const T* mirror1_shape,
+                       const T* mirror1_pose, const T* reflex, const RigFixed& fixed,
+                       const Vec3<T>& point_in_cam, Vec2<T>* pixel,
+                       ProjectionInfo* info = nullptr) {
+  return Mirror1Path<T>::FromBlocks(camera, distortion, mirror1_shape, mirror1_pose, reflex, fixed)
+      .Project(fixed, point_in_cam, pixel, info);
+}
+
+// Pixel of point_in_cam via mirror 2 and the reflex disc (inner ring); false if invalid.
+template <typename T>
+bool ProjectViaMirror2(const T* camera, const T* distortion, const T* mirror1_pose,
+                       const T* reflex, const T* mirror2_shape, const T* mirror2_pose,
+                       const RigFixed& fixed, const Vec3<T>& point_in_cam, Vec2<T>* pixel,
+                       ProjectionInfo* info = nullptr) {
+  return Mirror2Path<T>::FromBlocks(camera, distortion, mirror1_pose, reflex, mirror2_shape,
+                                    mirror2_pose, fixed)
+      .Project(fixed, point_in_cam, pixel, info);
+}
+
+// A back-projected ray and the mirror (ring) it came from.
+struct MirrorRay {
+  Mirror mirror;
+  Ray ray;  // origin: the reflection point on the mirror (C); unit direction towards the world
+};
+
+// The rig in double precision with the per-path geometry computed once. Project runs the same
+// templated path code as ProjectViaMirror1/2; Unproject traces the camera ray exactly.
+class RigModel {
+ public:
+  explicit RigModel(const RigParams& params);
+
+  // Pixel of point_in_cam via the given mirror; nullopt where invalid (see the file comment).
+  std::optional<Eigen::Vector2d> Project(const Eigen::Vector3d& point_in_cam, Mirror mirror,
+                                         ProjectionInfo* info = nullptr) const;
+
+  // Back projection: undistort, camera ray from O; if it crosses the reflex plane inside the
+  // disc it is reflected there and must hit mirror 2 within r_cam <= r <= r_sys, otherwise it
+  // must hit mirror 1 beyond the reflex plane within r <= r_sys; the ray reflected by that
+  // mirror is returned. nullopt if the pixel sees neither mirror (e.g. through the hole) or the
+  // undistortion fails.
+  std::optional<MirrorRay> Unproject(const Eigen::Vector2d& pixel) const;
+
+  const RigParams& params() const { return params_; }
+  const RigFixed& fixed() const { return fixed_; }
+  const Mirror1Path<double>& path1() const { return path1_; }
+  const Mirror2Path<double>& path2() const { return path2_; }
+
+ private:
+  RigParams params_;
+  RigFixed fixed_;
+  Mirror1Path<double> path1_;
+  Mirror2Path<double> path2_;
+};
+
+}  // namespace omni

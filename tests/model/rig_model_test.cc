@@ -1,0 +1,376 @@
+#include "model/rig_model.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <random>
+#include <vector>
+
+#include "model/ideal_analysis.h"
+#include "tests/model/rig_test_util.h"
+
+namespace omni {
+namespace {
+
+using testing::BigRigParams;
+using testing::kRigDeg;
+using testing::MisalignedBigRig;
+using testing::PixelGrid;
+
+double AngleBetween(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  return std::atan2(a.cross(b).norm(), a.dot(b));
+}
+
+// Directions from the mirror's primary focus at elevations from lo to hi (inclusive margin),
+// all azimuths, three ranges.
+std::vector<Eigen::Vector3d> PointsAround(const Eigen::Vector3d& focus, double lo, double hi,
+                                          int n_el) {
+  std::vector<Eigen::Vector3d> points;
+  for (int ie = 0; ie <= n_el; ++ie) {
+    const double el = lo + (hi - lo) * ie / n_el;
+    for (int ia = 0; ia < 24; ++ia) {
+      const double az = ia * 15 * kRigDeg + 0.1;
+      for (double range : {300.0, 1000.0, 20000.0}) {
+        points.push_back(focus + range * Eigen::Vector3d(std::cos(el) * std::cos(az),
+                                                         std::cos(el) * std::sin(az),
+                                                         std::sin(el)));
+      }
+    }
+  }
+  return points;
+}
+
+// The law-of-reflection residual at the solution, in the mirror's frame: |reflect(u_in) - u_out|.
+double ReflectionResidual(const HyperboloidSheet<double>& sheet, const ProjectionInfo& info,
+                          const Eigen::Vector3d& point_in_mirror) {
+  const Eigen::Vector3d& s = info.point_on_mirror;
+  const Eigen::Vector3d u_in = (s - info.eye_in_mirror).normalized();
+  const Eigen::Vector3d u_out = (point_in_mirror - s).normalized();
+  return (Reflect(u_in, sheet.Normal(s)) - u_out).norm();
+}
+
+// (a) Zero misalignment: the non-central model equals the closed-form SVP model.
+TEST(RigModel, ZeroMisalignmentEqualsIdealModelForward) {
+  const RigParams rig = BigRigParams();
+  const RigModel model(rig);
+  const IdealModel ideal = rig.Ideal();
+  const FieldOfView fov = ComputeFieldOfView(rig.Design(), rig.r_ref, rig.r_cam);
+  double max_err = 0;
+  int n_valid = 0, n_compared = 0;
+  for (Mirror mirror : {Mirror::kOne, Mirror::kTwo}) {
+    const double lo = mirror == Mirror::kOne ? fov.theta1_min : fov.theta2_min;
+    const double hi = mirror == Mirror::kOne ? fov.theta1_max : fov.theta2_max;
+    const Eigen::Vector3d focus = mirror == Mirror::kOne ? ideal.Focus1() : ideal.Focus2();
+    const double margin = 0.15 * (hi - lo);
+    for (const auto& p : PointsAround(focus, lo - margin, hi + margin, 40)) {
+      const double el = Elevation(p - focus);
+      Eigen::Vector2d expected;
+      const bool ideal_ok = ideal.Project(p, mirror, &expected);
+      const auto px = model.Project(p, mirror);
+      if (std::abs(el - lo) > 1e-6 && std::abs(el - hi) > 1e-6) {
+        ASSERT_EQ(px.has_value(), ideal_ok) << "mirror " << MirrorIndex(mirror) << " p "
+                                            << p.transpose();
+        ++n_compared;
+      }
+      if (px && ideal_ok) {
+        max_err = std::max(max_err, (*px - expected).norm());
+        ++n_valid;
+      }
+    }
+  }
+  std::printf("zero misalignment: %d valid projections, max |pixel - ideal| = %.3g px\n", n_valid,
+              max_err);
+  EXPECT_GT(n_valid, 2000);
+  EXPECT_GT(n_compared, 5000);
+  EXPECT_LT(max_err, 1e-9);
+}
+
+TEST(RigModel, ZeroMisalignmentEqualsIdealModelBackward) {
+  const RigParams rig = BigRigParams();
+  const RigModel model(rig);
+  const IdealModel ideal = rig.Ideal();
+  double max_angle = 0, max_origin_offset = 0;
+  int n = 0;
+  for (const auto& px : PixelGrid(rig, 3.0)) {
+    const auto ours = model.Unproject(px);
+    const auto expected = Unproject(ideal, px);
+    ASSERT_EQ(ours.has_value(), expected.has_value()) << px.transpose();
+    if (!ours) continue;
+    ASSERT_EQ(ours->mirror, expected->mirror) << px.transpose();
+    max_angle = std::max(max_angle, AngleBetween(ours->ray.direction, expected->ray.direction));
+    // Our origin (reflection point) lies on the ideal ray from the focus.
+    const Eigen::Vector3d v = ours->ray.origin - expected->ray.origin;
+    max_origin_offset =
+        std::max(max_origin_offset, (v - v.dot(expected->ray.direction) * expected->ray.direction).norm());
+    ++n;
+  }
+  std::printf("zero misalignment: %d rays, max angle to ideal = %.3g rad, origin off ray %.3g mm\n",
+              n, max_angle, max_origin_offset);
+  EXPECT_GT(n, 50000);
+  EXPECT_LT(max_angle, 1e-12);
+  EXPECT_LT(max_origin_offset, 1e-10);
+}
+
+// Round trips Project(origin + depth * direction) == pixel over a pixel grid; returns the max
+// pixel error and fills iteration statistics.
+struct RoundTripStats {
+  double max_px_err = 0;
+  double max_reflection_residual = 0;
+  int n_rays[3] = {0, 0, 0};
+  int n_projections = 0;
+  long total_iterations = 0;
+  int max_iterations = 0;
+  int failures = 0;
+};
+
+RoundTripStats RoundTrip(const RigParams& rig, double step) {
+  const RigModel model(rig);
+  RoundTripStats stats;
+  for (const auto& px : PixelGrid(rig, step)) {
+    const auto ray = model.Unproject(px);
+    if (!ray) continue;
+    ++stats.n_rays[MirrorIndex(ray->mirror)];
+    for (double depth : {200.0, 1000.0, 10000.0}) {
+      const Eigen::Vector3d p = ray->ray.origin + depth * ray->ray.direction;
+      ProjectionInfo info;
+      const auto back = model.Project(p, ray->mirror, &info);
+      if (!back) {
+        if (++stats.failures < 5) {
+          ADD_FAILURE() << "invalid round trip at pixel " << px.transpose() << " depth " << depth;
+        }
+        continue;
+      }
+      ++stats.n_projections;
+      stats.max_px_err = std::max(stats.max_px_err, (*back - px).norm());
+      stats.total_iterations += info.solver.iterations;
+      stats.max_iterations = std::max(stats.max_iterations, info.solver.iterations);
+      const bool one = ray->mirror == Mirror::kOne;
+      const auto& sheet = one ? model.path1().sheet : model.path2().sheet;
+      const auto& mirror_from_cam = one ? model.path1().mirror_from_cam : model.path2().mirror_from_cam;
+      stats.max_reflection_residual = std::max(
+          stats.max_reflection_residual, ReflectionResidual(sheet, info, mirror_from_cam * p));
+    }
+  }
+  return stats;
+}
+
+void PrintStats(const char* label, const RoundTripStats& s) {
+  std::printf(
+      "%s: rays %d (mirror 1) + %d (mirror 2), %d projections, max |dpx| = %.3g px, "
+      "max reflection residual %.3g, Newton iterations mean %.2f max %d\n",
+      label, s.n_rays[1], s.n_rays[2], s.n_projections, s.max_px_err, s.max_reflection_residual,
+      s.n_projections ? double(s.total_iterations) / s.n_projections : 0.0, s.max_iterations);
+}
+
+// (b) Misaligned rigs (1 mm / 1 deg on both mirrors and the reflex, distortion, principal point
+// off centre): unproject then project at three depths returns the pixel.
+TEST(RigModel, MisalignedRoundTrip) {
+  std::mt19937 rng(20240611);
+  for (int trial = 0; trial < 4; ++trial) {
+    const RigParams rig = MisalignedBigRig(&rng, 1.0, 1.0, /*with_distortion=*/true);
+    const RoundTripStats s = RoundTrip(rig, 4.0);
+    char label[64];
+    std::snprintf(label, sizeof(label), "misaligned rig %d (1 mm, 1 deg)", trial);
+    PrintStats(label, s);
+    EXPECT_EQ(s.failures, 0);
+    EXPECT_GT(s.n_rays[1], 15000);
+    EXPECT_GT(s.n_rays[2], 5000);
+    EXPECT_LT(s.max_px_err, 1e-8);
+    EXPECT_LT(s.max_reflection_residual, 1e-12);
+  }
+}
+
+// (e) Convergence at 2 mm / 2 deg over the whole valid image.
+TEST(RigModel, ConvergesAtTwoMillimetresTwoDegrees) {
+  std::mt19937 rng(7);
+  for (int trial = 0; trial < 3; ++trial) {
+    const RigParams rig = MisalignedBigRig(&rng, 2.0, 2.0, /*with_distortion=*/true);
+    const RoundTripStats s = RoundTrip(rig, 5.0);
+    char label[64];
+    std::snprintf(label, sizeof(label), "misaligned rig %d (2 mm, 2 deg)", trial);
+    PrintStats(label, s);
+    EXPECT_EQ(s.failures, 0);
+    EXPECT_GT(s.n_rays[1], 10000);
+    EXPECT_GT(s.n_rays[2], 3000);
+    EXPECT_LT(s.max_px_err, 1e-8);
+    EXPECT_LT(s.max_reflection_residual, 1e-12);
+  }
+}
+
+// (e) Invalid points: inside a mirror, at or behind the camera along the axis, outside both
+// fields of view. Never NaN, never a pixel of the wrong ring.
+TEST(RigModel, InvalidPointsAreRejected) {
+  std::mt19937 rng(3);
+  for (const RigParams& rig : {BigRigParams(), MisalignedBigRig(&rng, 1.0, 1.0, true)}) {
+    const RigModel model(rig);
+    const std::vector<Eigen::Vector3d> invalid_both = {
+        {0, 0, 0},                 // the camera centre
+        {0, 0, -1000},             // straight below the camera
+        {0, 0, 10000},             // straight above: mirror 1 vertex (occluded), mirror 2 hole
+        {1, 2, 125},               // inside mirror 1's body (above its vertex)
+        {20, 0, -10},              // inside mirror 2's body (below its dome)
+        {30, 10, 130},             // inside mirror 1's body near its rim
+        {1e4, 0, 1e4 * std::tan(80 * kRigDeg)},    // far above both fields of view
+        {1e4, 0, -1e4 * std::tan(80 * kRigDeg)},   // far below both fields of view
+    };
+    for (const auto& p : invalid_both) {
+      for (Mirror m : {Mirror::kOne, Mirror::kTwo}) {
+        EXPECT_FALSE(model.Project(p, m).has_value())
+            << "mirror " << MirrorIndex(m) << " point " << p.transpose();
+      }
+    }
+    // The principal point looks through the reflex disc straight down into the hole.
+    EXPECT_FALSE(model.Unproject(Eigen::Vector2d(rig.camera[2], rig.camera[3])).has_value());
+    EXPECT_FALSE(model.Unproject(Eigen::Vector2d(NAN, 3)).has_value());
+    // Far outside the image: beyond mirror 1's rim.
+    EXPECT_FALSE(model.Unproject(Eigen::Vector2d(-2000, -2000)).has_value());
+
+    // Random points in a large volume: every valid pixel is finite and unprojects to the same
+    // ring with a ray through the point.
+    std::uniform_real_distribution<double> u(-1.0, 1.0);
+    int valid[3] = {0, 0, 0};
+    for (int i = 0; i < 20000; ++i) {
+      const double scale = i % 2 ? 300.0 : 5000.0;
+      const Eigen::Vector3d p(u(rng) * scale, u(rng) * scale, 60 + u(rng) * scale);
+      for (Mirror m : {Mirror::kOne, Mirror::kTwo}) {
+        const auto px = model.Project(p, m);
+        if (!px) continue;
+        ++valid[MirrorIndex(m)];
+        ASSERT_TRUE(px->allFinite());
+        const auto ray = model.Unproject(*px);
+        ASSERT_TRUE(ray.has_value()) << p.transpose() << " -> " << px->transpose();
+        ASSERT_EQ(ray->mirror, m) << "wrong ring: " << p.transpose() << " -> " << px->transpose();
+        const Eigen::Vector3d v = p - ray->ray.origin;
+        EXPECT_LT(AngleBetween(v, ray->ray.direction), 1e-9) << p.transpose();
+      }
+    }
+    EXPECT_GT(valid[1], 1000);
+    EXPECT_GT(valid[2], 1000);
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// (c) An independent oracle: the reflection point found by a different method (parameterised by
+// azimuth and radius, a grid search followed by Nelder-Mead on the squared miss angle of the
+// REFLECTED ray, with the normal of the implicit surface), then the same frame changes.
+
+struct Oracle {
+  HyperboloidSheet<double> sheet;
+  Eigen::Vector3d eye, point;
+
+  Eigen::Vector3d Surface(double azimuth, double r) const {
+    return Eigen::Vector3d(r * std::cos(azimuth), r * std::sin(azimuth), sheet.Z(r));
+  }
+  // Squared sine of the angle between the reflected eye ray and the direction to the point.
+  double Miss(const Eigen::Vector2d& ar) const {
+    const Eigen::Vector3d s = Surface(ar(0), ar(1));
+    const Eigen::Vector3d out = Reflect(Eigen::Vector3d((s - eye).normalized()), sheet.Normal(s));
+    const Eigen::Vector3d to_point = (point - s).normalized();
+    if (out.dot(to_point) <= 0) return 4.0;
+    return out.cross(to_point).squaredNorm();
+  }
+};
+
+Eigen::Vector2d NelderMead(const Oracle& f, Eigen::Vector2d x0, double size) {
+  std::array<Eigen::Vector2d, 3> x = {x0, x0 + Eigen::Vector2d(size, 0),
+                                      x0 + Eigen::Vector2d(0, size)};
+  std::array<double, 3> fx;
+  for (int i = 0; i < 3; ++i) fx[i] = f.Miss(x[i]);
+  for (int iter = 0; iter < 4000; ++iter) {
+    std::array<int, 3> idx = {0, 1, 2};
+    std::sort(idx.begin(), idx.end(), [&](int a, int b) { return fx[a] < fx[b]; });
+    const int best = idx[0], mid = idx[1], worst = idx[2];
+    if ((x[worst] - x[best]).norm() < 1e-15 * (1 + x[best].norm())) break;
+    const Eigen::Vector2d centroid = 0.5 * (x[best] + x[mid]);
+    const Eigen::Vector2d xr = centroid + (centroid - x[worst]);
+    const double fr = f.Miss(xr);
+    if (fr < fx[best]) {
+      const Eigen::Vector2d xe = centroid + 2.0 * (centroid - x[worst]);
+      const double fe = f.Miss(xe);
+      if (fe < fr) x[worst] = xe, fx[worst] = fe;
+      else x[worst] = xr, fx[worst] = fr;
+    } else if (fr < fx[mid]) {
+      x[worst] = xr, fx[worst] = fr;
+    } else {
+      const Eigen::Vector2d xc = centroid + 0.5 * (x[worst] - centroid);
+      const double fc = f.Miss(xc);
+      if (fc < fx[worst]) {
+        x[worst] = xc, fx[worst] = fc;
+      } else {
+        for (int i : {mid, worst}) {
+          x[i] = x[best] + 0.5 * (x[i] - x[best]);
+          fx[i] = f.Miss(x[i]);
+        }
+      }
+    }
+  }
+  int best = 0;
+  for (int i = 1; i < 3; ++i) if (fx[i] < fx[best]) best = i;
+  return x[best];
+}
+
+Eigen::Vector3d OracleReflectionPoint(const Oracle& oracle, double r_max) {
+  Eigen::Vector2d best(0, 0);
+  double best_f = 1e300;
+  for (int ia = 0; ia < 360; ++ia) {
+    for (double r = 0.25; r < r_max; r += 0.5) {
+      const Eigen::Vector2d ar(ia * kRigDeg, r);
+      const double f = oracle.Miss(ar);
+      if (f < best_f) best_f = f, best = ar;
+    }
+  }
+  Eigen::Vector2d x = best;
+  for (double size : {0.01, 1e-4, 1e-6}) x = NelderMead(oracle, x, size);
+  return oracle.Surface(x(0), x(1));
+}
+
+TEST(RigModel, AgreesWithBruteForceOracle) {
+  std::mt19937 rng(99);
+  const RigParams rig = MisalignedBigRig(&rng, 1.0, 1.0, true);
+  const RigModel model(rig);
+  const auto& p1 = model.path1();
+  const auto& p2 = model.path2();
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  double max_err[3] = {0, 0, 0};
+  int n[3] = {0, 0, 0};
+  int attempts = 0;
+  while ((n[1] < 150 || n[2] < 150) && ++attempts < 100000) {
+    const Eigen::Vector2d px(u(rng) * rig.image_width, u(rng) * rig.image_height);
+    const auto ray = model.Unproject(px);
+    if (!ray || n[MirrorIndex(ray->mirror)] >= 150) continue;
+    const Eigen::Vector3d p = ray->ray.origin + (150 + 5000 * u(rng)) * ray->ray.direction;
+    const auto projected = model.Project(p, ray->mirror);
+    ASSERT_TRUE(projected.has_value());
+    Eigen::Vector2d expected;
+    if (ray->mirror == Mirror::kOne) {
+      const Oracle oracle{p1.sheet, p1.mirror_from_cam.translation, p1.mirror_from_cam * p};
+      const Eigen::Vector3d s = p1.cam_from_mirror * OracleReflectionPoint(oracle, 1.2 * rig.r_sys);
+      expected = p1.cam.PixelFromNormalized(p1.dist.Distort(s.head<2>() / s.z()));
+    } else {
+      const Oracle oracle{p2.sheet, p2.mirror_from_cam * p2.virtual_camera_in_cam,
+                          p2.mirror_from_cam * p};
+      const Eigen::Vector3d s = p2.cam_from_mirror * OracleReflectionPoint(oracle, 1.2 * rig.r_sys);
+      // Where s -> virtual camera crosses the reflex plane.
+      const auto& plane = p2.reflex_in_cam;
+      const Eigen::Vector3d v = p2.virtual_camera_in_cam;
+      const double t = (plane.point - s).dot(plane.normal) / (v - s).dot(plane.normal);
+      const Eigen::Vector3d x = s + t * (v - s);
+      expected = p2.cam.PixelFromNormalized(p2.dist.Distort(x.head<2>() / x.z()));
+    }
+    const int m = MirrorIndex(ray->mirror);
+    max_err[m] = std::max(max_err[m], (*projected - expected).norm());
+    ++n[m];
+  }
+  std::printf("oracle: %d + %d points, max |Project - oracle| = %.3g px (mirror 1), %.3g px (mirror 2)\n",
+              n[1], n[2], max_err[1], max_err[2]);
+  EXPECT_EQ(n[1], 150);
+  EXPECT_EQ(n[2], 150);
+  EXPECT_LT(max_err[1], 1e-6);
+  EXPECT_LT(max_err[2], 1e-6);
+}
+
+}  // namespace
+}  // namespace omni
