@@ -1,0 +1,638 @@
+#include "model/io/model_file.h"
+
+#include <yaml-cpp/yaml.h>
+
+#include <cerrno>
+#include <charconv>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <set>
+#include <sstream>
+#include <sys/stat.h>
+
+#include "model/rig_frames.h"
+
+namespace omni::io {
+namespace {
+
+constexpr char kFormatPrefix[] = "omnistereo-model/";
+constexpr int kFormatMajor = 1;
+constexpr double kRadPerDeg = M_PI / 180.0;
+
+// ---------------------------------------------------------------------------------------------
+// Reading: every accessor knows the file and the key path, so each error is one complete line
+// "<file>: <key>: <expected>, got <what>".
+
+std::string Abbreviate(const std::string& text) {
+  constexpr std::size_t kMax = 40;
+  std::string out = text.size() > kMax ? text.substr(0, kMax) + "..." : text;
+  for (char& ch : out) {
+    if (ch == '\n' || ch == '\r' || ch == '\t') ch = ' ';
+  }
+  return "'" + out + "'";
+}
+
+std::string Describe(const YAML::Node& node) {
+  if (!node.IsDefined()) return "nothing (key missing)";
+  switch (node.Type()) {
+    case YAML::NodeType::Null:
+      return "an empty value";
+    case YAML::NodeType::Sequence:
+      return "a list";
+    case YAML::NodeType::Map:
+      return "a map";
+    case YAML::NodeType::Scalar:
+      return node.Tag() == "!" ? "the quoted text " + Abbreviate(node.Scalar())
+                               : Abbreviate(node.Scalar());
+    default:
+      return "nothing (key missing)";
+  }
+}
+
+// yaml-cpp throws InvalidNode when asked the type of a missing key; these ask IsDefined() first.
+bool IsMap(const YAML::Node& node) { return node.IsDefined() && node.IsMap(); }
+bool IsScalar(const YAML::Node& node) { return node.IsDefined() && node.IsScalar(); }
+bool IsSequence(const YAML::Node& node) { return node.IsDefined() && node.IsSequence(); }
+
+std::string Join(const std::string& parent, const std::string& key) {
+  return parent.empty() ? key : parent + "." + key;
+}
+
+class Reader {
+ public:
+  explicit Reader(std::string file) : file_(std::move(file)) {}
+
+  [[noreturn]] void Fail(const std::string& key, const std::string& expected,
+                         const std::string& got) const {
+    throw InputError(file_ + ": " + key + ": " + expected + ", got " + got);
+  }
+
+  // A child map; `key` is the full path of the child.
+  YAML::Node Map(const YAML::Node& parent, const std::string& key, const char* name) const {
+    YAML::Node node = parent[name];
+    if (!IsMap(node)) Fail(key, "expected a map of keys", Describe(node));
+    return node;
+  }
+
+  double Number(const YAML::Node& node, const std::string& key) const {
+    if (!IsScalar(node) || node.Tag() == "!") Fail(key, "expected a number", Describe(node));
+    double value = 0;
+    if (!ParseYamlNumber(node.Scalar(), &value)) Fail(key, "expected a number", Describe(node));
+    if (!std::isfinite(value)) Fail(key, "expected a finite number", Describe(node));
+    return value;
+  }
+  double Number(const YAML::Node& map, const std::string& path, const char* name) const {
+    return Number(map[name], Join(path, name));
+  }
+
+  double Positive(const YAML::Node& map, const std::string& path, const char* name) const {
+    const double value = Number(map, path, name);
+    if (!(value > 0)) Fail(Join(path, name), "expected a number > 0", Describe(map[name]));
+    return value;
+  }
+
+  // An angle in radians under `name`, or in degrees under `name`_deg (DESIGN.md §2).
+  double Angle(const YAML::Node& map, const std::string& path, const char* name) const {
+    const std::string deg_name = std::string(name) + "_deg";
+    const bool has_rad = map[name].IsDefined();
+    const bool has_deg = map[deg_name].IsDefined();
+    if (has_rad && has_deg) {
+      Fail(Join(path, name), "expected either " + std::string(name) + " (rad) or " + deg_name,
+           "both");
+    }
+    if (has_deg) return Number(map[deg_name], Join(path, deg_name)) * kRadPerDeg;
+    return Number(map, path, name);
+  }
+
+  int Integer(const YAML::Node& map, const std::string& path, const char* name, int min) const {
+    const YAML::Node node = map[name];
+    const std::string key = Join(path, name);
+    if (!IsScalar(node) || node.Tag() == "!") Fail(key, "expected an integer", Describe(node));
+    std::string_view text = node.Scalar();
+    if (!text.empty() && text.front() == '+') text.remove_prefix(1);
+    int value = 0;
+    const char* end = text.data() + text.size();
+    const auto result = std::from_chars(text.data(), end, value);
+    if (text.empty() || result.ptr != end || result.ec != std::errc()) {
+      Fail(key, "expected an integer", Describe(node));
+    }
+    if (value < min) Fail(key, "expected an integer >= " + std::to_string(min), Describe(node));
+    return value;
+  }
+
+  std::string String(const YAML::Node& node, const std::string& key) const {
+    if (!IsScalar(node)) Fail(key, "expected a text value", Describe(node));
+    return node.Scalar();
+  }
+  std::string String(const YAML::Node& map, const std::string& path, const char* name) const {
+    return String(map[name], Join(path, name));
+  }
+
+  std::vector<double> Numbers(const YAML::Node& map, const std::string& path,
+                              const char* name) const {
+    const YAML::Node node = map[name];
+    const std::string key = Join(path, name);
+    if (!IsSequence(node)) Fail(key, "expected a list of numbers", Describe(node));
+    std::vector<double> values;
+    values.reserve(node.size());
+    for (std::size_t i = 0; i < node.size(); ++i) {
+      values.push_back(Number(node[i], key + "[" + std::to_string(i) + "]"));
+    }
+    return values;
+  }
+
+  std::vector<std::string> Strings(const YAML::Node& map, const std::string& path,
+                                   const char* name) const {
+    const YAML::Node node = map[name];
+    const std::string key = Join(path, name);
+    if (!IsSequence(node)) Fail(key, "expected a list of names", Describe(node));
+    std::vector<std::string> values;
+    for (std::size_t i = 0; i < node.size(); ++i) {
+      values.push_back(String(node[i], key + "[" + std::to_string(i) + "]"));
+    }
+    return values;
+  }
+
+  // Numbers are parsed here rather than by yaml-cpp so that the text must be a number in full
+  // and reads back exactly what FormatDouble wrote.
+  static bool ParseYamlNumber(const std::string& text, double* value) {
+    static const char* const kInf[] = {".inf", ".Inf", ".INF"};
+    static const char* const kNan[] = {".nan", ".NaN", ".NAN"};
+    std::string_view body = text;
+    double sign = 1;
+    if (!body.empty() && (body.front() == '+' || body.front() == '-')) {
+      sign = body.front() == '-' ? -1 : 1;
+      body.remove_prefix(1);
+    }
+    for (const char* inf : kInf) {
+      if (body == inf) {
+        *value = sign * HUGE_VAL;
+        return true;
+      }
+    }
+    for (const char* nan : kNan) {
+      if (text == nan) {
+        *value = NAN;
+        return true;
+      }
+    }
+    return ParseDouble(text, value);
+  }
+
+ private:
+  std::string file_;
+};
+
+void ReadPose(const Reader& in, const YAML::Node& map, const std::string& path,
+              std::array<double, 5>* pose) {
+  (*pose)[0] = in.Angle(map, path, "rx");
+  (*pose)[1] = in.Angle(map, path, "ry");
+  (*pose)[2] = in.Number(map, path, "tx");
+  (*pose)[3] = in.Number(map, path, "ty");
+  (*pose)[4] = in.Number(map, path, "tz");
+}
+
+Lip ReadLip(const Reader& in, const YAML::Node& map, const std::string& path) {
+  Lip lip;
+  lip.color = in.String(map, path, "color");
+  lip.r_inner = in.Number(map, path, "r_inner");
+  if (lip.r_inner < 0) in.Fail(Join(path, "r_inner"), "expected a radius >= 0", Describe(map["r_inner"]));
+  lip.r_outer = in.Number(map, path, "r_outer");
+  if (!(lip.r_outer > lip.r_inner)) {
+    in.Fail(Join(path, "r_outer"), "expected a radius > r_inner (" + FormatDouble(lip.r_inner) + ")",
+            Describe(map["r_outer"]));
+  }
+  lip.z = in.Number(map, path, "z");
+  return lip;
+}
+
+void CheckFormat(const Reader& in, const YAML::Node& root) {
+  const YAML::Node node = root["format"];
+  const std::string expected = "expected '" + std::string(kFormatPrefix) +
+                               std::to_string(kFormatMajor) + "' (any 1.x minor version)";
+  if (!IsScalar(node)) in.Fail("format", expected, Describe(node));
+  const std::string& text = node.Scalar();
+  const std::size_t prefix_len = std::strlen(kFormatPrefix);
+  if (text.compare(0, prefix_len, kFormatPrefix) != 0) in.Fail("format", expected, Describe(node));
+  // The version is MAJOR or MAJOR.MINOR; only the major version changes the meaning of keys.
+  const std::string_view version = std::string_view(text).substr(prefix_len);
+  int major = -1;
+  const char* end = version.data() + version.size();
+  const auto result = std::from_chars(version.data(), end, major);
+  bool well_formed = result.ec == std::errc() && result.ptr != version.data();
+  if (well_formed && result.ptr != end) {
+    int minor = 0;
+    const auto minor_result =
+        result.ptr[0] == '.' ? std::from_chars(result.ptr + 1, end, minor)
+                             : std::from_chars_result{result.ptr, std::errc::invalid_argument};
+    well_formed = minor_result.ec == std::errc() && minor_result.ptr == end;
+  }
+  if (!well_formed) in.Fail("format", expected, Describe(node));
+  if (major != kFormatMajor) {
+    in.Fail("format",
+            "expected major version " + std::to_string(kFormatMajor) +
+                " (this program reads " + kFormatPrefix + "1.x)",
+            "unknown version " + Describe(node));
+  }
+}
+
+// kind: ideal means exactly the SVP rig: a nonzero misalignment would be silently dropped.
+void CheckIdeal(const Reader& in, const RigParams& rig) {
+  auto check = [&](double value, const std::string& key) {
+    if (value != 0) in.Fail(key, "expected 0 because kind is ideal", FormatDouble(value));
+  };
+  static const char* const kPose[] = {"rx", "ry", "tx", "ty", "tz"};
+  static const char* const kDist[] = {"dist_k1", "dist_k2", "dist_p1", "dist_p2", "dist_k3"};
+  static const char* const kReflex[] = {"rx", "ry", "dz"};
+  for (int i = 0; i < 5; ++i) check(rig.distortion[i], std::string("camera.distortion.") + kDist[i]);
+  for (int i = 0; i < 5; ++i) check(rig.mirror1_pose[i], std::string("mirror1.cam_from_mirror.") + kPose[i]);
+  for (int i = 0; i < 3; ++i) check(rig.reflex[i], std::string("mirror1.reflex.") + kReflex[i]);
+  for (int i = 0; i < 5; ++i) check(rig.mirror2_pose[i], std::string("mirror2.cam_from_mirror.") + kPose[i]);
+}
+
+CalibrationInfo ReadCalibration(const Reader& in, const YAML::Node& root) {
+  const std::string path = "calibration";
+  const YAML::Node cal = in.Map(root, path, "calibration");
+  CalibrationInfo info;
+  info.parameters = in.Strings(cal, path, "parameters");
+  const std::size_t n = info.parameters.size();
+  std::set<std::string> seen;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!seen.insert(info.parameters[i]).second) {
+      in.Fail(path + ".parameters[" + std::to_string(i) + "]", "expected a unique name",
+              "a second " + Abbreviate(info.parameters[i]));
+    }
+  }
+  auto check_length = [&](const std::vector<double>& values, const char* name, std::size_t want,
+                          const char* what) {
+    if (values.size() != want) {
+      in.Fail(Join(path, name),
+              "expected " + std::to_string(want) + " numbers (" + what + ", " +
+                  std::to_string(n) + " parameters)",
+              std::to_string(values.size()));
+    }
+  };
+  info.values = in.Numbers(cal, path, "values");
+  check_length(info.values, "values", n, "one per parameter");
+  info.sigma = in.Numbers(cal, path, "sigma");
+  check_length(info.sigma, "sigma", n, "one per parameter");
+  for (std::size_t i = 0; i < n; ++i) {
+    if (info.sigma[i] < 0) {
+      in.Fail(path + ".sigma[" + std::to_string(i) + "]", "expected a standard deviation >= 0",
+              FormatDouble(info.sigma[i]));
+    }
+  }
+  info.covariance = in.Numbers(cal, path, "covariance");
+  check_length(info.covariance, "covariance", n * n, "row-major, parameters^2");
+
+  const std::string res_path = Join(path, "residuals");
+  const YAML::Node res = in.Map(cal, res_path, "residuals");
+  info.rms_px = in.Number(res, res_path, "rms_px");
+  if (info.rms_px < 0) in.Fail(Join(res_path, "rms_px"), "expected a number >= 0", Describe(res["rms_px"]));
+  info.n_observations = in.Integer(res, res_path, "n_observations", 0);
+  info.n_outliers = in.Integer(res, res_path, "n_outliers", 0);
+  info.per_mirror_rms_px = in.Numbers(res, res_path, "per_mirror_rms_px");
+
+  const std::string data_path = Join(path, "dataset");
+  const YAML::Node data = in.Map(cal, data_path, "dataset");
+  info.session = in.String(data, data_path, "session");
+  info.images = in.Integer(data, data_path, "images", 0);
+  info.targets = in.String(data, data_path, "targets");
+
+  info.tool_version = in.String(cal, path, "tool_version");
+  info.date = in.String(cal, path, "date");
+  return info;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Writing: a small emitter of our own, so the layout is the one of formats/model_example.yaml.
+
+bool IsPlainSafe(const std::string& text) {
+  if (text.empty() || !std::isalpha(static_cast<unsigned char>(text[0]))) return false;
+  for (char ch : text) {
+    if (!std::isalnum(static_cast<unsigned char>(ch)) && ch != '_' && ch != '.' && ch != '-' &&
+        ch != '/') {
+      return false;
+    }
+  }
+  // Words other YAML readers (YAML 1.1) turn into booleans or null.
+  static const char* const kReserved[] = {"true", "false", "yes", "no", "on", "off",
+                                          "y",    "n",     "null", "nan", "inf"};
+  std::string lower;
+  for (char ch : text) lower += static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+  for (const char* word : kReserved) {
+    if (lower == word) return false;
+  }
+  return true;
+}
+
+std::string Text(const std::string& text) {
+  if (IsPlainSafe(text)) return text;
+  std::string out = "\"";
+  for (char ch : text) {
+    const unsigned char u = static_cast<unsigned char>(ch);
+    if (ch == '"' || ch == '\\') {
+      out += '\\';
+      out += ch;
+    } else if (ch == '\n') {
+      out += "\\n";
+    } else if (ch == '\t') {
+      out += "\\t";
+    } else if (u < 0x20 || u == 0x7f) {
+      char buf[8];
+      std::snprintf(buf, sizeof(buf), "\\x%02x", u);
+      out += buf;
+    } else {
+      out += ch;
+    }
+  }
+  return out + "\"";
+}
+
+// Shortest round-trip text, with a '.' in the mantissa so that every YAML reader (also YAML 1.1
+// ones) sees a float: 37 -> 37.0, 1e-07 -> 1.0e-07.
+std::string Num(double value) {
+  if (std::isnan(value)) return ".nan";
+  if (std::isinf(value)) return value > 0 ? ".inf" : "-.inf";
+  std::string text = FormatDouble(value);
+  if (text.find('.') == std::string::npos) {
+    const std::size_t e = text.find('e');
+    text.insert(e == std::string::npos ? text.size() : e, ".0");
+  }
+  return text;
+}
+
+std::string Vec(const Eigen::Vector3d& v) {
+  return "[" + Num(v.x()) + ", " + Num(v.y()) + ", " + Num(v.z()) + "]";
+}
+
+// key: value, with an optional comment aligned at column 30 as in the format example.
+void Line(std::string* out, int indent, const std::string& key_value, const char* comment = "") {
+  std::string line(indent, ' ');
+  line += key_value;
+  if (*comment) {
+    if (line.size() < 30) line.resize(30, ' ');
+    else line += "  ";
+    line += "# ";
+    line += comment;
+  }
+  *out += line + "\n";
+}
+
+// A flow list, wrapped after `per_line` items with continuation lines indented past the key.
+std::string FlowList(const std::vector<std::string>& items, int indent, std::size_t per_line) {
+  std::string out = "[";
+  for (std::size_t i = 0; i < items.size(); ++i) {
+    if (i > 0) {
+      out += ",";
+      out += (i % per_line == 0) ? "\n" + std::string(indent + 3, ' ') : " ";
+    }
+    out += items[i];
+  }
+  return out + "]";
+}
+
+std::vector<std::string> Nums(const std::vector<double>& values) {
+  std::vector<std::string> items;
+  items.reserve(values.size());
+  for (double v : values) items.push_back(Num(v));
+  return items;
+}
+
+std::string PoseMap(const std::array<double, 5>& p) {
+  return "{rx: " + Num(p[0]) + ", ry: " + Num(p[1]) + ", tx: " + Num(p[2]) + ", ty: " + Num(p[3]) +
+         ", tz: " + Num(p[4]) + "}";
+}
+
+std::string LipMap(const Lip& lip) {
+  return "{color: " + Text(lip.color) + ", r_inner: " + Num(lip.r_inner) +
+         ", r_outer: " + Num(lip.r_outer) + ", z: " + Num(lip.z) + "}";
+}
+
+std::string ReadWholeFile(const std::string& path) {
+  struct stat st;
+  if (::stat(path.c_str(), &st) != 0) {
+    const std::string why = errno == ENOENT ? "no such file" : std::strerror(errno);
+    throw InputError(path + ": expected a readable model file, got " + why);
+  }
+  if (S_ISDIR(st.st_mode)) throw InputError(path + ": expected a model file, got a folder");
+  std::ifstream stream(path, std::ios::binary);
+  if (!stream) {
+    throw InputError(path + ": expected a readable model file, got " + std::strerror(errno));
+  }
+  std::ostringstream contents;
+  contents << stream.rdbuf();
+  if (stream.bad()) throw InputError(path + ": expected a readable model file, got a read error");
+  return contents.str();
+}
+
+}  // namespace
+
+RigParams ParseModelText(const std::string& text, const std::string& file) {
+  YAML::Node root;
+  try {
+    root = YAML::Load(text);
+  } catch (const YAML::Exception& e) {
+    // yaml-cpp counts lines and columns from 0.
+    throw InputError(file + ": line " + std::to_string(e.mark.line + 1) + ", column " +
+                     std::to_string(e.mark.column + 1) + ": expected valid YAML, got " + e.msg);
+  }
+  const Reader in(file);
+  if (!IsMap(root)) in.Fail("format", "expected a YAML map starting with 'format:'", Describe(root));
+  CheckFormat(in, root);
+
+  RigParams rig;
+  const std::string kind = in.String(root, "", "kind");
+  if (kind == "ideal") {
+    rig.kind = ModelKind::kIdeal;
+  } else if (kind == "noncentral") {
+    rig.kind = ModelKind::kNoncentral;
+  } else {
+    in.Fail("kind", "expected 'ideal' or 'noncentral'", Describe(root["kind"]));
+  }
+
+  if (root["units"].IsDefined()) {
+    const YAML::Node units = in.Map(root, "units", "units");
+    if (units["length"].IsDefined() && in.String(units, "units", "length") != "mm") {
+      in.Fail("units.length", "expected 'mm' (other units: not supported)", Describe(units["length"]));
+    }
+    if (units["angle"].IsDefined() && in.String(units, "units", "angle") != "rad") {
+      in.Fail("units.angle", "expected 'rad' (degrees only in keys ending _deg)",
+              Describe(units["angle"]));
+    }
+  }
+
+  const YAML::Node image = in.Map(root, "image", "image");
+  rig.image_width = in.Integer(image, "image", "width", 1);
+  rig.image_height = in.Integer(image, "image", "height", 1);
+
+  const YAML::Node camera = in.Map(root, "camera", "camera");
+  rig.camera[0] = in.Positive(camera, "camera", "fx");
+  rig.camera[1] = in.Positive(camera, "camera", "fy");
+  rig.camera[2] = in.Number(camera, "camera", "cx");
+  rig.camera[3] = in.Number(camera, "camera", "cy");
+  rig.camera[4] = in.Number(camera, "camera", "skew");
+  const YAML::Node dist = in.Map(camera, "camera.distortion", "distortion");
+  const std::string dist_model = in.String(dist, "camera.distortion", "model");
+  if (dist_model != "radtan") {
+    in.Fail("camera.distortion.model", "expected 'radtan'", Describe(dist["model"]));
+  }
+  static const char* const kDist[] = {"dist_k1", "dist_k2", "dist_p1", "dist_p2", "dist_k3"};
+  for (int i = 0; i < 5; ++i) rig.distortion[i] = in.Number(dist, "camera.distortion", kDist[i]);
+
+  const YAML::Node design = in.Map(root, "design", "design");
+  rig.mirror1_shape[0] = in.Positive(design, "design", "c1");
+  rig.mirror2_shape[0] = in.Positive(design, "design", "c2");
+  for (const auto& [name, slot] : {std::pair<const char*, double*>{"k1", &rig.mirror1_shape[1]},
+                                   std::pair<const char*, double*>{"k2", &rig.mirror2_shape[1]}}) {
+    *slot = in.Number(design, "design", name);
+    // [hyperboloid]: k <= 2 is no hyperboloid (the eccentricity becomes undefined or 1).
+    if (!(*slot > 2)) in.Fail(Join("design", name), "expected k > 2", Describe(design[name]));
+  }
+  rig.d = in.Positive(design, "design", "d");
+  rig.r_sys = in.Positive(design, "design", "r_sys");
+  for (const auto& [name, slot] : {std::pair<const char*, double*>{"r_ref", &rig.r_ref},
+                                   std::pair<const char*, double*>{"r_cam", &rig.r_cam}}) {
+    *slot = in.Number(design, "design", name);
+    if (!(*slot > 0 && *slot < rig.r_sys)) {
+      in.Fail(Join("design", name),
+              "expected a radius in (0, r_sys) = (0, " + FormatDouble(rig.r_sys) + ")",
+              Describe(design[name]));
+    }
+  }
+
+  const YAML::Node m1 = in.Map(root, "mirror1", "mirror1");
+  ReadPose(in, in.Map(m1, "mirror1.cam_from_mirror", "cam_from_mirror"), "mirror1.cam_from_mirror",
+           &rig.mirror1_pose);
+  const YAML::Node reflex = in.Map(m1, "mirror1.reflex", "reflex");
+  rig.reflex[0] = in.Angle(reflex, "mirror1.reflex", "rx");
+  rig.reflex[1] = in.Angle(reflex, "mirror1.reflex", "ry");
+  rig.reflex[2] = in.Number(reflex, "mirror1.reflex", "dz");
+  rig.lip1 = ReadLip(in, in.Map(m1, "mirror1.lip", "lip"), "mirror1.lip");
+
+  const YAML::Node m2 = in.Map(root, "mirror2", "mirror2");
+  ReadPose(in, in.Map(m2, "mirror2.cam_from_mirror", "cam_from_mirror"), "mirror2.cam_from_mirror",
+           &rig.mirror2_pose);
+  rig.lip2 = ReadLip(in, in.Map(m2, "mirror2.lip", "lip"), "mirror2.lip");
+
+  if (rig.kind == ModelKind::kIdeal) CheckIdeal(in, rig);
+  // `derived:` is recomputed from the blocks above, never read back.
+  if (root["calibration"].IsDefined()) rig.calibration = ReadCalibration(in, root);
+  return rig;
+}
+
+RigParams ReadModelFile(const std::string& path) {
+  return ParseModelText(ReadWholeFile(path), path);
+}
+
+ModelDerived ComputeModelDerived(const RigParams& rig) {
+  const Pose<double> cam_from_mirror1 = PoseFromBlock(rig.mirror1_pose.data());
+  const Pose<double> cam_from_mirror2 = PoseFromBlock(rig.mirror2_pose.data());
+  const Plane<double> reflex_in_mirror1 = ReflexPlaneInMirror1(rig.reflex.data(), rig.d);
+  const Eigen::Vector3d unit_z = Eigen::Vector3d::UnitZ();
+  ModelDerived out;
+  out.focus1_in_cam = cam_from_mirror1 * Eigen::Vector3d(0, 0, rig.mirror1_shape[0]);
+  out.axis1_in_cam = cam_from_mirror1.Rotate(unit_z);
+  out.focus2_in_cam = cam_from_mirror2 * Eigen::Vector3d(0, 0, rig.d - rig.mirror2_shape[0]);
+  out.axis2_in_cam = cam_from_mirror2.Rotate(unit_z);
+  out.reflex_point_in_cam = cam_from_mirror1 * reflex_in_mirror1.point;
+  out.reflex_normal_in_cam = cam_from_mirror1.Rotate(reflex_in_mirror1.normal);
+  out.baseline = (out.focus1_in_cam - out.focus2_in_cam).norm();
+  return out;
+}
+
+std::string ModelFileText(const RigParams& rig) {
+  std::string out;
+  out +=
+      "# omnistereo-model/1: a single-camera folded catadioptric omnistereo rig (camera, two\n"
+      "# hyperboloidal mirrors, reflex plane), written by the omnistereo toolkit.\n"
+      "# Units: mm and rad. Frames (DESIGN.md §2): camera C (OpenCV: +z along the optical axis),\n"
+      "# mirror bodies M1, M2; cam_from_mirror maps M_i to C with tilt = rotation vector (rx, ry, 0).\n"
+      "# Numbers are written to full double precision; `derived:` is for people and other tools\n"
+      "# and is ignored when the file is read.\n";
+  Line(&out, 0, std::string("format: ") + kFormatPrefix + std::to_string(kFormatMajor));
+  Line(&out, 0, std::string("kind: ") + (rig.kind == ModelKind::kIdeal ? "ideal" : "noncentral"),
+       "ideal | noncentral  (ideal: every pose below is zero, no distortion)");
+  Line(&out, 0, "units: {length: mm, angle: rad}");
+  Line(&out, 0, "image: {width: " + std::to_string(rig.image_width) +
+                    ", height: " + std::to_string(rig.image_height) + "}");
+  Line(&out, 0, "camera:");
+  Line(&out, 2, "fx: " + Num(rig.camera[0]));
+  Line(&out, 2, "fy: " + Num(rig.camera[1]));
+  Line(&out, 2, "cx: " + Num(rig.camera[2]));
+  Line(&out, 2, "cy: " + Num(rig.camera[3]));
+  Line(&out, 2, "skew: " + Num(rig.camera[4]));
+  const auto& k = rig.distortion;
+  Line(&out, 2, "distortion: {model: radtan, dist_k1: " + Num(k[0]) + ", dist_k2: " + Num(k[1]) +
+                    ", dist_p1: " + Num(k[2]) + ", dist_p2: " + Num(k[3]) +
+                    ", dist_k3: " + Num(k[4]) + "}");
+  Line(&out, 0, "design:", "the paper's primary parameters (mm, unitless k) and physical radii");
+  Line(&out, 2, "c1: " + Num(rig.mirror1_shape[0]));
+  Line(&out, 2, "c2: " + Num(rig.mirror2_shape[0]));
+  Line(&out, 2, "k1: " + Num(rig.mirror1_shape[1]));
+  Line(&out, 2, "k2: " + Num(rig.mirror2_shape[1]));
+  Line(&out, 2, "d: " + Num(rig.d));
+  Line(&out, 2, "r_sys: " + Num(rig.r_sys));
+  Line(&out, 2, "r_ref: " + Num(rig.r_ref), "radius of the planar reflex disc");
+  Line(&out, 2, "r_cam: " + Num(rig.r_cam), "radius of mirror 2's central hole");
+  Line(&out, 0, "mirror1:", "body of mirror 1; the reflex disc is part of it");
+  Line(&out, 2, "cam_from_mirror: " + PoseMap(rig.mirror1_pose));
+  Line(&out, 2, "reflex: {rx: " + Num(rig.reflex[0]) + ", ry: " + Num(rig.reflex[1]) +
+                    ", dz: " + Num(rig.reflex[2]) + "}",
+       "mirror-1 frame: plane through (0,0,d/2+dz), normal exp([rx,ry,0])*(0,0,-1)");
+  Line(&out, 2, "lip: " + LipMap(rig.lip1), "flat annulus, mirror-1 frame");
+  Line(&out, 0, "mirror2:");
+  Line(&out, 2, "cam_from_mirror: " + PoseMap(rig.mirror2_pose));
+  Line(&out, 2, "lip: " + LipMap(rig.lip2), "flat annulus, mirror-2 frame");
+
+  const ModelDerived derived = ComputeModelDerived(rig);
+  Line(&out, 0, "derived:", "written for people and other tools; ignored when read");
+  Line(&out, 2, "focus1_in_cam: " + Vec(derived.focus1_in_cam));
+  Line(&out, 2, "axis1_in_cam: " + Vec(derived.axis1_in_cam));
+  Line(&out, 2, "focus2_in_cam: " + Vec(derived.focus2_in_cam));
+  Line(&out, 2, "axis2_in_cam: " + Vec(derived.axis2_in_cam));
+  Line(&out, 2, "reflex_point_in_cam: " + Vec(derived.reflex_point_in_cam));
+  Line(&out, 2, "reflex_normal_in_cam: " + Vec(derived.reflex_normal_in_cam));
+  Line(&out, 2, "baseline: " + Num(derived.baseline), "distance between the two primary foci");
+
+  if (rig.calibration) {
+    const CalibrationInfo& cal = *rig.calibration;
+    std::vector<std::string> names;
+    for (const std::string& name : cal.parameters) names.push_back(Text(name));
+    const std::size_t n = std::max<std::size_t>(cal.parameters.size(), 1);
+    Line(&out, 0, "calibration:", "what the calibration estimated, and from what");
+    Line(&out, 2, "parameters: " + FlowList(names, 2, 8), "names in the order of the covariance");
+    Line(&out, 2, "values: " + FlowList(Nums(cal.values), 2, 6));
+    Line(&out, 2, "sigma: " + FlowList(Nums(cal.sigma), 2, 6), "standard deviations");
+    Line(&out, 2, "covariance:",
+         ("row-major, " + std::to_string(cal.parameters.size()) + " x " +
+          std::to_string(cal.parameters.size()))
+             .c_str());
+    // One covariance row per line, as a flow list indented under the key.
+    out += "    " + FlowList(Nums(cal.covariance), 2, n) + "\n";
+    Line(&out, 2, "residuals: {rms_px: " + Num(cal.rms_px) +
+                      ", n_observations: " + std::to_string(cal.n_observations) +
+                      ", n_outliers: " + std::to_string(cal.n_outliers) +
+                      ", per_mirror_rms_px: " + FlowList(Nums(cal.per_mirror_rms_px), 2, 100) +
+                      "}");
+    Line(&out, 2, "dataset: {session: " + Text(cal.session) + ", images: " +
+                      std::to_string(cal.images) + ", targets: " + Text(cal.targets) + "}");
+    Line(&out, 2, "tool_version: " + Text(cal.tool_version));
+    Line(&out, 2, "date: " + Text(cal.date));
+  }
+  return out;
+}
+
+void WriteModelFile(const std::string& path, const RigParams& rig) {
+  const std::string text = ModelFileText(rig);
+  // Never write a file this program would refuse to read: parse the text back first.
+  try {
+    ParseModelText(text, path);
+  } catch (const InputError& e) {
+    throw std::runtime_error("cannot write '" + path + "': the model is invalid: " + e.what());
+  }
+  WriteFileAtomically(path, text);
+}
+
+}  // namespace omni::io

@@ -5,16 +5,12 @@
 #include <stdexcept>
 #include <string>
 
+#include <Eigen/Core>
+
+#include "model/io/file_util.h"  // InputError, AtomicFile
 #include "model/rig_params.h"
 
 namespace omni::io {
-
-// Thrown for unreadable or invalid input files; what() names the file and the key and says
-// what was expected, ready to print as the one line a user sees.
-class InputError : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
 
 // Reads a model file; throws InputError (missing file, malformed YAML, unknown major version,
 // missing key, non-finite number, k <= 2, c <= 0, ...).
@@ -27,5 +23,25 @@ void WriteModelFile(const std::string& path, const RigParams& rig);
 
 // Writes text to path atomically (temp file + rename); throws std::runtime_error on failure.
 void WriteFileAtomically(const std::string& path, const std::string& contents);
+
+// The text WriteModelFile writes (header comments, flow maps as in the format example, numbers
+// as the shortest text that reads back bit-for-bit). Throws std::runtime_error if the rig holds
+// something a reader would reject (a non-finite number, calibration arrays of wrong length).
+std::string ModelFileText(const RigParams& rig);
+
+// Parses model-file text; `file` names the source in error messages. Throws InputError.
+RigParams ParseModelText(const std::string& text, const std::string& file);
+
+// The `derived:` section: what the pose blocks mean in the camera frame, for people and tools.
+struct ModelDerived {
+  Eigen::Vector3d focus1_in_cam;  // mirror 1's primary focus, (0,0,c1) in M1
+  Eigen::Vector3d axis1_in_cam;   // mirror 1's axis, cam_from_mirror1 rotation * (0,0,1)
+  Eigen::Vector3d focus2_in_cam;  // mirror 2's primary focus, (0,0,d-c2) in M2
+  Eigen::Vector3d axis2_in_cam;
+  Eigen::Vector3d reflex_point_in_cam;   // the reflex plane's point (0,0,d/2+dz in M1)
+  Eigen::Vector3d reflex_normal_in_cam;  // its unit normal (nominally (0,0,-1))
+  double baseline = 0;                   // |focus1 - focus2|
+};
+ModelDerived ComputeModelDerived(const RigParams& rig);
 
 }  // namespace omni::io
