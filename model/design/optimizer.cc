@@ -243,8 +243,9 @@ DesignEvaluation EvaluateDesign(const DesignParams& theta, const OptimizerOption
   e.chi = ImagingRatio(theta, e.fov);
 
   const RawConstraints c = Constraints(theta, o);
-  const char* at_most = o.theta1_max_sense == Theta1MaxSense::kAtMost ? "theta_1,max <= Lambda_1,max"
-                                                                      : "theta_1,max >= Lambda_1,max";
+  const char* at_most = o.theta1_max_sense == Theta1MaxSense::kAtMost
+                            ? "theta_1,max <= Lambda_1,max"
+                            : "theta_1,max >= Lambda_1,max";
   const struct {
     const char* name;
     const char* label;

@@ -38,14 +38,17 @@ class Reader {
 
   YAML::Node Map(const YAML::Node& parent, const std::string& parent_key, const char* name) const {
     const YAML::Node node = parent[name];
-    if (!node.IsMap()) Fail(Join(parent_key, name), "expected a map of keys", Describe(node));
+    if (!node.IsDefined() || !node.IsMap()) {
+      Fail(Join(parent_key, name), "expected a map of keys", Describe(node));
+    }
     return node;
   }
 
   double Number(const YAML::Node& parent, const std::string& parent_key, const char* name) const {
     const std::string key = Join(parent_key, name);
     const YAML::Node node = parent[name];
-    if (!node.IsScalar()) Fail(key, "expected a number", Describe(node));
+    // An undefined node from a missing key throws on IsScalar(): test IsDefined() first.
+    if (!node.IsDefined() || !node.IsScalar()) Fail(key, "expected a number", Describe(node));
     double value = 0;
     try {
       value = node.as<double>();
@@ -132,10 +135,12 @@ YAML::Node Load(const std::string& path) {
 DesignConfig ReadDesignConfig(const std::string& path) {
   const YAML::Node root = Load(path);
   const Reader r(path);
-  if (!root.IsMap()) r.Fail("format", "expected a YAML map starting with 'format: omnistereo-design/1'",
-                            Reader::Describe(root));
+  if (!root.IsMap()) {
+    r.Fail("format", "expected a YAML map starting with 'format: omnistereo-design/1'",
+           Reader::Describe(root));
+  }
   const YAML::Node format = root["format"];
-  const std::string format_text = format.IsScalar() ? format.Scalar() : "";
+  const std::string format_text = format.IsDefined() && format.IsScalar() ? format.Scalar() : "";
   const std::string prefix = kFormatPrefix;
   if (format_text.compare(0, prefix.size(), prefix) != 0) {
     r.Fail("format", "expected 'omnistereo-design/1'", Reader::Describe(format));
@@ -207,8 +212,12 @@ DesignConfig ReadDesignConfig(const std::string& path) {
   const YAML::Node image = r.Map(root, "", "image");
   config.image_width = r.Integer(image, "image", "width", 1, -1);
   config.image_height = r.Integer(image, "image", "height", 1, -1);
-  if (config.image_width < 0) r.Fail("image.width", "expected an integer >= 1", "nothing (key missing)");
-  if (config.image_height < 0) r.Fail("image.height", "expected an integer >= 1", "nothing (key missing)");
+  if (config.image_width < 0) {
+    r.Fail("image.width", "expected an integer >= 1", "nothing (key missing)");
+  }
+  if (config.image_height < 0) {
+    r.Fail("image.height", "expected an integer >= 1", "nothing (key missing)");
+  }
 
   if (root["solver"]) {
     const YAML::Node s = r.Map(root, "", "solver");

@@ -19,7 +19,9 @@ const DesignParams kPublished{123.488, 241.803, 5.7319, 9.7443, 233.684, 37.0};
 
 class PublishedOptimum : public ::testing::Test {
  protected:
-  static void SetUpTestSuite() { result_ = new OptimizerResult(OptimizeBaseline(OptimizerOptions())); }
+  static void SetUpTestSuite() {
+    result_ = new OptimizerResult(OptimizeBaseline(OptimizerOptions()));
+  }
   static void TearDownTestSuite() { delete result_; }
   static OptimizerResult* result_;
 };
