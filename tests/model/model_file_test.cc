@@ -476,6 +476,20 @@ TEST(ModelFileTest, WriteIntoMissingFolderThrowsAndCreatesNothing) {
   EXPECT_TRUE(dir.Entries().empty());
 }
 
+TEST(ModelFileTest, WriteBelowAFileThrowsNamingThePath) {
+  ScratchDir dir;
+  WriteText(dir / "plain.txt", "not a folder\n");
+  const std::string path = dir / "plain.txt/model.yaml";
+  try {
+    WriteModelFile(path, ReadModelFile(kExamplePath));
+    FAIL() << "no error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(ReadText(dir / "plain.txt"), "not a folder\n");
+  EXPECT_EQ(dir.Entries(), std::vector<std::string>{"plain.txt"});
+}
+
 TEST(ModelFileTest, FailedWriteLeavesTheExistingFileUntouched) {
   ScratchDir dir;
   const std::string path = dir / "model.yaml";
