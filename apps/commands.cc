@@ -9,7 +9,7 @@ const std::vector<Command>& Commands() {
       {"design", "maximise the baseline of an ideal rig design [optimization_of_baseline]",
        {"config", "out", "curves_out"}, RunDesign},
       {"render", "render a rig model and scene with POV-Ray, with ground truth",
-       {"model", "scene", "out"}, RunRender},
+       {"model", "scene", "out", "no_render"}, RunRender},
       {"detect", "detect targets and lips in a session's images", {"session", "out"}, RunDetect},
       {"calibrate", "bundle-adjust the non-central model from a session",
        {"session", "out", "detections"}, RunCalibrate},
@@ -33,7 +33,6 @@ int NotYetImplemented(const char* name, const char* issue) {
   return 2;
 }
 
-int RunRender() { return NotYetImplemented("render", "synthetic-session issue"); }
 int RunDetect() { return NotYetImplemented("detect", "detectors issue"); }
 int RunCalibrate() { return NotYetImplemented("calibrate", "calibration issue"); }
 int RunTriangulate() { return NotYetImplemented("triangulate", "3D sensing issue"); }

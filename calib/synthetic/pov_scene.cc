@@ -44,7 +44,9 @@ std::string Quadric(const HyperboloidSheet<double>& h) {
 // A mirror sheet clipped to r_min <= r <= r_max on its own side of z0, in its body frame. The
 // reflective side faces the primary focus, which POV-Ray counts as the quadric's inside (checked by
 // the marker test: the camera sees interior_texture); the back is matte black.
-std::string MirrorObject(const HyperboloidSheet<double>& h, double r_min, double r_max) {
+// extra_clip: further half-spaces in the body frame (mirror 1 exists only beyond the reflex plane).
+std::string MirrorObject(const HyperboloidSheet<double>& h, double r_min, double r_max,
+                         const std::string& extra_clip = "") {
   const double z_lo = h.z0 - 2000, z_hi = h.z0 + 2000;
   std::ostringstream s;
   s << "object { " << Quadric(h) << "\n"
@@ -57,7 +59,7 @@ std::string MirrorObject(const HyperboloidSheet<double>& h, double r_min, double
   }
   // Keep the sheet's own side: plane{n, d} keeps n . x <= d.
   s << "      plane { " << Vec(0, 0, -h.sheet) << ", " << Num(-h.sheet * h.z0) << " }\n"
-    << "    } }\n"
+    << extra_clip << "    } }\n"
     << "    texture { MatteBlack } interior_texture { MirrorFinish }\n  }";
   return s.str();
 }
@@ -96,8 +98,13 @@ std::string PovSceneText(const RigParams& rig, const SceneContent& content) {
     const auto m2 = HyperboloidSheet<double>::Mirror2(rig.mirror2_shape[0], rig.mirror2_shape[1], rig.d);
     const Plane<double> reflex = ReflexPlaneInMirror1(rig.reflex.data(), rig.d);
     // Mirror 1's body: the hyperboloid from r_ref out to r_sys, the reflex disc, the blue lip.
+    // Mirror 1's surface is kept where it lies beyond the reflex plane (as RigModel assumes):
+    // plane{n, n.p} keeps (x - p).n <= 0, the side away from the camera.
+    const std::string beyond_reflex = "      plane { " +
+        Vec(reflex.normal.x(), reflex.normal.y(), reflex.normal.z()) + ", " +
+        Num(reflex.normal.dot(reflex.point)) + " }\n";
     s << "  union {  // mirror 1 body (frame M1)\n"
-      << "  " << MirrorObject(m1, rig.r_ref, rig.r_sys) << "\n"
+      << "  " << MirrorObject(m1, 0.0, rig.r_sys, beyond_reflex) << "\n"
       << "  disc { " << Vec(reflex.point.x(), reflex.point.y(), reflex.point.z()) << ", "
       << Vec(reflex.normal.x(), reflex.normal.y(), reflex.normal.z()) << ", " << Num(rig.r_ref)
       << " texture { MirrorFinish } }\n"

@@ -1,0 +1,160 @@
+#include "calib/synthetic/scene.h"
+
+#include <cmath>
+#include <random>
+
+#include <Eigen/Geometry>
+
+namespace omni::synthetic {
+
+Eigen::Vector3d CornerInTarget(const TargetSpec& spec, int id) {
+  const int row = id / spec.cols, col = id % spec.cols;
+  return Eigen::Vector3d(col * spec.square_mm, row * spec.square_mm, 0.0);
+}
+
+int CornerCount(const TargetSpec& spec) { return spec.rows * spec.cols; }
+
+namespace {
+
+// Does the segment a -> b pass through the (margin-extended) board of placement p?
+bool SegmentHitsBoard(const TargetSpec& spec, const Placement& p, const Eigen::Vector3d& a,
+                      const Eigen::Vector3d& b) {
+  const Eigen::Matrix3d Rt = p.cam_from_target_rotation.transpose();
+  const Eigen::Vector3d a_t = Rt * (a - p.cam_from_target_translation);
+  const Eigen::Vector3d b_t = Rt * (b - p.cam_from_target_translation);
+  if ((a_t.z() > 0) == (b_t.z() > 0)) return false;
+  const double s = a_t.z() / (a_t.z() - b_t.z());
+  const Eigen::Vector3d x = a_t + s * (b_t - a_t);
+  const double sq = spec.square_mm;
+  return x.x() > -2 * sq && x.x() < (spec.cols + 1) * sq && x.y() > -2 * sq &&
+         x.y() < (spec.rows + 1) * sq;
+}
+
+}  // namespace
+
+std::vector<CornerTruth> ComputeTruth(const RigModel& model, const Scene& scene,
+                                      const SceneImage& image) {
+  std::vector<CornerTruth> out;
+  for (size_t pi = 0; pi < image.placements.size(); ++pi) {
+    const Placement& p = image.placements[pi];
+    const TargetSpec& spec = scene.targets[p.target];
+    // The printed side faces -z of the target frame.
+    const Eigen::Vector3d front = p.cam_from_target_rotation * Eigen::Vector3d(0, 0, -1);
+    for (int id = 0; id < CornerCount(spec); ++id) {
+      CornerTruth t;
+      t.placement = static_cast<int>(pi);
+      t.target = p.target;
+      t.id = id;
+      t.point_in_cam = p.cam_from_target_rotation * CornerInTarget(spec, id) +
+                       p.cam_from_target_translation;
+      for (Mirror m : {Mirror::kOne, Mirror::kTwo}) {
+        ProjectionInfo info;
+        auto px = model.Project(t.point_in_cam, m, &info);
+        if (!px) continue;
+        const Eigen::Vector3d s = info.point_on_mirror_in_cam;
+        if ((s - t.point_in_cam).dot(front) <= 0) continue;  // seen from behind
+        bool occluded = false;
+        for (size_t qi = 0; qi < image.placements.size() && !occluded; ++qi) {
+          if (qi == pi) continue;
+          occluded = SegmentHitsBoard(scene.targets[image.placements[qi].target],
+                                      image.placements[qi], t.point_in_cam, s);
+        }
+        if (!occluded) t.pixel[MirrorIndex(m) - 1] = *px;
+      }
+      out.push_back(t);
+    }
+  }
+  return out;
+}
+
+bool AddRandomImages(const RigModel& model, const RandomPlacement& random, Scene* scene,
+                     std::string* error) {
+  if (scene->targets.empty()) {
+    *error = "no targets defined";
+    return false;
+  }
+  std::mt19937 rng(random.seed);
+  std::uniform_real_distribution<double> uni(0.0, 1.0);
+  const IdealModel ideal = model.params().Ideal();
+  for (int i = 0; i < random.images; ++i) {
+    SceneImage image;
+    char name[32];
+    std::snprintf(name, sizeof(name), "%04d", static_cast<int>(scene->images.size()) + 1);
+    image.name = name;
+    const int n = random.targets_min +
+                  static_cast<int>(uni(rng) * (random.targets_max - random.targets_min + 1) * 0.9999);
+    const double sector0 = uni(rng) * 2 * M_PI;
+    for (int k = 0; k < n; ++k) {
+      const int target = static_cast<int>(uni(rng) * scene->targets.size() * 0.9999);
+      const TargetSpec& spec = scene->targets[target];
+      bool placed = false;
+      for (int attempt = 0; attempt < 200 && !placed; ++attempt) {
+        // Targets of one image in separate azimuth sectors so they do not overlap.
+        const double az = sector0 + 2 * M_PI * (k + 0.15 + 0.7 * uni(rng)) / n;
+        const double rho = random.range_min_mm + uni(rng) * (random.range_max_mm - random.range_min_mm);
+        // Height between the two foci's levels spread by the range (inside the common FOV).
+        const double z_mid = 0.5 * (ideal.c1 + ideal.d - ideal.c2);
+        const double z = z_mid + (uni(rng) - 0.5) * 0.3 * rho;
+        const Eigen::Vector3d centre(rho * std::cos(az), rho * std::sin(az), z);
+        // Face the axis: the front (-z_target) points at the rig's axis point at height z_mid.
+        const Eigen::Vector3d to_rig = (Eigen::Vector3d(0, 0, z_mid) - centre).normalized();
+        Eigen::Vector3d z_axis = -to_rig;
+        const Eigen::Vector3d tilt_axis = Eigen::Vector3d(uni(rng) - 0.5, uni(rng) - 0.5, uni(rng) - 0.5).normalized();
+        z_axis = Eigen::AngleAxisd(random.max_tilt_rad * uni(rng), tilt_axis) * z_axis;
+        Eigen::Vector3d x_axis = Eigen::Vector3d::UnitZ().cross(z_axis);
+        if (x_axis.norm() < 1e-6) continue;
+        x_axis.normalize();
+        x_axis = Eigen::AngleAxisd((uni(rng) - 0.5) * 0.6, z_axis) * x_axis;
+        const Eigen::Vector3d y_axis = z_axis.cross(x_axis);
+        Placement p;
+        p.target = target;
+        p.cam_from_target_rotation.col(0) = x_axis;
+        p.cam_from_target_rotation.col(1) = y_axis;
+        p.cam_from_target_rotation.col(2) = z_axis;
+        const Eigen::Vector3d board_centre_in_target(0.5 * (spec.cols - 1) * spec.square_mm,
+                                                     0.5 * (spec.rows - 1) * spec.square_mm, 0);
+        p.cam_from_target_translation = centre - p.cam_from_target_rotation * board_centre_in_target;
+        // Accept if all four outer corners are seen by both mirrors.
+        bool ok = true;
+        for (int id : {0, spec.cols - 1, spec.cols * (spec.rows - 1), spec.rows * spec.cols - 1}) {
+          const Eigen::Vector3d x = p.cam_from_target_rotation * CornerInTarget(spec, id) +
+                                    p.cam_from_target_translation;
+          ok = ok && model.Project(x, Mirror::kOne) && model.Project(x, Mirror::kTwo);
+        }
+        if (ok) {
+          image.placements.push_back(p);
+          placed = true;
+        }
+      }
+      if (!placed) {
+        *error = "cannot place a target at ranges " + std::to_string(random.range_min_mm) +
+                 ".." + std::to_string(random.range_max_mm) + " mm inside both mirrors' views";
+        return false;
+      }
+    }
+    scene->images.push_back(image);
+  }
+  return true;
+}
+
+SceneContent ContentOf(const Scene& scene, const SceneImage& image) {
+  SceneContent c;
+  c.markers = scene.markers;
+  for (const Placement& p : image.placements) {
+    Chessboard b;
+    const TargetSpec& spec = scene.targets[p.target];
+    b.cam_from_target_rotation = p.cam_from_target_rotation;
+    b.cam_from_target_translation = p.cam_from_target_translation;
+    b.rows = spec.rows;
+    b.cols = spec.cols;
+    b.square_mm = spec.square_mm;
+    c.chessboards.push_back(b);
+  }
+  c.room = scene.room;
+  c.room_half_size_mm = scene.room_half_size_mm;
+  c.room_floor_mm = scene.room_floor_mm;
+  c.room_ceiling_mm = scene.room_ceiling_mm;
+  return c;
+}
+
+}  // namespace omni::synthetic

@@ -1,0 +1,83 @@
+// Synthetic sessions: what is in front of the rig in each image (targets with their poses,
+// markers, a room) and the exact ground truth our model gives for it. The same truth serves the
+// fast path (no rendering, for unit tests) and the POV-Ray renders.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "calib/synthetic/pov_scene.h"
+#include "model/rig_model.h"
+
+namespace omni::synthetic {
+
+// A calibration target definition (as in the session file's `targets:`).
+struct TargetSpec {
+  std::string type = "chessboard";  // chessboard (others: detectors issue)
+  int rows = 6, cols = 8;           // inner corners
+  double square_mm = 40.0;
+};
+
+// Corner `id` = row * cols + col of a chessboard, in the target frame (z = 0 plane).
+Eigen::Vector3d CornerInTarget(const TargetSpec& spec, int id);
+int CornerCount(const TargetSpec& spec);
+
+struct Placement {
+  int target = 0;  // index into Scene::targets
+  Eigen::Matrix3d cam_from_target_rotation = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d cam_from_target_translation = Eigen::Vector3d::Zero();
+};
+
+struct SceneImage {
+  std::string name;
+  std::vector<Placement> placements;
+};
+
+// How to fill a scene with random target placements: `images` images with targets_min..max
+// targets each, at horizontal ranges range_min..range_max (mm) from the axis, inside the stereo
+// region (the target's centre is seen by both mirrors), facing the rig within +-max_tilt.
+struct RandomPlacement {
+  int images = 0;
+  int targets_min = 1, targets_max = 3;
+  double range_min_mm = 500, range_max_mm = 2000;
+  double max_tilt_rad = 0.35;
+  unsigned seed = 1;
+};
+
+struct Scene {
+  int width = 0, height = 0;  // 0: the model's image size
+  bool antialias = true;
+  double noise_sigma = 0.0;   // grey levels (0..255) of Gaussian sensor noise
+  unsigned noise_seed = 1;
+  bool room = false;
+  double room_half_size_mm = 3000, room_floor_mm = -1200, room_ceiling_mm = 1800;
+  std::vector<TargetSpec> targets;
+  std::vector<SceneImage> images;
+  std::vector<Marker> markers;  // drawn in every image
+};
+
+// Appends random images to scene->images (deterministic for a seed). Returns false with a reason
+// if a placement in the stereo region cannot be found (e.g. ranges outside what the rig sees).
+bool AddRandomImages(const RigModel& model, const RandomPlacement& random, Scene* scene,
+                     std::string* error);
+
+// Ground truth of one corner: its point in C and its pixel via each mirror (nullopt where the
+// model says invalid, the target faces away from that mirror, or another target occludes it).
+struct CornerTruth {
+  int placement = 0;  // index into SceneImage::placements
+  int target = 0;
+  int id = 0;
+  Eigen::Vector3d point_in_cam;
+  std::optional<Eigen::Vector2d> pixel[2];  // [0]: mirror 1, [1]: mirror 2
+};
+
+std::vector<CornerTruth> ComputeTruth(const RigModel& model, const Scene& scene,
+                                      const SceneImage& image);
+
+// The POV-Ray content of one image of the scene.
+SceneContent ContentOf(const Scene& scene, const SceneImage& image);
+
+}  // namespace omni::synthetic

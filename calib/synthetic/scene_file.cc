@@ -1,0 +1,190 @@
+#include "calib/synthetic/scene_file.h"
+
+#include <cmath>
+#include <sstream>
+
+#include <Eigen/Geometry>
+#include <yaml-cpp/yaml.h>
+
+#include "model/io/file_util.h"
+
+namespace omni::synthetic {
+namespace {
+
+using io::InputError;
+
+[[noreturn]] void Fail(const std::string& file, const std::string& key, const std::string& what) {
+  throw InputError(file + ": " + key + ": " + what);
+}
+
+double Number(const YAML::Node& node, const std::string& file, const std::string& key) {
+  if (!node || !node.IsScalar()) Fail(file, key, "expected a number");
+  double v = 0;
+  if (!io::ParseDouble(node.Scalar(), &v) || !std::isfinite(v)) {
+    Fail(file, key, "expected a finite number, got '" + node.Scalar() + "'");
+  }
+  return v;
+}
+
+double NumberOr(const YAML::Node& node, const std::string& file, const std::string& key, double d) {
+  return node ? Number(node, file, key) : d;
+}
+
+Eigen::Vector3d Vec3(const YAML::Node& node, const std::string& file, const std::string& key) {
+  if (!node || !node.IsSequence() || node.size() != 3) Fail(file, key, "expected [x, y, z]");
+  return Eigen::Vector3d(Number(node[0], file, key), Number(node[1], file, key),
+                         Number(node[2], file, key));
+}
+
+int Int(const YAML::Node& node, const std::string& file, const std::string& key) {
+  const double v = Number(node, file, key);
+  if (v != std::floor(v)) Fail(file, key, "expected a whole number");
+  return static_cast<int>(v);
+}
+
+}  // namespace
+
+Scene ReadSceneFile(const std::string& path, const RigModel& model) {
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(path);
+  } catch (const YAML::BadFile&) {
+    throw InputError(path + ": cannot read the file");
+  } catch (const YAML::Exception& e) {
+    throw InputError(path + ": malformed YAML: " + e.what());
+  }
+  if (!root.IsMap()) Fail(path, "format", "expected a YAML mapping with format: omnistereo-scene/1");
+  const std::string format = root["format"] && root["format"].IsScalar() ? root["format"].Scalar() : "";
+  if (format.rfind("omnistereo-scene/1", 0) != 0) {
+    Fail(path, "format", "expected omnistereo-scene/1, got '" + format + "'");
+  }
+  Scene s;
+  if (const auto img = root["image"]) {
+    s.width = Int(img["width"], path, "image.width");
+    s.height = Int(img["height"], path, "image.height");
+    if (s.width <= 0 || s.height <= 0) Fail(path, "image", "expected positive width and height");
+  }
+  if (const auto r = root["render"]) {
+    if (r["antialias"]) s.antialias = r["antialias"].as<bool>();
+    s.noise_sigma = NumberOr(r["noise_sigma"], path, "render.noise_sigma", 0.0);
+    if (s.noise_sigma < 0) Fail(path, "render.noise_sigma", "expected >= 0");
+    s.noise_seed = static_cast<unsigned>(NumberOr(r["noise_seed"], path, "render.noise_seed", 1));
+  }
+  if (const auto room = root["room"]) {
+    s.room = room["enabled"] ? room["enabled"].as<bool>() : true;
+    s.room_half_size_mm = NumberOr(room["half_size"], path, "room.half_size", s.room_half_size_mm);
+    s.room_floor_mm = NumberOr(room["floor"], path, "room.floor", s.room_floor_mm);
+    s.room_ceiling_mm = NumberOr(room["ceiling"], path, "room.ceiling", s.room_ceiling_mm);
+  }
+  if (const auto targets = root["targets"]) {
+    for (size_t i = 0; i < targets.size(); ++i) {
+      const std::string key = "targets[" + std::to_string(i) + "]";
+      TargetSpec t;
+      t.type = targets[i]["type"] ? targets[i]["type"].Scalar() : "";
+      if (t.type != "chessboard") Fail(path, key + ".type", "expected chessboard, got '" + t.type + "'");
+      t.rows = Int(targets[i]["rows"], path, key + ".rows");
+      t.cols = Int(targets[i]["cols"], path, key + ".cols");
+      t.square_mm = Number(targets[i]["square"], path, key + ".square");
+      if (t.rows < 2 || t.cols < 2 || t.square_mm <= 0) {
+        Fail(path, key, "expected rows, cols >= 2 and square > 0");
+      }
+      s.targets.push_back(t);
+    }
+  }
+  if (const auto images = root["images"]) {
+    for (size_t i = 0; i < images.size(); ++i) {
+      const std::string key = "images[" + std::to_string(i) + "]";
+      SceneImage image;
+      char name[32];
+      std::snprintf(name, sizeof(name), "%04d", static_cast<int>(i) + 1);
+      image.name = images[i]["name"] ? images[i]["name"].Scalar() : name;
+      for (size_t k = 0; images[i]["placements"] && k < images[i]["placements"].size(); ++k) {
+        const auto pn = images[i]["placements"][k];
+        const std::string pk = key + ".placements[" + std::to_string(k) + "]";
+        Placement p;
+        p.target = Int(pn["target"], path, pk + ".target");
+        if (p.target < 0 || p.target >= static_cast<int>(s.targets.size())) {
+          Fail(path, pk + ".target", "expected an index into targets");
+        }
+        const Eigen::Vector3d w = Vec3(pn["rotation"], path, pk + ".rotation");
+        p.cam_from_target_rotation =
+            w.norm() > 0 ? Eigen::AngleAxisd(w.norm(), w.normalized()).toRotationMatrix()
+                         : Eigen::Matrix3d::Identity();
+        p.cam_from_target_translation = Vec3(pn["translation"], path, pk + ".translation");
+        image.placements.push_back(p);
+      }
+      s.images.push_back(image);
+    }
+  }
+  if (const auto m = root["markers"]) {
+    for (size_t i = 0; i < m.size(); ++i) {
+      const std::string key = "markers[" + std::to_string(i) + "]";
+      s.markers.push_back({Vec3(m[i]["center"], path, key + ".center"),
+                           Number(m[i]["radius"], path, key + ".radius")});
+    }
+  }
+  if (const auto r = root["random"]) {
+    RandomPlacement rp;
+    rp.images = Int(r["images"], path, "random.images");
+    if (r["targets"]) {
+      rp.targets_min = Int(r["targets"][0], path, "random.targets");
+      rp.targets_max = Int(r["targets"][1], path, "random.targets");
+    }
+    if (r["range"]) {
+      rp.range_min_mm = Number(r["range"][0], path, "random.range");
+      rp.range_max_mm = Number(r["range"][1], path, "random.range");
+    }
+    rp.max_tilt_rad = NumberOr(r["max_tilt_deg"], path, "random.max_tilt_deg", 20.0) * M_PI / 180;
+    rp.seed = static_cast<unsigned>(NumberOr(r["seed"], path, "random.seed", 1));
+    if (rp.images < 0 || rp.targets_min < 1 || rp.targets_max < rp.targets_min ||
+        rp.range_min_mm <= 0 || rp.range_max_mm < rp.range_min_mm) {
+      Fail(path, "random", "expected images >= 0, 1 <= targets[0] <= targets[1], 0 < range[0] <= range[1]");
+    }
+    std::string error;
+    if (!AddRandomImages(model, rp, &s, &error)) Fail(path, "random", error);
+  }
+  if (s.images.empty() && s.markers.empty()) Fail(path, "images", "expected images, random or markers");
+  if (s.images.empty()) s.images.push_back(SceneImage{"0001", {}});
+  return s;
+}
+
+std::string TruthText(const Scene& scene, const RigModel& model, const std::string& model_file) {
+  auto num = [](double v) { return io::FormatDouble(v); };
+  std::ostringstream out;
+  out << "# Ground truth of a synthetic session: exact pixels from our model (null: not visible).\n"
+      << "format: omnistereo-truth/1\n"
+      << "model: " << model_file << "\n"
+      << "targets:\n";
+  for (const auto& t : scene.targets) {
+    out << "  - {type: " << t.type << ", rows: " << t.rows << ", cols: " << t.cols
+        << ", square: " << num(t.square_mm) << "}\n";
+  }
+  out << "images:\n";
+  for (const auto& image : scene.images) {
+    out << "  - file: " << image.name << ".png\n    placements:\n";
+    for (const auto& p : image.placements) {
+      const Eigen::AngleAxisd aa(p.cam_from_target_rotation);
+      const Eigen::Vector3d w = aa.angle() * aa.axis();
+      out << "      - {target: " << p.target << ", rotation: [" << num(w.x()) << ", "
+          << num(w.y()) << ", " << num(w.z()) << "], translation: ["
+          << num(p.cam_from_target_translation.x()) << ", "
+          << num(p.cam_from_target_translation.y()) << ", "
+          << num(p.cam_from_target_translation.z()) << "]}\n";
+    }
+    out << "    # [placement, target, corner id, x, y, z (mm, C), u1, v1, u2, v2]\n"
+        << "    corners:\n";
+    for (const auto& c : ComputeTruth(model, scene, image)) {
+      out << "      - [" << c.placement << ", " << c.target << ", " << c.id << ", "
+          << num(c.point_in_cam.x()) << ", " << num(c.point_in_cam.y()) << ", "
+          << num(c.point_in_cam.z());
+      for (const auto& px : c.pixel) {
+        if (px) out << ", " << num(px->x()) << ", " << num(px->y());
+        else out << ", null, null";
+      }
+      out << "]\n";
+    }
+  }
+  return out.str();
+}
+
+}  // namespace omni::synthetic
