@@ -165,8 +165,17 @@ bool RenderScene(const std::string& pov_text, const std::string& out_png,
       return false;
     }
   }
+  // POV-Ray's default I/O security only lets it read and write below its working directory (and
+  // /tmp, $HOME), so it runs in the output folder with bare file names.
+  const auto slash = out_png.rfind('/');
+  const std::string folder = slash == std::string::npos ? "." : out_png.substr(0, slash);
+  const auto base = [](const std::string& path) {
+    const auto k = path.rfind('/');
+    return k == std::string::npos ? path : path.substr(k + 1);
+  };
   std::ostringstream cmd;
-  cmd << "povray -D +I'" << pov_path << "' +O'" << out_png << "' +FN8 File_Gamma=1.0 +W" << options.width
+  cmd << "cd '" << folder << "' && povray -D +I'" << base(pov_path) << "' +O'" << base(out_png)
+      << "' +FN8 File_Gamma=1.0 +W" << options.width
       << " +H" << options.height;
   if (options.antialias) cmd << " +A0.0 +AM2 +R" << options.antialias_depth;
   else cmd << " -A";
