@@ -17,15 +17,14 @@ bool IdealReflectionSeed(const HyperboloidSheet<double>& sheet, const Eigen::Vec
 
 bool SolveReflectionPointDouble(const HyperboloidSheet<double>& sheet, const Eigen::Vector3d& a,
                                 const Eigen::Vector3d& b, const ReflectionSolverOptions& options,
-                                Eigen::Vector2d* xy, Eigen::Matrix2d* hessian,
-                                ReflectionSolverInfo* info) {
+                                Eigen::Vector2d* xy, ReflectionSolverInfo* info) {
   info->converged = false;
   info->iterations = 0;
   Eigen::Vector2d grad, grad_trial;
-  Eigen::Matrix2d hess;
+  Eigen::Matrix2d hess, hess_trial;
   const double max_radius2 = options.max_radius * options.max_radius;
+  if (!PathLengthGradient(sheet, a, b, xy->x(), xy->y(), &grad, &hess)) return false;
   for (int iter = 0; iter < options.max_iterations; ++iter) {
-    if (!PathLengthGradient(sheet, a, b, xy->x(), xy->y(), &grad, &hess)) return false;
     const double det = hess(0, 0) * hess(1, 1) - hess(0, 1) * hess(1, 0);
     if (!(std::abs(det) > 0) || !std::isfinite(det)) return false;
     Eigen::Vector2d step(-(hess(1, 1) * grad(0) - hess(0, 1) * grad(1)) / det,
@@ -33,10 +32,10 @@ bool SolveReflectionPointDouble(const HyperboloidSheet<double>& sheet, const Eig
     double length = step.norm();
     if (!std::isfinite(length)) return false;
     ++info->iterations;
-    if (length <= options.step_tolerance) {  // quadratic convergence: this step is the last
+    if (length <= options.step_tolerance) {  // in the region of quadratic convergence
       *xy += step;
       info->converged = true;
-      break;
+      return xy->squaredNorm() <= max_radius2;
     }
     if (length > options.max_step) {
       step *= options.max_step / length;
@@ -49,26 +48,22 @@ bool SolveReflectionPointDouble(const HyperboloidSheet<double>& sheet, const Eig
     for (int k = 0; k < 40; ++k, t *= 0.5) {
       const Eigen::Vector2d trial = *xy + t * step;
       if (trial.squaredNorm() > max_radius2) continue;
-      if (!PathLengthGradient(sheet, a, b, trial.x(), trial.y(), &grad_trial)) continue;
-      if (grad_trial.squaredNorm() <= (1 - 1e-4 * t) * merit) {
+      if (!PathLengthGradient(sheet, a, b, trial.x(), trial.y(), &grad_trial, &hess_trial)) {
+        continue;
+      }
+      // Close to the solution the merit sits at rounding level and need not decrease: take the
+      // full Newton step there.
+      if (grad_trial.squaredNorm() <= (1 - 1e-4 * t) * merit || (t == 1 && length < 1e-6)) {
         accepted = true;
         break;
       }
     }
-    // Close to the solution the merit sits at rounding level and cannot decrease: take the full
-    // Newton step (the region of quadratic convergence).
-    if (!accepted) {
-      if (length > 1e-6) return false;
-      t = 1;
-    }
+    if (!accepted) return false;
     *xy += t * step;
-    if (xy->squaredNorm() > max_radius2) return false;
+    grad = grad_trial;
+    hess = hess_trial;
   }
-  if (!info->converged) return false;
-  if (!PathLengthGradient(sheet, a, b, xy->x(), xy->y(), &grad, hessian)) return false;
-  info->gradient_norm = grad.norm();
-  const double det = (*hessian)(0, 0) * (*hessian)(1, 1) - (*hessian)(0, 1) * (*hessian)(1, 0);
-  return std::abs(det) > 0 && std::isfinite(det);
+  return false;
 }
 
 }  // namespace omni

@@ -17,6 +17,7 @@
 #pragma once
 
 #include <cmath>
+#include <type_traits>
 
 #include <Eigen/Core>
 
@@ -42,9 +43,10 @@ HyperboloidSheet<double> ScalarPart(const HyperboloidSheet<T>& s) {
 
 struct ReflectionSolverOptions {
   int max_iterations = 40;
-  // Converged when the Newton step is shorter than this (mm); quadratic convergence makes the
-  // error after such a step ~1e-20 mm, far below rounding.
-  double step_tolerance = 1e-10;
+  // Converged when the Newton step is shorter than this (mm). Convergence is quadratic (error
+  // after such a step ~1e-11 mm) and the final Newton step in T (below) squares it again, so
+  // the returned point is exact to rounding.
+  double step_tolerance = 1e-5;
   // Longest Newton step (mm); longer steps are scaled down.
   double max_step = 20.0;
   // Iterates leaving the disc x^2 + y^2 <= max_radius^2 (mm) are declared diverged.
@@ -54,7 +56,7 @@ struct ReflectionSolverOptions {
 struct ReflectionSolverInfo {
   int iterations = 0;         // Newton iterations in double (the final step in T not counted)
   bool converged = false;
-  double gradient_norm = 0;   // |grad L| at the returned point (dimensionless)
+  double gradient_norm = 0;   // |grad L| before the final Newton step (dimensionless)
 };
 
 // The point of the sheet at parameters (x, y): z = Z(r) without a square root of r^2, so that
@@ -103,12 +105,11 @@ bool PathLengthGradient(const HyperboloidSheet<T>& sheet, const Vec3<T>& a, cons
   return true;
 }
 
-// Newton iteration in double from the seed *xy. On success *xy is the stationary point and
-// *hessian the Hessian there.
+// Newton iteration in double from the seed *xy; on success *xy is within step_tolerance of the
+// stationary point (the caller takes the final step).
 bool SolveReflectionPointDouble(const HyperboloidSheet<double>& sheet, const Eigen::Vector3d& a,
                                 const Eigen::Vector3d& b, const ReflectionSolverOptions& options,
-                                Eigen::Vector2d* xy, Eigen::Matrix2d* hessian,
-                                ReflectionSolverInfo* info);
+                                Eigen::Vector2d* xy, ReflectionSolverInfo* info);
 
 // The ideal (SVP) seed: where the line from the sheet's primary focus to B meets the sheet
 // ([lambda_1], [lambda_2] written in the mirror's own frame). Exact when A is the secondary
@@ -127,15 +128,26 @@ bool SolveReflectionPoint(const HyperboloidSheet<T>& sheet, const Vec3<T>& a, co
   const Eigen::Vector3d b_d = ScalarPart(b);
   Eigen::Vector2d xy;
   if (!IdealReflectionSeed(sheet_d, b_d, &xy)) return false;
-  Eigen::Matrix2d hessian;
   ReflectionSolverInfo local_info;
   if (!info) info = &local_info;
-  if (!SolveReflectionPointDouble(sheet_d, a_d, b_d, options, &xy, &hessian, info)) return false;
-  // One Newton step in T at the converged point (implicit function theorem).
+  if (!SolveReflectionPointDouble(sheet_d, a_d, b_d, options, &xy, info)) return false;
+  // One Newton step in T at the converged point (implicit function theorem); for T = double it
+  // is the final polishing step.
   const T x0(xy.x()), y0(xy.y());
   Vec2<T> grad;
-  if (!PathLengthGradient(sheet, a, b, x0, y0, &grad)) return false;
+  Eigen::Matrix2d hessian;
+  if constexpr (std::is_same_v<T, double>) {
+    if (!PathLengthGradient(sheet, a, b, x0, y0, &grad, &hessian)) return false;
+  } else {
+    Eigen::Vector2d grad_d;
+    if (!PathLengthGradient(sheet_d, a_d, b_d, xy.x(), xy.y(), &grad_d, &hessian)) return false;
+    if (!PathLengthGradient(sheet, a, b, x0, y0, &grad)) return false;
+  }
+  info->gradient_norm = ScalarPart(grad(0)) * ScalarPart(grad(0)) +
+                        ScalarPart(grad(1)) * ScalarPart(grad(1));
+  info->gradient_norm = std::sqrt(info->gradient_norm);
   const double det = hessian(0, 0) * hessian(1, 1) - hessian(0, 1) * hessian(1, 0);
+  if (!(std::abs(det) > 0) || !std::isfinite(det)) return false;
   const double i00 = hessian(1, 1) / det, i01 = -hessian(0, 1) / det;
   const double i10 = -hessian(1, 0) / det, i11 = hessian(0, 0) / det;
   const T x = x0 - (i00 * grad(0) + i01 * grad(1));

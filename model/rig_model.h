@@ -66,6 +66,19 @@ struct ProjectionInfo {
   Eigen::Vector3d reflex_point_in_cam = Eigen::Vector3d::Zero();     // mirror 2: X in C
 };
 
+template <typename T>
+Plane<double> ScalarPart(const Plane<T>& plane) {
+  return Plane<double>{ScalarPart(plane.point), ScalarPart(plane.normal)};
+}
+
+// P in front of the mirror: the eye and the point on the reflective side of the tangent plane
+// at S (the sheet's normal points into the mirror's body).
+inline bool FacesReflectiveSide(const HyperboloidSheet<double>& sheet, const Eigen::Vector3d& s,
+                                const Eigen::Vector3d& eye, const Eigen::Vector3d& point) {
+  const Eigen::Vector3d normal = sheet.Normal(s);
+  return (eye - s).dot(normal) < 0 && (point - s).dot(normal) < 0;
+}
+
 // The geometry of the mirror-1 path built from the parameter blocks.
 template <typename T>
 struct Mirror1Path {
@@ -98,14 +111,16 @@ struct Mirror1Path {
                               info ? &info->solver : nullptr)) {
       return false;
     }
-    if (!(s.x() * s.x() + s.y() * s.y() <= T(fixed.r_sys * fixed.r_sys))) return false;
-    const Vec3<T> normal = sheet.Normal(s);
-    if (!((eye - s).dot(normal) < T(0)) || !((point - s).dot(normal) < T(0))) return false;
-    const T eye_side = (eye - reflex_in_mirror.point).dot(reflex_in_mirror.normal);
-    const T s_side = (s - reflex_in_mirror.point).dot(reflex_in_mirror.normal);
-    if (!(eye_side > T(0)) || !(s_side < T(0))) return false;
-    const Vec3<T> crossing = eye + eye_side / (eye_side - s_side) * (s - eye);
-    if (!((crossing - reflex_in_mirror.point).squaredNorm() > T(fixed.r_ref * fixed.r_ref))) {
+    // Validity in double (no derivatives needed).
+    const Eigen::Vector3d s_d = ScalarPart(s), eye_d = ScalarPart(eye), point_d = ScalarPart(point);
+    if (!(s_d.head<2>().squaredNorm() <= fixed.r_sys * fixed.r_sys)) return false;
+    if (!FacesReflectiveSide(ScalarPart(sheet), s_d, eye_d, point_d)) return false;
+    const Plane<double> reflex_d = ScalarPart(reflex_in_mirror);
+    const double eye_side = (eye_d - reflex_d.point).dot(reflex_d.normal);
+    const double s_side = (s_d - reflex_d.point).dot(reflex_d.normal);
+    if (!(eye_side > 0) || !(s_side < 0)) return false;
+    const Eigen::Vector3d crossing = eye_d + eye_side / (eye_side - s_side) * (s_d - eye_d);
+    if (!((crossing - reflex_d.point).squaredNorm() > fixed.r_ref * fixed.r_ref)) {
       return false;  // the reflex disc occludes S1
     }
     const Vec3<T> s_in_cam = cam_from_mirror * s;
@@ -161,22 +176,27 @@ struct Mirror2Path {
                               info ? &info->solver : nullptr)) {
       return false;
     }
-    const T r2 = s.x() * s.x() + s.y() * s.y();
-    if (!(r2 >= T(fixed.r_cam * fixed.r_cam)) || !(r2 <= T(fixed.r_sys * fixed.r_sys))) {
-      return false;
-    }
-    const Vec3<T> normal = sheet.Normal(s);
-    if (!((eye - s).dot(normal) < T(0)) || !((point - s).dot(normal) < T(0))) return false;
+    // Validity in double (no derivatives needed).
+    const Eigen::Vector3d s_d = ScalarPart(s), eye_d = ScalarPart(eye), point_d = ScalarPart(point);
+    const double r2 = s_d.head<2>().squaredNorm();
+    if (!(r2 >= fixed.r_cam * fixed.r_cam) || !(r2 <= fixed.r_sys * fixed.r_sys)) return false;
+    if (!FacesReflectiveSide(ScalarPart(sheet), s_d, eye_d, point_d)) return false;
     const Vec3<T> s_in_cam = cam_from_mirror * s;
-    const T camera_side = -reflex_in_cam.point.dot(reflex_in_cam.normal);
-    const T s_side = (s_in_cam - reflex_in_cam.point).dot(reflex_in_cam.normal);
-    const T v_side = (virtual_camera_in_cam - reflex_in_cam.point).dot(reflex_in_cam.normal);
-    if (!(camera_side > T(0)) || !(s_side > T(0)) || !(v_side < T(0))) return false;
-    const Vec3<T> crossing = s_in_cam + s_side / (s_side - v_side) * (virtual_camera_in_cam - s_in_cam);
-    if (!((crossing - reflex_in_cam.point).squaredNorm() <= T(fixed.r_ref * fixed.r_ref))) {
+    const Plane<double> reflex_d = ScalarPart(reflex_in_cam);
+    const Eigen::Vector3d virtual_camera_d = ScalarPart(virtual_camera_in_cam);
+    const double camera_side = -reflex_d.point.dot(reflex_d.normal);
+    const double s_side = (ScalarPart(s_in_cam) - reflex_d.point).dot(reflex_d.normal);
+    const double v_side = (virtual_camera_d - reflex_d.point).dot(reflex_d.normal);
+    if (!(camera_side > 0) || !(s_side > 0) || !(v_side < 0)) return false;
+    // The crossing in T: s_side / (s_side - v_side) carries derivatives.
+    const T s_side_t = (s_in_cam - reflex_in_cam.point).dot(reflex_in_cam.normal);
+    const T v_side_t = (virtual_camera_in_cam - reflex_in_cam.point).dot(reflex_in_cam.normal);
+    const Vec3<T> crossing =
+        s_in_cam + s_side_t / (s_side_t - v_side_t) * (virtual_camera_in_cam - s_in_cam);
+    if (!((ScalarPart(crossing) - reflex_d.point).squaredNorm() <= fixed.r_ref * fixed.r_ref)) {
       return false;  // the path misses the reflex disc
     }
-    if (!(crossing.z() > T(0))) return false;
+    if (!(ScalarPart(crossing.z()) > 0)) return false;
     *pixel = cam.PixelFromNormalized(
         dist.Distort(Vec2<T>(crossing.x() / crossing.z(), crossing.y() / crossing.z())));
     if (info) {
