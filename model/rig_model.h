@@ -87,7 +87,7 @@ struct Mirror1Path {
   HyperboloidSheet<T> sheet;
   Pose<T> mirror_from_cam;
   Pose<T> cam_from_mirror;
-  Plane<T> reflex_in_mirror;
+  Plane<double> reflex_in_mirror;  // only decides validity (occlusion): no derivatives
 
   static Mirror1Path FromBlocks(const T* camera, const T* distortion, const T* mirror1_shape,
                                 const T* mirror1_pose, const T* reflex, const RigFixed& fixed) {
@@ -97,7 +97,10 @@ struct Mirror1Path {
                   HyperboloidSheet<T>::Mirror1(mirror1_shape[0], mirror1_shape[1]),
                   Pose<T>{},
                   PoseFromBlock(mirror1_pose),
-                  ReflexPlaneInMirror1(reflex, T(fixed.d))};
+                  Plane<double>{}};
+    const double reflex_d[3] = {ScalarPart(reflex[0]), ScalarPart(reflex[1]),
+                                ScalarPart(reflex[2])};
+    p.reflex_in_mirror = ReflexPlaneInMirror1(reflex_d, fixed.d);
     p.mirror_from_cam = p.cam_from_mirror.Inverse();
     return p;
   }
@@ -115,7 +118,7 @@ struct Mirror1Path {
     const Eigen::Vector3d s_d = ScalarPart(s), eye_d = ScalarPart(eye), point_d = ScalarPart(point);
     if (!(s_d.head<2>().squaredNorm() <= fixed.r_sys * fixed.r_sys)) return false;
     if (!FacesReflectiveSide(ScalarPart(sheet), s_d, eye_d, point_d)) return false;
-    const Plane<double> reflex_d = ScalarPart(reflex_in_mirror);
+    const Plane<double>& reflex_d = reflex_in_mirror;
     const double eye_side = (eye_d - reflex_d.point).dot(reflex_d.normal);
     const double s_side = (s_d - reflex_d.point).dot(reflex_d.normal);
     if (!(eye_side > 0) || !(s_side < 0)) return false;
