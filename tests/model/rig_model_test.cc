@@ -133,7 +133,7 @@ RoundTripStats RoundTrip(const RigParams& rig, double step) {
     const auto ray = model.Unproject(px);
     if (!ray) continue;
     ++stats.n_rays[MirrorIndex(ray->mirror)];
-    for (double depth : {200.0, 1000.0, 10000.0}) {
+    for (double depth : {200.0, 1000.0, 10000.0, 5.0, 50.0, 1e6}) {
       const Eigen::Vector3d p = ray->ray.origin + depth * ray->ray.direction;
       ProjectionInfo info;
       const auto back = model.Project(p, ray->mirror, &info);
