@@ -166,7 +166,7 @@ void PrintStats(const char* label, const RoundTripStats& s) {
 }
 
 // (b) Misaligned rigs (1 mm / 1 deg on both mirrors and the reflex, distortion, principal point
-// off centre): unproject then project at three depths returns the pixel.
+// off centre): unproject, then project points 5 mm to 1 km along the ray: the same pixel.
 TEST(RigModel, MisalignedRoundTrip) {
   std::mt19937 rng(20240611);
   for (int trial = 0; trial < 4; ++trial) {
