@@ -5,6 +5,8 @@
 
 #include <Eigen/Geometry>
 
+#include "model/ideal_analysis.h"
+
 namespace omni::synthetic {
 
 Eigen::Vector3d CornerInTarget(const TargetSpec& spec, int id) {
@@ -135,6 +137,56 @@ bool AddRandomImages(const RigModel& model, const RandomPlacement& random, Scene
     scene->images.push_back(image);
   }
   return true;
+}
+
+namespace {
+
+// cam_from_target for a board centred at `centre` whose printed side (-z_target) faces the axis.
+Placement FacingAxis(const TargetSpec& spec, int target, const Eigen::Vector3d& centre) {
+  const Eigen::Vector3d to_axis = Eigen::Vector3d(-centre.x(), -centre.y(), 0).normalized();
+  Placement p;
+  p.target = target;
+  const Eigen::Vector3d z_axis = -to_axis;
+  const Eigen::Vector3d x_axis = Eigen::Vector3d::UnitZ().cross(z_axis).normalized();
+  p.cam_from_target_rotation.col(0) = x_axis;
+  p.cam_from_target_rotation.col(1) = z_axis.cross(x_axis);
+  p.cam_from_target_rotation.col(2) = z_axis;
+  const Eigen::Vector3d centre_in_target(0.5 * (spec.cols - 1) * spec.square_mm,
+                                         0.5 * (spec.rows - 1) * spec.square_mm, 0);
+  p.cam_from_target_translation = centre - p.cam_from_target_rotation * centre_in_target;
+  return p;
+}
+
+}  // namespace
+
+void AddRingImage(const RigModel& model, const RingPlacement& rings, Scene* scene) {
+  const IdealModel ideal = model.params().Ideal();
+  const DesignParams theta{ideal.c1, ideal.c2, ideal.k1, ideal.k2, ideal.d, ideal.r_sys};
+  const FieldOfView fov = ComputeFieldOfView(theta, ideal.r_ref, ideal.r_cam);
+  SceneImage image;
+  char name[32];
+  std::snprintf(name, sizeof(name), "%04d", static_cast<int>(scene->images.size()) + 1);
+  image.name = name;
+  const int n_ranges = static_cast<int>(rings.ranges_mm.size());
+  for (int i = 0; i < n_ranges; ++i) {
+    const double rho = rings.ranges_mm[i];
+    TargetSpec spec;
+    spec.rows = rings.rows;
+    spec.cols = rings.cols;
+    spec.square_mm = rings.square_at_1m_mm * rho / 1000.0;
+    const int target = static_cast<int>(scene->targets.size());
+    scene->targets.push_back(spec);
+    // Height: the middle of the stereo region at this range (both mirrors' elevation limits).
+    const double z_f1 = ideal.c1, z_f2 = ideal.d - ideal.c2;
+    const double z_lo = std::max(z_f1 + rho * std::tan(fov.theta1_min), z_f2 + rho * std::tan(fov.theta2_min));
+    const double z_hi = std::min(z_f1 + rho * std::tan(fov.theta1_max), z_f2 + rho * std::tan(fov.theta2_max));
+    for (int k = 0; k < rings.per_range; ++k) {
+      const double az = 2 * M_PI * (k + static_cast<double>(i) / n_ranges) / rings.per_range;
+      const Eigen::Vector3d centre(rho * std::cos(az), rho * std::sin(az), 0.5 * (z_lo + z_hi));
+      image.placements.push_back(FacingAxis(spec, target, centre));
+    }
+  }
+  scene->images.push_back(image);
 }
 
 SceneContent ContentOf(const Scene& scene, const SceneImage& image) {

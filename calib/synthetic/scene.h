@@ -47,6 +47,16 @@ struct RandomPlacement {
   unsigned seed = 1;
 };
 
+// The paper's sparse triangulation scene (tab:rmse_triangulation_experiment): `per_range`
+// chessboards at each horizontal range, spread in azimuth, facing the axis, centred in height in
+// the stereo region, with the square scaled with range (square_at_1m * range / 1 m).
+struct RingPlacement {
+  std::vector<double> ranges_mm;
+  int per_range = 4;
+  int rows = 4, cols = 5;
+  double square_at_1m_mm = 40.0;
+};
+
 struct Scene {
   int width = 0, height = 0;  // 0: the model's image size
   bool antialias = true;
@@ -63,6 +73,9 @@ struct Scene {
 // if a placement in the stereo region cannot be found (e.g. ranges outside what the rig sees).
 bool AddRandomImages(const RigModel& model, const RandomPlacement& random, Scene* scene,
                      std::string* error);
+
+// Adds one image with the ring placements (and a target definition per range).
+void AddRingImage(const RigModel& model, const RingPlacement& rings, Scene* scene);
 
 // Ground truth of one corner: its point in C and its pixel via each mirror (nullopt where the
 // model says invalid, the target faces away from that mirror, or another target occludes it).

@@ -143,6 +143,24 @@ Scene ReadSceneFile(const std::string& path, const RigModel& model) {
     std::string error;
     if (!AddRandomImages(model, rp, &s, &error)) Fail(path, "random", error);
   }
+  if (const auto r = root["rings"]) {
+    RingPlacement rp;
+    if (!r["ranges"] || !r["ranges"].IsSequence() || r["ranges"].size() == 0) {
+      Fail(path, "rings.ranges", "expected a list of horizontal ranges in mm");
+    }
+    for (size_t i = 0; i < r["ranges"].size(); ++i) {
+      rp.ranges_mm.push_back(Number(r["ranges"][i], path, "rings.ranges"));
+      if (rp.ranges_mm.back() <= 0) Fail(path, "rings.ranges", "expected ranges > 0");
+    }
+    rp.per_range = r["per_range"] ? Int(r["per_range"], path, "rings.per_range") : 4;
+    rp.rows = r["rows"] ? Int(r["rows"], path, "rings.rows") : 4;
+    rp.cols = r["cols"] ? Int(r["cols"], path, "rings.cols") : 5;
+    rp.square_at_1m_mm = NumberOr(r["square_at_1m"], path, "rings.square_at_1m", 40.0);
+    if (rp.per_range < 1 || rp.rows < 2 || rp.cols < 2 || rp.square_at_1m_mm <= 0) {
+      Fail(path, "rings", "expected per_range >= 1, rows, cols >= 2, square_at_1m > 0");
+    }
+    AddRingImage(model, rp, &s);
+  }
   if (s.images.empty() && s.markers.empty()) Fail(path, "images", "expected images, random or markers");
   if (s.images.empty()) s.images.push_back(SceneImage{"0001", {}});
   return s;

@@ -8,6 +8,7 @@
 //   images:                                   # explicit placements (cam_from_target) ...
 //     - {name: "0001", placements: [{target: 0, rotation: [rx, ry, rz], translation: [x, y, z]}]}
 //   random: {images: 20, targets: [1, 3], range: [500, 2000], max_tilt_deg: 20, seed: 7}  # ... or
+//   rings: {ranges: [250, 500, 1000], per_range: 4, rows: 4, cols: 5, square_at_1m: 40}  # or
 //   markers: [{center: [x, y, z], radius: 5.0}]
 #pragma once
 
