@@ -13,9 +13,8 @@
 
 #include <gtest/gtest.h>
 
-#ifndef OMNISTEREO_EXE
-#error "OMNISTEREO_EXE must name the omnistereo executable"
-#endif
+#include "tests/cli_test_util.h"
+
 #ifndef OMNI_SAMPLE_CONFIGS
 #error "OMNI_SAMPLE_CONFIGS must name sample_configs/"
 #endif
@@ -24,12 +23,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string ReadText(const fs::path& path) {
-  std::ifstream in(path);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+using omni::testing::ReadText;
 
 class DesignCli : public ::testing::Test {
  protected:
@@ -46,15 +40,10 @@ class DesignCli : public ::testing::Test {
 
   // Runs the command; returns the exit status, fills stderr and stdout.
   int Run(const std::string& config_path, std::string* err, std::string* out = nullptr) {
-    const fs::path err_file = dir_ / "stderr.txt", out_file = dir_ / "stdout.txt";
-    const std::string cmd = std::string("'") + OMNISTEREO_EXE + "' design --config='" +
-                            config_path + "' --out='" + (dir_ / "model.yaml").string() +
-                            "' --curves_out='" + (dir_ / "curves").string() + "' >'" +
-                            out_file.string() + "' 2>'" + err_file.string() + "'";
-    const int status = std::system(cmd.c_str());
-    *err = ReadText(err_file);
-    if (out) *out = ReadText(out_file);
-    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    return omni::testing::RunOmnistereo(
+        "design --config='" + config_path + "' --out='" + (dir_ / "model.yaml").string() +
+            "' --curves_out='" + (dir_ / "curves").string() + "'",
+        dir_ / "stderr.txt", err, dir_ / "stdout.txt", out);
   }
   std::string Write(const std::string& text) {
     const fs::path p = dir_ / "design.yaml";

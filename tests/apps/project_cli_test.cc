@@ -19,21 +19,14 @@
 #include "model/rig_model.h"
 #include "tests/model/rig_test_util.h"
 
-#ifndef OMNISTEREO_EXE
-#error "OMNISTEREO_EXE must name the omnistereo executable"
-#endif
+#include "tests/cli_test_util.h"
 
 namespace omni {
 namespace {
 
 namespace fs = std::filesystem;
 
-std::string ReadText(const fs::path& path) {
-  std::ifstream in(path);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+using testing::ReadText;
 
 class ProjectCli : public ::testing::Test {
  protected:
@@ -50,12 +43,7 @@ class ProjectCli : public ::testing::Test {
   void TearDown() override { fs::remove_all(dir_); }
 
   int Run(const std::string& args, std::string* err) {
-    const fs::path err_file = dir_ / "stderr.txt";
-    const std::string cmd = std::string("'") + OMNISTEREO_EXE + "' " + args + " >/dev/null 2>'" +
-                            err_file.string() + "'";
-    const int status = std::system(cmd.c_str());
-    *err = ReadText(err_file);
-    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    return testing::RunOmnistereo(args, dir_ / "stderr.txt", err);
   }
   std::string Write(const std::string& name, const std::string& text) {
     const fs::path p = dir_ / name;

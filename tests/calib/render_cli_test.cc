@@ -11,19 +11,13 @@
 #include <yaml-cpp/yaml.h>
 
 #include "model/io/model_file.h"
+#include "tests/cli_test_util.h"
 #include "model/rig_model.h"
 
 namespace omni {
 namespace {
 
 namespace fs = std::filesystem;
-
-std::string ReadAll(const std::string& path) {
-  std::ifstream f(path);
-  std::stringstream s;
-  s << f.rdbuf();
-  return s.str();
-}
 
 // ctest runs tests as parallel processes: every test gets its own folder.
 std::string TestDir() {
@@ -32,10 +26,7 @@ std::string TestDir() {
 }
 
 int RunCli(const std::string& args, std::string* err) {
-  const std::string log = TestDir() + ".err";
-  const int status = std::system((std::string(OMNISTEREO_BIN) + " " + args + " 2>" + log).c_str());
-  *err = ReadAll(log);
-  return status;
+  return testing::RunOmnistereo(args, TestDir() + ".err", err);
 }
 
 class RenderCli : public ::testing::Test {
@@ -68,7 +59,7 @@ TEST_F(RenderCli, FastPathEqualsRenderedTruthAndTruthEqualsProject) {
                     "/scene.yaml --no_render --out " + dir_ + "/fast", &err), 0) << err;
   ASSERT_EQ(RunCli("render --model " + dir_ + "/model.yaml --scene " + dir_ + "/scene.yaml --out " +
                     dir_ + "/full", &err), 0) << err;
-  EXPECT_EQ(ReadAll(dir_ + "/fast/truth.yaml"), ReadAll(dir_ + "/full/truth.yaml"));
+  EXPECT_EQ(testing::ReadText(dir_ + "/fast/truth.yaml"), testing::ReadText(dir_ + "/full/truth.yaml"));
   const cv::Mat img = cv::imread(dir_ + "/full/0001.png");
   ASSERT_FALSE(img.empty());
   EXPECT_EQ(img.cols, 320);
