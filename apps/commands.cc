@@ -33,11 +33,4 @@ int NotYetImplemented(const char* name, const char* issue) {
   return 2;
 }
 
-int RunDetect() { return NotYetImplemented("detect", "detectors issue"); }
-int RunCalibrate() { return NotYetImplemented("calibrate", "calibration issue"); }
-int RunTriangulate() { return NotYetImplemented("triangulate", "3D sensing issue"); }
-int RunTolerance() { return NotYetImplemented("tolerance", "calibration issue"); }
-int RunPanorama() { return NotYetImplemented("panorama", "3D sensing issue"); }
-int RunDepth() { return NotYetImplemented("depth", "3D sensing issue"); }
-
 }  // namespace omni::apps

@@ -1,0 +1,61 @@
+// The session file `omnistereo-session/1` (shared/formats/session_example.yaml): the starting
+// model, the images, the targets that may appear, what to estimate and how.
+//
+//   format: omnistereo-session/1
+//   model: model.yaml                 # relative to the session file
+//   images: [images/*.png]            # paths or globs (`*`, `?` in the file name), sorted
+//   targets:
+//     - {type: chessboard, rows: 6, cols: 8, square: 40.0}
+//     - {type: apriltag_grid, family: tag36h11, rows: 5, cols: 5, tag_size: 30.0, spacing: 0.3, first_id: 0}
+//     - {type: kalibr_aprilgrid, rows: 2, cols: 3, tag_size: 45.0, spacing: 0.3, first_id: 0}
+//   lips: true                        # optional (default true): detect and use the lips
+//   estimate: [camera, distortion, mirror1_pose, mirror2_pose, reflex]   # parameter groups
+//   priors: {mirror1_shape: {sigma_c: 0.05, sigma_k: 0.01}, mirror2_shape: {...}}  # optional
+//   solver: {max_iterations: 100, loss: huber, loss_scale_px: 1.0, outlier_px: 3.0, threads: 2}
+#pragma once
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include "model/target.h"
+
+namespace omni::io {
+
+struct ShapePrior {
+  double sigma_c = 0.0;  // mm, on c1 or c2
+  double sigma_k = 0.0;  // unitless, on k1 or k2
+};
+
+struct SolverOptions {
+  int max_iterations = 100;
+  std::string loss = "huber";  // huber | cauchy | none
+  double loss_scale_px = 1.0;
+  double outlier_px = 3.0;     // reject observations whose residual norm exceeds this
+  int threads = 2;
+};
+
+struct Session {
+  std::string path;                  // the session file as given
+  std::string model_path;            // resolved against the session file's folder
+  std::vector<std::string> images;   // resolved, globs expanded, sorted
+  std::vector<TargetSpec> targets;
+  bool use_lips = true;
+  std::vector<std::string> estimate; // groups: camera, distortion, mirror1_pose, mirror2_pose,
+                                     // reflex, mirror1_shape, mirror2_shape
+  std::map<std::string, ShapePrior> priors;  // key: mirror1_shape | mirror2_shape
+  SolverOptions solver;
+};
+
+// The parameter groups a session may name in `estimate:`.
+const std::vector<std::string>& EstimableGroups();
+
+// Reads and validates a session file. Throws InputError naming the file and key. Globs that match
+// nothing are an error; image files are not opened here.
+Session ReadSessionFile(const std::string& path);
+
+// The YAML text of a session; paths are written relative to `base_dir` (the folder the session
+// file will be written to) when they lie below it.
+std::string SessionText(const Session& session, const std::string& base_dir);
+
+}  // namespace omni::io
