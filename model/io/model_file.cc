@@ -11,6 +11,7 @@
 #include <sstream>
 #include <sys/stat.h>
 
+#include "model/io/yaml_reader.h"
 #include "model/rig_frames.h"
 
 namespace omni::io {
@@ -18,171 +19,6 @@ namespace {
 
 constexpr char kFormatPrefix[] = "omnistereo-model/";
 constexpr int kFormatMajor = 1;
-constexpr double kRadPerDeg = M_PI / 180.0;
-
-// ---------------------------------------------------------------------------------------------
-// Reading: every accessor knows the file and the key path, so each error is one complete line
-// "<file>: <key>: <expected>, got <what>".
-
-std::string Abbreviate(const std::string& text) {
-  constexpr std::size_t kMax = 40;
-  std::string out = text.size() > kMax ? text.substr(0, kMax) + "..." : text;
-  for (char& ch : out) {
-    if (ch == '\n' || ch == '\r' || ch == '\t') ch = ' ';
-  }
-  return "'" + out + "'";
-}
-
-std::string Describe(const YAML::Node& node) {
-  if (!node.IsDefined()) return "nothing (key missing)";
-  switch (node.Type()) {
-    case YAML::NodeType::Null:
-      return "an empty value";
-    case YAML::NodeType::Sequence:
-      return "a list";
-    case YAML::NodeType::Map:
-      return "a map";
-    case YAML::NodeType::Scalar:
-      return node.Tag() == "!" ? "the quoted text " + Abbreviate(node.Scalar())
-                               : Abbreviate(node.Scalar());
-    default:
-      return "nothing (key missing)";
-  }
-}
-
-// yaml-cpp throws InvalidNode when asked the type of a missing key; these ask IsDefined() first.
-bool IsMap(const YAML::Node& node) { return node.IsDefined() && node.IsMap(); }
-bool IsScalar(const YAML::Node& node) { return node.IsDefined() && node.IsScalar(); }
-bool IsSequence(const YAML::Node& node) { return node.IsDefined() && node.IsSequence(); }
-
-std::string Join(const std::string& parent, const std::string& key) {
-  return parent.empty() ? key : parent + "." + key;
-}
-
-class Reader {
- public:
-  explicit Reader(std::string file) : file_(std::move(file)) {}
-
-  [[noreturn]] void Fail(const std::string& key, const std::string& expected,
-                         const std::string& got) const {
-    throw InputError(file_ + ": " + key + ": " + expected + ", got " + got);
-  }
-
-  // A child map; `key` is the full path of the child.
-  YAML::Node Map(const YAML::Node& parent, const std::string& key, const char* name) const {
-    YAML::Node node = parent[name];
-    if (!IsMap(node)) Fail(key, "expected a map of keys", Describe(node));
-    return node;
-  }
-
-  double Number(const YAML::Node& node, const std::string& key) const {
-    if (!IsScalar(node) || node.Tag() == "!") Fail(key, "expected a number", Describe(node));
-    double value = 0;
-    if (!ParseYamlNumber(node.Scalar(), &value)) Fail(key, "expected a number", Describe(node));
-    if (!std::isfinite(value)) Fail(key, "expected a finite number", Describe(node));
-    return value;
-  }
-  double Number(const YAML::Node& map, const std::string& path, const char* name) const {
-    return Number(map[name], Join(path, name));
-  }
-
-  double Positive(const YAML::Node& map, const std::string& path, const char* name) const {
-    const double value = Number(map, path, name);
-    if (!(value > 0)) Fail(Join(path, name), "expected a number > 0", Describe(map[name]));
-    return value;
-  }
-
-  // An angle in radians under `name`, or in degrees under `name`_deg (DESIGN.md §2).
-  double Angle(const YAML::Node& map, const std::string& path, const char* name) const {
-    const std::string deg_name = std::string(name) + "_deg";
-    const bool has_rad = map[name].IsDefined();
-    const bool has_deg = map[deg_name].IsDefined();
-    if (has_rad && has_deg) {
-      Fail(Join(path, name), "expected either " + std::string(name) + " (rad) or " + deg_name,
-           "both");
-    }
-    if (has_deg) return Number(map[deg_name], Join(path, deg_name)) * kRadPerDeg;
-    return Number(map, path, name);
-  }
-
-  int Integer(const YAML::Node& map, const std::string& path, const char* name, int min) const {
-    const YAML::Node node = map[name];
-    const std::string key = Join(path, name);
-    if (!IsScalar(node) || node.Tag() == "!") Fail(key, "expected an integer", Describe(node));
-    std::string_view text = node.Scalar();
-    if (!text.empty() && text.front() == '+') text.remove_prefix(1);
-    int value = 0;
-    const char* end = text.data() + text.size();
-    const auto result = std::from_chars(text.data(), end, value);
-    if (text.empty() || result.ptr != end || result.ec != std::errc()) {
-      Fail(key, "expected an integer", Describe(node));
-    }
-    if (value < min) Fail(key, "expected an integer >= " + std::to_string(min), Describe(node));
-    return value;
-  }
-
-  std::string String(const YAML::Node& node, const std::string& key) const {
-    if (!IsScalar(node)) Fail(key, "expected a text value", Describe(node));
-    return node.Scalar();
-  }
-  std::string String(const YAML::Node& map, const std::string& path, const char* name) const {
-    return String(map[name], Join(path, name));
-  }
-
-  std::vector<double> Numbers(const YAML::Node& map, const std::string& path,
-                              const char* name) const {
-    const YAML::Node node = map[name];
-    const std::string key = Join(path, name);
-    if (!IsSequence(node)) Fail(key, "expected a list of numbers", Describe(node));
-    std::vector<double> values;
-    values.reserve(node.size());
-    for (std::size_t i = 0; i < node.size(); ++i) {
-      values.push_back(Number(node[i], key + "[" + std::to_string(i) + "]"));
-    }
-    return values;
-  }
-
-  std::vector<std::string> Strings(const YAML::Node& map, const std::string& path,
-                                   const char* name) const {
-    const YAML::Node node = map[name];
-    const std::string key = Join(path, name);
-    if (!IsSequence(node)) Fail(key, "expected a list of names", Describe(node));
-    std::vector<std::string> values;
-    for (std::size_t i = 0; i < node.size(); ++i) {
-      values.push_back(String(node[i], key + "[" + std::to_string(i) + "]"));
-    }
-    return values;
-  }
-
-  // Numbers are parsed here rather than by yaml-cpp so that the text must be a number in full
-  // and reads back exactly what FormatDouble wrote.
-  static bool ParseYamlNumber(const std::string& text, double* value) {
-    static const char* const kInf[] = {".inf", ".Inf", ".INF"};
-    static const char* const kNan[] = {".nan", ".NaN", ".NAN"};
-    std::string_view body = text;
-    double sign = 1;
-    if (!body.empty() && (body.front() == '+' || body.front() == '-')) {
-      sign = body.front() == '-' ? -1 : 1;
-      body.remove_prefix(1);
-    }
-    for (const char* inf : kInf) {
-      if (body == inf) {
-        *value = sign * HUGE_VAL;
-        return true;
-      }
-    }
-    for (const char* nan : kNan) {
-      if (text == nan) {
-        *value = NAN;
-        return true;
-      }
-    }
-    return ParseDouble(text, value);
-  }
-
- private:
-  std::string file_;
-};
 
 void ReadPose(const Reader& in, const YAML::Node& map, const std::string& path,
               std::array<double, 5>* pose) {
@@ -205,36 +41,6 @@ Lip ReadLip(const Reader& in, const YAML::Node& map, const std::string& path) {
   }
   lip.z = in.Number(map, path, "z");
   return lip;
-}
-
-void CheckFormat(const Reader& in, const YAML::Node& root) {
-  const YAML::Node node = root["format"];
-  const std::string expected = "expected '" + std::string(kFormatPrefix) +
-                               std::to_string(kFormatMajor) + "' (any 1.x minor version)";
-  if (!IsScalar(node)) in.Fail("format", expected, Describe(node));
-  const std::string& text = node.Scalar();
-  const std::size_t prefix_len = std::strlen(kFormatPrefix);
-  if (text.compare(0, prefix_len, kFormatPrefix) != 0) in.Fail("format", expected, Describe(node));
-  // The version is MAJOR or MAJOR.MINOR; only the major version changes the meaning of keys.
-  const std::string_view version = std::string_view(text).substr(prefix_len);
-  int major = -1;
-  const char* end = version.data() + version.size();
-  const auto result = std::from_chars(version.data(), end, major);
-  bool well_formed = result.ec == std::errc() && result.ptr != version.data();
-  if (well_formed && result.ptr != end) {
-    int minor = 0;
-    const auto minor_result =
-        result.ptr[0] == '.' ? std::from_chars(result.ptr + 1, end, minor)
-                             : std::from_chars_result{result.ptr, std::errc::invalid_argument};
-    well_formed = minor_result.ec == std::errc() && minor_result.ptr == end;
-  }
-  if (!well_formed) in.Fail("format", expected, Describe(node));
-  if (major != kFormatMajor) {
-    in.Fail("format",
-            "expected major version " + std::to_string(kFormatMajor) +
-                " (this program reads " + kFormatPrefix + "1.x)",
-            "unknown version " + Describe(node));
-  }
 }
 
 // kind: ideal means exactly the SVP rig: a nonzero misalignment would be silently dropped.
@@ -410,23 +216,6 @@ std::string LipMap(const Lip& lip) {
          ", r_outer: " + Num(lip.r_outer) + ", z: " + Num(lip.z) + "}";
 }
 
-std::string ReadWholeFile(const std::string& path) {
-  struct stat st;
-  if (::stat(path.c_str(), &st) != 0) {
-    const std::string why = errno == ENOENT ? "no such file" : std::strerror(errno);
-    throw InputError(path + ": expected a readable model file, got " + why);
-  }
-  if (S_ISDIR(st.st_mode)) throw InputError(path + ": expected a model file, got a folder");
-  std::ifstream stream(path, std::ios::binary);
-  if (!stream) {
-    throw InputError(path + ": expected a readable model file, got " + std::strerror(errno));
-  }
-  std::ostringstream contents;
-  contents << stream.rdbuf();
-  if (stream.bad()) throw InputError(path + ": expected a readable model file, got a read error");
-  return contents.str();
-}
-
 }  // namespace
 
 RigParams ParseModelText(const std::string& text, const std::string& file) {
@@ -440,7 +229,7 @@ RigParams ParseModelText(const std::string& text, const std::string& file) {
   }
   const Reader in(file);
   if (!IsMap(root)) in.Fail("format", "expected a YAML map starting with 'format:'", Describe(root));
-  CheckFormat(in, root);
+  CheckFormat(in, root, kFormatPrefix, kFormatMajor);
 
   RigParams rig;
   const std::string kind = in.String(root, "", "kind");
@@ -523,7 +312,7 @@ RigParams ParseModelText(const std::string& text, const std::string& file) {
 }
 
 RigParams ReadModelFile(const std::string& path) {
-  return ParseModelText(ReadWholeFile(path), path);
+  return ParseModelText(ReadWholeFile(path, "model file"), path);
 }
 
 ModelDerived ComputeModelDerived(const RigParams& rig) {

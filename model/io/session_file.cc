@@ -1,0 +1,218 @@
+#include "model/io/session_file.h"
+
+#include <glob.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <set>
+#include <sstream>
+
+#include "model/io/yaml_reader.h"
+
+namespace omni::io {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr char kFormatPrefix[] = "omnistereo-session/";
+constexpr int kFormatMajor = 1;
+
+std::string Resolve(const std::string& base_dir, const std::string& path) {
+  if (path.empty() || fs::path(path).is_absolute()) return path;
+  return (fs::path(base_dir) / path).lexically_normal().string();
+}
+
+std::vector<std::string> ExpandImages(const Reader& in, const YAML::Node& root,
+                                      const std::string& base_dir) {
+  const std::vector<std::string> patterns = in.Strings(root, "", "images");
+  if (patterns.empty()) in.Fail("images", "expected at least one image path or glob", "an empty list");
+  std::vector<std::string> images;
+  for (std::size_t i = 0; i < patterns.size(); ++i) {
+    const std::string key = "images[" + std::to_string(i) + "]";
+    const std::string pattern = Resolve(base_dir, patterns[i]);
+    if (pattern.find_first_of("*?[") == std::string::npos) {
+      images.push_back(pattern);
+      continue;
+    }
+    glob_t matches{};
+    const int rc = ::glob(pattern.c_str(), 0, nullptr, &matches);
+    std::vector<std::string> found;
+    if (rc == 0) {
+      for (std::size_t k = 0; k < matches.gl_pathc; ++k) found.push_back(matches.gl_pathv[k]);
+    }
+    globfree(&matches);
+    if (found.empty()) in.Fail(key, "expected files matching '" + pattern + "'", "none");
+    std::sort(found.begin(), found.end());
+    images.insert(images.end(), found.begin(), found.end());
+  }
+  return images;
+}
+
+TargetSpec ReadTarget(const Reader& in, const YAML::Node& node, const std::string& key) {
+  if (!IsMap(node)) in.Fail(key, "expected a map {type: ..., rows: ..., ...}", Describe(node));
+  TargetSpec t;
+  const std::string type = in.String(node, key, "type");
+  if (!ParseTargetType(type, &t.type)) {
+    in.Fail(Join(key, "type"), "expected chessboard, apriltag_grid or kalibr_aprilgrid",
+            Describe(node["type"]));
+  }
+  if (t.type == TargetType::kChessboard) {
+    t.rows = in.Integer(node, key, "rows", 2);
+    t.cols = in.Integer(node, key, "cols", 2);
+    t.square_mm = in.Positive(node, key, "square");
+    return t;
+  }
+  t.rows = in.Integer(node, key, "rows", 1);
+  t.cols = in.Integer(node, key, "cols", 1);
+  t.tag_size_mm = in.Positive(node, key, "tag_size");
+  t.spacing = node["spacing"].IsDefined() ? in.Number(node, key, "spacing") : 0.3;
+  if (!(t.spacing > 0)) in.Fail(Join(key, "spacing"), "expected a gap/tag_size ratio > 0", Describe(node["spacing"]));
+  t.first_id = node["first_id"].IsDefined() ? in.Integer(node, key, "first_id", 0) : 0;
+  if (node["family"].IsDefined()) t.family = in.String(node, key, "family");
+  if (t.family != "tag36h11") in.Fail(Join(key, "family"), "expected tag36h11", Describe(node["family"]));
+  if (t.first_id + t.rows * t.cols > 587) {
+    in.Fail(key, "expected first_id + rows*cols <= 587 (tag36h11 has 587 tags)",
+            std::to_string(t.first_id + t.rows * t.cols));
+  }
+  return t;
+}
+
+void ReadSolver(const Reader& in, const YAML::Node& node, SolverOptions* s) {
+  const std::string key = "solver";
+  if (!IsMap(node)) in.Fail(key, "expected a map of solver options", Describe(node));
+  if (node["max_iterations"].IsDefined()) s->max_iterations = in.Integer(node, key, "max_iterations", 1);
+  if (node["loss"].IsDefined()) {
+    s->loss = in.String(node, key, "loss");
+    if (s->loss != "huber" && s->loss != "cauchy" && s->loss != "none") {
+      in.Fail(Join(key, "loss"), "expected huber, cauchy or none", Describe(node["loss"]));
+    }
+  }
+  if (node["loss_scale_px"].IsDefined()) s->loss_scale_px = in.Positive(node, key, "loss_scale_px");
+  if (node["outlier_px"].IsDefined()) s->outlier_px = in.Positive(node, key, "outlier_px");
+  if (node["threads"].IsDefined()) s->threads = in.Integer(node, key, "threads", 1);
+}
+
+std::string Relative(const std::string& path, const std::string& base_dir) {
+  if (base_dir.empty()) return path;
+  const fs::path rel = fs::path(path).lexically_normal().lexically_relative(
+      fs::path(base_dir).lexically_normal());
+  if (rel.empty() || *rel.begin() == "..") return path;
+  return rel.string();
+}
+
+std::string Quote(const std::string& text) {
+  std::string out = "\"";
+  for (char c : text) {
+    if (c == '"' || c == '\\') out += '\\';
+    out += c;
+  }
+  return out + "\"";
+}
+
+}  // namespace
+
+const std::vector<std::string>& EstimableGroups() {
+  static const std::vector<std::string> groups = {
+      "camera", "distortion", "mirror1_pose", "mirror2_pose", "reflex", "mirror1_shape",
+      "mirror2_shape"};
+  return groups;
+}
+
+Session ReadSessionFile(const std::string& path) {
+  const YAML::Node root = LoadYamlFile(path, "session file");
+  const Reader in(path);
+  if (!IsMap(root)) in.Fail("format", "expected a YAML map starting with 'format:'", Describe(root));
+  CheckFormat(in, root, kFormatPrefix, kFormatMajor);
+  const std::string base_dir = fs::path(path).parent_path().string();
+
+  Session session;
+  session.path = path;
+  session.model_path = Resolve(base_dir, in.String(root, "", "model"));
+  session.images = ExpandImages(in, root, base_dir);
+
+  const YAML::Node targets = root["targets"];
+  if (!IsSequence(targets) || targets.size() == 0) {
+    in.Fail("targets", "expected a list of at least one target", Describe(targets));
+  }
+  for (std::size_t i = 0; i < targets.size(); ++i) {
+    session.targets.push_back(ReadTarget(in, targets[i], "targets[" + std::to_string(i) + "]"));
+  }
+  if (root["lips"].IsDefined()) session.use_lips = in.Bool(root, "", "lips");
+
+  if (root["estimate"].IsDefined()) {
+    session.estimate = in.Strings(root, "", "estimate");
+    std::set<std::string> seen;
+    for (std::size_t i = 0; i < session.estimate.size(); ++i) {
+      const std::string& g = session.estimate[i];
+      const auto& known = EstimableGroups();
+      if (std::find(known.begin(), known.end(), g) == known.end()) {
+        in.Fail("estimate[" + std::to_string(i) + "]",
+                "expected one of camera, distortion, mirror1_pose, mirror2_pose, reflex, "
+                "mirror1_shape, mirror2_shape",
+                Describe(root["estimate"][i]));
+      }
+      if (!seen.insert(g).second) in.Fail("estimate[" + std::to_string(i) + "]", "expected each group once", "'" + g + "' twice");
+    }
+  } else {
+    session.estimate = {"camera", "distortion", "mirror1_pose", "mirror2_pose", "reflex"};
+  }
+
+  if (root["priors"].IsDefined()) {
+    const YAML::Node priors = root["priors"];
+    if (!IsMap(priors)) in.Fail("priors", "expected a map {mirror1_shape: {...}}", Describe(priors));
+    for (const auto& item : priors) {
+      const std::string name = item.first.as<std::string>();
+      const std::string key = "priors." + name;
+      if (name != "mirror1_shape" && name != "mirror2_shape") {
+        in.Fail(key, "expected mirror1_shape or mirror2_shape", "'" + name + "'");
+      }
+      if (!IsMap(item.second)) in.Fail(key, "expected {sigma_c: mm, sigma_k: ...}", Describe(item.second));
+      ShapePrior prior;
+      prior.sigma_c = in.Positive(item.second, key, "sigma_c");
+      prior.sigma_k = in.Positive(item.second, key, "sigma_k");
+      session.priors[name] = prior;
+    }
+  }
+  if (root["solver"].IsDefined()) ReadSolver(in, root["solver"], &session.solver);
+  return session;
+}
+
+std::string SessionText(const Session& session, const std::string& base_dir) {
+  std::ostringstream out;
+  out << "format: omnistereo-session/1\n";
+  out << "model: " << Quote(Relative(session.model_path, base_dir)) << "\n";
+  out << "images:\n";
+  for (const auto& image : session.images) out << "  - " << Quote(Relative(image, base_dir)) << "\n";
+  out << "targets:\n";
+  for (const TargetSpec& t : session.targets) {
+    out << "  - {type: " << TargetTypeName(t.type) << ", rows: " << t.rows << ", cols: " << t.cols;
+    if (t.type == TargetType::kChessboard) {
+      out << ", square: " << FormatDouble(t.square_mm) << "}\n";
+    } else {
+      out << ", tag_size: " << FormatDouble(t.tag_size_mm) << ", spacing: "
+          << FormatDouble(t.spacing) << ", first_id: " << t.first_id;
+      if (t.type == TargetType::kAprilTagGrid) out << ", family: " << t.family;
+      out << "}\n";
+    }
+  }
+  out << "lips: " << (session.use_lips ? "true" : "false") << "\n";
+  out << "estimate: [";
+  for (std::size_t i = 0; i < session.estimate.size(); ++i) {
+    out << (i ? ", " : "") << session.estimate[i];
+  }
+  out << "]\n";
+  if (!session.priors.empty()) {
+    out << "priors:\n";
+    for (const auto& [name, p] : session.priors) {
+      out << "  " << name << ": {sigma_c: " << FormatDouble(p.sigma_c)
+          << ", sigma_k: " << FormatDouble(p.sigma_k) << "}\n";
+    }
+  }
+  const SolverOptions& s = session.solver;
+  out << "solver: {max_iterations: " << s.max_iterations << ", loss: " << s.loss
+      << ", loss_scale_px: " << FormatDouble(s.loss_scale_px)
+      << ", outlier_px: " << FormatDouble(s.outlier_px) << ", threads: " << s.threads << "}\n";
+  return out.str();
+}
+
+}  // namespace omni::io

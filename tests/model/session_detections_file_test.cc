@@ -1,0 +1,193 @@
+// Session and detections files: what is written reads back; every malformed input is one
+// InputError naming the file and the key.
+#include <filesystem>
+#include <fstream>
+
+#include <gtest/gtest.h>
+
+#include "model/io/detections_file.h"
+#include "model/io/file_util.h"
+#include "model/io/session_file.h"
+
+namespace omni::io {
+namespace {
+
+namespace fs = std::filesystem;
+
+class SessionFileTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           ("omni_session_test_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()) +
+            "_" + ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_ / "images");
+    for (const char* name : {"0002.png", "0001.png", "0010.png"}) {
+      std::ofstream(dir_ / "images" / name) << "x";
+    }
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  std::string Write(const std::string& text) {
+    const std::string path = (dir_ / "session.yaml").string();
+    std::ofstream(path) << text;
+    return path;
+  }
+
+  // The message of the InputError that reading `text` throws ("" if none).
+  std::string ErrorOf(const std::string& text) {
+    try {
+      ReadSessionFile(Write(text));
+    } catch (const InputError& e) {
+      return e.what();
+    }
+    return "";
+  }
+
+  fs::path dir_;
+};
+
+constexpr char kGood[] = R"(format: omnistereo-session/1
+model: ../rig.yaml
+images: [images/*.png]
+targets:
+  - {type: chessboard, rows: 6, cols: 8, square: 40.0}
+  - {type: apriltag_grid, family: tag36h11, rows: 5, cols: 5, tag_size: 30.0, spacing: 0.3, first_id: 0}
+  - {type: kalibr_aprilgrid, rows: 2, cols: 3, tag_size: 45.0, spacing: 0.25, first_id: 30}
+estimate: [camera, mirror1_pose]
+priors: {mirror1_shape: {sigma_c: 0.05, sigma_k: 0.01}}
+solver: {max_iterations: 50, loss: cauchy, outlier_px: 2.5}
+)";
+
+TEST_F(SessionFileTest, ReadsTheExampleAndExpandsGlobsSorted) {
+  const Session s = ReadSessionFile(Write(kGood));
+  EXPECT_EQ(s.model_path, (dir_.parent_path() / "rig.yaml").string());
+  ASSERT_EQ(s.images.size(), 3u);
+  EXPECT_EQ(fs::path(s.images[0]).filename(), "0001.png");
+  EXPECT_EQ(fs::path(s.images[2]).filename(), "0010.png");
+  ASSERT_EQ(s.targets.size(), 3u);
+  EXPECT_EQ(s.targets[0].type, TargetType::kChessboard);
+  EXPECT_EQ(s.targets[1].type, TargetType::kAprilTagGrid);
+  EXPECT_EQ(s.targets[2].type, TargetType::kKalibrAprilGrid);
+  EXPECT_DOUBLE_EQ(s.targets[2].spacing, 0.25);
+  EXPECT_EQ(s.targets[2].first_id, 30);
+  EXPECT_EQ(s.estimate, (std::vector<std::string>{"camera", "mirror1_pose"}));
+  EXPECT_DOUBLE_EQ(s.priors.at("mirror1_shape").sigma_k, 0.01);
+  EXPECT_EQ(s.solver.loss, "cauchy");
+  EXPECT_EQ(s.solver.max_iterations, 50);
+  EXPECT_DOUBLE_EQ(s.solver.outlier_px, 2.5);
+}
+
+TEST_F(SessionFileTest, WrittenTextReadsBackTheSame) {
+  const Session s = ReadSessionFile(Write(kGood));
+  const Session t = ReadSessionFile(Write(SessionText(s, dir_.string())));
+  EXPECT_EQ(t.model_path, s.model_path);
+  EXPECT_EQ(t.images, s.images);
+  ASSERT_EQ(t.targets.size(), s.targets.size());
+  for (size_t i = 0; i < s.targets.size(); ++i) {
+    EXPECT_EQ(t.targets[i].type, s.targets[i].type);
+    EXPECT_EQ(t.targets[i].rows, s.targets[i].rows);
+    EXPECT_EQ(t.targets[i].tag_size_mm, s.targets[i].tag_size_mm);
+    EXPECT_EQ(t.targets[i].square_mm, s.targets[i].square_mm);
+  }
+  EXPECT_EQ(t.estimate, s.estimate);
+  EXPECT_EQ(t.priors.size(), 1u);
+  EXPECT_EQ(t.solver.loss, "cauchy");
+}
+
+TEST_F(SessionFileTest, MalformedInputNamesTheKey) {
+  struct Case {
+    std::string from, to, key;
+  };
+  const std::vector<Case> cases = {
+      {"omnistereo-session/1", "omnistereo-session/2", "format"},
+      {"model: ../rig.yaml\n", "", "model"},
+      {"images/*.png", "nothing/*.png", "images[0]"},
+      {"type: chessboard", "type: circles", "targets[0].type"},
+      {"rows: 6", "rows: 1", "targets[0].rows"},
+      {"square: 40.0", "square: -4", "targets[0].square"},
+      {"tag_size: 30.0", "tag_size: x", "targets[1].tag_size"},
+      {"family: tag36h11", "family: tag25h9", "targets[1].family"},
+      {"first_id: 30", "first_id: 585", "targets[2]"},
+      {"[camera, mirror1_pose]", "[camera, lens]", "estimate[1]"},
+      {"[camera, mirror1_pose]", "[camera, camera]", "estimate[1]"},
+      {"sigma_k: 0.01", "sigma_k: 0", "priors.mirror1_shape.sigma_k"},
+      {"loss: cauchy", "loss: l1", "solver.loss"},
+  };
+  for (const Case& c : cases) {
+    std::string text = kGood;
+    const auto at = text.find(c.from);
+    ASSERT_NE(at, std::string::npos) << c.from;
+    text.replace(at, c.from.size(), c.to);
+    const std::string error = ErrorOf(text);
+    EXPECT_NE(error.find("session.yaml: " + c.key + ":"), std::string::npos)
+        << c.key << " -> " << error;
+    EXPECT_EQ(error.find('\n'), std::string::npos) << error;
+  }
+  EXPECT_NE(ErrorOf("format: [\n").find("line"), std::string::npos);
+}
+
+TEST(DetectionsFileTest, RoundTripsExactly) {
+  Detections d;
+  d.session = "session.yaml";
+  ImageDetections image;
+  image.file = "images/0001.png";
+  image.width = 1280;
+  image.height = 960;
+  image.corners.push_back({0, 12, 1, Eigen::Vector2d(523.1123456789, 301.887)});
+  image.corners.push_back({2, 4 * 7 + 3, 2, Eigen::Vector2d(611.405, 1.0 / 3.0)});
+  LipEdge lip;
+  lip.mirror = 1;
+  lip.edge = "outer";
+  lip.circle = "r_outer";
+  lip.path = "direct";
+  lip.points = {Eigen::Vector2d(233.1, 480.2), Eigen::Vector2d(233.4, 470.9)};
+  image.lips.push_back(lip);
+  d.images.push_back(image);
+  d.images.push_back(ImageDetections{"images/0002.png", 1280, 960, {}, {}});
+
+  const std::string path =
+      (fs::temp_directory_path() / "omni_detections_roundtrip.yaml").string();
+  WriteDetectionsFile(path, d);
+  const Detections r = ReadDetectionsFile(path);
+  fs::remove(path);
+  EXPECT_EQ(r.session, d.session);
+  ASSERT_EQ(r.images.size(), 2u);
+  ASSERT_EQ(r.images[0].corners.size(), 2u);
+  for (int i = 0; i < 2; ++i) {
+    EXPECT_EQ(r.images[0].corners[i].target, d.images[0].corners[i].target);
+    EXPECT_EQ(r.images[0].corners[i].id, d.images[0].corners[i].id);
+    EXPECT_EQ(r.images[0].corners[i].mirror, d.images[0].corners[i].mirror);
+    EXPECT_EQ(r.images[0].corners[i].pixel, d.images[0].corners[i].pixel);  // bit for bit
+  }
+  ASSERT_EQ(r.images[0].lips.size(), 1u);
+  EXPECT_EQ(r.images[0].lips[0].path, "direct");
+  EXPECT_EQ(r.images[0].lips[0].points, lip.points);
+  EXPECT_TRUE(r.images[1].corners.empty());
+}
+
+TEST(DetectionsFileTest, BadRowsNameTheKey) {
+  const std::string path = (fs::temp_directory_path() / "omni_detections_bad.yaml").string();
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"[0, 12, 3, 1.0, 2.0]", "images[0].corners[0][2]"},
+      {"[0, 12, 1, 1.0]", "images[0].corners[0]"},
+      {"[0, -1, 1, 1.0, 2.0]", "images[0].corners[0][1]"},
+      {"[0, 12, 1, u, 2.0]", "images[0].corners[0][3]"},
+  };
+  for (const auto& [row, key] : cases) {
+    std::ofstream(path) << "format: omnistereo-detections/1\nimages:\n  - file: a.png\n"
+                           "    width: 10\n    height: 10\n    corners:\n      - "
+                        << row << "\n";
+    try {
+      ReadDetectionsFile(path);
+      ADD_FAILURE() << "accepted " << row;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(path + ": " + key + ":"), std::string::npos)
+          << e.what();
+    }
+  }
+  fs::remove(path);
+}
+
+}  // namespace
+}  // namespace omni::io
