@@ -19,7 +19,7 @@ const std::vector<Command>& Commands() {
        RunUnproject},
       {"triangulate", "triangulate corners seen in both rings, with covariance",
        {"model", "detections", "out"}, RunTriangulate},
-      {"tolerance", "check a calibrated rig against assembly tolerances", {"model", "config"},
+      {"tolerance", "check a (calibrated) rig against assembly tolerances; simulate their image effect", {"model", "config"},
        RunTolerance},
       {"panorama", "unwarp both rings into panoramas", {"model", "out"}, RunPanorama},
       {"depth", "dense stereo on the panoramas to a point cloud", {"model", "out"}, RunDepth},

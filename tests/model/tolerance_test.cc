@@ -1,0 +1,98 @@
+// Tolerance checks and their image effect (model/design/tolerance.h).
+#include <cmath>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "model/design/tolerance.h"
+#include "model/io/model_file.h"
+
+namespace omni::design {
+namespace {
+
+RigParams BigRig() {
+  return io::ReadModelFile(std::string(OMNI_SAMPLE_DIR) + "/big_rig_ideal.yaml");
+}
+
+// A calibrated-looking model: mirror 1 decentred by (0.12, -0.05) mm with a correlated
+// covariance of (tx, ty).
+RigParams WithCovariance(double tx, double ty, double sxx, double syy, double sxy) {
+  RigParams rig = BigRig();
+  rig.kind = ModelKind::kNoncentral;
+  rig.mirror1_pose[2] = tx;
+  rig.mirror1_pose[3] = ty;
+  CalibrationInfo c;
+  c.parameters = {"mirror1.tx", "mirror1.ty"};
+  c.values = {tx, ty};
+  c.sigma = {std::sqrt(sxx), std::sqrt(syy)};
+  c.covariance = {sxx, sxy, sxy, syy};
+  rig.calibration = c;
+  return rig;
+}
+
+// Oracle for the first-order sigma of |(tx, ty)|: the spread of the magnitude over samples of
+// (tx, ty) drawn from the covariance (far from the origin, where first order holds).
+TEST(ToleranceTest, DecentreSigmaMatchesMonteCarlo) {
+  const double tx = 0.25, ty = -0.10, sxx = 4e-4, syy = 9e-4, sxy = -2e-4;
+  ToleranceSpec spec;
+  spec.mirror[0].decentre_mm = 0.3;
+  const auto checks = CheckTolerances(WithCovariance(tx, ty, sxx, syy, sxy), spec);
+  ASSERT_EQ(checks.size(), 1u);
+  ASSERT_TRUE(checks[0].sigma.has_value());
+  EXPECT_NEAR(checks[0].value, std::hypot(tx, ty), 1e-15);
+
+  std::mt19937 rng(3);
+  std::normal_distribution<double> n(0, 1);
+  const double l11 = std::sqrt(sxx), l21 = sxy / l11, l22 = std::sqrt(syy - l21 * l21);
+  double sum = 0, sum2 = 0;
+  const int kSamples = 200000;
+  for (int i = 0; i < kSamples; ++i) {
+    const double a = n(rng), b = n(rng);
+    const double r = std::hypot(tx + l11 * a, ty + l21 * a + l22 * b);
+    sum += r;
+    sum2 += r * r;
+  }
+  const double mean = sum / kSamples, sd = std::sqrt(sum2 / kSamples - mean * mean);
+  EXPECT_NEAR(*checks[0].sigma, sd, 0.03 * sd);
+}
+
+TEST(ToleranceTest, VerdictsRespectTheUncertainty) {
+  ToleranceSpec spec;
+  spec.mirror[0].decentre_mm = 0.3;
+  // 0.2 +- 0.02: pass; 0.5 +- 0.02: fail; 0.29 +- 0.02: undecided at 2 sigma.
+  EXPECT_EQ(CheckTolerances(WithCovariance(0.2, 0, 4e-4, 4e-4, 0), spec)[0].verdict, Verdict::kPass);
+  EXPECT_EQ(CheckTolerances(WithCovariance(0.5, 0, 4e-4, 4e-4, 0), spec)[0].verdict, Verdict::kFail);
+  EXPECT_EQ(CheckTolerances(WithCovariance(0.29, 0, 4e-4, 4e-4, 0), spec)[0].verdict,
+            Verdict::kUndecided);
+  // Without a covariance the value alone decides, and no sigma is claimed.
+  RigParams bare = WithCovariance(0.29, 0, 4e-4, 4e-4, 0);
+  bare.calibration.reset();
+  const auto checks = CheckTolerances(bare, spec);
+  EXPECT_FALSE(checks[0].sigma.has_value());
+  EXPECT_EQ(checks[0].verdict, Verdict::kPass);
+}
+
+TEST(ToleranceTest, ImageEffectIsZeroForZeroToleranceAndGrowsWithIt) {
+  const RigParams rig = BigRig();
+  ToleranceSpec none;
+  for (auto& body : none.mirror) body = {0, 0, 0};
+  none.reflex_tilt_rad = 0;
+  none.reflex_dz_mm = 0;
+  const ImageEffect zero = SimulateImageEffect(rig, none, 3, 1000, 1);
+  ASSERT_GT(zero.points, 100);
+  EXPECT_LT(zero.max_px[0], 1e-9);
+  EXPECT_LT(zero.max_px[1], 1e-9);
+
+  ToleranceSpec small = none, large = none;
+  small.mirror[1].tilt_rad = 0.1 * M_PI / 180;
+  large.mirror[1].tilt_rad = 0.4 * M_PI / 180;
+  const ImageEffect a = SimulateImageEffect(rig, small, 30, 1000, 2);
+  const ImageEffect b = SimulateImageEffect(rig, large, 30, 1000, 2);
+  // Mirror 2 alone does not move ring 1; its tilt moves ring 2, about linearly for small tilts.
+  EXPECT_LT(a.max_px[0], 1e-9);
+  EXPECT_GT(a.p95_px[1], 0.1);
+  EXPECT_NEAR(b.p95_px[1] / a.p95_px[1], 4.0, 0.6);
+}
+
+}  // namespace
+}  // namespace omni::design
