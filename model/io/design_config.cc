@@ -1,81 +1,31 @@
 #include "model/io/design_config.h"
 
-#include <yaml-cpp/yaml.h>
 
 #include <cmath>
-#include <fstream>
-#include <sstream>
+
+#include "model/io/yaml_reader.h"
 
 namespace omni::io {
 namespace {
 
 constexpr char kFormatPrefix[] = "omnistereo-design/";
 constexpr int kFormatMajor = 1;
-constexpr double kRadPerDeg = M_PI / 180.0;
 
-// Every error is one line "<file>: <key>: <expected>, got <what>", the style of model_file.cc.
-class Reader {
+// The shared Reader (yaml_reader.h) plus this file's optional keys with defaults and its
+// design-vector rule.
+class DesignReader : public Reader {
  public:
-  explicit Reader(std::string file) : file_(std::move(file)) {}
+  using Reader::Reader;
+  using Reader::Integer;
+  using Reader::Number;
 
-  [[noreturn]] void Fail(const std::string& key, const std::string& expected,
-                         const std::string& got) const {
-    throw InputError(file_ + ": " + key + ": " + expected + ", got " + got);
-  }
-
-  static std::string Describe(const YAML::Node& node) {
-    if (!node.IsDefined()) return "nothing (key missing)";
-    if (node.IsNull()) return "an empty value";
-    if (node.IsSequence()) return "a list";
-    if (node.IsMap()) return "a map";
-    std::string s = node.Scalar();
-    if (s.size() > 40) s = s.substr(0, 40) + "...";
-    return "'" + s + "'";
-  }
-  static std::string Join(const std::string& parent, const std::string& key) {
-    return parent.empty() ? key : parent + "." + key;
-  }
-
-  YAML::Node Map(const YAML::Node& parent, const std::string& parent_key, const char* name) const {
-    const YAML::Node node = parent[name];
-    if (!node.IsDefined() || !node.IsMap()) {
-      Fail(Join(parent_key, name), "expected a map of keys", Describe(node));
-    }
-    return node;
-  }
-
-  double Number(const YAML::Node& parent, const std::string& parent_key, const char* name) const {
-    const std::string key = Join(parent_key, name);
-    const YAML::Node node = parent[name];
-    // An undefined node from a missing key throws on IsScalar(): test IsDefined() first.
-    if (!node.IsDefined() || !node.IsScalar()) Fail(key, "expected a number", Describe(node));
-    double value = 0;
-    try {
-      value = node.as<double>();
-    } catch (const YAML::Exception&) {
-      Fail(key, "expected a number", Describe(node));
-    }
-    if (!std::isfinite(value)) Fail(key, "expected a finite number", Describe(node));
-    return value;
-  }
   double Number(const YAML::Node& parent, const std::string& parent_key, const char* name,
                 double fallback) const {
     return parent[name] ? Number(parent, parent_key, name) : fallback;
   }
-  double Positive(const YAML::Node& parent, const std::string& parent_key, const char* name) const {
-    const double v = Number(parent, parent_key, name);
-    if (!(v > 0)) Fail(Join(parent_key, name), "expected a number > 0", Describe(parent[name]));
-    return v;
-  }
   int Integer(const YAML::Node& parent, const std::string& parent_key, const char* name,
               int min_value, int fallback) const {
-    if (!parent[name]) return fallback;
-    const double v = Number(parent, parent_key, name);
-    if (v != std::floor(v) || v < min_value || v > 1e9) {
-      Fail(Join(parent_key, name), "expected an integer >= " + std::to_string(min_value),
-           Describe(parent[name]));
-    }
-    return static_cast<int>(v);
+    return parent[name] ? Integer(parent, parent_key, name, min_value) : fallback;
   }
   std::string Word(const YAML::Node& parent, const std::string& parent_key, const char* name,
                    const std::string& a, const std::string& b, const std::string& fallback) const {
@@ -112,45 +62,29 @@ class Reader {
     return v;
   }
 
-  std::string file_;
 };
-
-YAML::Node Load(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw InputError(path + ": cannot open the design config file (missing or unreadable)");
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  try {
-    return YAML::Load(buffer.str());
-  } catch (const YAML::Exception& e) {
-    std::ostringstream msg;
-    msg << path << ": malformed YAML at line " << e.mark.line + 1 << ", column "
-        << e.mark.column + 1 << ": " << e.msg;
-    throw InputError(msg.str());
-  }
-}
 
 }  // namespace
 
 DesignConfig ReadDesignConfig(const std::string& path) {
-  const YAML::Node root = Load(path);
-  const Reader r(path);
+  const YAML::Node root = LoadYamlFile(path, "design config file");
+  const DesignReader r(path);
   if (!root.IsMap()) {
     r.Fail("format", "expected a YAML map starting with 'format: omnistereo-design/1'",
-           Reader::Describe(root));
+           Describe(root));
   }
   const YAML::Node format = root["format"];
   const std::string format_text = format.IsDefined() && format.IsScalar() ? format.Scalar() : "";
   const std::string prefix = kFormatPrefix;
   if (format_text.compare(0, prefix.size(), prefix) != 0) {
-    r.Fail("format", "expected 'omnistereo-design/1'", Reader::Describe(format));
+    r.Fail("format", "expected 'omnistereo-design/1'", Describe(format));
   }
   {
     const std::string version = format_text.substr(prefix.size());
     const std::string major = version.substr(0, version.find('.'));
     if (major != std::to_string(kFormatMajor)) {
       r.Fail("format", "unknown major version (this tool reads omnistereo-design/1)",
-             Reader::Describe(format));
+             Describe(format));
     }
   }
 
