@@ -123,18 +123,35 @@ std::string PovSceneText(const RigParams& rig, const SceneContent& content) {
       << ", " << Num(m.radius_mm) << " pigment { rgb 1 } finish { SelfLit } no_shadow }\n";
   }
 
-  for (const Chessboard& board : content.chessboards) {
-    const double sq = board.square_mm;
-    // Squares span [-sq, cols*sq] x [-sq, rows*sq]; a white margin of one square around them.
-    s << "  union {  // chessboard " << board.rows << "x" << board.cols << " inner corners\n"
-      << "    box { " << Vec(-sq, -sq, 0) << ", " << Vec(board.cols * sq, board.rows * sq, 0.5)
-      << "\n      pigment { checker rgb 0, rgb 1 scale " << Num(sq) << " translate "
-      << Vec(0, 0, 0.5 * sq) << " } finish { SelfLit } }\n"
-      << "    box { " << Vec(-2 * sq, -2 * sq, 0.01) << ", "
-      << Vec((board.cols + 1) * sq, (board.rows + 1) * sq, 2)
-      << " pigment { rgb 1 } finish { SelfLit } }\n"
-      << "    " << Matrix(board.cam_from_target_rotation, board.cam_from_target_translation)
-      << "\n  }\n";
+  for (const TargetSheet& sheet : content.targets) {
+    const TargetSpec& spec = sheet.spec;
+    const Eigen::Vector4d bounds = SheetBounds(spec);  // x0, y0, x1, y1
+    const std::string pose =
+        Matrix(sheet.cam_from_target_rotation, sheet.cam_from_target_translation);
+    if (spec.type == TargetType::kChessboard) {
+      const double sq = spec.square_mm;
+      // Squares span [-sq, cols*sq] x [-sq, rows*sq] on a white sheet (SheetBounds).
+      s << "  union {  // chessboard " << spec.rows << "x" << spec.cols << " inner corners\n"
+        << "    box { " << Vec(-sq, -sq, 0) << ", " << Vec(spec.cols * sq, spec.rows * sq, 0.5)
+        << "\n      pigment { checker rgb 0, rgb 1 scale " << Num(sq) << " translate "
+        << Vec(0, 0, 0.5 * sq) << " } finish { SelfLit } }\n"
+        << "    box { " << Vec(bounds[0], bounds[1], 0.01) << ", " << Vec(bounds[2], bounds[3], 2)
+        << " pigment { rgb 1 } finish { SelfLit } }\n"
+        << "    " << pose << "\n  }\n";
+      continue;
+    }
+    // image_map puts the PNG on the unit square with its top row at y = 1; the texture's top row
+    // must lie at y0 (y runs down the printed face), hence the negative y scale. No `interpolate`:
+    // every texel is a sharp square, so tag edges fall exactly on the texel boundaries.
+    const double w = bounds[2] - bounds[0], h = bounds[3] - bounds[1];
+    s << "  box {  // " << TargetTypeName(spec.type) << " " << spec.rows << "x" << spec.cols
+      << " tags\n"
+      << "    " << Vec(bounds[0], bounds[1], 0) << ", " << Vec(bounds[2], bounds[3], 0.5) << "\n"
+      << "    pigment { image_map { png \"" << sheet.texture << "\" once }\n"
+      << "      scale " << Vec(w, -h, 1) << " translate " << Vec(bounds[0], bounds[3], 0)
+      << " }\n"
+      << "    finish { SelfLit }\n"
+      << "    " << pose << "\n  }\n";
   }
 
   if (content.room) {

@@ -17,6 +17,7 @@
 #include <Eigen/Core>
 
 #include "model/rig_params.h"
+#include "model/target.h"
 
 namespace omni::synthetic {
 
@@ -26,19 +27,20 @@ struct Marker {
   double radius_mm = 1.0;
 };
 
-// A planar chessboard: rows x cols INNER corners, square side in mm, plus a white margin of one
-// square. Target frame: corner (r, c) at (c * square, r * square, 0); the board faces -z of the
-// target frame (the side the camera must see).
-struct Chessboard {
+// A target's printed sheet (model/target.h: printed face towards -z of the target frame, x right
+// and y down seen from the printed side, the sheet rectangle SheetBounds(spec)). Chessboards are
+// drawn procedurally (squares of spec.square_mm, corner (r, c) at (c, r) * square); tag grids as
+// a sharp image map (tag_texture.h) stretched exactly over the sheet rectangle.
+struct TargetSheet {
   Eigen::Matrix3d cam_from_target_rotation = Eigen::Matrix3d::Identity();
   Eigen::Vector3d cam_from_target_translation = Eigen::Vector3d::Zero();
-  int rows = 6, cols = 8;
-  double square_mm = 40.0;
+  TargetSpec spec;
+  std::string texture;  // tag grids: the PNG's file name, in the .pov's folder
 };
 
 struct SceneContent {
   std::vector<Marker> markers;
-  std::vector<Chessboard> chessboards;
+  std::vector<TargetSheet> targets;
   // A textured, self-lit box room around the rig for dense stereo: walls at x, y = +-half size,
   // floor and ceiling at z_C = room_floor_mm and room_ceiling_mm (z_C is the rig's axis, up).
   bool room = false;

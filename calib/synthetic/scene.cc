@@ -5,20 +5,29 @@
 
 #include <Eigen/Geometry>
 
+#include "calib/synthetic/tag_texture.h"
 #include "model/ideal_analysis.h"
 
 namespace omni::synthetic {
-
-Eigen::Vector3d CornerInTarget(const TargetSpec& spec, int id) {
-  const int row = id / spec.cols, col = id % spec.cols;
-  return Eigen::Vector3d(col * spec.square_mm, row * spec.square_mm, 0.0);
-}
-
-int CornerCount(const TargetSpec& spec) { return spec.rows * spec.cols; }
-
 namespace {
 
-// Does the segment a -> b pass through the (margin-extended) board of placement p?
+// The corners' extent in the target frame: (x_min, y_min, x_max, y_max).
+Eigen::Vector4d CornerExtent(const TargetSpec& spec) {
+  Eigen::Vector4d e(1e300, 1e300, -1e300, -1e300);
+  for (int id : CornerIds(spec)) {
+    const Eigen::Vector3d x = CornerInTarget(spec, id);
+    e = Eigen::Vector4d(std::min(e[0], x.x()), std::min(e[1], x.y()), std::max(e[2], x.x()),
+                        std::max(e[3], x.y()));
+  }
+  return e;
+}
+
+Eigen::Vector3d PatternCentre(const TargetSpec& spec) {
+  const Eigen::Vector4d e = CornerExtent(spec);
+  return Eigen::Vector3d(0.5 * (e[0] + e[2]), 0.5 * (e[1] + e[3]), 0.0);
+}
+
+// Does the segment a -> b pass through the printed sheet (SheetBounds) of placement p?
 bool SegmentHitsBoard(const TargetSpec& spec, const Placement& p, const Eigen::Vector3d& a,
                       const Eigen::Vector3d& b) {
   const Eigen::Matrix3d Rt = p.cam_from_target_rotation.transpose();
@@ -27,9 +36,8 @@ bool SegmentHitsBoard(const TargetSpec& spec, const Placement& p, const Eigen::V
   if ((a_t.z() > 0) == (b_t.z() > 0)) return false;
   const double s = a_t.z() / (a_t.z() - b_t.z());
   const Eigen::Vector3d x = a_t + s * (b_t - a_t);
-  const double sq = spec.square_mm;
-  return x.x() > -2 * sq && x.x() < (spec.cols + 1) * sq && x.y() > -2 * sq &&
-         x.y() < (spec.rows + 1) * sq;
+  const Eigen::Vector4d sheet = SheetBounds(spec);
+  return x.x() > sheet[0] && x.x() < sheet[2] && x.y() > sheet[1] && x.y() < sheet[3];
 }
 
 }  // namespace
@@ -42,7 +50,7 @@ std::vector<CornerTruth> ComputeTruth(const RigModel& model, const Scene& scene,
     const TargetSpec& spec = scene.targets[p.target];
     // The printed side faces -z of the target frame.
     const Eigen::Vector3d front = p.cam_from_target_rotation * Eigen::Vector3d(0, 0, -1);
-    for (int id = 0; id < CornerCount(spec); ++id) {
+    for (int id : CornerIds(spec)) {
       CornerTruth t;
       t.placement = static_cast<int>(pi);
       t.target = p.target;
@@ -113,13 +121,14 @@ bool AddRandomImages(const RigModel& model, const RandomPlacement& random, Scene
         p.cam_from_target_rotation.col(0) = x_axis;
         p.cam_from_target_rotation.col(1) = y_axis;
         p.cam_from_target_rotation.col(2) = z_axis;
-        const Eigen::Vector3d board_centre_in_target(0.5 * (spec.cols - 1) * spec.square_mm,
-                                                     0.5 * (spec.rows - 1) * spec.square_mm, 0);
-        p.cam_from_target_translation = centre - p.cam_from_target_rotation * board_centre_in_target;
-        // Accept if all four outer corners are seen by both mirrors.
+        p.cam_from_target_translation = centre - p.cam_from_target_rotation * PatternCentre(spec);
+        // Accept if the four outermost corner positions are seen by both mirrors.
+        const Eigen::Vector4d e = CornerExtent(spec);
         bool ok = true;
-        for (int id : {0, spec.cols - 1, spec.cols * (spec.rows - 1), spec.rows * spec.cols - 1}) {
-          const Eigen::Vector3d x = p.cam_from_target_rotation * CornerInTarget(spec, id) +
+        for (const Eigen::Vector3d& corner :
+             {Eigen::Vector3d(e[0], e[1], 0), Eigen::Vector3d(e[2], e[1], 0),
+              Eigen::Vector3d(e[0], e[3], 0), Eigen::Vector3d(e[2], e[3], 0)}) {
+          const Eigen::Vector3d x = p.cam_from_target_rotation * corner +
                                     p.cam_from_target_translation;
           ok = ok && model.Project(x, Mirror::kOne) && model.Project(x, Mirror::kTwo);
         }
@@ -151,9 +160,7 @@ Placement FacingAxis(const TargetSpec& spec, int target, const Eigen::Vector3d& 
   p.cam_from_target_rotation.col(0) = x_axis;
   p.cam_from_target_rotation.col(1) = z_axis.cross(x_axis);
   p.cam_from_target_rotation.col(2) = z_axis;
-  const Eigen::Vector3d centre_in_target(0.5 * (spec.cols - 1) * spec.square_mm,
-                                         0.5 * (spec.rows - 1) * spec.square_mm, 0);
-  p.cam_from_target_translation = centre - p.cam_from_target_rotation * centre_in_target;
+  p.cam_from_target_translation = centre - p.cam_from_target_rotation * PatternCentre(spec);
   return p;
 }
 
@@ -171,6 +178,7 @@ void AddRingImage(const RigModel& model, const RingPlacement& rings, Scene* scen
   for (int i = 0; i < n_ranges; ++i) {
     const double rho = rings.ranges_mm[i];
     TargetSpec spec;
+    spec.type = TargetType::kChessboard;
     spec.rows = rings.rows;
     spec.cols = rings.cols;
     spec.square_mm = rings.square_at_1m_mm * rho / 1000.0;
@@ -193,14 +201,14 @@ SceneContent ContentOf(const Scene& scene, const SceneImage& image) {
   SceneContent c;
   c.markers = scene.markers;
   for (const Placement& p : image.placements) {
-    Chessboard b;
-    const TargetSpec& spec = scene.targets[p.target];
-    b.cam_from_target_rotation = p.cam_from_target_rotation;
-    b.cam_from_target_translation = p.cam_from_target_translation;
-    b.rows = spec.rows;
-    b.cols = spec.cols;
-    b.square_mm = spec.square_mm;
-    c.chessboards.push_back(b);
+    TargetSheet sheet;
+    sheet.cam_from_target_rotation = p.cam_from_target_rotation;
+    sheet.cam_from_target_translation = p.cam_from_target_translation;
+    sheet.spec = scene.targets[p.target];
+    if (sheet.spec.type != TargetType::kChessboard) {
+      sheet.texture = TextureFileName(p.target, sheet.spec);
+    }
+    c.targets.push_back(sheet);
   }
   c.room = scene.room;
   c.room_half_size_mm = scene.room_half_size_mm;

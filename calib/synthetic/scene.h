@@ -11,19 +11,11 @@
 
 #include "calib/synthetic/pov_scene.h"
 #include "model/rig_model.h"
+#include "model/target.h"
 
 namespace omni::synthetic {
 
-// A calibration target definition (as in the session file's `targets:`).
-struct TargetSpec {
-  std::string type = "chessboard";  // chessboard (others: detectors issue)
-  int rows = 6, cols = 8;           // inner corners
-  double square_mm = 40.0;
-};
-
-// Corner `id` = row * cols + col of a chessboard, in the target frame (z = 0 plane).
-Eigen::Vector3d CornerInTarget(const TargetSpec& spec, int id);
-int CornerCount(const TargetSpec& spec);
+// Targets (kinds, corner ids, corner positions, printed sheet) are model/target.h's TargetSpec.
 
 struct Placement {
   int target = 0;  // index into Scene::targets
@@ -64,7 +56,7 @@ struct Scene {
   unsigned noise_seed = 1;
   bool room = false;
   double room_half_size_mm = 3000, room_floor_mm = -1200, room_ceiling_mm = 1800;
-  std::vector<TargetSpec> targets;
+  std::vector<TargetSpec> targets;  // as in the session file's `targets:`
   std::vector<SceneImage> images;
   std::vector<Marker> markers;  // drawn in every image
 };

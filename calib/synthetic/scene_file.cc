@@ -6,6 +6,7 @@
 #include <Eigen/Geometry>
 #include <yaml-cpp/yaml.h>
 
+#include "calib/synthetic/tag_texture.h"
 #include "model/io/file_util.h"
 
 namespace omni::synthetic {
@@ -40,6 +41,53 @@ int Int(const YAML::Node& node, const std::string& file, const std::string& key)
   const double v = Number(node, file, key);
   if (v != std::floor(v)) Fail(file, key, "expected a whole number");
   return static_cast<int>(v);
+}
+
+// One entry of `targets:` with the session file's keys (model/io/session_file.h):
+// {type: chessboard, rows, cols, square} | {type: apriltag_grid, family: tag36h11, rows, cols,
+// tag_size, spacing, first_id} | {type: kalibr_aprilgrid, rows, cols, tag_size, spacing, first_id}.
+TargetSpec ReadTarget(const YAML::Node& node, const std::string& file, const std::string& key) {
+  if (!node.IsMap()) Fail(file, key, "expected a map {type: ..., rows: ..., cols: ...}");
+  TargetSpec t;
+  const std::string type = node["type"] && node["type"].IsScalar() ? node["type"].Scalar() : "";
+  if (!ParseTargetType(type, &t.type)) {
+    Fail(file, key + ".type",
+         "expected chessboard, apriltag_grid or kalibr_aprilgrid, got '" + type + "'");
+  }
+  t.rows = Int(node["rows"], file, key + ".rows");
+  t.cols = Int(node["cols"], file, key + ".cols");
+  if (t.type == TargetType::kChessboard) {
+    t.square_mm = Number(node["square"], file, key + ".square");
+    if (t.rows < 2 || t.cols < 2 || t.square_mm <= 0) {
+      Fail(file, key, "expected rows, cols >= 2 (inner corners) and square > 0 (mm)");
+    }
+    return t;
+  }
+  if (node["family"]) {
+    t.family = node["family"].IsScalar() ? node["family"].Scalar() : "";
+  }
+  t.tag_size_mm = Number(node["tag_size"], file, key + ".tag_size");
+  t.spacing = Number(node["spacing"], file, key + ".spacing");
+  t.first_id = node["first_id"] ? Int(node["first_id"], file, key + ".first_id") : 0;
+  std::string error;
+  if (!CheckTagGrid(t, &error)) Fail(file, key, error);
+  return t;
+}
+
+// The session file's text of a target definition.
+std::string TargetText(const TargetSpec& t) {
+  auto num = [](double v) { return io::FormatDouble(v); };
+  std::ostringstream out;
+  out << "{type: " << TargetTypeName(t.type);
+  if (t.type == TargetType::kAprilTagGrid) out << ", family: " << t.family;
+  out << ", rows: " << t.rows << ", cols: " << t.cols;
+  if (t.type == TargetType::kChessboard) {
+    out << ", square: " << num(t.square_mm) << "}";
+  } else {
+    out << ", tag_size: " << num(t.tag_size_mm) << ", spacing: " << num(t.spacing)
+        << ", first_id: " << t.first_id << "}";
+  }
+  return out.str();
 }
 
 }  // namespace
@@ -77,18 +125,9 @@ Scene ReadSceneFile(const std::string& path, const RigModel& model) {
     s.room_ceiling_mm = NumberOr(room["ceiling"], path, "room.ceiling", s.room_ceiling_mm);
   }
   if (const auto targets = root["targets"]) {
+    if (!targets.IsSequence()) Fail(path, "targets", "expected a list of target definitions");
     for (size_t i = 0; i < targets.size(); ++i) {
-      const std::string key = "targets[" + std::to_string(i) + "]";
-      TargetSpec t;
-      t.type = targets[i]["type"] ? targets[i]["type"].Scalar() : "";
-      if (t.type != "chessboard") Fail(path, key + ".type", "expected chessboard, got '" + t.type + "'");
-      t.rows = Int(targets[i]["rows"], path, key + ".rows");
-      t.cols = Int(targets[i]["cols"], path, key + ".cols");
-      t.square_mm = Number(targets[i]["square"], path, key + ".square");
-      if (t.rows < 2 || t.cols < 2 || t.square_mm <= 0) {
-        Fail(path, key, "expected rows, cols >= 2 and square > 0");
-      }
-      s.targets.push_back(t);
+      s.targets.push_back(ReadTarget(targets[i], path, "targets[" + std::to_string(i) + "]"));
     }
   }
   if (const auto images = root["images"]) {
@@ -173,10 +212,7 @@ std::string TruthText(const Scene& scene, const RigModel& model, const std::stri
       << "format: omnistereo-truth/1\n"
       << "model: " << model_file << "\n"
       << "targets:\n";
-  for (const auto& t : scene.targets) {
-    out << "  - {type: " << t.type << ", rows: " << t.rows << ", cols: " << t.cols
-        << ", square: " << num(t.square_mm) << "}\n";
-  }
+  for (const auto& t : scene.targets) out << "  - " << TargetText(t) << "\n";
   out << "images:\n";
   for (const auto& image : scene.images) {
     out << "  - file: " << image.name << ".png\n    placements:\n";
