@@ -12,10 +12,13 @@
 // separated by a gap of spacing * tag_size.
 //   apriltag_grid:    tag36h11 with libapriltag's 1-bit black border; ids first_id + r*cols + c
 //                     row-major from the TOP-left (r = 0 is the top row); white gaps.
-//   kalibr_aprilgrid: Kalibr's AprilGrid as kalibr_create_target_pdf prints it: 2-bit black
-//                     border, black squares of side gap at every gap crossing (and the outer
-//                     corners), ids first_id + r*cols + c row-major from the BOTTOM-left
-//                     (Kalibr's order; r = 0 is the bottom row).
+//   kalibr_aprilgrid: Kalibr's AprilGrid as kalibr_create_target_pdf prints it: tag_size is the
+//                     whole tag, 10 bits of tag_size/10 (6x6 tag36h11 data bits in a 2-bit black
+//                     border, no white border of its own); a black square of side gap at each
+//                     tag's four diagonal corners, i.e. at all (rows+1) x (cols+1) crossings of
+//                     the gaps including the outer frame; ids first_id + r*cols + c row-major
+//                     from the BOTTOM-left (Kalibr's order; r = 0 is the bottom row). Kalibr's
+//                     own frame has y up from tag 0's bottom-left corner; ids and k are the same.
 #pragma once
 
 #include <string>
