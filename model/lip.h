@@ -1,0 +1,170 @@
+// The coloured lips (DESIGN.md §1) as 3D circles and the optical paths by which the camera sees
+// them. A lip is a flat annulus r_inner <= r <= r_outer at height z in its mirror's body frame
+// (RigParams::lip1 / lip2); its two boundary circles are what an image edge can be the image of.
+//
+// Four optical paths form the coloured bands of the image:
+//   direct      blue lip (mirror 1) seen straight by the camera: pinhole + distortion of a point in C;
+//   via_mirror1 mirror 1 reflecting the underside of its own (blue) lip: ProjectViaMirror1;
+//   via_reflex  red lip (mirror 2) seen in the reflex disc: the point mirrored in the reflex plane,
+//               then pinhole + distortion; valid only where the camera ray meets the disc;
+//   via_mirror2 mirror 2 reflecting its own (red) lip, then the reflex disc: ProjectViaMirror2.
+// The two via_mirror paths are RigModel's own (rig_model.h): their maths is not repeated here.
+// Everything is templated on the scalar over the raw parameter blocks of rig_params.h, so the
+// calibration's Ceres residuals differentiate the same code.
+//
+// Not modelled: occlusion of a path by the other mirror's body (none at the lips' radii on the
+// designed rigs) and vignetting by mirror 2's hole.
+#pragma once
+
+#include <cmath>
+#include <optional>
+#include <string>
+
+#include <Eigen/Core>
+
+#include "model/camera.h"
+#include "model/rig_frames.h"
+#include "model/rig_model.h"
+#include "model/rig_params.h"
+#include "model/types.h"
+
+namespace omni {
+
+enum class LipPath { kDirect, kViaMirror1, kViaReflex, kViaMirror2 };
+enum class LipCircle { kInner, kOuter };
+
+// Names as in the detections file: direct | via_mirror1 | via_reflex | via_mirror2, and
+// r_inner | r_outer. Parse* return false for an unknown name.
+const char* LipPathName(LipPath path);
+bool ParseLipPath(const std::string& name, LipPath* path);
+const char* LipCircleName(LipCircle circle);
+bool ParseLipCircle(const std::string& name, LipCircle* circle);
+
+// The mirror that owns the lip a path images: direct and via_mirror1 image the blue lip of
+// mirror 1, via_reflex and via_mirror2 the red lip of mirror 2.
+inline Mirror LipOwner(LipPath path) {
+  return path == LipPath::kDirect || path == LipPath::kViaMirror1 ? Mirror::kOne : Mirror::kTwo;
+}
+
+// The point at azimuth phi (about the mirror's axis, from its x axis) on the circle of the given
+// radius at height lip_z in the mirror's body frame, in C: cam_from_mirror * (r cos, r sin, z).
+template <typename T>
+Vec3<T> LipPointInCam(const T* mirror_pose, const T& radius, const T& lip_z, const T& phi) {
+  using std::cos;
+  using std::sin;
+  return PoseFromBlock(mirror_pose) * Vec3<T>(radius * cos(phi), radius * sin(phi), lip_z);
+}
+
+// The `direct` path: pixel of a point in C seen straight by the camera. Valid if the point is in
+// front of the camera and the camera ray does not pass through the reflex disc (the disc's back
+// hides what lies beyond it).
+template <typename T>
+bool ProjectLipDirect(const T* camera, const T* distortion, const T* mirror1_pose, const T* reflex,
+                      const RigFixed& fixed, const Vec3<T>& point_in_cam, Vec2<T>* pixel) {
+  if (!(ScalarPart(point_in_cam.z()) > 0)) return false;
+  // The reflex plane in C in double: validity only.
+  double pose_d[5], reflex_d[3];
+  for (int i = 0; i < 5; ++i) pose_d[i] = ScalarPart(mirror1_pose[i]);
+  for (int i = 0; i < 3; ++i) reflex_d[i] = ScalarPart(reflex[i]);
+  const Pose<double> cam_from_mirror1 = PoseFromBlock(pose_d);
+  const Plane<double> plane_in_m1 = ReflexPlaneInMirror1(reflex_d, fixed.d);
+  const Eigen::Vector3d plane_point = cam_from_mirror1 * plane_in_m1.point;
+  const Eigen::Vector3d plane_normal = cam_from_mirror1.Rotate(plane_in_m1.normal);
+  const Eigen::Vector3d p = ScalarPart(point_in_cam);
+  const double camera_side = -plane_point.dot(plane_normal);
+  const double point_side = (p - plane_point).dot(plane_normal);
+  if (camera_side > 0 && point_side < 0) {  // the ray crosses the plane: not inside the disc
+    const Eigen::Vector3d crossing = camera_side / (camera_side - point_side) * p;
+    if ((crossing - plane_point).squaredNorm() <= fixed.r_ref * fixed.r_ref) return false;
+  }
+  const Pinhole<T> cam{camera[0], camera[1], camera[2], camera[3], camera[4]};
+  const RadTan<T> dist{distortion[0], distortion[1], distortion[2], distortion[3], distortion[4]};
+  *pixel = cam.PixelFromNormalized(dist.Distort(
+      Vec2<T>(point_in_cam.x() / point_in_cam.z(), point_in_cam.y() / point_in_cam.z())));
+  return true;
+}
+
+// The `via_reflex` path: pixel of a point in C seen in the reflex disc (a plane mirror): the
+// camera sees the point's mirror image in the reflex plane. Valid if the point and the camera are
+// on the reflective side (the camera's side) of the plane and the camera ray to the mirror image
+// crosses the plane inside the disc. *disc_margin_mm (optional) receives r_ref minus the
+// crossing's distance from the disc centre: how far inside the disc's rim the path runs (negative
+// where the rim hides the point; then the function returns false).
+template <typename T>
+bool ProjectLipViaReflex(const T* camera, const T* distortion, const T* mirror1_pose,
+                         const T* reflex, const RigFixed& fixed, const Vec3<T>& point_in_cam,
+                         Vec2<T>* pixel, double* disc_margin_mm = nullptr) {
+  const Pose<T> cam_from_mirror1 = PoseFromBlock(mirror1_pose);
+  const Plane<T> plane_in_m1 = ReflexPlaneInMirror1(reflex, T(fixed.d));
+  const Plane<T> plane{cam_from_mirror1 * plane_in_m1.point,
+                       cam_from_mirror1.Rotate(plane_in_m1.normal)};
+  const T camera_side = -plane.point.dot(plane.normal);
+  const T point_side = (point_in_cam - plane.point).dot(plane.normal);
+  if (!(ScalarPart(camera_side) > 0) || !(ScalarPart(point_side) > 0)) return false;
+  const Vec3<T> image_in_cam = MirrorPoint(plane, point_in_cam);
+  if (!(ScalarPart(image_in_cam.z()) > 0)) return false;
+  // The camera ray O -> image crosses the plane where the light is reflected.
+  const T image_side = (image_in_cam - plane.point).dot(plane.normal);
+  const Eigen::Vector3d crossing =
+      ScalarPart(Vec3<T>(camera_side / (camera_side - image_side) * image_in_cam));
+  const double margin = fixed.r_ref - (crossing - ScalarPart(plane.point)).norm();
+  if (disc_margin_mm) *disc_margin_mm = margin;
+  if (!(margin >= 0)) return false;
+  const Pinhole<T> cam{camera[0], camera[1], camera[2], camera[3], camera[4]};
+  const RadTan<T> dist{distortion[0], distortion[1], distortion[2], distortion[3], distortion[4]};
+  *pixel = cam.PixelFromNormalized(dist.Distort(
+      Vec2<T>(image_in_cam.x() / image_in_cam.z(), image_in_cam.y() / image_in_cam.z())));
+  return true;
+}
+
+// The raw parameter blocks one lip projection needs (pointers into RigParams-like storage).
+template <typename T>
+struct LipBlocks {
+  const T* camera;
+  const T* distortion;
+  const T* mirror1_shape;
+  const T* mirror1_pose;
+  const T* reflex;
+  const T* mirror2_shape;
+  const T* mirror2_pose;
+};
+
+// Pixel of the point at azimuth phi on a lip circle along a path; the lip is the path's owner's
+// (LipOwner) with the given radius and height in its mirror frame. False where the path is
+// invalid (see each path above and rig_model.h for the via_mirror paths).
+template <typename T>
+bool ProjectLipPoint(const LipBlocks<T>& b, const RigFixed& fixed, LipPath path, const T& radius,
+                     const T& lip_z, const T& phi, Vec2<T>* pixel,
+                     double* disc_margin_mm = nullptr) {
+  const T* owner_pose = LipOwner(path) == Mirror::kOne ? b.mirror1_pose : b.mirror2_pose;
+  const Vec3<T> point_in_cam = LipPointInCam(owner_pose, radius, lip_z, phi);
+  switch (path) {
+    case LipPath::kDirect:
+      return ProjectLipDirect(b.camera, b.distortion, b.mirror1_pose, b.reflex, fixed,
+                              point_in_cam, pixel);
+    case LipPath::kViaMirror1:
+      return ProjectViaMirror1(b.camera, b.distortion, b.mirror1_shape, b.mirror1_pose, b.reflex,
+                               fixed, point_in_cam, pixel);
+    case LipPath::kViaReflex:
+      return ProjectLipViaReflex(b.camera, b.distortion, b.mirror1_pose, b.reflex, fixed,
+                                 point_in_cam, pixel, disc_margin_mm);
+    case LipPath::kViaMirror2:
+      return ProjectViaMirror2(b.camera, b.distortion, b.mirror1_pose, b.reflex, b.mirror2_shape,
+                               b.mirror2_pose, fixed, point_in_cam, pixel);
+  }
+  return false;
+}
+
+// The blocks of a RigParams (double).
+LipBlocks<double> LipBlocksOf(const RigParams& rig);
+
+// The lip (RigParams::lip1 or lip2) a path images.
+const Lip& LipOf(const RigParams& rig, LipPath path);
+
+// Double convenience over a rig: pixel of the point at azimuth phi on the circle of the path's
+// lip; nullopt where invalid.
+std::optional<Eigen::Vector2d> ProjectLipPoint(const RigModel& model, LipPath path,
+                                               LipCircle circle, double phi,
+                                               double* disc_margin_mm = nullptr);
+
+}  // namespace omni
