@@ -1,8 +1,148 @@
-// `omnistereo triangulate`: not built yet (3D sensing issue).
+// `omnistereo triangulate --model M --detections D --out out.csv [--sigma_px 1] [--truth T]`
+// (DESIGN.md §5): every corner seen in both rings of an image is triangulated
+// (model/triangulation.h) with its 3x3 covariance [uncertainty_propagation]. With --truth (the
+// `omnistereo-truth/1` file of a synthetic session) the paper's table
+// (tab:rmse_triangulation_experiment) is printed: RMSE, SD and points per range, with the mean
+// predicted sigma and the mean NEES. Without --detections the truth's own pixels are used, with
+// Gaussian noise of --noise_px (the experiment without a detector).
+#include <cstdio>
+#include <random>
+#include <string>
+
+#include <gflags/gflags.h>
+
 #include "apps/command.h"
+#include "apps/common_flags.h"
+#include "model/io/csv.h"
+#include "model/io/detections_file.h"
+#include "model/io/model_file.h"
+#include "model/stereo/sparse_triangulation.h"
+#include "model/triangulation.h"
+
+DEFINE_string(truth, "", "ground truth of a synthetic session (omnistereo-truth/1): print the "
+                         "RMSE table by range; without --detections, triangulate its pixels");
+DEFINE_double(noise_px, 0.0, "with --truth and no --detections: Gaussian noise (px) added to "
+                             "each truth pixel coordinate");
+DEFINE_int32(seed, 1, "random seed of --noise_px");
+DEFINE_string(method, "midpoint", "midpoint (common perpendicular) | reprojection (refined)");
+DEFINE_bool(model_covariance, false, "add the calibrated model's parameter covariance to each "
+                                     "point's covariance");
 
 namespace omni::apps {
+namespace {
 
-int RunTriangulate() { return NotYetImplemented("triangulate", "3D sensing issue"); }
+void RequireFlag(const std::string& value, const char* flag, const char* what) {
+  if (value.empty()) throw io::InputError(std::string("--") + flag + ": expected " + what);
+}
+
+}  // namespace
+
+int RunTriangulate() {
+  RequireFlag(FLAGS_model, "model", "a model file (omnistereo-model/1)");
+  RequireFlag(FLAGS_out, "out", "the output CSV path");
+  if (FLAGS_detections.empty() && FLAGS_truth.empty()) {
+    throw io::InputError("--detections: expected a detections file (omnistereo-detections/1), "
+                         "or --truth to triangulate the truth's pixels");
+  }
+  if (!(FLAGS_sigma_px >= 0)) throw io::InputError("--sigma_px: expected a number >= 0");
+  if (!(FLAGS_noise_px >= 0)) throw io::InputError("--noise_px: expected a number >= 0");
+  TriangulationOptions options;
+  options.sigma_px = FLAGS_sigma_px;
+  options.model_covariance = FLAGS_model_covariance;
+  if (FLAGS_method == "midpoint") {
+    options.method = TriangulationMethod::kMidpoint;
+  } else if (FLAGS_method == "reprojection") {
+    options.method = TriangulationMethod::kReprojection;
+  } else {
+    throw io::InputError("--method: expected midpoint or reprojection, got '" + FLAGS_method + "'");
+  }
+
+  const RigParams rig = io::ReadModelFile(FLAGS_model);
+  const Triangulator triangulator{RigModel(rig)};
+  if (FLAGS_model_covariance && !triangulator.has_model_covariance()) {
+    throw io::InputError(FLAGS_model + ": calibration.covariance: expected a calibrated model "
+                         "for --model_covariance");
+  }
+  if (!triangulator.unknown_parameters().empty()) {
+    std::fprintf(stderr, "triangulate: warning: %zu calibration parameter(s) not in the model's "
+                 "blocks, ignored in the covariance (first: %s)\n",
+                 triangulator.unknown_parameters().size(),
+                 triangulator.unknown_parameters()[0].c_str());
+  }
+
+  std::optional<stereo::Truth> truth;
+  if (!FLAGS_truth.empty()) truth = stereo::ReadTruthFile(FLAGS_truth);
+
+  // The pixel pairs and the image names.
+  std::vector<stereo::CornerPair> pairs;
+  std::vector<std::string> image_names;
+  long observations = 0;
+  if (!FLAGS_detections.empty()) {
+    const io::Detections detections = io::ReadDetectionsFile(FLAGS_detections);
+    for (int i = 0; i < static_cast<int>(detections.images.size()); ++i) {
+      const auto& image = detections.images[i];
+      image_names.push_back(image.file);
+      observations += static_cast<long>(image.corners.size());
+      const auto image_pairs = stereo::PairCorners(triangulator, i, image.corners);
+      pairs.insert(pairs.end(), image_pairs.begin(), image_pairs.end());
+    }
+    if (truth && truth->images.size() != detections.images.size()) {
+      throw io::InputError(FLAGS_truth + ": images: expected " +
+                           std::to_string(detections.images.size()) +
+                           " images as in the detections file, got " +
+                           std::to_string(truth->images.size()));
+    }
+  } else {
+    std::mt19937 rng(static_cast<unsigned>(FLAGS_seed));
+    pairs = stereo::TruthPairs(*truth, FLAGS_noise_px, &rng);
+    for (const auto& image : truth->images) image_names.push_back(image.file);
+    observations = 2 * static_cast<long>(pairs.size());
+  }
+
+  io::CsvWriter out(FLAGS_out, {"image", "target", "id", "x_mm", "y_mm", "z_mm", "cov_xx",
+                                "cov_xy", "cov_xz", "cov_yy", "cov_yz", "cov_zz", "u1", "v1",
+                                "u2", "v2", "gap_mm"});
+  std::vector<stereo::CornerError> errors;
+  long triangulated = 0, failed = 0, unmatched = 0;
+  for (const auto& pair : pairs) {
+    const auto point = triangulator.Triangulate(pair.pixel1, pair.pixel2, options);
+    if (!point) {
+      ++failed;
+      continue;
+    }
+    const Eigen::Vector3d& p = point->point_in_cam;
+    const Eigen::Matrix3d& c = point->covariance;
+    out.Add(image_names[pair.image]);
+    for (double value : {double(pair.target), double(pair.id), p.x(), p.y(), p.z(), c(0, 0),
+                         c(0, 1), c(0, 2), c(1, 1), c(1, 2), c(2, 2), pair.pixel1.x(),
+                         pair.pixel1.y(), pair.pixel2.x(), pair.pixel2.y(), point->gap_mm}) {
+      out.Add(value);
+    }
+    out.EndRow();
+    ++triangulated;
+    if (truth) {
+      if (auto e = stereo::CompareWithTruth(*truth, pair, *point)) errors.push_back(*e);
+      else ++unmatched;
+    }
+  }
+  if (triangulated == 0) {
+    throw io::InputError((FLAGS_detections.empty() ? FLAGS_truth : FLAGS_detections) +
+                         ": expected corners seen in both rings (mirror 1 and 2), got none that "
+                         "triangulate");
+  }
+  out.Commit();
+  std::printf("triangulate: %ld observations, %zu pairs, %ld triangulated (%s, sigma_px %g%s), "
+              "%ld failed -> %s\n",
+              observations, pairs.size(), triangulated, FLAGS_method.c_str(), FLAGS_sigma_px,
+              FLAGS_model_covariance ? " + model covariance" : "", failed, FLAGS_out.c_str());
+  if (truth) {
+    if (FLAGS_detections.empty()) {
+      std::printf("pixels: the truth's own, noise %g px (seed %d)\n", FLAGS_noise_px, FLAGS_seed);
+    }
+    std::printf("%s", stereo::FormatRangeTable(stereo::RangeTable(errors)).c_str());
+    if (unmatched > 0) std::printf("(%ld points without a true corner)\n", unmatched);
+  }
+  return 0;
+}
 
 }  // namespace omni::apps

@@ -11,3 +11,8 @@ DECLARE_string(scene);
 DECLARE_string(detections);
 DECLARE_string(points);
 DECLARE_string(pixels);
+// 3D sensing (triangulate, panorama, depth).
+DECLARE_string(image);
+DECLARE_double(sigma_px);
+DECLARE_int32(panorama_width);
+DECLARE_double(cylinder_radius_mm);

@@ -1,0 +1,244 @@
+#include "model/stereo/sparse_triangulation.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <tuple>
+
+#include <Eigen/Cholesky>
+
+#include "model/io/yaml_reader.h"
+
+namespace omni::stereo {
+
+std::vector<CornerPair> PairCorners(const Triangulator& triangulator, int image,
+                                    const std::vector<io::CornerObservation>& corners,
+                                    double max_gap_fraction) {
+  // Candidates: every (mirror 1, mirror 2) observation pair with the same (target, id).
+  std::map<std::pair<int, int>, std::vector<int>> ring1, ring2;
+  for (int i = 0; i < static_cast<int>(corners.size()); ++i) {
+    const auto key = std::make_pair(corners[i].target, corners[i].id);
+    (corners[i].mirror == 1 ? ring1 : ring2)[key].push_back(i);
+  }
+  struct Candidate {
+    double gap_ratio;
+    int i1, i2;
+  };
+  std::vector<Candidate> candidates;
+  for (const auto& [key, list1] : ring1) {
+    const auto it = ring2.find(key);
+    if (it == ring2.end()) continue;
+    for (int i1 : list1) {
+      for (int i2 : it->second) {
+        double gap = 0;
+        const auto p = triangulator.Midpoint(corners[i1].pixel, corners[i2].pixel, &gap);
+        if (!p) continue;
+        const double ratio = gap / std::max(1.0, p->head<2>().norm());
+        if (ratio <= max_gap_fraction) candidates.push_back({ratio, i1, i2});
+      }
+    }
+  }
+  std::sort(candidates.begin(), candidates.end(),
+            [](const Candidate& a, const Candidate& b) { return a.gap_ratio < b.gap_ratio; });
+  std::vector<char> used(corners.size(), 0);
+  std::vector<CornerPair> pairs;
+  for (const Candidate& c : candidates) {
+    if (used[c.i1] || used[c.i2]) continue;
+    used[c.i1] = used[c.i2] = 1;
+    pairs.push_back({image, corners[c.i1].target, corners[c.i1].id, corners[c.i1].pixel,
+                     corners[c.i2].pixel});
+  }
+  return pairs;
+}
+
+namespace {
+
+// The scene's distinct placement ranges (horizontal), boards within 10% merged, as bin centres.
+std::vector<double> RangeBins(const Truth& truth) {
+  std::vector<double> ranges;
+  for (const auto& image : truth.images) {
+    for (const auto& t : image.placement_translation) ranges.push_back(t.head<2>().norm());
+  }
+  std::sort(ranges.begin(), ranges.end());
+  std::vector<double> bins;
+  std::vector<int> counts;
+  for (double r : ranges) {
+    if (!bins.empty() && r <= 1.1 * bins.back() / counts.back()) {
+      bins.back() += r;
+      ++counts.back();
+    } else {
+      bins.push_back(r);
+      counts.push_back(1);
+    }
+  }
+  for (size_t i = 0; i < bins.size(); ++i) bins[i] /= counts[i];
+  return bins;
+}
+
+double NearestBin(const std::vector<double>& bins, double range) {
+  double best = range, best_d = INFINITY;
+  for (double b : bins) {
+    const double d = std::abs(std::log(range / b));
+    if (d < best_d) best_d = d, best = b;
+  }
+  return best;
+}
+
+}  // namespace
+
+Truth ReadTruthFile(const std::string& path) {
+  const io::Reader in(path);
+  const YAML::Node root = io::LoadYamlFile(path, "truth file (omnistereo-truth/1)");
+  io::CheckFormat(in, root, "omnistereo-truth/", 1);
+  Truth truth;
+  if (io::IsScalar(root["model"])) truth.model = root["model"].Scalar();
+  const YAML::Node images = root["images"];
+  if (!io::IsSequence(images)) in.Fail("images", "expected a list of images", io::Describe(images));
+  for (std::size_t i = 0; i < images.size(); ++i) {
+    const std::string key = "images[" + std::to_string(i) + "]";
+    const YAML::Node image = images[i];
+    if (!io::IsMap(image)) in.Fail(key, "expected a map", io::Describe(image));
+    TruthImage out;
+    out.file = in.String(image, key, "file");
+    const YAML::Node placements = image["placements"];
+    if (!io::IsSequence(placements)) {
+      in.Fail(key + ".placements", "expected a list", io::Describe(placements));
+    }
+    for (std::size_t p = 0; p < placements.size(); ++p) {
+      const std::string pkey = key + ".placements[" + std::to_string(p) + "]";
+      const std::vector<double> t = in.Numbers(placements[p], pkey, "translation");
+      if (t.size() != 3) in.Fail(pkey + ".translation", "expected 3 numbers", "another count");
+      out.placement_translation.emplace_back(t[0], t[1], t[2]);
+    }
+    const YAML::Node corners = image["corners"];
+    if (corners.IsDefined() && !corners.IsNull()) {
+      if (!corners.IsSequence()) in.Fail(key + ".corners", "expected a list", io::Describe(corners));
+      for (std::size_t c = 0; c < corners.size(); ++c) {
+        const std::string ckey = key + ".corners[" + std::to_string(c) + "]";
+        const YAML::Node row = corners[c];
+        if (!io::IsSequence(row) || row.size() != 10) {
+          in.Fail(ckey, "expected [placement, target, id, x, y, z, u1, v1, u2, v2]",
+                  io::Describe(row));
+        }
+        TruthCorner tc;
+        tc.placement = static_cast<int>(in.Number(row[0], ckey + "[0]"));
+        tc.target = static_cast<int>(in.Number(row[1], ckey + "[1]"));
+        tc.id = static_cast<int>(in.Number(row[2], ckey + "[2]"));
+        if (tc.placement < 0 || tc.placement >= static_cast<int>(out.placement_translation.size())) {
+          in.Fail(ckey + "[0]", "expected a placement index of this image", io::Describe(row[0]));
+        }
+        for (int k = 0; k < 3; ++k) {
+          tc.point_in_cam[k] = in.Number(row[3 + k], ckey + "[" + std::to_string(3 + k) + "]");
+        }
+        for (int m = 0; m < 2; ++m) {
+          const YAML::Node u = row[6 + 2 * m], v = row[7 + 2 * m];
+          if (u.IsNull() || v.IsNull()) continue;
+          tc.pixel[m] = Eigen::Vector2d(in.Number(u, ckey + "[" + std::to_string(6 + 2 * m) + "]"),
+                                        in.Number(v, ckey + "[" + std::to_string(7 + 2 * m) + "]"));
+        }
+        out.corners.push_back(tc);
+      }
+    }
+    truth.images.push_back(std::move(out));
+  }
+  truth.range_bins_mm = RangeBins(truth);
+  return truth;
+}
+
+std::vector<CornerPair> TruthPairs(const Truth& truth, double noise_px, std::mt19937* rng) {
+  std::normal_distribution<double> noise(0.0, noise_px > 0 ? noise_px : 1.0);
+  auto jitter = [&]() {
+    return noise_px > 0 ? Eigen::Vector2d(noise(*rng), noise(*rng)) : Eigen::Vector2d::Zero();
+  };
+  std::vector<CornerPair> pairs;
+  for (int i = 0; i < static_cast<int>(truth.images.size()); ++i) {
+    for (const TruthCorner& c : truth.images[i].corners) {
+      if (!c.pixel[0] || !c.pixel[1]) continue;
+      const Eigen::Vector2d px1 = *c.pixel[0] + jitter();
+      const Eigen::Vector2d px2 = *c.pixel[1] + jitter();
+      pairs.push_back({i, c.target, c.id, px1, px2});
+    }
+  }
+  return pairs;
+}
+
+
+std::optional<CornerError> CompareWithTruth(const Truth& truth, const CornerPair& pair,
+                                            const TriangulatedPoint& estimate) {
+  if (pair.image < 0 || pair.image >= static_cast<int>(truth.images.size())) return std::nullopt;
+  const TruthImage& image = truth.images[pair.image];
+  const TruthCorner* best = nullptr;
+  double best_d = INFINITY;
+  for (const TruthCorner& c : image.corners) {
+    if (c.target != pair.target || c.id != pair.id) continue;
+    const double d = (c.point_in_cam - estimate.point_in_cam).norm();
+    if (d < best_d) best_d = d, best = &c;
+  }
+  if (!best) return std::nullopt;
+  CornerError e;
+  e.range_bin_mm = NearestBin(truth.range_bins_mm,
+                              image.placement_translation[best->placement].head<2>().norm());
+  e.error = estimate.point_in_cam - best->point_in_cam;
+  e.covariance = estimate.covariance;
+  return e;
+}
+
+std::vector<RangeRow> RangeTable(const std::vector<CornerError>& errors) {
+  std::map<double, std::vector<const CornerError*>> by_bin;
+  for (const auto& e : errors) by_bin[e.range_bin_mm].push_back(&e);
+  std::vector<RangeRow> rows;
+  for (const auto& [range, list] : by_bin) {
+    RangeRow row;
+    row.range_mm = range;
+    row.points = static_cast<int>(list.size());
+    double sum2 = 0, sum = 0, sigma = 0, nees = 0;
+    int nees_n = 0;
+    for (const CornerError* e : list) {
+      const double n = e->error.norm();
+      sum += n;
+      sum2 += n * n;
+      sigma += std::sqrt(std::max(0.0, e->covariance.trace()));
+      const Eigen::LDLT<Eigen::Matrix3d> ldlt(e->covariance);
+      if (e->covariance.trace() > 0 && ldlt.info() == Eigen::Success && ldlt.isPositive()) {
+        nees += e->error.dot(ldlt.solve(e->error));
+        ++nees_n;
+      }
+    }
+    const double mean = sum / row.points;
+    row.rmse_mm = std::sqrt(sum2 / row.points);
+    row.sd_mm = row.points > 1
+                    ? std::sqrt(std::max(0.0, (sum2 - row.points * mean * mean) / (row.points - 1)))
+                    : 0.0;
+    row.mean_sigma_mm = sigma / row.points;
+    row.mean_nees = nees_n > 0 ? nees / nees_n : NAN;
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+std::string FormatRangeTable(const std::vector<RangeRow>& rows) {
+  // The paper's RMSE (tab:rmse_triangulation_experiment), mm, by range in m.
+  const std::map<double, double> paper = {{0.25, 0.46}, {0.5, 1.20}, {1.0, 4.62},
+                                          {2.0, 14.85}, {4.0, 57.67}, {8.0, 219.09}};
+  std::string out =
+      "range_m  rmse_mm    sd_mm  points  sigma_mm  mean_nees  paper_rmse_mm\n";
+  char line[160];
+  for (const RangeRow& r : rows) {
+    std::string paper_text = "-";
+    for (const auto& [range_m, rmse] : paper) {
+      if (std::abs(r.range_mm / 1000.0 - range_m) < 0.1 * range_m) {
+        char p[32];
+        std::snprintf(p, sizeof(p), "%.2f", rmse);
+        paper_text = p;
+      }
+    }
+    std::snprintf(line, sizeof(line), "%7.3f %8.3f %8.3f %7d %9.3f %10.2f  %s\n",
+                  r.range_mm / 1000.0, r.rmse_mm, r.sd_mm, r.points, r.mean_sigma_mm, r.mean_nees,
+                  paper_text.c_str());
+    out += line;
+  }
+  return out;
+}
+
+}  // namespace omni::stereo

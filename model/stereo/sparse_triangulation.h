@@ -1,0 +1,85 @@
+// The paper's sparse triangulation experiment (tab:rmse_triangulation_experiment): corners seen
+// in both rings are paired, triangulated (model/triangulation.h) and compared with the true
+// corners of a synthetic session (the `omnistereo-truth/1` file that `render` writes), per
+// horizontal range.
+#pragma once
+
+#include <optional>
+#include <random>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "model/io/detections_file.h"
+#include "model/triangulation.h"
+
+namespace omni::stereo {
+
+// One corner seen in both rings of one image.
+struct CornerPair {
+  int image = 0;  // index into the detections' (or truth's) images
+  int target = 0, id = 0;
+  Eigen::Vector2d pixel1 = Eigen::Vector2d::Zero(), pixel2 = Eigen::Vector2d::Zero();
+};
+
+// Pairs the mirror-1 and mirror-2 observations of one image by (target, id). Where a target
+// occurs several times in the image (the RMSE scene repeats each board 4 times per range), the
+// pairs whose rays pass closest (smallest common-perpendicular gap, greedy) win; a pair whose gap
+// exceeds max_gap_fraction of the triangulated range is dropped. Each observation is used once.
+std::vector<CornerPair> PairCorners(const Triangulator& triangulator, int image,
+                                    const std::vector<io::CornerObservation>& corners,
+                                    double max_gap_fraction = 0.05);
+
+// What the truth file says about one image.
+struct TruthCorner {
+  int placement = 0, target = 0, id = 0;
+  Eigen::Vector3d point_in_cam = Eigen::Vector3d::Zero();
+  std::optional<Eigen::Vector2d> pixel[2];  // [0] mirror 1, [1] mirror 2
+};
+struct TruthImage {
+  std::string file;
+  std::vector<Eigen::Vector3d> placement_translation;  // cam_from_target translations, mm
+  std::vector<TruthCorner> corners;
+};
+struct Truth {
+  std::string model;
+  std::vector<TruthImage> images;
+  // The scene's distinct horizontal placement ranges (boards within 10% merged; ReadTruthFile).
+  std::vector<double> range_bins_mm;
+};
+
+// Reads `omnistereo-truth/1` (calib/synthetic/scene_file.h TruthText); throws io::InputError
+// naming the file and key.
+Truth ReadTruthFile(const std::string& path);
+
+// Corner pairs straight from the truth pixels, with Gaussian noise of noise_px per coordinate
+// (for running the experiment without a detector).
+std::vector<CornerPair> TruthPairs(const Truth& truth, double noise_px, std::mt19937* rng);
+
+// One triangulated corner compared with the truth.
+struct CornerError {
+  double range_bin_mm = 0;  // the ring (horizontal range of its board) it belongs to
+  Eigen::Vector3d error = Eigen::Vector3d::Zero();  // estimate - truth, mm
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
+};
+
+// Matches a triangulated corner to its true corner: the same image, target and id, nearest in
+// 3D where the target repeats. The range bin is the horizontal range of the board's placement,
+// rounded to the scene's distinct placement ranges (boards within 10% share a bin).
+std::optional<CornerError> CompareWithTruth(const Truth& truth, const CornerPair& pair,
+                                            const TriangulatedPoint& estimate);
+
+struct RangeRow {
+  double range_mm = 0;
+  int points = 0;
+  double rmse_mm = 0;        // sqrt(mean |e|^2)
+  double sd_mm = 0;          // standard deviation of |e|
+  double mean_sigma_mm = 0;  // mean predicted sqrt(trace Sigma)
+  double mean_nees = 0;      // mean e^T Sigma^-1 e (3 if the covariance is right)
+};
+std::vector<RangeRow> RangeTable(const std::vector<CornerError>& errors);
+// The table as text (range m, RMSE, SD, points, mean sigma, NEES) with the paper's RMSE beside.
+std::string FormatRangeTable(const std::vector<RangeRow>& rows);
+
+}  // namespace omni::stereo
