@@ -1,0 +1,77 @@
+// Lip detection: sub-pixel edge points of the coloured lip bands (blue: mirror 1's lip, red:
+// mirror 2's) labelled with the 3D circle and optical path each edge is the image of, cleaned by
+// a robust ellipse fit per edge.
+//
+// A coloured band is the union of several images of the same annulus (model/lip.h): the blue
+// band is the lip seen directly plus mirror 1's reflection of its underside, the red band mirror
+// 2's reflection of its lip (plus the lip in the reflex disc where the disc's rim does not hide
+// it, which on the designed rigs it always does). The model (the ideal one is enough) predicts,
+// for every azimuth, the image of each (circle, path) pair; a band edge is kept at that azimuth
+// only if it is unambiguous: the outermost (innermost) covered radius of the band is the image
+// of a lip circle along one path, the lip is seen on its band side along the same path over at
+// least `min_band_px`, and no
+// other (circle, path) image of the band lies within `min_margin_px`. Edges clipped by an
+// occluder (the reflex disc's rim) are dropped.
+//
+// Edge points: along radial profiles from the band's predicted centre, the colour score (blue:
+// B - max(R, G); red: R - max(G, B)) crosses half-way between its band and outside levels; the
+// search window is +-search_px around the prediction, so the model may be misaligned by that much.
+#pragma once
+
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include "model/io/detections_file.h"
+#include "model/lip.h"
+#include "model/rig_model.h"
+
+namespace omni::detectors {
+
+struct LipDetectorOptions {
+  int profiles = 720;            // radial profiles per full circle
+  double search_px = 14;         // half-width of the search window around the prediction
+  double min_margin_px = 1.5;    // to the nearest other (circle, path) image of the same band
+  double min_band_px = 2.5;      // visible band width along the edge's own path
+  double min_contrast = 60;      // band minus outside colour score (0..255) for an edge point
+  double ransac_inlier_px = 0.5; // ellipse fit: Sampson distance of an inlier
+  int ransac_iterations = 300;
+  int min_points = 30;           // fewer inliers: the edge is dropped
+};
+
+// An ellipse as the conic a u^2 + b uv + c v^2 + d u + e v + f = 0 (unit norm) with its centre,
+// semi-axes and the angle of the first axis (rad).
+struct Ellipse {
+  Eigen::Matrix<double, 6, 1> conic = Eigen::Matrix<double, 6, 1>::Zero();
+  Eigen::Vector2d center = Eigen::Vector2d::Zero();
+  double semi_major = 0, semi_minor = 0, angle = 0;
+  // Sampson (first-order geometric) distance of a pixel to the ellipse.
+  double Distance(const Eigen::Vector2d& p) const;
+};
+
+// One detected lip edge: the points that survived the ellipse fit, their labels and the fit.
+struct LipEdgeFit {
+  io::LipEdge edge;  // mirror, edge, circle, path, points (inliers)
+  LipPath path = LipPath::kDirect;
+  LipCircle circle = LipCircle::kOuter;
+  Ellipse ellipse;
+  double rms_px = 0;   // of the inliers to the ellipse
+  int n_profiles = 0;  // profiles where the edge was labelled unambiguous and searched
+  int n_found = 0;     // edge points found before the ellipse fit
+};
+
+// The edges the model labels unambiguous, detected in a BGR image (the model's size). Grey or
+// wrongly sized images give no edges.
+std::vector<LipEdgeFit> DetectLipEdges(const cv::Mat& raw_bgr, const RigModel& model,
+                                       const LipDetectorOptions& options = {});
+
+// The detections-file view of DetectLipEdges.
+std::vector<io::LipEdge> DetectLips(const cv::Mat& raw_bgr, const RigModel& model);
+
+// Robust ellipse fit (RANSAC on 5-point conics, then least squares on the inliers); false if
+// fewer than min_points inliers. *inliers receives their indices.
+bool FitEllipseRobust(const std::vector<Eigen::Vector2d>& points, const LipDetectorOptions& options,
+                      Ellipse* ellipse, std::vector<int>* inliers);
+
+}  // namespace omni::detectors

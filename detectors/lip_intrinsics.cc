@@ -1,0 +1,147 @@
+#include "detectors/lip_intrinsics.h"
+
+#include <cmath>
+
+#include <ceres/ceres.h>
+
+#include "model/lip.h"
+
+namespace omni::detectors {
+namespace {
+
+// Residual of one edge point: its pixel minus the image of its lip circle at azimuth phi along
+// its path, with camera = (f, f, cx, cy, 0) and every other block at the nominal values.
+struct LipPointResidual {
+  LipPointResidual(const RigModel* model, LipPath path, double radius, const Eigen::Vector2d& pixel)
+      : model(model), path(path), radius(radius), pixel(pixel) {}
+
+  template <typename T>
+  bool operator()(const T* intrinsics, const T* phi, T* residual) const {
+    const RigParams& rig = model->params();
+    const T camera[5] = {intrinsics[0], intrinsics[0], intrinsics[1], intrinsics[2], T(0)};
+    T distortion[5], shape1[2], shape2[2], pose1[5], pose2[5], reflex[3];
+    for (int i = 0; i < 5; ++i) {
+      distortion[i] = T(rig.distortion[i]);
+      pose1[i] = T(rig.mirror1_pose[i]);
+      pose2[i] = T(rig.mirror2_pose[i]);
+    }
+    for (int i = 0; i < 2; ++i) {
+      shape1[i] = T(rig.mirror1_shape[i]);
+      shape2[i] = T(rig.mirror2_shape[i]);
+    }
+    for (int i = 0; i < 3; ++i) reflex[i] = T(rig.reflex[i]);
+    const LipBlocks<T> blocks{camera, distortion, shape1, pose1, reflex, shape2, pose2};
+    Vec2<T> projected;
+    if (!ProjectLipPoint(blocks, model->fixed(), path, T(radius), T(LipOf(rig, path).z), phi[0],
+                         &projected)) {
+      return false;
+    }
+    residual[0] = projected.x() - T(pixel.x());
+    residual[1] = projected.y() - T(pixel.y());
+    return true;
+  }
+
+  const RigModel* model;
+  LipPath path;
+  double radius;
+  Eigen::Vector2d pixel;
+};
+
+}  // namespace
+
+std::optional<LipIntrinsics> InitialIntrinsicsFromLips(const std::vector<io::LipEdge>& edges,
+                                                       const RigModel& nominal) {
+  const RigParams& rig = nominal.params();
+  double intrinsics[3] = {0.5 * (rig.camera[0] + rig.camera[1]), rig.camera[2], rig.camera[3]};
+  struct Point {
+    LipPath path;
+    double radius;
+    Eigen::Vector2d pixel;
+  };
+  std::vector<Point> points;
+  for (const io::LipEdge& edge : edges) {
+    LipPath path;
+    LipCircle circle;
+    if (!ParseLipPath(edge.path, &path) || !ParseLipCircle(edge.circle, &circle)) continue;
+    if (MirrorIndex(LipOwner(path)) != edge.mirror) continue;
+    const Lip& lip = LipOf(rig, path);
+    const double radius = circle == LipCircle::kInner ? lip.r_inner : lip.r_outer;
+    for (const Eigen::Vector2d& p : edge.points) points.push_back(Point{path, radius, p});
+  }
+  if (points.size() < 20) return std::nullopt;
+
+  // Azimuths: the image azimuth about the principal point is close to the lip point's azimuth
+  // on a nearly coaxial rig (every path reflects in planes through the axis); a scan around it
+  // finds a valid start where the point's image is nearest, the solve then refines it. Points
+  // whose circle image is nowhere near (> 20 px) are left out.
+  constexpr double kScanStep = 0.002, kMaxStart = 20.0;
+  constexpr int kScanHalf = 60;
+  std::vector<double> phi;
+  std::vector<Point> used;
+  for (const Point& p : points) {
+    const double phi0 = std::atan2(p.pixel.y() - intrinsics[2], p.pixel.x() - intrinsics[1]);
+    double best = kMaxStart, best_phi = 0;
+    for (int k = -kScanHalf; k <= kScanHalf; ++k) {
+      Eigen::Vector2d q;
+      const double a = phi0 + k * kScanStep;
+      if (!ProjectLipPoint(LipBlocksOf(rig), nominal.fixed(), p.path, p.radius,
+                           LipOf(rig, p.path).z, a, &q)) {
+        continue;
+      }
+      const double dist = (q - p.pixel).norm();
+      if (dist < best) {
+        best = dist;
+        best_phi = a;
+      }
+    }
+    if (best < kMaxStart) {
+      used.push_back(p);
+      phi.push_back(best_phi);
+    }
+  }
+  if (used.size() < 20) return std::nullopt;
+  points.swap(used);
+  ceres::Problem problem;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    auto* cost = new ceres::AutoDiffCostFunction<LipPointResidual, 2, 3, 1>(
+        new LipPointResidual(&nominal, points[i].path, points[i].radius, points[i].pixel));
+    problem.AddResidualBlock(cost, new ceres::HuberLoss(1.0), intrinsics, &phi[i]);
+  }
+  ceres::Solver::Options options;
+  options.linear_solver_type = ceres::DENSE_SCHUR;
+  options.max_num_iterations = 50;
+  options.num_threads = 1;
+  ceres::Solver::Summary summary;
+  ceres::Solve(options, &problem, &summary);
+  if (summary.termination_type != ceres::CONVERGENCE) return std::nullopt;
+
+  LipIntrinsics out;
+  out.f = intrinsics[0];
+  out.cx = intrinsics[1];
+  out.cy = intrinsics[2];
+  out.n_points = static_cast<int>(points.size());
+  // Residual spread and the intrinsics' standard deviations from the Gauss-Newton normal
+  // equations, the per-azimuth unknowns eliminated (Ceres' covariance of the 3-block).
+  double sum2 = 0;
+  std::vector<double> residuals;
+  problem.Evaluate(ceres::Problem::EvaluateOptions(), nullptr, &residuals, nullptr, nullptr);
+  for (double r : residuals) sum2 += r * r;
+  const int dof = std::max<int>(1, static_cast<int>(residuals.size()) - 3 -
+                                        static_cast<int>(points.size()));
+  out.rms_px = std::sqrt(sum2 / points.size());
+  ceres::Covariance::Options cov_options;
+  cov_options.num_threads = 1;
+  ceres::Covariance covariance(cov_options);
+  std::vector<std::pair<const double*, const double*>> blocks = {{intrinsics, intrinsics}};
+  if (covariance.Compute(blocks, &problem)) {
+    double c[9];
+    covariance.GetCovarianceBlock(intrinsics, intrinsics, c);
+    const double s2 = sum2 / dof;  // unit-weight variance (the Huber loss is ~quadratic here)
+    out.sigma_f = std::sqrt(std::max(0.0, c[0] * s2));
+    out.sigma_cx = std::sqrt(std::max(0.0, c[4] * s2));
+    out.sigma_cy = std::sqrt(std::max(0.0, c[8] * s2));
+  }
+  return out;
+}
+
+}  // namespace omni::detectors

@@ -1,0 +1,35 @@
+// An initial focal length and principal point from detected lip edges: the way the paper's
+// authors initialised their real camera (the lips' known 3D radii and heights fix the scale).
+//
+// Fits fx = fy = f, cx, cy (skew 0; distortion, mirror poses and reflex plane held at the given
+// model's values) so that every labelled edge point lies on the image of its 3D lip circle along
+// its optical path (model/lip.h): one azimuth per point is estimated with the intrinsics (Ceres).
+//
+// What lips cannot tell: a common tilt of a mirror body about the camera centre moves its lip
+// images like a principal-point shift (f * tilt * sec^2(angle off the axis); the difference
+// between the lips' angles off the axis is a few per cent), so with a nominal (ideal) model the
+// principal point absorbs the mirrors' tilts: about f * tilt pixels (1450 px * 0.005 rad ~ 7 px on
+// the misaligned sample rig). The focal length is well determined (lip size).
+#pragma once
+
+#include <optional>
+#include <vector>
+
+#include "model/io/detections_file.h"
+#include "model/rig_model.h"
+
+namespace omni::detectors {
+
+struct LipIntrinsics {
+  double f = 0, cx = 0, cy = 0;
+  double sigma_f = 0, sigma_cx = 0, sigma_cy = 0;  // from the residual spread (px), 1 sigma
+  double rms_px = 0;  // point-to-circle-image residual
+  int n_points = 0;
+};
+
+// nullopt if fewer than 20 usable labelled points or the solve fails. Edges without a known
+// circle/path label are ignored.
+std::optional<LipIntrinsics> InitialIntrinsicsFromLips(const std::vector<io::LipEdge>& edges,
+                                                       const RigModel& nominal);
+
+}  // namespace omni::detectors

@@ -1,0 +1,170 @@
+// model/lip.h against an independent backward ray trace: the pixel a path gives for a lip point,
+// traced back (undistort, camera ray, reflex plane / RigModel::Unproject), must land on that lip
+// point; and the Jet derivative of a lip pixel against finite differences.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include <ceres/jet.h>
+
+#include "model/io/model_file.h"
+#include "model/lip.h"
+
+namespace omni {
+namespace {
+
+RigParams Misaligned() {
+  return io::ReadModelFile(std::string(OMNISTEREO_SOURCE_DIR) + "/sample_configs/big_rig_misaligned.yaml");
+}
+
+// The camera ray of a pixel in C (unit), by undistortion.
+Eigen::Vector3d CameraRay(const RigParams& rig, const Eigen::Vector2d& pixel) {
+  Eigen::Vector2d xy;
+  EXPECT_TRUE(Undistort(rig.Distortion(), rig.Intrinsics().NormalizedFromPixel(pixel), &xy));
+  return Eigen::Vector3d(xy.x(), xy.y(), 1).normalized();
+}
+
+// Where a ray meets the lip's plane, in the owner mirror's frame.
+Eigen::Vector3d HitLipPlane(const RigParams& rig, Mirror owner, const Eigen::Vector3d& origin_in_cam,
+                            const Eigen::Vector3d& dir_in_cam) {
+  const Pose<double> cam_from_mirror =
+      PoseFromBlock(owner == Mirror::kOne ? rig.mirror1_pose.data() : rig.mirror2_pose.data());
+  const Pose<double> mirror_from_cam = cam_from_mirror.Inverse();
+  const Eigen::Vector3d o = mirror_from_cam * origin_in_cam, d = mirror_from_cam.Rotate(dir_in_cam);
+  const double z = owner == Mirror::kOne ? rig.lip1.z : rig.lip2.z;
+  return o + (z - o.z()) / d.z() * d;
+}
+
+void ExpectOnCircle(const Eigen::Vector3d& hit, double radius, double phi, double tol_mm) {
+  EXPECT_NEAR(hit.head<2>().norm(), radius, tol_mm);
+  EXPECT_NEAR(std::remainder(std::atan2(hit.y(), hit.x()) - phi, 2 * M_PI), 0, tol_mm / radius);
+}
+
+TEST(LipModel, DirectAndViaMirrorPathsTraceBackToTheLipPoint) {
+  const RigParams rig = Misaligned();
+  const RigModel model(rig);
+  int checked[4] = {0, 0, 0, 0};
+  for (int k = 0; k < 72; ++k) {
+    const double phi = 2 * M_PI * k / 72 + 0.01;
+    for (LipCircle circle : {LipCircle::kOuter}) {
+      const double r = LipOf(rig, LipPath::kDirect).r_outer;
+      // direct: the camera ray itself.
+      const auto direct = ProjectLipPoint(model, LipPath::kDirect, circle, phi);
+      ASSERT_TRUE(direct);
+      ExpectOnCircle(HitLipPlane(rig, Mirror::kOne, Eigen::Vector3d::Zero(), CameraRay(rig, *direct)),
+                     r, phi, 1e-6);
+      ++checked[0];
+      // via_mirror1 / via_mirror2: RigModel::Unproject's exact ray trace.
+      for (LipPath path : {LipPath::kViaMirror1, LipPath::kViaMirror2}) {
+        const auto pixel = ProjectLipPoint(model, path, circle, phi);
+        if (!pixel) continue;  // mirror 2's band is hidden by the reflex rim on part of the circle
+        const auto ray = model.Unproject(*pixel);
+        ASSERT_TRUE(ray) << LipPathName(path) << " phi " << phi;
+        EXPECT_EQ(ray->mirror, LipOwner(path));
+        ExpectOnCircle(HitLipPlane(rig, LipOwner(path), ray->ray.origin, ray->ray.direction),
+                       LipOf(rig, path).r_outer, phi, 1e-6);
+        ++checked[path == LipPath::kViaMirror1 ? 1 : 3];
+      }
+    }
+  }
+  EXPECT_EQ(checked[0], 72);
+  EXPECT_EQ(checked[1], 72);  // mirror 1 reflects its lip's outer circle all round
+  EXPECT_GT(checked[3], 25);  // about 60% of the circle on this rig
+}
+
+TEST(LipModel, ViaReflexTracesBackAndRespectsTheDiscRim) {
+  RigParams rig = Misaligned();
+  // On the designed rig the reflex disc's rim hides the red lip entirely (its images would lie
+  // beyond the rim); a wider disc shows it.
+  {
+    const RigModel model(rig);
+    for (int k = 0; k < 36; ++k) {
+      double margin = 0;
+      EXPECT_FALSE(ProjectLipPoint(model, LipPath::kViaReflex, LipCircle::kOuter, k * 0.17, &margin));
+      EXPECT_LT(margin, 0);
+    }
+  }
+  rig.r_ref = 20.0;
+  const RigModel model(rig);
+  const Pose<double> cam_from_m1 = PoseFromBlock(rig.mirror1_pose.data());
+  const Plane<double> plane_m1 = ReflexPlaneInMirror1(rig.reflex.data(), rig.d);
+  const Eigen::Vector3d plane_point = cam_from_m1 * plane_m1.point;
+  const Eigen::Vector3d plane_normal = cam_from_m1.Rotate(plane_m1.normal);
+  int n = 0;
+  for (int k = 0; k < 72; ++k) {
+    const double phi = 2 * M_PI * k / 72;
+    for (LipCircle circle : {LipCircle::kInner, LipCircle::kOuter}) {
+      double margin = 0;
+      const auto pixel = ProjectLipPoint(model, LipPath::kViaReflex, circle, phi, &margin);
+      ASSERT_TRUE(pixel);
+      EXPECT_GT(margin, 0);
+      // Backward: camera ray -> reflex plane -> reflected ray -> lip plane.
+      const Eigen::Vector3d d = CameraRay(rig, *pixel);
+      const double t = plane_point.dot(plane_normal) / d.dot(plane_normal);
+      const Eigen::Vector3d x = t * d;
+      EXPECT_NEAR(margin, rig.r_ref - (x - plane_point).norm(), 1e-9);
+      const Eigen::Vector3d reflected = Reflect(d, plane_normal);
+      ExpectOnCircle(HitLipPlane(rig, Mirror::kTwo, x, reflected),
+                     circle == LipCircle::kInner ? rig.lip2.r_inner : rig.lip2.r_outer, phi, 1e-6);
+      ++n;
+    }
+  }
+  EXPECT_EQ(n, 144);
+}
+
+TEST(LipModel, JetDerivativeMatchesFiniteDifferences) {
+  using Jet = ceres::Jet<double, 3>;
+  const RigParams rig = Misaligned();
+  const RigModel model(rig);
+  for (LipPath path : {LipPath::kDirect, LipPath::kViaMirror1, LipPath::kViaMirror2}) {
+    const double phi = 0.3;
+    const Lip& lip = LipOf(rig, path);
+    // d pixel / d (fx, cx, phi) by Jets.
+    Jet camera[5], dist[5], s1[2], s2[2], p1[5], p2[5], reflex[3];
+    for (int i = 0; i < 5; ++i) {
+      camera[i] = Jet(rig.camera[i]);
+      dist[i] = Jet(rig.distortion[i]);
+      p1[i] = Jet(rig.mirror1_pose[i]);
+      p2[i] = Jet(rig.mirror2_pose[i]);
+    }
+    for (int i = 0; i < 2; ++i) {
+      s1[i] = Jet(rig.mirror1_shape[i]);
+      s2[i] = Jet(rig.mirror2_shape[i]);
+    }
+    for (int i = 0; i < 3; ++i) reflex[i] = Jet(rig.reflex[i]);
+    camera[0] = Jet(rig.camera[0], 0);
+    camera[2] = Jet(rig.camera[2], 1);
+    const Jet phi_jet(phi, 2);
+    const LipBlocks<Jet> blocks{camera, dist, s1, p1, reflex, s2, p2};
+    Vec2<Jet> pixel;
+    ASSERT_TRUE(ProjectLipPoint(blocks, model.fixed(), path, Jet(lip.r_outer), Jet(lip.z), phi_jet, &pixel));
+    // Finite differences in double.
+    const double h[3] = {1e-3, 1e-3, 1e-6};
+    for (int k = 0; k < 3; ++k) {
+      RigParams plus = rig, minus = rig;
+      double phi_p = phi, phi_m = phi;
+      if (k == 0) { plus.camera[0] += h[k]; minus.camera[0] -= h[k]; }
+      if (k == 1) { plus.camera[2] += h[k]; minus.camera[2] -= h[k]; }
+      if (k == 2) { phi_p += h[k]; phi_m -= h[k]; }
+      const auto a = ProjectLipPoint(RigModel(plus), path, LipCircle::kOuter, phi_p);
+      const auto b = ProjectLipPoint(RigModel(minus), path, LipCircle::kOuter, phi_m);
+      ASSERT_TRUE(a && b);
+      const Eigen::Vector2d fd = (*a - *b) / (2 * h[k]);
+      EXPECT_NEAR(pixel.x().v[k], fd.x(), 1e-5 * (1 + std::abs(fd.x()))) << LipPathName(path) << k;
+      EXPECT_NEAR(pixel.y().v[k], fd.y(), 1e-5 * (1 + std::abs(fd.y()))) << LipPathName(path) << k;
+    }
+  }
+}
+
+TEST(LipModel, NamesRoundTrip) {
+  for (LipPath p : {LipPath::kDirect, LipPath::kViaMirror1, LipPath::kViaReflex, LipPath::kViaMirror2}) {
+    LipPath q;
+    ASSERT_TRUE(ParseLipPath(LipPathName(p), &q));
+    EXPECT_EQ(p, q);
+  }
+  LipPath q;
+  EXPECT_FALSE(ParseLipPath("via_mirror3", &q));
+}
+
+}  // namespace
+}  // namespace omni
