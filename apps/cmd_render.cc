@@ -1,7 +1,8 @@
 // `omnistereo render --model M --scene S --out DIR [--no_render]`: a synthetic session. Writes
 // DIR/NNNN.png (POV-Ray through the model's true mirror geometry, then lens distortion and noise),
-// DIR/NNNN.pov, DIR/model.yaml and DIR/truth.yaml (exact pixels from our model). --no_render
-// writes only the ground truth (the fast path).
+// DIR/NNNN.pov, DIR/target<i>_<type>.png (the tag grids' textures), DIR/model.yaml and
+// DIR/truth.yaml (exact pixels from our model). --no_render writes only the ground truth (the
+// fast path).
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -14,6 +15,7 @@
 #include "calib/synthetic/image_effects.h"
 #include "calib/synthetic/pov_scene.h"
 #include "calib/synthetic/scene_file.h"
+#include "calib/synthetic/tag_texture.h"
 #include "model/io/file_util.h"
 #include "model/io/model_file.h"
 #include "model/rig_model.h"
@@ -41,6 +43,11 @@ int RunRender() {
   RigParams render_rig = rig;
   render_rig.image_width = options.width;
   render_rig.image_height = options.height;
+  std::string texture_error;
+  if (!FLAGS_no_render &&
+      !synthetic::WriteTagTextures(scene.targets, FLAGS_out, &texture_error)) {
+    throw std::runtime_error(texture_error);
+  }
   int rendered = 0;
   double seconds = 0;
   for (size_t i = 0; i < scene.images.size() && !FLAGS_no_render; ++i) {

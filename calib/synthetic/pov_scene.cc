@@ -203,7 +203,7 @@ bool RenderScene(const std::string& pov_text, const std::string& out_png,
   }
   if (options.threads > 0) cmd << " +WT" << options.threads;
   const std::string log_path = pov_path + ".log";
-  cmd << " > '" << log_path << "' 2>&1";
+  cmd << " > '" << base(log_path) << "' 2>&1";  // relative to the folder it runs in
   const int status = std::system(cmd.str().c_str());
   if (status != 0) {
     std::ifstream log(log_path);

@@ -148,10 +148,7 @@ bool AddRandomImages(const RigModel& model, const RandomPlacement& random, Scene
   return true;
 }
 
-namespace {
-
-// cam_from_target for a board centred at `centre` whose printed side (-z_target) faces the axis.
-Placement FacingAxis(const TargetSpec& spec, int target, const Eigen::Vector3d& centre) {
+Placement PlaceFacingAxis(const TargetSpec& spec, int target, const Eigen::Vector3d& centre) {
   const Eigen::Vector3d to_axis = Eigen::Vector3d(-centre.x(), -centre.y(), 0).normalized();
   Placement p;
   p.target = target;
@@ -163,8 +160,6 @@ Placement FacingAxis(const TargetSpec& spec, int target, const Eigen::Vector3d& 
   p.cam_from_target_translation = centre - p.cam_from_target_rotation * PatternCentre(spec);
   return p;
 }
-
-}  // namespace
 
 void AddRingImage(const RigModel& model, const RingPlacement& rings, Scene* scene) {
   const IdealModel ideal = model.params().Ideal();
@@ -191,7 +186,7 @@ void AddRingImage(const RigModel& model, const RingPlacement& rings, Scene* scen
     for (int k = 0; k < rings.per_range; ++k) {
       const double az = 2 * M_PI * (k + static_cast<double>(i) / n_ranges) / rings.per_range;
       const Eigen::Vector3d centre(rho * std::cos(az), rho * std::sin(az), 0.5 * (z_lo + z_hi));
-      image.placements.push_back(FacingAxis(spec, target, centre));
+      image.placements.push_back(PlaceFacingAxis(spec, target, centre));
     }
   }
   scene->images.push_back(image);

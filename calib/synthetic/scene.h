@@ -66,6 +66,10 @@ struct Scene {
 bool AddRandomImages(const RigModel& model, const RandomPlacement& random, Scene* scene,
                      std::string* error);
 
+// A placement of `target` with its pattern centred at `centre` (C) and its printed side facing the
+// rig's axis horizontally: target x tangential, target y along +z of C.
+Placement PlaceFacingAxis(const TargetSpec& spec, int target, const Eigen::Vector3d& centre);
+
 // Adds one image with the ring placements (and a target definition per range).
 void AddRingImage(const RigModel& model, const RingPlacement& rings, Scene* scene);
 
