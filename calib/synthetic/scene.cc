@@ -7,6 +7,7 @@
 
 #include "calib/synthetic/tag_texture.h"
 #include "model/ideal_analysis.h"
+#include "model/rig_frames.h"
 
 namespace omni::synthetic {
 namespace {
@@ -190,6 +191,24 @@ void AddRingImage(const RigModel& model, const RingPlacement& rings, Scene* scen
     }
   }
   scene->images.push_back(image);
+}
+
+std::vector<LipTruth> LipsInCam(const RigParams& rig) {
+  std::vector<LipTruth> lips;
+  for (int m = 1; m <= 2; ++m) {
+    const Lip& lip = m == 1 ? rig.lip1 : rig.lip2;
+    const Pose<double> cam_from_mirror =
+        PoseFromBlock((m == 1 ? rig.mirror1_pose : rig.mirror2_pose).data());
+    LipTruth t;
+    t.mirror = m;
+    t.color = lip.color;
+    t.centre_in_cam = cam_from_mirror * Eigen::Vector3d(0, 0, lip.z);
+    t.normal_in_cam = cam_from_mirror.rotation * Eigen::Vector3d::UnitZ();
+    t.r_inner = lip.r_inner;
+    t.r_outer = lip.r_outer;
+    lips.push_back(t);
+  }
+  return lips;
 }
 
 SceneContent ContentOf(const Scene& scene, const SceneImage& image) {

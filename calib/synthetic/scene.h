@@ -86,6 +86,19 @@ struct CornerTruth {
 std::vector<CornerTruth> ComputeTruth(const RigModel& model, const Scene& scene,
                                       const SceneImage& image);
 
+// A lip (flat coloured annulus at a mirror's rim) as its two boundary circles in C, the mirror's
+// pose applied: centre, unit normal (the mirror body's +z), radii. What the lip detector images.
+struct LipTruth {
+  int mirror = 1;
+  std::string color;
+  Eigen::Vector3d centre_in_cam = Eigen::Vector3d::Zero();
+  Eigen::Vector3d normal_in_cam = Eigen::Vector3d::UnitZ();
+  double r_inner = 0, r_outer = 0;
+};
+
+// Both lips of the rig (mirror 1's, then mirror 2's).
+std::vector<LipTruth> LipsInCam(const RigParams& rig);
+
 // The POV-Ray content of one image of the scene.
 SceneContent ContentOf(const Scene& scene, const SceneImage& image);
 

@@ -213,6 +213,17 @@ std::string TruthText(const Scene& scene, const RigModel& model, const std::stri
       << "model: " << model_file << "\n"
       << "targets:\n";
   for (const auto& t : scene.targets) out << "  - " << TargetText(t) << "\n";
+  out << "# Lips: each flat annulus as its two boundary circles in C (mirror pose applied): centre,\n"
+      << "# unit normal (the mirror body's +z), radii in mm.\n"
+      << "lips:\n";
+  for (const LipTruth& lip : LipsInCam(model.params())) {
+    auto vec = [&](const Eigen::Vector3d& v) {
+      return "[" + num(v.x()) + ", " + num(v.y()) + ", " + num(v.z()) + "]";
+    };
+    out << "  - {mirror: " << lip.mirror << ", color: " << lip.color
+        << ", centre: " << vec(lip.centre_in_cam) << ", normal: " << vec(lip.normal_in_cam)
+        << ", r_inner: " << num(lip.r_inner) << ", r_outer: " << num(lip.r_outer) << "}\n";
+  }
   out << "images:\n";
   for (const auto& image : scene.images) {
     out << "  - file: " << image.name << ".png\n    placements:\n";

@@ -2,6 +2,7 @@
 // ground truth as a real render, the truth agrees with RigModel::Project, bad input fails cleanly.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -10,6 +11,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <yaml-cpp/yaml.h>
 
+#include "model/camera.h"
 #include "model/io/model_file.h"
 #include "tests/cli_test_util.h"
 #include "model/rig_model.h"
@@ -46,7 +48,7 @@ class RenderCli : public ::testing::Test {
     io::WriteModelFile(dir_ + "/model.yaml", rig);
     std::ofstream(dir_ + "/scene.yaml")
         << "format: omnistereo-scene/1\n"
-        << "render: {antialias: false, noise_sigma: 0}\n"
+        << "render: {antialias: true, noise_sigma: 0}\n"
         << "targets: [{type: chessboard, rows: 4, cols: 5, square: 60.0}]\n"
         << "random: {images: 1, targets: [2, 2], range: [500, 900], seed: 3}\n";
   }
@@ -84,6 +86,68 @@ TEST_F(RenderCli, FastPathEqualsRenderedTruthAndTruthEqualsProject) {
   // Two 4x5 boards placed so that their outer corners are seen by both mirrors.
   EXPECT_GE(seen[0], 30);
   EXPECT_GE(seen[1], 30);
+
+  // The blue lip's circles in C against POV-Ray: the outer rim of the lip seen straight by the
+  // camera (pinhole + distortion of points on the truth's r_outer circle) is where the rendered
+  // blue ends, at 36 azimuths (50% crossing of the blue channel along the radius).
+  const YAML::Node lip = truth["lips"][0];
+  ASSERT_EQ(lip["mirror"].as<int>(), 1);
+  ASSERT_EQ(lip["color"].as<std::string>(), "blue");
+  auto vec = [](const YAML::Node& n) {
+    return Eigen::Vector3d(n[0].as<double>(), n[1].as<double>(), n[2].as<double>());
+  };
+  const Eigen::Vector3d centre = vec(lip["centre"]), normal = vec(lip["normal"]);
+  EXPECT_NEAR(normal.norm(), 1.0, 1e-12);
+  const Eigen::Vector3d e1 = normal.cross(Eigen::Vector3d::UnitX()).normalized();
+  const Eigen::Vector3d e2 = normal.cross(e1);
+  const RigParams& rig = model.params();
+  const Pinhole<double> cam{rig.camera[0], rig.camera[1], rig.camera[2], rig.camera[3], rig.camera[4]};
+  const RadTan<double> dist{rig.distortion[0], rig.distortion[1], rig.distortion[2],
+                            rig.distortion[3], rig.distortion[4]};
+  auto pixel_of = [&](const Eigen::Vector3d& p) {
+    return cam.PixelFromNormalized(dist.Distort(Eigen::Vector2d(p.x() / p.z(), p.y() / p.z())));
+  };
+  auto blue_at = [&](const Eigen::Vector2d& px) {  // bilinear
+    const int u = static_cast<int>(std::floor(px.x())), v = static_cast<int>(std::floor(px.y()));
+    const double a = px.x() - u, b = px.y() - v;
+    auto at = [&](int vv, int uu) { return img.at<cv::Vec3b>(vv, uu)[0] / 255.0; };
+    return (1 - b) * ((1 - a) * at(v, u) + a * at(v, u + 1)) +
+           b * ((1 - a) * at(v + 1, u) + a * at(v + 1, u + 1));
+  };
+  const double r_outer = lip["r_outer"].as<double>();
+  double sum = 0, worst = 0;
+  int n = 0;
+  for (int k = 0; k < 36; ++k) {
+    const double phi = k * M_PI / 18;
+    const Eigen::Vector3d radial = std::cos(phi) * e1 + std::sin(phi) * e2;
+    constexpr int kSamples = 41;
+    std::vector<double> d(kSamples), blue(kSamples);
+    bool inside_image = true;
+    for (int i = 0; i < kSamples; ++i) {
+      d[i] = -1.5 + 3.0 * i / (kSamples - 1);  // mm across the rim
+      const Eigen::Vector2d px = pixel_of(centre + (r_outer + d[i]) * radial);
+      inside_image = inside_image && px.x() >= 0 && px.y() >= 0 && px.x() < img.cols - 1 &&
+                     px.y() < img.rows - 1;
+      if (inside_image) blue[i] = blue_at(px);
+    }
+    if (!inside_image) continue;
+    const double px_per_mm = (pixel_of(centre + (r_outer + 0.05) * radial) -
+                              pixel_of(centre + (r_outer - 0.05) * radial)).norm() / 0.1;
+    for (int i = 0; i + 1 < kSamples; ++i) {
+      if (blue[i] >= 0.5 && blue[i + 1] < 0.5) {
+        const double crossing = d[i] + (blue[i] - 0.5) / (blue[i] - blue[i + 1]) * (d[i + 1] - d[i]);
+        sum += std::abs(crossing) * px_per_mm;
+        worst = std::max(worst, std::abs(crossing) * px_per_mm);
+        ++n;
+        break;
+      }
+    }
+  }
+  std::printf("blue lip rim: %d azimuths, mean %.3f px, max %.3f px from the truth circle\n", n,
+              sum / std::max(1, n), worst);
+  EXPECT_GE(n, 30);
+  EXPECT_LT(sum / std::max(1, n), 0.1);
+  EXPECT_LT(worst, 0.3);
 }
 
 TEST_F(RenderCli, BadSceneFailsWithOneLineAndWritesNoTruth) {
