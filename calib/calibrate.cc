@@ -1,0 +1,880 @@
+#include "calib/calibrate.h"
+
+#include <ceres/ceres.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <set>
+#include <sstream>
+
+#include <Eigen/Geometry>
+
+#include "calib/corner_cost.h"
+#include "calib/covariance.h"
+#include "calib/initial_pose.h"
+#include "model/rig_model.h"
+
+namespace omni::calib {
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+constexpr double kBoundSlackMm = 2.0;
+
+// The rig's parameter groups in covariance order.
+const std::vector<std::string>& RigGroups() {
+  static const std::vector<std::string> groups = {"camera",        "distortion",   "mirror1_shape",
+                                                  "mirror2_shape", "mirror1_pose", "mirror2_pose",
+                                                  "reflex"};
+  return groups;
+}
+
+double* GroupBlock(RigParams* rig, const std::string& group) {
+  if (group == "camera") return rig->camera.data();
+  if (group == "distortion") return rig->distortion.data();
+  if (group == "mirror1_shape") return rig->mirror1_shape.data();
+  if (group == "mirror2_shape") return rig->mirror2_shape.data();
+  if (group == "mirror1_pose") return rig->mirror1_pose.data();
+  if (group == "mirror2_pose") return rig->mirror2_pose.data();
+  return rig->reflex.data();
+}
+
+// A parameter's bound above which its sigma means "nearly unobservable" (internal units): far
+// beyond any assembly tolerance, so an estimate this uncertain says nothing.
+double NearlyUnobservableSigma(const std::string& name) {
+  if (name == "fx" || name == "fy" || name == "cx" || name == "cy") return 20.0;  // px
+  if (name == "skew") return 5.0;
+  if (name.rfind("dist_", 0) == 0) return 0.05;
+  if (name == "c1" || name == "c2") return 2.0;  // mm
+  if (name == "k1" || name == "k2") return 0.2;
+  const std::string coord = name.substr(name.find('.') + 1);
+  if (coord == "rx" || coord == "ry") return 1.0 * kDeg;
+  return 1.0;  // tx, ty, tz, dz: mm
+}
+
+std::string HintFor(const std::string& name) {
+  if (name == "fx" || name == "fy" || name == "cx" || name == "cy" || name == "skew") {
+    return "targets filling both rings all around the rig, at near and far ranges";
+  }
+  if (name.rfind("dist_", 0) == 0) {
+    return "corners over the whole radial extent of both rings (targets at several heights and "
+           "ranges)";
+  }
+  if (name == "c1" || name == "k1" || name == "c2" || name == "k2") {
+    return "a manufacturing-tolerance prior on the mirror shape, or targets at many ranges";
+  }
+  const std::string coord = name.substr(name.find('.') + 1);
+  if (coord == "tz" || coord == "dz") {
+    return "targets at several ranges including near ones (0.3-0.6 m): an axial shift shows only "
+           "as parallax";
+  }
+  if (name.rfind("reflex.", 0) == 0) {
+    return "inner-ring (mirror 2) observations all around the rig";
+  }
+  return "targets all around the rig (full azimuth) and at several heights";
+}
+
+struct Observation {
+  int image = 0, target = 0, id = 0, mirror = 1;
+  int placement = -1;
+  Eigen::Vector2d pixel;
+  Eigen::Vector3d corner_in_target;
+  bool rejected = false;     // outlier or its placement failed: out for good
+  bool projectable = true;   // at the current parameters (re-checked each stage)
+};
+
+struct Placement {
+  int image = 0, target = 0;
+  std::array<double, 6> cam_from_target{};
+  bool failed = false;
+};
+
+class Calibrator {
+ public:
+  Calibrator(const RigParams& start, const std::vector<TargetSpec>& targets,
+             const io::Detections& detections, const CalibrationOptions& options)
+      : rig_(start), targets_(targets), options_(options) {
+    rig_.kind = ModelKind::kNoncentral;
+    rig_.calibration.reset();
+    fixed_ = FixedOf(rig_);
+    // A detected corner IS seen, so the costs only need the validity bounds to keep the solver
+    // on the right sheet and path: they use bounds relaxed by kBoundSlackMm (mirror 1: larger
+    // rim, smaller disc; mirror 2: larger rim, smaller hole, larger disc), so a corner near a
+    // ring's edge does not fail a trial step while the parameters are still off.
+    cost_fixed_[0] = cost_fixed_[1] = fixed_;
+    for (RigFixed& f : cost_fixed_) f.r_sys += kBoundSlackMm;
+    cost_fixed_[0].r_ref = std::max(0.0, fixed_.r_ref - kBoundSlackMm);
+    cost_fixed_[1].r_ref += kBoundSlackMm;
+    cost_fixed_[1].r_cam = std::max(0.0, fixed_.r_cam - kBoundSlackMm);
+    for (const auto& g : options_.estimate) estimate_.insert(g);
+    Collect(detections);
+  }
+
+  CalibrationResult Run();
+
+ private:
+  // Coordinates of a refined block that stay at their starting values.
+  std::vector<int> HeldCoordinates(const std::string& group) const {
+    std::vector<int> held;
+    if (group == "camera" && !options_.refine_skew) held.push_back(4);
+    if (group == "distortion") {
+      if (!options_.refine_tangential) held = {2, 3};
+      if (!options_.refine_dist_k3) held.push_back(4);
+    }
+    return held;
+  }
+  void Progress(const std::string& line) const {
+    if (options_.progress) options_.progress(line);
+  }
+  void Collect(const io::Detections& detections);
+  void InitialisePoses();
+  void CheckDegeneracy() const;
+  bool Reproject(const Observation& obs, Eigen::Vector2d* pixel) const;
+  double* PoseBlock(int placement) { return placements_[placement].cam_from_target.data(); }
+  ceres::CostFunction* CostOf(size_t i);
+  // Adds every usable observation (and the shape priors) to `problem`; returns the count.
+  int BuildProblem(ceres::Problem* problem, const std::set<std::string>& groups,
+                   ceres::LossFunction* loss, std::vector<ceres::ResidualBlockId>* corner_blocks,
+                   std::vector<ceres::ResidualBlockId>* prior_blocks);
+  StageReport Solve(const std::string& name, const std::set<std::string>& groups, bool robust);
+  int RejectOutliers();
+  double Rms(int mirror, int* count) const;  // mirror 0: both
+  void Covariance(CalibrationResult* result);
+  void CheckDiverged() const;
+
+  RigParams rig_;
+  RigFixed fixed_;
+  RigFixed cost_fixed_[2];  // per mirror path, relaxed bounds (see the constructor)
+  std::vector<TargetSpec> targets_;
+  CalibrationOptions options_;
+  std::set<std::string> estimate_;
+  std::vector<Observation> obs_;
+  std::vector<Placement> placements_;
+  std::vector<std::unique_ptr<ceres::CostFunction>> costs_;
+  std::vector<std::unique_ptr<ceres::CostFunction>> prior_costs_;
+  std::vector<RejectedObservation> rejected_;
+  int n_images_ = 0;
+};
+
+void Calibrator::Collect(const io::Detections& detections) {
+  n_images_ = static_cast<int>(detections.images.size());
+  std::map<std::pair<int, int>, int> placement_of;
+  std::vector<int> per_target(targets_.size(), 0);
+  for (size_t i = 0; i < detections.images.size(); ++i) {
+    const io::ImageDetections& image = detections.images[i];
+    for (size_t k = 0; k < image.corners.size(); ++k) {
+      const io::CornerObservation& c = image.corners[k];
+      const std::string where = image.file + ": corner " + std::to_string(k);
+      if (c.target < 0 || c.target >= static_cast<int>(targets_.size())) {
+        throw io::InputError(where + ": target index " + std::to_string(c.target) +
+                             " is not one of the session's " + std::to_string(targets_.size()) +
+                             " targets");
+      }
+      if (!HasCorner(targets_[c.target], c.id)) {
+        throw io::InputError(where + ": corner id " + std::to_string(c.id) +
+                             " is not on target " + std::to_string(c.target) + " (" +
+                             TargetTypeName(targets_[c.target].type) + ")");
+      }
+      if (c.mirror != 1 && c.mirror != 2) {
+        throw io::InputError(where + ": mirror must be 1 or 2, got " + std::to_string(c.mirror));
+      }
+      if (!c.pixel.allFinite()) throw io::InputError(where + ": pixel is not finite");
+      const auto key = std::make_pair(static_cast<int>(i), c.target);
+      auto it = placement_of.find(key);
+      if (it == placement_of.end()) {
+        it = placement_of.emplace(key, static_cast<int>(placements_.size())).first;
+        Placement p;
+        p.image = static_cast<int>(i);
+        p.target = c.target;
+        placements_.push_back(p);
+      }
+      Observation o;
+      o.image = static_cast<int>(i);
+      o.target = c.target;
+      o.id = c.id;
+      o.mirror = c.mirror;
+      o.placement = it->second;
+      o.pixel = c.pixel;
+      o.corner_in_target = CornerInTarget(targets_[c.target], c.id);
+      obs_.push_back(o);
+      ++per_target[c.target];
+    }
+  }
+  if (obs_.empty()) {
+    std::string specs;
+    for (size_t t = 0; t < targets_.size(); ++t) {
+      const TargetSpec& s = targets_[t];
+      specs += (t ? "; " : "") + std::string(TargetTypeName(s.type)) + " " +
+               std::to_string(s.rows) + "x" + std::to_string(s.cols);
+    }
+    throw CalibrationError("no target corner was found in any of the " +
+                           std::to_string(n_images_) + " images: the session's targets (" + specs +
+                           ") match nothing; check rows/cols (inner corners for chessboards), "
+                           "the tag family and first_id");
+  }
+  for (size_t t = 0; t < targets_.size(); ++t) {
+    if (per_target[t] == 0) {
+      Progress("warning: session target " + std::to_string(t) + " (" +
+               TargetTypeName(targets_[t].type) + " " + std::to_string(targets_[t].rows) + "x" +
+               std::to_string(targets_[t].cols) + ") was found in none of the images");
+    }
+  }
+}
+
+bool Calibrator::Reproject(const Observation& obs, Eigen::Vector2d* pixel) const {
+  const Eigen::Vector3d point =
+      CornerInCam(placements_[obs.placement].cam_from_target.data(), obs.corner_in_target);
+  if (obs.mirror == 1) {
+    return ProjectViaMirror1(rig_.camera.data(), rig_.distortion.data(), rig_.mirror1_shape.data(),
+                             rig_.mirror1_pose.data(), rig_.reflex.data(), cost_fixed_[0], point,
+                             pixel);
+  }
+  return ProjectViaMirror2(rig_.camera.data(), rig_.distortion.data(), rig_.mirror1_pose.data(),
+                           rig_.reflex.data(), rig_.mirror2_shape.data(),
+                           rig_.mirror2_pose.data(), cost_fixed_[1], point, pixel);
+}
+
+ceres::CostFunction* Calibrator::CostOf(size_t i) {
+  if (costs_.size() < obs_.size()) costs_.resize(obs_.size());
+  if (!costs_[i]) {
+    const Observation& o = obs_[i];
+    costs_[i].reset(o.mirror == 1
+                        ? Mirror1CornerCost::Create(o.pixel, o.corner_in_target, cost_fixed_[0])
+                        : Mirror2CornerCost::Create(o.pixel, o.corner_in_target, cost_fixed_[1]));
+  }
+  return costs_[i].get();
+}
+
+void Calibrator::InitialisePoses() {
+  const RigModel start(rig_);
+  for (size_t p = 0; p < placements_.size(); ++p) {
+    // Both rings' central guesses; keep the one that reprojects better through the full model.
+    std::vector<size_t> members;
+    for (size_t i = 0; i < obs_.size(); ++i) {
+      if (obs_[i].placement == static_cast<int>(p)) members.push_back(i);
+    }
+    double best_cost = HUGE_VAL;
+    std::array<double, 6> best{};
+    for (Mirror mirror : {Mirror::kOne, Mirror::kTwo}) {
+      std::vector<Eigen::Vector3d> corners;
+      std::vector<Eigen::Vector2d> pixels;
+      for (size_t i : members) {
+        if (obs_[i].mirror != MirrorIndex(mirror)) continue;
+        corners.push_back(obs_[i].corner_in_target);
+        pixels.push_back(obs_[i].pixel);
+      }
+      PoseGuess guess;
+      if (!CentralPoseFromRing(start, mirror, corners, pixels, &guess)) continue;
+      std::copy(guess.rotation.data(), guess.rotation.data() + 3,
+                placements_[p].cam_from_target.begin());
+      std::copy(guess.translation.data(), guess.translation.data() + 3,
+                placements_[p].cam_from_target.begin() + 3);
+      double cost = 0;
+      int n = 0;
+      for (size_t i : members) {
+        Eigen::Vector2d px;
+        if (Reproject(obs_[i], &px)) {
+          cost += std::min((px - obs_[i].pixel).squaredNorm(), 1e4);
+          ++n;
+        } else {
+          cost += 1e4;
+        }
+      }
+      if (n > 0 && cost < best_cost) {
+        best_cost = cost;
+        best = placements_[p].cam_from_target;
+      }
+    }
+    if (!(best_cost < HUGE_VAL)) {
+      placements_[p].failed = true;
+      continue;
+    }
+    placements_[p].cam_from_target = best;
+
+    // Pose-only refinement with the full starting model (robust: a few bad corners must not
+    // drag the pose).
+    ceres::Problem::Options po;
+    po.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+    po.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+    ceres::Problem problem(po);
+    ceres::HuberLoss loss(3.0);
+    int n = 0;
+    for (size_t i : members) {
+      Eigen::Vector2d px;
+      if (!Reproject(obs_[i], &px)) continue;
+      ++n;
+      double* pose = PoseBlock(static_cast<int>(p));
+      if (obs_[i].mirror == 1) {
+        problem.AddResidualBlock(CostOf(i), &loss, rig_.camera.data(), rig_.distortion.data(),
+                                 rig_.mirror1_shape.data(), rig_.mirror1_pose.data(),
+                                 rig_.reflex.data(), pose);
+      } else {
+        problem.AddResidualBlock(CostOf(i), &loss, rig_.camera.data(), rig_.distortion.data(),
+                                 rig_.mirror1_pose.data(), rig_.reflex.data(),
+                                 rig_.mirror2_shape.data(), rig_.mirror2_pose.data(), pose);
+      }
+    }
+    if (n < 4) {
+      placements_[p].failed = true;
+      continue;
+    }
+    for (double* block : {rig_.camera.data(), rig_.distortion.data(), rig_.mirror1_shape.data(),
+                          rig_.mirror2_shape.data(), rig_.mirror1_pose.data(),
+                          rig_.mirror2_pose.data(), rig_.reflex.data()}) {
+      if (problem.HasParameterBlock(block)) problem.SetParameterBlockConstant(block);
+    }
+    ceres::Solver::Options so;
+    so.linear_solver_type = ceres::DENSE_QR;
+    so.max_num_iterations = 50;
+    ceres::Solver::Summary summary;
+    ceres::Solve(so, &problem, &summary);
+    if (summary.termination_type == ceres::FAILURE) placements_[p].failed = true;
+  }
+  int failed = 0;
+  for (size_t i = 0; i < obs_.size(); ++i) {
+    if (!placements_[obs_[i].placement].failed) continue;
+    obs_[i].rejected = true;
+    rejected_.push_back({obs_[i].image, obs_[i].target, obs_[i].id, obs_[i].mirror, obs_[i].pixel,
+                         0.0, "placement failed"});
+  }
+  for (const auto& p : placements_) failed += p.failed;
+  Progress("initial poses: " + std::to_string(placements_.size() - failed) + " of " +
+           std::to_string(placements_.size()) + " target placements posed from the starting " +
+           "model's rays" + (failed ? " (" + std::to_string(failed) + " failed, left out)" : ""));
+}
+
+void Calibrator::CheckDegeneracy() const {
+  int n_placements = 0;
+  std::vector<double> ranges, azimuths;
+  for (size_t p = 0; p < placements_.size(); ++p) {
+    if (placements_[p].failed) continue;
+    ++n_placements;
+    const TargetSpec& spec = targets_[placements_[p].target];
+    Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+    const std::vector<int> ids = CornerIds(spec);
+    for (int id : ids) centre += CornerInTarget(spec, id);
+    centre /= static_cast<double>(ids.size());
+    const Eigen::Vector3d c = CornerInCam(placements_[p].cam_from_target.data(), centre);
+    ranges.push_back(std::hypot(c.x(), c.y()));
+    azimuths.push_back(std::atan2(c.y(), c.x()));
+  }
+  int n_obs[2] = {0, 0};
+  for (const auto& o : obs_) {
+    if (!o.rejected) ++n_obs[o.mirror - 1];
+  }
+  int n_rig = 0;
+  for (const auto& g : estimate_) n_rig += static_cast<int>(BlockParameterNames(g).size());
+  const int n_params = n_rig + 6 * n_placements;
+  const int n_residuals = 2 * (n_obs[0] + n_obs[1]);
+  if (n_placements < 3 || n_residuals < 2 * n_params) {
+    throw CalibrationError(
+        "too few observations: " + std::to_string(n_obs[0] + n_obs[1]) + " corners in " +
+        std::to_string(n_placements) + " usable target placement(s) for " +
+        std::to_string(n_params) + " unknowns; need at least 3 placements and " +
+        std::to_string(n_params) + " corners (more images, or larger targets)");
+  }
+  if (estimate_.count("mirror2_pose") || estimate_.count("reflex") ||
+      estimate_.count("mirror2_shape")) {
+    if (n_obs[1] < 30) {
+      throw CalibrationError("too few observations in the inner ring (mirror 2): " +
+                             std::to_string(n_obs[1]) +
+                             " corners; mirror 2 and the reflex plane need targets seen in both "
+                             "rings (the stereo region)");
+    }
+  }
+  if (estimate_.count("mirror1_pose") && n_obs[0] < 30) {
+    throw CalibrationError("too few observations in the outer ring (mirror 1): " +
+                           std::to_string(n_obs[0]) + " corners");
+  }
+  const double rmin = *std::min_element(ranges.begin(), ranges.end());
+  const double rmax = *std::max_element(ranges.begin(), ranges.end());
+  if (rmax < options_.min_range_ratio * rmin) {
+    char buf[256];
+    std::snprintf(buf, sizeof(buf),
+                  "degenerate session: all targets at one range (%.0f..%.0f mm from the axis); "
+                  "place them at ranges differing by at least a factor %.1f (e.g. 0.5 m and 2 m) "
+                  "so axial shifts and the focal length separate",
+                  rmin, rmax, options_.min_range_ratio);
+    throw CalibrationError(buf);
+  }
+  // Azimuth span: 360 deg minus the largest gap between neighbouring targets.
+  std::sort(azimuths.begin(), azimuths.end());
+  double largest_gap = 2 * M_PI - (azimuths.back() - azimuths.front());
+  for (size_t i = 1; i < azimuths.size(); ++i) {
+    largest_gap = std::max(largest_gap, azimuths[i] - azimuths[i - 1]);
+  }
+  const double span_deg = (2 * M_PI - largest_gap) / kDeg;
+  if (span_deg < options_.min_azimuth_span_deg) {
+    char buf[256];
+    std::snprintf(buf, sizeof(buf),
+                  "degenerate session: all targets in one azimuth sector (%.0f deg wide); place "
+                  "them all around the rig (a span of at least %.0f deg) so tilts and decentres "
+                  "separate",
+                  span_deg, options_.min_azimuth_span_deg);
+    throw CalibrationError(buf);
+  }
+}
+
+int Calibrator::BuildProblem(ceres::Problem* problem, const std::set<std::string>& groups,
+                             ceres::LossFunction* loss,
+                             std::vector<ceres::ResidualBlockId>* corner_blocks,
+                             std::vector<ceres::ResidualBlockId>* prior_blocks) {
+  int n = 0;
+  for (size_t i = 0; i < obs_.size(); ++i) {
+    Observation& o = obs_[i];
+    if (o.rejected) continue;
+    Eigen::Vector2d px;
+    o.projectable = Reproject(o, &px);
+    if (!o.projectable) continue;
+    double* pose = PoseBlock(o.placement);
+    ceres::ResidualBlockId id;
+    if (o.mirror == 1) {
+      id = problem->AddResidualBlock(CostOf(i), loss, rig_.camera.data(), rig_.distortion.data(),
+                                     rig_.mirror1_shape.data(), rig_.mirror1_pose.data(),
+                                     rig_.reflex.data(), pose);
+    } else {
+      id = problem->AddResidualBlock(CostOf(i), loss, rig_.camera.data(), rig_.distortion.data(),
+                                     rig_.mirror1_pose.data(), rig_.reflex.data(),
+                                     rig_.mirror2_shape.data(), rig_.mirror2_pose.data(), pose);
+    }
+    if (corner_blocks) corner_blocks->push_back(id);
+    ++n;
+  }
+  // Shape priors (only where the shape is refined).
+  prior_costs_.clear();
+  for (const char* shape : {"mirror1_shape", "mirror2_shape"}) {
+    const auto prior = options_.priors.find(shape);
+    if (!groups.count(shape) || prior == options_.priors.end()) continue;
+    double* block = GroupBlock(&rig_, shape);
+    const double sigmas[2] = {prior->second.sigma_c, prior->second.sigma_k};
+    for (int k = 0; k < 2; ++k) {
+      if (!(sigmas[k] > 0)) continue;
+      prior_costs_.emplace_back(new ceres::AutoDiffCostFunction<ScalarPriorCost, 1, 2>(
+          new ScalarPriorCost{k, block[k], sigmas[k]}));
+      const auto id = problem->AddResidualBlock(prior_costs_.back().get(), nullptr, block);
+      if (prior_blocks) prior_blocks->push_back(id);
+    }
+  }
+  for (const auto& g : RigGroups()) {
+    double* block = GroupBlock(&rig_, g);
+    if (!problem->HasParameterBlock(block)) continue;
+    if (!groups.count(g)) {
+      problem->SetParameterBlockConstant(block);
+    } else if (!HeldCoordinates(g).empty()) {
+      problem->SetManifold(block, new ceres::SubsetManifold(5, HeldCoordinates(g)));
+    }
+  }
+  return n;
+}
+
+double Calibrator::Rms(int mirror, int* count) const {
+  double ssr = 0;
+  int n = 0;
+  for (const auto& o : obs_) {
+    if (o.rejected || (mirror && o.mirror != mirror)) continue;
+    Eigen::Vector2d px;
+    if (!Reproject(o, &px)) continue;
+    ssr += (px - o.pixel).squaredNorm();
+    ++n;
+  }
+  if (count) *count = n;
+  return n ? std::sqrt(ssr / n) : 0.0;
+}
+
+StageReport Calibrator::Solve(const std::string& name, const std::set<std::string>& groups,
+                              bool robust) {
+  const auto t0 = std::chrono::steady_clock::now();
+  ceres::Problem::Options po;
+  po.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  po.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  ceres::Problem problem(po);
+  std::unique_ptr<ceres::LossFunction> loss;
+  const double scale = options_.solver.loss_scale_px;
+  if (robust && options_.solver.loss == "huber") loss.reset(new ceres::HuberLoss(scale));
+  if (robust && options_.solver.loss == "cauchy") loss.reset(new ceres::CauchyLoss(scale));
+  StageReport report;
+  report.name = name;
+  report.n_observations = BuildProblem(&problem, groups, loss.get(), nullptr, nullptr);
+  report.initial_rms_px = Rms(0, nullptr);
+
+  ceres::Solver::Options so;
+  so.linear_solver_type = ceres::DENSE_SCHUR;
+  auto* ordering = new ceres::ParameterBlockOrdering;
+  for (auto& p : placements_) {
+    if (problem.HasParameterBlock(p.cam_from_target.data())) {
+      ordering->AddElementToGroup(p.cam_from_target.data(), 0);
+    }
+  }
+  for (const auto& g : RigGroups()) {
+    double* block = GroupBlock(&rig_, g);
+    if (problem.HasParameterBlock(block)) ordering->AddElementToGroup(block, 1);
+  }
+  so.linear_solver_ordering.reset(ordering);
+  so.num_threads = std::max(1, options_.solver.threads);
+  so.max_num_iterations = name == "pinhole" ? std::min(options_.solver.max_iterations, 15) : options_.solver.max_iterations;
+  so.function_tolerance = 1e-10;
+  so.gradient_tolerance = 1e-12;
+  so.parameter_tolerance = 1e-10;
+  ceres::Solver::Summary summary;
+  ceres::Solve(so, &problem, &summary);
+  report.iterations = static_cast<int>(summary.iterations.size()) - 1;
+  report.converged = summary.termination_type == ceres::CONVERGENCE;
+  report.termination = summary.message;
+  report.final_rms_px = Rms(0, nullptr);
+  report.seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  char buf[256];
+  std::snprintf(buf, sizeof(buf), "stage %-11s %6d obs  rms %8.3f -> %7.3f px  %3d iterations  %s  %.2f s",
+                name.c_str(), report.n_observations, report.initial_rms_px, report.final_rms_px,
+                report.iterations,
+                report.converged ? "converged" : ("NOT converged: " + summary.message).c_str(),
+                report.seconds);
+  Progress(buf);
+  if (summary.termination_type == ceres::FAILURE) {
+    throw CalibrationError("the solve failed in stage '" + name + "': " + summary.message);
+  }
+  return report;
+}
+
+int Calibrator::RejectOutliers() {
+  int n = 0;
+  for (auto& o : obs_) {
+    if (o.rejected) continue;
+    Eigen::Vector2d px;
+    if (!Reproject(o, &px)) continue;
+    const double r = (px - o.pixel).norm();
+    if (r > options_.solver.outlier_px) {
+      o.rejected = true;
+      rejected_.push_back({o.image, o.target, o.id, o.mirror, o.pixel, r, "outlier"});
+      ++n;
+    }
+  }
+  return n;
+}
+
+void Calibrator::CheckDiverged() const {
+  auto bad = [](double v, double limit) { return !std::isfinite(v) || std::abs(v) > limit; };
+  const struct {
+    const char* name;
+    double value, limit;
+  } checks[] = {
+      {"mirror1.rx", rig_.mirror1_pose[0], 10 * kDeg}, {"mirror1.ry", rig_.mirror1_pose[1], 10 * kDeg},
+      {"mirror1.tx", rig_.mirror1_pose[2], 20},        {"mirror1.ty", rig_.mirror1_pose[3], 20},
+      {"mirror1.tz", rig_.mirror1_pose[4], 20},        {"mirror2.rx", rig_.mirror2_pose[0], 10 * kDeg},
+      {"mirror2.ry", rig_.mirror2_pose[1], 10 * kDeg}, {"mirror2.tx", rig_.mirror2_pose[2], 20},
+      {"mirror2.ty", rig_.mirror2_pose[3], 20},        {"mirror2.tz", rig_.mirror2_pose[4], 20},
+      {"reflex.rx", rig_.reflex[0], 10 * kDeg},        {"reflex.ry", rig_.reflex[1], 10 * kDeg},
+      {"reflex.dz", rig_.reflex[2], 20},
+  };
+  for (const auto& c : checks) {
+    if (bad(c.value, c.limit)) {
+      throw CalibrationError(std::string("the solve diverged: ") + c.name + " went to " +
+                             std::to_string(c.value) +
+                             " (beyond any assembly error); check the starting model and the "
+                             "target definitions (square size)");
+    }
+  }
+  for (int i = 0; i < 5; ++i) {
+    if (!std::isfinite(rig_.camera[i]) || !std::isfinite(rig_.distortion[i])) {
+      throw CalibrationError("the solve diverged: the camera parameters are not finite");
+    }
+  }
+}
+
+void Calibrator::Covariance(CalibrationResult* result) {
+  ceres::Problem::Options po;
+  po.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  ceres::Problem problem(po);
+  std::vector<ceres::ResidualBlockId> corner_blocks, prior_blocks;
+  const int n_obs = BuildProblem(&problem, estimate_, nullptr, &corner_blocks, &prior_blocks);
+
+  // Columns: the refined rig blocks (tangent coordinates) in RigGroups() order, then the poses.
+  ceres::Problem::EvaluateOptions eo;
+  std::vector<std::string> names;
+  for (const auto& g : RigGroups()) {
+    double* block = GroupBlock(&rig_, g);
+    if (!estimate_.count(g) || !problem.HasParameterBlock(block)) continue;
+    eo.parameter_blocks.push_back(block);
+    const auto& all = BlockParameterNames(g);
+    for (size_t k = 0; k < all.size(); ++k) {
+      const std::vector<int> held_coords = HeldCoordinates(g);
+      const bool held = std::count(held_coords.begin(), held_coords.end(), static_cast<int>(k));
+      if (!held) {
+        names.push_back(all[k]);
+        result->values.conservativeResize(names.size());
+        result->values(names.size() - 1) = block[k];
+      }
+    }
+  }
+  const int n_rig = static_cast<int>(names.size());
+  int n_poses = 0;
+  for (auto& p : placements_) {
+    if (problem.HasParameterBlock(p.cam_from_target.data())) {
+      eo.parameter_blocks.push_back(p.cam_from_target.data());
+      ++n_poses;
+    }
+  }
+  eo.residual_blocks = corner_blocks;
+  eo.residual_blocks.insert(eo.residual_blocks.end(), prior_blocks.begin(), prior_blocks.end());
+  eo.apply_loss_function = false;
+  eo.num_threads = std::max(1, options_.solver.threads);
+  double cost = 0;
+  std::vector<double> residuals;
+  ceres::CRSMatrix crs;
+  problem.Evaluate(eo, &cost, &residuals, nullptr, &crs);
+
+  const int n_pixel_rows = 2 * n_obs;
+  double ssr_px = 0;
+  for (int i = 0; i < n_pixel_rows; ++i) ssr_px += residuals[i] * residuals[i];
+  const int n_prior = static_cast<int>(prior_blocks.size());
+  const int n_params = n_rig + 6 * n_poses;
+  const int dof = n_pixel_rows + n_prior - n_params;
+  result->n_parameters = n_params;
+  result->variance_factor = dof > 0 ? ssr_px / dof : 1.0;
+
+  // Priors are whitened already (unit variance), pixel rows have variance s^2: scale the prior
+  // rows by s so that s^2 (J^T J)^-1 weighs both right.
+  const double s = std::sqrt(result->variance_factor);
+  std::vector<Eigen::Triplet<double>> triplets;
+  for (int r = 0; r < crs.num_rows; ++r) {
+    const double w = r < n_pixel_rows ? 1.0 : s;
+    for (int k = crs.rows[r]; k < crs.rows[r + 1]; ++k) {
+      triplets.emplace_back(r, crs.cols[k], w * crs.values[k]);
+    }
+  }
+  Eigen::SparseMatrix<double, Eigen::RowMajor> jacobian(crs.num_rows, crs.num_cols);
+  jacobian.setFromTriplets(triplets.begin(), triplets.end());
+
+  RigCovarianceOptions co;
+  co.variance_factor = result->variance_factor;
+  for (const auto& name : names) co.nearly_unobservable_sigma.push_back(NearlyUnobservableSigma(name));
+  const RigCovariance cov = ComputeRigCovariance(jacobian, n_rig, co);
+
+  const Eigen::VectorXd all_values = result->values;
+  result->names.clear();
+  result->values.resize(cov.observable.size());
+  for (size_t i = 0; i < cov.observable.size(); ++i) {
+    result->names.push_back(names[cov.observable[i]]);
+    result->values(i) = all_values(cov.observable[i]);
+  }
+  for (int i : cov.unobservable) result->unobservable.push_back({names[i], HintFor(names[i])});
+  result->covariance = cov.covariance;
+  result->sigma = cov.covariance.diagonal().cwiseMax(0.0).cwiseSqrt();
+  const int m = static_cast<int>(result->sigma.size());
+  result->correlation = Eigen::MatrixXd::Identity(m, m);
+  for (int i = 0; i < m; ++i) {
+    for (int j = 0; j < m; ++j) {
+      const double d = result->sigma(i) * result->sigma(j);
+      if (d > 0) result->correlation(i, j) = result->covariance(i, j) / d;
+    }
+  }
+}
+
+CalibrationResult Calibrator::Run() {
+  InitialisePoses();
+  CheckDegeneracy();
+
+  CalibrationResult result;
+  // Stages: the pinhole first (the misalignment is small, so the ideal geometry with refined
+  // fx, fy, cx, cy brings every corner within a few pixels), then the misalignment with the
+  // pinhole, and the lens distortion last: freed early, radial distortion over the rings' narrow
+  // radii trades with the focal length and the mirrors' axial positions and the solve can settle
+  // in a wrong basin (dist_k1 ~ -1.6 with fx 3% off was seen).
+  std::vector<std::pair<std::string, std::set<std::string>>> stages;
+  auto subset = [&](std::initializer_list<const char*> groups) {
+    std::set<std::string> out;
+    for (const char* g : groups) {
+      if (estimate_.count(g)) out.insert(g);
+    }
+    return out;
+  };
+  stages.emplace_back("pinhole", subset({"camera"}));
+  stages.emplace_back("alignment",
+                      subset({"camera", "mirror1_pose", "mirror2_pose", "reflex"}));
+  stages.emplace_back("all", estimate_);
+  std::set<std::string> done;
+  for (const auto& [name, groups] : stages) {
+    if (groups.empty() || groups == done) continue;
+    result.stages.push_back(Solve(name, groups, true));
+    done = groups;
+  }
+  // Reject, re-solve without the robust loss (its covariance is then the plain least-squares
+  // one); repeat while new outliers show up.
+  for (int round = 0; round < 3; ++round) {
+    const int n = RejectOutliers();
+    if (round > 0 && n == 0) break;
+    if (n > 0) Progress("rejected " + std::to_string(n) + " outlier(s) above " +
+                        std::to_string(options_.solver.outlier_px) + " px");
+    result.stages.push_back(Solve("final", estimate_, false));
+  }
+  CheckDiverged();
+
+  const int n_total = static_cast<int>(obs_.size());
+  int n_outliers = 0;
+  for (const auto& r : rejected_) n_outliers += r.reason == "outlier";
+  for (const auto& o : obs_) {
+    if (!o.rejected && !o.projectable) {
+      rejected_.push_back({o.image, o.target, o.id, o.mirror, o.pixel, 0.0, "not projectable"});
+    }
+  }
+  result.rms_px = Rms(0, &result.n_observations);
+  result.per_mirror_rms_px[0] = Rms(1, nullptr);
+  result.per_mirror_rms_px[1] = Rms(2, nullptr);
+  if (result.n_observations < n_total / 2) {
+    throw CalibrationError("the solve diverged or the model does not fit: only " +
+                           std::to_string(result.n_observations) + " of " +
+                           std::to_string(n_total) + " observations remain within " +
+                           std::to_string(options_.solver.outlier_px) + " px");
+  }
+  result.converged = result.stages.back().converged;
+  if (!result.converged) {
+    Progress("warning: the final stage did not converge in " +
+             std::to_string(options_.solver.max_iterations) + " iterations");
+  }
+  Covariance(&result);
+  result.rejected = rejected_;
+  for (const auto& p : placements_) {
+    if (p.failed) continue;
+    TargetPlacementEstimate e;
+    e.image = p.image;
+    e.target = p.target;
+    e.rotation = Eigen::Vector3d(p.cam_from_target[0], p.cam_from_target[1], p.cam_from_target[2]);
+    e.translation =
+        Eigen::Vector3d(p.cam_from_target[3], p.cam_from_target[4], p.cam_from_target[5]);
+    result.placements.push_back(e);
+  }
+  for (const auto& o : obs_) {
+    if (o.rejected || !o.projectable) continue;
+    for (auto& e : result.placements) {
+      if (e.image == o.image && e.target == o.target) ++e.observations[o.mirror - 1];
+    }
+  }
+
+  CalibrationInfo info;
+  info.parameters = result.names;
+  info.values.assign(result.values.data(), result.values.data() + result.values.size());
+  info.sigma.assign(result.sigma.data(), result.sigma.data() + result.sigma.size());
+  const int m = static_cast<int>(result.names.size());
+  for (int i = 0; i < m; ++i) {
+    for (int j = 0; j < m; ++j) info.covariance.push_back(result.covariance(i, j));
+  }
+  info.rms_px = result.rms_px;
+  info.n_observations = result.n_observations;
+  info.n_outliers = n_outliers;
+  info.per_mirror_rms_px = {result.per_mirror_rms_px[0], result.per_mirror_rms_px[1]};
+  info.images = n_images_;
+  std::string targets;
+  for (size_t t = 0; t < targets_.size(); ++t) {
+    const TargetSpec& s = targets_[t];
+    targets += (t ? ", " : "") + std::string(TargetTypeName(s.type)) + " " +
+               std::to_string(s.rows) + "x" + std::to_string(s.cols);
+  }
+  info.targets = targets;
+  result.rig = rig_;
+  result.rig.calibration = info;
+  return result;
+}
+
+}  // namespace
+
+const std::vector<std::string>& BlockParameterNames(const std::string& group) {
+  static const std::map<std::string, std::vector<std::string>> names = {
+      {"camera", {"fx", "fy", "cx", "cy", "skew"}},
+      {"distortion", {"dist_k1", "dist_k2", "dist_p1", "dist_p2", "dist_k3"}},
+      {"mirror1_shape", {"c1", "k1"}},
+      {"mirror2_shape", {"c2", "k2"}},
+      {"mirror1_pose", {"mirror1.rx", "mirror1.ry", "mirror1.tx", "mirror1.ty", "mirror1.tz"}},
+      {"mirror2_pose", {"mirror2.rx", "mirror2.ry", "mirror2.tx", "mirror2.ty", "mirror2.tz"}},
+      {"reflex", {"reflex.rx", "reflex.ry", "reflex.dz"}},
+  };
+  static const std::vector<std::string> none;
+  const auto it = names.find(group);
+  return it == names.end() ? none : it->second;
+}
+
+CalibrationOptions OptionsFromSession(const io::Session& session) {
+  CalibrationOptions options;
+  options.estimate = session.estimate;
+  options.priors = session.priors;
+  options.solver = session.solver;
+  return options;
+}
+
+CalibrationResult Calibrate(const RigParams& start, const std::vector<TargetSpec>& targets,
+                            const io::Detections& detections, const CalibrationOptions& options) {
+  for (const auto& g : options.estimate) {
+    if (BlockParameterNames(g).empty()) {
+      throw io::InputError("estimate: unknown parameter group '" + g + "'");
+    }
+  }
+  Calibrator calibrator(start, targets, detections, options);
+  return calibrator.Run();
+}
+
+namespace {
+
+// Value and unit of a parameter in assembly units (deg for tilts).
+double Display(const std::string& name, double value, const char** unit) {
+  const std::string coord = name.substr(name.find('.') + 1);
+  if (name.find('.') != std::string::npos && (coord == "rx" || coord == "ry")) {
+    *unit = "deg";
+    return value / kDeg;
+  }
+  if (name == "fx" || name == "fy" || name == "cx" || name == "cy" || name == "skew") {
+    *unit = "px";
+  } else if (name.rfind("dist_", 0) == 0 || name == "k1" || name == "k2") {
+    *unit = "";
+  } else {
+    *unit = "mm";
+  }
+  return value;
+}
+
+double TruthOf(const RigParams& rig, const std::string& name) {
+  for (const auto& g : RigGroups()) {
+    const auto& names = BlockParameterNames(g);
+    for (size_t k = 0; k < names.size(); ++k) {
+      if (names[k] == name) return GroupBlock(const_cast<RigParams*>(&rig), g)[k];
+    }
+  }
+  return NAN;
+}
+
+}  // namespace
+
+std::string ResultTable(const CalibrationResult& result, const RigParams* truth) {
+  std::ostringstream out;
+  char line[256];
+  std::snprintf(line, sizeof(line), "%-12s %14s %12s %-4s", "parameter", "value", "sigma", "unit");
+  out << line;
+  if (truth) out << "         truth   (value-truth)/sigma";
+  out << "\n";
+  for (size_t i = 0; i < result.names.size(); ++i) {
+    const char* unit = "";
+    const double value = Display(result.names[i], result.values(i), &unit);
+    const double sigma = Display(result.names[i], result.sigma(i), &unit);
+    std::snprintf(line, sizeof(line), "%-12s %14.6f %12.6f %-4s", result.names[i].c_str(), value,
+                  sigma, unit);
+    out << line;
+    if (truth) {
+      const double t = Display(result.names[i], TruthOf(*truth, result.names[i]), &unit);
+      std::snprintf(line, sizeof(line), " %14.6f %8.2f", t, sigma > 0 ? (value - t) / sigma : 0.0);
+      out << line;
+    }
+    out << "\n";
+  }
+  for (const auto& u : result.unobservable) {
+    out << u.name << ": not determined by this session (unobservable); needs " << u.hint << "\n";
+  }
+  std::snprintf(line, sizeof(line),
+                "residuals: rms %.4f px (mirror 1: %.4f, mirror 2: %.4f) over %d observations, "
+                "%zu left out, posterior variance factor %.4g px^2\n",
+                result.rms_px, result.per_mirror_rms_px[0], result.per_mirror_rms_px[1],
+                result.n_observations, result.rejected.size(), result.variance_factor);
+  out << line;
+  return out.str();
+}
+
+}  // namespace omni::calib

@@ -1,0 +1,133 @@
+// Calibration of the non-central rig (calibration issue): from corner observations of known
+// targets in a session's images, estimate the camera intrinsics and distortion, each mirror's
+// decentre and tilt and the reflex plane's tilt and offset, starting from a model file (usually
+// the ideal design), and say how sure we are.
+//
+// Pipeline (Calibrate):
+//  1. every (image, target) placement gets an initial cam_from_target from the starting model's
+//     rays (a central pose solve per ring, initial_pose.h), refined pose-only with the full model;
+//  2. degenerate sessions are refused before solving (too few observations, all targets at one
+//     range or in one azimuth sector, targets matching nothing);
+//  3. a staged Ceres solve (poses, then intrinsics + poses, then every group of `estimate`) with a
+//     robust loss, then outlier rejection and a final solve without the robust loss;
+//  4. the rig parameters' covariance by the Schur complement of the Jacobian (target poses
+//     eliminated), scaled by the posterior variance factor; (nearly) unobservable parameters are
+//     named with what data would fix them (covariance.h).
+#pragma once
+
+#include <functional>
+#include <map>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "model/io/detections_file.h"
+#include "model/io/file_util.h"
+#include "model/io/session_file.h"
+#include "model/rig_params.h"
+#include "model/target.h"
+
+namespace omni::calib {
+
+// A calibration that cannot be done with this input (degenerate session, no matches, a diverging
+// solve); what() is one line naming the cause and what would fix it. An InputError so that the
+// CLI reports it as bad input (exit 2).
+class CalibrationError : public io::InputError {
+ public:
+  using io::InputError::InputError;
+};
+
+struct CalibrationOptions {
+  // Parameter groups to refine (io::EstimableGroups()); the others stay at the starting model.
+  std::vector<std::string> estimate = {"camera", "distortion", "mirror1_pose", "mirror2_pose",
+                                       "reflex"};
+  // Gaussian priors for refined mirror shapes (key mirror1_shape | mirror2_shape). A shape group
+  // in `estimate` without a prior is refined freely.
+  std::map<std::string, io::ShapePrior> priors;
+  io::SolverOptions solver;
+  bool refine_skew = false;     // the camera's skew is held at its starting value unless asked
+  bool refine_dist_k3 = false;  // likewise dist_k3 (correlates with dist_k1, dist_k2)
+  // dist_p1, dist_p2: held by default: over the rings' radii tangential distortion is nearly the
+  // image of a rotation of the camera against the mirror bodies (sigma(cx) grew 5x with them free).
+  bool refine_tangential = false;
+  // Degeneracy checks on the target placements (horizontal range and azimuth of each target's
+  // centre about the camera axis).
+  double min_range_ratio = 1.3;         // max range / min range must reach this
+  double min_azimuth_span_deg = 120.0;  // the targets must span this much azimuth
+  // Progress, one line per stage (the CLI prints it to stderr); may be empty.
+  std::function<void(const std::string&)> progress;
+};
+
+// One observation that was left out of the final solve, and why.
+struct RejectedObservation {
+  int image = 0;   // index into the detections' images
+  int target = 0;  // session target index
+  int id = 0;      // corner id
+  int mirror = 1;
+  Eigen::Vector2d pixel = Eigen::Vector2d::Zero();
+  double residual_px = 0;  // norm of the reprojection error when rejected (0 if not projectable)
+  std::string reason;      // "outlier" | "not projectable" | "placement failed"
+};
+
+struct StageReport {
+  std::string name;
+  int iterations = 0;
+  double initial_rms_px = 0, final_rms_px = 0;
+  int n_observations = 0;
+  bool converged = false;
+  std::string termination;  // Ceres' message
+  double seconds = 0;
+};
+
+struct TargetPlacementEstimate {
+  int image = 0, target = 0;
+  Eigen::Vector3d rotation = Eigen::Vector3d::Zero();  // cam_from_target, angle-axis
+  Eigen::Vector3d translation = Eigen::Vector3d::Zero();
+  int observations[2] = {0, 0};  // used corners via mirror 1, mirror 2
+};
+
+// A parameter the data cannot determine, and what data would.
+struct UnobservableParameter {
+  std::string name;
+  std::string hint;
+};
+
+struct CalibrationResult {
+  RigParams rig;  // the calibrated model (kind noncentral), rig.calibration filled
+  // Rig parameters that were refined, in covariance order (names as in rig.calibration).
+  std::vector<std::string> names;
+  Eigen::VectorXd values, sigma;  // internal units: px, unitless, rad, mm
+  Eigen::MatrixXd covariance, correlation;
+  std::vector<UnobservableParameter> unobservable;  // named, never given a number
+  double variance_factor = 1;  // s^2 = SSR / (n_residuals - n_parameters)
+  double rms_px = 0;
+  double per_mirror_rms_px[2] = {0, 0};
+  int n_observations = 0;  // used in the final solve
+  int n_parameters = 0;    // rig + pose parameters of the final solve
+  std::vector<RejectedObservation> rejected;
+  std::vector<StageReport> stages;
+  std::vector<TargetPlacementEstimate> placements;
+  bool converged = false;
+};
+
+// Calibrates from detections (pixels of target corners per image and ring). `targets` are the
+// session's targets (detections refer to them by index). Throws CalibrationError for degenerate
+// or unusable input and for a solve that diverges; io::InputError for detections that refer to
+// a target or corner id the session does not have.
+CalibrationResult Calibrate(const RigParams& start, const std::vector<TargetSpec>& targets,
+                            const io::Detections& detections, const CalibrationOptions& options);
+
+// Options from a session file's estimate / priors / solver sections.
+CalibrationOptions OptionsFromSession(const io::Session& session);
+
+// The rig parameter's name in files and tables (camera: fx ... skew; dist_k1 ...; c1, k1, c2, k2;
+// mirror1.rx ... mirror1.tz; mirror2.*; reflex.rx, reflex.ry, reflex.dz).
+const std::vector<std::string>& BlockParameterNames(const std::string& group);
+
+// The table printed after a calibration: parameter, value, sigma (and truth if given) in assembly
+// units (px, mm, deg), then the unobservable parameters with hints, residual statistics, stages.
+std::string ResultTable(const CalibrationResult& result, const RigParams* truth = nullptr);
+
+}  // namespace omni::calib

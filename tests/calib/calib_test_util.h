@@ -1,0 +1,101 @@
+// Synthetic calibration sessions for the calibration tests: the misaligned big rig
+// (sample_configs/big_rig_misaligned.yaml) as the truth, exact corner pixels from
+// calib/synthetic's ComputeTruth (the fast path, no rendering) plus Gaussian pixel noise, and the
+// ideal design (sample_configs/big_rig_ideal.yaml) as the starting model.
+#pragma once
+
+#include <algorithm>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "calib/synthetic/scene.h"
+#include "model/io/detections_file.h"
+#include "model/io/model_file.h"
+#include "model/target.h"
+
+#ifndef OMNI_SOURCE_DIR
+#error "OMNI_SOURCE_DIR must name the source tree"
+#endif
+
+namespace omni::testing {
+
+inline RigParams MisalignedRig() {
+  return io::ReadModelFile(std::string(OMNI_SOURCE_DIR) + "/sample_configs/big_rig_misaligned.yaml");
+}
+inline RigParams IdealRig() {
+  return io::ReadModelFile(std::string(OMNI_SOURCE_DIR) + "/sample_configs/big_rig_ideal.yaml");
+}
+
+struct SyntheticSession {
+  synthetic::Scene scene;
+  std::vector<TargetSpec> targets;  // the session's targets (chessboards)
+  std::vector<std::vector<synthetic::CornerTruth>> truth;  // per image
+};
+
+inline TargetSpec Chessboard(int rows, int cols, double square_mm) {
+  TargetSpec t;
+  t.type = TargetType::kChessboard;
+  t.rows = rows;
+  t.cols = cols;
+  t.square_mm = square_mm;
+  return t;
+}
+
+// Random placements of chessboards around the rig (calib/synthetic RandomPlacement).
+inline SyntheticSession MakeSession(const RigParams& truth_rig,
+                                    const synthetic::RandomPlacement& random,
+                                    const std::vector<TargetSpec>& boards) {
+  SyntheticSession s;
+  const RigModel model(truth_rig);
+  s.scene.targets = boards;
+  std::string error;
+  if (!synthetic::AddRandomImages(model, random, &s.scene, &error)) throw std::runtime_error(error);
+  // Random scenes may show one board definition several times in an image; detections name a
+  // target by its session index, so the k-th copy in an image becomes session target
+  // board + k * boards.size() (identical physical boards).
+  int copies = 1;
+  for (const auto& image : s.scene.images) {
+    std::vector<int> count(boards.size(), 0);
+    for (const auto& p : image.placements) copies = std::max(copies, ++count[p.target]);
+  }
+  for (int k = 0; k < copies; ++k) s.targets.insert(s.targets.end(), boards.begin(), boards.end());
+  for (const auto& image : s.scene.images) s.truth.push_back(synthetic::ComputeTruth(model, s.scene, image));
+  return s;
+}
+
+// The session's detections: every visible corner with N(0, noise_px^2) added to u and v.
+inline io::Detections NoisyDetections(const SyntheticSession& s, double noise_px, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> noise(0.0, noise_px);
+  io::Detections d;
+  d.session = "synthetic";
+  for (size_t i = 0; i < s.truth.size(); ++i) {
+    io::ImageDetections image;
+    image.file = s.scene.images[i].name + ".png";
+    image.width = 1280;
+    image.height = 960;
+    const auto& placements = s.scene.images[i].placements;
+    std::vector<int> session_target(placements.size());
+    std::vector<int> count(s.scene.targets.size(), 0);
+    for (size_t p = 0; p < placements.size(); ++p) {
+      session_target[p] = placements[p].target +
+                          static_cast<int>(s.scene.targets.size()) * count[placements[p].target]++;
+    }
+    for (const auto& c : s.truth[i]) {
+      for (int m = 0; m < 2; ++m) {
+        if (!c.pixel[m]) continue;
+        io::CornerObservation o;
+        o.target = session_target[c.placement];
+        o.id = c.id;
+        o.mirror = m + 1;
+        o.pixel = *c.pixel[m] + Eigen::Vector2d(noise(rng), noise(rng));
+        image.corners.push_back(o);
+      }
+    }
+    d.images.push_back(image);
+  }
+  return d;
+}
+
+}  // namespace omni::testing
