@@ -1,0 +1,350 @@
+#include "detectors/chessboard_detector.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <numeric>
+
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
+
+namespace omni::detectors {
+namespace {
+
+struct Region {
+  cv::Rect rect;      // in view pixels
+  int saddles = 0;
+  double spacing = 0; // median nearest-neighbour distance of its saddle points (~ square side)
+};
+
+// Saddle points of the view: local maxima of Ixy^2 - Ixx Iyy (positive where the Hessian is
+// indefinite, i.e. at X-junctions) above the strength of a saddle of `min_contrast` grey levels.
+std::vector<cv::Point2f> SaddlePoints(const RingView& view, const ChessboardOptions& options) {
+  cv::Mat f, ixx, iyy, ixy;
+  view.image.convertTo(f, CV_32F);
+  cv::GaussianBlur(f, f, cv::Size(0, 0), options.saddle_sigma);
+  cv::Sobel(f, ixx, CV_32F, 2, 0, 3);
+  cv::Sobel(f, iyy, CV_32F, 0, 2, 3);
+  cv::Sobel(f, ixy, CV_32F, 1, 1, 3);
+  // -det(H), kept only where the saddle is balanced (|trace| small against sqrt(-det)): an
+  // X-junction's Hessian is [[a, b], [b, -a]]; blobs and edges of texture are not.
+  cv::Mat response = ixy.mul(ixy) - ixx.mul(iyy);
+  cv::Mat trace = ixx + iyy;
+  cv::Mat unbalanced = trace.mul(trace) > options.saddle_balance * options.saddle_balance * response;
+  response.setTo(0, unbalanced);
+  // Not next to the view's invalid area (its edge is a strong false feature).
+  cv::Mat valid = view.map_x >= 0, valid_inner;
+  cv::erode(valid, valid_inner, cv::Mat(), cv::Point(-1, -1), 3);
+  response.setTo(0, ~valid_inner);
+  cv::Mat dilated;
+  cv::dilate(response, dilated, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(5, 5)));
+  // An ideal saddle of contrast C blurred by sigma has Ixy = C / (pi sigma^2); the 3x3 Sobel
+  // second derivatives carry a gain of 4 each. Render blur adds about 0.7 px in quadrature.
+  const double s2 = options.saddle_sigma * options.saddle_sigma + 0.5;
+  const double ixy_min = 4.0 * options.saddle_min_contrast / (M_PI * s2);
+  const float threshold = static_cast<float>(ixy_min * ixy_min);
+  std::vector<cv::Point2f> points;
+  for (int y = 0; y < response.rows; ++y) {
+    const float* r = response.ptr<float>(y);
+    const float* d = dilated.ptr<float>(y);
+    for (int x = 0; x < response.cols; ++x) {
+      if (r[x] > threshold && r[x] >= d[x]) points.emplace_back(x, y);
+    }
+  }
+  return points;
+}
+
+int Find(std::vector<int>& parent, int i) {
+  while (parent[i] != i) i = parent[i] = parent[parent[i]];
+  return i;
+}
+
+// Groups saddle points into candidate board regions: a point links to another closer than 1.25
+// times the smaller of their 4th-nearest-neighbour distances (a grid corner's 4th neighbour is at
+// most 2 squares away; neighbouring boards are at least 3 squares apart with their margins).
+std::vector<Region> Regions(const std::vector<cv::Point2f>& points, const cv::Size& size,
+                            const ChessboardOptions& options) {
+  const int n = static_cast<int>(points.size());
+  // Buckets of kCell pixels; neighbours are searched within kReach buckets.
+  constexpr int kCell = 16, kReach = 3;
+  const int bw = size.width / kCell + 1, bh = size.height / kCell + 1;
+  std::vector<std::vector<int>> buckets(bw * bh);
+  for (int i = 0; i < n; ++i) {
+    buckets[static_cast<int>(points[i].y) / kCell * bw + static_cast<int>(points[i].x) / kCell].push_back(i);
+  }
+  auto for_neighbours = [&](int i, auto&& fn) {
+    const int bx = static_cast<int>(points[i].x) / kCell, by = static_cast<int>(points[i].y) / kCell;
+    for (int y = std::max(0, by - kReach); y <= std::min(bh - 1, by + kReach); ++y) {
+      for (int x = std::max(0, bx - kReach); x <= std::min(bw - 1, bx + kReach); ++x) {
+        for (int j : buckets[y * bw + x]) {
+          if (j != i) fn(j, std::hypot(points[i].x - points[j].x, points[i].y - points[j].y));
+        }
+      }
+    }
+  };
+  std::vector<double> nn4(n), nn1(n);
+  for (int i = 0; i < n; ++i) {
+    std::array<double, 4> b;
+    b.fill(kCell * kReach);
+    for_neighbours(i, [&](int, double d) {
+      if (d < b[3]) {
+        b[3] = d;
+        std::sort(b.begin(), b.end());
+      }
+    });
+    nn4[i] = b[3];
+    nn1[i] = b[0];
+  }
+  std::vector<int> parent(n);
+  std::iota(parent.begin(), parent.end(), 0);
+  for (int i = 0; i < n; ++i) {
+    for_neighbours(i, [&](int j, double d) {
+      if (d <= 1.25 * std::min(nn4[i], nn4[j])) parent[Find(parent, i)] = Find(parent, j);
+    });
+  }
+  std::vector<std::vector<int>> members(n);
+  for (int i = 0; i < n; ++i) members[Find(parent, i)].push_back(i);
+  std::vector<Region> regions;
+  for (const auto& m : members) {
+    if (static_cast<int>(m.size()) < options.min_saddles) continue;
+    std::vector<double> spacing;
+    float x0 = 1e9f, y0 = 1e9f, x1 = -1e9f, y1 = -1e9f;
+    for (int i : m) {
+      spacing.push_back(nn1[i]);
+      x0 = std::min(x0, points[i].x);
+      y0 = std::min(y0, points[i].y);
+      x1 = std::max(x1, points[i].x);
+      y1 = std::max(y1, points[i].y);
+    }
+    std::nth_element(spacing.begin(), spacing.begin() + spacing.size() / 2, spacing.end());
+    Region r;
+    r.saddles = static_cast<int>(m.size());
+    r.spacing = spacing[spacing.size() / 2];
+    // The outer squares and a quiet zone lie about 1.5 squares beyond the inner corners.
+    const int margin = static_cast<int>(std::ceil(1.6 * r.spacing + 6));
+    r.rect = cv::Rect(cv::Point(static_cast<int>(x0) - margin, static_cast<int>(y0) - margin),
+                      cv::Point(static_cast<int>(x1) + margin + 1, static_cast<int>(y1) + margin + 1)) &
+             cv::Rect(0, 0, size.width, size.height);
+    regions.push_back(r);
+  }
+  return regions;
+}
+
+// Index permutations of a rows x cols grid that a board's symmetry allows: 180-degree turns,
+// and for square boards 90-degree turns and transposes; mirror images are filtered later by
+// handedness. perm[new_id] = old index.
+std::vector<std::vector<int>> Relabellings(int rows, int cols) {
+  std::vector<std::vector<int>> out;
+  for (int transpose = 0; transpose < (rows == cols ? 2 : 1); ++transpose) {
+    for (int flip_r = 0; flip_r < 2; ++flip_r) {
+      for (int flip_c = 0; flip_c < 2; ++flip_c) {
+        std::vector<int> perm(rows * cols);
+        for (int r = 0; r < rows; ++r) {
+          for (int c = 0; c < cols; ++c) {
+            int rr = flip_r ? rows - 1 - r : r, cc = flip_c ? cols - 1 - c : c;
+            if (transpose) std::swap(rr, cc);
+            perm[r * cols + c] = rr * cols + cc;
+          }
+        }
+        out.push_back(perm);
+      }
+    }
+  }
+  return out;
+}
+
+// Chooses ids for corners found as a rows x cols grid in a view (see the header's rule: +x to
+// the viewer's left, i.e. view -x; +y up, i.e. view -y; proper handedness).
+std::vector<cv::Point2f> Orient(const std::vector<cv::Point2f>& found, int rows, int cols) {
+  std::vector<cv::Point2f> best;
+  double best_score = -1e9;
+  for (const auto& perm : Relabellings(rows, cols)) {
+    Eigen::Vector2d dc = Eigen::Vector2d::Zero(), dr = Eigen::Vector2d::Zero();
+    for (int r = 0; r < rows; ++r) {
+      for (int c = 0; c + 1 < cols; ++c) {
+        const cv::Point2f d = found[perm[r * cols + c + 1]] - found[perm[r * cols + c]];
+        dc += Eigen::Vector2d(d.x, d.y);
+      }
+    }
+    for (int r = 0; r + 1 < rows; ++r) {
+      for (int c = 0; c < cols; ++c) {
+        const cv::Point2f d = found[perm[(r + 1) * cols + c]] - found[perm[r * cols + c]];
+        dr += Eigen::Vector2d(d.x, d.y);
+      }
+    }
+    if (dc.x() * dr.y() - dc.y() * dr.x() <= 0) continue;  // a mirror image
+    const double score = -dc.normalized().x() - dr.normalized().y();
+    if (score > best_score) {
+      best_score = score;
+      best.assign(found.size(), cv::Point2f());
+      for (size_t i = 0; i < found.size(); ++i) best[i] = found[perm[i]];
+    }
+  }
+  return best;
+}
+
+// True if the region lies more centrally in the neighbouring view (views of one ring are evenly
+// spaced in azimuth and overlap) and fits whole in it: it is then searched there only.
+bool BetterInNeighbour(const RingView& view, const cv::Rect& rect, size_t sectors) {
+  const double step = 2 * M_PI / sectors;
+  const double half_fov = std::atan(0.5 * view.width / view.f);
+  const Eigen::Vector3d centre = view.RayInCam(Eigen::Vector2d(rect.x + 0.5 * rect.width, view.cy));
+  double offset = std::atan2(centre.y(), centre.x()) - view.azimuth;
+  offset = std::abs(std::remainder(offset, 2 * M_PI));
+  const double half_width = std::atan(0.5 * rect.width / view.f);
+  return offset > 0.5 * step && (step - offset) + half_width < half_fov - 0.02;
+}
+
+// Sub-pixel refinement of one corner in the raw image with a window of half-size `half`.
+bool RefineInRaw(const cv::Mat& raw_grey, int half, Eigen::Vector2d* pixel) {
+  if (pixel->x() < half + 2 || pixel->y() < half + 2 || pixel->x() > raw_grey.cols - half - 3 ||
+      pixel->y() > raw_grey.rows - half - 3) {
+    return false;
+  }
+  std::vector<cv::Point2f> p{cv::Point2f(static_cast<float>(pixel->x()), static_cast<float>(pixel->y()))};
+  cv::cornerSubPix(raw_grey, p, cv::Size(half, half), cv::Size(-1, -1),
+                   cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 40, 1e-4));
+  *pixel = Eigen::Vector2d(p[0].x, p[0].y);
+  return true;
+}
+
+}  // namespace
+
+std::vector<BoardDetection> DetectChessboardBoards(const cv::Mat& raw_grey,
+                                                   const std::vector<RingView>& views,
+                                                   const RigModel& model,
+                                                   const std::vector<TargetSpec>& targets,
+                                                   const ChessboardOptions& options) {
+  // Distinct patterns, larger first (a smaller pattern must not claim part of a larger board).
+  std::vector<int> patterns;
+  for (size_t t = 0; t < targets.size(); ++t) {
+    if (targets[t].type != TargetType::kChessboard) continue;
+    bool seen = false;
+    for (int p : patterns) {
+      seen = seen || (targets[p].rows == targets[t].rows && targets[p].cols == targets[t].cols);
+    }
+    if (!seen) patterns.push_back(static_cast<int>(t));
+  }
+  std::sort(patterns.begin(), patterns.end(), [&](int a, int b) {
+    return targets[a].rows * targets[a].cols > targets[b].rows * targets[b].cols;
+  });
+  std::vector<BoardDetection> boards;
+  if (patterns.empty()) return boards;
+
+  for (size_t vi = 0; vi < views.size(); ++vi) {
+    const RingView& view = views[vi];
+    const std::vector<cv::Point2f> saddles = SaddlePoints(view, options);
+    for (const Region& region : Regions(saddles, view.image.size(), options)) {
+      if (BetterInNeighbour(view, region.rect, views.size() / 2)) continue;
+      cv::Mat crop = view.image(region.rect).clone();
+      int found_here = 0;
+      for (int t : patterns) {
+        const TargetSpec& spec = targets[t];
+        const int n = spec.rows * spec.cols;
+        if (n > 1.3 * region.saddles + 2) continue;
+        // A failed search costs ten times a successful one: stop at the number of boards the
+        // region's saddle points allow (boards bring some extra saddles at their sheet edges).
+        const int expected = std::clamp(static_cast<int>(region.saddles / (1.5 * n) + 0.5), 1,
+                                        options.max_boards_per_region);
+        while (found_here < expected) {
+          std::vector<cv::Point2f> corners;
+          const bool ok = cv::findChessboardCorners(
+              crop, cv::Size(spec.cols, spec.rows), corners,
+              cv::CALIB_CB_ADAPTIVE_THRESH | cv::CALIB_CB_NORMALIZE_IMAGE);
+          if (!ok || static_cast<int>(corners.size()) != spec.rows * spec.cols) break;
+          ++found_here;
+          // Hide this board from the next search in the region.
+          std::vector<cv::Point> pts, hull;
+          for (const auto& c : corners) pts.emplace_back(cvRound(c.x), cvRound(c.y));
+          cv::convexHull(pts, hull);
+          cv::fillConvexPoly(crop, hull, cv::Scalar(128));
+          cv::polylines(crop, hull, true, cv::Scalar(128),
+                        std::max(3, static_cast<int>(2.5 * region.spacing)));
+
+          cv::cornerSubPix(view.image(region.rect), corners, cv::Size(2, 2), cv::Size(-1, -1),
+                           cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 20, 1e-3));
+          const std::vector<cv::Point2f> oriented = Orient(corners, spec.rows, spec.cols);
+          if (oriented.empty()) continue;
+          BoardDetection board;
+          board.target = t;
+          board.mirror = view.mirror;
+          board.view = static_cast<int>(vi);
+          Eigen::Vector2d centre = Eigen::Vector2d::Zero();
+          std::vector<std::optional<Eigen::Vector2d>> raw(oriented.size());
+          for (size_t i = 0; i < oriented.size(); ++i) {
+            const Eigen::Vector2d vp(oriented[i].x + region.rect.x, oriented[i].y + region.rect.y);
+            centre += vp / oriented.size();
+            raw[i] = view.ViewToRawExact(model, vp);
+          }
+          board.off_centre = (centre - Eigen::Vector2d(view.cx, view.cy)).norm();
+          for (size_t i = 0; i < oriented.size(); ++i) {
+            if (!raw[i]) continue;
+            Eigen::Vector2d pixel = *raw[i];
+            if (options.refine_in_raw) {
+              // The local square side in the raw image from the grid neighbours.
+              const int r = static_cast<int>(i) / spec.cols, c = static_cast<int>(i) % spec.cols;
+              double side = 1e9;
+              for (auto [dr, dc] : {std::pair{0, 1}, {0, -1}, {1, 0}, {-1, 0}}) {
+                const int rr = r + dr, cc = c + dc;
+                if (rr < 0 || cc < 0 || rr >= spec.rows || cc >= spec.cols) continue;
+                const auto& q = raw[rr * spec.cols + cc];
+                if (q) side = std::min(side, (*q - *raw[i]).norm());
+              }
+              const int half = std::clamp(static_cast<int>(std::lround(0.4 * side)), 2, 6);
+              const Eigen::Vector2d before = pixel;
+              if (!RefineInRaw(raw_grey, half, &pixel)) continue;
+              if ((pixel - before).norm() > options.max_refine_shift_px) continue;
+            }
+            board.ids.push_back(static_cast<int>(i));
+            board.view_pixels.emplace_back(oriented[i].x + region.rect.x, oriented[i].y + region.rect.y);
+            board.raw_pixels.push_back(pixel);
+          }
+          if (!board.ids.empty()) boards.push_back(std::move(board));
+        }
+      }
+    }
+  }
+
+  // One board seen in two overlapping views: keep the view it is most central in.
+  std::sort(boards.begin(), boards.end(),
+            [](const BoardDetection& a, const BoardDetection& b) { return a.off_centre < b.off_centre; });
+  std::vector<BoardDetection> kept;
+  for (auto& b : boards) {
+    bool duplicate = false;
+    for (const auto& k : kept) {
+      if (k.target != b.target || k.mirror != b.mirror) continue;
+      for (size_t i = 0; i < b.ids.size() && !duplicate; ++i) {
+        for (size_t j = 0; j < k.ids.size(); ++j) {
+          if ((b.raw_pixels[i] - k.raw_pixels[j]).norm() < 2.0) {
+            duplicate = true;
+            break;
+          }
+        }
+      }
+      if (duplicate) break;
+    }
+    if (!duplicate) kept.push_back(std::move(b));
+  }
+  return kept;
+}
+
+std::vector<io::CornerObservation> DetectChessboards(const cv::Mat& raw_grey,
+                                                     const std::vector<RingView>& views,
+                                                     const RigModel& model,
+                                                     const std::vector<TargetSpec>& targets,
+                                                     const ChessboardOptions& options) {
+  std::vector<io::CornerObservation> out;
+  for (const BoardDetection& b : DetectChessboardBoards(raw_grey, views, model, targets, options)) {
+    for (size_t i = 0; i < b.ids.size(); ++i) {
+      io::CornerObservation o;
+      o.target = b.target;
+      o.id = b.ids[i];
+      o.mirror = MirrorIndex(b.mirror);
+      o.pixel = b.raw_pixels[i];
+      out.push_back(o);
+    }
+  }
+  return out;
+}
+
+}  // namespace omni::detectors

@@ -1,0 +1,71 @@
+// Chessboards in an omnidirectional image: found in the un-mirrored perspective views of each
+// ring (views.h), mapped back to the raw image through the model and refined there.
+//
+// Per view: saddle points (negative Hessian determinant of the smoothed view) propose regions
+// where corners cluster; OpenCV's findChessboardCorners runs on each region for each distinct
+// rows x cols of the session's chessboards (a small crop makes it fast). Corners are mapped to raw
+// pixels by the model's exact projection of the view ray (RingView::ViewToRawExact) and refined
+// sub-pixel in the RAW image (cv::cornerSubPix with a window scaled to the local square size).
+// A board found in two overlapping views is kept from the view whose centre it is nearest.
+//
+// Corner ids (id = row * cols + col, model/target.h) follow one rule in both rings, which is how
+// calib/synthetic places boards: seen from the rig, the target's +x (increasing col) points
+// towards increasing azimuth (counter-clockwise about +z_C, the viewer's LEFT) and its +y
+// (increasing row) points UP (+z_C); corner 0 is the lowest, rightmost inner corner seen from the
+// rig. Among the labellings a board's symmetry allows (180 degrees; 90 degrees too for square
+// boards; never a mirror image, the views are un-mirrored) the one closest to that rule is taken.
+// So the two rings' views of one physical board get the same ids. A board held more than 45
+// degrees away from that attitude gets rotated ids (consistently in both rings).
+//
+// Limits: two chessboard targets with the same rows x cols cannot be told apart (the first in
+// the list is reported); only boards whose whole inner-corner grid is inside one view are found
+// (a board cut by a ring boundary gives no corners).
+#pragma once
+
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "detectors/views.h"
+#include "model/io/detections_file.h"
+#include "model/rig_model.h"
+#include "model/target.h"
+
+namespace omni::detectors {
+
+struct ChessboardOptions {
+  double saddle_sigma = 1.0;       // view pixels: smoothing before the Hessian
+  double saddle_min_contrast = 100; // grey levels across a corner for a saddle point to count
+  double saddle_balance = 0.5;    // |trace H| <= balance * sqrt(-det H) at a saddle point
+  int min_saddles = 4;             // a region with fewer saddle points is not tried
+  int max_boards_per_region = 4;
+  bool refine_in_raw = true;       // cornerSubPix in the raw image (else: the view's corner mapped)
+  double max_refine_shift_px = 1.5;  // raw refinement moving a corner further rejects it
+};
+
+// One detected board (before flattening into observations).
+struct BoardDetection {
+  int target = 0;                   // index into the target list
+  Mirror mirror = Mirror::kOne;
+  int view = 0;                     // index into the views
+  std::vector<int> ids;
+  std::vector<Eigen::Vector2d> view_pixels, raw_pixels;
+  double off_centre = 0;            // distance of the board's centre from the view's centre (px)
+};
+
+// Chessboards in one image. `views` must have been rendered from this image (RenderViews);
+// `raw_grey` is the raw image as CV_8U grey. Targets that are not chessboards are ignored; the
+// target index of an observation is its index in `targets`.
+std::vector<BoardDetection> DetectChessboardBoards(const cv::Mat& raw_grey,
+                                                   const std::vector<RingView>& views,
+                                                   const RigModel& model,
+                                                   const std::vector<TargetSpec>& targets,
+                                                   const ChessboardOptions& options = {});
+
+std::vector<io::CornerObservation> DetectChessboards(const cv::Mat& raw_grey,
+                                                     const std::vector<RingView>& views,
+                                                     const RigModel& model,
+                                                     const std::vector<TargetSpec>& targets,
+                                                     const ChessboardOptions& options = {});
+
+}  // namespace omni::detectors

@@ -1,0 +1,41 @@
+// Everything the detectors find in one omnidirectional image: chessboard corners (and, once
+// their detectors are in, AprilTag grid corners and lip edges), per ring, as detections-file
+// records (model/io/detections_file.h).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "detectors/chessboard_detector.h"
+#include "detectors/ring_layout.h"
+#include "detectors/views.h"
+#include "model/io/detections_file.h"
+#include "model/rig_model.h"
+#include "model/target.h"
+
+namespace omni::detectors {
+
+// What stays the same for every image of a session: the model, its ring layout and the views'
+// maps (built once: MakeRingViews is the costly part), the targets to look for.
+struct DetectorContext {
+  DetectorContext(const RigParams& rig, std::vector<TargetSpec> targets, bool use_lips = true,
+                  const ViewOptions& view_options = {});
+
+  RigModel model;
+  RingLayout layout;
+  std::vector<RingView> views;  // each image is rendered into views[i].image (not thread-safe)
+  std::vector<TargetSpec> targets;
+  bool use_lips = true;
+  ChessboardOptions chessboard;
+};
+
+// Detects the context's targets in `image` (BGR or grey, 8 or 16 bit, the model's size). Throws
+// io::InputError with a one-line reason when the image cannot be used (empty, wrong size);
+// appends a line to *warnings for what was skipped (e.g. lips on a grey image). `file`, `width`
+// and `height` of the result are for the caller to fill in.
+io::ImageDetections DetectImage(const cv::Mat& image, DetectorContext* ctx,
+                                std::vector<std::string>* warnings = nullptr);
+
+}  // namespace omni::detectors
