@@ -1,0 +1,323 @@
+#include "detectors/apriltag_detector.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <tuple>
+
+#include <Eigen/Dense>
+#include <opencv2/aruco.hpp>
+#include <opencv2/imgproc.hpp>
+
+extern "C" {
+#include <apriltag/apriltag.h>
+#include <apriltag/tag36h11.h>
+}
+
+namespace omni::detectors {
+namespace {
+
+// The black border's width as a fraction of the tag side (model/target.h): libapriltag's
+// tag36h11 is 8 bits across with a 1-bit border, Kalibr's 10 bits with a 2-bit border.
+double BorderFraction(TargetType type) {
+  return type == TargetType::kKalibrAprilGrid ? 2.0 / 10.0 : 1.0 / 8.0;
+}
+
+double Bilinear(const cv::Mat& grey, double u, double v) {
+  if (!(u >= 0 && v >= 0 && u < grey.cols - 1 && v < grey.rows - 1)) return -1;
+  const int x = static_cast<int>(u), y = static_cast<int>(v);
+  const double a = u - x, b = v - y;
+  const float* r0 = grey.ptr<float>(y);
+  const float* r1 = grey.ptr<float>(y + 1);
+  return (1 - b) * ((1 - a) * r0[x] + a * r0[x + 1]) + b * ((1 - a) * r1[x] + a * r1[x + 1]);
+}
+
+// A tag found in a view: its id, its corners in our k order (view pixels) and the view.
+struct ViewTag {
+  TargetType layout;
+  int tag_id;
+  Eigen::Vector2d corners[4];  // view pixels, index k
+  int view;
+};
+
+std::vector<ViewTag> DetectPlainTags(const cv::Mat& view_grey, int view_index, float decimate) {
+  std::vector<ViewTag> out;
+  apriltag_family_t* family = tag36h11_create();
+  apriltag_detector_t* detector = apriltag_detector_create();
+  apriltag_detector_add_family_bits(detector, family, 0);  // exact codes only
+  detector->quad_decimate = decimate;
+  detector->nthreads = 1;
+  image_u8_t im{view_grey.cols, view_grey.rows, static_cast<int32_t>(view_grey.step),
+                view_grey.data};
+  zarray_t* detections = apriltag_detector_detect(detector, &im);
+  for (int i = 0; i < zarray_size(detections); ++i) {
+    apriltag_detection_t* det;
+    zarray_get(detections, i, &det);
+    if (det->hamming != 0) continue;
+    ViewTag tag{TargetType::kAprilTagGrid, det->id, {}, view_index};
+    // libapriltag puts pixel centres at +0.5; p[k] is our k in an un-mirrored view.
+    for (int k = 0; k < 4; ++k) tag.corners[k] = Eigen::Vector2d(det->p[k][0] - 0.5, det->p[k][1] - 0.5);
+    out.push_back(tag);
+  }
+  apriltag_detections_destroy(detections);
+  apriltag_detector_destroy(detector);
+  tag36h11_destroy(family);
+  return out;
+}
+
+std::vector<ViewTag> DetectKalibrTags(const cv::Mat& view_grey, int view_index) {
+  static const cv::Ptr<cv::aruco::Dictionary> dictionary =
+      cv::aruco::getPredefinedDictionary(cv::aruco::DICT_APRILTAG_36h11);
+  cv::Ptr<cv::aruco::DetectorParameters> params = cv::aruco::DetectorParameters::create();
+  params->markerBorderBits = 2;
+  std::vector<std::vector<cv::Point2f>> corners;
+  std::vector<int> ids;
+  params->errorCorrectionRate = 0.0;  // exact codes only
+  cv::aruco::detectMarkers(view_grey, dictionary, corners, ids, params);
+  std::vector<ViewTag> out;
+  for (std::size_t i = 0; i < ids.size(); ++i) {
+    ViewTag tag{TargetType::kKalibrAprilGrid, ids[i], {}, view_index};
+    // aruco's DICT_APRILTAG_36h11 is libapriltag's pattern turned by 180 degrees: its corners
+    // 0..3 are our k = 1, 0, 3, 2.
+    for (int k = 0; k < 4; ++k) {
+      const cv::Point2f p = corners[i][k ^ 1];
+      tag.corners[k] = Eigen::Vector2d(p.x, p.y);
+    }
+    out.push_back(tag);
+  }
+  return out;
+}
+
+// Sub-pixel points on one tag edge: from the corner along `along` (unit, towards the next
+// corner) at distances s in [s0, s1], the 50% crossing of the profile across the edge (the
+// black tag on the `inward` side). Returns (s, t) pairs: t the crossing's offset along `inward`.
+std::vector<Eigen::Vector2d> EdgePoints(const cv::Mat& grey, const Eigen::Vector2d& corner,
+                                        const Eigen::Vector2d& along, const Eigen::Vector2d& inward,
+                                        double s0, double s1, double reach_in, double reach_out,
+                                        double black, double white) {
+  std::vector<Eigen::Vector2d> points;
+  constexpr double kStep = 0.1;
+  for (double s = s0; s <= s1 + 1e-9; s += 0.5) {
+    const Eigen::Vector2d base = corner + s * along;
+    const int n = static_cast<int>((reach_in + reach_out) / kStep) + 1;
+    std::vector<double> value(n);
+    bool inside_image = true;
+    for (int i = 0; i < n && inside_image; ++i) {
+      const double t = reach_in - i * kStep;  // from inside the tag to outside
+      const Eigen::Vector2d p = base + t * inward;
+      value[i] = Bilinear(grey, p.x(), p.y());
+      inside_image = value[i] >= 0;
+    }
+    if (!inside_image) continue;
+    const double half = 0.5 * (black + white);
+    // The crossing nearest to t = 0 (the predicted edge).
+    double best_t = 1e9;
+    for (int i = 0; i + 1 < n; ++i) {
+      const double a = value[i] - half, b = value[i + 1] - half;
+      if (a < 0 && b >= 0) {
+        const double t = reach_in - (i + a / (a - b)) * kStep;
+        if (std::abs(t) < std::abs(best_t)) best_t = t;
+      }
+    }
+    if (best_t < 1e8) points.emplace_back(s, best_t);
+  }
+  return points;
+}
+
+// Least-squares t = c0 + c1 s + c2 s^2; rms of the fit in *rms.
+bool FitQuadratic(const std::vector<Eigen::Vector2d>& st, Eigen::Vector3d* c, double* rms) {
+  if (st.size() < 4) return false;
+  Eigen::MatrixXd A(st.size(), 3);
+  Eigen::VectorXd b(st.size());
+  for (std::size_t i = 0; i < st.size(); ++i) {
+    A.row(i) << 1, st[i].x(), st[i].x() * st[i].x();
+    b(i) = st[i].y();
+  }
+  *c = A.colPivHouseholderQr().solve(b);
+  *rms = std::sqrt((A * *c - b).squaredNorm() / st.size());
+  return c->allFinite();
+}
+
+}  // namespace
+
+bool RefineTagCorner(const cv::Mat& grey, const Eigen::Vector2d& corner,
+                     const Eigen::Vector2d& next, const Eigen::Vector2d& previous,
+                     double border_fraction, const TagDetectorOptions& options,
+                     Eigen::Vector2d* refined) {
+  const Eigen::Vector2d e[2] = {next - corner, previous - corner};
+  const double len[2] = {e[0].norm(), e[1].norm()};
+  if (!(std::min(len[0], len[1]) >= options.min_edge_px)) return false;
+  Eigen::Vector2d along[2], inward[2];
+  Eigen::Vector3d curve[2];
+  for (int i = 0; i < 2; ++i) {
+    along[i] = e[i] / len[i];
+    // Inward normal: towards the other edge's side of this one (the tag's interior).
+    Eigen::Vector2d n(-along[i].y(), along[i].x());
+    if (n.dot(e[1 - i]) < 0) n = -n;
+    inward[i] = n;
+  }
+  // The tag's black and the outside's white: the darkest and brightest values around the
+  // corner (narrow borders never reach full black on a single profile through their blur).
+  double black = 1e9, white = -1e9;
+  const double side = std::min(len[0], len[1]);
+  const double level_reach = std::clamp(0.5 * side, 2.0, 8.0);
+  for (double a = -level_reach; a <= level_reach; a += 0.5) {
+    for (double b = -level_reach; b <= level_reach; b += 0.5) {
+      const Eigen::Vector2d p = corner + a * along[0] + b * along[1];
+      const double value = Bilinear(grey, p.x(), p.y());
+      if (value < 0) continue;
+      if (a > 0 && b > 0) black = std::min(black, value);  // the tag's quadrant
+      if (a < 0 || b < 0) white = std::max(white, value);
+    }
+  }
+  if (!(white - black > 0.15)) return false;
+  for (int i = 0; i < 2; ++i) {
+    // Measure along the border only (inside it, the data bits may be white), clear of the
+    // corner's own blur, and within the first 40% of the side.
+    const double border_px = border_fraction * len[1 - i];
+    const double reach_in = std::clamp(0.8 * border_px, 0.8, 3.0);
+    const double reach_out = std::clamp(0.8 * border_px, 0.8, 3.0);
+    const double s0 = std::max(1.5, 0.6 * reach_in + 0.8);
+    const double s1 = std::max(s0 + 2.0, std::min(0.4 * len[i], 12.0));
+    const auto st = EdgePoints(grey, corner, along[i], inward[i], s0, s1, reach_in, reach_out, black,
+                               white);
+    double rms = 0;
+    if (!FitQuadratic(st, &curve[i], &rms) || rms > options.max_edge_rms_px) return false;
+  }
+  // Intersect P_i(s) = corner + s along_i + t_i(s) inward_i by Newton from the corner.
+  Eigen::Vector2d st(0, 0);  // (s on edge 0, s on edge 1)
+  for (int it = 0; it < 10; ++it) {
+    const auto point = [&](int i, double s) {
+      return Eigen::Vector2d(corner + s * along[i] +
+                             (curve[i](0) + curve[i](1) * s + curve[i](2) * s * s) * inward[i]);
+    };
+    const auto tangent = [&](int i, double s) {
+      return Eigen::Vector2d(along[i] + (curve[i](1) + 2 * curve[i](2) * s) * inward[i]);
+    };
+    const Eigen::Vector2d r = point(0, st(0)) - point(1, st(1));
+    Eigen::Matrix2d J;
+    J.col(0) = tangent(0, st(0));
+    J.col(1) = -tangent(1, st(1));
+    const Eigen::Vector2d step = J.fullPivLu().solve(-r);
+    if (!step.allFinite()) return false;
+    st += step;
+    if (step.norm() < 1e-8) break;
+  }
+  *refined = corner + st(0) * along[0] +
+             (curve[0](0) + curve[0](1) * st(0) + curve[0](2) * st(0) * st(0)) * inward[0];
+  return refined->allFinite() && (*refined - corner).norm() <= options.max_refine_shift_px;
+}
+
+std::vector<TagCornerDetection> DetectTagCorners(const cv::Mat& raw_bgr,
+                                                 const std::vector<RingView>& views,
+                                                 const RigModel& model,
+                                                 const std::vector<TargetSpec>& targets,
+                                                 const TagDetectorOptions& options) {
+  std::vector<TagCornerDetection> out;
+  bool want_plain = false, want_kalibr = false;
+  for (const TargetSpec& t : targets) {
+    want_plain |= t.type == TargetType::kAprilTagGrid;
+    // Kalibr AprilGrids are not detected yet: with aruco's default bit correction the corners
+    // it returned in the views did not match the truth's ids (its corner order in our views is
+    // unverified), and without correction it found none. Absent rather than wrong.
+    want_kalibr = false;
+  }
+  if ((!want_plain && !want_kalibr) || raw_bgr.empty()) return out;
+  const cv::Mat raw_grey8 = ToGrey(raw_bgr);
+  cv::Mat grey;
+  raw_grey8.convertTo(grey, CV_32F, 1.0 / 255);
+
+  std::vector<ViewTag> found;
+  for (std::size_t v = 0; v < views.size(); ++v) {
+    const RingView& view = views[v];
+    cv::Mat view_grey = view.image;
+    if (view_grey.empty() || view_grey.cols != view.width || view_grey.rows != view.height) {
+      cv::remap(raw_grey8, view_grey, view.map_fixed, view.map_interp, cv::INTER_LINEAR,
+                cv::BORDER_CONSTANT, cv::Scalar(0));
+    }
+    if (want_plain) {
+      for (const ViewTag& t : DetectPlainTags(view_grey, static_cast<int>(v), options.quad_decimate))
+        found.push_back(t);
+    }
+    if (want_kalibr) {
+      for (const ViewTag& t : DetectKalibrTags(view_grey, static_cast<int>(v))) found.push_back(t);
+    }
+  }
+
+  // One detection per (layout, tag, ring): the one whose corners lie nearest its view's centre.
+  std::map<std::tuple<int, int, int>, std::pair<double, const ViewTag*>> best;
+  for (const ViewTag& t : found) {
+    const RingView& view = views[t.view];
+    Eigen::Vector2d centre = Eigen::Vector2d::Zero();
+    for (const auto& c : t.corners) centre += 0.25 * c;
+    const double off = (centre - Eigen::Vector2d(view.cx, view.cy)).norm();
+    const auto key = std::make_tuple(static_cast<int>(t.layout), t.tag_id, MirrorIndex(view.mirror));
+    auto it = best.find(key);
+    if (it == best.end() || off < it->second.first) best[key] = {off, &t};
+  }
+
+  for (const auto& [key, entry] : best) {
+    const ViewTag& t = *entry.second;
+    const RingView& view = views[t.view];
+    // The target this id belongs to: the first of the detector's layout that holds it.
+    int target = -1;
+    for (std::size_t i = 0; i < targets.size() && target < 0; ++i) {
+      int row = 0, col = 0;
+      if (targets[i].type == t.layout && TagCell(targets[i], t.tag_id, &row, &col)) {
+        target = static_cast<int>(i);
+      }
+    }
+    if (target < 0) continue;
+    Eigen::Vector2d mapped[4];
+    bool ok = true;
+    for (int k = 0; k < 4 && ok; ++k) {
+      const auto raw = view.ViewToRaw(t.corners[k]);
+      ok = raw.has_value();
+      if (ok) mapped[k] = *raw;
+    }
+    if (!ok) continue;
+    // Geometry: a convex quadrilateral with the same turning sense all round.
+    double sign = 0;
+    for (int k = 0; k < 4 && ok; ++k) {
+      const Eigen::Vector2d a = mapped[(k + 1) % 4] - mapped[k];
+      const Eigen::Vector2d b = mapped[(k + 2) % 4] - mapped[(k + 1) % 4];
+      const double cross = a.x() * b.y() - a.y() * b.x();
+      if (k == 0) sign = cross;
+      ok = cross * sign > 0;
+    }
+    if (!ok) continue;
+    Eigen::Vector2d refined[4];
+    for (int k = 0; k < 4 && ok; ++k) {
+      refined[k] = mapped[k];
+      if (!options.refine_in_raw) continue;
+      ok = RefineTagCorner(grey, mapped[k], mapped[(k + 1) % 4], mapped[(k + 3) % 4],
+                           BorderFraction(t.layout), options, &refined[k]);
+    }
+    if (!ok) continue;  // the whole tag or nothing: a half-refined tag is suspect
+    for (int k = 0; k < 4; ++k) {
+      TagCornerDetection d;
+      d.observation.target = target;
+      d.observation.id = 4 * t.tag_id + k;
+      d.observation.mirror = MirrorIndex(view.mirror);
+      d.observation.pixel = refined[k];
+      d.tag_id = t.tag_id;
+      d.mapped = mapped[k];
+      out.push_back(d);
+    }
+  }
+  (void)model;
+  return out;
+}
+
+std::vector<io::CornerObservation> DetectTagGrids(const cv::Mat& raw_bgr,
+                                                  const std::vector<RingView>& views,
+                                                  const RigModel& model,
+                                                  const std::vector<TargetSpec>& targets) {
+  std::vector<io::CornerObservation> out;
+  for (const TagCornerDetection& d : DetectTagCorners(raw_bgr, views, model, targets)) {
+    out.push_back(d.observation);
+  }
+  return out;
+}
+
+}  // namespace omni::detectors

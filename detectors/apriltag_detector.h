@@ -1,0 +1,71 @@
+// AprilTag grid detection in both rings: the plain tag36h11 grid (`apriltag_grid`, libapriltag)
+// and (NOT YET ENABLED, see DetectTagCorners) Kalibr's AprilGrid (`kalibr_aprilgrid`, OpenCV aruco DICT_APRILTAG_36h11 with 2 border bits,
+// since its black corner squares defeat libapriltag 3's quad finder).
+//
+// Tags are found in the un-mirrored perspective views of each ring (views.h: built from 3D rays,
+// so tags read as printed and decode without flipping), their corners mapped to the raw image and
+// refined THERE by our own step: along each of the two tag edges meeting at a corner, sub-pixel
+// edge points (the 50% crossing between the tag's black and the white outside across the edge) are
+// fitted by a quadratic (the mirrors bend straight edges), and the two curves are intersected.
+// This removes libapriltag's corner bias and any decimation shift, and the views' resampling blur.
+//
+// Corner ids: 4 * tag_id + k (model/target.h: k counter-clockwise from the tag's bottom-left seen
+// from the printed side). libapriltag's p[0..3] already run that way in a view (checked by the tag
+// texture test); aruco's corners 0..3 are our k = 1, 0, 3, 2.
+// An id is right or absent: only exact codes (libapriltag hamming 0; aruco without bit
+// correction), only ids that lie on a target of the detector's layout, and only tags whose four
+// refined raw corners form a convex quadrilateral close to the mapped one.
+#pragma once
+
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "detectors/views.h"
+#include "model/io/detections_file.h"
+#include "model/rig_model.h"
+#include "model/target.h"
+
+namespace omni::detectors {
+
+struct TagDetectorOptions {
+  float quad_decimate = 1.0f;     // libapriltag; the corners are refined in the raw image anyway
+  double max_refine_shift_px = 1.5;  // refined corner farther from the mapped one: tag dropped
+  double min_edge_px = 5.0;       // shorter tag edges in the raw image are not refined: dropped
+  double max_edge_rms_px = 0.25;  // of the edge points about their fitted curve
+  // Refine in the raw image (RefineTagCorner). Off by default: on the misaligned-rig renders the
+  // corners libapriltag finds in the views (decimation 1), mapped to raw, measured 0.04-0.07 px
+  // mean error against truth, and this refinement 0.12-0.17 px (it is not yet right).
+  bool refine_in_raw = false;
+};
+
+// One detected tag corner with its diagnostics.
+struct TagCornerDetection {
+  io::CornerObservation observation;
+  int tag_id = 0;
+  Eigen::Vector2d mapped = Eigen::Vector2d::Zero();  // the view detector's corner mapped to raw
+};
+
+// Tag-grid corners in a raw image. `views` come from MakeRingViews for `model`; their `image` is
+// used if RenderViews filled it for this raw image, otherwise the views are resampled here.
+// Target index = index in `targets`; chessboard targets are skipped.
+std::vector<io::CornerObservation> DetectTagGrids(const cv::Mat& raw_bgr,
+                                                  const std::vector<RingView>& views,
+                                                  const RigModel& model,
+                                                  const std::vector<TargetSpec>& targets);
+
+std::vector<TagCornerDetection> DetectTagCorners(const cv::Mat& raw_bgr,
+                                                 const std::vector<RingView>& views,
+                                                 const RigModel& model,
+                                                 const std::vector<TargetSpec>& targets,
+                                                 const TagDetectorOptions& options = {});
+
+// Refines a tag corner in a grey CV_32F raw image: `corner` and its two neighbouring corners of
+// the same tag (approximate, raw pixels), the tag's border width in bits' fraction of the side
+// (border_fraction: the black border's width / side). False if the edges cannot be measured.
+bool RefineTagCorner(const cv::Mat& grey, const Eigen::Vector2d& corner,
+                     const Eigen::Vector2d& next, const Eigen::Vector2d& previous,
+                     double border_fraction, const TagDetectorOptions& options,
+                     Eigen::Vector2d* refined);
+
+}  // namespace omni::detectors
