@@ -205,9 +205,9 @@ DepthFrame DenseStereo::Compute(const cv::Mat& image) const {
         const Eigen::Matrix<double, 3, 2> A2 = dmid_drays.rightCols<6>() * J2;
         const Eigen::Matrix3d cov =
             sigma2 * (A1 * A1.transpose() + A2 * A2.transpose());  // [uncertainty_propagation]
-        const double lambda_max =
-            Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(cov, Eigen::EigenvaluesOnly)
-                .eigenvalues()[2];
+        Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen;
+        eigen.computeDirect(cov, Eigen::EigenvaluesOnly);  // closed form: fast for 3x3
+        const double lambda_max = eigen.eigenvalues()[2];
         const double sigma = std::sqrt(std::max(0.0, lambda_max));
         if (options_.max_sigma_mm > 0 && sigma > options_.max_sigma_mm) continue;
         DensePoint p;

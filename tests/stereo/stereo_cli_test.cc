@@ -1,0 +1,125 @@
+// `omnistereo triangulate`, `panorama` and `depth` through the real executable: the RMSE table
+// from a fast-path truth file (noise-free pixels give the true corners), the CSV contract, and
+// bad input (exit 2, one line, no output file).
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include <unistd.h>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "model/io/csv.h"
+#include "tests/cli_test_util.h"
+
+namespace omni {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::RunOmnistereo;
+
+const std::string kSampleDir = std::string(OMNI_SOURCE_DIR) + "/sample_configs/";
+
+class StereoCli : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("stereo_cli_" + std::to_string(::getpid()));
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  std::string Path(const std::string& name) const { return (dir_ / name).string(); }
+  fs::path dir_;
+};
+
+TEST_F(StereoCli, TriangulatesTruthPixelsAndPrintsTheRangeTable) {
+  std::string err, out;
+  ASSERT_EQ(RunOmnistereo("render --model=" + kSampleDir + "big_rig_misaligned.yaml --scene=" +
+                              kSampleDir + "rmse_scene.yaml --no_render --out=" + Path("rmse"),
+                          Path("err.txt"), &err),
+            0)
+      << err;
+  // Noise-free truth pixels through the same model: every corner exact.
+  ASSERT_EQ(RunOmnistereo("triangulate --model=" + kSampleDir + "big_rig_misaligned.yaml" +
+                              " --truth=" + Path("rmse/truth.yaml") + " --out=" + Path("t.csv"),
+                          Path("err.txt"), &err, Path("out.txt"), &out),
+            0)
+      << err;
+  EXPECT_NE(out.find("range_m"), std::string::npos) << out;
+  const std::vector<std::string> columns = {"x_mm", "y_mm", "z_mm", "cov_xx", "cov_zz", "gap_mm"};
+  io::CsvReader csv(Path("t.csv"), columns);
+  std::vector<double> row;
+  int rows = 0;
+  while (csv.ReadRow(&row)) {
+    ++rows;
+    EXPECT_GT(row[3], 0);            // covariance at sigma_px 1
+    EXPECT_LT(row[5], 1e-6);         // the rays meet
+  }
+  EXPECT_EQ(rows, 480);  // 6 ranges x 4 boards x 20 corners, all seen in both rings
+  // Six ranges, zero RMSE each.
+  int zero_rows = 0;
+  std::istringstream lines(out);
+  std::string line;
+  while (std::getline(lines, line)) {
+    double range = 0, rmse = 1;
+    if (std::sscanf(line.c_str(), "%lf %lf", &range, &rmse) == 2 && rmse < 1e-3) ++zero_rows;
+  }
+  EXPECT_EQ(zero_rows, 6) << out;
+}
+
+TEST_F(StereoCli, BadInputFailsWithOneLineAndNoOutput) {
+  std::string err;
+  const std::string model = " --model=" + kSampleDir + "big_rig_misaligned.yaml";
+  // No detections and no truth.
+  EXPECT_EQ(RunOmnistereo("triangulate" + model + " --out=" + Path("t.csv"), Path("e"), &err), 2);
+  EXPECT_NE(err.find("--detections"), std::string::npos) << err;
+  // A truth file of the wrong format.
+  { std::ofstream(Path("bad.yaml")) << "format: omnistereo-model/1\n"; }
+  EXPECT_EQ(RunOmnistereo("triangulate" + model + " --truth=" + Path("bad.yaml") + " --out=" +
+                              Path("t.csv"),
+                          Path("e"), &err),
+            2);
+  EXPECT_NE(err.find("format"), std::string::npos) << err;
+  EXPECT_FALSE(fs::exists(Path("t.csv")));
+  // A bad method.
+  EXPECT_EQ(RunOmnistereo("triangulate" + model + " --truth=" + Path("bad.yaml") +
+                              " --method=best --out=" + Path("t.csv"),
+                          Path("e"), &err),
+            2);
+  // depth / panorama: missing image, wrong image size, bad SGBM settings.
+  EXPECT_EQ(RunOmnistereo("depth" + model + " --out=" + Path("d"), Path("e"), &err), 2);
+  EXPECT_NE(err.find("--image"), std::string::npos) << err;
+  cv::imwrite(Path("small.png"), cv::Mat(48, 64, CV_8UC3, cv::Scalar(90, 90, 90)));
+  EXPECT_EQ(RunOmnistereo("panorama" + model + " --image=" + Path("small.png") + " --out=" +
+                              Path("p"),
+                          Path("e"), &err),
+            2);
+  EXPECT_NE(err.find("1280x960"), std::string::npos) << err;
+  EXPECT_FALSE(fs::exists(Path("p/panorama1.png")));
+  EXPECT_EQ(RunOmnistereo("depth" + model + " --image=" + Path("small.png") +
+                              " --num_disparities=20 --out=" + Path("d"),
+                          Path("e"), &err),
+            2);
+}
+
+TEST_F(StereoCli, PanoramaAndDepthWriteTheirFiles) {
+  // A flat grey image: valid input, panoramas of the right size, no matches (empty cloud).
+  cv::imwrite(Path("grey.png"), cv::Mat(960, 1280, CV_8UC3, cv::Scalar(90, 90, 90)));
+  std::string err, out;
+  const std::string args = " --model=" + kSampleDir + "big_rig_ideal.yaml --image=" +
+                           Path("grey.png") + " --panorama_width=360";
+  ASSERT_EQ(RunOmnistereo("panorama" + args + " --out=" + Path("p"), Path("e"), &err), 0) << err;
+  const cv::Mat p1 = cv::imread(Path("p/panorama1.png"));
+  ASSERT_FALSE(p1.empty());
+  EXPECT_EQ(p1.cols, 360);
+  ASSERT_EQ(RunOmnistereo("depth" + args + " --out=" + Path("d"), Path("e"), &err), 0) << err;
+  for (const char* f : {"panorama1.png", "panorama2.png", "disparity.png", "disparity16.png",
+                        "cloud.ply"}) {
+    EXPECT_TRUE(fs::exists(dir_ / "d" / f)) << f;
+  }
+}
+
+}  // namespace
+}  // namespace omni
