@@ -1,11 +1,17 @@
-// `omnistereo render --model M --scene S --out DIR [--no_render]`: a synthetic session. Writes
+// `omnistereo render --model M --scene S --out DIR [--no_render] [--jobs N]`: a synthetic session. Writes
 // DIR/NNNN.png (POV-Ray through the model's true mirror geometry, then lens distortion and noise),
 // DIR/NNNN.pov, DIR/target<i>_<type>.png (the tag grids' textures), DIR/model.yaml and
-// DIR/truth.yaml (exact pixels from our model). --no_render writes only the ground truth (the
-// fast path).
+// DIR/truth.yaml (exact pixels from our model), and DIR/session.yaml (omnistereo-session/1 over the
+// rendered images, starting from DIR/model.yaml) for `detect` and `calibrate`. --no_render writes
+// only the model and the ground truth (the fast path). --jobs N renders N images at a time.
+#include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <mutex>
+#include <thread>
+#include <vector>
 
 #include <gflags/gflags.h>
 #include <opencv2/imgcodecs.hpp>
@@ -18,11 +24,37 @@
 #include "calib/synthetic/tag_texture.h"
 #include "model/io/file_util.h"
 #include "model/io/model_file.h"
+#include "model/io/session_file.h"
 #include "model/rig_model.h"
 
 DEFINE_bool(no_render, false, "write only the ground truth, without running POV-Ray");
+DEFINE_int32(jobs, 2, "images rendered at the same time (POV-Ray processes)");
 
 namespace omni::apps {
+namespace {
+
+// Scene image i as DIR/<name>.png: POV-Ray's pinhole render, then lens distortion and noise.
+void RenderImage(const synthetic::Scene& scene, size_t i, const RigParams& render_rig,
+                 const synthetic::RenderOptions& options, const std::string& dir) {
+  const auto& image = scene.images[i];
+  const std::string tmp = dir + "/" + image.name + ".pinhole.png";
+  std::string error;
+  if (!synthetic::RenderScene(synthetic::PovSceneText(render_rig, synthetic::ContentOf(scene, image)),
+                              tmp, options, &error)) {
+    throw std::runtime_error(image.name + ": " + error);
+  }
+  cv::Mat img = synthetic::ApplyDistortion(cv::imread(tmp, cv::IMREAD_COLOR), render_rig);
+  synthetic::AddNoise(&img, scene.noise_sigma, scene.noise_seed + static_cast<unsigned>(i));
+  std::filesystem::remove(tmp);
+  std::error_code ec;
+  std::filesystem::rename(dir + "/" + image.name + ".pinhole.pov", dir + "/" + image.name + ".pov",
+                          ec);
+  std::vector<uchar> png;
+  if (!cv::imencode(".png", img, png)) throw std::runtime_error("cannot encode " + image.name);
+  io::WriteFileAtomically(dir + "/" + image.name + ".png", std::string(png.begin(), png.end()));
+}
+
+}  // namespace
 
 int RunRender() {
   if (FLAGS_model.empty() || FLAGS_scene.empty() || FLAGS_out.empty()) {
@@ -48,35 +80,61 @@ int RunRender() {
       !synthetic::WriteTagTextures(scene.targets, FLAGS_out, &texture_error)) {
     throw std::runtime_error(texture_error);
   }
-  int rendered = 0;
-  double seconds = 0;
-  for (size_t i = 0; i < scene.images.size() && !FLAGS_no_render; ++i) {
-    const auto& image = scene.images[i];
-    const std::string png = FLAGS_out + "/" + image.name + ".png";
-    const std::string tmp = FLAGS_out + "/" + image.name + ".pinhole.png";
-    const auto t0 = std::chrono::steady_clock::now();
-    std::string error;
-    if (!synthetic::RenderScene(synthetic::PovSceneText(render_rig, synthetic::ContentOf(scene, image)),
-                                tmp, options, &error)) {
-      throw std::runtime_error(image.name + ": " + error);
-    }
-    cv::Mat img = synthetic::ApplyDistortion(cv::imread(tmp, cv::IMREAD_COLOR), render_rig);
-    synthetic::AddNoise(&img, scene.noise_sigma, scene.noise_seed + static_cast<unsigned>(i));
-    std::filesystem::remove(tmp);
-    std::filesystem::rename(FLAGS_out + "/" + image.name + ".pinhole.pov",
-                            FLAGS_out + "/" + image.name + ".pov", ec);
-    if (!cv::imwrite(png, img)) throw std::runtime_error("cannot write " + png);
-    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    seconds += s;
-    ++rendered;
-    std::fprintf(stderr, "[%zu/%zu] %s rendered in %.1f s\n", i + 1, scene.images.size(),
-                 png.c_str(), s);
+  const size_t n_render = FLAGS_no_render ? 0 : scene.images.size();
+  const int jobs = static_cast<int>(std::min<size_t>(std::max(1, FLAGS_jobs), std::max<size_t>(1, n_render)));
+  // Each POV-Ray process gets its share of the cores (its parse and set-up are serial, which is
+  // what running several processes wins back).
+  if (jobs > 1) {
+    options.threads = std::max(1, static_cast<int>(std::thread::hardware_concurrency()) / jobs);
   }
+  std::atomic<size_t> next{0};
+  std::atomic<int> rendered{0};
+  std::mutex mutex;
+  std::string first_error;
+  const auto t_start = std::chrono::steady_clock::now();
+  auto worker = [&] {
+    for (size_t i = next++; i < n_render; i = next++) {
+      {
+        std::lock_guard<std::mutex> lock(mutex);
+        if (!first_error.empty()) return;
+      }
+      const auto t0 = std::chrono::steady_clock::now();
+      try {
+        RenderImage(scene, i, render_rig, options, FLAGS_out);
+      } catch (const std::exception& e) {
+        std::lock_guard<std::mutex> lock(mutex);
+        if (first_error.empty()) first_error = e.what();
+        return;
+      }
+      const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      std::lock_guard<std::mutex> lock(mutex);
+      std::fprintf(stderr, "[%d/%zu] %s/%s.png rendered in %.1f s\n", ++rendered, n_render,
+                   FLAGS_out.c_str(), scene.images[i].name.c_str(), s);
+    }
+  };
+  std::vector<std::thread> threads;
+  for (int j = 0; j < jobs && n_render > 0; ++j) threads.emplace_back(worker);
+  for (auto& t : threads) t.join();
+  if (!first_error.empty()) throw std::runtime_error(first_error);
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+
   io::WriteFileAtomically(FLAGS_out + "/truth.yaml",
                           synthetic::TruthText(scene, model, "model.yaml"));
-  std::printf("%zu images, %d rendered (%.1f s per %dx%d frame), truth in %s/truth.yaml\n",
-              scene.images.size(), rendered, rendered ? seconds / rendered : 0.0, options.width,
-              options.height, FLAGS_out.c_str());
+  if (n_render > 0) {
+    // A session that `detect` and `calibrate` run on as it is.
+    io::Session session;
+    session.model_path = FLAGS_out + "/model.yaml";
+    for (const auto& image : scene.images) session.images.push_back(FLAGS_out + "/" + image.name + ".png");
+    session.targets = scene.targets;
+    session.estimate = {"camera", "distortion", "mirror1_pose", "mirror2_pose", "reflex"};
+    io::WriteFileAtomically(FLAGS_out + "/session.yaml", io::SessionText(session, FLAGS_out));
+  }
+  std::printf("%zu images, %zu rendered in %.1f s with %d POV-Ray process(es) (%.1f s per %dx%d "
+              "frame), truth in %s/truth.yaml%s\n",
+              scene.images.size(), n_render, seconds, jobs, n_render ? seconds / n_render : 0.0,
+              options.width, options.height, FLAGS_out.c_str(),
+              n_render ? (", session in " + FLAGS_out + "/session.yaml").c_str() : "");
   return 0;
 }
 

@@ -2,6 +2,7 @@
 // ground truth as a real render, the truth agrees with RigModel::Project, bad input fails cleanly.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -13,6 +14,7 @@
 
 #include "model/camera.h"
 #include "model/io/model_file.h"
+#include "model/io/session_file.h"
 #include "tests/cli_test_util.h"
 #include "model/rig_model.h"
 
@@ -67,6 +69,17 @@ TEST_F(RenderCli, FastPathEqualsRenderedTruthAndTruthEqualsProject) {
   EXPECT_EQ(img.cols, 320);
   EXPECT_EQ(img.rows, 240);
   EXPECT_FALSE(fs::exists(dir_ + "/fast/0001.png"));
+  EXPECT_FALSE(fs::exists(dir_ + "/fast/session.yaml"));
+  // The render is a session as it stands: its model, its images, the scene's targets.
+  const io::Session session = io::ReadSessionFile(dir_ + "/full/session.yaml");
+  EXPECT_EQ(fs::path(session.model_path), fs::path(dir_ + "/full/model.yaml"));
+  ASSERT_EQ(session.images.size(), 1u);
+  EXPECT_EQ(fs::path(session.images[0]), fs::path(dir_ + "/full/0001.png"));
+  ASSERT_EQ(session.targets.size(), 1u);
+  EXPECT_EQ(session.targets[0].type, TargetType::kChessboard);
+  EXPECT_EQ(session.targets[0].rows, 4);
+  EXPECT_EQ(session.targets[0].cols, 5);
+  EXPECT_EQ(session.targets[0].square_mm, 60.0);
 
   const RigModel model(io::ReadModelFile(dir_ + "/full/model.yaml"));
   const YAML::Node truth = YAML::LoadFile(dir_ + "/full/truth.yaml");
@@ -159,6 +172,22 @@ TEST_F(RenderCli, BadSceneFailsWithOneLineAndWritesNoTruth) {
   EXPECT_NE(err.find("bad.yaml"), std::string::npos) << err;
   EXPECT_NE(err.find("targets[0]"), std::string::npos) << err;
   EXPECT_FALSE(fs::exists(dir_ + "/bad/truth.yaml"));
+  // Tag grids: ids beyond tag36h11's 587 codes, a gap below one tag bit, an unknown kind.
+  const std::pair<std::string, std::string> bad_targets[] = {
+      {"{type: kalibr_aprilgrid, rows: 2, cols: 3, tag_size: 45, spacing: 0.3, first_id: 585}", "first_id"},
+      {"{type: apriltag_grid, family: tag36h11, rows: 2, cols: 3, tag_size: 45, spacing: 0.05}", "spacing"},
+      {"{type: apriltag_grid, family: tag25h9, rows: 2, cols: 3, tag_size: 45, spacing: 0.3}", "family"},
+      {"{type: aprilgrid, rows: 2, cols: 3}", "targets[0].type"}};
+  for (const auto& [target, key] : bad_targets) {
+    std::ofstream(dir_ + "/bad_tags.yaml") << "format: omnistereo-scene/1\ntargets: [" << target
+                                           << "]\nrandom: {images: 1}\n";
+    EXPECT_EQ(RunCli("render --model " + dir_ + "/model.yaml --scene " + dir_ + "/bad_tags.yaml --out " +
+                     dir_ + "/bad3", &err), 2) << target;
+    EXPECT_NE(err.find("bad_tags.yaml: targets[0]"), std::string::npos) << err;
+    EXPECT_NE(err.find(key), std::string::npos) << err;
+    EXPECT_EQ(std::count(err.begin(), err.end(), '\n'), 1) << err;
+    EXPECT_FALSE(fs::exists(dir_ + "/bad3/truth.yaml"));
+  }
   EXPECT_NE(RunCli("render --model " + dir_ + "/missing.yaml --scene " + dir_ + "/scene.yaml --out " +
                     dir_ + "/bad2", &err), 0);
   EXPECT_NE(err.find("missing.yaml"), std::string::npos) << err;
