@@ -60,21 +60,21 @@ int RunRender() {
   if (FLAGS_model.empty() || FLAGS_scene.empty() || FLAGS_out.empty()) {
     throw io::InputError("--model, --scene and --out are required");
   }
-  const RigParams rig = io::ReadModelFile(FLAGS_model);
+  RigParams rig = io::ReadModelFile(FLAGS_model);
+  const synthetic::Scene scene = synthetic::ReadSceneFile(FLAGS_scene, RigModel(rig));
+  // The scene's image size renders the same rig at that resolution; model.yaml and the truth
+  // describe the images as rendered.
+  if (scene.width > 0) rig = synthetic::RigAtImageSize(rig, scene.width, scene.height);
   const RigModel model(rig);
-  const synthetic::Scene scene = synthetic::ReadSceneFile(FLAGS_scene, model);
   std::error_code ec;
   std::filesystem::create_directories(FLAGS_out, ec);
   if (ec) throw io::InputError(FLAGS_out + ": cannot create the output folder: " + ec.message());
   io::WriteModelFile(FLAGS_out + "/model.yaml", rig);
 
   synthetic::RenderOptions options;
-  options.width = scene.width > 0 ? scene.width : rig.image_width;
-  options.height = scene.height > 0 ? scene.height : rig.image_height;
+  options.width = rig.image_width;
+  options.height = rig.image_height;
   options.antialias = scene.antialias;
-  RigParams render_rig = rig;
-  render_rig.image_width = options.width;
-  render_rig.image_height = options.height;
   std::string texture_error;
   if (!FLAGS_no_render &&
       !synthetic::WriteTagTextures(scene.targets, FLAGS_out, &texture_error)) {
@@ -100,7 +100,7 @@ int RunRender() {
       }
       const auto t0 = std::chrono::steady_clock::now();
       try {
-        RenderImage(scene, i, render_rig, options, FLAGS_out);
+        RenderImage(scene, i, rig, options, FLAGS_out);
       } catch (const std::exception& e) {
         std::lock_guard<std::mutex> lock(mutex);
         if (first_error.empty()) first_error = e.what();

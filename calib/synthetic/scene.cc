@@ -78,6 +78,16 @@ std::vector<CornerTruth> ComputeTruth(const RigModel& model, const Scene& scene,
   return out;
 }
 
+RigParams RigAtImageSize(const RigParams& rig, int width, int height) {
+  RigParams out = rig;
+  const double s = static_cast<double>(width) / rig.image_width;
+  out.image_width = width;
+  out.image_height = height;
+  out.camera = {s * rig.camera[0], s * rig.camera[1], s * (rig.camera[2] + 0.5) - 0.5,
+                s * (rig.camera[3] + 0.5) - 0.5, s * rig.camera[4]};
+  return out;
+}
+
 bool AddRandomImages(const RigModel& model, const RandomPlacement& random, Scene* scene,
                      std::string* error) {
   if (scene->targets.empty()) {

@@ -61,6 +61,11 @@ struct Scene {
   std::vector<Marker> markers;  // drawn in every image
 };
 
+// The same rig and camera imaged at another size with the same aspect ratio (the scene's
+// `image:`): fx, fy, skew scale by width / rig.image_width and the principal point about the
+// pixel-centre convention, c' + 0.5 = s (c + 0.5); distortion (normalised coordinates) is kept.
+RigParams RigAtImageSize(const RigParams& rig, int width, int height);
+
 // Appends random images to scene->images (deterministic for a seed). Returns false with a reason
 // if a placement in the stereo region cannot be found (e.g. ranges outside what the rig sees).
 bool AddRandomImages(const RigModel& model, const RandomPlacement& random, Scene* scene,

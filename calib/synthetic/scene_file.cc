@@ -111,6 +111,11 @@ Scene ReadSceneFile(const std::string& path, const RigModel& model) {
     s.width = Int(img["width"], path, "image.width");
     s.height = Int(img["height"], path, "image.height");
     if (s.width <= 0 || s.height <= 0) Fail(path, "image", "expected positive width and height");
+    const RigParams& rig = model.params();
+    if (static_cast<long>(s.width) * rig.image_height != static_cast<long>(s.height) * rig.image_width) {
+      Fail(path, "image", "expected the model's aspect ratio " + std::to_string(rig.image_width) +
+                              ":" + std::to_string(rig.image_height));
+    }
   }
   if (const auto r = root["render"]) {
     if (r["antialias"]) s.antialias = r["antialias"].as<bool>();

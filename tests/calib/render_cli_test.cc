@@ -163,6 +163,35 @@ TEST_F(RenderCli, FastPathEqualsRenderedTruthAndTruthEqualsProject) {
   EXPECT_LT(worst, 0.3);
 }
 
+TEST_F(RenderCli, SceneImageSizeRendersTheSameRigAtThatResolution) {
+  std::ofstream(dir_ + "/half.yaml") << testing::ReadText(dir_ + "/scene.yaml")
+                                     << "image: {width: 160, height: 120}\n";
+  std::string err;
+  ASSERT_EQ(RunCli("render --model " + dir_ + "/model.yaml --scene " + dir_ +
+                    "/scene.yaml --no_render --out " + dir_ + "/full", &err), 0) << err;
+  ASSERT_EQ(RunCli("render --model " + dir_ + "/model.yaml --scene " + dir_ +
+                    "/half.yaml --no_render --out " + dir_ + "/half", &err), 0) << err;
+  EXPECT_EQ(io::ReadModelFile(dir_ + "/half/model.yaml").image_width, 160);
+  const YAML::Node full = YAML::LoadFile(dir_ + "/full/truth.yaml")["images"][0]["corners"];
+  const YAML::Node half = YAML::LoadFile(dir_ + "/half/truth.yaml")["images"][0]["corners"];
+  ASSERT_EQ(full.size(), half.size());
+  int compared = 0;
+  for (size_t i = 0; i < full.size(); ++i) {
+    for (int k = 6; k < 10; ++k) {
+      if (full[i][k].IsNull() || half[i][k].IsNull()) continue;
+      // Pixel centres at integers: (u + 0.5) scales with the image.
+      EXPECT_NEAR(half[i][k].as<double>(), 0.5 * (full[i][k].as<double>() + 0.5) - 0.5, 1e-6);
+      ++compared;
+    }
+  }
+  EXPECT_GE(compared, 100);
+  std::ofstream(dir_ + "/odd.yaml") << testing::ReadText(dir_ + "/scene.yaml")
+                                    << "image: {width: 160, height: 100}\n";
+  EXPECT_EQ(RunCli("render --model " + dir_ + "/model.yaml --scene " + dir_ + "/odd.yaml --out " +
+                   dir_ + "/odd", &err), 2);
+  EXPECT_NE(err.find("odd.yaml: image"), std::string::npos) << err;
+}
+
 TEST_F(RenderCli, BadSceneFailsWithOneLineAndWritesNoTruth) {
   std::ofstream(dir_ + "/bad.yaml") << "format: omnistereo-scene/1\ntargets: [{type: chessboard, "
                                        "rows: 4, cols: 5, square: -1}]\nrandom: {images: 1}\n";
