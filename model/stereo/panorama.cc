@@ -1,5 +1,6 @@
 #include "model/stereo/panorama.h"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -90,14 +91,27 @@ PanoramaLuts BuildPanoramaLuts(const RigModel& model, const PanoramaOptions& opt
       }
     });
     cv::convertMaps(luts.map_x[i], luts.map_y[i], luts.fixed_xy[i], luts.fixed_frac[i], CV_16SC2);
+    int first = g.height, last = -1;
+    for (int v = 0; v < g.height; ++v) {
+      double max_x = 0;
+      cv::minMaxLoc(luts.map_x[i].row(v), nullptr, &max_x);
+      if (max_x >= 0) first = std::min(first, v), last = v;
+    }
+    luts.valid_rows[i] = last < 0 ? cv::Range(0, 0) : cv::Range(first, last + 1);
   }
   return luts;
 }
 
 void Unwarp(const cv::Mat& image, const PanoramaLuts& luts, Mirror mirror, cv::Mat* panorama) {
   const int i = MirrorIndex(mirror) - 1;
-  cv::remap(image, *panorama, luts.fixed_xy[i], luts.fixed_frac[i], cv::INTER_LINEAR,
-            cv::BORDER_CONSTANT, cv::Scalar::all(0));
+  const cv::Range rows = luts.valid_rows[i];
+  panorama->create(luts.fixed_xy[i].rows, luts.fixed_xy[i].cols, image.type());
+  panorama->rowRange(0, rows.start).setTo(cv::Scalar::all(0));
+  panorama->rowRange(rows.end, panorama->rows).setTo(cv::Scalar::all(0));
+  if (rows.empty()) return;
+  cv::Mat band = panorama->rowRange(rows);
+  cv::remap(image, band, luts.fixed_xy[i].rowRange(rows), luts.fixed_frac[i].rowRange(rows),
+            cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar::all(0));
 }
 
 }  // namespace omni::stereo

@@ -67,12 +67,14 @@ struct PanoramaLuts {
   PanoramaGeometry geometry;
   std::array<cv::Mat, 2> map_x, map_y;          // [0]: mirror 1 (Xi_1), [1]: mirror 2 (Xi_2)
   std::array<cv::Mat, 2> fixed_xy, fixed_frac;  // cv::convertMaps(CV_16SC2)
+  std::array<cv::Range, 2> valid_rows;          // rows with at least one valid entry
 };
 
 // Projects every panorama pixel via its mirror (parallel over rows).
 PanoramaLuts BuildPanoramaLuts(const RigModel& model, const PanoramaOptions& options);
 
 // Panorama Xi_mirror of a raw image (any type cv::remap takes), bilinear, black where invalid.
+// Only the rows the mirror sees are remapped (the rest is set to black).
 void Unwarp(const cv::Mat& image, const PanoramaLuts& luts, Mirror mirror, cv::Mat* panorama);
 
 }  // namespace omni::stereo
