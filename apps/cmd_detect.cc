@@ -1,8 +1,137 @@
-// `omnistereo detect`: not built yet (detectors issue).
+// `omnistereo detect --session S --out detections.yaml [--overlay DIR]`: chessboard corners (per
+// ring, with ids consistent between the rings) in every image of a session, written as an
+// `omnistereo-detections/1` file. Unusable images (unreadable, empty, wrong size) get one warning
+// line each and are left out; if no image is usable nothing is written and the exit code is 2.
+// --overlay writes DIR/<image>.png: the ring boundaries, corners coloured by ring (mirror 1
+// green, mirror 2 magenta) with their ids.
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <gflags/gflags.h>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
 #include "apps/command.h"
+#include "apps/common_flags.h"
+#include "detectors/detect_image.h"
+#include "model/io/detections_file.h"
+#include "model/io/file_util.h"
+#include "model/io/model_file.h"
+#include "model/io/session_file.h"
+
+DEFINE_string(overlay, "", "folder for overlay PNGs (corners by ring, ids, ring boundaries)");
 
 namespace omni::apps {
+namespace {
 
-int RunDetect() { return NotYetImplemented("detect", "detectors issue"); }
+namespace fs = std::filesystem;
+
+// `path` relative to `base_dir` when it lies below it, else as given.
+std::string RelativeTo(const std::string& path, const fs::path& base_dir) {
+  std::error_code ec;
+  const fs::path abs = fs::absolute(path, ec), base = fs::absolute(base_dir, ec);
+  const fs::path rel = abs.lexically_normal().lexically_relative(base.lexically_normal());
+  if (rel.empty() || *rel.begin() == "..") return path;
+  return rel.string();
+}
+
+void WriteOverlay(const std::string& path, const cv::Mat& image, const detectors::RingLayout& layout,
+                  const io::ImageDetections& det) {
+  cv::Mat out;
+  if (image.channels() == 1) {
+    cv::cvtColor(detectors::ToGrey(image), out, cv::COLOR_GRAY2BGR);
+  } else {
+    detectors::ToGrey(image);  // same depth conversion as the detector
+    image.convertTo(out, CV_8U, image.depth() == CV_16U ? 1.0 / 257.0 : 1.0);
+    if (out.channels() == 4) cv::cvtColor(out, out, cv::COLOR_BGRA2BGR);
+  }
+  for (const detectors::RingBoundary* b : {&layout.hole, &layout.reflex_edge, &layout.mirror1_cut,
+                                           &layout.mirror1_rim, &layout.mirror2_rim}) {
+    std::vector<cv::Point> curve;
+    for (size_t k = 0; k < b->radius.size(); ++k) {
+      const double phi = -M_PI + 2 * M_PI * k / b->radius.size();
+      curve.emplace_back(cvRound(layout.centre.x() + b->radius[k] * std::cos(phi)),
+                         cvRound(layout.centre.y() + b->radius[k] * std::sin(phi)));
+    }
+    cv::polylines(out, curve, true, cv::Scalar(255, 255, 0), 1, cv::LINE_AA);
+  }
+  for (const auto& lip : det.lips) {
+    for (const auto& p : lip.points) {
+      cv::circle(out, cv::Point(cvRound(p.x()), cvRound(p.y())), 1, cv::Scalar(0, 255, 255), -1);
+    }
+  }
+  for (const auto& c : det.corners) {
+    const cv::Scalar colour = c.mirror == 1 ? cv::Scalar(0, 220, 0) : cv::Scalar(255, 0, 255);
+    const cv::Point p(cvRound(c.pixel.x()), cvRound(c.pixel.y()));
+    cv::drawMarker(out, p, colour, cv::MARKER_CROSS, 5, 1);
+    cv::putText(out, std::to_string(c.target) + ":" + std::to_string(c.id), p + cv::Point(2, -2),
+                cv::FONT_HERSHEY_PLAIN, 0.6, colour, 1, cv::LINE_AA);
+  }
+  std::vector<uchar> png;
+  if (!cv::imencode(".png", out, png)) throw std::runtime_error("cannot encode " + path);
+  io::WriteFileAtomically(path, std::string(png.begin(), png.end()));
+}
+
+}  // namespace
+
+int RunDetect() {
+  if (FLAGS_session.empty() || FLAGS_out.empty()) {
+    throw io::InputError("--session and --out are required");
+  }
+  const io::Session session = io::ReadSessionFile(FLAGS_session);
+  const RigParams rig = io::ReadModelFile(session.model_path);
+  detectors::DetectorContext ctx(rig, session.targets, session.use_lips);
+  if (!FLAGS_overlay.empty()) {
+    std::error_code ec;
+    fs::create_directories(FLAGS_overlay, ec);
+    if (ec) throw io::InputError("--overlay " + FLAGS_overlay + ": cannot create the folder: " + ec.message());
+  }
+  const fs::path out_dir = fs::absolute(FLAGS_out).parent_path();
+  io::Detections detections;
+  detections.session = RelativeTo(session.path, out_dir);
+  int bad = 0, corners = 0;
+  const size_t n = session.images.size();
+  for (size_t i = 0; i < n; ++i) {
+    const std::string& file = session.images[i];
+    const auto t0 = std::chrono::steady_clock::now();
+    const cv::Mat image = cv::imread(file, cv::IMREAD_UNCHANGED);
+    std::vector<std::string> warnings;
+    io::ImageDetections det;
+    try {
+      if (image.empty()) throw io::InputError("cannot read the image (missing, empty or not an image)");
+      det = detectors::DetectImage(image, &ctx, &warnings);
+    } catch (const io::InputError& e) {
+      std::fprintf(stderr, "warning: %s: %s; skipped\n", file.c_str(), e.what());
+      ++bad;
+      continue;
+    }
+    det.file = RelativeTo(file, out_dir);
+    if (det.corners.empty()) warnings.push_back("no target corners found");
+    for (const auto& w : warnings) std::fprintf(stderr, "warning: %s: %s\n", file.c_str(), w.c_str());
+    int per_ring[2] = {0, 0};
+    for (const auto& c : det.corners) ++per_ring[c.mirror - 1];
+    corners += static_cast<int>(det.corners.size());
+    if (!FLAGS_overlay.empty()) {
+      WriteOverlay((fs::path(FLAGS_overlay) / (fs::path(file).stem().string() + ".png")).string(),
+                   image, ctx.layout, det);
+    }
+    const double ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    std::fprintf(stderr, "[%zu/%zu] %s: %d corners in ring 1, %d in ring 2, %zu lip edges (%.0f ms)\n",
+                 i + 1, n, file.c_str(), per_ring[0], per_ring[1], det.lips.size(), ms);
+    detections.images.push_back(std::move(det));
+  }
+  if (detections.images.empty()) {
+    throw io::InputError(FLAGS_session + ": none of the " + std::to_string(n) +
+                         " images could be used; nothing written");
+  }
+  io::WriteDetectionsFile(FLAGS_out, detections);
+  std::printf("%zu of %zu images used (%d skipped), %d corners, detections in %s\n",
+              detections.images.size(), n, bad, corners, FLAGS_out.c_str());
+  return 0;
+}
 
 }  // namespace omni::apps

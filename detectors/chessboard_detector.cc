@@ -120,8 +120,9 @@ std::vector<Region> Regions(const std::vector<cv::Point2f>& points, const cv::Si
     Region r;
     r.saddles = static_cast<int>(m.size());
     r.spacing = spacing[spacing.size() / 2];
-    // The outer squares and a quiet zone lie about 1.5 squares beyond the inner corners.
-    const int margin = static_cast<int>(std::ceil(1.6 * r.spacing + 6));
+    // The outer squares and a quiet zone lie about 1.5 squares beyond the inner corners; the
+    // corner finder needs some background beyond them too.
+    const int margin = static_cast<int>(std::ceil(2.5 * r.spacing + 8));
     r.rect = cv::Rect(cv::Point(static_cast<int>(x0) - margin, static_cast<int>(y0) - margin),
                       cv::Point(static_cast<int>(x1) + margin + 1, static_cast<int>(y1) + margin + 1)) &
              cv::Rect(0, 0, size.width, size.height);
