@@ -130,11 +130,15 @@ int RunRender() {
     session.estimate = {"camera", "distortion", "mirror1_pose", "mirror2_pose", "reflex"};
     io::WriteFileAtomically(FLAGS_out + "/session.yaml", io::SessionText(session, FLAGS_out));
   }
-  std::printf("%zu images, %zu rendered in %.1f s with %d POV-Ray process(es) (%.1f s per %dx%d "
-              "frame), truth in %s/truth.yaml%s\n",
-              scene.images.size(), n_render, seconds, jobs, n_render ? seconds / n_render : 0.0,
-              options.width, options.height, FLAGS_out.c_str(),
-              n_render ? (", session in " + FLAGS_out + "/session.yaml").c_str() : "");
+  if (n_render == 0) {
+    std::printf("%zu images, ground truth only (%dx%d), truth in %s/truth.yaml\n",
+                scene.images.size(), options.width, options.height, FLAGS_out.c_str());
+  } else {
+    std::printf("%zu images rendered in %.1f s with %d POV-Ray process(es) (%.1f s per %dx%d "
+                "frame), truth in %s/truth.yaml, session in %s/session.yaml\n",
+                n_render, seconds, jobs, seconds / n_render, options.width, options.height,
+                FLAGS_out.c_str(), FLAGS_out.c_str());
+  }
   return 0;
 }
 

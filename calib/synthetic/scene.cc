@@ -94,6 +94,12 @@ bool AddRandomImages(const RigModel& model, const RandomPlacement& random, Scene
     *error = "no targets defined";
     return false;
   }
+  // A physical target is in one place per image: each image draws distinct targets.
+  if (random.targets_max > static_cast<int>(scene->targets.size())) {
+    *error = "expected at most " + std::to_string(scene->targets.size()) +
+             " targets per image (each defined target appears once per image)";
+    return false;
+  }
   std::mt19937 rng(random.seed);
   std::uniform_real_distribution<double> uni(0.0, 1.0);
   const IdealModel ideal = model.params().Ideal();
@@ -105,8 +111,13 @@ bool AddRandomImages(const RigModel& model, const RandomPlacement& random, Scene
     const int n = random.targets_min +
                   static_cast<int>(uni(rng) * (random.targets_max - random.targets_min + 1) * 0.9999);
     const double sector0 = uni(rng) * 2 * M_PI;
+    std::vector<bool> used(scene->targets.size(), false);
     for (int k = 0; k < n; ++k) {
-      const int target = static_cast<int>(uni(rng) * scene->targets.size() * 0.9999);
+      int target = 0;
+      do {
+        target = static_cast<int>(uni(rng) * scene->targets.size() * 0.9999);
+      } while (used[target]);
+      used[target] = true;
       const TargetSpec& spec = scene->targets[target];
       bool placed = false;
       for (int attempt = 0; attempt < 200 && !placed; ++attempt) {

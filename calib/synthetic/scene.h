@@ -29,7 +29,7 @@ struct SceneImage {
 };
 
 // How to fill a scene with random target placements: `images` images with targets_min..max
-// targets each, at horizontal ranges range_min..range_max (mm) from the axis, inside the stereo
+// distinct targets each (at most as many as the scene defines), at horizontal ranges range_min..range_max (mm) from the axis, inside the stereo
 // region (the target's centre is seen by both mirrors), facing the rig within +-max_tilt.
 struct RandomPlacement {
   int images = 0;

@@ -51,7 +51,8 @@ class RenderCli : public ::testing::Test {
     std::ofstream(dir_ + "/scene.yaml")
         << "format: omnistereo-scene/1\n"
         << "render: {antialias: true, noise_sigma: 0}\n"
-        << "targets: [{type: chessboard, rows: 4, cols: 5, square: 60.0}]\n"
+        << "targets: [{type: chessboard, rows: 4, cols: 5, square: 60.0},\n"
+        << "          {type: chessboard, rows: 4, cols: 5, square: 50.0}]\n"
         << "random: {images: 1, targets: [2, 2], range: [500, 900], seed: 3}\n";
   }
   std::string dir_;
@@ -75,7 +76,7 @@ TEST_F(RenderCli, FastPathEqualsRenderedTruthAndTruthEqualsProject) {
   EXPECT_EQ(fs::path(session.model_path), fs::path(dir_ + "/full/model.yaml"));
   ASSERT_EQ(session.images.size(), 1u);
   EXPECT_EQ(fs::path(session.images[0]), fs::path(dir_ + "/full/0001.png"));
-  ASSERT_EQ(session.targets.size(), 1u);
+  ASSERT_EQ(session.targets.size(), 2u);
   EXPECT_EQ(session.targets[0].type, TargetType::kChessboard);
   EXPECT_EQ(session.targets[0].rows, 4);
   EXPECT_EQ(session.targets[0].cols, 5);
@@ -217,6 +218,12 @@ TEST_F(RenderCli, BadSceneFailsWithOneLineAndWritesNoTruth) {
     EXPECT_EQ(std::count(err.begin(), err.end(), '\n'), 1) << err;
     EXPECT_FALSE(fs::exists(dir_ + "/bad3/truth.yaml"));
   }
+  // A target is in one place per image: two per image need two definitions.
+  std::ofstream(dir_ + "/twice.yaml") << "format: omnistereo-scene/1\ntargets: [{type: chessboard, "
+                                         "rows: 4, cols: 5, square: 60}]\nrandom: {images: 1, targets: [2, 2]}\n";
+  EXPECT_EQ(RunCli("render --model " + dir_ + "/model.yaml --scene " + dir_ + "/twice.yaml --out " +
+                   dir_ + "/twice", &err), 2);
+  EXPECT_NE(err.find("twice.yaml: random: expected at most 1 targets per image"), std::string::npos) << err;
   EXPECT_NE(RunCli("render --model " + dir_ + "/missing.yaml --scene " + dir_ + "/scene.yaml --out " +
                     dir_ + "/bad2", &err), 0);
   EXPECT_NE(err.find("missing.yaml"), std::string::npos) << err;
