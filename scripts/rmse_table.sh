@@ -27,13 +27,14 @@ render() {  # rig name -> $OUT/<rig>/0001.png, truth.yaml
 
 detect() {  # rig name -> $OUT/<rig>/detections.yaml (returns 1 if detect is unavailable)
   local rig=$1 dir=$OUT/$1
-  {
+  # `render` writes a session file beside its images; older versions did not.
+  [ -f "$dir/session.yaml" ] || {
     echo "format: omnistereo-session/1"
     echo "model: $CONFIGS/big_rig_ideal.yaml"
     echo "images: [$dir/0001.png]"
     echo "targets:"
     # The scene's targets, as the truth file lists them.
-    sed -n '/^targets:/,/^images:/p' "$dir/truth.yaml" | grep '^  - '
+    sed -n '/^targets:/,/^images:/p' "$dir/truth.yaml" | grep '^  - {type:'
   } > "$dir/session.yaml"
   [ -f "$dir/detections.yaml" ] && return 0
   "$EXE" detect --session="$dir/session.yaml" --out="$dir/detections.yaml" 2> "$dir/detect.log"

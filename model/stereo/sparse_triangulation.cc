@@ -164,15 +164,18 @@ std::vector<CornerPair> TruthPairs(const Truth& truth, double noise_px, std::mt1
 }
 
 
+// A detected corner farther than this from the true pixel (in either ring) has no true corner.
+constexpr double kMaxPixelDistance = 3.0;
+
 std::optional<CornerError> CompareWithTruth(const Truth& truth, const CornerPair& pair,
                                             const TriangulatedPoint& estimate) {
   if (pair.image < 0 || pair.image >= static_cast<int>(truth.images.size())) return std::nullopt;
   const TruthImage& image = truth.images[pair.image];
   const TruthCorner* best = nullptr;
-  double best_d = INFINITY;
+  double best_d = kMaxPixelDistance;
   for (const TruthCorner& c : image.corners) {
-    if (c.id != pair.id) continue;  // any target: see the header
-    const double d = (c.point_in_cam - estimate.point_in_cam).norm();
+    if (c.id != pair.id || !c.pixel[0] || !c.pixel[1]) continue;  // any target: see the header
+    const double d = std::max((*c.pixel[0] - pair.pixel1).norm(), (*c.pixel[1] - pair.pixel2).norm());
     if (d < best_d) best_d = d, best = &c;
   }
   if (!best) return std::nullopt;

@@ -64,10 +64,11 @@ struct CornerError {
   Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
 };
 
-// Matches a triangulated corner to its true corner: the same image and corner id, nearest in
-// 3D. The target index is not used: a detector cannot tell apart chessboards of the same rows x
-// cols (the RMSE scene has one 4x5 board per range, differing only in square size), so its
-// target indices need not be the scene's. The range bin is the horizontal range of the board's placement,
+// Matches a triangulated corner to its true corner by its PIXELS (independent of the model and
+// the triangulation): the same image and corner id whose true pixels are nearest, within 3 px in
+// both rings. The target index is not used: a detector cannot tell apart chessboards of the same
+// rows x cols (the RMSE scene has one 4x5 board per range, differing only in square size), so
+// its target indices need not be the scene's. The range bin is the horizontal range of the board's placement,
 // rounded to the scene's distinct placement ranges (boards within 10% share a bin).
 std::optional<CornerError> CompareWithTruth(const Truth& truth, const CornerPair& pair,
                                             const TriangulatedPoint& estimate);
