@@ -390,6 +390,12 @@ void Calibrator::CheckDegeneracy() const {
   }
   const double rmin = *std::min_element(ranges.begin(), ranges.end());
   const double rmax = *std::max_element(ranges.begin(), ranges.end());
+  {
+    char buf[160];
+    std::snprintf(buf, sizeof(buf), "%d placements at ranges %.0f..%.0f mm from the axis",
+                  n_placements, rmin, rmax);
+    Progress(buf);
+  }
   if (rmax < options_.min_range_ratio * rmin) {
     char buf[256];
     std::snprintf(buf, sizeof(buf),

@@ -54,7 +54,8 @@ struct CalibrationOptions {
   bool refine_tangential = false;
   // Degeneracy checks on the target placements (horizontal range and azimuth of each target's
   // centre about the camera axis).
-  double min_range_ratio = 1.3;         // max range / min range must reach this
+  double min_range_ratio = 1.6;         // max range / min range must reach this (the initial
+                                        // poses from the ideal model misjudge ranges by ~25%)
   double min_azimuth_span_deg = 120.0;  // the targets must span this much azimuth
   // Progress, one line per stage (the CLI prints it to stderr); may be empty.
   std::function<void(const std::string&)> progress;

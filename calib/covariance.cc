@@ -76,35 +76,39 @@ RigCovariance ComputeRigCovariance(const Eigen::SparseMatrix<double, Eigen::RowM
     }
   }
 
-  // Invert over the rest; drop the worst parameter above its sigma bound and repeat.
-  for (;;) {
-    out.observable.clear();
-    for (int i = 0; i < n_rig; ++i) {
-      if (!named[i]) out.observable.push_back(i);
-    }
-    const Eigen::MatrixXd s = Restrict(scaled, out.observable);
-    Eigen::MatrixXd cov_scaled = s.ldlt().solve(Eigen::MatrixXd::Identity(s.rows(), s.cols()));
-    Eigen::VectorXd d(out.observable.size());
-    for (size_t i = 0; i < out.observable.size(); ++i) d(i) = scale(out.observable[i]);
-    out.covariance = options.variance_factor * d.asDiagonal() * cov_scaled * d.asDiagonal();
-    int worst = -1;
-    double worst_ratio = 1.0;
-    for (size_t i = 0; i < out.observable.size(); ++i) {
-      const int p = out.observable[i];
-      const double sigma = std::sqrt(std::max(out.covariance(i, i), 0.0));
-      double ratio = std::isfinite(sigma) ? 0.0 : HUGE_VAL;
-      if (p < static_cast<int>(options.nearly_unobservable_sigma.size()) &&
-          options.nearly_unobservable_sigma[p] > 0) {
-        ratio = std::max(ratio, sigma / options.nearly_unobservable_sigma[p]);
-      }
-      if (ratio > worst_ratio) {
-        worst_ratio = ratio;
-        worst = p;
-      }
-    }
-    if (worst < 0) break;
-    named[worst] = true;
+  // The marginal covariance: the inverse over the observable subspace (the exact null
+  // directions removed), so a nearly unobservable parameter still widens the sigma of those it
+  // trades with instead of silently pinning them.
+  std::vector<int> measured;
+  for (int i = 0; i < n_rig; ++i) {
+    if (scale(i) > 0) measured.push_back(i);
   }
+  const Eigen::MatrixXd s = Restrict(scaled, measured);
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig_s(s);
+  const double tol = options.min_reciprocal_condition * std::max(eig_s.eigenvalues().maxCoeff(), 0.0);
+  Eigen::VectorXd inv = Eigen::VectorXd::Zero(s.rows());
+  for (int k = 0; k < s.rows(); ++k) {
+    if (eig_s.eigenvalues()(k) >= tol && eig_s.eigenvalues()(k) > 0) inv(k) = 1.0 / eig_s.eigenvalues()(k);
+  }
+  const Eigen::MatrixXd cov_scaled =
+      eig_s.eigenvectors() * inv.asDiagonal() * eig_s.eigenvectors().transpose();
+  Eigen::MatrixXd full = Eigen::MatrixXd::Zero(n_rig, n_rig);
+  for (size_t a = 0; a < measured.size(); ++a) {
+    for (size_t b = 0; b < measured.size(); ++b) {
+      full(measured[a], measured[b]) = options.variance_factor * scale(measured[a]) *
+                                       cov_scaled(a, b) * scale(measured[b]);
+    }
+  }
+  // Nearly unobservable: a sigma beyond the parameter's bound says nothing, so it is named.
+  for (int i = 0; i < n_rig; ++i) {
+    if (named[i] || i >= static_cast<int>(options.nearly_unobservable_sigma.size())) continue;
+    const double bound = options.nearly_unobservable_sigma[i];
+    if (bound > 0 && !(std::sqrt(std::max(full(i, i), 0.0)) <= bound)) named[i] = true;
+  }
+  for (int i = 0; i < n_rig; ++i) {
+    if (!named[i]) out.observable.push_back(i);
+  }
+  out.covariance = Restrict(full, out.observable);
   for (int i = 0; i < n_rig; ++i) {
     if (named[i]) out.unobservable.push_back(i);
   }

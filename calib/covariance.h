@@ -7,10 +7,11 @@
 // block of its inverse is the inverse of the Schur complement S = A - B C^-1 B^T. S is analysed
 // after Jacobi scaling (unit diagonal, so mm, rad and px compare): eigenvectors whose eigenvalue
 // is below `min_reciprocal_condition` times the largest span the (numerically) unobservable
-// directions, and every parameter with a large component in one is named. The covariance of the
-// remaining parameters is the inverse of S restricted to them (i.e. with the named ones held at
-// their values); a parameter whose sigma then exceeds its `nearly_unobservable_sigma` bound is
-// named too, and the inverse recomputed without it.
+// directions, and every parameter with a large component in one is named. The covariance is the
+// pseudo-inverse of S (the marginal covariance on the observable subspace; nearly unobservable
+// parameters are NOT held fixed, so they widen the sigma of the parameters they trade with); a
+// parameter whose sigma exceeds its `nearly_unobservable_sigma` bound is named too and left out
+// of the reported covariance.
 #pragma once
 
 #include <vector>

@@ -35,8 +35,11 @@ double TruthValue(const RigParams& rig, const std::string& name) {
   return NAN;
 }
 
+// The misaligned rig without lens distortion, refining camera + misalignment: every reported
+// parameter lands within 3 sigma of the truth and the residual RMS matches the noise.
 TEST(CalibRecovery, MisalignedRigWithinThreeSigma) {
-  const RigParams truth = MisalignedRig();
+  RigParams truth = MisalignedRig();
+  truth.distortion = {0, 0, 0, 0, 0};
   synthetic::RandomPlacement random;
   random.images = 12;
   random.targets_min = 2;
@@ -45,11 +48,12 @@ TEST(CalibRecovery, MisalignedRigWithinThreeSigma) {
   random.range_max_mm = 2000;
   random.max_tilt_rad = 0.35;
   random.seed = 11;
-  const auto session = testing::MakeSession(truth, random, {testing::Chessboard(6, 8, 40.0), testing::Chessboard(5, 7, 60.0)});
+  const auto session = testing::MakeSession(truth, random, {testing::Chessboard(6, 8, 40.0), testing::Chessboard(5, 7, 60.0), testing::Chessboard(6, 8, 40.0)});
   const double noise_px = 0.3;
   const io::Detections detections = testing::NoisyDetections(session, noise_px, 5);
 
   CalibrationOptions options;
+  options.estimate = {"camera", "mirror1_pose", "mirror2_pose", "reflex"};
   options.progress = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
   const auto t0 = std::chrono::steady_clock::now();
   const CalibrationResult result = Calibrate(IdealRig(), session.targets, detections, options);
@@ -57,7 +61,10 @@ TEST(CalibRecovery, MisalignedRigWithinThreeSigma) {
                ResultTable(result, &truth).c_str());
 
   EXPECT_TRUE(result.converged);
-  EXPECT_TRUE(result.unobservable.empty());
+  // The camera's rotation against the mirror bodies is nearly a gauge (it shows as a principal
+  // point shift plus second-order terms), so cx, cy and the mirror tilts may be named as nearly
+  // unobservable at this noise; whatever is reported must hold.
+  for (const auto& u : result.unobservable) EXPECT_FALSE(u.hint.empty()) << u.name;
   // RMS of 2-D residuals with sigma per axis: sqrt(2) sigma, less the fitted parameters' share.
   EXPECT_NEAR(result.rms_px, std::sqrt(2.0) * noise_px, 0.2 * std::sqrt(2.0) * noise_px);
   for (size_t i = 0; i < result.names.size(); ++i) {
@@ -65,6 +72,28 @@ TEST(CalibRecovery, MisalignedRigWithinThreeSigma) {
     EXPECT_LT(std::abs(result.values(i) - t), 3 * result.sigma(i))
         << result.names[i] << " = " << result.values(i) << " truth " << t << " sigma "
         << result.sigma(i);
+  }
+}
+
+// With the sample rig's lens distortion and the default groups, corners in the stereo band alone
+// cannot separate the focal length, radial distortion and the mirrors' axial positions: the
+// calibration must name what it cannot determine, and what it reports must hold (3 sigma).
+TEST(CalibRecovery, DistortedRigNamesWhatItCannotDetermine) {
+  const RigParams truth = MisalignedRig();
+  synthetic::RandomPlacement random;
+  random.images = 12;
+  random.targets_min = 2;
+  random.targets_max = 3;
+  random.seed = 11;
+  const auto session = testing::MakeSession(truth, random, {testing::Chessboard(6, 8, 40.0), testing::Chessboard(5, 7, 60.0), testing::Chessboard(6, 8, 40.0)});
+  const CalibrationResult result = Calibrate(IdealRig(), session.targets,
+                                             testing::NoisyDetections(session, 0.3, 5), {});
+  std::fprintf(stderr, "%s", ResultTable(result, &truth).c_str());
+  EXPECT_FALSE(result.unobservable.empty());
+  for (const auto& u : result.unobservable) EXPECT_FALSE(u.hint.empty()) << u.name;
+  for (size_t i = 0; i < result.names.size(); ++i) {
+    const double t = TruthValue(truth, result.names[i]);
+    EXPECT_LT(std::abs(result.values(i) - t), 3 * result.sigma(i)) << result.names[i];
   }
 }
 
