@@ -6,8 +6,9 @@
 #include <tuple>
 
 #include <Eigen/Dense>
-#include <opencv2/aruco.hpp>
 #include <opencv2/imgproc.hpp>
+
+#include "detectors/kalibr_detector.h"
 
 extern "C" {
 #include <apriltag/apriltag.h>
@@ -65,25 +66,29 @@ std::vector<ViewTag> DetectPlainTags(const cv::Mat& view_grey, int view_index, f
   return out;
 }
 
-std::vector<ViewTag> DetectKalibrTags(const cv::Mat& view_grey, int view_index) {
-  static const cv::Ptr<cv::aruco::Dictionary> dictionary =
-      cv::aruco::getPredefinedDictionary(cv::aruco::DICT_APRILTAG_36h11);
-  cv::Ptr<cv::aruco::DetectorParameters> params = cv::aruco::DetectorParameters::create();
-  params->markerBorderBits = 2;
-  std::vector<std::vector<cv::Point2f>> corners;
-  std::vector<int> ids;
-  params->errorCorrectionRate = 0.0;  // exact codes only
-  cv::aruco::detectMarkers(view_grey, dictionary, corners, ids, params);
-  std::vector<ViewTag> out;
-  for (std::size_t i = 0; i < ids.size(); ++i) {
-    ViewTag tag{TargetType::kKalibrAprilGrid, ids[i], {}, view_index};
-    // aruco's DICT_APRILTAG_36h11 is libapriltag's pattern turned by 180 degrees: its corners
-    // 0..3 are our k = 1, 0, 3, 2.
-    for (int k = 0; k < 4; ++k) {
-      const cv::Point2f p = corners[i][k ^ 1];
-      tag.corners[k] = Eigen::Vector2d(p.x, p.y);
+// Kalibr AprilGrid tags (kalibr_detector.h), each checked against the other tags of its target
+// seen in the same view.
+std::vector<ViewTag> DetectKalibrTags(const cv::Mat& view_grey, int view_index,
+                                      const std::vector<TargetSpec>& targets,
+                                      const KalibrDetectorOptions& options) {
+  std::map<int, std::vector<KalibrViewTag>> by_target;
+  for (const KalibrViewTag& t : DetectKalibrTagsInView(view_grey, options)) {
+    for (std::size_t i = 0; i < targets.size(); ++i) {
+      int row = 0, col = 0;
+      if (targets[i].type == TargetType::kKalibrAprilGrid && TagCell(targets[i], t.tag_id, &row, &col)) {
+        by_target[static_cast<int>(i)].push_back(t);
+        break;
+      }
     }
-    out.push_back(tag);
+  }
+  std::vector<ViewTag> out;
+  for (auto& [target, tags] : by_target) {
+    DropTagsInconsistentWithNeighbours(targets[target], options.max_neighbour_error, &tags);
+    for (const KalibrViewTag& t : tags) {
+      ViewTag tag{TargetType::kKalibrAprilGrid, t.tag_id, {}, view_index};
+      for (int k = 0; k < 4; ++k) tag.corners[k] = t.corners[k];
+      out.push_back(tag);
+    }
   }
   return out;
 }
@@ -217,10 +222,7 @@ std::vector<TagCornerDetection> DetectTagCorners(const cv::Mat& raw_bgr,
   bool want_plain = false, want_kalibr = false;
   for (const TargetSpec& t : targets) {
     want_plain |= t.type == TargetType::kAprilTagGrid;
-    // Kalibr AprilGrids are not detected yet: with aruco's default bit correction the corners
-    // it returned in the views did not match the truth's ids (its corner order in our views is
-    // unverified), and without correction it found none. Absent rather than wrong.
-    want_kalibr = false;
+    want_kalibr |= t.type == TargetType::kKalibrAprilGrid;
   }
   if ((!want_plain && !want_kalibr) || raw_bgr.empty()) return out;
   const cv::Mat raw_grey8 = ToGrey(raw_bgr);
@@ -240,7 +242,10 @@ std::vector<TagCornerDetection> DetectTagCorners(const cv::Mat& raw_bgr,
         found.push_back(t);
     }
     if (want_kalibr) {
-      for (const ViewTag& t : DetectKalibrTags(view_grey, static_cast<int>(v))) found.push_back(t);
+      for (const ViewTag& t :
+           DetectKalibrTags(view_grey, static_cast<int>(v), targets, options.kalibr)) {
+        found.push_back(t);
+      }
     }
   }
 
@@ -289,6 +294,16 @@ std::vector<TagCornerDetection> DetectTagCorners(const cv::Mat& raw_bgr,
     Eigen::Vector2d refined[4];
     for (int k = 0; k < 4 && ok; ++k) {
       refined[k] = mapped[k];
+      if (t.layout == TargetType::kKalibrAprilGrid) {
+        // Kalibr's corners are X-junctions (kalibr_detector.h): saddle refinement in the raw
+        // image, over the 2-bit border around the corner.
+        if (!options.kalibr_refine_in_raw) continue;
+        const double side = std::min((mapped[(k + 1) % 4] - mapped[k]).norm(),
+                                     (mapped[(k + 3) % 4] - mapped[k]).norm());
+        ok = RefineSaddleCorner(raw_grey8, mapped[k], static_cast<int>(std::lround(0.15 * side)),
+                                options.max_refine_shift_px, &refined[k]);
+        continue;
+      }
       if (!options.refine_in_raw) continue;
       ok = RefineTagCorner(grey, mapped[k], mapped[(k + 1) % 4], mapped[(k + 3) % 4],
                            BorderFraction(t.layout), options, &refined[k]);

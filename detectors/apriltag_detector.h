@@ -1,6 +1,6 @@
 // AprilTag grid detection in both rings: the plain tag36h11 grid (`apriltag_grid`, libapriltag)
-// and (NOT YET ENABLED, see DetectTagCorners) Kalibr's AprilGrid (`kalibr_aprilgrid`, OpenCV aruco DICT_APRILTAG_36h11 with 2 border bits,
-// since its black corner squares defeat libapriltag 3's quad finder).
+// and Kalibr's AprilGrid (`kalibr_aprilgrid`, our own quad finder and decoder, kalibr_detector.h,
+// since its black corner squares defeat libapriltag 3's quad finder and aruco's contours).
 //
 // Tags are found in the un-mirrored perspective views of each ring (views.h: built from 3D rays,
 // so tags read as printed and decode without flipping), their corners mapped to the raw image and
@@ -11,16 +11,17 @@
 //
 // Corner ids: 4 * tag_id + k (model/target.h: k counter-clockwise from the tag's bottom-left seen
 // from the printed side). libapriltag's p[0..3] already run that way in a view (checked by the tag
-// texture test); aruco's corners 0..3 are our k = 1, 0, 3, 2.
-// An id is right or absent: only exact codes (libapriltag hamming 0; aruco without bit
-// correction), only ids that lie on a target of the detector's layout, and only tags whose four
-// refined raw corners form a convex quadrilateral close to the mapped one.
+// texture test); the Kalibr decoder returns k directly.
+// An id is right or absent: only exact codes (hamming 0), only ids that lie on a target of the
+// detector's layout, Kalibr tags consistent with their neighbours in the view, and only tags whose
+// four refined raw corners form a convex quadrilateral close to the mapped one.
 #pragma once
 
 #include <vector>
 
 #include <opencv2/core.hpp>
 
+#include "detectors/kalibr_detector.h"
 #include "detectors/views.h"
 #include "model/io/detections_file.h"
 #include "model/rig_model.h"
@@ -37,6 +38,10 @@ struct TagDetectorOptions {
   // corners libapriltag finds in the views (decimation 1), mapped to raw, measured 0.04-0.07 px
   // mean error against truth, and this refinement 0.12-0.17 px (it is not yet right).
   bool refine_in_raw = false;
+  // Kalibr AprilGrid: tags found in the views (kalibr_detector.h), their X-junction corners
+  // refined by cornerSubPix in the view and again in the raw image (if on).
+  KalibrDetectorOptions kalibr;
+  bool kalibr_refine_in_raw = true;
 };
 
 // One detected tag corner with its diagnostics.

@@ -1,0 +1,70 @@
+// Kalibr AprilGrid (`kalibr_aprilgrid`) tags in an un-mirrored ring view (views.h), and their
+// corners refined in the raw image.
+//
+// Why off-the-shelf detectors fail on these grids: kalibr_create_target_pdf puts a black square at
+// each tag's four diagonal corners (model/target.h), touching the tag's black border exactly at
+// the corner. After the views' resampling blur the tag and its four corner squares are ONE black
+// blob, so neither libapriltag's quad finder (boundary clusters between one black and one white
+// component) nor aruco's contour finder sees a four-sided outline: the only quads left are the
+// empty corner squares. Here the black mask is opened by a one-pixel erosion, which breaks the
+// blur-sized necks at the touching points, the tags' outlines become quads again, and we decode
+// them ourselves (10 x 10 bits: 2-bit black border, tag36h11's 6 x 6 data bits, codes and bit
+// positions from libapriltag's family as calib/synthetic/tag_texture.cc prints them).
+//
+// The same corner squares make every tag corner an X-junction (black tag and black square in
+// opposite quadrants, white gaps in the other two), i.e. a chessboard-like saddle: cornerSubPix
+// converges there without bias in the raw image, under the mirrors' local affine distortion.
+//
+// Ids are right or absent: only exact codes (hamming 0), a dark 2-bit border, every data bit
+// clearly on one side of the threshold; the caller checks the id set and the neighbours.
+#pragma once
+
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include "model/target.h"
+
+namespace omni::detectors {
+
+struct KalibrDetectorOptions {
+  int upsample = 2;                 // the view is enlarged this much before thresholding
+  int threshold_window_px = 9;      // local min/max window for the threshold (enlarged pixels)
+  int min_contrast = 25;            // grey levels between local black and white
+  int separation_px = 1;            // erosion of the black mask (enlarged pixels)
+  double min_side_px = 10;          // shortest tag side accepted (view pixels)
+  double min_bit_margin = 0.05;     // |bit - threshold| / (white - black), each data bit
+  bool refine_in_view = true;       // saddle refinement of the corners in the view
+  double max_neighbour_error = 0.15;  // of a tag's corners vs its neighbours' homography / side
+};
+
+// A Kalibr tag in a view: its absolute tag id and corners (view pixels), index k (model/target.h:
+// k = 0 bottom-left, 1 bottom-right, 2 top-right, 3 top-left as printed).
+struct KalibrViewTag {
+  int tag_id = 0;
+  Eigen::Vector2d corners[4];
+};
+
+// The black mask the tag outlines are found in: the view enlarged `upsample` times, thresholded
+// between local extremes, black eroded by separation_px (CV_8U, 255 = black).
+cv::Mat KalibrTagMask(const cv::Mat& view_grey, const KalibrDetectorOptions& options);
+
+// Every tag36h11 code read exactly in a CV_8U grey view.
+std::vector<KalibrViewTag> DetectKalibrTagsInView(const cv::Mat& view_grey,
+                                                  const KalibrDetectorOptions& options = {});
+
+// Neighbour check for the tags of ONE target found in one view: a homography from the target
+// plane to the view fitted by RANSAC to all their corners (CornerInTarget); tags with a corner
+// farther than max_neighbour_error * their side from it are removed. Needs two tags or more
+// (a lone tag stays: its exact code is the only evidence).
+void DropTagsInconsistentWithNeighbours(const TargetSpec& target, double max_neighbour_error,
+                                        std::vector<KalibrViewTag>* tags);
+
+// Refines an X-junction (saddle) corner in a grey image (CV_8U or CV_32F) from an estimate within
+// about half_window_px / 2: cv::cornerSubPix over a (2 half_window_px + 1)^2 window. False if it
+// moved farther than max_shift_px or left the image.
+bool RefineSaddleCorner(const cv::Mat& grey, const Eigen::Vector2d& corner, int half_window_px,
+                        double max_shift_px, Eigen::Vector2d* refined);
+
+}  // namespace omni::detectors
