@@ -44,12 +44,12 @@ std::string ReadWholeFile(const std::string& path, const std::string& what) {
   struct stat st;
   if (::stat(path.c_str(), &st) != 0) {
     const std::string why = errno == ENOENT ? "no such file" : std::strerror(errno);
-    throw InputError(path + ": expected a readable model file, got " + why);
+    throw InputError(path + ": expected a readable " + what + ", got " + why);
   }
   if (S_ISDIR(st.st_mode)) throw InputError(path + ": expected a " + what + ", got a folder");
   std::ifstream stream(path, std::ios::binary);
   if (!stream) {
-    throw InputError(path + ": expected a readable model file, got " + std::strerror(errno));
+    throw InputError(path + ": expected a readable " + what + ", got " + std::strerror(errno));
   }
   std::ostringstream contents;
   contents << stream.rdbuf();
