@@ -1,9 +1,10 @@
-// `omnistereo detect --session S --out detections.yaml [--overlay DIR]`: chessboard corners (per
-// ring, with ids consistent between the rings) in every image of a session, written as an
+// `omnistereo detect --session S --out detections.yaml [--overlay DIR]`: target corners of every
+// kind (chessboards, AprilTag grids; per ring, with ids consistent between the rings) and lip
+// band edges (colour images, when the session uses lips) in every image of a session, written as an
 // `omnistereo-detections/1` file. Unusable images (unreadable, empty, wrong size) get one warning
 // line each and are left out; if no image is usable nothing is written and the exit code is 2.
 // --overlay writes DIR/<image>.png: the ring boundaries, corners coloured by ring (mirror 1
-// green, mirror 2 magenta) with their ids.
+// green, mirror 2 magenta) with "target:id", lip edge points in yellow.
 #include <chrono>
 #include <cstdio>
 #include <filesystem>

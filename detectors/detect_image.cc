@@ -2,9 +2,24 @@
 
 #include <utility>
 
+#include <opencv2/imgproc.hpp>
+
+#include "detectors/apriltag_detector.h"
+#include "detectors/lip_detector.h"
 #include "model/io/file_util.h"
 
 namespace omni::detectors {
+namespace {
+
+// The lip detector's input: 8-bit BGR (alpha dropped, 16 bit scaled down).
+cv::Mat ToBgr8(const cv::Mat& image) {
+  cv::Mat bgr = image;
+  if (bgr.channels() == 4) cv::cvtColor(bgr, bgr, cv::COLOR_BGRA2BGR);
+  if (bgr.depth() != CV_8U) bgr.convertTo(bgr, CV_8U, bgr.depth() == CV_16U ? 1.0 / 257.0 : 1.0);
+  return bgr;
+}
+
+}  // namespace
 
 DetectorContext::DetectorContext(const RigParams& rig, std::vector<TargetSpec> target_specs,
                                  bool lips, const ViewOptions& view_options)
@@ -29,10 +44,20 @@ io::ImageDetections DetectImage(const cv::Mat& image, DetectorContext* ctx,
   const cv::Mat grey = ToGrey(image);
   RenderViews(grey, &ctx->views);
   out.corners = DetectChessboards(grey, ctx->views, ctx->model, ctx->targets, ctx->chessboard);
-  // TODO(tags): DetectTagGrids (detectors/apriltag_detector.h) and DetectLips
-  // (detectors/lip_detector.h) once they are in the library.
-  if (ctx->use_lips && image.channels() < 3 && warnings) {
-    warnings->push_back("grey image: the coloured lips cannot be detected");
+  // Tag grids (plain tag36h11 and Kalibr AprilGrids) in the same, already rendered views.
+  bool any_tags = false;
+  for (const TargetSpec& t : ctx->targets) any_tags = any_tags || t.type != TargetType::kChessboard;
+  if (any_tags) {
+    const std::vector<io::CornerObservation> tags =
+        DetectTagGrids(image, ctx->views, ctx->model, ctx->targets);
+    out.corners.insert(out.corners.end(), tags.begin(), tags.end());
+  }
+  if (ctx->use_lips) {
+    if (image.channels() >= 3) {
+      out.lips = DetectLips(ToBgr8(image), ctx->model);
+    } else if (warnings) {
+      warnings->push_back("grey image: the coloured lips cannot be detected");
+    }
   }
   return out;
 }

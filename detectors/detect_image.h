@@ -1,6 +1,7 @@
-// Everything the detectors find in one omnidirectional image: chessboard corners (and, once
-// their detectors are in, AprilTag grid corners and lip edges), per ring, as detections-file
-// records (model/io/detections_file.h).
+// Everything the detectors find in one omnidirectional image: chessboard corners, AprilTag grid
+// corners (plain tag36h11 and Kalibr AprilGrid, detectors/apriltag_detector.h) per ring, and the
+// lip band edges (detectors/lip_detector.h, colour images only), as detections-file records
+// (model/io/detections_file.h).
 #pragma once
 
 #include <string>
