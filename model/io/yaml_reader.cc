@@ -53,7 +53,7 @@ std::string ReadWholeFile(const std::string& path, const std::string& what) {
   }
   std::ostringstream contents;
   contents << stream.rdbuf();
-  if (stream.bad()) throw InputError(path + ": expected a readable model file, got a read error");
+  if (stream.bad()) throw InputError(path + ": expected a readable " + what + ", got a read error");
   return contents.str();
 }
 
