@@ -296,12 +296,17 @@ std::vector<TagCornerDetection> DetectTagCorners(const cv::Mat& raw_bgr,
       refined[k] = mapped[k];
       if (t.layout == TargetType::kKalibrAprilGrid) {
         // Kalibr's corners are X-junctions (kalibr_detector.h): saddle refinement in the raw
-        // image, over the 2-bit border around the corner.
-        if (!options.kalibr_refine_in_raw) continue;
+        // image, over the 2-bit border around the corner; only where the junction is whole.
         const double side = std::min((mapped[(k + 1) % 4] - mapped[k]).norm(),
                                      (mapped[(k + 3) % 4] - mapped[k]).norm());
-        ok = RefineSaddleCorner(raw_grey8, mapped[k], static_cast<int>(std::lround(0.15 * side)),
-                                options.max_refine_shift_px, &refined[k]);
+        const Eigen::Vector2d to_next = (mapped[(k + 1) % 4] - mapped[k]).normalized();
+        const Eigen::Vector2d to_previous = (mapped[(k + 3) % 4] - mapped[k]).normalized();
+        ok = IsKalibrXJunction(raw_grey8, mapped[k], to_next, to_previous,
+                               std::max(1.5, 0.12 * side), options.kalibr.min_contrast);
+        if (ok && options.kalibr_refine_in_raw) {
+          ok = RefineSaddleCorner(raw_grey8, mapped[k], static_cast<int>(std::lround(0.15 * side)),
+                                  options.max_refine_shift_px, &refined[k]);
+        }
         continue;
       }
       if (!options.refine_in_raw) continue;

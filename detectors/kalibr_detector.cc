@@ -197,6 +197,19 @@ void DropTagsInconsistentWithNeighbours(const TargetSpec& target, double max_nei
   *tags = kept;
 }
 
+bool IsKalibrXJunction(const cv::Mat& grey, const Eigen::Vector2d& corner,
+                       const Eigen::Vector2d& to_next, const Eigen::Vector2d& to_previous, double r,
+                       int min_contrast) {
+  const Eigen::Vector2d in = r * (to_next + to_previous).normalized();
+  const Eigen::Vector2d across = r * (to_next - to_previous).normalized();
+  const double dark[2] = {Bilinear(grey, corner.x() + in.x(), corner.y() + in.y()),
+                          Bilinear(grey, corner.x() - in.x(), corner.y() - in.y())};
+  const double light[2] = {Bilinear(grey, corner.x() + across.x(), corner.y() + across.y()),
+                           Bilinear(grey, corner.x() - across.x(), corner.y() - across.y())};
+  if (std::min({dark[0], dark[1], light[0], light[1]}) < 0) return false;  // outside the image
+  return std::min(light[0], light[1]) - std::max(dark[0], dark[1]) >= min_contrast;
+}
+
 bool RefineSaddleCorner(const cv::Mat& grey, const Eigen::Vector2d& corner, int half_window_px,
                         double max_shift_px, Eigen::Vector2d* refined) {
   const int h = std::max(2, half_window_px);
@@ -242,10 +255,15 @@ std::vector<KalibrViewTag> DetectKalibrTagsInView(const cv::Mat& view_grey,
                                                   const KalibrDetectorOptions& options) {
   std::vector<KalibrViewTag> out;
   const int up = std::max(1, options.upsample);
-  const cv::Mat black = KalibrTagMask(view_grey, options);
+  std::vector<int> seen;
+  // Blur decides how wide the tag-to-corner-square necks are: more erosion passes for blurrier
+  // (inner-ring) views; a tag found in an earlier pass is not read again.
+  for (int pass = 0; pass < std::max(1, options.separation_passes); ++pass) {
+  KalibrDetectorOptions pass_options = options;
+  pass_options.separation_px = options.separation_px + pass;
+  const cv::Mat black = KalibrTagMask(view_grey, pass_options);
   std::vector<std::vector<cv::Point>> contours;
   cv::findContours(black, contours, cv::RETR_LIST, cv::CHAIN_APPROX_NONE);
-  std::vector<int> seen;
   for (const auto& contour : contours) {
     std::array<cv::Point2f, 4> quad;
     if (!FitQuad(contour, options.min_side_px * up, &quad)) continue;
@@ -287,6 +305,7 @@ std::vector<KalibrViewTag> DetectKalibrTagsInView(const cv::Mat& view_grey,
       }
     }
     if (ok) out.push_back(tag);
+  }
   }
   return out;
 }

@@ -32,7 +32,8 @@ struct KalibrDetectorOptions {
   int upsample = 2;                 // the view is enlarged this much before thresholding
   int threshold_window_px = 9;      // local min/max window for the threshold (enlarged pixels)
   int min_contrast = 25;            // grey levels between local black and white
-  int separation_px = 1;            // erosion of the black mask (enlarged pixels)
+  int separation_px = 1;            // erosion of the black mask (enlarged pixels), first pass
+  int separation_passes = 3;        // passes with separation_px, +1, +2, ...
   double min_side_px = 10;          // shortest tag side accepted (view pixels)
   double min_bit_margin = 0.05;     // |bit - threshold| / (white - black), each data bit
   bool refine_in_view = true;       // saddle refinement of the corners in the view
@@ -60,6 +61,14 @@ std::vector<KalibrViewTag> DetectKalibrTagsInView(const cv::Mat& view_grey,
 // (a lone tag stays: its exact code is the only evidence).
 void DropTagsInconsistentWithNeighbours(const TargetSpec& target, double max_neighbour_error,
                                         std::vector<KalibrViewTag>* tags);
+
+// True if `corner` (grey CV_8U) looks like a Kalibr tag corner: dark at distance r into the tag
+// (between the unit directions to_next and to_previous along its edges) and in the diagonally
+// opposite corner square, light in the two gaps, by at least min_contrast grey levels. Rejects
+// corners whose corner square or gap is cut off (ring boundary, lip, image edge).
+bool IsKalibrXJunction(const cv::Mat& grey, const Eigen::Vector2d& corner,
+                       const Eigen::Vector2d& to_next, const Eigen::Vector2d& to_previous, double r,
+                       int min_contrast);
 
 // Refines an X-junction (saddle) corner in a grey image (CV_8U or CV_32F) from an estimate within
 // about half_window_px / 2: cv::cornerSubPix over a (2 half_window_px + 1)^2 window. False if it
