@@ -1,0 +1,22 @@
+// How far apart two rig models put the same 3D points in the image: the figure that says what a
+// calibration gains (calibrated vs true model, or nominal vs true model).
+#pragma once
+
+#include "model/rig_model.h"
+
+namespace omni {
+
+struct ProjectionDifference {
+  int points = 0;                 // points the reference sees in both rings (the stereo band)
+  double rms_px[2] = {0, 0};      // per ring [mirror 1, mirror 2], over points both models see
+  double max_px[2] = {0, 0};
+  int lost = 0;                   // (point, ring) pairs the compared model does not project
+};
+
+// Points on the cylinder of horizontal radius `range_mm` about the camera axis (72 azimuths,
+// heights every range/40), kept where `reference` sees them in both rings; each is projected by
+// both models through each mirror.
+ProjectionDifference CompareProjections(const RigModel& reference, const RigModel& other,
+                                        double range_mm);
+
+}  // namespace omni
