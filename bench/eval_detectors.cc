@@ -4,8 +4,10 @@
 // visible corners found, wrong ids, and the time per image on one core.
 //   eval_detectors MODEL SCENE RENDER_DIR
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cstdio>
+#include <ctime>
 #include <map>
 #include <string>
 #include <vector>
@@ -57,7 +59,7 @@ int main(int argc, char** argv) {
   const double ctx_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t_ctx).count();
   std::map<std::pair<int, int>, Bin> bins;  // (mirror, range bin)
-  std::vector<double> times_ms;
+  std::vector<double> times_ms, cpu_ms;  // wall clock, process CPU time (one thread)
   const double match_px = 3.0;
   for (const auto& image : scene.images) {
     const std::string path = std::string(argv[3]) + "/" + image.name + ".png";
@@ -67,7 +69,9 @@ int main(int argc, char** argv) {
       continue;
     }
     const auto t0 = std::chrono::steady_clock::now();
+    const std::clock_t c0 = std::clock();
     const io::ImageDetections det = detectors::DetectImage(raw, &ctx);
+    cpu_ms.push_back(1000.0 * (std::clock() - c0) / CLOCKS_PER_SEC);
     times_ms.push_back(
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
     const auto truth = synthetic::ComputeTruth(model, scene, image);
@@ -105,12 +109,24 @@ int main(int argc, char** argv) {
       bin.errors.push_back(best);
       truth_found[2 * best_i + o.mirror - 1] = true;
     }
+    // (target, mirror) -> visible, found, range: to name the boards that were missed.
+    std::map<std::pair<int, int>, std::array<double, 3>> boards;
     for (size_t i = 0; i < truth.size(); ++i) {
       for (int m = 1; m <= 2; ++m) {
         if (!truth[i].pixel[m - 1]) continue;
         Bin& bin = bins[{m, RangeBin(truth[i].point_in_cam.head<2>().norm())}];
         ++bin.visible;
         if (truth_found[2 * i + m - 1]) ++bin.found;
+        auto& b = boards[{truth[i].target, m}];
+        b[0] += 1;
+        b[1] += truth_found[2 * i + m - 1] ? 1 : 0;
+        b[2] = truth[i].point_in_cam.head<2>().norm();
+      }
+    }
+    for (const auto& [key, b] : boards) {
+      if (b[1] < b[0]) {
+        std::fprintf(stderr, "%s: missed: target %d ring %d at %.2f m: %.0f of %.0f visible corners found\n",
+                     image.name.c_str(), key.first, key.second, b[2] / 1000, b[1], b[0]);
       }
     }
     std::fprintf(stderr, "%s: %zu corners in %.1f ms\n", image.name.c_str(), det.corners.size(),
@@ -156,6 +172,11 @@ int main(int argc, char** argv) {
     std::printf("time per %dx%d image on one core: mean %.1f ms, max %.1f ms (%zu images)\n",
                 rig.image_width, rig.image_height, sum / times_ms.size(), times_ms.back(),
                 times_ms.size());
+    std::sort(cpu_ms.begin(), cpu_ms.end());
+    double cpu_sum = 0;
+    for (double t : cpu_ms) cpu_sum += t;
+    std::printf("CPU time per image (independent of other load): mean %.1f ms, max %.1f ms\n",
+                cpu_sum / cpu_ms.size(), cpu_ms.back());
   }
   return 0;
 }

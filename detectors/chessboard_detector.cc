@@ -196,6 +196,92 @@ bool BetterInNeighbour(const RingView& view, const cv::Rect& rect, size_t sector
   return offset > 0.5 * step && (step - offset) + half_width < half_fov - 0.02;
 }
 
+// One rows x cols board in a crop of a view. The classic finder (quadrilaterals of a
+// thresholded image) is fast but loses boards whose squares merge with a busy background in the
+// threshold; the sector-based finder (findChessboardCornersSB, a Radon-like corner response and
+// grid growing) finds those at about ten times the cost, so it only runs where the classic one
+// failed.
+bool FindBoard(const cv::Mat& crop, const TargetSpec& spec, const ChessboardOptions& options,
+               std::vector<cv::Point2f>* corners) {
+  const cv::Size pattern(spec.cols, spec.rows);
+  const size_t n = static_cast<size_t>(spec.rows * spec.cols);
+  if (cv::findChessboardCorners(crop, pattern, *corners,
+                                cv::CALIB_CB_ADAPTIVE_THRESH | cv::CALIB_CB_NORMALIZE_IMAGE) &&
+      corners->size() == n) {
+    return true;
+  }
+  if (!options.sector_fallback) return false;
+  corners->clear();
+  return cv::findChessboardCornersSB(crop, pattern, *corners,
+                                     cv::CALIB_CB_NORMALIZE_IMAGE | cv::CALIB_CB_EXHAUSTIVE) &&
+         corners->size() == n;
+}
+
+// True if the grey image shows an X-junction (two dark and two bright sectors alternating) at
+// `p`, read on a circle of `radius` pixels. The Hessian saddle test cannot tell this from the
+// corner of a single square (an L-corner has the same balanced Hessian at its tip), the ring
+// can: an L-corner has one dark sector, an X-junction two.
+bool IsXJunction(const cv::Mat& grey, const cv::Point2f& p, double radius) {
+  constexpr int kSamples = 24;
+  radius = std::max(2.0, radius);
+  std::array<float, kSamples> v;
+  for (int k = 0; k < kSamples; ++k) {
+    const double a = 2 * M_PI * k / kSamples;
+    const float x = p.x + static_cast<float>(radius * std::cos(a));
+    const float y = p.y + static_cast<float>(radius * std::sin(a));
+    if (x < 0 || y < 0 || x > grey.cols - 2 || y > grey.rows - 2) return false;
+    const int x0 = static_cast<int>(x), y0 = static_cast<int>(y);
+    const float fx = x - x0, fy = y - y0;
+    v[k] = (1 - fy) * ((1 - fx) * grey.at<uchar>(y0, x0) + fx * grey.at<uchar>(y0, x0 + 1)) +
+           fy * ((1 - fx) * grey.at<uchar>(y0 + 1, x0) + fx * grey.at<uchar>(y0 + 1, x0 + 1));
+  }
+  const auto [lo, hi] = std::minmax_element(v.begin(), v.end());
+  if (*hi - *lo < 40) return false;
+  const float mid = 0.5f * (*lo + *hi);
+  int changes = 0;
+  for (int k = 0; k < kSamples; ++k) changes += (v[k] > mid) != (v[(k + 1) % kSamples] > mid);
+  return changes == 4;
+}
+
+// True if a grid of rows x cols corners found in a view (`corners` row-major in view pixels) is
+// a whole board and not part of a larger one: one grid step beyond each side lies the board's
+// outer square corners, which must not be X-junctions: where most of a side's extrapolated
+// points that the view sees are X-junctions, the grid goes on (the corner finders, the sector
+// one especially, accept a sub-grid of a larger board, which would give a smaller target's ids
+// to another board's corners). Points outside the ring or the view are unknown (a board whose
+// outer squares are cut by a ring boundary is still found).
+bool GridIsWholeBoard(const RingView& view, const std::vector<cv::Point2f>& corners, int rows,
+                      int cols) {
+  if (rows < 2 || cols < 2) return true;
+  const auto at = [&](int r, int c) { return corners[r * cols + c]; };
+  // Each side: (edge corner, its inner neighbour) pairs.
+  std::vector<std::vector<std::pair<cv::Point2f, cv::Point2f>>> sides(4);
+  for (int c = 0; c < cols; ++c) {
+    sides[0].emplace_back(at(0, c), at(1, c));
+    sides[1].emplace_back(at(rows - 1, c), at(rows - 2, c));
+  }
+  for (int r = 0; r < rows; ++r) {
+    sides[2].emplace_back(at(r, 0), at(r, 1));
+    sides[3].emplace_back(at(r, cols - 1), at(r, cols - 2));
+  }
+  for (const auto& side : sides) {
+    int junctions = 0, seen = 0;
+    for (const auto& [edge, inner] : side) {
+      const cv::Point2f beyond = 2 * edge - inner;
+      const int x = cvRound(beyond.x), y = cvRound(beyond.y);
+      bool valid = x >= 2 && y >= 2 && x < view.width - 2 && y < view.height - 2;
+      for (int dy = -2; dy <= 2 && valid; dy += 2) {
+        for (int dx = -2; dx <= 2 && valid; dx += 2) valid = view.map_x.at<float>(y + dy, x + dx) >= 0;
+      }
+      if (!valid) continue;  // beyond the ring or the view: unknown
+      ++seen;
+      if (IsXJunction(view.image, beyond, 0.35 * cv::norm(edge - inner))) ++junctions;
+    }
+    if (2 * junctions > seen) return false;
+  }
+  return true;
+}
+
 // Sub-pixel refinement of one corner in the raw image with a window of half-size `half`.
 bool RefineInRaw(const cv::Mat& raw_grey, int half, Eigen::Vector2d* pixel) {
   if (pixel->x() < half + 2 || pixel->y() < half + 2 || pixel->x() > raw_grey.cols - half - 3 ||
@@ -249,10 +335,7 @@ std::vector<BoardDetection> DetectChessboardBoards(const cv::Mat& raw_grey,
                                         options.max_boards_per_region);
         while (found_here < expected) {
           std::vector<cv::Point2f> corners;
-          const bool ok = cv::findChessboardCorners(
-              crop, cv::Size(spec.cols, spec.rows), corners,
-              cv::CALIB_CB_ADAPTIVE_THRESH | cv::CALIB_CB_NORMALIZE_IMAGE);
-          if (!ok || static_cast<int>(corners.size()) != spec.rows * spec.cols) break;
+          if (!FindBoard(crop, spec, options, &corners)) break;
           ++found_here;
           // Hide this board from the next search in the region.
           std::vector<cv::Point> pts, hull;
@@ -264,6 +347,9 @@ std::vector<BoardDetection> DetectChessboardBoards(const cv::Mat& raw_grey,
 
           cv::cornerSubPix(view.image(region.rect), corners, cv::Size(2, 2), cv::Size(-1, -1),
                            cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 20, 1e-3));
+          std::vector<cv::Point2f> in_view = corners;
+          for (auto& c : in_view) c += cv::Point2f(region.rect.x, region.rect.y);
+          if (!GridIsWholeBoard(view, in_view, spec.rows, spec.cols)) continue;
           const std::vector<cv::Point2f> oriented = Orient(corners, spec.rows, spec.cols);
           if (oriented.empty()) continue;
           BoardDetection board;
@@ -306,14 +392,19 @@ std::vector<BoardDetection> DetectChessboardBoards(const cv::Mat& raw_grey,
     }
   }
 
-  // One board seen in two overlapping views: keep the view it is most central in.
-  std::sort(boards.begin(), boards.end(),
-            [](const BoardDetection& a, const BoardDetection& b) { return a.off_centre < b.off_centre; });
+  // One board seen in two overlapping views: keep the view it is most central in. A smaller
+  // pattern found on corners of a larger one (a sub-grid, e.g. where the larger board runs out
+  // of one view) is dropped whatever its view: larger patterns first.
+  std::sort(boards.begin(), boards.end(), [&](const BoardDetection& a, const BoardDetection& b) {
+    const size_t na = a.ids.size() > 0 ? targets[a.target].rows * targets[a.target].cols : 0;
+    const size_t nb = b.ids.size() > 0 ? targets[b.target].rows * targets[b.target].cols : 0;
+    return na != nb ? na > nb : a.off_centre < b.off_centre;
+  });
   std::vector<BoardDetection> kept;
   for (auto& b : boards) {
     bool duplicate = false;
     for (const auto& k : kept) {
-      if (k.target != b.target || k.mirror != b.mirror) continue;
+      if (k.mirror != b.mirror) continue;
       for (size_t i = 0; i < b.ids.size() && !duplicate; ++i) {
         for (size_t j = 0; j < k.ids.size(); ++j) {
           if ((b.raw_pixels[i] - k.raw_pixels[j]).norm() < 2.0) {

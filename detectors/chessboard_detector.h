@@ -39,6 +39,7 @@ struct ChessboardOptions {
   double saddle_balance = 0.5;    // |trace H| <= balance * sqrt(-det H) at a saddle point
   int min_saddles = 4;             // a region with fewer saddle points is not tried
   int max_boards_per_region = 4;
+  bool sector_fallback = true;     // findChessboardCornersSB where findChessboardCorners fails
   bool refine_in_raw = true;       // cornerSubPix in the raw image (else: the view's corner mapped)
   double max_refine_shift_px = 1.5;  // raw refinement moving a corner further rejects it
 };
