@@ -57,6 +57,9 @@ struct CalibrationOptions {
   double min_range_ratio = 1.6;         // max range / min range must reach this (the initial
                                         // poses from the ideal model misjudge ranges by ~25%)
   double min_azimuth_span_deg = 120.0;  // the targets must span this much azimuth
+  // Lip edge points (detections' lips, calib/lip_cost.h) as residuals besides the corners
+  // (session `lips:`, default true).
+  bool use_lips = true;
   // Progress, one line per stage (the CLI prints it to stderr); may be empty.
   std::function<void(const std::string&)> progress;
 };
@@ -105,7 +108,10 @@ struct CalibrationResult {
   double variance_factor = 1;  // s^2 = SSR / (n_residuals - n_parameters)
   double rms_px = 0;
   double per_mirror_rms_px[2] = {0, 0};
-  int n_observations = 0;  // used in the final solve
+  int n_observations = 0;  // corners used in the final solve
+  int n_lip_points = 0;    // lip edge points used in the final solve
+  int n_lip_rejected = 0;  // lip edge points left out (outliers, not projectable)
+  double lip_rms_px = 0;   // of the lip edge points' residuals
   int n_parameters = 0;    // rig + pose parameters of the final solve
   std::vector<RejectedObservation> rejected;
   std::vector<StageReport> stages;

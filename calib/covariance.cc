@@ -34,26 +34,31 @@ Eigen::MatrixXd Restrict(const Eigen::MatrixXd& m, const std::vector<int>& idx) 
 }  // namespace
 
 Eigen::MatrixXd RigSchurComplement(const Eigen::SparseMatrix<double, Eigen::RowMajor>& jacobian,
-                                   int n_rig) {
-  const Eigen::SparseMatrix<double> jtj_sparse =
-      (Eigen::SparseMatrix<double>(jacobian.transpose()) * jacobian).pruned();
+                                   int n_rig, const std::vector<int>& nuisance_sizes) {
+  // Sparse-aware: with one phi block per lip edge point there are tens of thousands of nuisance
+  // columns, so J^T J is never formed densely. A = J_r^T J_r (J_r dense, rows x n_rig); per
+  // nuisance block b: B_b = J_r^T J_b, C_b = J_b^T J_b.
+  const Eigen::SparseMatrix<double> jcm(jacobian);  // column major
   const int n = static_cast<int>(jacobian.cols());
-  const int n_poses = (n - n_rig) / kPoseSize;
-  // Dense blocks: A (rig x rig) and per pose B_p (rig x 6), C_p (6 x 6).
-  const Eigen::MatrixXd jtj = Eigen::MatrixXd(jtj_sparse);
-  Eigen::MatrixXd schur = jtj.topLeftCorner(n_rig, n_rig);
-  for (int p = 0; p < n_poses; ++p) {
-    const int c = n_rig + kPoseSize * p;
-    const Eigen::MatrixXd b = jtj.block(0, c, n_rig, kPoseSize);
-    const Eigen::MatrixXd c_inv = PseudoInverse(jtj.block(c, c, kPoseSize, kPoseSize));
-    schur.noalias() -= b * c_inv * b.transpose();
+  const Eigen::MatrixXd j_rig = Eigen::MatrixXd(jcm.leftCols(n_rig));
+  Eigen::MatrixXd schur = j_rig.transpose() * j_rig;
+  std::vector<int> sizes = nuisance_sizes;
+  if (sizes.empty()) sizes.assign((n - n_rig) / kPoseSize, kPoseSize);
+  int c = n_rig;
+  for (int size : sizes) {
+    const Eigen::SparseMatrix<double> j_b = jcm.middleCols(c, size);
+    c += size;
+    if (j_b.nonZeros() == 0) continue;
+    const Eigen::MatrixXd b = j_rig.transpose() * j_b;  // dense x sparse: O(nonzeros of J_b)
+    const Eigen::MatrixXd c_b = Eigen::MatrixXd(Eigen::SparseMatrix<double>(j_b.transpose() * j_b));
+    schur.noalias() -= b * PseudoInverse(c_b) * b.transpose();
   }
   return 0.5 * (schur + schur.transpose());
 }
 
 RigCovariance ComputeRigCovariance(const Eigen::SparseMatrix<double, Eigen::RowMajor>& jacobian,
                                    int n_rig, const RigCovarianceOptions& options) {
-  const Eigen::MatrixXd schur = RigSchurComplement(jacobian, n_rig);
+  const Eigen::MatrixXd schur = RigSchurComplement(jacobian, n_rig, options.nuisance_sizes);
   RigCovariance out;
   std::vector<bool> named(n_rig, false);
 

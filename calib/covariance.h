@@ -26,6 +26,9 @@ struct RigCovarianceOptions {
   double min_reciprocal_condition = 1e-12; // on the Jacobi-scaled Schur complement
   double null_component = 0.2;             // |eigenvector component| that implicates a parameter
   std::vector<double> nearly_unobservable_sigma;  // per rig parameter; empty: no bound
+  // Column count of each nuisance block after the rig columns (target poses: 6, lip edge point
+  // azimuths: 1); empty: all target poses.
+  std::vector<int> nuisance_sizes;
 };
 
 struct RigCovariance {
@@ -42,6 +45,6 @@ RigCovariance ComputeRigCovariance(const Eigen::SparseMatrix<double, Eigen::RowM
 
 // Schur complement of the pose blocks in J^T J (exposed for tests).
 Eigen::MatrixXd RigSchurComplement(const Eigen::SparseMatrix<double, Eigen::RowMajor>& jacobian,
-                                   int n_rig);
+                                   int n_rig, const std::vector<int>& nuisance_sizes = {});
 
 }  // namespace omni::calib

@@ -5,6 +5,8 @@
 #pragma once
 
 #include <algorithm>
+#include <map>
+#include <tuple>
 #include <random>
 #include <string>
 #include <vector>
@@ -12,6 +14,7 @@
 #include "calib/synthetic/scene.h"
 #include "model/io/detections_file.h"
 #include "model/io/model_file.h"
+#include "model/lip.h"
 #include "model/target.h"
 
 #ifndef OMNI_SOURCE_DIR
@@ -96,6 +99,77 @@ inline io::Detections NoisyDetections(const SyntheticSession& s, double noise_px
     d.images.push_back(image);
   }
   return d;
+}
+
+// Lip edge points the detector would report (detectors/lip_detector.h's rule, without an image):
+// per azimuth, a coloured band's outer (inner) edge is the outermost (innermost) image of its
+// lip's circles over the band's paths (blue: direct + via_mirror1; red: via_reflex +
+// via_mirror2), kept where no other (circle, path) image lies within 1.5 px. Exact pixels from
+// model/lip.h at the truth rig plus N(0, noise_px^2) per axis; `profiles` azimuths per circle.
+// Added to every image of `detections` (each image sees the same lips, with its own noise).
+inline void AddLipDetections(const RigParams& truth, double noise_px, unsigned seed,
+                             io::Detections* detections, int profiles = 360) {
+  const RigModel model(truth);
+  const Eigen::Vector2d centre(truth.camera[2], truth.camera[3]);
+  struct Image {
+    LipPath path;
+    LipCircle circle;
+    Eigen::Vector2d pixel;
+    double rho;
+  };
+  // edges[(mirror, outer side, path, circle)] -> exact points
+  std::map<std::tuple<int, bool, int, int>, std::vector<Eigen::Vector2d>> edges;
+  for (int k = 0; k < profiles; ++k) {
+    const double phi = 2 * M_PI * (k + 0.5) / profiles;
+    for (int band = 0; band < 2; ++band) {
+      const LipPath paths[2] = {band == 0 ? LipPath::kDirect : LipPath::kViaReflex,
+                                band == 0 ? LipPath::kViaMirror1 : LipPath::kViaMirror2};
+      std::vector<Image> images;
+      for (LipPath path : paths) {
+        for (LipCircle circle : {LipCircle::kInner, LipCircle::kOuter}) {
+          const auto px = ProjectLipPoint(model, path, circle, phi);
+          if (px) images.push_back({path, circle, *px, (*px - centre).norm()});
+        }
+      }
+      if (images.size() < 2) continue;
+      for (bool outer : {false, true}) {
+        size_t best = 0;
+        for (size_t i = 1; i < images.size(); ++i) {
+          if (outer ? images[i].rho > images[best].rho : images[i].rho < images[best].rho) best = i;
+        }
+        bool clear = true;
+        for (size_t i = 0; i < images.size(); ++i) {
+          if (i != best && images[i].path != images[best].path &&
+              std::abs(images[i].rho - images[best].rho) < 1.5) {
+            clear = false;
+          }
+        }
+        // The band's own extent along the edge's path (the other circle's image) must be there.
+        bool band_seen = false;
+        for (size_t i = 0; i < images.size(); ++i) {
+          if (i != best && images[i].path == images[best].path) band_seen = true;
+        }
+        if (!clear || !band_seen) continue;
+        edges[{band + 1, outer, static_cast<int>(images[best].path),
+               static_cast<int>(images[best].circle)}]
+            .push_back(images[best].pixel);
+      }
+    }
+  }
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> noise(0.0, noise_px);
+  for (auto& image : detections->images) {
+    for (const auto& [key, points] : edges) {
+      if (points.size() < 30) continue;  // the detector drops short edges
+      io::LipEdge edge;
+      edge.mirror = std::get<0>(key);
+      edge.edge = std::get<1>(key) ? "outer" : "inner";
+      edge.path = LipPathName(static_cast<LipPath>(std::get<2>(key)));
+      edge.circle = LipCircleName(static_cast<LipCircle>(std::get<3>(key)));
+      for (const auto& p : points) edge.points.push_back(p + Eigen::Vector2d(noise(rng), noise(rng)));
+      image.lips.push_back(edge);
+    }
+  }
 }
 
 }  // namespace omni::testing

@@ -1,0 +1,50 @@
+// Residuals of lip edge points (model/lip.h, detectors/lip_detector.h): an edge point is the image
+// of some point on a known 3D circle (a lip's r_inner or r_outer circle in its mirror's body
+// frame) along a known optical path, at an unknown azimuth phi. Each edge point gets its own phi
+// (a 1-parameter nuisance block, eliminated like a target pose), and the residual is the pixel of
+// that circle point along the path minus the observed pixel, weighted like a corner. Per point
+// this adds 2 residuals and 1 unknown: the component across the edge constrains the rig.
+//
+// The lips are what the target corners cannot give: the blue lip is seen straight by the camera
+// (pinhole + distortion of a point at a known place in mirror 1's body, no mirror in between) and
+// via mirror 1, the red lip via mirror 2; an edge at a known metric radius and height pins the
+// focal length against distortion and the mirrors' heights (tz).
+#pragma once
+
+#include <ceres/autodiff_cost_function.h>
+
+#include <Eigen/Core>
+
+#include "model/lip.h"
+
+namespace omni::calib {
+
+// Blocks: camera, distortion, mirror1_shape, mirror1_pose, reflex, mirror2_shape, mirror2_pose,
+// phi (1).
+struct LipPointCost {
+  Eigen::Vector2d observed;
+  LipPath path;
+  double radius, lip_z;  // the circle in its mirror's body frame (mm)
+  RigFixed fixed;
+
+  template <typename T>
+  bool operator()(const T* camera, const T* distortion, const T* mirror1_shape,
+                  const T* mirror1_pose, const T* reflex, const T* mirror2_shape,
+                  const T* mirror2_pose, const T* phi, T* residual) const {
+    const LipBlocks<T> blocks{camera, distortion, mirror1_shape, mirror1_pose,
+                              reflex, mirror2_shape, mirror2_pose};
+    Vec2<T> pixel;
+    if (!ProjectLipPoint(blocks, fixed, path, T(radius), T(lip_z), phi[0], &pixel)) return false;
+    residual[0] = pixel.x() - T(observed.x());
+    residual[1] = pixel.y() - T(observed.y());
+    return true;
+  }
+
+  static ceres::CostFunction* Create(const Eigen::Vector2d& observed, LipPath path, double radius,
+                                     double lip_z, const RigFixed& fixed) {
+    return new ceres::AutoDiffCostFunction<LipPointCost, 2, 5, 5, 2, 5, 3, 2, 5, 1>(
+        new LipPointCost{observed, path, radius, lip_z, fixed});
+  }
+};
+
+}  // namespace omni::calib
