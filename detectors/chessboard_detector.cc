@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <numeric>
+#include <optional>
 
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
@@ -217,20 +218,27 @@ bool FindBoard(const cv::Mat& crop, const TargetSpec& spec, const ChessboardOpti
          corners->size() == n;
 }
 
-// True if the grey image shows an X-junction (two dark and two bright sectors alternating) at
-// `p`, read on a circle of `radius` pixels. The Hessian saddle test cannot tell this from the
-// corner of a single square (an L-corner has the same balanced Hessian at its tip), the ring
-// can: an L-corner has one dark sector, an X-junction two.
-bool IsXJunction(const cv::Mat& grey, const cv::Point2f& p, double radius) {
+// Whether the view shows an X-junction (two dark and two bright sectors alternating) at `p`,
+// read on a circle of `radius` pixels; nullopt if part of the circle is outside the ring or the
+// view (the dark invalid area would add sectors). The Hessian saddle test cannot tell this from
+// the corner of a single square (an L-corner has the same balanced Hessian at its tip), the
+// circle can: an L-corner has one dark sector, an X-junction two.
+std::optional<bool> IsXJunction(const RingView& view, const cv::Point2f& p, double radius) {
   constexpr int kSamples = 24;
   radius = std::max(2.0, radius);
+  const cv::Mat& grey = view.image;
   std::array<float, kSamples> v;
   for (int k = 0; k < kSamples; ++k) {
     const double a = 2 * M_PI * k / kSamples;
     const float x = p.x + static_cast<float>(radius * std::cos(a));
     const float y = p.y + static_cast<float>(radius * std::sin(a));
-    if (x < 0 || y < 0 || x > grey.cols - 2 || y > grey.rows - 2) return false;
+    if (x < 0 || y < 0 || x > grey.cols - 2 || y > grey.rows - 2) return std::nullopt;
     const int x0 = static_cast<int>(x), y0 = static_cast<int>(y);
+    for (int dy = 0; dy <= 1; ++dy) {
+      for (int dx = 0; dx <= 1; ++dx) {
+        if (view.map_x.at<float>(y0 + dy, x0 + dx) < 0) return std::nullopt;
+      }
+    }
     const float fx = x - x0, fy = y - y0;
     v[k] = (1 - fy) * ((1 - fx) * grey.at<uchar>(y0, x0) + fx * grey.at<uchar>(y0, x0 + 1)) +
            fy * ((1 - fx) * grey.at<uchar>(y0 + 1, x0) + fx * grey.at<uchar>(y0 + 1, x0 + 1));
@@ -267,15 +275,10 @@ bool GridIsWholeBoard(const RingView& view, const std::vector<cv::Point2f>& corn
   for (const auto& side : sides) {
     int junctions = 0, seen = 0;
     for (const auto& [edge, inner] : side) {
-      const cv::Point2f beyond = 2 * edge - inner;
-      const int x = cvRound(beyond.x), y = cvRound(beyond.y);
-      bool valid = x >= 2 && y >= 2 && x < view.width - 2 && y < view.height - 2;
-      for (int dy = -2; dy <= 2 && valid; dy += 2) {
-        for (int dx = -2; dx <= 2 && valid; dx += 2) valid = view.map_x.at<float>(y + dy, x + dx) >= 0;
-      }
-      if (!valid) continue;  // beyond the ring or the view: unknown
+      const std::optional<bool> x = IsXJunction(view, 2 * edge - inner, 0.35 * cv::norm(edge - inner));
+      if (!x) continue;  // beyond the ring or the view: unknown
       ++seen;
-      if (IsXJunction(view.image, beyond, 0.35 * cv::norm(edge - inner))) ++junctions;
+      junctions += *x ? 1 : 0;
     }
     if (2 * junctions > seen) return false;
   }
@@ -440,3 +443,4 @@ std::vector<io::CornerObservation> DetectChessboards(const cv::Mat& raw_grey,
 }
 
 }  // namespace omni::detectors
+
