@@ -833,6 +833,9 @@ void Calibrator::Covariance(CalibrationResult* result) {
   const RigCovariance cov = ComputeRigCovariance(jacobian, n_rig, co);
 
   const Eigen::VectorXd all_values = result->values;
+  result->refined_names = names;
+  result->schur_eigenvalues = cov.eigenvalues;
+  result->schur_eigenvectors = cov.eigenvectors;
   result->names.clear();
   result->values.resize(cov.observable.size());
   for (size_t i = 0; i < cov.observable.size(); ++i) {

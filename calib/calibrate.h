@@ -105,6 +105,12 @@ struct CalibrationResult {
   Eigen::VectorXd values, sigma;  // internal units: px, unitless, rad, mm
   Eigen::MatrixXd covariance, correlation;
   std::vector<UnobservableParameter> unobservable;  // named, never given a number
+  // Every refined parameter (observable or not) and the eigen-decomposition of the
+  // Jacobi-scaled (unit-diagonal) Schur complement over them, eigenvalues ascending: the
+  // weakest directions of the data (a near-gauge shows as a tiny eigenvalue).
+  std::vector<std::string> refined_names;
+  Eigen::VectorXd schur_eigenvalues;
+  Eigen::MatrixXd schur_eigenvectors;
   double variance_factor = 1;  // s^2 = SSR / (n_residuals - n_parameters)
   double rms_px = 0;
   double per_mirror_rms_px[2] = {0, 0};

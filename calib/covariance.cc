@@ -71,6 +71,7 @@ RigCovariance ComputeRigCovariance(const Eigen::SparseMatrix<double, Eigen::RowM
   const Eigen::MatrixXd scaled = scale.asDiagonal() * schur * scale.asDiagonal();
   Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(scaled);
   out.eigenvalues = eig.eigenvalues();
+  out.eigenvectors = eig.eigenvectors();
   const double largest = std::max(eig.eigenvalues().maxCoeff(), 0.0);
   for (int k = 0; k < n_rig; ++k) {
     if (eig.eigenvalues()(k) >= options.min_reciprocal_condition * largest) continue;

@@ -36,6 +36,7 @@ struct RigCovariance {
   std::vector<int> unobservable;  // named instead (exact null space or sigma above its bound)
   Eigen::MatrixXd covariance;     // over `observable`, scaled by the variance factor
   Eigen::VectorXd eigenvalues;    // of the Jacobi-scaled Schur complement, ascending
+  Eigen::MatrixXd eigenvectors;   // columns, same order (in the scaled coordinates)
 };
 
 // `jacobian`: residuals x (n_rig + 6 * n_poses), rig columns first, then one 6-column block per
