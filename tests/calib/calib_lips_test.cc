@@ -75,6 +75,13 @@ TEST(CalibLips, LipsPinFocalLengthDistortionAndHeights) {
   const CalibrationResult from_truth = Calibrate(truth, session.targets, with_lips, options);
   std::fprintf(stderr, "--- corners + lips, from the truth\n%s",
                ResultTable(from_truth, &truth).c_str());
+  for (size_t p = 0; p < with.placements.size() && p < from_truth.placements.size(); ++p) {
+    std::fprintf(stderr, "placement %zu (image %d target %d, %d+%d corners): rotation differs by %.3f deg, translation by %.1f mm\n", p,
+                 with.placements[p].image, with.placements[p].target,
+                 with.placements[p].observations[0], with.placements[p].observations[1],
+                 (with.placements[p].rotation - from_truth.placements[p].rotation).norm() * 180 / M_PI,
+                 (with.placements[p].translation - from_truth.placements[p].translation).norm());
+  }
   EXPECT_EQ(with.n_lip_points, n_lip_points * static_cast<int>(with_lips.images.size()));
   // Two residuals and one free azimuth per point: the along-edge noise is absorbed, so the RMS
   // of the 2-D residual is ~ one axis' sigma.
