@@ -951,6 +951,13 @@ CalibrationResult Calibrator::Run() {
   info.n_outliers = n_outliers;
   info.per_mirror_rms_px = {result.per_mirror_rms_px[0], result.per_mirror_rms_px[1]};
   info.images = n_images_;
+  info.n_rejected = static_cast<int>(result.rejected.size()) + result.n_lip_rejected;
+  info.n_lip_points = result.n_lip_points;
+  info.lip_rms_px = result.lip_rms_px;
+  for (const auto& u : result.unobservable) {
+    info.unobservable.push_back(u.name);
+    info.unobservable_hints.push_back(u.hint);
+  }
   std::string targets;
   for (size_t t = 0; t < targets_.size(); ++t) {
     const TargetSpec& s = targets_[t];

@@ -32,6 +32,12 @@ struct CalibrationInfo {
   int n_observations = 0;
   int n_outliers = 0;
   std::vector<double> per_mirror_rms_px;
+  // Optional (absent in older files): what the data could not determine, and the lips.
+  std::vector<std::string> unobservable;        // parameter names, never given a value
+  std::vector<std::string> unobservable_hints;  // one per name: what data would determine it
+  int n_rejected = 0;        // observations left out (outliers, not projectable, failed poses)
+  int n_lip_points = 0;      // lip edge points used
+  double lip_rms_px = 0;
   std::string session;
   int images = 0;
   std::string targets;

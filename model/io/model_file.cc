@@ -99,6 +99,23 @@ CalibrationInfo ReadCalibration(const Reader& in, const YAML::Node& root) {
   info.n_observations = in.Integer(res, res_path, "n_observations", 0);
   info.n_outliers = in.Integer(res, res_path, "n_outliers", 0);
   info.per_mirror_rms_px = in.Numbers(res, res_path, "per_mirror_rms_px");
+  if (res["n_rejected"].IsDefined()) info.n_rejected = in.Integer(res, res_path, "n_rejected", 0);
+  if (res["n_lip_points"].IsDefined()) {
+    info.n_lip_points = in.Integer(res, res_path, "n_lip_points", 0);
+  }
+  if (res["lip_rms_px"].IsDefined()) info.lip_rms_px = in.Number(res, res_path, "lip_rms_px");
+  if (cal["unobservable"].IsDefined()) {
+    info.unobservable = in.Strings(cal, path, "unobservable");
+    if (cal["unobservable_hints"].IsDefined()) {
+      info.unobservable_hints = in.Strings(cal, path, "unobservable_hints");
+    }
+    if (info.unobservable_hints.size() != info.unobservable.size()) {
+      in.Fail(Join(path, "unobservable_hints"),
+              "expected " + std::to_string(info.unobservable.size()) +
+                  " strings (one per unobservable parameter)",
+              std::to_string(info.unobservable_hints.size()));
+    }
+  }
 
   const std::string data_path = Join(path, "dataset");
   const YAML::Node data = in.Map(cal, data_path, "dataset");
@@ -404,7 +421,17 @@ std::string ModelFileText(const RigParams& rig) {
                       ", n_observations: " + std::to_string(cal.n_observations) +
                       ", n_outliers: " + std::to_string(cal.n_outliers) +
                       ", per_mirror_rms_px: " + FlowList(Nums(cal.per_mirror_rms_px), 2, 100) +
-                      "}");
+                      ", n_rejected: " + std::to_string(cal.n_rejected) +
+                      ", n_lip_points: " + std::to_string(cal.n_lip_points) +
+                      ", lip_rms_px: " + Num(cal.lip_rms_px) + "}");
+    if (!cal.unobservable.empty()) {
+      std::vector<std::string> un, hints;
+      for (const std::string& name : cal.unobservable) un.push_back(Text(name));
+      for (const std::string& hint : cal.unobservable_hints) hints.push_back(Text(hint));
+      Line(&out, 2, "unobservable: " + FlowList(un, 2, 8),
+           "not determined by the data: no value given");
+      Line(&out, 2, "unobservable_hints: " + FlowList(hints, 2, 1), "what data would determine each");
+    }
     Line(&out, 2, "dataset: {session: " + Text(cal.session) + ", images: " +
                       std::to_string(cal.images) + ", targets: " + Text(cal.targets) + "}");
     Line(&out, 2, "tool_version: " + Text(cal.tool_version));
