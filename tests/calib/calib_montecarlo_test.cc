@@ -23,6 +23,11 @@ namespace {
 // reflex.rx/dz; cx, cy and several tilts were named nearly unobservable in part of the solves
 // (the camera-rotation near-gauge). Run with --gtest_also_run_disabled_tests; MC_SOLVES,
 // MC_IMAGES, MC_RMIN override the size.
+// Re-measured after the tighter solver tolerances (calib2; 30 solves, 13 s): ratios 0.73..1.56
+// (mirror1.ry 1.44, mirror2.ry 1.56, reflex.dz 0.73, fx 0.67); cx named unobservable in 18 of 30
+// solves, mirror1 tilts in 10, mirror2 tilts in 17-18: the parameter sets compared differ per
+// solve. Note: with 60 solves the sampling sd of a spread/predicted ratio is ~9%, so a 20% bar
+// over 13 parameters fails by chance ~30% of the time even with an exact covariance.
 TEST(CalibMonteCarlo, DISABLED_PredictedSigmaMatchesSpread) {
   // The misaligned rig without lens distortion, calibrated for camera + misalignment: with only
   // corners in the stereo band, radial distortion trades with the focal length and the mirrors'
