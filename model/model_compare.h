@@ -2,6 +2,8 @@
 // calibration gains (calibrated vs true model, or nominal vs true model).
 #pragma once
 
+#include <vector>
+
 #include "model/rig_model.h"
 
 namespace omni {
@@ -12,6 +14,14 @@ struct ProjectionDifference {
   double max_px[2] = {0, 0};
   int lost = 0;                   // (point, ring) pairs the compared model does not project
 };
+
+// Points on the cylinder of horizontal radius `range_mm` about the camera axis (72 azimuths,
+// heights every range/40 within +-1.5 range) that `model` sees in both rings (the stereo band).
+struct BandPoint {
+  Eigen::Vector3d point_in_cam;
+  Eigen::Vector2d pixel[2];  // via mirror 1, mirror 2
+};
+std::vector<BandPoint> StereoBandPoints(const RigModel& model, double range_mm);
 
 // Points on the cylinder of horizontal radius `range_mm` about the camera axis (72 azimuths,
 // heights every range/40), kept where `reference` sees them in both rings; each is projected by

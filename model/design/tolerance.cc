@@ -5,6 +5,7 @@
 #include <map>
 #include <random>
 
+#include "model/model_compare.h"
 #include "model/rig_model.h"
 
 namespace omni::design {
@@ -139,22 +140,8 @@ std::vector<ToleranceCheck> CheckTolerances(const RigParams& rig, const Toleranc
 
 ImageEffect SimulateImageEffect(const RigParams& nominal, const ToleranceSpec& spec, int samples,
                                 double range_mm, unsigned seed) {
-  const RigModel nominal_model(nominal);
   // Points at the given range that the nominal rig sees in both rings.
-  struct Seen {
-    Eigen::Vector3d point;
-    Eigen::Vector2d pixel[2];
-  };
-  std::vector<Seen> seen;
-  for (int a = 0; a < 72; ++a) {
-    const double azimuth = 2 * M_PI * a / 72;
-    for (double z = -1.5 * range_mm; z <= 1.5 * range_mm; z += range_mm / 40) {
-      const Eigen::Vector3d p(range_mm * std::cos(azimuth), range_mm * std::sin(azimuth), z);
-      const auto p1 = nominal_model.Project(p, Mirror::kOne);
-      const auto p2 = nominal_model.Project(p, Mirror::kTwo);
-      if (p1 && p2) seen.push_back({p, {*p1, *p2}});
-    }
-  }
+  const std::vector<BandPoint> seen = StereoBandPoints(RigModel(nominal), range_mm);
   ImageEffect effect;
   effect.points = static_cast<int>(seen.size());
   effect.samples = samples;
@@ -181,10 +168,10 @@ ImageEffect SimulateImageEffect(const RigParams& nominal, const ToleranceSpec& s
     rig.reflex[2] += InRange(rng, limit(spec.reflex_dz_mm));
     rig.kind = ModelKind::kNoncentral;
     const RigModel model(rig);
-    for (const Seen& p : seen) {
+    for (const BandPoint& p : seen) {
       for (int m = 0; m < 2; ++m) {
         ++total;
-        const auto px = model.Project(p.point, m == 0 ? Mirror::kOne : Mirror::kTwo);
+        const auto px = model.Project(p.point_in_cam, m == 0 ? Mirror::kOne : Mirror::kTwo);
         if (!px) {
           ++lost;
           continue;
