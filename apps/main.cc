@@ -69,6 +69,10 @@ int main(int argc, char** argv) {
     return 2;
   }
   FLAGS_logtostderr = true;
+  // Ceres logs a warning for every trial step it cannot evaluate; for this bounded model (a ray
+  // that leaves a mirror's rim has no image) that is routine, the trust region shrinks and goes
+  // on, so by default only errors are shown (--minloglevel=0 brings everything back).
+  if (gflags::GetCommandLineFlagInfoOrDie("minloglevel").is_default) FLAGS_minloglevel = 2;
   google::InitGoogleLogging(argv[0]);
   try {
     return command->run();
