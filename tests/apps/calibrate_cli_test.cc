@@ -1,0 +1,172 @@
+// Runs the real `omnistereo calibrate` on a synthetic session (exact corners of the misaligned big
+// rig from calib/synthetic's fast path plus known noise, written as a session and a detections
+// file): the model file it writes equals what the library's Calibrate gives for the same inputs,
+// and every bad session ends with a non-zero exit, one message naming the cause, and no model file
+// (an existing one untouched).
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "calib/calibrate.h"
+#include "model/io/detections_file.h"
+#include "model/io/file_util.h"
+#include "model/io/model_file.h"
+#include "model/io/session_file.h"
+#include "tests/calib/calib_test_util.h"
+#include "tests/cli_test_util.h"
+
+namespace omni {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string LastLine(const std::string& text) {
+  std::string t = text;
+  while (!t.empty() && t.back() == '\n') t.pop_back();
+  const auto nl = t.rfind('\n');
+  return nl == std::string::npos ? t : t.substr(nl + 1);
+}
+
+class CalibrateCli : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    synthetic::RandomPlacement random;
+    random.images = 8;
+    random.targets_min = 2;
+    random.targets_max = 3;
+    random.range_min_mm = 500;
+    random.range_max_mm = 2000;
+    random.seed = 31;
+    session_ = new testing::SyntheticSession(testing::MakeSession(
+        testing::MisalignedRig(), random,
+        {testing::Chessboard(4, 11, 40.0), testing::Chessboard(5, 8, 50.0),
+         testing::Chessboard(6, 7, 60.0)}));
+    detections_ = new io::Detections(testing::NoisyDetections(*session_, 0.1, 5));
+    testing::AddLipDetections(testing::MisalignedRig(), 0.05, 6, detections_, 90);
+  }
+  static void TearDownTestSuite() {
+    delete session_;
+    delete detections_;
+  }
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           ("omni_calibrate_cli_" + std::to_string(::getpid()) + "_" +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    io::WriteModelFile((dir_ / "start.yaml").string(), testing::IdealRig());
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  io::Session SessionWith(const std::vector<TargetSpec>& targets) const {
+    io::Session s;
+    s.model_path = (dir_ / "start.yaml").string();
+    for (const auto& image : detections_->images) s.images.push_back((dir_ / image.file).string());
+    s.targets = targets;
+    s.estimate = {"camera", "distortion", "mirror1_pose", "mirror2_pose", "reflex"};
+    return s;
+  }
+  // Writes the session and detections files; returns the command's arguments.
+  std::string Files(const io::Session& session, const io::Detections& detections) const {
+    io::WriteFileAtomically((dir_ / "session.yaml").string(),
+                            io::SessionText(session, dir_.string()));
+    io::WriteDetectionsFile((dir_ / "detections.yaml").string(), detections);
+    return "calibrate --session='" + (dir_ / "session.yaml").string() + "' --detections='" +
+           (dir_ / "detections.yaml").string() + "' --out='" + (dir_ / "out.yaml").string() + "'";
+  }
+  int Run(const std::string& args, std::string* err, std::string* out = nullptr) const {
+    return testing::RunOmnistereo(args, dir_ / "stderr.txt", err, dir_ / "stdout.txt", out);
+  }
+  // A failed calibration is bad input (calib::CalibrationError is an io::InputError): exit 2,
+  // the last stderr line names the cause, and no model file
+  // (a model file that was there before is left as it was).
+  void ExpectFailure(const std::string& args, const std::string& cause) const {
+    const std::string before = "previous model\n";
+    std::ofstream(dir_ / "out.yaml") << before;
+    std::string err;
+    EXPECT_EQ(Run(args, &err), 2);
+    const std::string last = LastLine(err);
+    EXPECT_EQ(last.rfind("omnistereo calibrate: ", 0), 0u) << err;
+    EXPECT_NE(last.find(cause), std::string::npos) << err;
+    EXPECT_EQ(testing::ReadText(dir_ / "out.yaml"), before);
+    for (const auto& entry : fs::directory_iterator(dir_)) {  // no temporary file left
+      EXPECT_EQ(entry.path().filename().string().find(".tmp"), std::string::npos)
+          << entry.path();
+    }
+  }
+
+  static testing::SyntheticSession* session_;
+  static io::Detections* detections_;
+  fs::path dir_;
+};
+
+testing::SyntheticSession* CalibrateCli::session_ = nullptr;
+io::Detections* CalibrateCli::detections_ = nullptr;
+
+// The CLI is the library plus file I/O: the model it writes carries the library's values and
+// sigmas (to the file's 17 significant digits; Ceres with 2 threads may reorder sums, hence a
+// tolerance far below any sigma), and the table it prints names every refined parameter.
+TEST_F(CalibrateCli, WritesTheLibrarysCalibration) {
+  const io::Session session = SessionWith(session_->targets);
+  std::string err, out;
+  ASSERT_EQ(Run(Files(session, *detections_), &err, &out), 0) << err;
+  const RigParams written = io::ReadModelFile((dir_ / "out.yaml").string());
+  ASSERT_TRUE(written.calibration.has_value());
+
+  calib::CalibrationOptions options = calib::OptionsFromSession(session);
+  const calib::CalibrationResult library =
+      calib::Calibrate(testing::IdealRig(), session_->targets, *detections_, options);
+  const CalibrationInfo& info = *written.calibration;
+  ASSERT_EQ(info.parameters, library.names);
+  for (size_t i = 0; i < info.parameters.size(); ++i) {
+    const double sigma = library.sigma(i);
+    EXPECT_NEAR(info.values[i], library.values(i), 1e-3 * sigma + 1e-9) << info.parameters[i];
+    EXPECT_NEAR(info.sigma[i], sigma, 1e-3 * sigma + 1e-12) << info.parameters[i];
+    EXPECT_NE(out.find(info.parameters[i]), std::string::npos) << info.parameters[i];
+  }
+  EXPECT_EQ(info.n_observations, library.n_observations);
+  EXPECT_NEAR(info.rms_px, library.rms_px, 1e-6);
+  EXPECT_NE(out.find("calibrated model written to"), std::string::npos) << out;
+}
+
+TEST_F(CalibrateCli, TooFewObservations) {
+  io::Detections one = *detections_;
+  one.images.resize(1);
+  io::Session session = SessionWith(session_->targets);
+  session.images.resize(1);
+  ExpectFailure(Files(session, one), "too few observations");
+}
+
+TEST_F(CalibrateCli, TargetsThatMatchNothing) {
+  io::Detections none = *detections_;
+  for (auto& image : none.images) image.corners.clear();
+  ExpectFailure(Files(SessionWith(session_->targets), none), "match nothing");
+}
+
+// A wrong square size (10x the printed one) puts every target 10x farther: no rig near the
+// starting one explains the corners.
+TEST_F(CalibrateCli, WrongSquareSizeFailsInsteadOfWritingAModel) {
+  std::vector<TargetSpec> wrong = session_->targets;
+  for (auto& t : wrong) t.square_mm *= 10;
+  ExpectFailure(Files(SessionWith(wrong), *detections_), "the solve diverged");
+}
+
+// Malformed detections: exit 2 and one line naming the file and the field; no model file.
+TEST_F(CalibrateCli, MalformedDetectionsNameFileAndField) {
+  const std::string args = Files(SessionWith(session_->targets), *detections_);
+  std::ofstream(dir_ / "detections.yaml")
+      << "format: omnistereo-detections/1\nsession: s\nimages:\n  - file: a.png\n"
+         "    width: 1280\n    height: 960\n    corners:\n      - [0, 1, 3, 10.0, 20.0]\n";
+  std::string err;
+  EXPECT_EQ(Run(args, &err), 2) << err;
+  EXPECT_NE(err.find("detections.yaml"), std::string::npos) << err;
+  EXPECT_NE(err.find("corners"), std::string::npos) << err;
+  EXPECT_EQ(std::count(err.begin(), err.end(), '\n'), 1) << err;
+  EXPECT_FALSE(fs::exists(dir_ / "out.yaml"));
+}
+
+}  // namespace
+}  // namespace omni
