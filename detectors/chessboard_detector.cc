@@ -13,7 +13,8 @@ namespace omni::detectors {
 namespace {
 
 struct Region {
-  cv::Rect rect;      // in view pixels
+  cv::Rect rect;      // in view pixels, inside the view
+  cv::Rect full;      // the same before clipping to the view
   int saddles = 0;
   double spacing = 0; // median nearest-neighbour distance of its saddle points (~ square side)
 };
@@ -124,9 +125,9 @@ std::vector<Region> Regions(const std::vector<cv::Point2f>& points, const cv::Si
     // The outer squares and a quiet zone lie about 1.5 squares beyond the inner corners; the
     // corner finder needs some background beyond them too.
     const int margin = static_cast<int>(std::ceil(2.5 * r.spacing + 8));
-    r.rect = cv::Rect(cv::Point(static_cast<int>(x0) - margin, static_cast<int>(y0) - margin),
-                      cv::Point(static_cast<int>(x1) + margin + 1, static_cast<int>(y1) + margin + 1)) &
-             cv::Rect(0, 0, size.width, size.height);
+    r.full = cv::Rect(cv::Point(static_cast<int>(x0) - margin, static_cast<int>(y0) - margin),
+                      cv::Point(static_cast<int>(x1) + margin + 1, static_cast<int>(y1) + margin + 1));
+    r.rect = r.full & cv::Rect(0, 0, size.width, size.height);
     regions.push_back(r);
   }
   return regions;
@@ -195,27 +196,6 @@ bool BetterInNeighbour(const RingView& view, const cv::Rect& rect, size_t sector
   offset = std::abs(std::remainder(offset, 2 * M_PI));
   const double half_width = std::atan(0.5 * rect.width / view.f);
   return offset > 0.5 * step && (step - offset) + half_width < half_fov - 0.02;
-}
-
-// One rows x cols board in a crop of a view. The classic finder (quadrilaterals of a
-// thresholded image) is fast but loses boards whose squares merge with a busy background in the
-// threshold; the sector-based finder (findChessboardCornersSB, a Radon-like corner response and
-// grid growing) finds those at about ten times the cost, so it only runs where the classic one
-// failed.
-bool FindBoard(const cv::Mat& crop, const TargetSpec& spec, const ChessboardOptions& options,
-               std::vector<cv::Point2f>* corners) {
-  const cv::Size pattern(spec.cols, spec.rows);
-  const size_t n = static_cast<size_t>(spec.rows * spec.cols);
-  if (cv::findChessboardCorners(crop, pattern, *corners,
-                                cv::CALIB_CB_ADAPTIVE_THRESH | cv::CALIB_CB_NORMALIZE_IMAGE) &&
-      corners->size() == n) {
-    return true;
-  }
-  if (!options.sector_fallback) return false;
-  corners->clear();
-  return cv::findChessboardCornersSB(crop, pattern, *corners,
-                                     cv::CALIB_CB_NORMALIZE_IMAGE | cv::CALIB_CB_EXHAUSTIVE) &&
-         corners->size() == n;
 }
 
 // Whether the view shows an X-junction (two dark and two bright sectors alternating) at `p`,
@@ -298,6 +278,178 @@ bool RefineInRaw(const cv::Mat& raw_grey, int half, Eigen::Vector2d* pixel) {
   return true;
 }
 
+// The refined corners of one board must lie on the board's image: in a view the board is a
+// plane seen by a pinhole (a homography of the target's grid, exact to 0.01 px for the views'
+// rays at 0.5-2 m, measured on ComputeTruth corners), and every corner must sit on its own grid
+// point. The corner finders can return a grid in which some rows or columns are mis-ordered (on
+// the inner ring's 2-3 px squares near 2 m: neighbouring ids swapped, each ~1 px from a true
+// corner); such corners are a large fraction of a square off the grid's homography. Refined raw
+// corners are taken back into the view (exact back-projection), a homography is fitted to them
+// by RANSAC and the board is refused unless (nearly) all corners fit it: a detector that
+// guesses gives wrong ids, which the calibration cannot tell from data. Single outliers in a
+// board that otherwise fits are dropped. Returns false to refuse the whole board.
+bool GridFitsBoard(const RingView& view, const RigModel& model, int cols,
+                   const ChessboardOptions& options, BoardDetection* board) {
+  const size_t n = board->ids.size();
+  if (n < 4) return false;
+  std::vector<cv::Point2f> grid, in_view;
+  for (size_t i = 0; i < n; ++i) {
+    const auto p = view.RawToView(model, board->raw_pixels[i]);
+    if (!p) return false;
+    grid.emplace_back(static_cast<float>(board->ids[i] % cols), static_cast<float>(board->ids[i] / cols));
+    in_view.emplace_back(static_cast<float>(p->x()), static_cast<float>(p->y()));
+  }
+  // The square side in the view from the corners' grid neighbours (median).
+  std::vector<double> sides;
+  for (size_t i = 0; i < n; ++i) {
+    for (size_t j = i + 1; j < n; ++j) {
+      if (std::abs(grid[i].x - grid[j].x) + std::abs(grid[i].y - grid[j].y) == 1) {
+        sides.push_back(cv::norm(in_view[i] - in_view[j]));
+      }
+    }
+  }
+  if (sides.empty()) return false;
+  std::nth_element(sides.begin(), sides.begin() + sides.size() / 2, sides.end());
+  const double side = sides[sides.size() / 2];
+  // RANSAC with a loose tolerance finds the board's homography among mis-ordered corners; the
+  // test itself is in raw pixels (the views magnify the inner ring 2-3 times): the homography's
+  // prediction mapped to the raw image must lie within max_grid_residual_px of the refined
+  // corner. A corner on a neighbouring saddle is a square (>= 2.5 raw px) off, a mis-ordered
+  // one ~1 px, one pulled by the ring's edge 0.7-1 px; good ones < 0.3 px.
+  cv::Mat inlier_mask;
+  cv::Mat h = cv::findHomography(grid, in_view, cv::RANSAC, options.max_grid_ransac_squares * side,
+                                 inlier_mask, 500, 0.999);
+  if (h.empty()) return false;
+  std::vector<cv::Point2f> grid_in, view_in;
+  for (size_t i = 0; i < n; ++i) {
+    if (inlier_mask.at<uchar>(static_cast<int>(i))) {
+      grid_in.push_back(grid[i]);
+      view_in.push_back(in_view[i]);
+    }
+  }
+  if (grid_in.size() < 4) return false;
+  h = cv::findHomography(grid_in, view_in, 0);  // least squares on the inliers
+  if (h.empty()) return false;
+  std::vector<cv::Point2f> predicted;
+  cv::perspectiveTransform(grid, predicted, h);
+  std::vector<bool> keep(n);
+  size_t kept = 0;
+  for (size_t i = 0; i < n; ++i) {
+    const auto raw = view.ViewToRaw(Eigen::Vector2d(predicted[i].x, predicted[i].y));
+    keep[i] = raw && (*raw - board->raw_pixels[i]).norm() <= options.max_grid_residual_px;
+    kept += keep[i] ? 1 : 0;
+  }
+  if (kept < 4 || static_cast<double>(kept) < options.min_grid_inlier_fraction * n) return false;
+  BoardDetection out = *board;
+  out.ids.clear();
+  out.view_pixels.clear();
+  out.raw_pixels.clear();
+  for (size_t i = 0; i < n; ++i) {
+    if (!keep[i]) continue;
+    out.ids.push_back(board->ids[i]);
+    out.view_pixels.push_back(board->view_pixels[i]);
+    out.raw_pixels.push_back(board->raw_pixels[i]);
+  }
+  *board = std::move(out);
+  return true;
+}
+
+// The region of a view as a crop for the corner finders, padded to the region's full size
+// where it runs off the view and with the view's invalid pixels (outside the ring) set to mid
+// grey: a board whose white margin is cut by the ring's edge then still has separable outer
+// squares (against black they merge, and the finders fail near a crop border).
+cv::Mat RegionCrop(const RingView& view, const Region& region) {
+  const cv::Rect inside = region.full & cv::Rect(0, 0, view.width, view.height);
+  cv::Mat crop(region.full.size(), CV_8U, cv::Scalar(128));
+  const cv::Rect dst(inside.tl() - region.full.tl(), inside.size());
+  view.image(inside).copyTo(crop(dst));
+  crop(dst).setTo(128, view.map_x(inside) < 0);
+  return crop;
+}
+
+// One rows x cols grid in a crop by finder 0 or 1. The classic finder (quadrilaterals of a
+// thresholded image) is fast but loses boards whose squares merge with a busy background in the
+// threshold; the sector-based finder (findChessboardCornersSB, a Radon-like corner response and
+// grid growing) finds those at about ten times the cost, so it only runs where the classic one
+// failed or its grid was refused.
+bool FindGrid(const cv::Mat& crop, const TargetSpec& spec, int finder,
+              std::vector<cv::Point2f>* corners) {
+  const cv::Size pattern(spec.cols, spec.rows);
+  const size_t n = static_cast<size_t>(spec.rows * spec.cols);
+  corners->clear();
+  const bool found = finder == 0
+      ? cv::findChessboardCorners(crop, pattern, *corners,
+                                  cv::CALIB_CB_ADAPTIVE_THRESH | cv::CALIB_CB_NORMALIZE_IMAGE)
+      : cv::findChessboardCornersSB(crop, pattern, *corners,
+                                    cv::CALIB_CB_NORMALIZE_IMAGE | cv::CALIB_CB_EXHAUSTIVE);
+  return found && corners->size() == n;
+}
+
+// A grid found in a region's crop made into a board: refined in the view, checked to be a whole
+// board, labelled by the id rule, mapped to the raw image, refined there, checked against the
+// board's homography. nullopt if any check refuses it.
+std::optional<BoardDetection> MakeBoard(const cv::Mat& raw_grey, const RingView& view,
+                                        const RigModel& model, const TargetSpec& spec,
+                                        const Region& region, std::vector<cv::Point2f> corners,
+                                        const ChessboardOptions& options) {
+  const cv::Point2f origin(static_cast<float>(region.full.x), static_cast<float>(region.full.y));
+  BoardDetection board;
+  board.crop_grid = corners;
+  // A window of about a third of a square: the corner finders' initial corners are up to a
+  // few view pixels off in the blurrier (upsampled) inner-ring views, beyond the reach of a
+  // fixed 5x5 window.
+  const int half = std::clamp(static_cast<int>(0.35 * region.spacing), 2, 8);
+  for (auto& c : corners) c += origin;
+  for (const auto& c : corners) {
+    if (c.x < half + 1 || c.y < half + 1 || c.x > view.width - half - 2 || c.y > view.height - half - 2) {
+      return std::nullopt;
+    }
+  }
+  cv::cornerSubPix(view.image, corners, cv::Size(half, half), cv::Size(-1, -1),
+                   cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 20, 1e-3));
+  if (!GridIsWholeBoard(view, corners, spec.rows, spec.cols)) return std::nullopt;
+  const std::vector<cv::Point2f> oriented = Orient(corners, spec.rows, spec.cols);
+  if (oriented.empty()) return std::nullopt;
+  board.mirror = view.mirror;
+  Eigen::Vector2d centre = Eigen::Vector2d::Zero();
+  std::vector<std::optional<Eigen::Vector2d>> raw(oriented.size());
+  for (size_t i = 0; i < oriented.size(); ++i) {
+    const Eigen::Vector2d vp(oriented[i].x, oriented[i].y);
+    centre += vp / oriented.size();
+    raw[i] = view.ViewToRawExact(model, vp);
+  }
+  board.off_centre = (centre - Eigen::Vector2d(view.cx, view.cy)).norm();
+  for (size_t i = 0; i < oriented.size(); ++i) {
+    if (!raw[i]) continue;
+    Eigen::Vector2d pixel = *raw[i];
+    if (options.refine_in_raw) {
+      // The local square side in the raw image from the grid neighbours.
+      const int r = static_cast<int>(i) / spec.cols, c = static_cast<int>(i) % spec.cols;
+      double side = 1e9;
+      for (auto [dr, dc] : {std::pair{0, 1}, {0, -1}, {1, 0}, {-1, 0}}) {
+        const int rr = r + dr, cc = c + dc;
+        if (rr < 0 || cc < 0 || rr >= spec.rows || cc >= spec.cols) continue;
+        const auto& q = raw[rr * spec.cols + cc];
+        if (q) side = std::min(side, (*q - *raw[i]).norm());
+      }
+      const int raw_half = std::clamp(static_cast<int>(std::lround(0.4 * side)), 2, 6);
+      const Eigen::Vector2d before = pixel;
+      if (!RefineInRaw(raw_grey, raw_half, &pixel)) continue;
+      // The views are exact only for points at their distance_mm: on the non-central rig a
+      // near board's mapped corner is off by a few pixels (1.5-3 px measured in ring 1 at
+      // 0.6 m), while a wrong saddle would be a whole square away.
+      const double max_shift =
+          std::max(options.max_refine_shift_px, options.max_refine_shift_squares * side);
+      if ((pixel - before).norm() > max_shift) continue;
+    }
+    board.ids.push_back(static_cast<int>(i));
+    board.view_pixels.emplace_back(oriented[i].x, oriented[i].y);
+    board.raw_pixels.push_back(pixel);
+  }
+  if (!GridFitsBoard(view, model, spec.cols, options, &board)) return std::nullopt;
+  return board;
+}
+
 }  // namespace
 
 std::vector<BoardDetection> DetectChessboardBoards(const cv::Mat& raw_grey,
@@ -326,7 +478,7 @@ std::vector<BoardDetection> DetectChessboardBoards(const cv::Mat& raw_grey,
     const std::vector<cv::Point2f> saddles = SaddlePoints(view, options);
     for (const Region& region : Regions(saddles, view.image.size(), options)) {
       if (BetterInNeighbour(view, region.rect, views.size() / 2)) continue;
-      cv::Mat crop = view.image(region.rect).clone();
+      cv::Mat crop = RegionCrop(view, region);
       int found_here = 0;
       for (int t : patterns) {
         const TargetSpec& spec = targets[t];
@@ -337,64 +489,31 @@ std::vector<BoardDetection> DetectChessboardBoards(const cv::Mat& raw_grey,
         const int expected = std::clamp(static_cast<int>(region.saddles / (1.5 * n) + 0.5), 1,
                                         options.max_boards_per_region);
         while (found_here < expected) {
-          std::vector<cv::Point2f> corners;
-          if (!FindBoard(crop, spec, options, &corners)) break;
+          // The fast classic finder first; the sector finder where it fails or its grid does
+          // not pass the checks (a mis-ordered grid is refused, never guessed from).
+          std::optional<BoardDetection> board;
+          std::vector<cv::Point2f> first_grid;
+          for (int finder = 0; finder < (options.sector_fallback ? 2 : 1) && !board; ++finder) {
+            std::vector<cv::Point2f> corners;
+            if (!FindGrid(crop, spec, finder, &corners)) continue;
+            if (first_grid.empty()) first_grid = corners;
+            board = MakeBoard(raw_grey, view, model, spec, region, corners, options);
+          }
+          if (first_grid.empty()) break;
+          // Count and hide whatever grid was found (a refused one too: a sub-grid of a larger
+          // board must not be found again) from the next search in the region.
           ++found_here;
-          // Hide this board from the next search in the region.
+          const std::vector<cv::Point2f>& hide = board ? board->crop_grid : first_grid;
           std::vector<cv::Point> pts, hull;
-          for (const auto& c : corners) pts.emplace_back(cvRound(c.x), cvRound(c.y));
+          for (const auto& c : hide) pts.emplace_back(cvRound(c.x), cvRound(c.y));
           cv::convexHull(pts, hull);
           cv::fillConvexPoly(crop, hull, cv::Scalar(128));
           cv::polylines(crop, hull, true, cv::Scalar(128),
                         std::max(3, static_cast<int>(2.5 * region.spacing)));
-
-          cv::cornerSubPix(view.image(region.rect), corners, cv::Size(2, 2), cv::Size(-1, -1),
-                           cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 20, 1e-3));
-          std::vector<cv::Point2f> in_view = corners;
-          for (auto& c : in_view) c += cv::Point2f(region.rect.x, region.rect.y);
-          if (!GridIsWholeBoard(view, in_view, spec.rows, spec.cols)) continue;
-          const std::vector<cv::Point2f> oriented = Orient(corners, spec.rows, spec.cols);
-          if (oriented.empty()) continue;
-          BoardDetection board;
-          board.target = t;
-          board.mirror = view.mirror;
-          board.view = static_cast<int>(vi);
-          Eigen::Vector2d centre = Eigen::Vector2d::Zero();
-          std::vector<std::optional<Eigen::Vector2d>> raw(oriented.size());
-          for (size_t i = 0; i < oriented.size(); ++i) {
-            const Eigen::Vector2d vp(oriented[i].x + region.rect.x, oriented[i].y + region.rect.y);
-            centre += vp / oriented.size();
-            raw[i] = view.ViewToRawExact(model, vp);
-          }
-          board.off_centre = (centre - Eigen::Vector2d(view.cx, view.cy)).norm();
-          for (size_t i = 0; i < oriented.size(); ++i) {
-            if (!raw[i]) continue;
-            Eigen::Vector2d pixel = *raw[i];
-            if (options.refine_in_raw) {
-              // The local square side in the raw image from the grid neighbours.
-              const int r = static_cast<int>(i) / spec.cols, c = static_cast<int>(i) % spec.cols;
-              double side = 1e9;
-              for (auto [dr, dc] : {std::pair{0, 1}, {0, -1}, {1, 0}, {-1, 0}}) {
-                const int rr = r + dr, cc = c + dc;
-                if (rr < 0 || cc < 0 || rr >= spec.rows || cc >= spec.cols) continue;
-                const auto& q = raw[rr * spec.cols + cc];
-                if (q) side = std::min(side, (*q - *raw[i]).norm());
-              }
-              const int half = std::clamp(static_cast<int>(std::lround(0.4 * side)), 2, 6);
-              const Eigen::Vector2d before = pixel;
-              if (!RefineInRaw(raw_grey, half, &pixel)) continue;
-              // The views are exact only for points at their distance_mm: on the non-central
-              // rig a near board's mapped corner is off by a few pixels (1.5-3 px measured in
-              // ring 1 at 0.6 m), while a wrong saddle would be a whole square away.
-              const double max_shift =
-                  std::max(options.max_refine_shift_px, options.max_refine_shift_squares * side);
-              if ((pixel - before).norm() > max_shift) continue;
-            }
-            board.ids.push_back(static_cast<int>(i));
-            board.view_pixels.emplace_back(oriented[i].x + region.rect.x, oriented[i].y + region.rect.y);
-            board.raw_pixels.push_back(pixel);
-          }
-          if (!board.ids.empty()) boards.push_back(std::move(board));
+          if (!board) continue;
+          board->target = t;
+          board->view = static_cast<int>(vi);
+          boards.push_back(std::move(*board));
         }
       }
     }

@@ -44,6 +44,12 @@ struct ChessboardOptions {
   // Raw refinement moving a corner further than the larger of these rejects it.
   double max_refine_shift_px = 1.5;
   double max_refine_shift_squares = 0.3;  // of the local square side in the raw image
+  // Grid check (GridFitsBoard): a refined corner further than this from the homography fitted
+  // to the board's corners in the view (mapped to raw) is an outlier; a board with fewer inliers than the
+  // fraction is refused whole (a mis-ordered grid), else its outliers are dropped.
+  double max_grid_ransac_squares = 0.15;  // RANSAC tolerance in the view (of a square)
+  double max_grid_residual_px = 0.5;      // the test, in raw pixels
+  double min_grid_inlier_fraction = 0.9;
 };
 
 // One detected board (before flattening into observations).
@@ -54,6 +60,7 @@ struct BoardDetection {
   std::vector<int> ids;
   std::vector<Eigen::Vector2d> view_pixels, raw_pixels;
   double off_centre = 0;            // distance of the board's centre from the view's centre (px)
+  std::vector<cv::Point2f> crop_grid;  // the finder's grid in its region's crop (finder order)
 };
 
 // Chessboards in one image. `views` must have been rendered from this image (RenderViews);
