@@ -25,6 +25,9 @@ DEFINE_double(noise_px, 0.0, "with --truth and no --detections: Gaussian noise (
                              "each truth pixel coordinate");
 DEFINE_int32(seed, 1, "random seed of --noise_px");
 DEFINE_string(method, "midpoint", "midpoint (common perpendicular) | reprojection (refined)");
+DEFINE_double(sigma_px_ring2, 0.0, "inner ring's (mirror 2's) pixel sigma if > 0, else --sigma_px "
+                                   "(the rings' corner errors differ; the refined point weighs "
+                                   "them by 1/sigma^2)");
 DEFINE_bool(model_covariance, false, "add the calibrated model's parameter covariance to each "
                                      "point's covariance");
 
@@ -47,7 +50,9 @@ int RunTriangulate() {
   if (!(FLAGS_sigma_px >= 0)) throw io::InputError("--sigma_px: expected a number >= 0");
   if (!(FLAGS_noise_px >= 0)) throw io::InputError("--noise_px: expected a number >= 0");
   TriangulationOptions options;
+  if (!(FLAGS_sigma_px_ring2 >= 0)) throw io::InputError("--sigma_px_ring2: expected a number >= 0");
   options.sigma_px = FLAGS_sigma_px;
+  options.sigma_px_ring2 = FLAGS_sigma_px_ring2;
   options.model_covariance = FLAGS_model_covariance;
   if (FLAGS_method == "midpoint") {
     options.method = TriangulationMethod::kMidpoint;
@@ -131,9 +136,10 @@ int RunTriangulate() {
                          "triangulate");
   }
   out.Commit();
-  std::printf("triangulate: %ld observations, %zu pairs, %ld triangulated (%s, sigma_px %g%s), "
+  std::printf("triangulate: %ld observations, %zu pairs, %ld triangulated (%s, sigma_px %g/%g%s), "
               "%ld failed -> %s\n",
               observations, pairs.size(), triangulated, FLAGS_method.c_str(), FLAGS_sigma_px,
+              FLAGS_sigma_px_ring2 > 0 ? FLAGS_sigma_px_ring2 : FLAGS_sigma_px,
               FLAGS_model_covariance ? " + model covariance" : "", failed, FLAGS_out.c_str());
   if (truth) {
     if (FLAGS_detections.empty()) {

@@ -61,6 +61,12 @@ Mirror2Path<J> Path2(const std::array<J, kNumModelParameters>& x, const RigFixed
 
 }  // namespace
 
+Eigen::Vector4d PixelCovariance(const TriangulationOptions& options) {
+  const double s1 = options.sigma_px;
+  const double s2 = options.sigma_px_ring2 > 0 ? options.sigma_px_ring2 : options.sigma_px;
+  return Eigen::Vector4d(s1 * s1, s1 * s1, s2 * s2, s2 * s2);
+}
+
 // The Jet (d/d point) paths, built once per Triangulator.
 struct TriangulatorJetPaths {
   Mirror1Path<Jet3> path1;
@@ -176,13 +182,14 @@ std::optional<TriangulatedPoint> Triangulator::Triangulate(
 
   // [uncertainty_propagation]: Sigma = A Omega A^T with Omega = sigma_px^2 I_4
   // [pixel_covariance_matrix], plus the model's own uncertainty mapped to pixels.
-  Eigen::Matrix4d omega = options.sigma_px * options.sigma_px * Eigen::Matrix4d::Identity();
+  out.covariance = out.jacobian_px * PixelCovariance(options).asDiagonal() *
+                   out.jacobian_px.transpose();
   if (options.model_covariance && has_model_covariance_) {
     Eigen::Matrix4d model_px;
     if (!ModelPixelCovariance(out.point_in_cam, &model_px)) return std::nullopt;
-    omega += model_px;
+    out.model_covariance = out.jacobian_px * model_px * out.jacobian_px.transpose();
+    out.covariance += out.model_covariance;
   }
-  out.covariance = out.jacobian_px * omega * out.jacobian_px.transpose();
   return out;
 }
 
@@ -220,18 +227,23 @@ std::optional<TriangulatedPoint> Triangulator::Refine(const Eigen::Vector2d& pix
                                                       const Eigen::Vector2d& pixel2,
                                                       const TriangulatedPoint& start,
                                                       const TriangulationOptions& options) const {
-  // Gauss-Newton on 0.5 |m - proj(P)|^2 from the midpoint, halving a step that leaves a ring or
-  // does not decrease the cost. At the optimum d P / d m = (J^T J)^-1 J^T.
+  // Gauss-Newton on 0.5 (m - proj(P))^T W (m - proj(P)), W = Omega^-1 (per-ring weights; all 1
+  // for equal sigmas), from the midpoint, halving a step that leaves a ring or does not decrease
+  // the cost. At the optimum d P / d m = (J^T W J)^-1 J^T W.
   const Eigen::Vector4d m(pixel1.x(), pixel1.y(), pixel2.x(), pixel2.y());
+  const Eigen::Vector4d omega = PixelCovariance(options);
+  const Eigen::Vector4d w = omega.maxCoeff() > 0 ? Eigen::Vector4d(omega.minCoeff() * omega.cwiseInverse())
+                                                 : Eigen::Vector4d::Ones();  // scale-free
+  auto weighted_cost = [&](const Eigen::Vector4d& r) { return r.dot(w.asDiagonal() * r); };
   TriangulatedPoint out = start;
   Eigen::Vector4d px;
   Eigen::Matrix<double, 4, 3> J;
   if (!ProjectBoth(out.point_in_cam, &px, &J)) return std::nullopt;
-  double cost = (m - px).squaredNorm();
+  double cost = weighted_cost(m - px);
   int it = 0;
   for (; it < options.max_iterations; ++it) {
-    const Eigen::Matrix3d normal = J.transpose() * J;
-    const Eigen::Vector3d step = normal.ldlt().solve(J.transpose() * (m - px));
+    const Eigen::Matrix3d normal = J.transpose() * w.asDiagonal() * J;
+    const Eigen::Vector3d step = normal.ldlt().solve(J.transpose() * w.asDiagonal() * (m - px));
     if (!step.allFinite()) return std::nullopt;
     double scale = 1.0;
     bool accepted = false;
@@ -239,11 +251,11 @@ std::optional<TriangulatedPoint> Triangulator::Refine(const Eigen::Vector2d& pix
       const Eigen::Vector3d trial = out.point_in_cam + scale * step;
       Eigen::Vector4d trial_px;
       Eigen::Matrix<double, 4, 3> trial_J;
-      if (ProjectBoth(trial, &trial_px, &trial_J) && (m - trial_px).squaredNorm() <= cost) {
+      if (ProjectBoth(trial, &trial_px, &trial_J) && weighted_cost(m - trial_px) <= cost) {
         out.point_in_cam = trial;
         px = trial_px;
         J = trial_J;
-        cost = (m - trial_px).squaredNorm();
+        cost = weighted_cost(m - trial_px);
         accepted = true;
         break;
       }
@@ -251,11 +263,11 @@ std::optional<TriangulatedPoint> Triangulator::Refine(const Eigen::Vector2d& pix
     }
     if (!accepted || step.norm() * scale <= 1e-12 * (1.0 + out.point_in_cam.norm())) break;
   }
-  const Eigen::Matrix3d normal = J.transpose() * J;
+  const Eigen::Matrix3d normal = J.transpose() * w.asDiagonal() * J;
   const Eigen::Matrix3d normal_inv = normal.inverse();
   if (!normal_inv.allFinite()) return std::nullopt;
-  out.jacobian_px = normal_inv * J.transpose();
-  out.reprojection_rms_px = std::sqrt(cost / 4.0);
+  out.jacobian_px = normal_inv * J.transpose() * w.asDiagonal();
+  out.reprojection_rms_px = std::sqrt((m - px).squaredNorm() / 4.0);
   out.iterations = it;
   return out;
 }

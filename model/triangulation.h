@@ -64,6 +64,11 @@ enum class TriangulationMethod {
 struct TriangulationOptions {
   TriangulationMethod method = TriangulationMethod::kMidpoint;
   double sigma_px = 1.0;          // [pixel_covariance_matrix]; the paper assumes 1 px
+  // Ring 2's (inner ring's) pixel sigma if > 0, else sigma_px: the two rings' corner errors differ
+  // (the inner ring is upsampled and blurrier), so Omega = diag(s1^2, s1^2, s2^2, s2^2). The
+  // refined point then minimises the reprojection error weighted by 1 / sigma^2 (maximum
+  // likelihood under that noise).
+  double sigma_px_ring2 = 0.0;
   bool model_covariance = false;  // add the calibration's parameter covariance (if any)
   double jacobian_step_px = 1e-3; // central differences of the midpoint (see the file comment)
   int max_iterations = 10;        // Gauss-Newton of the reprojection-optimal point
@@ -71,7 +76,10 @@ struct TriangulationOptions {
 
 struct TriangulatedPoint {
   Eigen::Vector3d point_in_cam = Eigen::Vector3d::Zero();  // mm
-  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();    // mm^2
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();    // mm^2, pixel + model parts
+  // The model part alone, A Sigma_model_px A^T (zero unless options.model_covariance and the
+  // model carries a covariance), so a caller can re-weight the pixel part.
+  Eigen::Matrix3d model_covariance = Eigen::Matrix3d::Zero();
   Eigen::Matrix<double, 3, 4> jacobian_px;                 // d point / d (u1, v1, u2, v2)
   double gap_mm = 0;                // length of the common perpendicular of the two rays
   double reprojection_rms_px = 0;   // of the returned point in both rings (kReprojection only)
@@ -86,6 +94,9 @@ struct TriangulatedPoint {
 // "camera.", "distortion." and "mirror1."/"mirror2." before c/k, "mirror1." before "reflex.".
 constexpr int kNumModelParameters = 27;
 int ModelParameterIndex(const std::string& name);
+
+// The diagonal of [pixel_covariance_matrix] Omega for (u1, v1, u2, v2) under these options.
+Eigen::Vector4d PixelCovariance(const TriangulationOptions& options);
 
 struct TriangulatorJetPaths;  // the Jet paths (triangulation.cc)
 

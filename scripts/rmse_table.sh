@@ -1,69 +1,88 @@
 #!/bin/bash
-# The paper's sparse triangulation experiment (tab:rmse_triangulation_experiment) end to end:
-#   omnistereo render (sample_configs/rmse_scene.yaml: 4 chessboards per range at 0.25..8 m)
-#   -> omnistereo detect -> omnistereo triangulate --truth (RMSE, SD, points per range).
-# Cases: (a) ideal rig, ideal model; (b) misaligned rig (big_rig_misaligned.yaml), ideal model;
-# (t) misaligned rig, its true model (the bound a calibration can reach); (c) misaligned rig,
-# calibrated model: set CALIBRATED_MODEL=path/to/calibrated.yaml.
-# If `omnistereo detect` is not available yet, the truth's own pixels are triangulated with
-# Gaussian noise NOISE_PX (default 0.08 px per coordinate: a 2D error of ~0.1 px mean, the
-# paper's corner accuracy) instead, and the output says so.
-# Usage: scripts/rmse_table.sh [OUT_DIR]   (OMNISTEREO=path/to/omnistereo, SIGMA_PX=1)
+# The paper's sparse triangulation experiment (tab:rmse_triangulation_experiment) end to end, for
+#   (a) the ideal rig (big_rig_ideal.yaml) with the ideal model,
+#   (b) a misaligned rig (big_rig_misaligned.yaml) with the ideal model,
+#   (t) the misaligned rig with its true model (the bound a calibration can reach),
+#   (c) the misaligned rig with its CALIBRATED model: a calibration session of that same rig
+#       (sample_configs/demo_scene.yaml's boards, rendered at the RMSE scene's image size) is
+#       detected and calibrated with `omnistereo calibrate`, starting from the ideal design.
+# Each case: omnistereo render (sample_configs/rmse_scene.yaml: 4 chessboards per range at
+# 0.25..8 m) -> omnistereo detect (starting model: the ideal design, as a user would) ->
+# omnistereo triangulate --truth: range, RMSE, SD, points, the paper's RMSE and SD, mean
+# predicted sigma, mean NEES at --sigma_px (the paper's 1 px), the detector's measured pixel RMS
+# per ring and range, and the NEES with those measured sigmas (3 if the propagation is right).
+# (c) is printed twice more: with the calibration's parameter covariance added
+# (--model_covariance) at the measured pixel sigmas of the whole scene.
+#
+# Renders are cached in OUT_DIR (a re-run only detects, calibrates and triangulates again, so it
+# picks up detector and calibration fixes in a few seconds); delete OUT_DIR/*/0001.png to render
+# again. Rendering takes ~1 min per RMSE image and ~10 s per calibration image with one POV-Ray
+# process.
+# Usage: scripts/rmse_table.sh [OUT_DIR]   (OMNISTEREO=path/to/omnistereo, SIGMA_PX=1, JOBS=1)
 set -euo pipefail
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
 EXE=${OMNISTEREO:-$ROOT/build/apps/omnistereo}
 OUT=${1:-/tmp/omnistereo_rmse}
 SIGMA_PX=${SIGMA_PX:-1}
-NOISE_PX=${NOISE_PX:-0.08}
+JOBS=${JOBS:-1}
 CONFIGS=$ROOT/sample_configs
+NOMINAL=$CONFIGS/big_rig_ideal.yaml  # the ideal design at the RMSE scene's image size (1280x960)
 mkdir -p "$OUT"
+OUT=$(cd "$OUT" && pwd)
 
-render() {  # rig name -> $OUT/<rig>/0001.png, truth.yaml
-  local rig=$1
-  if [ ! -f "$OUT/$rig/truth.yaml" ] || [ ! -f "$OUT/$rig/0001.png" ]; then
-    "$EXE" render --model="$CONFIGS/$rig.yaml" --scene="$CONFIGS/rmse_scene.yaml" --out="$OUT/$rig"
+render() {  # rig, scene, dir: render unless the images and truth are there
+  local rig=$1 scene=$2 dir=$3
+  if [ ! -f "$dir/truth.yaml" ] || [ ! -f "$dir/0001.png" ] || [ ! -f "$dir/session.yaml" ]; then
+    "$EXE" render --model="$CONFIGS/$rig.yaml" --scene="$scene" --out="$dir" --jobs="$JOBS"
   fi
 }
 
-detect() {  # rig name -> $OUT/<rig>/detections.yaml (returns 1 if detect is unavailable)
-  local rig=$1 dir=$OUT/$1
-  # `render` writes a session file beside its images; older versions did not.
-  [ -f "$dir/session.yaml" ] || {
-    echo "format: omnistereo-session/1"
-    echo "model: $CONFIGS/big_rig_ideal.yaml"
-    echo "images: [$dir/0001.png]"
-    echo "targets:"
-    # The scene's targets, as the truth file lists them.
-    sed -n '/^targets:/,/^images:/p' "$dir/truth.yaml" | grep '^  - {type:'
-  } > "$dir/session.yaml"
-  [ -f "$dir/detections.yaml" ] && return 0
-  "$EXE" detect --session="$dir/session.yaml" --out="$dir/detections.yaml" 2> "$dir/detect.log"
+detect() {  # dir: the render's session with the ideal design as its model -> detections.yaml
+  local dir=$1
+  sed -i "s|^model: .*|model: \"$NOMINAL\"|" "$dir/session.yaml"
+  "$EXE" detect --session="$dir/session.yaml" --out="$dir/detections.yaml" > "$dir/detect.log" 2>&1 ||
+    { echo "omnistereo detect failed: $(tail -n 1 "$dir/detect.log")" >&2; exit 1; }
+  tail -n 1 "$dir/detect.log"
 }
 
-run_case() {  # label, rig, model
-  local label=$1 rig=$2 model=$3
-  echo "== ($label) rig $rig, model $(basename "$model")"
-  if [ "$HAVE_DETECT" = 1 ]; then
-    "$EXE" triangulate --model="$model" --detections="$OUT/$rig/detections.yaml" \
-      --truth="$OUT/$rig/truth.yaml" --sigma_px="$SIGMA_PX" --out="$OUT/$label.csv"
-  else
-    "$EXE" triangulate --model="$model" --truth="$OUT/$rig/truth.yaml" --noise_px="$NOISE_PX" \
-      --sigma_px="$NOISE_PX" --out="$OUT/$label.csv"
-  fi
+triangulate() {  # label, rig dir, model, extra flags...
+  local label=$1 dir=$2 model=$3
+  shift 3
+  echo
+  echo "== ($label) rig $(basename "$dir"), model $model $*"
+  "$EXE" triangulate --model="$model" --detections="$dir/detections.yaml" \
+    --truth="$dir/truth.yaml" --sigma_px="$SIGMA_PX" --out="$OUT/$label.csv" "$@"
 }
 
-HAVE_DETECT=1
+# The RMSE scene through both rigs.
 for rig in big_rig_ideal big_rig_misaligned; do
-  render "$rig"
-  if ! detect "$rig"; then
-    HAVE_DETECT=0
-    echo "omnistereo detect failed ($(tail -n 1 "$OUT/$rig/detect.log")):" \
-         "using truth pixels + ${NOISE_PX} px noise"
-  fi
+  render "$rig" "$CONFIGS/rmse_scene.yaml" "$OUT/$rig"
+  detect "$OUT/$rig"
 done
-run_case a big_rig_ideal "$CONFIGS/big_rig_ideal.yaml"
-run_case b big_rig_misaligned "$CONFIGS/big_rig_ideal.yaml"
-run_case t big_rig_misaligned "$CONFIGS/big_rig_misaligned.yaml"
-if [ -n "${CALIBRATED_MODEL:-}" ]; then
-  run_case c big_rig_misaligned "$CALIBRATED_MODEL"
-fi
+
+# The calibration session of the misaligned rig at the RMSE scene's image size.
+size=$(grep -m1 -o 'width: [0-9]*, height: [0-9]*' "$OUT/big_rig_misaligned/model.yaml" || true)
+sed "s/^image: {width: [0-9]*, height: [0-9]*}/image: {$size}/" "$CONFIGS/demo_scene.yaml" \
+  > "$OUT/calibration_scene.yaml"
+render big_rig_misaligned "$OUT/calibration_scene.yaml" "$OUT/calibration"
+detect "$OUT/calibration"
+echo "calibrating the misaligned rig from the ideal design ($OUT/calibration/calibrate.log)"
+"$EXE" calibrate --session="$OUT/calibration/session.yaml" \
+  --detections="$OUT/calibration/detections.yaml" --out="$OUT/calibrated.yaml" \
+  --truth_model="$OUT/calibration/model.yaml" > "$OUT/calibration/calibrate.log" 2>&1 ||
+  { echo "omnistereo calibrate failed: $(tail -n 1 "$OUT/calibration/calibrate.log")" >&2; exit 1; }
+grep -E "^residuals:|^solved" "$OUT/calibration/calibrate.log" || true
+
+triangulate a "$OUT/big_rig_ideal" "$NOMINAL"
+triangulate b "$OUT/big_rig_misaligned" "$NOMINAL"
+triangulate t "$OUT/big_rig_misaligned" "$OUT/big_rig_misaligned/model.yaml"
+triangulate c "$OUT/big_rig_misaligned" "$OUT/calibrated.yaml"
+# (c) with the calibration's own uncertainty, pixel sigmas as the detector measured them in case
+# (t) (the whole scene, per ring): the NEES then tests pixel + model covariance together.
+read -r s1 s2 < <(awk '/^ *[0-9.]+ +[0-9.]+ +[0-9.]+ +[0-9]+ /{n+=$4; a+=$4*$9*$9; b+=$4*$10*$10}
+                       END{printf "%.4f %.4f\n", sqrt(a/n), sqrt(b/n)}' \
+                   < <("$EXE" triangulate --model="$OUT/big_rig_misaligned/model.yaml" \
+                         --detections="$OUT/big_rig_misaligned/detections.yaml" \
+                         --truth="$OUT/big_rig_misaligned/truth.yaml" --out="$OUT/t.csv"))
+SIGMA_PX=$s1 triangulate c_model_cov "$OUT/big_rig_misaligned" "$OUT/calibrated.yaml" \
+  --sigma_px_ring2="$s2" --model_covariance

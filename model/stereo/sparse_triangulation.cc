@@ -184,8 +184,31 @@ std::optional<CornerError> CompareWithTruth(const Truth& truth, const CornerPair
                               image.placement_translation[best->placement].head<2>().norm());
   e.error = estimate.point_in_cam - best->point_in_cam;
   e.covariance = estimate.covariance;
+  e.pixel_error << pair.pixel1 - *best->pixel[0], pair.pixel2 - *best->pixel[1];
+  e.jacobian_px = estimate.jacobian_px;
+  e.model_covariance = estimate.model_covariance;
   return e;
 }
+
+namespace {
+
+// Mean e^T Sigma^-1 e over the points whose Sigma is positive definite (NAN if none).
+template <typename CovarianceOf>
+double MeanNees(const std::vector<const CornerError*>& list, CovarianceOf covariance_of) {
+  double nees = 0;
+  int n = 0;
+  for (const CornerError* e : list) {
+    const Eigen::Matrix3d sigma = covariance_of(*e);
+    const Eigen::LDLT<Eigen::Matrix3d> ldlt(sigma);
+    if (sigma.trace() > 0 && ldlt.info() == Eigen::Success && ldlt.isPositive()) {
+      nees += e->error.dot(ldlt.solve(e->error));
+      ++n;
+    }
+  }
+  return n > 0 ? nees / n : NAN;
+}
+
+}  // namespace
 
 std::vector<RangeRow> RangeTable(const std::vector<CornerError>& errors) {
   std::map<double, std::vector<const CornerError*>> by_bin;
@@ -195,50 +218,55 @@ std::vector<RangeRow> RangeTable(const std::vector<CornerError>& errors) {
     RangeRow row;
     row.range_mm = range;
     row.points = static_cast<int>(list.size());
-    double sum2 = 0, sum = 0, sigma = 0, nees = 0;
-    int nees_n = 0;
+    double sum2 = 0, sum = 0, sigma = 0, px2[2] = {0, 0};
     for (const CornerError* e : list) {
       const double n = e->error.norm();
       sum += n;
       sum2 += n * n;
       sigma += std::sqrt(std::max(0.0, e->covariance.trace()));
-      const Eigen::LDLT<Eigen::Matrix3d> ldlt(e->covariance);
-      if (e->covariance.trace() > 0 && ldlt.info() == Eigen::Success && ldlt.isPositive()) {
-        nees += e->error.dot(ldlt.solve(e->error));
-        ++nees_n;
-      }
+      px2[0] += e->pixel_error.head<2>().squaredNorm();
+      px2[1] += e->pixel_error.tail<2>().squaredNorm();
     }
+    for (int m = 0; m < 2; ++m) row.pixel_rms_px[m] = std::sqrt(px2[m] / (2.0 * row.points));
+    const Eigen::Vector4d omega(px2[0], px2[0], px2[1], px2[1]);  // per coordinate, below / 2n
+    row.mean_nees = MeanNees(list, [](const CornerError& e) { return e.covariance; });
+    row.mean_nees_measured = MeanNees(list, [&](const CornerError& e) -> Eigen::Matrix3d {
+      return e.jacobian_px * (omega / (2.0 * row.points)).asDiagonal() *
+                 e.jacobian_px.transpose() + e.model_covariance;
+    });
     const double mean = sum / row.points;
     row.rmse_mm = std::sqrt(sum2 / row.points);
     row.sd_mm = row.points > 1
                     ? std::sqrt(std::max(0.0, (sum2 - row.points * mean * mean) / (row.points - 1)))
                     : 0.0;
     row.mean_sigma_mm = sigma / row.points;
-    row.mean_nees = nees_n > 0 ? nees / nees_n : NAN;
     rows.push_back(row);
   }
   return rows;
 }
 
 std::string FormatRangeTable(const std::vector<RangeRow>& rows) {
-  // The paper's RMSE (tab:rmse_triangulation_experiment), mm, by range in m.
-  const std::map<double, double> paper = {{0.25, 0.46}, {0.5, 1.20}, {1.0, 4.62},
-                                          {2.0, 14.85}, {4.0, 57.67}, {8.0, 219.09}};
+  // The paper's RMSE and SD (tab:rmse_triangulation_experiment), mm, by range in m.
+  const std::map<double, std::pair<double, double>> paper = {
+      {0.25, {0.46, 0.31}}, {0.5, {1.20, 0.71}},    {1.0, {4.62, 2.55}},
+      {2.0, {14.85, 9.06}}, {4.0, {57.67, 31.34}}, {8.0, {219.09, 129.92}}};
   std::string out =
-      "range_m  rmse_mm    sd_mm  points  sigma_mm  mean_nees  paper_rmse_mm\n";
-  char line[160];
+      "range_m  rmse_mm    sd_mm  points paper_rmse paper_sd  sigma_mm  mean_nees  "
+      "px_rms_1 px_rms_2  nees_at_px_rms\n";
+  char line[200];
   for (const RangeRow& r : rows) {
-    std::string paper_text = "-";
-    for (const auto& [range_m, rmse] : paper) {
+    std::string paper_text = "        -        -";
+    for (const auto& [range_m, figures] : paper) {
       if (std::abs(r.range_mm / 1000.0 - range_m) < 0.1 * range_m) {
-        char p[32];
-        std::snprintf(p, sizeof(p), "%.2f", rmse);
+        char p[48];
+        std::snprintf(p, sizeof(p), "%9.2f %8.2f", figures.first, figures.second);
         paper_text = p;
       }
     }
-    std::snprintf(line, sizeof(line), "%7.3f %8.3f %8.3f %7d %9.3f %10.2f  %s\n",
-                  r.range_mm / 1000.0, r.rmse_mm, r.sd_mm, r.points, r.mean_sigma_mm, r.mean_nees,
-                  paper_text.c_str());
+    std::snprintf(line, sizeof(line), "%7.3f %8.3f %8.3f %7d  %s %9.3f %10.2f %9.3f %8.3f %15.2f\n",
+                  r.range_mm / 1000.0, r.rmse_mm, r.sd_mm, r.points, paper_text.c_str(),
+                  r.mean_sigma_mm, r.mean_nees, r.pixel_rms_px[0], r.pixel_rms_px[1],
+                  r.mean_nees_measured);
     out += line;
   }
   return out;

@@ -61,7 +61,13 @@ std::vector<CornerPair> TruthPairs(const Truth& truth, double noise_px, std::mt1
 struct CornerError {
   double range_bin_mm = 0;  // the ring (horizontal range of its board) it belongs to
   Eigen::Vector3d error = Eigen::Vector3d::Zero();  // estimate - truth, mm
-  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();  // as triangulated (pixel + model)
+  // What the detector got wrong: detected - true pixels (u1, v1, u2, v2), and what is needed to
+  // re-weigh the covariance with the measured pixel error: A = d point / d pixels and the
+  // covariance's model part.
+  Eigen::Vector4d pixel_error = Eigen::Vector4d::Zero();
+  Eigen::Matrix<double, 3, 4> jacobian_px = Eigen::Matrix<double, 3, 4>::Zero();
+  Eigen::Matrix3d model_covariance = Eigen::Matrix3d::Zero();
 };
 
 // Matches a triangulated corner to its true corner by its PIXELS (independent of the model and
@@ -80,9 +86,16 @@ struct RangeRow {
   double sd_mm = 0;          // standard deviation of |e|
   double mean_sigma_mm = 0;  // mean predicted sqrt(trace Sigma)
   double mean_nees = 0;      // mean e^T Sigma^-1 e (3 if the covariance is right)
+  // The detector's corner error in this range bin, per ring: RMS per pixel coordinate
+  // (sqrt(mean (du^2 + dv^2) / 2)), and the mean NEES with Sigma re-computed from those
+  // measured sigmas (A diag(s1^2, s1^2, s2^2, s2^2) A^T + the model part): the test of the
+  // propagation itself, whatever sigma_px the user assumed.
+  double pixel_rms_px[2] = {0, 0};
+  double mean_nees_measured = 0;
 };
 std::vector<RangeRow> RangeTable(const std::vector<CornerError>& errors);
-// The table as text (range m, RMSE, SD, points, mean sigma, NEES) with the paper's RMSE beside.
+// The table as text (range m, RMSE, SD, points, the paper's RMSE and SD, mean sigma, NEES, the
+// per-ring pixel RMS and the NEES at those).
 std::string FormatRangeTable(const std::vector<RangeRow>& rows);
 
 }  // namespace omni::stereo

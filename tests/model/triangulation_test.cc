@@ -262,6 +262,99 @@ TEST(Triangulation, ModelCovarianceMatchesMonteCarloOverModels) {
   EXPECT_LT(axis_error, 0.10);
 }
 
+// The parameter a calibration's name addresses, written out here independently of
+// ModelParameterIndex (model/rig_params.h: poses are rx, ry (rad), tx, ty, tz (mm); reflex rx, ry
+// (rad), dz (mm)); nullptr for a name the test does not know.
+double* ParameterByName(RigParams* rig, const std::string& name) {
+  const std::vector<std::pair<std::string, double*>> table = {
+      {"fx", &rig->camera[0]}, {"fy", &rig->camera[1]}, {"cx", &rig->camera[2]},
+      {"cy", &rig->camera[3]}, {"skew", &rig->camera[4]}, {"dist_k1", &rig->distortion[0]},
+      {"dist_k2", &rig->distortion[1]}, {"dist_p1", &rig->distortion[2]},
+      {"dist_p2", &rig->distortion[3]}, {"dist_k3", &rig->distortion[4]},
+      {"c1", &rig->mirror1_shape[0]}, {"k1", &rig->mirror1_shape[1]},
+      {"c2", &rig->mirror2_shape[0]}, {"k2", &rig->mirror2_shape[1]},
+      {"mirror1.rx", &rig->mirror1_pose[0]}, {"mirror1.ry", &rig->mirror1_pose[1]},
+      {"mirror1.tx", &rig->mirror1_pose[2]}, {"mirror1.ty", &rig->mirror1_pose[3]},
+      {"mirror1.tz", &rig->mirror1_pose[4]}, {"mirror2.rx", &rig->mirror2_pose[0]},
+      {"mirror2.ry", &rig->mirror2_pose[1]}, {"mirror2.tx", &rig->mirror2_pose[2]},
+      {"mirror2.ty", &rig->mirror2_pose[3]}, {"mirror2.tz", &rig->mirror2_pose[4]},
+      {"reflex.rx", &rig->reflex[0]}, {"reflex.ry", &rig->reflex[1]}, {"reflex.dz", &rig->reflex[2]}};
+  for (const auto& [key, ptr] : table) {
+    if (key == name) return ptr;
+  }
+  return nullptr;
+}
+
+// A model file written by a real calibration (`omnistereo calibrate` of a rendered session of
+// big_rig_misaligned at 1280x960, started from big_rig_ideal; see scripts/rmse_table.sh): its
+// `calibration:` section names, values and covariance must address the model's own parameters in
+// the model's units (values equal to the parameters: radians, not degrees), and triangulating
+// exact pixels with models drawn from that covariance must spread the point as the propagated
+// model covariance says (the full 18 x 18 matrix with its strong fx-fy-tz correlations).
+TEST(Triangulation, CalibratedModelFileCovarianceMatchesMonteCarloOverModels) {
+  const RigParams calibrated = io::ReadModelFile(std::string(OMNI_SOURCE_DIR) +
+                                                 "/tests/model/data/calibrated_big_rig.yaml");
+  ASSERT_TRUE(calibrated.calibration.has_value());
+  const CalibrationInfo& info = *calibrated.calibration;
+  const size_t n = info.parameters.size();
+  ASSERT_EQ(info.values.size(), n);
+  ASSERT_EQ(info.covariance.size(), n * n);
+  RigParams copy = calibrated;
+  for (size_t i = 0; i < n; ++i) {
+    const double* p = ParameterByName(&copy, info.parameters[i]);
+    ASSERT_NE(p, nullptr) << info.parameters[i];
+    EXPECT_NEAR(*p, info.values[i], 1e-9 * (1 + std::abs(*p))) << info.parameters[i];
+    EXPECT_NEAR(std::sqrt(info.covariance[i * n + i]), info.sigma[i], 1e-9 * info.sigma[i])
+        << info.parameters[i];
+  }
+  const RigModel model(calibrated);
+  const Triangulator triangulator(model);
+  ASSERT_TRUE(triangulator.has_model_covariance());
+  ASSERT_TRUE(triangulator.unknown_parameters().empty());
+
+  Eigen::MatrixXd cov(n, n);
+  for (size_t i = 0; i < n; ++i) {
+    for (size_t j = 0; j < n; ++j) cov(i, j) = info.covariance[i * n + j];
+  }
+  // Draws by the symmetric square root (the matrix is nearly singular along fx-fy).
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(cov);
+  const Eigen::MatrixXd root = eig.eigenvectors() *
+                               eig.eigenvalues().cwiseMax(0.0).cwiseSqrt().asDiagonal();
+  std::mt19937 rng(5);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  for (double rho : {1000.0, 4000.0}) {
+    const Eigen::Vector3d point = StereoPoint(calibrated, rho, 0.9, 0.5);
+    const auto px1 = model.Project(point, Mirror::kOne);
+    const auto px2 = model.Project(point, Mirror::kTwo);
+    ASSERT_TRUE(px1 && px2);
+    TriangulationOptions options;
+    options.sigma_px = 0;  // the model's uncertainty alone
+    options.model_covariance = true;
+    const auto predicted = triangulator.Triangulate(*px1, *px2, options);
+    ASSERT_TRUE(predicted.has_value());
+    EXPECT_TRUE(predicted->covariance.isApprox(predicted->model_covariance));
+    std::vector<Eigen::Vector3d> estimates;
+    for (int k = 0; k < 1500; ++k) {
+      Eigen::VectorXd z(n);
+      for (size_t i = 0; i < n; ++i) z[i] = normal(rng);
+      const Eigen::VectorXd delta = root * z;
+      RigParams sample = calibrated;
+      sample.calibration.reset();
+      for (size_t i = 0; i < n; ++i) *ParameterByName(&sample, info.parameters[i]) += delta[i];
+      const auto est = Triangulator{RigModel(sample)}.Midpoint(*px1, *px2);
+      ASSERT_TRUE(est.has_value());
+      estimates.push_back(*est);
+    }
+    const double axis_error =
+        WorstAxisSigmaRatioError(predicted->covariance, SampleCovariance(estimates));
+    std::printf("calibrated model covariance at %.0f m: sigma max %.3f mm, worst axis sigma "
+                "error %.1f%%\n", rho / 1000,
+                std::sqrt(predicted->covariance.eigenvalues().real().maxCoeff()), 100 * axis_error);
+    // 1500 draws: ~1.8% standard error of a sigma; 10% is well beyond it.
+    EXPECT_LT(axis_error, 0.10);
+  }
+}
+
 TEST(Triangulation, RejectsPixelsOfTheWrongRingOrInTheHole) {
   const RigModel model(io::ReadModelFile(kMisalignedRig));
   const Triangulator triangulator(model);
