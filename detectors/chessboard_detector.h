@@ -2,10 +2,14 @@
 // ring (views.h), mapped back to the raw image through the model and refined there.
 //
 // Per view: saddle points (negative Hessian determinant of the smoothed view) propose regions
-// where corners cluster; OpenCV's findChessboardCorners runs on each region for each distinct
-// rows x cols of the session's chessboards (a small crop makes it fast). Corners are mapped to raw
-// pixels by the model's exact projection of the view ray (RingView::ViewToRawExact) and refined
-// sub-pixel in the RAW image (cv::cornerSubPix with a window scaled to the local square size).
+// where corners cluster; the extent of a region's X-junction grid picks the rows x cols to search
+// for (all of the session's distinct patterns when none matches); OpenCV's findChessboardCorners
+// runs on the region's crop, findChessboardCornersSB where it fails or its grid is refused.
+// Corners are mapped to raw pixels by the model's exact projection of the view ray
+// (RingView::ViewToRawExact) and refined sub-pixel in the RAW image (cv::cornerSubPix with a
+// window scaled to the local square size). A board must be whole (no X-junction beyond its sides)
+// and its refined corners must fit the board's homography in the view (to 0.5 raw px; a grid
+// with mis-ordered rows or columns is refused whole, never guessed from).
 // A board found in two overlapping views is kept from the view whose centre it is nearest.
 //
 // Corner ids (id = row * cols + col, model/target.h) follow one rule in both rings, which is how
@@ -60,7 +64,6 @@ struct BoardDetection {
   std::vector<int> ids;
   std::vector<Eigen::Vector2d> view_pixels, raw_pixels;
   double off_centre = 0;            // distance of the board's centre from the view's centre (px)
-  std::vector<cv::Point2f> crop_grid;  // the finder's grid in its region's crop (finder order)
 };
 
 // Chessboards in one image. `views` must have been rendered from this image (RenderViews);
