@@ -585,11 +585,14 @@ std::vector<BoardDetection> SearchRegion(const cv::Mat& raw_grey, const RingView
   for (int finder = 0; finder < (options.sector_fallback ? 2 : 1); ++finder) {
     for (int t : patterns) {
       if (any_match && !matches(t)) continue;
-      // Without an exact match, the sector finder only for patterns within one row or column
-      // of the grid (some junctions missed, or one extra from the background).
-      if (finder == 1 && !any_match && grid.count >= 12 && !near(t, 1)) continue;
       const TargetSpec& spec = targets[t];
       const int n = spec.rows * spec.cols;
+      // Without an exact match: not where the junction grid holds under half the pattern's
+      // corners (tag grids' bits make saddle regions too: searching them cost ~500 ms per
+      // 1280x960 image), and the sector finder only for patterns within one row or column of
+      // the grid (some junctions missed, or one extra from the background).
+      if (!any_match && 2 * grid.count < n) continue;
+      if (finder == 1 && !any_match && !near(t, 1)) continue;
       if (n > 1.3 * region.saddles + 2) continue;
       // Stop at the number of boards the region's saddle points allow (boards bring some extra
       // saddles at their sheet edges).
