@@ -4,7 +4,8 @@
 // `omnistereo-truth/1` file of a synthetic session) the paper's table
 // (tab:rmse_triangulation_experiment) is printed: RMSE, SD and points per range, with the mean
 // predicted sigma and the mean NEES. Without --detections the truth's own pixels are used, with
-// Gaussian noise of --noise_px (the experiment without a detector).
+// Gaussian noise of --noise_px (the experiment without a detector); --seeds N repeats that N times
+// and prints how the RMSE per range spreads over the seeds beside the propagated prediction.
 #include <cstdio>
 #include <random>
 #include <string>
@@ -23,7 +24,12 @@ DEFINE_string(truth, "", "ground truth of a synthetic session (omnistereo-truth/
                          "RMSE table by range; without --detections, triangulate its pixels");
 DEFINE_double(noise_px, 0.0, "with --truth and no --detections: Gaussian noise (px) added to "
                              "each truth pixel coordinate");
+DEFINE_double(noise_px_ring2, -1.0, "with --noise_px: ring 2's (mirror 2's) noise if >= 0, "
+                                    "else --noise_px");
 DEFINE_int32(seed, 1, "random seed of --noise_px");
+DEFINE_int32(seeds, 0, "with --truth and no --detections: also repeat the noisy experiment over "
+                       "this many seeds (from --seed) and print, per range, the predicted RMSE "
+                       "at the noise sigmas and the spread of the RMSE over the seeds");
 DEFINE_string(method, "midpoint", "midpoint (common perpendicular) | reprojection (refined)");
 DEFINE_double(sigma_px_ring2, 0.0, "inner ring's (mirror 2's) pixel sigma if > 0, else --sigma_px "
                                    "(the rings' corner errors differ; the refined point weighs "
@@ -49,6 +55,11 @@ int RunTriangulate() {
   }
   if (!(FLAGS_sigma_px >= 0)) throw io::InputError("--sigma_px: expected a number >= 0");
   if (!(FLAGS_noise_px >= 0)) throw io::InputError("--noise_px: expected a number >= 0");
+  if (FLAGS_seeds < 0) throw io::InputError("--seeds: expected a number >= 0");
+  if (FLAGS_seeds > 0 && (!FLAGS_detections.empty() || FLAGS_truth.empty())) {
+    throw io::InputError("--seeds: expected --truth without --detections (the truth's pixels "
+                         "plus --noise_px)");
+  }
   TriangulationOptions options;
   if (!(FLAGS_sigma_px_ring2 >= 0)) throw io::InputError("--sigma_px_ring2: expected a number >= 0");
   options.sigma_px = FLAGS_sigma_px;
@@ -99,7 +110,7 @@ int RunTriangulate() {
     }
   } else {
     std::mt19937 rng(static_cast<unsigned>(FLAGS_seed));
-    pairs = stereo::TruthPairs(*truth, FLAGS_noise_px, &rng);
+    pairs = stereo::TruthPairs(*truth, FLAGS_noise_px, &rng, FLAGS_noise_px_ring2);
     for (const auto& image : truth->images) image_names.push_back(image.file);
     observations = 2 * static_cast<long>(pairs.size());
   }
@@ -143,10 +154,20 @@ int RunTriangulate() {
               FLAGS_model_covariance ? " + model covariance" : "", failed, FLAGS_out.c_str());
   if (truth) {
     if (FLAGS_detections.empty()) {
-      std::printf("pixels: the truth's own, noise %g px (seed %d)\n", FLAGS_noise_px, FLAGS_seed);
+      std::printf("pixels: the truth's own, noise %g/%g px (seed %d)\n", FLAGS_noise_px,
+                  FLAGS_noise_px_ring2 >= 0 ? FLAGS_noise_px_ring2 : FLAGS_noise_px, FLAGS_seed);
     }
     std::printf("%s", stereo::FormatRangeTable(stereo::RangeTable(errors)).c_str());
     if (unmatched > 0) std::printf("(%ld points without a true corner)\n", unmatched);
+  }
+  if (FLAGS_seeds > 0) {
+    const double noise2 = FLAGS_noise_px_ring2 >= 0 ? FLAGS_noise_px_ring2 : FLAGS_noise_px;
+    std::printf("over %d seeds (from %d), noise %g/%g px (rings 1/2), RMSE in mm:\n", FLAGS_seeds,
+                FLAGS_seed, FLAGS_noise_px, noise2);
+    std::printf("%s", stereo::FormatSeedSpread(
+                          stereo::SeedSpread(triangulator, *truth, FLAGS_noise_px, noise2,
+                                             FLAGS_seeds, static_cast<unsigned>(FLAGS_seed),
+                                             options)).c_str());
   }
   return 0;
 }

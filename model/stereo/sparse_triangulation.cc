@@ -15,14 +15,24 @@ namespace omni::stereo {
 std::vector<CornerPair> PairCorners(const Triangulator& triangulator, int image,
                                     const std::vector<io::CornerObservation>& corners,
                                     double max_gap_fraction) {
+  // The azimuth of each observation's ray (0 where it does not back-project: never paired).
+  std::vector<double> azimuth(corners.size(), 0.0);
+  std::vector<char> ok(corners.size(), 0);
+  for (size_t i = 0; i < corners.size(); ++i) {
+    const auto ray = triangulator.model().Unproject(corners[i].pixel);
+    if (!ray || MirrorIndex(ray->mirror) != corners[i].mirror) continue;
+    azimuth[i] = std::atan2(ray->ray.direction.y(), ray->ray.direction.x());
+    ok[i] = 1;
+  }
   // Candidates: every (mirror 1, mirror 2) observation pair with the same (target, id).
   std::map<std::pair<int, int>, std::vector<int>> ring1, ring2;
   for (int i = 0; i < static_cast<int>(corners.size()); ++i) {
+    if (!ok[i]) continue;
     const auto key = std::make_pair(corners[i].target, corners[i].id);
     (corners[i].mirror == 1 ? ring1 : ring2)[key].push_back(i);
   }
   struct Candidate {
-    double gap_ratio;
+    double azimuth_difference;
     int i1, i2;
   };
   std::vector<Candidate> candidates;
@@ -31,16 +41,21 @@ std::vector<CornerPair> PairCorners(const Triangulator& triangulator, int image,
     if (it == ring2.end()) continue;
     for (int i1 : list1) {
       for (int i2 : it->second) {
+        const double difference =
+            std::abs(std::remainder(azimuth[i1] - azimuth[i2], 2 * M_PI));
+        if (difference > kMaxPairAzimuthDifference) continue;
         double gap = 0;
         const auto p = triangulator.Midpoint(corners[i1].pixel, corners[i2].pixel, &gap);
         if (!p) continue;
-        const double ratio = gap / std::max(1.0, p->head<2>().norm());
-        if (ratio <= max_gap_fraction) candidates.push_back({ratio, i1, i2});
+        if (gap / std::max(1.0, p->head<2>().norm()) <= max_gap_fraction) {
+          candidates.push_back({difference, i1, i2});
+        }
       }
     }
   }
-  std::sort(candidates.begin(), candidates.end(),
-            [](const Candidate& a, const Candidate& b) { return a.gap_ratio < b.gap_ratio; });
+  std::sort(candidates.begin(), candidates.end(), [](const Candidate& a, const Candidate& b) {
+    return a.azimuth_difference < b.azimuth_difference;
+  });
   std::vector<char> used(corners.size(), 0);
   std::vector<CornerPair> pairs;
   for (const Candidate& c : candidates) {
@@ -146,17 +161,20 @@ Truth ReadTruthFile(const std::string& path) {
   return truth;
 }
 
-std::vector<CornerPair> TruthPairs(const Truth& truth, double noise_px, std::mt19937* rng) {
-  std::normal_distribution<double> noise(0.0, noise_px > 0 ? noise_px : 1.0);
-  auto jitter = [&]() {
-    return noise_px > 0 ? Eigen::Vector2d(noise(*rng), noise(*rng)) : Eigen::Vector2d::Zero();
+std::vector<CornerPair> TruthPairs(const Truth& truth, double noise_px, std::mt19937* rng,
+                                   double noise_px_ring2) {
+  std::normal_distribution<double> unit(0.0, 1.0);
+  const double sigma2 = noise_px_ring2 >= 0 ? noise_px_ring2 : noise_px;
+  auto jitter = [&](double sigma) {
+    return sigma > 0 ? Eigen::Vector2d(sigma * unit(*rng), sigma * unit(*rng))
+                     : Eigen::Vector2d::Zero();
   };
   std::vector<CornerPair> pairs;
   for (int i = 0; i < static_cast<int>(truth.images.size()); ++i) {
     for (const TruthCorner& c : truth.images[i].corners) {
       if (!c.pixel[0] || !c.pixel[1]) continue;
-      const Eigen::Vector2d px1 = *c.pixel[0] + jitter();
-      const Eigen::Vector2d px2 = *c.pixel[1] + jitter();
+      const Eigen::Vector2d px1 = *c.pixel[0] + jitter(noise_px);
+      const Eigen::Vector2d px2 = *c.pixel[1] + jitter(sigma2);
       pairs.push_back({i, c.target, c.id, px1, px2});
     }
   }
@@ -245,11 +263,28 @@ std::vector<RangeRow> RangeTable(const std::vector<CornerError>& errors) {
   return rows;
 }
 
-std::string FormatRangeTable(const std::vector<RangeRow>& rows) {
-  // The paper's RMSE and SD (tab:rmse_triangulation_experiment), mm, by range in m.
-  const std::map<double, std::pair<double, double>> paper = {
+namespace {
+
+// The paper's RMSE and SD (tab:rmse_triangulation_experiment), mm, by range in m.
+const std::map<double, std::pair<double, double>>& PaperTable() {
+  static const std::map<double, std::pair<double, double>> paper = {
       {0.25, {0.46, 0.31}}, {0.5, {1.20, 0.71}},    {1.0, {4.62, 2.55}},
       {2.0, {14.85, 9.06}}, {4.0, {57.67, 31.34}}, {8.0, {219.09, 129.92}}};
+  return paper;
+}
+
+// The paper's RMSE at this range (within 10%), or 0.
+double PaperRmse(double range_mm) {
+  for (const auto& [range_m, figures] : PaperTable()) {
+    if (std::abs(range_mm / 1000.0 - range_m) < 0.1 * range_m) return figures.first;
+  }
+  return 0;
+}
+
+}  // namespace
+
+std::string FormatRangeTable(const std::vector<RangeRow>& rows) {
+  const auto& paper = PaperTable();
   std::string out =
       "range_m  rmse_mm    sd_mm  points paper_rmse paper_sd  sigma_mm  mean_nees  "
       "px_rms_1 px_rms_2  nees_at_px_rms\n";
@@ -267,6 +302,81 @@ std::string FormatRangeTable(const std::vector<RangeRow>& rows) {
                   r.range_mm / 1000.0, r.rmse_mm, r.sd_mm, r.points, paper_text.c_str(),
                   r.mean_sigma_mm, r.mean_nees, r.pixel_rms_px[0], r.pixel_rms_px[1],
                   r.mean_nees_measured);
+    out += line;
+  }
+  return out;
+}
+
+std::vector<SeedSpreadRow> SeedSpread(const Triangulator& triangulator, const Truth& truth,
+                                      double noise_px, double noise_px_ring2, int seeds,
+                                      unsigned first_seed, const TriangulationOptions& options) {
+  struct Bin {
+    int points = 0;
+    double predicted2 = 0, sum2 = 0;
+    long n = 0;
+    std::vector<double> per_seed;
+  };
+  std::map<double, Bin> bins;
+  const double s2 = noise_px_ring2 >= 0 ? noise_px_ring2 : noise_px;
+  const Eigen::Vector4d omega(noise_px * noise_px, noise_px * noise_px, s2 * s2, s2 * s2);
+  // The prediction: A at the exact pixels.
+  std::mt19937 unused(0);
+  for (const CornerPair& pair : TruthPairs(truth, 0.0, &unused)) {
+    const auto point = triangulator.Triangulate(pair.pixel1, pair.pixel2, options);
+    if (!point) continue;
+    const auto e = CompareWithTruth(truth, pair, *point);
+    if (!e) continue;
+    Bin& bin = bins[e->range_bin_mm];
+    ++bin.points;
+    bin.predicted2 += (e->jacobian_px * omega.asDiagonal() * e->jacobian_px.transpose()).trace();
+  }
+  for (int s = 0; s < seeds; ++s) {
+    std::mt19937 rng(first_seed + static_cast<unsigned>(s));
+    std::map<double, std::pair<double, int>> run;  // sum of |e|^2, points
+    for (const CornerPair& pair : TruthPairs(truth, noise_px, &rng, s2)) {
+      const auto point = triangulator.Triangulate(pair.pixel1, pair.pixel2, options);
+      if (!point) continue;
+      const auto e = CompareWithTruth(truth, pair, *point);
+      if (!e) continue;
+      run[e->range_bin_mm].first += e->error.squaredNorm();
+      ++run[e->range_bin_mm].second;
+    }
+    for (const auto& [range, sums] : run) {
+      Bin& bin = bins[range];
+      bin.sum2 += sums.first;
+      bin.n += sums.second;
+      bin.per_seed.push_back(std::sqrt(sums.first / sums.second));
+    }
+  }
+  std::vector<SeedSpreadRow> rows;
+  for (auto& [range, bin] : bins) {
+    if (bin.per_seed.empty() || bin.points == 0) continue;
+    std::sort(bin.per_seed.begin(), bin.per_seed.end());
+    auto percentile = [&](double q) {
+      return bin.per_seed[static_cast<size_t>(std::lround(q * (bin.per_seed.size() - 1)))];
+    };
+    SeedSpreadRow row;
+    row.range_mm = range;
+    row.points = bin.points;
+    row.predicted_rmse_mm = std::sqrt(bin.predicted2 / bin.points);
+    row.rmse_mm = std::sqrt(bin.sum2 / bin.n);
+    row.p05_mm = percentile(0.05);
+    row.p50_mm = percentile(0.5);
+    row.p95_mm = percentile(0.95);
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+std::string FormatSeedSpread(const std::vector<SeedSpreadRow>& rows) {
+  std::string out = "range_m  points predicted_rmse  rmse_all    p05_rmse  p50_rmse  p95_rmse  paper_rmse\n";
+  char line[200];
+  for (const SeedSpreadRow& r : rows) {
+    char paper[16] = "         -";
+    if (PaperRmse(r.range_mm) > 0) std::snprintf(paper, sizeof(paper), "%10.2f", PaperRmse(r.range_mm));
+    std::snprintf(line, sizeof(line), "%7.3f %7d %14.3f %9.3f %11.3f %9.3f %9.3f  %s\n",
+                  r.range_mm / 1000.0, r.points, r.predicted_rmse_mm, r.rmse_mm, r.p05_mm,
+                  r.p50_mm, r.p95_mm, paper);
     out += line;
   }
   return out;

@@ -4,6 +4,7 @@
 // horizontal range.
 #pragma once
 
+#include <cmath>
 #include <optional>
 #include <random>
 #include <string>
@@ -24,9 +25,13 @@ struct CornerPair {
 };
 
 // Pairs the mirror-1 and mirror-2 observations of one image by (target, id). Where a target
-// occurs several times in the image (the RMSE scene repeats each board 4 times per range), the
-// pairs whose rays pass closest (smallest common-perpendicular gap, greedy) win; a pair whose gap
-// exceeds max_gap_fraction of the triangulated range is dropped. Each observation is used once.
+// occurs several times in the image (the RMSE scene shows each board 4 times, 90 deg apart), the
+// pairs whose rays' azimuths agree best win (greedy): a point's two rays lie in (nearly, for a
+// misaligned rig) the same azimuth plane through the axis, and unlike the rays' gap this still
+// holds with a model far from the rig (the ideal model of a misaligned rig, case (b)).
+// Candidates more than kMaxPairAzimuthDifference apart, or whose common-perpendicular gap
+// exceeds max_gap_fraction of the triangulated range, are dropped. Each observation is used once.
+constexpr double kMaxPairAzimuthDifference = 5 * M_PI / 180;
 std::vector<CornerPair> PairCorners(const Triangulator& triangulator, int image,
                                     const std::vector<io::CornerObservation>& corners,
                                     double max_gap_fraction = 0.05);
@@ -54,8 +59,10 @@ struct Truth {
 Truth ReadTruthFile(const std::string& path);
 
 // Corner pairs straight from the truth pixels, with Gaussian noise of noise_px per coordinate
-// (for running the experiment without a detector).
-std::vector<CornerPair> TruthPairs(const Truth& truth, double noise_px, std::mt19937* rng);
+// (for running the experiment without a detector); ring 2 (mirror 2) gets noise_px_ring2 if
+// >= 0, else noise_px (the detector's error differs between the rings).
+std::vector<CornerPair> TruthPairs(const Truth& truth, double noise_px, std::mt19937* rng,
+                                   double noise_px_ring2 = -1);
 
 // One triangulated corner compared with the truth.
 struct CornerError {
@@ -97,5 +104,22 @@ std::vector<RangeRow> RangeTable(const std::vector<CornerError>& errors);
 // The table as text (range m, RMSE, SD, points, the paper's RMSE and SD, mean sigma, NEES, the
 // per-ring pixel RMS and the NEES at those).
 std::string FormatRangeTable(const std::vector<RangeRow>& rows);
+
+// The experiment without a detector, repeated: the truth's pixels plus Gaussian noise (noise_px
+// in ring 1, noise_px_ring2 in ring 2) over `seeds` seeds, triangulated with `options`. Per
+// range: the RMSE that first-order propagation predicts at those sigmas (sqrt of the mean
+// trace of A diag(s1^2, s1^2, s2^2, s2^2) A^T at the true pixels), the RMSE over all seeds, and
+// how one run's RMSE spreads over the seeds (5th, 50th, 95th percentile): how far a table from
+// one image (the paper's 80 points per range) may land from the expected value by chance.
+struct SeedSpreadRow {
+  double range_mm = 0;
+  int points = 0;  // per seed
+  double predicted_rmse_mm = 0, rmse_mm = 0;
+  double p05_mm = 0, p50_mm = 0, p95_mm = 0;
+};
+std::vector<SeedSpreadRow> SeedSpread(const Triangulator& triangulator, const Truth& truth,
+                                      double noise_px, double noise_px_ring2, int seeds,
+                                      unsigned first_seed, const TriangulationOptions& options);
+std::string FormatSeedSpread(const std::vector<SeedSpreadRow>& rows);
 
 }  // namespace omni::stereo
