@@ -24,7 +24,58 @@ double Seconds(std::chrono::steady_clock::time_point since) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
 }
 
+// Catmull-Rom cubic through column samples p[-1..2] at t in [0, 1), and its derivative.
+inline void CatmullRom(const float* p0, size_t step, double t, double* value, double* slope) {
+  const double pm = p0[-static_cast<std::ptrdiff_t>(step)], a = p0[0], b = p0[step],
+               pp = p0[2 * step];
+  const double c1 = 0.5 * (b - pm), c2 = pm - 2.5 * a + 2 * b - 0.5 * pp,
+               c3 = 0.5 * (pp - pm) + 1.5 * (a - b);
+  *value = a + t * (c1 + t * (c2 + t * c3));
+  *slope = c1 + t * (2 * c2 + t * 3 * c3);
+}
+
 }  // namespace
+
+bool RefineDisparity(const cv::Mat& xi1, const cv::Mat& xi2, int u, int v, double d0,
+                     int half_width, int half_height, double* d) {
+  const int w = xi1.cols;
+  const size_t step = xi2.step1();
+  double disparity = d0;
+  for (int iteration = 0; iteration < 4; ++iteration) {
+    // Normal equations of r = I1 - I2(v' - d) - b in (delta d, b): dr/dd = I2'(v' - d), dr/db = -1.
+    double h11 = 0, h12 = 0, h22 = 0, g1 = 0, g2 = 0;
+    const double y = v - disparity;
+    const int y0 = static_cast<int>(std::floor(y));
+    const double t = y - y0;
+    if (y0 - half_height - 1 < 0 || y0 + half_height + 2 >= xi2.rows ||
+        v - half_height < 0 || v + half_height >= xi1.rows) {
+      return false;
+    }
+    for (int du = -half_width; du <= half_width; ++du) {
+      const int c = (u + du + w) % w;
+      for (int dv = -half_height; dv <= half_height; ++dv) {
+        double i2, slope;
+        CatmullRom(xi2.ptr<float>(y0 + dv) + c, step, t, &i2, &slope);
+        const double r = xi1.at<float>(v + dv, c) - i2;
+        h11 += slope * slope;
+        h12 -= slope;
+        h22 += 1;
+        g1 += slope * r;
+        g2 -= r;
+      }
+    }
+    const double det = h11 * h22 - h12 * h12;
+    if (!(det > 1e-6 * h22 * h11) || h11 < 1e-3 * h22) return false;  // flat window
+    // Gauss-Newton step (J^T J) x = -J^T r, J = (slope, -1); the offset b is re-solved from 0 at
+    // every step (the problem is linear in it), only the disparity step is kept.
+    const double delta = -(h22 * g1 - h12 * g2) / det;
+    disparity += delta;
+    if (std::abs(disparity - d0) > 1.0) return false;
+    if (std::abs(delta) < 1e-3) break;
+  }
+  *d = disparity;
+  return true;
+}
 
 // A ring's exact ray at each panorama pixel of rows [row_begin, row_end), and its Jacobian
 // w.r.t. the raw pixel: 6 x 2 (origin then direction, by u and v).
@@ -165,6 +216,11 @@ DepthFrame DenseStereo::Compute(const cv::Mat& image) const {
                                                         : cv::StereoSGBM::MODE_SGBM);
   sgbm->compute(left, right, disparity16);  // CV_16S, x16, transposed
   frame.seconds_sgbm = Seconds(t0);
+  // Float panoramas of the band for the sub-pixel refinement (rows relative to crop_begin_).
+  cv::Mat band_f[2];
+  if (options_.refine_subpixel) {
+    for (int i = 0; i < 2; ++i) grey[i].convertTo(band_f[i], CV_32F);
+  }
 
   // Triangulate every valid match of the band.
   t0 = std::chrono::steady_clock::now();
@@ -182,7 +238,14 @@ DepthFrame DenseStereo::Compute(const cv::Mat& image) const {
       for (int v = band_begin_; v < band_end_; ++v) {
         const int x = v - crop_begin_;
         if (d_row[x] <= 0) continue;  // invalid (negative) or zero disparity
-        const double d = d_row[x] / 16.0;
+        double d = d_row[x] / 16.0;
+        if (options_.refine_subpixel) {
+          double refined;
+          if (RefineDisparity(band_f[0], band_f[1], u, x, d, options_.refine_half_width,
+                              options_.refine_half_height, &refined)) {
+            d = refined;
+          }
+        }
         if (d < options_.min_disparity_px) continue;
         Eigen::Matrix<double, 6, 1> r1, r2;
         Eigen::Matrix<double, 6, 2> J1, J2;
