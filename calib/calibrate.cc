@@ -16,6 +16,7 @@
 #include "calib/covariance.h"
 #include "calib/initial_pose.h"
 #include "calib/lip_cost.h"
+#include "calib/variance_components.h"
 #include "model/lip.h"
 #include "model/rig_model.h"
 
@@ -172,6 +173,9 @@ class Calibrator {
                    std::vector<ceres::ResidualBlockId>* prior_blocks);
   StageReport Solve(const std::string& name, const std::set<std::string>& groups, bool robust);
   int RejectOutliers();
+  // Variance components from the current residuals (see variance_components.h); sets the
+  // groups' weights and robust noise.
+  void EstimateVarianceComponents();
   double Rms(int mirror, int* count) const;  // mirror 0: both
   void Covariance(CalibrationResult* result);
   void CheckDiverged() const;
@@ -192,6 +196,13 @@ class Calibrator {
   std::vector<std::unique_ptr<ceres::CostFunction>> prior_costs_;
   std::vector<RejectedObservation> rejected_;
   int n_images_ = 0;
+  // Per residual group (0: corners ring 1, 1: corners ring 2, 2: lips): the sigma each group is
+  // weighted with (px; 1 until the first variance component estimate, so the robust stages weigh
+  // every pixel alike) and the robust noise estimate behind the relative outlier threshold.
+  double weight_sigma_[3] = {1, 1, 1};
+  double robust_sigma_[3] = {0, 0, 0};  // 0: not estimated yet (outlier_px alone)
+  std::vector<std::unique_ptr<ceres::LossFunction>> group_losses_;
+  std::vector<VarianceComponent> components_;
 };
 
 void Calibrator::Collect(const io::Detections& detections) {
@@ -558,6 +569,15 @@ int Calibrator::BuildProblem(ceres::Problem* problem, const std::set<std::string
                              ceres::LossFunction* loss,
                              std::vector<ceres::ResidualBlockId>* corner_blocks,
                              std::vector<ceres::ResidualBlockId>* prior_blocks) {
+  // Each group's residuals weighted with 1 / weight_sigma^2 (a scaled loss keeps the robust
+  // loss's threshold in pixels).
+  group_losses_.clear();
+  ceres::LossFunction* group_loss[3];
+  for (int g = 0; g < 3; ++g) {
+    group_losses_.emplace_back(new ceres::ScaledLoss(
+        loss, 1.0 / (weight_sigma_[g] * weight_sigma_[g]), ceres::DO_NOT_TAKE_OWNERSHIP));
+    group_loss[g] = group_losses_.back().get();
+  }
   int n = 0;
   for (size_t i = 0; i < obs_.size(); ++i) {
     Observation& o = obs_[i];
@@ -568,11 +588,11 @@ int Calibrator::BuildProblem(ceres::Problem* problem, const std::set<std::string
     double* pose = PoseBlock(o.placement);
     ceres::ResidualBlockId id;
     if (o.mirror == 1) {
-      id = problem->AddResidualBlock(CostOf(i), loss, rig_.camera.data(), rig_.distortion.data(),
-                                     rig_.mirror1_shape.data(), rig_.mirror1_pose.data(),
-                                     rig_.reflex.data(), pose);
+      id = problem->AddResidualBlock(CostOf(i), group_loss[0], rig_.camera.data(),
+                                     rig_.distortion.data(), rig_.mirror1_shape.data(),
+                                     rig_.mirror1_pose.data(), rig_.reflex.data(), pose);
     } else {
-      id = problem->AddResidualBlock(CostOf(i), loss, rig_.camera.data(), rig_.distortion.data(),
+      id = problem->AddResidualBlock(CostOf(i), group_loss[1], rig_.camera.data(), rig_.distortion.data(),
                                      rig_.mirror1_pose.data(), rig_.reflex.data(),
                                      rig_.mirror2_shape.data(), rig_.mirror2_pose.data(), pose);
     }
@@ -592,7 +612,7 @@ int Calibrator::BuildProblem(ceres::Problem* problem, const std::set<std::string
       lip_costs_[i].reset(LipPointCost::Create(l.pixel, l.path, l.radius, l.z, LipFixed(l.path)));
     }
     const auto id = problem->AddResidualBlock(
-        lip_costs_[i].get(), loss, rig_.camera.data(), rig_.distortion.data(),
+        lip_costs_[i].get(), group_loss[2], rig_.camera.data(), rig_.distortion.data(),
         rig_.mirror1_shape.data(), rig_.mirror1_pose.data(), rig_.reflex.data(),
         rig_.mirror2_shape.data(), rig_.mirror2_pose.data(), l.phi.data());
     if (corner_blocks) corner_blocks->push_back(id);
@@ -700,6 +720,13 @@ StageReport Calibrator::Solve(const std::string& name, const std::set<std::strin
   return report;
 }
 
+// An observation is an outlier when its residual exceeds outlier_px or, once the groups' noise is
+// known, 5 robust sigmas of its group (a 2-D Gaussian residual exceeds 5 sigma with probability
+// 4e-6; a wrong corner id ~1 px off with corner noise ~0.1-0.2 px does).
+double OutlierThreshold(double outlier_px, double robust_sigma) {
+  return robust_sigma > 0 ? std::min(outlier_px, 5.0 * robust_sigma) : outlier_px;
+}
+
 int Calibrator::RejectOutliers() {
   int n = 0;
   for (auto& o : obs_) {
@@ -707,7 +734,7 @@ int Calibrator::RejectOutliers() {
     Eigen::Vector2d px;
     if (!Reproject(o, &px)) continue;
     const double r = (px - o.pixel).norm();
-    if (r > options_.solver.outlier_px) {
+    if (r > OutlierThreshold(options_.solver.outlier_px, robust_sigma_[o.mirror - 1])) {
       o.rejected = true;
       rejected_.push_back({o.image, o.target, o.id, o.mirror, o.pixel, r, "outlier"});
       ++n;
@@ -717,12 +744,81 @@ int Calibrator::RejectOutliers() {
     if (l.rejected) continue;
     Eigen::Vector2d px;
     if (!ReprojectLip(l, &px)) continue;
-    if ((px - l.pixel).norm() > options_.solver.outlier_px) {
+    if ((px - l.pixel).norm() > OutlierThreshold(options_.solver.outlier_px, robust_sigma_[2])) {
       l.rejected = true;
       ++n;
     }
   }
   return n;
+}
+
+void Calibrator::EstimateVarianceComponents() {
+  // Residuals per group, and each placement's corners per ring (its 6 pose unknowns are shared
+  // between the rings in proportion).
+  double ssr[3] = {0, 0, 0};
+  int count[3] = {0, 0, 0};
+  std::vector<std::vector<double>> norms(3);
+  std::vector<std::array<int, 2>> per_placement(placements_.size(), {0, 0});
+  for (const auto& o : obs_) {
+    Eigen::Vector2d px;
+    if (o.rejected || !Reproject(o, &px)) continue;
+    const int g = o.mirror - 1;
+    ssr[g] += (px - o.pixel).squaredNorm();
+    norms[g].push_back((px - o.pixel).norm());
+    ++count[g];
+    ++per_placement[o.placement][g];
+  }
+  std::vector<LipResidual> lip_residuals;
+  const Eigen::Vector2d centre(rig_.camera[2], rig_.camera[3]);
+  for (const auto& l : lips_) {
+    Eigen::Vector2d px;
+    if (l.rejected || !ReprojectLip(l, &px)) continue;
+    const Eigen::Vector2d r = px - l.pixel;
+    ssr[2] += r.squaredNorm();
+    norms[2].push_back(r.norm());
+    ++count[2];
+    // Across the edge ~ radially about the principal point (the lips' images are near-circles
+    // about it); the along-edge part is absorbed by the point's azimuth.
+    lip_residuals.push_back({static_cast<int>(l.path) * 100000 + static_cast<int>(l.radius * 100),
+                             l.phi[0], r.dot((px - centre).normalized())});
+  }
+  // Unknowns: poses to the corner groups, one azimuth per lip point to the lips, the rig
+  // parameters to every group in proportion to its residual rows.
+  double pose_share[2] = {0, 0};
+  for (const auto& c : per_placement) {
+    const int total = c[0] + c[1];
+    if (total == 0) continue;
+    for (int g = 0; g < 2; ++g) pose_share[g] += 6.0 * c[g] / total;
+  }
+  int n_rig = 0;
+  for (const auto& g : estimate_) {
+    n_rig += static_cast<int>(BlockParameterNames(g).size()) -
+             static_cast<int>(HeldCoordinates(g).size());
+  }
+  const double rows_total = 2.0 * (count[0] + count[1] + count[2]);
+  const char* names[3] = {"corners ring 1", "corners ring 2", "lips"};
+  components_.clear();
+  for (int g = 0; g < 3; ++g) {
+    if (count[g] == 0) continue;
+    VarianceComponent c;
+    c.group = names[g];
+    c.count = count[g];
+    c.ssr_px2 = ssr[g];
+    const double nuisance = g < 2 ? pose_share[g] : count[g];
+    c.redundancy = 2.0 * count[g] - nuisance - n_rig * 2.0 * count[g] / rows_total;
+    if (!(c.redundancy > 0)) continue;
+    // Per-axis sigma; lips: two rows per point but one is absorbed by the azimuth, so this is the
+    // noise across the edge.
+    c.sigma_px = std::sqrt(ssr[g] / c.redundancy);
+    if (g == 2) c.correlation_factor = LipCorrelationFactor(lip_residuals);
+    c.weight_sigma_px = c.sigma_px * std::sqrt(c.correlation_factor);
+    weight_sigma_[g] = std::max(c.weight_sigma_px, 1e-3);
+    // Robust per-axis sigma from the median residual norm (2-D: Rayleigh median 1.1774 sigma;
+    // lips 1-D across the edge: 0.6745 sigma).
+    std::nth_element(norms[g].begin(), norms[g].begin() + norms[g].size() / 2, norms[g].end());
+    robust_sigma_[g] = norms[g][norms[g].size() / 2] / (g < 2 ? 1.1774 : 0.6745);
+    components_.push_back(c);
+  }
 }
 
 void Calibrator::CheckDiverged() const {
@@ -757,6 +853,7 @@ void Calibrator::CheckDiverged() const {
 void Calibrator::Covariance(CalibrationResult* result) {
   ceres::Problem::Options po;
   po.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  po.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   ceres::Problem problem(po);
   std::vector<ceres::ResidualBlockId> corner_blocks, prior_blocks;
   const int n_obs = BuildProblem(&problem, estimate_, nullptr, &corner_blocks, &prior_blocks);
@@ -804,34 +901,44 @@ void Calibrator::Covariance(CalibrationResult* result) {
   ceres::CRSMatrix crs;
   problem.Evaluate(eo, &cost, &residuals, nullptr, &crs);
 
+  // Rows: the corners (in obs_ order, each ring's weight), the lip points, the priors (whitened
+  // already). Each pixel row is whitened with its group's weight sigma, so cov = (J^T W J)^-1.
   const int n_pixel_rows = 2 * (n_obs + n_lips);
-  double ssr_px = 0;
-  for (int i = 0; i < n_pixel_rows; ++i) ssr_px += residuals[i] * residuals[i];
+  std::vector<double> row_weight(crs.num_rows, 1.0);
+  {
+    int row = 0;
+    for (const auto& o : obs_) {
+      if (o.rejected || !o.projectable) continue;
+      row_weight[row] = row_weight[row + 1] = 1.0 / weight_sigma_[o.mirror - 1];
+      row += 2;
+    }
+    for (; row < n_pixel_rows; ++row) row_weight[row] = 1.0 / weight_sigma_[2];
+  }
+  double ssr_weighted = 0;
+  for (int i = 0; i < crs.num_rows; ++i) {
+    const double r = row_weight[i] * residuals[i];
+    ssr_weighted += r * r;
+  }
   const int n_prior = static_cast<int>(prior_blocks.size());
   const int n_params = n_rig + 6 * n_poses + n_lips;
   const int dof = n_pixel_rows + n_prior - n_params;
   result->n_parameters = n_params;
-  result->variance_factor = dof > 0 ? ssr_px / dof : 1.0;
+  result->variance_factor = dof > 0 ? ssr_weighted / dof : 1.0;
 
-  // Priors are whitened already (unit variance), pixel rows have variance s^2: scale the prior
-  // rows by s so that s^2 (J^T J)^-1 weighs both right.
-  const double s = std::sqrt(result->variance_factor);
   std::vector<Eigen::Triplet<double>> triplets;
   for (int r = 0; r < crs.num_rows; ++r) {
-    const double w = r < n_pixel_rows ? 1.0 : s;
     for (int k = crs.rows[r]; k < crs.rows[r + 1]; ++k) {
-      triplets.emplace_back(r, crs.cols[k], w * crs.values[k]);
+      triplets.emplace_back(r, crs.cols[k], row_weight[r] * crs.values[k]);
     }
   }
   Eigen::SparseMatrix<double, Eigen::RowMajor> jacobian(crs.num_rows, crs.num_cols);
   jacobian.setFromTriplets(triplets.begin(), triplets.end());
 
   RigCovarianceOptions co;
-  co.variance_factor = result->variance_factor;
+  co.variance_factor = 1.0;  // the weights are the groups' estimated variances
   co.nuisance_sizes = nuisance_sizes;
   for (const auto& name : names) co.nearly_unobservable_sigma.push_back(NearlyUnobservableSigma(name));
   const RigCovariance cov = ComputeRigCovariance(jacobian, n_rig, co);
-
   const Eigen::VectorXd all_values = result->values;
   result->refined_names = names;
   result->schur_eigenvalues = cov.eigenvalues;
@@ -884,15 +991,27 @@ CalibrationResult Calibrator::Run() {
     result.stages.push_back(Solve(name, groups, true));
     done = groups;
   }
-  // Reject, re-solve without the robust loss (its covariance is then the plain least-squares
-  // one); repeat while new outliers show up.
+  // Then: estimate each group's noise from the residuals (variance components), reject what lies
+  // beyond outlier_px or 5 robust sigmas of its group, re-weight, re-solve without the robust
+  // loss (its covariance is then the weighted least-squares one). Three rounds: the weights
+  // settle (the lips' correlation factor moves them by orders of magnitude in the first round)
+  // and a second look finds outliers the first rejection unmasked.
   for (int round = 0; round < 3; ++round) {
+    EstimateVarianceComponents();
     const int n = RejectOutliers();
-    if (round > 0 && n == 0) break;
-    if (n > 0) Progress("rejected " + std::to_string(n) + " outlier(s) above " +
-                        std::to_string(options_.solver.outlier_px) + " px");
+    if (n > 0) Progress("rejected " + std::to_string(n) + " outlier(s)");
+    std::string weights = "weights (sigma px):";
+    for (const auto& c : components_) {
+      char buf[160];
+      std::snprintf(buf, sizeof(buf), " %s %.4f%s", c.group.c_str(), c.weight_sigma_px,
+                    c.correlation_factor > 1 ? (" (tau " + std::to_string(c.correlation_factor).substr(0, 6) + ")").c_str() : "");
+      weights += buf;
+    }
+    Progress(weights);
     result.stages.push_back(Solve("final", estimate_, false));
   }
+  // As reported, and the covariance's weights: the groups' noise at the final solution.
+  EstimateVarianceComponents();
   CheckDiverged();
 
   const int n_total = static_cast<int>(obs_.size());
@@ -920,6 +1039,7 @@ CalibrationResult Calibrator::Run() {
              std::to_string(options_.solver.max_iterations) + " iterations");
   }
   Covariance(&result);
+  result.variance_components = components_;
   result.rejected = rejected_;
   for (const auto& p : placements_) {
     if (p.failed) continue;
@@ -1064,13 +1184,24 @@ std::string ResultTable(const CalibrationResult& result, const RigParams* truth)
   }
   std::snprintf(line, sizeof(line),
                 "residuals: rms %.4f px (mirror 1: %.4f, mirror 2: %.4f) over %d observations, "
-                "%zu left out, posterior variance factor %.4g px^2\n",
+                "%zu left out, weighted variance factor %.4g\n",
                 result.rms_px, result.per_mirror_rms_px[0], result.per_mirror_rms_px[1],
                 result.n_observations, result.rejected.size(), result.variance_factor);
   out << line;
   if (result.n_lip_points > 0 || result.n_lip_rejected > 0) {
     std::snprintf(line, sizeof(line), "lips: rms %.4f px over %d edge points, %d left out\n",
                   result.lip_rms_px, result.n_lip_points, result.n_lip_rejected);
+    out << line;
+  }
+  for (const auto& c : result.variance_components) {
+    std::snprintf(line, sizeof(line),
+                  "noise %-15s s = %.4f px per axis over %d (redundancy %.0f)%s, weighted as "
+                  "%.4f px\n",
+                  c.group.c_str(), c.sigma_px, c.count, c.redundancy,
+                  c.correlation_factor > 1
+                      ? (", correlation factor " + std::to_string(c.correlation_factor).substr(0, 6)).c_str()
+                      : "",
+                  c.weight_sigma_px);
     out << line;
   }
   return out.str();

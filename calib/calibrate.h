@@ -23,6 +23,7 @@
 
 #include <Eigen/Core>
 
+#include "calib/variance_components.h"
 #include "model/io/detections_file.h"
 #include "model/io/file_util.h"
 #include "model/io/session_file.h"
@@ -111,7 +112,13 @@ struct CalibrationResult {
   std::vector<std::string> refined_names;
   Eigen::VectorXd schur_eigenvalues;
   Eigen::MatrixXd schur_eigenvectors;
-  double variance_factor = 1;  // s^2 = SSR / (n_residuals - n_parameters)
+  // Weighted SSR / (n_residuals - n_parameters) with each group weighted by 1 / its
+  // weight_sigma_px^2: ~1 when the groups' noise was estimated right (lips: 1 / tau).
+  double variance_factor = 1;
+  // Per-group noise (corners ring 1, corners ring 2, lips) estimated from the residuals and used
+  // as the groups' weights (calib/variance_components.h); the covariance is the inverse of the
+  // normal matrix weighted with them.
+  std::vector<VarianceComponent> variance_components;
   double rms_px = 0;
   double per_mirror_rms_px[2] = {0, 0};
   int n_observations = 0;  // corners used in the final solve

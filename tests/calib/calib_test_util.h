@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "calib/synthetic/scene.h"
+#include "calib/synthetic/scene_file.h"
 #include "model/io/detections_file.h"
 #include "model/io/model_file.h"
 #include "model/lip.h"
@@ -170,6 +171,26 @@ inline void AddLipDetections(const RigParams& truth, double noise_px, unsigned s
       image.lips.push_back(edge);
     }
   }
+}
+
+}  // namespace omni::testing
+
+namespace omni::testing {
+
+// The demo's session geometry on the fast path: a scene file's placements (random ones generated
+// with the full-size rig, as `omnistereo render` does), corners from ComputeTruth through the
+// truth rig at the scene's image size. Returns that rig (the truth the calibration must find).
+inline RigParams MakeSceneSession(const RigParams& truth_full, const std::string& scene_file,
+                                  SyntheticSession* s) {
+  s->scene = synthetic::ReadSceneFile(scene_file, RigModel(truth_full));
+  const RigParams truth = s->scene.width > 0
+                              ? synthetic::RigAtImageSize(truth_full, s->scene.width, s->scene.height)
+                              : truth_full;
+  const RigModel model(truth);
+  s->targets = s->scene.targets;  // distinct targets per image: session index = scene index
+  s->truth.clear();
+  for (const auto& image : s->scene.images) s->truth.push_back(synthetic::ComputeTruth(model, s->scene, image));
+  return truth;
 }
 
 }  // namespace omni::testing

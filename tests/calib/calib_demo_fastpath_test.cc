@@ -1,0 +1,127 @@
+// The demo session's geometry on the fast path (issue #6's POV-Ray acceptance without the
+// renderer): sample_configs/demo_scene.yaml's placements, the misaligned big rig at the scene's
+// 960x720 as the truth, exact corners from ComputeTruth plus Gaussian noise of 0.1 px, lip edge
+// points like the detector's (1440 per image) with small independent noise plus a systematic
+// per-edge offset common to every image (a rendered lip is the same in every image: its
+// anti-aliasing bias repeats). Solved from the ideal design like `omnistereo demo`: every
+// misalignment parameter must land within 3 sigma of the truth and the calibrated model must
+// project like the true one over both rings' stereo band at 1 m (<= 0.1 px RMS).
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <random>
+
+#include "calib/calibrate.h"
+#include "model/model_compare.h"
+#include "tests/calib/calib_test_util.h"
+
+namespace omni::calib {
+namespace {
+
+double TruthValue(const RigParams& rig, const std::string& name) {
+  const char* groups[] = {"camera", "distortion", "mirror1_shape", "mirror2_shape",
+                          "mirror1_pose", "mirror2_pose", "reflex"};
+  const double* blocks[] = {rig.camera.data(), rig.distortion.data(), rig.mirror1_shape.data(),
+                            rig.mirror2_shape.data(), rig.mirror1_pose.data(),
+                            rig.mirror2_pose.data(), rig.reflex.data()};
+  for (int g = 0; g < 7; ++g) {
+    const auto& names = BlockParameterNames(groups[g]);
+    for (size_t k = 0; k < names.size(); ++k) {
+      if (names[k] == name) return blocks[g][k];
+    }
+  }
+  return NAN;
+}
+
+bool IsMisalignment(const std::string& name) {
+  return name.rfind("mirror1.", 0) == 0 || name.rfind("mirror2.", 0) == 0 ||
+         name.rfind("reflex.", 0) == 0;
+}
+
+// Shifts every point of each lip edge across the edge (radially about the principal point) by
+// one offset per edge, N(0, sigma_px^2), the same in every image.
+void AddSystematicLipOffsets(const RigParams& rig, double sigma_px, unsigned seed,
+                             io::Detections* detections) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> noise(0.0, sigma_px);
+  const Eigen::Vector2d centre(rig.camera[2], rig.camera[3]);
+  std::vector<double> offsets;
+  for (auto& image : detections->images) {
+    for (size_t e = 0; e < image.lips.size(); ++e) {
+      if (e >= offsets.size()) offsets.push_back(noise(rng));
+      for (auto& p : image.lips[e].points) p += offsets[e] * (p - centre).normalized();
+    }
+  }
+}
+
+// DISABLED: not met yet (issue #6). Measured with the per-group weights (corners ring 1 / ring 2
+// s = 0.101 / 0.102 px for 0.1 px noise, lips s = 0.030 px, correlation factor 1.23): from the
+// ideal start mirror1.rx -4.3, mirror2.rx -4.4, cy -4.4 sigma; projection difference at 1 m
+// 0.23 / 0.12 px (ideal model 7.4 / 13.8). From the truth (DEMO_FAST_START=truth) every
+// misalignment parameter is within 3 sigma and the difference is 0.095 / 0.048 px, at the same
+// cost to 1e-6 relative: the two solutions lie ~4 sigma apart along the camera-rotation valley
+// (cx, cy with both mirrors' tilts) with equal cost, where the linearised covariance predicts a
+// rise of thousands in chi^2. Moving the rig 0.1 sigma along a parameter's regression direction
+// and re-solving the poses and lip azimuths raises the weighted SSR by ~4000 instead of 0.01:
+// the valley the lips cut is narrow and curved (far from quadratic), so Levenberg-Marquardt
+// stops wherever it enters it. Down-weighting the lips (weight sigma 0.1-0.3 px) widens the
+// sigmas but leaves the ideal-start solution where it is.
+TEST(CalibDemoFastPath, DISABLED_IdealStartReachesTruth) {
+  testing::SyntheticSession session;
+  const RigParams truth = testing::MakeSceneSession(
+      testing::MisalignedRig(), std::string(OMNI_SOURCE_DIR) + "/sample_configs/demo_scene.yaml",
+      &session);
+  const RigParams ideal =
+      synthetic::RigAtImageSize(testing::IdealRig(), truth.image_width, truth.image_height);
+  const double noise_px = 0.1;
+  io::Detections detections = testing::NoisyDetections(session, noise_px, 17);
+  testing::AddLipDetections(truth, 0.03, 19, &detections, 360);
+  AddSystematicLipOffsets(truth, 0.03, 23, &detections);
+
+  CalibrationOptions options;  // the demo's groups: camera, distortion, both poses, reflex
+  options.progress = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
+  const char* start_env = std::getenv("DEMO_FAST_START");
+  const bool from_truth = start_env && std::string(start_env) == "truth";
+  const auto t0 = std::chrono::steady_clock::now();
+  const CalibrationResult result =
+      Calibrate(from_truth ? truth : ideal, session.targets, detections, options);
+  std::fprintf(stderr, "corner rms %.9f px, lip rms %.9f px\n", result.rms_px, result.lip_rms_px);
+  std::fprintf(stderr, "solve %.2f s\n%s",
+               std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),
+               ResultTable(result, &truth).c_str());
+
+  const RigModel true_model(truth);
+  const ProjectionDifference before = CompareProjections(true_model, RigModel(ideal), 1000);
+  const ProjectionDifference after = CompareProjections(true_model, RigModel(result.rig), 1000);
+  std::fprintf(stderr,
+               "projection difference at 1 m over %d band points: ideal %.3f / %.3f px, "
+               "calibrated %.4f / %.4f px RMS (ring 1 / ring 2)\n",
+               after.points, before.rms_px[0], before.rms_px[1], after.rms_px[0], after.rms_px[1]);
+
+  EXPECT_TRUE(result.converged);
+  // 2-D residual RMS of corners with 0.1 px per axis: sqrt(2) * 0.1 less the fitted share.
+  EXPECT_NEAR(result.per_mirror_rms_px[0], std::sqrt(2.0) * noise_px, 0.2 * std::sqrt(2.0) * noise_px);
+  EXPECT_NEAR(result.per_mirror_rms_px[1], std::sqrt(2.0) * noise_px, 0.2 * std::sqrt(2.0) * noise_px);
+  int n_misalignment = 0;
+  for (size_t i = 0; i < result.names.size(); ++i) {
+    const double t = TruthValue(truth, result.names[i]);
+    const double z = (result.values(i) - t) / result.sigma(i);
+    if (!IsMisalignment(result.names[i])) continue;
+    ++n_misalignment;
+    EXPECT_LT(std::abs(z), 3.0) << result.names[i] << " = " << result.values(i) << " truth " << t
+                                << " sigma " << result.sigma(i);
+  }
+  for (const auto& u : result.unobservable) {
+    EXPECT_FALSE(IsMisalignment(u.name)) << u.name << " named unobservable";
+  }
+  EXPECT_EQ(n_misalignment, 13);
+  EXPECT_EQ(after.lost, 0);
+  EXPECT_LE(after.rms_px[0], 0.1);
+  EXPECT_LE(after.rms_px[1], 0.1);
+}
+
+}  // namespace
+}  // namespace omni::calib
