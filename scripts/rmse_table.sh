@@ -6,8 +6,8 @@
 #   (c) the misaligned rig with its CALIBRATED model: a calibration session of that same rig
 #       (sample_configs/demo_scene.yaml's boards, rendered at the RMSE scene's image size) is
 #       detected and calibrated with `omnistereo calibrate`, starting from the ideal design.
-# Each case: omnistereo render (sample_configs/rmse_scene.yaml: 4 chessboards per range at
-# 0.25..8 m) -> omnistereo detect (starting model: the ideal design, as a user would) ->
+# Each case: omnistereo render (sample_configs/rmse_scene.yaml: one image per range 0.25..8 m,
+# 4 chessboards each) -> omnistereo detect (starting model: the ideal design, as a user would) ->
 # omnistereo triangulate --truth: range, RMSE, SD, points, the paper's RMSE and SD, mean
 # predicted sigma, mean NEES at --sigma_px (the paper's 1 px), the detector's measured pixel RMS
 # per ring and range, and the NEES with those measured sigmas (3 if the propagation is right).
@@ -16,8 +16,9 @@
 #
 # Renders are cached in OUT_DIR (a re-run only detects, calibrates and triangulates again, so it
 # picks up detector and calibration fixes in a few seconds); delete OUT_DIR/*/0001.png to render
-# again. Rendering takes ~1 min per RMSE image and ~10 s per calibration image with one POV-Ray
-# process.
+# again. Rendering takes ~15-20 s per image (6 RMSE images per rig, 8 calibration images) with
+# one POV-Ray process. Last: the ideal rig without a detector (exact pixels + the paper's 0.08 px,
+# 300 seeds): the predicted RMSE and how an 80-point RMSE spreads over seeds.
 # Usage: scripts/rmse_table.sh [OUT_DIR]   (OMNISTEREO=path/to/omnistereo, SIGMA_PX=1, JOBS=1)
 set -euo pipefail
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
@@ -86,3 +87,7 @@ read -r s1 s2 < <(awk '/^ *[0-9.]+ +[0-9.]+ +[0-9.]+ +[0-9]+ /{n+=$4; a+=$4*$9*$
                          --truth="$OUT/big_rig_misaligned/truth.yaml" --out="$OUT/t.csv"))
 SIGMA_PX=$s1 triangulate c_model_cov "$OUT/big_rig_misaligned" "$OUT/calibrated.yaml" \
   --sigma_px_ring2="$s2" --model_covariance
+echo
+echo "== (a) without a detector: the ideal rig's exact pixels + 0.08 px (the paper's corner error)"
+"$EXE" triangulate --model="$NOMINAL" --truth="$OUT/big_rig_ideal/truth.yaml" --noise_px=0.08 \
+  --seeds=300 --out="$OUT/a_noise.csv" | sed -n '/^over /,$p'
