@@ -229,6 +229,12 @@ std::vector<TagCornerDetection> DetectTagCorners(const cv::Mat& raw_bgr,
   cv::Mat grey;
   raw_grey8.convertTo(grey, CV_32F, 1.0 / 255);
 
+  // Neighbouring views overlap (views.h: 8 views of 90 degrees per ring): each ring's azimuth is
+  // searched once by taking only the middle of each view, 360 / views-per-ring degrees plus
+  // options.view_overlap_deg on each side, so a tag up to that wide lies whole in some crop.
+  // Cuts the tag detectors' pixels by ~40% (they were ~290 ms of a 1280x960 image's ~390 ms).
+  int views_per_ring = 0;
+  for (const RingView& view : views) views_per_ring += view.mirror == views.front().mirror;
   std::vector<ViewTag> found;
   for (std::size_t v = 0; v < views.size(); ++v) {
     const RingView& view = views[v];
@@ -237,15 +243,21 @@ std::vector<TagCornerDetection> DetectTagCorners(const cv::Mat& raw_bgr,
       cv::remap(raw_grey8, view_grey, view.map_fixed, view.map_interp, cv::INTER_LINEAR,
                 cv::BORDER_CONSTANT, cv::Scalar(0));
     }
-    if (want_plain) {
-      for (const ViewTag& t : DetectPlainTags(view_grey, static_cast<int>(v), options.quad_decimate))
-        found.push_back(t);
-    }
+    const double half_deg = 180.0 / std::max(1, views_per_ring) + options.view_overlap_deg;
+    const int half_px = static_cast<int>(std::ceil(view.f * std::tan(half_deg * M_PI / 180)));
+    const int x0 = std::max(0, static_cast<int>(view.cx) - half_px);
+    const int x1 = std::min(view.width, static_cast<int>(view.cx) + half_px + 2);
+    const cv::Mat crop = view_grey.colRange(x0, x1).clone();
+    std::vector<ViewTag> in_crop;
+    if (want_plain) in_crop = DetectPlainTags(crop, static_cast<int>(v), options.quad_decimate);
     if (want_kalibr) {
-      for (const ViewTag& t :
-           DetectKalibrTags(view_grey, static_cast<int>(v), targets, options.kalibr)) {
-        found.push_back(t);
+      for (const ViewTag& t : DetectKalibrTags(crop, static_cast<int>(v), targets, options.kalibr)) {
+        in_crop.push_back(t);
       }
+    }
+    for (ViewTag& t : in_crop) {
+      for (auto& c : t.corners) c.x() += x0;
+      found.push_back(t);
     }
   }
 

@@ -31,6 +31,9 @@ namespace omni::detectors {
 
 struct TagDetectorOptions {
   float quad_decimate = 1.0f;     // libapriltag; the corners are refined in the raw image anyway
+  // Each view is searched only in its middle 360/views-per-ring degrees plus this much each side
+  // (views overlap): tags up to this wide (at 1 m, 0.17 rad = 170 mm) are whole in some crop.
+  double view_overlap_deg = 10.0;
   double max_refine_shift_px = 1.5;  // refined corner farther from the mapped one: tag dropped
   double min_edge_px = 5.0;       // shorter tag edges in the raw image are not refined: dropped
   double max_edge_rms_px = 0.25;  // of the edge points about their fitted curve
