@@ -59,6 +59,7 @@ int main(int argc, char** argv) {
   const double ctx_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t_ctx).count();
   std::map<std::pair<int, int>, Bin> bins;  // (mirror, range bin)
+  std::map<std::pair<int, int>, Bin> by_kind;  // (target type, mirror), all ranges
   std::vector<double> times_ms, cpu_ms;  // wall clock, process CPU time (one thread)
   const double match_px = 3.0;
   for (const auto& image : scene.images) {
@@ -107,6 +108,7 @@ int main(int argc, char** argv) {
         continue;
       }
       bin.errors.push_back(best);
+      by_kind[{static_cast<int>(scene.targets[o.target].type), o.mirror}].errors.push_back(best);
       truth_found[2 * best_i + o.mirror - 1] = true;
     }
     // (target, mirror) -> visible, found, range: to name the boards that were missed.
@@ -117,6 +119,9 @@ int main(int argc, char** argv) {
         Bin& bin = bins[{m, RangeBin(truth[i].point_in_cam.head<2>().norm())}];
         ++bin.visible;
         if (truth_found[2 * i + m - 1]) ++bin.found;
+        Bin& kind = by_kind[{static_cast<int>(scene.targets[truth[i].target].type), m}];
+        ++kind.visible;
+        if (truth_found[2 * i + m - 1]) ++kind.found;
         auto& b = boards[{truth[i].target, m}];
         b[0] += 1;
         b[1] += truth_found[2 * i + m - 1] ? 1 : 0;
@@ -165,6 +170,15 @@ int main(int argc, char** argv) {
   std::printf("%-6s %-10s %8d %8d %7.1f%% %8.4f %8.4f %6d\n", "both", "all", all.visible, all.found,
               100.0 * all.found / std::max(1, all.visible), mean, Percentile(all.errors, 0.99),
               all.wrong);
+  // The same per kind of target (wrong ids are counted in the range table only).
+  const char* kKindNames[] = {"chessboard", "apriltag", "kalibr"};
+  for (const auto& [key, bin] : by_kind) {
+    double kind_mean = 0;
+    for (double e : bin.errors) kind_mean += e / std::max<size_t>(1, bin.errors.size());
+    std::printf("%-6d %-10s %8d %8zu %7.1f%% %8.4f %8.4f\n", key.second, kKindNames[key.first],
+                bin.visible, bin.errors.size(), 100.0 * bin.found / std::max(1, bin.visible),
+                kind_mean, Percentile(bin.errors, 0.99));
+  }
   std::sort(times_ms.begin(), times_ms.end());
   if (!times_ms.empty()) {
     double sum = 0;
