@@ -121,6 +121,7 @@ class Calibrator {
     cost_fixed_[0] = cost_fixed_[1] = fixed_;
     for (RigFixed& f : cost_fixed_) f.r_sys += kBoundSlackMm;
     cost_fixed_[0].r_ref = std::max(0.0, fixed_.r_ref - kBoundSlackMm);
+    cost_fixed_[0].reflex_side_slack = kBoundSlackMm;
     cost_fixed_[1].r_ref += kBoundSlackMm;
     cost_fixed_[1].r_cam = std::max(0.0, fixed_.r_cam - kBoundSlackMm);
     constexpr double kLipSlackMm = 30.0;

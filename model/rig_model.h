@@ -53,6 +53,12 @@ namespace omni {
 // Design data that a calibration never refines (mm), and the reflection solver's options.
 struct RigFixed {
   double d = 0, r_sys = 0, r_ref = 0, r_cam = 0;
+  // Mirror 1: how far (mm) S1 may lie on the camera's side of the reflex plane and still count
+  // as seen when it is outside the disc's radius. 0 for the model (the ideal rig's validity);
+  // the calibration's corner costs use a few mm: S1 of a corner seen at the ring's inner edge
+  // lies within a hair of the plane, and a hard wall there stalls the trust region (every trial
+  // step that moves S1 across it fails, however short).
+  double reflex_side_slack = 0;
   ReflectionSolverOptions solver;
 };
 RigFixed FixedOf(const RigParams& rig);
@@ -121,8 +127,12 @@ struct Mirror1Path {
     const Plane<double>& reflex_d = reflex_in_mirror;
     const double eye_side = (eye_d - reflex_d.point).dot(reflex_d.normal);
     const double s_side = (s_d - reflex_d.point).dot(reflex_d.normal);
-    if (!(eye_side > 0) || !(s_side < 0)) return false;
-    const Eigen::Vector3d crossing = eye_d + eye_side / (eye_side - s_side) * (s_d - eye_d);
+    if (!(eye_side > 0) || !(s_side < fixed.reflex_side_slack)) return false;
+    // Where O -> S1 meets the plane (or, for S1 within the slack on the camera's side, S1's foot
+    // on the plane) must be outside the disc; otherwise the disc occludes S1.
+    const Eigen::Vector3d crossing =
+        s_side < 0 ? Eigen::Vector3d(eye_d + eye_side / (eye_side - s_side) * (s_d - eye_d))
+                   : Eigen::Vector3d(s_d - s_side * reflex_d.normal);
     if (!((crossing - reflex_d.point).squaredNorm() > fixed.r_ref * fixed.r_ref)) {
       return false;  // the reflex disc occludes S1
     }
