@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include <Eigen/Geometry>
+
 namespace omni {
 
 std::vector<BandPoint> StereoBandPoints(const RigModel& model, double range_mm) {
@@ -19,15 +21,24 @@ std::vector<BandPoint> StereoBandPoints(const RigModel& model, double range_mm) 
   return points;
 }
 
-ProjectionDifference CompareProjections(const RigModel& reference, const RigModel& other,
-                                        double range_mm) {
+namespace {
+
+Eigen::Matrix3d RotationOf(const Eigen::Vector3d& rotation) {
+  const double angle = rotation.norm();
+  if (angle == 0) return Eigen::Matrix3d::Identity();
+  return Eigen::AngleAxisd(angle, rotation / angle).toRotationMatrix();
+}
+
+ProjectionDifference Difference(const std::vector<BandPoint>& points, const RigModel& other,
+                                const Eigen::Matrix3d& other_from_reference) {
   ProjectionDifference diff;
   double sum2[2] = {0, 0};
   int n[2] = {0, 0};
-  for (const BandPoint& p : StereoBandPoints(reference, range_mm)) {
+  for (const BandPoint& p : points) {
     ++diff.points;
     for (int m = 0; m < 2; ++m) {
-      const auto o = other.Project(p.point_in_cam, m == 0 ? Mirror::kOne : Mirror::kTwo);
+      const auto o =
+          other.Project(other_from_reference * p.point_in_cam, m == 0 ? Mirror::kOne : Mirror::kTwo);
       if (!o) {
         ++diff.lost;
         continue;
@@ -40,6 +51,53 @@ ProjectionDifference CompareProjections(const RigModel& reference, const RigMode
   }
   for (int m = 0; m < 2; ++m) diff.rms_px[m] = n[m] ? std::sqrt(sum2[m] / n[m]) : 0;
   return diff;
+}
+
+// Stacked pixel differences (both rings; zero where `other` does not project).
+Eigen::VectorXd Residuals(const std::vector<BandPoint>& points, const RigModel& other,
+                          const Eigen::Vector3d& rotation) {
+  const Eigen::Matrix3d r = RotationOf(rotation);
+  Eigen::VectorXd res = Eigen::VectorXd::Zero(4 * points.size());
+  for (size_t i = 0; i < points.size(); ++i) {
+    for (int m = 0; m < 2; ++m) {
+      const auto o = other.Project(r * points[i].point_in_cam, m == 0 ? Mirror::kOne : Mirror::kTwo);
+      if (o) res.segment<2>(4 * i + 2 * m) = *o - points[i].pixel[m];
+    }
+  }
+  return res;
+}
+
+}  // namespace
+
+ProjectionDifference CompareProjections(const RigModel& reference, const RigModel& other,
+                                        double range_mm) {
+  return Difference(StereoBandPoints(reference, range_mm), other, Eigen::Matrix3d::Identity());
+}
+
+ProjectionDifference CompareProjectionsUpToRotation(const RigModel& reference,
+                                                    const RigModel& other, double range_mm,
+                                                    Eigen::Vector3d* rotation_rad) {
+  const std::vector<BandPoint> points = StereoBandPoints(reference, range_mm);
+  Eigen::Vector3d rotation = Eigen::Vector3d::Zero();
+  // Gauss-Newton with central-difference Jacobians; the rotations that matter are < 1 deg and
+  // the problem is nearly linear there, so a few steps converge.
+  constexpr double kStep = 1e-6;
+  for (int iteration = 0; iteration < 5; ++iteration) {
+    const Eigen::VectorXd r0 = Residuals(points, other, rotation);
+    Eigen::MatrixXd jacobian(r0.size(), 3);
+    for (int k = 0; k < 3; ++k) {
+      Eigen::Vector3d plus = rotation, minus = rotation;
+      plus(k) += kStep;
+      minus(k) -= kStep;
+      jacobian.col(k) =
+          (Residuals(points, other, plus) - Residuals(points, other, minus)) / (2 * kStep);
+    }
+    const Eigen::Vector3d step = jacobian.colPivHouseholderQr().solve(-r0);
+    rotation += step;
+    if (step.norm() < 1e-12) break;
+  }
+  if (rotation_rad) *rotation_rad = rotation;
+  return Difference(points, other, RotationOf(rotation));
 }
 
 }  // namespace omni

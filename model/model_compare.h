@@ -29,4 +29,14 @@ std::vector<BandPoint> StereoBandPoints(const RigModel& model, double range_mm);
 ProjectionDifference CompareProjections(const RigModel& reference, const RigModel& other,
                                         double range_mm);
 
+// The same after removing the best rotation of the camera frame: `other` projects R * p where
+// reference projects p, with R (the rotation vector `rotation_rad`, least squares over both rings'
+// pixels) found by Gauss-Newton. Why: the camera's rotation against the mirror bodies is only
+// weakly determined by a calibration (it trades with the principal point and equal tilts of both
+// mirrors), and it rotates every measured point rigidly, changing no distance or shape; this
+// figure is the model error that 3D measurement sees, the plain one adds the frame's pointing.
+ProjectionDifference CompareProjectionsUpToRotation(const RigModel& reference,
+                                                    const RigModel& other, double range_mm,
+                                                    Eigen::Vector3d* rotation_rad = nullptr);
+
 }  // namespace omni
