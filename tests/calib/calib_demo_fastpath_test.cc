@@ -21,21 +21,6 @@
 namespace omni::calib {
 namespace {
 
-double TruthValue(const RigParams& rig, const std::string& name) {
-  const char* groups[] = {"camera", "distortion", "mirror1_shape", "mirror2_shape",
-                          "mirror1_pose", "mirror2_pose", "reflex"};
-  const double* blocks[] = {rig.camera.data(), rig.distortion.data(), rig.mirror1_shape.data(),
-                            rig.mirror2_shape.data(), rig.mirror1_pose.data(),
-                            rig.mirror2_pose.data(), rig.reflex.data()};
-  for (int g = 0; g < 7; ++g) {
-    const auto& names = BlockParameterNames(groups[g]);
-    for (size_t k = 0; k < names.size(); ++k) {
-      if (names[k] == name) return blocks[g][k];
-    }
-  }
-  return NAN;
-}
-
 bool IsMisalignment(const std::string& name) {
   return name.rfind("mirror1.", 0) == 0 || name.rfind("mirror2.", 0) == 0 ||
          name.rfind("reflex.", 0) == 0;
@@ -112,7 +97,7 @@ TEST(CalibDemoFastPath, IdealStartProjectsLikeTheTruth) {
   for (size_t i = 0; i < result.names.size(); ++i) {
     if (!IsMisalignment(result.names[i])) continue;
     ++n_misalignment;
-    const double t = TruthValue(truth, result.names[i]);
+    const double t = testing::TruthValue(truth, result.names[i]);
     const bool tilt = result.names[i].find(".r") != std::string::npos &&
                       result.names[i].rfind("reflex", 0) != 0;
     const double allowance = tilt ? rotation.norm() : 0.0;

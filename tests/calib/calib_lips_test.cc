@@ -22,21 +22,6 @@ double SigmaOf(const CalibrationResult& r, const std::string& name) {
   return INFINITY;  // named unobservable
 }
 
-double TruthValue(const RigParams& rig, const std::string& name) {
-  const char* groups[] = {"camera", "distortion", "mirror1_shape", "mirror2_shape",
-                          "mirror1_pose", "mirror2_pose", "reflex"};
-  const double* blocks[] = {rig.camera.data(), rig.distortion.data(), rig.mirror1_shape.data(),
-                            rig.mirror2_shape.data(), rig.mirror1_pose.data(),
-                            rig.mirror2_pose.data(), rig.reflex.data()};
-  for (int g = 0; g < 7; ++g) {
-    const auto& names = BlockParameterNames(groups[g]);
-    for (size_t k = 0; k < names.size(); ++k) {
-      if (names[k] == name) return blocks[g][k];
-    }
-  }
-  return NAN;
-}
-
 TEST(CalibLips, LipsPinFocalLengthDistortionAndHeights) {
   const RigParams truth = testing::MisalignedRig();  // with the sample rig's distortion
   synthetic::RandomPlacement random;
@@ -93,7 +78,7 @@ TEST(CalibLips, LipsPinFocalLengthDistortionAndHeights) {
     EXPECT_LT(SigmaOf(with, name), 0.5 * SigmaOf(without, name)) << name;
   }
   for (size_t i = 0; i < from_truth.names.size(); ++i) {
-    const double t = TruthValue(truth, from_truth.names[i]);
+    const double t = testing::TruthValue(truth, from_truth.names[i]);
     EXPECT_LT(std::abs(from_truth.values(i) - t), 3 * from_truth.sigma(i)) << from_truth.names[i];
   }
 }

@@ -19,22 +19,6 @@ namespace {
 using testing::IdealRig;
 using testing::MisalignedRig;
 
-double TruthValue(const RigParams& rig, const std::string& name) {
-  const char* groups[] = {"camera", "distortion", "mirror1_shape", "mirror2_shape",
-                          "mirror1_pose", "mirror2_pose", "reflex"};
-  const double* blocks[] = {rig.camera.data(), rig.distortion.data(), rig.mirror1_shape.data(),
-                            rig.mirror2_shape.data(), rig.mirror1_pose.data(),
-                            rig.mirror2_pose.data(), rig.reflex.data()};
-  for (int g = 0; g < 7; ++g) {
-    const auto& names = BlockParameterNames(groups[g]);
-    for (size_t k = 0; k < names.size(); ++k) {
-      if (names[k] == name) return blocks[g][k];
-    }
-  }
-  ADD_FAILURE() << "no parameter " << name;
-  return NAN;
-}
-
 // The misaligned rig without lens distortion, refining camera + misalignment: every reported
 // parameter lands within 3 sigma of the truth and the residual RMS matches the noise.
 TEST(CalibRecovery, MisalignedRigWithinThreeSigma) {
@@ -68,7 +52,7 @@ TEST(CalibRecovery, MisalignedRigWithinThreeSigma) {
   // RMS of 2-D residuals with sigma per axis: sqrt(2) sigma, less the fitted parameters' share.
   EXPECT_NEAR(result.rms_px, std::sqrt(2.0) * noise_px, 0.2 * std::sqrt(2.0) * noise_px);
   for (size_t i = 0; i < result.names.size(); ++i) {
-    const double t = TruthValue(truth, result.names[i]);
+    const double t = testing::TruthValue(truth, result.names[i]);
     EXPECT_LT(std::abs(result.values(i) - t), 3 * result.sigma(i))
         << result.names[i] << " = " << result.values(i) << " truth " << t << " sigma "
         << result.sigma(i);
@@ -92,7 +76,7 @@ TEST(CalibRecovery, DistortedRigNamesWhatItCannotDetermine) {
   EXPECT_FALSE(result.unobservable.empty());
   for (const auto& u : result.unobservable) EXPECT_FALSE(u.hint.empty()) << u.name;
   for (size_t i = 0; i < result.names.size(); ++i) {
-    const double t = TruthValue(truth, result.names[i]);
+    const double t = testing::TruthValue(truth, result.names[i]);
     EXPECT_LT(std::abs(result.values(i) - t), 3 * result.sigma(i)) << result.names[i];
   }
 }

@@ -5,12 +5,14 @@
 #pragma once
 
 #include <algorithm>
+#include <cmath>
 #include <map>
 #include <tuple>
 #include <random>
 #include <string>
 #include <vector>
 
+#include "calib/calibrate.h"
 #include "calib/synthetic/scene.h"
 #include "calib/synthetic/scene_file.h"
 #include "model/io/detections_file.h"
@@ -29,6 +31,23 @@ inline RigParams MisalignedRig() {
 }
 inline RigParams IdealRig() {
   return io::ReadModelFile(std::string(OMNI_SOURCE_DIR) + "/sample_configs/big_rig_ideal.yaml");
+}
+
+// The value in `rig` of the calibration parameter `name` (calib::BlockParameterNames); NaN if
+// there is none, which fails any comparison with it.
+inline double TruthValue(const RigParams& rig, const std::string& name) {
+  const char* groups[] = {"camera", "distortion", "mirror1_shape", "mirror2_shape",
+                          "mirror1_pose", "mirror2_pose", "reflex"};
+  const double* blocks[] = {rig.camera.data(), rig.distortion.data(), rig.mirror1_shape.data(),
+                            rig.mirror2_shape.data(), rig.mirror1_pose.data(),
+                            rig.mirror2_pose.data(), rig.reflex.data()};
+  for (int g = 0; g < 7; ++g) {
+    const auto& names = calib::BlockParameterNames(groups[g]);
+    for (size_t k = 0; k < names.size(); ++k) {
+      if (names[k] == name) return blocks[g][k];
+    }
+  }
+  return NAN;
 }
 
 struct SyntheticSession {
