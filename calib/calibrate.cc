@@ -860,24 +860,47 @@ void Calibrator::Covariance(CalibrationResult* result) {
   const int n_obs = BuildProblem(&problem, estimate_, nullptr, &corner_blocks, &prior_blocks);
 
   // Columns: the refined rig blocks (tangent coordinates) in RigGroups() order, then the poses.
+  // Held coordinates with a considered sigma are freed in this problem so that their columns are
+  // evaluated; `column_of` then moves them after the refined ones (ComputeRigCovariance's order).
   ceres::Problem::EvaluateOptions eo;
   std::vector<std::string> names;
+  std::vector<int> refined_cols, considered_cols;  // Ceres' column of each, in order
+  std::vector<double> considered_sigma;
+  int col = 0;
   for (const auto& g : RigGroups()) {
     double* block = GroupBlock(&rig_, g);
     if (!estimate_.count(g) || !problem.HasParameterBlock(block)) continue;
     eo.parameter_blocks.push_back(block);
     const auto& all = BlockParameterNames(g);
+    const std::vector<int> held_coords = HeldCoordinates(g);
+    std::vector<int> still_held;
     for (size_t k = 0; k < all.size(); ++k) {
-      const std::vector<int> held_coords = HeldCoordinates(g);
       const bool held = std::count(held_coords.begin(), held_coords.end(), static_cast<int>(k));
+      const auto consider = options_.considered_sigma.find(all[k]);
       if (!held) {
         names.push_back(all[k]);
         result->values.conservativeResize(names.size());
         result->values(names.size() - 1) = block[k];
+        refined_cols.push_back(col++);
+      } else if (consider != options_.considered_sigma.end() && consider->second > 0) {
+        result->considered.push_back({all[k], block[k], consider->second});
+        considered_sigma.push_back(consider->second);
+        considered_cols.push_back(col++);
+      } else {
+        still_held.push_back(static_cast<int>(k));
       }
+    }
+    if (still_held.size() != held_coords.size()) {
+      problem.SetManifold(block, still_held.empty() ? nullptr
+                                                    : new ceres::SubsetManifold(
+                                                          static_cast<int>(all.size()), still_held));
     }
   }
   const int n_rig = static_cast<int>(names.size());
+  const int n_considered = static_cast<int>(considered_cols.size());
+  std::vector<int> column_of(col);
+  for (int i = 0; i < n_rig; ++i) column_of[refined_cols[i]] = i;
+  for (int i = 0; i < n_considered; ++i) column_of[considered_cols[i]] = n_rig + i;
   int n_poses = 0;
   for (auto& p : placements_) {
     if (problem.HasParameterBlock(p.cam_from_target.data())) {
@@ -929,7 +952,8 @@ void Calibrator::Covariance(CalibrationResult* result) {
   std::vector<Eigen::Triplet<double>> triplets;
   for (int r = 0; r < crs.num_rows; ++r) {
     for (int k = crs.rows[r]; k < crs.rows[r + 1]; ++k) {
-      triplets.emplace_back(r, crs.cols[k], row_weight[r] * crs.values[k]);
+      const int c = crs.cols[k] < col ? column_of[crs.cols[k]] : crs.cols[k];
+      triplets.emplace_back(r, c, row_weight[r] * crs.values[k]);
     }
   }
   Eigen::SparseMatrix<double, Eigen::RowMajor> jacobian(crs.num_rows, crs.num_cols);
@@ -938,6 +962,7 @@ void Calibrator::Covariance(CalibrationResult* result) {
   RigCovarianceOptions co;
   co.variance_factor = 1.0;  // the weights are the groups' estimated variances
   co.nuisance_sizes = nuisance_sizes;
+  co.considered_sigma = considered_sigma;
   for (const auto& name : names) co.nearly_unobservable_sigma.push_back(NearlyUnobservableSigma(name));
   const RigCovariance cov = ComputeRigCovariance(jacobian, n_rig, co);
   const Eigen::VectorXd all_values = result->values;
@@ -953,6 +978,7 @@ void Calibrator::Covariance(CalibrationResult* result) {
   for (int i : cov.unobservable) result->unobservable.push_back({names[i], HintFor(names[i])});
   result->covariance = cov.covariance;
   result->sigma = cov.covariance.diagonal().cwiseMax(0.0).cwiseSqrt();
+  result->noise_sigma = cov.noise_covariance.diagonal().cwiseMax(0.0).cwiseSqrt();
   const int m = static_cast<int>(result->sigma.size());
   result->correlation = Eigen::MatrixXd::Identity(m, m);
   for (int i = 0; i < m; ++i) {
@@ -1114,6 +1140,7 @@ CalibrationOptions OptionsFromSession(const io::Session& session) {
   options.priors = session.priors;
   options.solver = session.solver;
   options.use_lips = session.use_lips;
+  if (session.consider) options.considered_sigma = *session.consider;
   return options;
 }
 
@@ -1162,8 +1189,12 @@ double TruthOf(const RigParams& rig, const std::string& name) {
 std::string ResultTable(const CalibrationResult& result, const RigParams* truth) {
   std::ostringstream out;
   char line[256];
+  // With considered parameters, `sigma` includes their share and `noise` is the pixel noise's.
+  const bool with_noise = !result.considered.empty() &&
+                          result.noise_sigma.size() == static_cast<long>(result.names.size());
   std::snprintf(line, sizeof(line), "%-12s %14s %12s %-4s", "parameter", "value", "sigma", "unit");
   out << line;
+  if (with_noise) out << "        noise";
   if (truth) out << "         truth   (value-truth)/sigma";
   out << "\n";
   for (size_t i = 0; i < result.names.size(); ++i) {
@@ -1173,12 +1204,22 @@ std::string ResultTable(const CalibrationResult& result, const RigParams* truth)
     std::snprintf(line, sizeof(line), "%-12s %14.6f %12.6f %-4s", result.names[i].c_str(), value,
                   sigma, unit);
     out << line;
+    if (with_noise) {
+      std::snprintf(line, sizeof(line), " %12.6f", Display(result.names[i], result.noise_sigma(i), &unit));
+      out << line;
+    }
     if (truth) {
       const double t = Display(result.names[i], TruthOf(*truth, result.names[i]), &unit);
       std::snprintf(line, sizeof(line), " %14.6f %8.2f", t, sigma > 0 ? (value - t) / sigma : 0.0);
       out << line;
     }
     out << "\n";
+  }
+  for (const auto& c : result.considered) {
+    std::snprintf(line, sizeof(line),
+                  "%s: held at %.6g; its uncertainty (sigma %.3g) is carried into the sigmas\n",
+                  c.name.c_str(), c.value, c.sigma);
+    out << line;
   }
   for (const auto& u : result.unobservable) {
     out << u.name << ": not determined by this session (unobservable); needs " << u.hint << "\n";

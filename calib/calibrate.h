@@ -53,6 +53,12 @@ struct CalibrationOptions {
   // dist_p1, dist_p2: held by default: over the rings' radii tangential distortion is nearly the
   // image of a rotation of the camera against the mirror bodies (sigma(cx) grew 5x with them free).
   bool refine_tangential = false;
+  // Considered parameters: held coordinates of refined groups (dist_p1, dist_p2, dist_k3, skew)
+  // that are not known exactly; the sigma given here for their held value is carried into the
+  // covariance (calib/covariance.h). Default: the tangential distortion, 5e-4 each (a decent lens
+  // has |p| of a few 1e-4; 3e-4 turns the calibrated camera frame by ~0.09 deg and moves the
+  // tilts along the camera-rotation valley by several noise sigmas).
+  std::map<std::string, double> considered_sigma = {{"dist_p1", 5e-4}, {"dist_p2", 5e-4}};
   // Degeneracy checks on the target placements (horizontal range and azimuth of each target's
   // centre about the camera axis).
   double min_range_ratio = 1.6;         // max range / min range must reach this (the initial
@@ -105,6 +111,14 @@ struct CalibrationResult {
   std::vector<std::string> names;
   Eigen::VectorXd values, sigma;  // internal units: px, unitless, rad, mm
   Eigen::MatrixXd covariance, correlation;
+  // The sigmas from the pixel noise alone (without the considered parameters' share).
+  Eigen::VectorXd noise_sigma;
+  // The held parameters whose uncertainty is in `covariance`: name, held value, assumed sigma.
+  struct Considered {
+    std::string name;
+    double value = 0, sigma = 0;
+  };
+  std::vector<Considered> considered;
   std::vector<UnobservableParameter> unobservable;  // named, never given a number
   // Every refined parameter (observable or not) and the eigen-decomposition of the
   // Jacobi-scaled (unit-diagonal) Schur complement over them, eigenvalues ascending: the

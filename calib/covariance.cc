@@ -58,7 +58,10 @@ Eigen::MatrixXd RigSchurComplement(const Eigen::SparseMatrix<double, Eigen::RowM
 
 RigCovariance ComputeRigCovariance(const Eigen::SparseMatrix<double, Eigen::RowMajor>& jacobian,
                                    int n_rig, const RigCovarianceOptions& options) {
-  const Eigen::MatrixXd schur = RigSchurComplement(jacobian, n_rig, options.nuisance_sizes);
+  const int n_considered = static_cast<int>(options.considered_sigma.size());
+  const Eigen::MatrixXd schur_all =
+      RigSchurComplement(jacobian, n_rig + n_considered, options.nuisance_sizes);
+  const Eigen::MatrixXd schur = schur_all.topLeftCorner(n_rig, n_rig);
   RigCovariance out;
   std::vector<bool> named(n_rig, false);
 
@@ -105,16 +108,30 @@ RigCovariance ComputeRigCovariance(const Eigen::SparseMatrix<double, Eigen::RowM
                                        cov_scaled(a, b) * scale(measured[b]);
     }
   }
+  // The considered parameters' share: full / variance_factor is S_xx^-1 (on the measured
+  // subspace), so the estimate's sensitivity to them is -full / variance_factor * S_xc.
+  Eigen::MatrixXd considered_share = Eigen::MatrixXd::Zero(n_rig, n_rig);
+  if (n_considered > 0 && options.variance_factor > 0) {
+    const Eigen::MatrixXd sensitivity =
+        (full / options.variance_factor) * schur_all.topRightCorner(n_rig, n_considered);
+    const Eigen::VectorXd var_c =
+        Eigen::Map<const Eigen::VectorXd>(options.considered_sigma.data(), n_considered)
+            .array()
+            .square();
+    considered_share = sensitivity * var_c.asDiagonal() * sensitivity.transpose();
+  }
   // Nearly unobservable: a sigma beyond the parameter's bound says nothing, so it is named.
   for (int i = 0; i < n_rig; ++i) {
     if (named[i] || i >= static_cast<int>(options.nearly_unobservable_sigma.size())) continue;
     const double bound = options.nearly_unobservable_sigma[i];
-    if (bound > 0 && !(std::sqrt(std::max(full(i, i), 0.0)) <= bound)) named[i] = true;
+    const double total = full(i, i) + considered_share(i, i);
+    if (bound > 0 && !(std::sqrt(std::max(total, 0.0)) <= bound)) named[i] = true;
   }
   for (int i = 0; i < n_rig; ++i) {
     if (!named[i]) out.observable.push_back(i);
   }
-  out.covariance = Restrict(full, out.observable);
+  out.noise_covariance = Restrict(full, out.observable);
+  out.covariance = Restrict(full + considered_share, out.observable);
   for (int i = 0; i < n_rig; ++i) {
     if (named[i]) out.unobservable.push_back(i);
   }

@@ -12,6 +12,13 @@
 // parameters are NOT held fixed, so they widen the sigma of the parameters they trade with); a
 // parameter whose sigma exceeds its `nearly_unobservable_sigma` bound is named too and left out
 // of the reported covariance.
+//
+// Considered parameters (the "consider covariance" of orbit determination): coordinates held at
+// their starting value although they are not known exactly, e.g. the tangential distortion,
+// held because over the rings' radii it is nearly the image of a rotation of the camera against
+// the mirror bodies (freeing it lets the solve wander along that valley). A held value off by dc
+// moves the estimate by dx = -S_xx^-1 S_xc dc, so with dc ~ N(0, Sigma_c) the covariance gains
+// S_xx^-1 S_xc Sigma_c S_cx S_xx^-1: the sigmas stay honest about what was assumed.
 #pragma once
 
 #include <vector>
@@ -29,18 +36,24 @@ struct RigCovarianceOptions {
   // Column count of each nuisance block after the rig columns (target poses: 6, lip edge point
   // azimuths: 1); empty: all target poses.
   std::vector<int> nuisance_sizes;
+  // Sigma of each considered column; the Jacobian has them right after the n_rig refined
+  // columns (before the nuisance blocks). Empty: none.
+  std::vector<double> considered_sigma;
 };
 
 struct RigCovariance {
   std::vector<int> observable;    // rig parameter indices with a covariance, ascending
   std::vector<int> unobservable;  // named instead (exact null space or sigma above its bound)
-  Eigen::MatrixXd covariance;     // over `observable`, scaled by the variance factor
+  Eigen::MatrixXd covariance;     // over `observable`, scaled by the variance factor, plus the
+                                  // considered parameters' share
+  Eigen::MatrixXd noise_covariance;  // the same without the considered parameters' share
   Eigen::VectorXd eigenvalues;    // of the Jacobi-scaled Schur complement, ascending
   Eigen::MatrixXd eigenvectors;   // columns, same order (in the scaled coordinates)
 };
 
-// `jacobian`: residuals x (n_rig + 6 * n_poses), rig columns first, then one 6-column block per
-// target pose; residuals whitened (unit-variance noise per residual up to s^2).
+// `jacobian`: residuals x (n_rig + n_considered + 6 * n_poses), rig columns first, then the
+// considered columns, then one 6-column block per target pose (or options.nuisance_sizes);
+// residuals whitened (unit-variance noise per residual up to s^2).
 RigCovariance ComputeRigCovariance(const Eigen::SparseMatrix<double, Eigen::RowMajor>& jacobian,
                                    int n_rig, const RigCovarianceOptions& options);
 

@@ -173,6 +173,21 @@ Session ReadSessionFile(const std::string& path) {
       session.priors[name] = prior;
     }
   }
+  if (root["consider"].IsDefined()) {
+    const YAML::Node consider = root["consider"];
+    if (!IsMap(consider)) in.Fail("consider", "expected a map {dist_p1: sigma, ...}", Describe(consider));
+    session.consider.emplace();
+    for (const auto& item : consider) {
+      const std::string name = item.first.as<std::string>();
+      const std::string key = "consider." + name;
+      if (name != "dist_p1" && name != "dist_p2" && name != "dist_k3" && name != "skew") {
+        in.Fail(key, "expected dist_p1, dist_p2, dist_k3 or skew", "'" + name + "'");
+      }
+      const double sigma = in.Number(item.second, key);
+      if (!(sigma >= 0)) in.Fail(key, "expected a sigma >= 0", Describe(item.second));
+      (*session.consider)[name] = sigma;
+    }
+  }
   if (root["solver"].IsDefined()) ReadSolver(in, root["solver"], &session.solver);
   return session;
 }
@@ -201,6 +216,15 @@ std::string SessionText(const Session& session, const std::string& base_dir) {
     out << (i ? ", " : "") << session.estimate[i];
   }
   out << "]\n";
+  if (session.consider) {
+    out << "consider: {";
+    const char* sep = "";
+    for (const auto& [name, sigma] : *session.consider) {
+      out << sep << name << ": " << FormatDouble(sigma);
+      sep = ", ";
+    }
+    out << "}\n";
+  }
   if (!session.priors.empty()) {
     out << "priors:\n";
     for (const auto& [name, p] : session.priors) {

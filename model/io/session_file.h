@@ -11,10 +11,13 @@
 //   lips: true                        # optional (default true): detect and use the lips
 //   estimate: [camera, distortion, mirror1_pose, mirror2_pose, reflex]   # parameter groups
 //   priors: {mirror1_shape: {sigma_c: 0.05, sigma_k: 0.01}, mirror2_shape: {...}}  # optional
+//   consider: {dist_p1: 5.0e-4, dist_p2: 5.0e-4}   # optional: held parameters' sigma, carried
+//                                                  # into the covariance ({} for none)
 //   solver: {max_iterations: 100, loss: huber, loss_scale_px: 1.0, outlier_px: 3.0, threads: 2}
 #pragma once
 
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -44,6 +47,9 @@ struct Session {
   std::vector<std::string> estimate; // groups: camera, distortion, mirror1_pose, mirror2_pose,
                                      // reflex, mirror1_shape, mirror2_shape
   std::map<std::string, ShapePrior> priors;  // key: mirror1_shape | mirror2_shape
+  // Held parameters (dist_p1, dist_p2, dist_k3, skew) whose uncertainty the covariance carries
+  // (calib::CalibrationOptions::considered_sigma); absent: the calibration's default.
+  std::optional<std::map<std::string, double>> consider;
   SolverOptions solver;
 };
 

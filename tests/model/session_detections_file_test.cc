@@ -56,6 +56,7 @@ targets:
   - {type: kalibr_aprilgrid, rows: 2, cols: 3, tag_size: 45.0, spacing: 0.25, first_id: 30}
 estimate: [camera, mirror1_pose]
 priors: {mirror1_shape: {sigma_c: 0.05, sigma_k: 0.01}}
+consider: {dist_p1: 0.0004, dist_p2: 0}
 solver: {max_iterations: 50, loss: cauchy, outlier_px: 2.5}
 )";
 
@@ -73,6 +74,10 @@ TEST_F(SessionFileTest, ReadsTheExampleAndExpandsGlobsSorted) {
   EXPECT_EQ(s.targets[2].first_id, 30);
   EXPECT_EQ(s.estimate, (std::vector<std::string>{"camera", "mirror1_pose"}));
   EXPECT_DOUBLE_EQ(s.priors.at("mirror1_shape").sigma_k, 0.01);
+  ASSERT_TRUE(s.consider.has_value());
+  EXPECT_EQ(s.consider->size(), 2u);
+  EXPECT_DOUBLE_EQ(s.consider->at("dist_p1"), 0.0004);
+  EXPECT_DOUBLE_EQ(s.consider->at("dist_p2"), 0.0);
   EXPECT_EQ(s.solver.loss, "cauchy");
   EXPECT_EQ(s.solver.max_iterations, 50);
   EXPECT_DOUBLE_EQ(s.solver.outlier_px, 2.5);
@@ -92,6 +97,7 @@ TEST_F(SessionFileTest, WrittenTextReadsBackTheSame) {
   }
   EXPECT_EQ(t.estimate, s.estimate);
   EXPECT_EQ(t.priors.size(), 1u);
+  EXPECT_EQ(t.consider, s.consider);
   EXPECT_EQ(t.solver.loss, "cauchy");
 }
 
@@ -113,6 +119,9 @@ TEST_F(SessionFileTest, MalformedInputNamesTheKey) {
       {"[camera, mirror1_pose]", "[camera, camera]", "estimate[1]"},
       {"sigma_k: 0.01", "sigma_k: 0", "priors.mirror1_shape.sigma_k"},
       {"loss: cauchy", "loss: l1", "solver.loss"},
+      {"dist_p2: 0}", "dist_p2: -1e-4}", "consider.dist_p2"},
+      {"dist_p2: 0}", "dist_k1: 1e-4}", "consider.dist_k1"},
+      {"{dist_p1: 0.0004, dist_p2: 0}", "[dist_p1]", "consider"},
   };
   for (const Case& c : cases) {
     std::string text = kGood;

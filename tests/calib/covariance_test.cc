@@ -1,0 +1,90 @@
+// ComputeRigCovariance against dense brute force on a random linear least-squares problem with
+// the calibration's structure (rig columns, considered columns, one 6-column block per pose):
+//  - the noise covariance is the rig block of the inverse of the full normal matrix;
+//  - the considered share is what re-solving the whole problem (rig + poses, considered held)
+//    for a unit error in each considered value says: dx = sensitivity * dc.
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include <Eigen/Dense>
+#include <Eigen/SparseCore>
+
+#include "calib/covariance.h"
+
+namespace omni::calib {
+namespace {
+
+struct ArrowProblem {
+  int n_rig = 4, n_considered = 2, n_poses = 3, rows_per_pose = 40;
+  Eigen::MatrixXd dense;  // rows x (n_rig + n_considered + 6 n_poses)
+};
+
+ArrowProblem MakeProblem(unsigned seed) {
+  ArrowProblem p;
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> g(0.0, 1.0);
+  const int cols = p.n_rig + p.n_considered + 6 * p.n_poses;
+  p.dense = Eigen::MatrixXd::Zero(p.n_poses * p.rows_per_pose, cols);
+  for (int k = 0; k < p.n_poses; ++k) {
+    for (int r = 0; r < p.rows_per_pose; ++r) {
+      const int row = k * p.rows_per_pose + r;
+      for (int c = 0; c < p.n_rig + p.n_considered; ++c) p.dense(row, c) = g(rng);
+      // A considered column that trades with rig column 0 (like the tangential distortion with
+      // the camera-rotation valley).
+      p.dense(row, p.n_rig) += 0.8 * p.dense(row, 0);
+      for (int c = 0; c < 6; ++c) p.dense(row, p.n_rig + p.n_considered + 6 * k + c) = g(rng);
+    }
+  }
+  return p;
+}
+
+Eigen::SparseMatrix<double, Eigen::RowMajor> Sparse(const Eigen::MatrixXd& m) {
+  return m.sparseView();
+}
+
+TEST(RigCovariance, NoiseAndConsideredShareMatchDenseBruteForce) {
+  const ArrowProblem p = MakeProblem(5);
+  RigCovarianceOptions options;
+  options.variance_factor = 0.7;
+  options.considered_sigma = {0.3, 0.05};
+  const RigCovariance cov = ComputeRigCovariance(Sparse(p.dense), p.n_rig, options);
+  ASSERT_EQ(cov.observable.size(), static_cast<size_t>(p.n_rig));
+
+  // Estimated columns: rig + poses (the considered ones are held).
+  std::vector<int> estimated;
+  for (int c = 0; c < p.n_rig; ++c) estimated.push_back(c);
+  for (int c = p.n_rig + p.n_considered; c < p.dense.cols(); ++c) estimated.push_back(c);
+  Eigen::MatrixXd j_est(p.dense.rows(), estimated.size());
+  for (size_t i = 0; i < estimated.size(); ++i) j_est.col(i) = p.dense.col(estimated[i]);
+  const Eigen::MatrixXd normal_inverse = (j_est.transpose() * j_est).inverse();
+  const Eigen::MatrixXd noise = options.variance_factor * normal_inverse.topLeftCorner(p.n_rig, p.n_rig);
+  EXPECT_LT((cov.noise_covariance - noise).norm(), 1e-9 * noise.norm());
+
+  // A held value off by dc adds J_c dc to the data; the re-solved rig parameters move by dx.
+  Eigen::MatrixXd sensitivity(p.n_rig, p.n_considered);
+  for (int c = 0; c < p.n_considered; ++c) {
+    const Eigen::VectorXd shift = p.dense.col(p.n_rig + c);
+    const Eigen::VectorXd dx = j_est.colPivHouseholderQr().solve(shift);
+    sensitivity.col(c) = dx.head(p.n_rig);
+  }
+  Eigen::Vector2d var(0.3 * 0.3, 0.05 * 0.05);
+  const Eigen::MatrixXd share = sensitivity * var.asDiagonal() * sensitivity.transpose();
+  EXPECT_GT(share(0, 0), 0.1 * noise(0, 0));  // the test means something: the share is sizable
+  EXPECT_LT((cov.covariance - noise - share).norm(), 1e-9 * (noise + share).norm());
+}
+
+TEST(RigCovariance, NoConsideredColumnsGivesTheNoiseCovariance) {
+  ArrowProblem p = MakeProblem(9);
+  // Drop the considered columns: the layout is then rig + poses only.
+  Eigen::MatrixXd j(p.dense.rows(), p.dense.cols() - p.n_considered);
+  j << p.dense.leftCols(p.n_rig), p.dense.rightCols(6 * p.n_poses);
+  const RigCovariance cov = ComputeRigCovariance(Sparse(j), p.n_rig, RigCovarianceOptions{});
+  EXPECT_EQ((cov.covariance - cov.noise_covariance).norm(), 0.0);
+  const Eigen::MatrixXd normal_inverse = (j.transpose() * j).inverse();
+  EXPECT_LT((cov.covariance - normal_inverse.topLeftCorner(p.n_rig, p.n_rig)).norm(),
+            1e-9 * cov.covariance.norm());
+}
+
+}  // namespace
+}  // namespace omni::calib
