@@ -108,6 +108,11 @@ int main(int argc, char** argv) {
         continue;
       }
       bin.errors.push_back(best);
+      if (best > 0.5) {  // right id but far off: named, like wrong ids, to find the cause
+        std::fprintf(stderr, "%s: off: target %d id %d mirror %d at (%.1f, %.1f): %.2f px from "
+                     "truth\n", image.name.c_str(), o.target, o.id, o.mirror, o.pixel.x(),
+                     o.pixel.y(), best);
+      }
       by_kind[{static_cast<int>(scene.targets[o.target].type), o.mirror}].errors.push_back(best);
       truth_found[2 * best_i + o.mirror - 1] = true;
     }

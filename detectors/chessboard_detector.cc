@@ -9,130 +9,18 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "detectors/saddle_points.h"
+
 namespace omni::detectors {
 namespace {
 
-struct Region {
-  cv::Rect rect;      // in view pixels, inside the view
-  cv::Rect full;      // the same before clipping to the view
-  int saddles = 0;
-  double spacing = 0; // median nearest-neighbour distance of its saddle points (~ square side)
-  std::vector<cv::Point2f> points;  // its saddle points
-};
-
-// Saddle points of the view: local maxima of Ixy^2 - Ixx Iyy (positive where the Hessian is
-// indefinite, i.e. at X-junctions) above the strength of a saddle of `min_contrast` grey levels.
-std::vector<cv::Point2f> SaddlePoints(const RingView& view, const ChessboardOptions& options) {
-  cv::Mat f, ixx, iyy, ixy;
-  view.image.convertTo(f, CV_32F);
-  cv::GaussianBlur(f, f, cv::Size(0, 0), options.saddle_sigma);
-  cv::Sobel(f, ixx, CV_32F, 2, 0, 3);
-  cv::Sobel(f, iyy, CV_32F, 0, 2, 3);
-  cv::Sobel(f, ixy, CV_32F, 1, 1, 3);
-  // -det(H), kept only where the saddle is balanced (|trace| small against sqrt(-det)): an
-  // X-junction's Hessian is [[a, b], [b, -a]]; blobs and edges of texture are not.
-  cv::Mat response = ixy.mul(ixy) - ixx.mul(iyy);
-  cv::Mat trace = ixx + iyy;
-  cv::Mat unbalanced = trace.mul(trace) > options.saddle_balance * options.saddle_balance * response;
-  response.setTo(0, unbalanced);
-  // Not next to the view's invalid area (its edge is a strong false feature).
-  cv::Mat valid = view.map_x >= 0, valid_inner;
-  cv::erode(valid, valid_inner, cv::Mat(), cv::Point(-1, -1), 3);
-  response.setTo(0, ~valid_inner);
-  cv::Mat dilated;
-  cv::dilate(response, dilated, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(5, 5)));
-  // An ideal saddle of contrast C blurred by sigma has Ixy = C / (pi sigma^2); the 3x3 Sobel
-  // second derivatives carry a gain of 4 each. Render blur adds about 0.7 px in quadrature.
-  const double s2 = options.saddle_sigma * options.saddle_sigma + 0.5;
-  const double ixy_min = 4.0 * options.saddle_min_contrast / (M_PI * s2);
-  const float threshold = static_cast<float>(ixy_min * ixy_min);
-  std::vector<cv::Point2f> points;
-  for (int y = 0; y < response.rows; ++y) {
-    const float* r = response.ptr<float>(y);
-    const float* d = dilated.ptr<float>(y);
-    for (int x = 0; x < response.cols; ++x) {
-      if (r[x] > threshold && r[x] >= d[x]) points.emplace_back(x, y);
-    }
-  }
-  return points;
-}
-
-int Find(std::vector<int>& parent, int i) {
-  while (parent[i] != i) i = parent[i] = parent[parent[i]];
-  return i;
-}
-
-// Groups saddle points into candidate board regions: a point links to another closer than 1.25
-// times the smaller of their 4th-nearest-neighbour distances (a grid corner's 4th neighbour is at
-// most 2 squares away; neighbouring boards are at least 3 squares apart with their margins).
-std::vector<Region> Regions(const std::vector<cv::Point2f>& points, const cv::Size& size,
-                            const ChessboardOptions& options) {
-  const int n = static_cast<int>(points.size());
-  // Buckets of kCell pixels; neighbours are searched within kReach buckets.
-  constexpr int kCell = 16, kReach = 3;
-  const int bw = size.width / kCell + 1, bh = size.height / kCell + 1;
-  std::vector<std::vector<int>> buckets(bw * bh);
-  for (int i = 0; i < n; ++i) {
-    buckets[static_cast<int>(points[i].y) / kCell * bw + static_cast<int>(points[i].x) / kCell].push_back(i);
-  }
-  auto for_neighbours = [&](int i, auto&& fn) {
-    const int bx = static_cast<int>(points[i].x) / kCell, by = static_cast<int>(points[i].y) / kCell;
-    for (int y = std::max(0, by - kReach); y <= std::min(bh - 1, by + kReach); ++y) {
-      for (int x = std::max(0, bx - kReach); x <= std::min(bw - 1, bx + kReach); ++x) {
-        for (int j : buckets[y * bw + x]) {
-          if (j != i) fn(j, std::hypot(points[i].x - points[j].x, points[i].y - points[j].y));
-        }
-      }
-    }
-  };
-  std::vector<double> nn4(n), nn1(n);
-  for (int i = 0; i < n; ++i) {
-    std::array<double, 4> b;
-    b.fill(kCell * kReach);
-    for_neighbours(i, [&](int, double d) {
-      if (d < b[3]) {
-        b[3] = d;
-        std::sort(b.begin(), b.end());
-      }
-    });
-    nn4[i] = b[3];
-    nn1[i] = b[0];
-  }
-  std::vector<int> parent(n);
-  std::iota(parent.begin(), parent.end(), 0);
-  for (int i = 0; i < n; ++i) {
-    for_neighbours(i, [&](int j, double d) {
-      if (d <= 1.25 * std::min(nn4[i], nn4[j])) parent[Find(parent, i)] = Find(parent, j);
-    });
-  }
-  std::vector<std::vector<int>> members(n);
-  for (int i = 0; i < n; ++i) members[Find(parent, i)].push_back(i);
-  std::vector<Region> regions;
-  for (const auto& m : members) {
-    if (static_cast<int>(m.size()) < options.min_saddles) continue;
-    std::vector<double> spacing;
-    float x0 = 1e9f, y0 = 1e9f, x1 = -1e9f, y1 = -1e9f;
-    for (int i : m) {
-      spacing.push_back(nn1[i]);
-      x0 = std::min(x0, points[i].x);
-      y0 = std::min(y0, points[i].y);
-      x1 = std::max(x1, points[i].x);
-      y1 = std::max(y1, points[i].y);
-    }
-    std::nth_element(spacing.begin(), spacing.begin() + spacing.size() / 2, spacing.end());
-    Region r;
-    r.saddles = static_cast<int>(m.size());
-    for (int i : m) r.points.push_back(points[i]);
-    r.spacing = spacing[spacing.size() / 2];
-    // The outer squares and a quiet zone lie about 1.5 squares beyond the inner corners; the
-    // corner finder needs some background beyond them too.
-    const int margin = static_cast<int>(std::ceil(2.5 * r.spacing + 8));
-    r.full = cv::Rect(cv::Point(static_cast<int>(x0) - margin, static_cast<int>(y0) - margin),
-                      cv::Point(static_cast<int>(x1) + margin + 1, static_cast<int>(y1) + margin + 1));
-    r.rect = r.full & cv::Rect(0, 0, size.width, size.height);
-    regions.push_back(r);
-  }
-  return regions;
+SaddleOptions Saddles(const ChessboardOptions& o) {
+  SaddleOptions s;
+  s.sigma = o.saddle_sigma;
+  s.min_contrast = o.saddle_min_contrast;
+  s.balance = o.saddle_balance;
+  s.min_saddles = o.min_saddles;
+  return s;
 }
 
 // The lattice extent of the board around the most central of a region's X-junctions `p`: they
@@ -649,7 +537,7 @@ std::vector<BoardDetection> DetectChessboardBoards(const cv::Mat& raw_grey,
 
   for (size_t vi = 0; vi < views.size(); ++vi) {
     const RingView& view = views[vi];
-    for (const Region& region : Regions(SaddlePoints(view, options), view.image.size(), options)) {
+    for (const Region& region : Regions(SaddlePoints(view, Saddles(options)), view.image.size(), Saddles(options))) {
       if (BetterInNeighbour(view, region.rect, views.size() / 2)) continue;
       for (BoardDetection& board : SearchRegion(raw_grey, view, model, targets, patterns, region,
                                                         views.size() / 2, options)) {
