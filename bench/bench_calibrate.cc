@@ -3,12 +3,15 @@
 // Benchmark loop (one solve is seconds): the misaligned big rig's exact corners from
 // calib/synthetic's fast path plus 0.1 px noise, lips as the detector reports them, the ideal
 // design as the start, the session's default solver options (2 threads).
-//   bench_calibrate [images=20] [targets_per_image=4]
+//   bench_calibrate [images=20] [targets_per_image=4] [values_out.txt]
+// values_out.txt (optional): one line per refined parameter "name value sigma" (internal units),
+// to compare two builds' answers (a speed change must not move them by more than ~0.1 sigma).
 #include <sys/resource.h>
 
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <fstream>
 #include <ctime>
 #include <string>
 
@@ -57,5 +60,14 @@ int main(int argc, char** argv) {
               result.converged ? "converged" : "NOT converged", result.rms_px,
               result.n_observations);
   std::printf("peak memory (whole process, max RSS): %.1f MB\n", usage.ru_maxrss / 1024.0);
+  const RigParams truth = testing::MisalignedRig();
+  std::printf("%s", calib::ResultTable(result, &truth).c_str());
+  if (argc > 3) {
+    std::ofstream out(argv[3]);
+    out.precision(17);
+    for (size_t i = 0; i < result.names.size(); ++i) {
+      out << result.names[i] << " " << result.values(i) << " " << result.sigma(i) << "\n";
+    }
+  }
   return 0;
 }

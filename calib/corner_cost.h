@@ -7,11 +7,13 @@
 // and regular for every rotation angle below pi.
 #pragma once
 
-#include <ceres/autodiff_cost_function.h>
 #include <ceres/rotation.h>
+
+#include <cstdint>
 
 #include <Eigen/Core>
 
+#include "calib/slot_autodiff.h"
 #include "model/rig_model.h"
 
 namespace omni::calib {
@@ -26,7 +28,9 @@ Vec3<T> CornerInCam(const T* cam_from_target, const Eigen::Vector3d& corner_in_t
 }
 
 // Outer ring: blocks camera, distortion, mirror1_shape, mirror1_pose, reflex, cam_from_target.
-// The reflex block only decides validity on this path (the disc's occlusion).
+// The reflex block only decides validity on this path (the disc's occlusion): no derivative.
+// held_camera / held_distortion (optional): masks of the coordinates the solver holds, read at
+// each evaluation (calib/slot_autodiff.h).
 struct Mirror1CornerCost {
   Eigen::Vector2d observed;
   Eigen::Vector3d corner_in_target;
@@ -46,11 +50,15 @@ struct Mirror1CornerCost {
     return true;
   }
 
+  using CostFunction = SlotAutoDiffCostFunction<Mirror1CornerCost, 2, 5, 5, 2, 5, 3, 6>;
   static ceres::CostFunction* Create(const Eigen::Vector2d& observed,
                                      const Eigen::Vector3d& corner_in_target,
-                                     const RigFixed& fixed) {
-    return new ceres::AutoDiffCostFunction<Mirror1CornerCost, 2, 5, 5, 2, 5, 3, 6>(
-        new Mirror1CornerCost{observed, corner_in_target, fixed});
+                                     const RigFixed& fixed,
+                                     const uint32_t* held_camera = nullptr,
+                                     const uint32_t* held_distortion = nullptr) {
+    return new CostFunction(Mirror1CornerCost{observed, corner_in_target, fixed},
+                            {0, 0, 0, 0, 0b111, 0},
+                            {held_camera, held_distortion, nullptr, nullptr, nullptr, nullptr});
   }
 };
 
@@ -75,11 +83,15 @@ struct Mirror2CornerCost {
     return true;
   }
 
+  using CostFunction = SlotAutoDiffCostFunction<Mirror2CornerCost, 2, 5, 5, 5, 3, 2, 5, 6>;
   static ceres::CostFunction* Create(const Eigen::Vector2d& observed,
                                      const Eigen::Vector3d& corner_in_target,
-                                     const RigFixed& fixed) {
-    return new ceres::AutoDiffCostFunction<Mirror2CornerCost, 2, 5, 5, 5, 3, 2, 5, 6>(
-        new Mirror2CornerCost{observed, corner_in_target, fixed});
+                                     const RigFixed& fixed,
+                                     const uint32_t* held_camera = nullptr,
+                                     const uint32_t* held_distortion = nullptr) {
+    return new CostFunction(
+        Mirror2CornerCost{observed, corner_in_target, fixed}, {0, 0, 0, 0, 0, 0, 0},
+        {held_camera, held_distortion, nullptr, nullptr, nullptr, nullptr, nullptr});
   }
 };
 

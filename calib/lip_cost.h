@@ -11,16 +11,19 @@
 // focal length against distortion and the mirrors' heights (tz).
 #pragma once
 
-#include <ceres/autodiff_cost_function.h>
+#include <array>
+#include <cstdint>
 
 #include <Eigen/Core>
 
+#include "calib/slot_autodiff.h"
 #include "model/lip.h"
 
 namespace omni::calib {
 
 // Blocks: camera, distortion, mirror1_shape, mirror1_pose, reflex, mirror2_shape, mirror2_pose,
-// phi (1).
+// phi (1). Each path uses only some of them (NoDerivative); held_camera / held_distortion as in
+// corner_cost.h.
 struct LipPointCost {
   Eigen::Vector2d observed;
   LipPath path;
@@ -40,10 +43,32 @@ struct LipPointCost {
     return true;
   }
 
+  using CostFunction = SlotAutoDiffCostFunction<LipPointCost, 2, 5, 5, 2, 5, 3, 2, 5, 1>;
+
+  // The blocks a path's pixel does not depend on differentiably: unused ones, and the reflex
+  // plane where it only decides validity (direct: the disc's back; via_mirror1: its occlusion).
+  static std::array<uint32_t, 8> NoDerivative(LipPath path) {
+    constexpr uint32_t kAll = 0b11111;
+    switch (path) {
+      case LipPath::kDirect:  // camera, distortion, mirror1_pose (the lip's place)
+        return {0, 0, kAll, 0, kAll, kAll, kAll, 0};
+      case LipPath::kViaMirror1:  // + mirror1_shape
+        return {0, 0, 0, 0, kAll, kAll, kAll, 0};
+      case LipPath::kViaReflex:  // camera, distortion, mirror1_pose + reflex (the plane), mirror2_pose
+        return {0, 0, kAll, 0, 0, kAll, 0, 0};
+      case LipPath::kViaMirror2:
+        return {0, 0, kAll, 0, 0, 0, 0, 0};
+    }
+    return {};
+  }
+
   static ceres::CostFunction* Create(const Eigen::Vector2d& observed, LipPath path, double radius,
-                                     double lip_z, const RigFixed& fixed) {
-    return new ceres::AutoDiffCostFunction<LipPointCost, 2, 5, 5, 2, 5, 3, 2, 5, 1>(
-        new LipPointCost{observed, path, radius, lip_z, fixed});
+                                     double lip_z, const RigFixed& fixed,
+                                     const uint32_t* held_camera = nullptr,
+                                     const uint32_t* held_distortion = nullptr) {
+    return new CostFunction(
+        LipPointCost{observed, path, radius, lip_z, fixed}, NoDerivative(path),
+        {held_camera, held_distortion, nullptr, nullptr, nullptr, nullptr, nullptr, nullptr});
   }
 };
 

@@ -1,0 +1,194 @@
+// calib/slot_autodiff.h against the oracle ceres::AutoDiffCostFunction over the same functors
+// (corner costs through each mirror, lip costs along every path) on the misaligned big rig: the
+// same residuals and Jacobians, including the columns the slot version writes as zeros without
+// differentiating (blocks declared no-derivative, held coordinates, constant blocks).
+#include <ceres/autodiff_cost_function.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <memory>
+#include <vector>
+
+#include "calib/corner_cost.h"
+#include "calib/lip_cost.h"
+#include "model/lip.h"
+#include "model/rig_model.h"
+#include "tests/calib/calib_test_util.h"
+
+namespace omni::calib {
+namespace {
+
+// Evaluates `cost` with Jacobians for the blocks whose `want` is true (others nullptr).
+struct Evaluation {
+  bool ok = false;
+  std::vector<double> residuals;
+  std::vector<std::vector<double>> jacobians;  // empty where not asked
+};
+
+Evaluation Evaluate(const ceres::CostFunction& cost, const std::vector<double*>& blocks,
+                    const std::vector<bool>& want) {
+  Evaluation e;
+  const auto& sizes = cost.parameter_block_sizes();
+  e.residuals.assign(cost.num_residuals(), NAN);
+  e.jacobians.resize(sizes.size());
+  std::vector<double*> jac(sizes.size(), nullptr);
+  for (size_t i = 0; i < sizes.size(); ++i) {
+    if (!want[i]) continue;
+    e.jacobians[i].assign(cost.num_residuals() * sizes[i], NAN);
+    jac[i] = e.jacobians[i].data();
+  }
+  e.ok = cost.Evaluate(blocks.data(), e.residuals.data(), jac.data());
+  return e;
+}
+
+// Slot Jacobians equal the plain ones (held columns: zero) to rounding.
+void ExpectSame(const ceres::CostFunction& plain, const ceres::CostFunction& slot,
+                const std::vector<double*>& blocks, const std::vector<bool>& want,
+                const std::vector<uint32_t>& held, int* nonzero_columns_seen) {
+  const Evaluation p = Evaluate(plain, blocks, std::vector<bool>(blocks.size(), true));
+  const Evaluation s = Evaluate(slot, blocks, want);
+  ASSERT_TRUE(p.ok);
+  ASSERT_TRUE(s.ok);
+  for (size_t r = 0; r < p.residuals.size(); ++r) EXPECT_EQ(p.residuals[r], s.residuals[r]);
+  const auto& sizes = plain.parameter_block_sizes();
+  for (size_t i = 0; i < sizes.size(); ++i) {
+    if (!want[i]) continue;
+    for (int r = 0; r < plain.num_residuals(); ++r) {
+      for (int k = 0; k < sizes[i]; ++k) {
+        const double pv = p.jacobians[i][r * sizes[i] + k];
+        const double sv = s.jacobians[i][r * sizes[i] + k];
+        if (held[i] >> k & 1u) {
+          EXPECT_EQ(sv, 0.0) << "block " << i << " coordinate " << k;
+        } else {
+          EXPECT_NEAR(sv, pv, 1e-9 * (1 + std::abs(pv))) << "block " << i << " coordinate " << k;
+          *nonzero_columns_seen += pv != 0;
+        }
+      }
+    }
+  }
+}
+
+class SlotAutoDiffTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    rig_ = testing::MisalignedRig();
+    fixed_ = FixedOf(rig_);
+  }
+  RigParams rig_;
+  RigFixed fixed_;
+};
+
+TEST_F(SlotAutoDiffTest, CornerCostsMatchPlainAutoDiff) {
+  const RigModel model(rig_);
+  const Eigen::Vector3d corner_in_target(40, 80, 0);
+  const Eigen::Vector3d rotation(0.1, -0.2, 0.3);
+  int checked[2] = {0, 0};
+  for (double azimuth = 0; azimuth < 2 * M_PI; azimuth += 0.7) {
+    for (double height : {-300.0, 0.0, 300.0}) {
+      const Eigen::Vector3d point_in_cam(900 * std::cos(azimuth), 900 * std::sin(azimuth), height);
+      // The pose block that puts corner_in_target at point_in_cam.
+      double pose[6] = {rotation.x(), rotation.y(), rotation.z(), 0, 0, 0};
+      const Vec3<double> rotated = CornerInCam(pose, corner_in_target);
+      for (int k = 0; k < 3; ++k) pose[3 + k] = point_in_cam[k] - rotated[k];
+      for (Mirror mirror : {Mirror::kOne, Mirror::kTwo}) {
+        const auto pixel = model.Project(point_in_cam, mirror);
+        if (!pixel) continue;
+        const Eigen::Vector2d observed = *pixel + Eigen::Vector2d(0.3, -0.2);
+        uint32_t held_camera = 0b10000, held_distortion = 0b11100;  // skew; p1, p2, k3
+        std::unique_ptr<ceres::CostFunction> plain, slot;
+        std::vector<double*> blocks;
+        int n_nonzero = 0;
+        if (mirror == Mirror::kOne) {
+          plain.reset(new ceres::AutoDiffCostFunction<Mirror1CornerCost, 2, 5, 5, 2, 5, 3, 6>(
+              new Mirror1CornerCost{observed, corner_in_target, fixed_}));
+          slot.reset(Mirror1CornerCost::Create(observed, corner_in_target, fixed_, &held_camera,
+                                               &held_distortion));
+          blocks = {rig_.camera.data(), rig_.distortion.data(), rig_.mirror1_shape.data(),
+                    rig_.mirror1_pose.data(), rig_.reflex.data(), pose};
+          // Every block asked; then shapes constant and the camera/distortion held coordinates.
+          ExpectSame(*plain, *slot, blocks, std::vector<bool>(6, true),
+                     {0b10000, 0b11100, 0, 0, 0, 0}, &n_nonzero);
+          ExpectSame(*plain, *slot, blocks, {true, true, false, true, true, true},
+                     {0b10000, 0b11100, 0, 0, 0, 0}, &n_nonzero);
+        } else {
+          plain.reset(new ceres::AutoDiffCostFunction<Mirror2CornerCost, 2, 5, 5, 5, 3, 2, 5, 6>(
+              new Mirror2CornerCost{observed, corner_in_target, fixed_}));
+          slot.reset(Mirror2CornerCost::Create(observed, corner_in_target, fixed_, &held_camera,
+                                               &held_distortion));
+          blocks = {rig_.camera.data(),        rig_.distortion.data(), rig_.mirror1_pose.data(),
+                    rig_.reflex.data(),        rig_.mirror2_shape.data(),
+                    rig_.mirror2_pose.data(), pose};
+          ExpectSame(*plain, *slot, blocks, std::vector<bool>(7, true),
+                     {0b10000, 0b11100, 0, 0, 0, 0, 0}, &n_nonzero);
+          ExpectSame(*plain, *slot, blocks, {true, true, true, true, false, true, true},
+                     {0b10000, 0b11100, 0, 0, 0, 0, 0}, &n_nonzero);
+        }
+        // The held masks are read at evaluation time.
+        held_camera = held_distortion = 0;
+        ExpectSame(*plain, *slot, blocks, std::vector<bool>(blocks.size(), true),
+                   std::vector<uint32_t>(blocks.size(), 0), &n_nonzero);
+        held_camera = 0b10000;
+        held_distortion = 0b11100;
+        std::vector<uint32_t> held(blocks.size(), 0);
+        held[0] = held_camera;
+        held[1] = held_distortion;
+        ExpectSame(*plain, *slot, blocks, std::vector<bool>(blocks.size(), true), held,
+                   &n_nonzero);
+        EXPECT_GT(n_nonzero, 40);  // the comparison saw real derivatives
+        ++checked[MirrorIndex(mirror) - 1];
+      }
+    }
+  }
+  EXPECT_GE(checked[0], 5);
+  EXPECT_GE(checked[1], 5);
+}
+
+TEST_F(SlotAutoDiffTest, LipCostsMatchPlainAutoDiffOnEveryPath) {
+  const RigModel model(rig_);
+  for (LipPath path :
+       {LipPath::kDirect, LipPath::kViaMirror1, LipPath::kViaReflex, LipPath::kViaMirror2}) {
+    // The calibration's relaxed bounds for lip residuals (lips lie at the mirrors' rims).
+    RigFixed lip_fixed = fixed_;
+    lip_fixed.r_sys += 30;
+    if (LipOwner(path) == Mirror::kOne) {
+      lip_fixed.r_ref = 0;
+    } else {
+      lip_fixed.r_ref += 30;
+      lip_fixed.r_cam = 0;
+    }
+    int checked = 0;
+    for (LipCircle circle : {LipCircle::kInner, LipCircle::kOuter}) {
+      const Lip& lip = LipOf(rig_, path);
+      const double radius = circle == LipCircle::kInner ? lip.r_inner : lip.r_outer;
+      for (double phi0 = 0.1; phi0 < 2 * M_PI; phi0 += 0.4) {
+        const auto pixel = ProjectLipPoint(model, path, circle, phi0);
+        if (!pixel) continue;
+        const Eigen::Vector2d observed = *pixel + Eigen::Vector2d(-0.2, 0.25);
+        double phi[1] = {phi0};
+        uint32_t held_camera = 0b10000, held_distortion = 0b11100;
+        ceres::AutoDiffCostFunction<LipPointCost, 2, 5, 5, 2, 5, 3, 2, 5, 1> plain(
+            new LipPointCost{observed, path, radius, lip.z, lip_fixed});
+        std::unique_ptr<ceres::CostFunction> slot(LipPointCost::Create(
+            observed, path, radius, lip.z, lip_fixed, &held_camera, &held_distortion));
+        const std::vector<double*> blocks = {
+            rig_.camera.data(),        rig_.distortion.data(),   rig_.mirror1_shape.data(),
+            rig_.mirror1_pose.data(),  rig_.reflex.data(),       rig_.mirror2_shape.data(),
+            rig_.mirror2_pose.data(), phi};
+        int n_nonzero = 0;
+        ExpectSame(plain, *slot, blocks, std::vector<bool>(8, true),
+                   {0b10000, 0b11100, 0, 0, 0, 0, 0, 0}, &n_nonzero);
+        ExpectSame(plain, *slot, blocks, {true, true, false, true, true, false, true, true},
+                   {0b10000, 0b11100, 0, 0, 0, 0, 0, 0}, &n_nonzero);
+        held_camera = held_distortion = 0;
+        ExpectSame(plain, *slot, blocks, std::vector<bool>(8, true), std::vector<uint32_t>(8, 0),
+                   &n_nonzero);
+        EXPECT_GT(n_nonzero, 20) << LipPathName(path);
+        ++checked;
+      }
+    }
+    EXPECT_GE(checked, 4) << LipPathName(path);
+  }
+}
+
+}  // namespace
+}  // namespace omni::calib
