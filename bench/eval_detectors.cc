@@ -2,7 +2,10 @@
 // timed run against the exact ground truth (ComputeTruth): per ring and per horizontal range of
 // the corner from the axis, the corner error (mean, 99th percentile), the fraction of truly
 // visible corners found, wrong ids, and the time per image on one core.
-//   eval_detectors MODEL SCENE RENDER_DIR
+//   eval_detectors MODEL SCENE RENDER_DIR [NOMINAL]
+// On colour renders it also fits the lip-only intrinsics (InitialIntrinsicsFromLips) from the
+// NOMINAL model (default: MODEL) and compares the principal point it gives with the true one and
+// with the image points that the mirror bodies' poses fix (see LipsReport).
 #include <algorithm>
 #include <array>
 #include <chrono>
@@ -18,6 +21,8 @@
 #include "calib/synthetic/scene.h"
 #include "calib/synthetic/scene_file.h"
 #include "detectors/detect_image.h"
+#include "detectors/lip_intrinsics.h"
+#include "model/lip.h"
 #include "model/io/model_file.h"
 
 using namespace omni;
@@ -43,16 +48,80 @@ int RangeBin(double range_mm) {
 }
 const char* kRangeNames[] = {"0.3-0.5 m", "0.5-1 m", "1-2 m", "2-4 m"};
 
+// The lip-only principal point against what the TRUE rig fixes. Lips are fixed to the mirror
+// bodies, so with a nominal (coaxial) model a lip-only fit cannot tell a tilt of the camera
+// against the bodies from a principal-point shift (lip_intrinsics.h): the fit should put the
+// principal point where the bodies put the lips' centres, not at the true one (reference points:
+// LipReferencePointsOf).
+// Fits: all labelled edges, mirror-1 edges only (direct, via_mirror1: one body), mirror-2 edges
+// only (via_mirror2: mirror 2 and the reflex plane), and all edges from the nominal with the
+// true lens distortion (what part of the focal-length error the distortion makes).
+void LipsReport(const RigParams& truth, const RigParams& nominal,
+                const std::vector<io::LipEdge>& edges, int n_images) {
+  const double f_true = 0.5 * (truth.camera[0] + truth.camera[1]);
+  const Eigen::Vector2d pp(truth.camera[2], truth.camera[3]);
+  const detectors::LipReferencePoints ref = detectors::LipReferencePointsOf(truth);
+  struct Ref {
+    const char* name;
+    Eigen::Vector2d pixel;
+  };
+  const Ref refs[] = {{"axis1", ref.axis1},
+                      {"axis2", ref.axis2},
+                      {"lip1_centre", ref.lip1_centre},
+                      {"lip2_centre_in_reflex", ref.lip2_centre_in_reflex},
+                      {"axis2_in_reflex", ref.axis2_in_reflex}};
+  std::printf("lips (%d images, %zu labelled edges): true f %.3f pp (%.3f, %.3f); nominal pp "
+              "(%.3f, %.3f)\n", n_images, edges.size(), f_true, pp.x(), pp.y(), nominal.camera[2],
+              nominal.camera[3]);
+  for (const Ref& r : refs) {
+    std::printf("lips ref %-22s (%.3f, %.3f), minus true pp (%+.3f, %+.3f) = %.3f px\n", r.name,
+                r.pixel.x(), r.pixel.y(), r.pixel.x() - pp.x(), r.pixel.y() - pp.y(),
+                (r.pixel - pp).norm());
+  }
+  RigParams nominal_true_lens = nominal;
+  nominal_true_lens.distortion = truth.distortion;
+  struct Fit {
+    const char* name;
+    const RigParams* prior;
+    int mirror;  // 0: all edges
+  };
+  const Fit fits[] = {{"all", &nominal, 0},
+                      {"mirror1_edges", &nominal, 1},
+                      {"mirror2_edges", &nominal, 2},
+                      {"all_true_lens", &nominal_true_lens, 0}};
+  for (const Fit& fit : fits) {
+    std::vector<io::LipEdge> used;
+    for (const io::LipEdge& e : edges) {
+      if (fit.mirror == 0 || e.mirror == fit.mirror) used.push_back(e);
+    }
+    const auto est = detectors::InitialIntrinsicsFromLips(used, RigModel(*fit.prior));
+    if (!est) {
+      std::printf("lips fit %-14s: failed (%zu edges)\n", fit.name, used.size());
+      continue;
+    }
+    const Eigen::Vector2d c(est->cx, est->cy);
+    std::printf("lips fit %-14s: f %.3f (%+.3f%%) pp (%.3f, %.3f) rms %.3f px, %d points; "
+                "minus true pp (%+.3f, %+.3f) = %.3f px", fit.name, est->f,
+                100 * (est->f / f_true - 1), c.x(), c.y(), est->rms_px, est->n_points,
+                c.x() - pp.x(), c.y() - pp.y(), (c - pp).norm());
+    for (const Ref& r : refs) std::printf("; %s %.3f", r.name, (c - r.pixel).norm());
+    std::printf(" px\n");
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc != 4) {
-    std::fprintf(stderr, "usage: eval_detectors MODEL SCENE RENDER_DIR\n");
+  if (argc != 4 && argc != 5) {
+    std::fprintf(stderr, "usage: eval_detectors MODEL SCENE RENDER_DIR [NOMINAL]\n");
     return 2;
   }
   cv::setNumThreads(1);
   const RigParams rig = io::ReadModelFile(argv[1]);
   const RigModel model(rig);
+  const RigParams nominal = argc == 5 ? io::ReadModelFile(argv[4]) : rig;
+  std::vector<io::LipEdge> all_lips;  // every image's labelled lip edges, for one pooled fit
+  int lip_images = 0;
   const synthetic::Scene scene = synthetic::ReadSceneFile(argv[2], model);
   const auto t_ctx = std::chrono::steady_clock::now();
   detectors::DetectorContext ctx(rig, scene.targets);
@@ -75,6 +144,10 @@ int main(int argc, char** argv) {
     cpu_ms.push_back(1000.0 * (std::clock() - c0) / CLOCKS_PER_SEC);
     times_ms.push_back(
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+    if (!det.lips.empty()) {
+      ++lip_images;
+      all_lips.insert(all_lips.end(), det.lips.begin(), det.lips.end());
+    }
     const auto truth = synthetic::ComputeTruth(model, scene, image);
     std::vector<bool> truth_found(truth.size() * 2, false);
     for (const auto& o : det.corners) {
@@ -197,5 +270,6 @@ int main(int argc, char** argv) {
     std::printf("CPU time per image (independent of other load): mean %.1f ms, max %.1f ms\n",
                 cpu_sum / cpu_ms.size(), cpu_ms.back());
   }
+  if (!all_lips.empty()) LipsReport(rig, nominal, all_lips, lip_images);
   return 0;
 }

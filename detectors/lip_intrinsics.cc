@@ -5,6 +5,7 @@
 #include <ceres/ceres.h>
 
 #include "model/lip.h"
+#include "model/rig_frames.h"
 
 namespace omni::detectors {
 namespace {
@@ -47,7 +48,33 @@ struct LipPointResidual {
   Eigen::Vector2d pixel;
 };
 
+// Distortion-free pinhole pixel of a point or direction (z > 0) in C.
+Eigen::Vector2d Pinhole(const RigParams& rig, const Eigen::Vector3d& p) {
+  return Eigen::Vector2d(rig.camera[0] * p.x() / p.z() + rig.camera[4] * p.y() / p.z() + rig.camera[2],
+                         rig.camera[1] * p.y() / p.z() + rig.camera[3]);
+}
+
 }  // namespace
+
+LipReferencePoints LipReferencePointsOf(const RigParams& rig) {
+  const Pose<double> cam_from_m1 = PoseFromBlock(rig.mirror1_pose.data());
+  const Pose<double> cam_from_m2 = PoseFromBlock(rig.mirror2_pose.data());
+  const Eigen::Vector3d ez(0, 0, 1);
+  const Plane<double> reflex_in_m1 = ReflexPlaneInMirror1(rig.reflex.data(), rig.d);
+  const Plane<double> reflex_in_cam{cam_from_m1 * reflex_in_m1.point,
+                                    cam_from_m1.Rotate(reflex_in_m1.normal)};
+  const Eigen::Vector3d n = reflex_in_cam.normal;
+  // Mirror 2's axis direction towards -z (from the reflex disc to mirror 2) mirrored in the plane.
+  const Eigen::Vector3d axis2_down = -cam_from_m2.Rotate(ez);
+  LipReferencePoints out;
+  out.axis1 = Pinhole(rig, cam_from_m1.Rotate(ez));
+  out.axis2 = Pinhole(rig, cam_from_m2.Rotate(ez));
+  out.lip1_centre = Pinhole(rig, cam_from_m1 * Eigen::Vector3d(0, 0, rig.lip1.z));
+  out.lip2_centre_in_reflex =
+      Pinhole(rig, MirrorPoint(reflex_in_cam, cam_from_m2 * Eigen::Vector3d(0, 0, rig.lip2.z)));
+  out.axis2_in_reflex = Pinhole(rig, axis2_down - 2 * axis2_down.dot(n) * n);
+  return out;
+}
 
 std::optional<LipIntrinsics> InitialIntrinsicsFromLips(const std::vector<io::LipEdge>& edges,
                                                        const RigModel& nominal) {

@@ -32,4 +32,14 @@ struct LipIntrinsics {
 std::optional<LipIntrinsics> InitialIntrinsicsFromLips(const std::vector<io::LipEdge>& edges,
                                                        const RigModel& nominal);
 
+// Where a rig's mirror bodies put the points a lip-only fit can find instead of the principal
+// point (for evaluation against a true rig): the vanishing points K * R_cam_from_mirror_i *
+// (0, 0, 1) of the mirror axes, lip 1's centre seen directly, and lip 2's centre and mirror 2's
+// axis direction seen in the reflex plane. Distortion-free pinhole pixels: these points lie
+// within ~0.02 (normalised) of the optical axis, where the lens moves them < 0.01 px.
+struct LipReferencePoints {
+  Eigen::Vector2d axis1, axis2, lip1_centre, lip2_centre_in_reflex, axis2_in_reflex;
+};
+LipReferencePoints LipReferencePointsOf(const RigParams& rig);
+
 }  // namespace omni::detectors

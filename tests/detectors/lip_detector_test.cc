@@ -152,6 +152,45 @@ TEST_F(LipDetectorOnRender, IntrinsicsFromLips) {
   }
 }
 
+// What a lip-only fit from the ideal model finds instead of the principal point: lips are fixed to
+// the mirror bodies, so the fit puts the nominal lip images' centre where the true body puts it
+// (LipReferencePointsOf; independent oracle: the true rig's poses, pinhole). Mirror-1 edges
+// (direct, via_mirror1) alone land on lip 1's centre image, which is the mirror-1 axis point
+// shifted by f * decentre / lip depth (0.3, -0.2 mm at 133 mm: 3.3, -2.2 px here).
+TEST_F(LipDetectorOnRender, LipOnlyPrincipalPointIsWhereTheMirrorBodyPutsTheLip) {
+  ASSERT_FALSE(image_->empty());
+  const RigModel truth(*truth_);
+  const RigModel prior(ReadSample("big_rig_ideal.yaml"));
+  const std::vector<io::LipEdge> edges = DetectLips(*image_, truth);
+  const LipReferencePoints ref = LipReferencePointsOf(*truth_);
+  const Eigen::Vector2d pp(truth_->camera[2], truth_->camera[3]);
+  const double f_true = 0.5 * (truth_->camera[0] + truth_->camera[1]);
+  std::optional<LipIntrinsics> fits[3];
+  for (int mirror = 0; mirror <= 2; ++mirror) {
+    std::vector<io::LipEdge> used;
+    for (const io::LipEdge& e : edges) {
+      if (mirror == 0 || e.mirror == mirror) used.push_back(e);
+    }
+    fits[mirror] = InitialIntrinsicsFromLips(used, prior);
+    ASSERT_TRUE(fits[mirror]) << "mirror " << mirror;
+    const Eigen::Vector2d c(fits[mirror]->cx, fits[mirror]->cy);
+    std::printf("edges of mirror %d (0: all): f %+.3f%%, pp - true (%+.3f, %+.3f); distance to "
+                "axis1 %.3f, axis2 %.3f, lip1 centre %.3f, lip2 centre in reflex %.3f, axis2 in "
+                "reflex %.3f px; rms %.3f px\n", mirror, 100 * (fits[mirror]->f / f_true - 1),
+                c.x() - pp.x(), c.y() - pp.y(), (c - ref.axis1).norm(), (c - ref.axis2).norm(),
+                (c - ref.lip1_centre).norm(), (c - ref.lip2_centre_in_reflex).norm(),
+                (c - ref.axis2_in_reflex).norm(), fits[mirror]->rms_px);
+  }
+  // Measured: 0.71 px (mirror 1) and 0.81 px (mirror 2); the true principal point is 8.2 and
+  // 17.6 px away, mirror 1's axis point 3.5 px (its decentre), so the bar separates them.
+  EXPECT_LT((Eigen::Vector2d(fits[1]->cx, fits[1]->cy) - ref.lip1_centre).norm(), 1.0);
+  EXPECT_LT((Eigen::Vector2d(fits[2]->cx, fits[2]->cy) - ref.lip2_centre_in_reflex).norm(), 1.0);
+  // Both bodies in one fit disagree (rms 1.5 px vs 0.23 / 0.07 px): a sign of misalignment.
+  EXPECT_GT(fits[0]->rms_px, 3 * std::max(fits[1]->rms_px, fits[2]->rms_px));
+  // f: -0.47% / -0.64% (lens k1 and the bodies' axial offsets: 0.4 mm at 133 mm is 0.3%).
+  for (const auto& fit : fits) EXPECT_NEAR(fit->f / f_true, 1.0, 0.008);
+}
+
 TEST(LipDetector, GreyOrWrongSizeImagesGiveNoEdges) {
   const RigModel model(ReadSample("big_rig_ideal.yaml"));
   EXPECT_TRUE(DetectLips(cv::Mat(960, 1280, CV_8UC1, cv::Scalar(0)), model).empty());
