@@ -3,12 +3,14 @@
 #include <ceres/ceres.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <memory>
 #include <set>
 #include <sstream>
+#include <thread>
 
 #include <Eigen/Geometry>
 
@@ -398,7 +400,10 @@ ceres::CostFunction* Calibrator::CostOf(size_t i) {
 
 void Calibrator::InitialisePoses() {
   const RigModel start(rig_);
-  for (size_t p = 0; p < placements_.size(); ++p) {
+  for (size_t i = 0; i < obs_.size(); ++i) CostOf(i);  // created here, read by the threads
+  // Each placement is posed on its own (its observations, its pose block, the rig constant), so
+  // the placements are shared out to the solver's threads.
+  auto pose_placement = [&](size_t p) {
     // Both rings' central guesses; keep the one that reprojects better through the full model.
     std::vector<size_t> members;
     for (size_t i = 0; i < obs_.size(); ++i) {
@@ -438,7 +443,7 @@ void Calibrator::InitialisePoses() {
     }
     if (!(best_cost < HUGE_VAL)) {
       placements_[p].failed = true;
-      continue;
+      return;
     }
     placements_[p].cam_from_target = best;
 
@@ -467,7 +472,7 @@ void Calibrator::InitialisePoses() {
     }
     if (n < 4) {
       placements_[p].failed = true;
-      continue;
+      return;
     }
     for (double* block : {rig_.camera.data(), rig_.distortion.data(), rig_.mirror1_shape.data(),
                           rig_.mirror2_shape.data(), rig_.mirror1_pose.data(),
@@ -480,7 +485,15 @@ void Calibrator::InitialisePoses() {
     ceres::Solver::Summary summary;
     ceres::Solve(so, &problem, &summary);
     if (summary.termination_type == ceres::FAILURE) placements_[p].failed = true;
-  }
+  };
+  std::atomic<size_t> next{0};
+  auto worker = [&] {
+    for (size_t p = next++; p < placements_.size(); p = next++) pose_placement(p);
+  };
+  std::vector<std::thread> threads;
+  for (int t = 1; t < options_.solver.threads; ++t) threads.emplace_back(worker);
+  worker();
+  for (auto& t : threads) t.join();
   int failed = 0;
   for (size_t i = 0; i < obs_.size(); ++i) {
     if (!placements_[obs_[i].placement].failed) continue;
