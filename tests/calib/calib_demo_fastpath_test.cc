@@ -23,10 +23,7 @@ namespace {
 
 constexpr double kNoisePx = 0.1;
 
-bool IsMisalignment(const std::string& name) {
-  return name.rfind("mirror1.", 0) == 0 || name.rfind("mirror2.", 0) == 0 ||
-         name.rfind("reflex.", 0) == 0;
-}
+using testing::IsMisalignment;
 
 // Shifts every point of each lip edge across the edge (radially about the principal point) by
 // one offset per edge, N(0, sigma_px^2), the same in every image.

@@ -24,10 +24,7 @@
 namespace omni::calib {
 namespace {
 
-bool IsMisalignment(const std::string& name) {
-  return name.rfind("mirror1.", 0) == 0 || name.rfind("mirror2.", 0) == 0 ||
-         name.rfind("reflex.", 0) == 0;
-}
+using testing::IsMisalignment;
 
 TEST(CalibMonteCarlo, PredictedSigmaMatchesSpread) {
   RigParams truth_rig = testing::MisalignedRig();

@@ -29,6 +29,11 @@ namespace omni::testing {
 inline RigParams MisalignedRig() {
   return io::ReadModelFile(std::string(OMNI_SOURCE_DIR) + "/sample_configs/big_rig_misaligned.yaml");
 }
+// A misalignment parameter (mirror1.*, mirror2.*, reflex.*), as the acceptance checks name them.
+inline bool IsMisalignment(const std::string& name) {
+  return name.rfind("mirror1.", 0) == 0 || name.rfind("mirror2.", 0) == 0 ||
+         name.rfind("reflex.", 0) == 0;
+}
 inline RigParams IdealRig() {
   return io::ReadModelFile(std::string(OMNI_SOURCE_DIR) + "/sample_configs/big_rig_ideal.yaml");
 }
