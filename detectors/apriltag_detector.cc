@@ -144,6 +144,72 @@ bool FitQuadratic(const std::vector<Eigen::Vector2d>& st, Eigen::Vector3d* c, do
   return c->allFinite();
 }
 
+// A Kalibr corner that failed the grid check, refined again in its view by the first step's
+// cornerSubPix with smaller windows, from where the grid puts it. Its window was cut by the ring's
+// edge (the view's black outside the map, or the rim's dark band inside it); a smaller window can
+// keep clear of it. Kept only if it then fits the grid tightly: a measurement, not the prediction.
+bool RetryKalibrCorner(const cv::Mat& view_grey, const RingView& view, const GridFit& fit,
+                       const TagDetectorOptions& options, TagCornerDetection* d) {
+  if (view_grey.empty() || fit.residual_px < 0) return false;
+  const double first_half = std::lround(0.15 * d->side_in_view);
+  for (const double fraction : options.kalibr_retry_windows) {
+    const int half = static_cast<int>(std::lround(fraction * first_half));
+    if (half < 2 || half >= first_half) continue;
+    Eigen::Vector2d refined;
+    if (!RefineSaddleCorner(view_grey, fit.predicted_in_view, half, 0.1 * d->side_in_view,
+                            &refined)) {
+      continue;
+    }
+    const auto raw = view.ViewToRaw(refined);
+    if (raw && (*raw - fit.predicted_raw).norm() <= options.kalibr_retry_max_residual_px) {
+      d->in_view = refined;
+      d->observation.pixel = *raw;
+      d->mapped = *raw;
+      d->grid_residual_px = (*raw - fit.predicted_raw).norm();
+      return true;
+    }
+  }
+  return false;
+}
+
+// The grid check (tag_grid_check.h) for every target and ring; Kalibr corners off the grid get
+// one retry (RetryKalibrCorner).
+void DropCornersOffTheirTarget(const std::vector<RingView>& views,
+                               const std::vector<cv::Mat>& view_images, const RigModel& model,
+                               const std::vector<TargetSpec>& targets,
+                               const TagDetectorOptions& options,
+                               std::vector<TagCornerDetection>* detections) {
+  std::map<std::pair<int, int>, std::vector<std::size_t>> groups;  // (target, mirror) -> indices
+  for (std::size_t i = 0; i < detections->size(); ++i) {
+    const io::CornerObservation& o = (*detections)[i].observation;
+    groups[{o.target, o.mirror}].push_back(i);
+  }
+  std::vector<bool> keep(detections->size(), true);
+  for (const auto& [key, members] : groups) {
+    std::vector<GridCorner> corners;
+    for (const std::size_t i : members) {
+      const TagCornerDetection& d = (*detections)[i];
+      const Eigen::Vector3d p = CornerInTarget(targets[key.first], d.observation.id);
+      corners.push_back({p.head<2>(), d.observation.pixel, d.view});
+    }
+    const std::vector<GridFit> fits =
+        CornersFittingTargetHomography(views, model, corners, options.grid_check_options);
+    for (std::size_t j = 0; j < members.size(); ++j) {
+      TagCornerDetection& d = (*detections)[members[j]];
+      d.grid_residual_px = fits[j].residual_px;
+      keep[members[j]] = fits[j].keep;
+      if (!fits[j].keep && targets[key.first].type == TargetType::kKalibrAprilGrid) {
+        keep[members[j]] = RetryKalibrCorner(view_images[d.view], views[d.view], fits[j], options, &d);
+      }
+    }
+  }
+  std::vector<TagCornerDetection> kept;
+  for (std::size_t i = 0; i < detections->size(); ++i) {
+    if (keep[i]) kept.push_back((*detections)[i]);
+  }
+  *detections = std::move(kept);
+}
+
 }  // namespace
 
 bool RefineTagCorner(const cv::Mat& grey, const Eigen::Vector2d& corner,
@@ -237,6 +303,7 @@ std::vector<TagCornerDetection> DetectTagCorners(const cv::Mat& raw_bgr,
   int views_per_ring = 0;
   for (const RingView& view : views) views_per_ring += view.mirror == views.front().mirror;
   std::vector<ViewTag> found;
+  std::vector<cv::Mat> view_images(views.size());  // kept for the grid check's Kalibr retries
   for (std::size_t v = 0; v < views.size(); ++v) {
     const RingView& view = views[v];
     cv::Mat view_grey = view.image;
@@ -244,6 +311,7 @@ std::vector<TagCornerDetection> DetectTagCorners(const cv::Mat& raw_bgr,
       cv::remap(raw_grey8, view_grey, view.map_fixed, view.map_interp, cv::INTER_LINEAR,
                 cv::BORDER_CONSTANT, cv::Scalar(0));
     }
+    view_images[v] = view_grey;
     const double half_deg = 180.0 / std::max(1, views_per_ring) + options.view_overlap_deg;
     const int half_px = static_cast<int>(std::ceil(view.f * std::tan(half_deg * M_PI / 180)));
     const int x0 = std::max(0, static_cast<int>(view.cx) - half_px);
@@ -359,10 +427,13 @@ std::vector<TagCornerDetection> DetectTagCorners(const cv::Mat& raw_bgr,
       d.observation.pixel = refined[k];
       d.tag_id = t.tag_id;
       d.mapped = mapped[k];
+      d.view = t.view;
+      d.in_view = t.corners[k];
+      for (int j = 0; j < 4; ++j) d.side_in_view += 0.25 * (t.corners[(j + 1) % 4] - t.corners[j]).norm();
       out.push_back(d);
     }
   }
-  (void)model;
+  if (options.grid_check) DropCornersOffTheirTarget(views, view_images, model, targets, options, &out);
   return out;
 }
 

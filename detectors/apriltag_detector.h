@@ -23,6 +23,7 @@
 
 #include "detectors/kalibr_detector.h"
 #include "detectors/saddle_points.h"
+#include "detectors/tag_grid_check.h"
 #include "detectors/views.h"
 #include "model/io/detections_file.h"
 #include "model/rig_model.h"
@@ -54,6 +55,15 @@ struct TagDetectorOptions {
   bool kalibr_saddle_gate = true;  // false: the quad finder runs on the whole crop
   SaddleOptions kalibr_saddles;  // where the Kalibr quad finder runs (saddle-point clusters)
   double kalibr_region_pad_px = 16;  // added around each cluster's box (view pixels)
+  // Grid check (tag_grid_check.h) of each target's corners per ring after refinement: a corner
+  // off the target's homography by more than grid_check.max_residual_px raw px is dropped.
+  bool grid_check = true;
+  TagGridCheckOptions grid_check_options;
+  // A Kalibr corner the grid check drops is refined again in its view from the grid's prediction
+  // with smaller windows (these fractions of the first one), nearest the prediction first, and
+  // kept if it then lies within kalibr_retry_max_residual_px raw px of the prediction.
+  std::vector<double> kalibr_retry_windows = {0.7, 0.5, 0.35};
+  double kalibr_retry_max_residual_px = 0.2;
 };
 
 // One detected tag corner with its diagnostics.
@@ -61,6 +71,10 @@ struct TagCornerDetection {
   io::CornerObservation observation;
   int tag_id = 0;
   Eigen::Vector2d mapped = Eigen::Vector2d::Zero();  // the view detector's corner mapped to raw
+  int view = 0;                     // index of the view its tag was found in
+  Eigen::Vector2d in_view = Eigen::Vector2d::Zero();  // the corner in that view
+  double side_in_view = 0;          // the tag's mean side in that view (pixels)
+  double grid_residual_px = -1;     // from the grid check (-1: not checked)
 };
 
 // Tag-grid corners in a raw image. `views` come from MakeRingViews for `model`; their `image` is
