@@ -4,8 +4,10 @@
 #   (b) a misaligned rig (big_rig_misaligned.yaml) with the ideal model,
 #   (t) the misaligned rig with its true model (the bound a calibration can reach),
 #   (c) the misaligned rig with its CALIBRATED model: a calibration session of that same rig
-#       (sample_configs/demo_scene.yaml's boards, rendered at the RMSE scene's image size) is
-#       detected and calibrated with `omnistereo calibrate`, starting from the ideal design.
+#       (sample_configs/rmse_calibration_scene.yaml: 12 images at the RMSE scene's 1280x960, four
+#       boards each at 0.3-0.45, 0.4-0.7, 0.6-1.1 and 1.1-2 m; the near boards pin the axial
+#       parameters that near points depend on) is detected and calibrated with
+#       `omnistereo calibrate`, starting from the ideal design.
 # Each case: omnistereo render (sample_configs/rmse_scene.yaml: one image per range 0.25..8 m,
 # 4 chessboards each) -> omnistereo detect (starting model: the ideal design, as a user would) ->
 # omnistereo triangulate --truth: range, RMSE, SD, points, the paper's RMSE and SD, mean
@@ -15,9 +17,10 @@
 # (--model_covariance) at the measured pixel sigmas of the whole scene.
 #
 # Renders are cached in OUT_DIR (a re-run only detects, calibrates and triangulates again, so it
-# picks up detector and calibration fixes in a few seconds); delete OUT_DIR/*/0001.png to render
-# again. Rendering takes ~15-20 s per image (6 RMSE images per rig, 8 calibration images) with
-# one POV-Ray process. Last: the ideal rig without a detector (exact pixels + the paper's 0.08 px,
+# picks up detector and calibration fixes in a few seconds); a folder is rendered again when its
+# scene file differs from the copy kept beside the render (OUT_DIR/*/scene.yaml), or after
+# deleting OUT_DIR/*/0001.png. Rendering takes ~15-20 s per image (6 RMSE images per rig, 12
+# calibration images) with one POV-Ray process. Last: the ideal rig without a detector (exact pixels + the paper's 0.08 px,
 # 300 seeds): the predicted RMSE and how an 80-point RMSE spreads over seeds.
 # Usage: scripts/rmse_table.sh [OUT_DIR]   (OMNISTEREO=path/to/omnistereo, SIGMA_PX=1, JOBS=1)
 set -euo pipefail
@@ -31,10 +34,13 @@ NOMINAL=$CONFIGS/big_rig_ideal.yaml  # the ideal design at the RMSE scene's imag
 mkdir -p "$OUT"
 OUT=$(cd "$OUT" && pwd)
 
-render() {  # rig, scene, dir: render unless the images and truth are there
+render() {  # rig, scene, dir: render unless the images and truth of this very scene are there
   local rig=$1 scene=$2 dir=$3
-  if [ ! -f "$dir/truth.yaml" ] || [ ! -f "$dir/0001.png" ] || [ ! -f "$dir/session.yaml" ]; then
+  if [ ! -f "$dir/truth.yaml" ] || [ ! -f "$dir/0001.png" ] || [ ! -f "$dir/session.yaml" ] ||
+     ! cmp -s "$scene" "$dir/scene.yaml"; then
+    rm -f "$dir/scene.yaml"
     "$EXE" render --model="$CONFIGS/$rig.yaml" --scene="$scene" --out="$dir" --jobs="$JOBS"
+    cp "$scene" "$dir/scene.yaml"
   fi
 }
 
@@ -61,11 +67,8 @@ for rig in big_rig_ideal big_rig_misaligned; do
   detect "$OUT/$rig"
 done
 
-# The calibration session of the misaligned rig at the RMSE scene's image size.
-size=$(grep -m1 -o 'width: [0-9]*, height: [0-9]*' "$OUT/big_rig_misaligned/model.yaml" || true)
-sed "s/^image: {width: [0-9]*, height: [0-9]*}/image: {$size}/" "$CONFIGS/demo_scene.yaml" \
-  > "$OUT/calibration_scene.yaml"
-render big_rig_misaligned "$OUT/calibration_scene.yaml" "$OUT/calibration"
+# The calibration session of the misaligned rig (1280x960, as the RMSE scene).
+render big_rig_misaligned "$CONFIGS/rmse_calibration_scene.yaml" "$OUT/calibration"
 detect "$OUT/calibration"
 echo "calibrating the misaligned rig from the ideal design ($OUT/calibration/calibrate.log)"
 "$EXE" calibrate --session="$OUT/calibration/session.yaml" \
