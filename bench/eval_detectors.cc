@@ -10,6 +10,7 @@
 #include <array>
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <ctime>
 #include <map>
 #include <string>
@@ -47,6 +48,7 @@ int RangeBin(double range_mm) {
   return b;
 }
 const char* kRangeNames[] = {"0.3-0.5 m", "0.5-1 m", "1-2 m", "2-4 m"};
+const char* kKindNames[] = {"chessboard", "apriltag", "kalibr"};  // by TargetType
 
 // The lip-only principal point against what the TRUE rig fixes. Lips are fixed to the mirror
 // bodies, so with a nominal (coaxial) model a lip-only fit cannot tell a tilt of the camera
@@ -131,6 +133,12 @@ int main(int argc, char** argv) {
   std::map<std::pair<int, int>, Bin> by_kind;  // (target type, mirror), all ranges
   std::vector<double> times_ms, cpu_ms;  // wall clock, process CPU time (one thread)
   const double match_px = 3.0;
+  // EVAL_DETECTORS_CSV=FILE: every matched corner (detected and true pixel, range) for analysis.
+  std::FILE* csv = nullptr;
+  if (const char* csv_path = std::getenv("EVAL_DETECTORS_CSV")) {
+    csv = std::fopen(csv_path, "w");
+    if (csv) std::fprintf(csv, "image,target,kind,id,mirror,range_mm,u,v,true_u,true_v\n");
+  }
   for (const auto& image : scene.images) {
     const std::string path = std::string(argv[3]) + "/" + image.name + ".png";
     const cv::Mat raw = cv::imread(path, cv::IMREAD_UNCHANGED);
@@ -181,6 +189,12 @@ int main(int argc, char** argv) {
         continue;
       }
       bin.errors.push_back(best);
+      if (csv) {
+        const Eigen::Vector2d& t = *truth[best_i].pixel[o.mirror - 1];
+        std::fprintf(csv, "%s,%d,%s,%d,%d,%.1f,%.4f,%.4f,%.4f,%.4f\n", image.name.c_str(), o.target,
+                     kKindNames[static_cast<int>(scene.targets[o.target].type)], o.id, o.mirror,
+                     range, o.pixel.x(), o.pixel.y(), t.x(), t.y());
+      }
       if (best > 0.5) {  // right id but far off: named, like wrong ids, to find the cause
         std::fprintf(stderr, "%s: off: target %d id %d mirror %d at (%.1f, %.1f): %.2f px from "
                      "truth\n", image.name.c_str(), o.target, o.id, o.mirror, o.pixel.x(),
@@ -249,7 +263,6 @@ int main(int argc, char** argv) {
               100.0 * all.found / std::max(1, all.visible), mean, Percentile(all.errors, 0.99),
               all.wrong);
   // The same per kind of target (wrong ids are counted in the range table only).
-  const char* kKindNames[] = {"chessboard", "apriltag", "kalibr"};
   for (const auto& [key, bin] : by_kind) {
     double kind_mean = 0;
     for (double e : bin.errors) kind_mean += e / std::max<size_t>(1, bin.errors.size());

@@ -14,7 +14,8 @@
 // texture test); the Kalibr decoder returns k directly.
 // An id is right or absent: only exact codes (hamming 0), only ids that lie on a target of the
 // detector's layout, Kalibr tags consistent with their neighbours in the view, and only tags whose
-// four refined raw corners form a convex quadrilateral close to the mapped one.
+// four refined raw corners form a convex quadrilateral close to the mapped one, and only corners
+// that fit their target's homography with the target's other corners in the ring (tag_grid_check.h).
 #pragma once
 
 #include <vector>
