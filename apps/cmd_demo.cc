@@ -25,6 +25,7 @@
 
 DECLARE_string(overlay);
 DECLARE_string(truth_model);
+DECLARE_string(truth);
 
 namespace omni::apps {
 namespace {
@@ -74,6 +75,7 @@ int RunDemo() {
   FLAGS_detections = dir + "/detections.yaml";
   FLAGS_out = dir + "/calibrated.yaml";
   FLAGS_truth_model = truth_path;
+  FLAGS_truth = dir + "/truth.yaml";
   if (const int rc = RunCalibrate(); rc != 0) return rc;
 
   Banner("what calibration gained");

@@ -13,7 +13,7 @@ const std::vector<Command>& Commands() {
       {"detect", "detect targets and lips in a session's images", {"session", "out", "overlay"},
        RunDetect},
       {"calibrate", "bundle-adjust the non-central model from a session",
-       {"session", "out", "detections"}, RunCalibrate},
+       {"session", "out", "detections", "truth_model", "truth"}, RunCalibrate},
       {"project", "project 3D points (CSV x_mm,y_mm,z_mm) to pixels via both mirrors",
        {"model", "points", "out"}, RunProject},
       {"unproject", "back-project pixels (CSV u,v) to rays", {"model", "pixels", "out"},
