@@ -22,6 +22,8 @@
 #include "detectors/detect_image.h"
 #include "model/io/model_file.h"
 
+#include "tests/detectors/render_window.h"
+
 namespace omni::detectors {
 namespace {
 
@@ -92,16 +94,10 @@ Rendered RenderBoards() {
       }
       box &= cv::Rect(0, 0, r.rig.image_width, r.rig.image_height);
       if (box.empty()) continue;
-      synthetic::RenderOptions options;
-      options.width = r.rig.image_width;
-      options.height = r.rig.image_height;
-      options.col0 = box.x;
-      options.col1 = box.x + box.width;
-      options.row0 = box.y;
-      options.row1 = box.y + box.height;
       const std::string png = dir + "/w" + std::to_string(t) + std::to_string(m) + ".png";
-      EXPECT_TRUE(synthetic::RenderScene(pov, png, options, &error)) << error;
-      cv::imread(png, cv::IMREAD_COLOR)(box).copyTo(pinhole(box));
+      EXPECT_TRUE(testing::RenderWindowInto(pov, box, testing::WindowOptions(r.rig, box), png,
+                                            &pinhole, &error))
+          << error;
     }
   }
   r.image = synthetic::ApplyDistortion(pinhole, r.rig);
@@ -205,21 +201,15 @@ TEST(ChessboardDetector, DemoHardBoardsAreRightOrSilent) {
     }
     box &= cv::Rect(0, 0, rig.image_width, rig.image_height);
     ASSERT_GT(visible, 40);
-    synthetic::RenderOptions options;
-    options.width = rig.image_width;
-    options.height = rig.image_height;
+    synthetic::RenderOptions options = testing::WindowOptions(rig, box);
     options.antialias = scene.antialias;
-    options.col0 = box.x;
-    options.col1 = box.x + box.width;
-    options.row0 = box.y;
-    options.row1 = box.y + box.height;
     const std::string png = dir + "/" + image.name + ".pinhole.png";
     std::string error;
-    ASSERT_TRUE(synthetic::RenderScene(
-        synthetic::PovSceneText(rig, synthetic::ContentOf(scene, image)), png, options, &error))
-        << error;
     cv::Mat window(rig.image_height, rig.image_width, CV_8UC3, cv::Scalar::all(0));
-    cv::imread(png, cv::IMREAD_COLOR)(box).copyTo(window(box));
+    ASSERT_TRUE(testing::RenderWindowInto(
+        synthetic::PovSceneText(rig, synthetic::ContentOf(scene, image)), box, options, png,
+        &window, &error))
+        << error;
     cv::Mat raw = synthetic::ApplyDistortion(window, rig);
     synthetic::AddNoise(&raw, scene.noise_sigma, scene.noise_seed + static_cast<unsigned>(c.image));
     cv::imwrite(dir + "/" + image.name + ".png", raw);  // to look at when the test fails

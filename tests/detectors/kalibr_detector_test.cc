@@ -26,6 +26,8 @@
 #include "detectors/views.h"
 #include "model/io/model_file.h"
 
+#include "tests/detectors/render_window.h"
+
 namespace omni::detectors {
 namespace {
 
@@ -105,16 +107,10 @@ Rendered RenderKalibrGrids() {
       const int margin = 10 + static_cast<int>(0.6 * side);
       box = cv::Rect(box.x - margin, box.y - margin, box.width + 2 * margin, box.height + 2 * margin) &
             cv::Rect(0, 0, r.rig.image_width, r.rig.image_height);
-      synthetic::RenderOptions options;
-      options.width = r.rig.image_width;
-      options.height = r.rig.image_height;
-      options.col0 = box.x;
-      options.col1 = box.x + box.width;
-      options.row0 = box.y;
-      options.row1 = box.y + box.height;
       const std::string png = dir + "/w" + std::to_string(t) + std::to_string(m) + ".png";
-      EXPECT_TRUE(synthetic::RenderScene(pov, png, options, &error)) << error;
-      cv::imread(png, cv::IMREAD_COLOR)(box).copyTo(pinhole(box));
+      EXPECT_TRUE(testing::RenderWindowInto(pov, box, testing::WindowOptions(r.rig, box), png,
+                                            &pinhole, &error))
+          << error;
     }
   }
   r.image = synthetic::ApplyDistortion(pinhole, r.rig);

@@ -29,6 +29,8 @@
 #include "detectors/views.h"
 #include "model/io/model_file.h"
 
+#include "tests/detectors/render_window.h"
+
 namespace omni::detectors {
 namespace {
 
@@ -77,18 +79,12 @@ cv::Mat RenderGridWindow(const SceneSetup& s, int index,
   fs::create_directories(dir);
   std::string error;
   EXPECT_TRUE(synthetic::WriteTagTextures(s.scene.targets, dir, &error)) << error;
-  synthetic::RenderOptions options;
-  options.width = s.rig.image_width;
-  options.height = s.rig.image_height;
-  options.col0 = box.x;
-  options.col1 = box.x + box.width;
-  options.row0 = box.y;
-  options.row1 = box.y + box.height;
   const std::string png = dir + "/" + image.name + ".png";
   const std::string pov = synthetic::PovSceneText(s.rig, synthetic::ContentOf(s.scene, image));
-  EXPECT_TRUE(synthetic::RenderScene(pov, png, options, &error)) << error;
   cv::Mat pinhole(s.rig.image_height, s.rig.image_width, CV_8UC3, cv::Scalar::all(0));
-  cv::imread(png, cv::IMREAD_COLOR)(box).copyTo(pinhole(box));
+  EXPECT_TRUE(testing::RenderWindowInto(pov, box, testing::WindowOptions(s.rig, box), png,
+                                        &pinhole, &error))
+      << error;
   cv::Mat raw = synthetic::ApplyDistortion(pinhole, s.rig);
   synthetic::AddNoise(&raw, s.scene.noise_sigma, s.scene.noise_seed);
   return raw;

@@ -21,6 +21,8 @@
 #include "detectors/detect_image.h"
 #include "model/io/model_file.h"
 
+#include "tests/detectors/render_window.h"
+
 namespace omni::detectors {
 namespace {
 
@@ -87,19 +89,12 @@ std::map<std::pair<int, int>, GridResult> RenderAndDetect(const RigParams& rig,
   }
   for (std::size_t b = 0; b < boxes.size(); ++b) {
     const cv::Rect& box = boxes[b];
-    synthetic::RenderOptions options;
-    options.width = rig.image_width;
-    options.height = rig.image_height;
+    synthetic::RenderOptions options = testing::WindowOptions(rig, box);
     options.antialias = scene.antialias;
-    options.col0 = box.x;
-    options.col1 = box.x + box.width;
-    options.row0 = box.y;
-    options.row1 = box.y + box.height;
     options.threads = 1;
     const std::string png = dir + "/w" + std::to_string(b) + ".png";
     std::string error;
-    EXPECT_TRUE(synthetic::RenderScene(pov, png, options, &error)) << error;
-    cv::imread(png, cv::IMREAD_COLOR)(box).copyTo(pinhole(box));
+    EXPECT_TRUE(testing::RenderWindowInto(pov, box, options, png, &pinhole, &error)) << error;
   }
   cv::Mat raw = synthetic::ApplyDistortion(pinhole, rig);
   synthetic::AddNoise(&raw, scene.noise_sigma, scene.noise_seed);
