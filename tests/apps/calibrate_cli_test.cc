@@ -155,7 +155,10 @@ TEST_F(CalibrateCli, TargetsThatMatchNothing) {
 TEST_F(CalibrateCli, WrongSquareSizeFailsInsteadOfWritingAModel) {
   std::vector<TargetSpec> wrong = session_->targets;
   for (auto& t : wrong) t.square_mm *= 10;
-  ExpectFailure(Files(SessionWith(wrong), *detections_), "the solve diverged");
+  // Either cause is right: with 2 threads the order of Ceres' sums varies, and the wandering solve
+  // is caught as diverged or as a failed evaluation in a later stage ("the solve failed in stage
+  // 'final': Residual and Jacobian evaluation failed", seen once in CI).
+  ExpectFailure(Files(SessionWith(wrong), *detections_), "the solve ");
 }
 
 // Malformed detections: exit 2 and one line naming the file and the field; no model file.
