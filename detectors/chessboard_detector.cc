@@ -33,6 +33,8 @@ struct GridExtent {
   int a = 0, b = 0;   // extents along the two grid directions (0: no grid)
   int count = 0;      // X-junctions in the grid
   cv::Rect box;       // their bounding box (view pixels)
+  std::vector<cv::Point2f> points;  // the grid's X-junctions (view pixels)
+  std::vector<cv::Point> coords;    // their grid coordinates, from (0, 0) to (a - 1, b - 1)
 };
 
 GridExtent MeasureGrid(const std::vector<cv::Point2f>& p, double spacing) {
@@ -106,10 +108,34 @@ GridExtent MeasureGrid(const std::vector<cv::Point2f>& p, double spacing) {
   out.a = max_a - min_a + 1;
   out.b = max_b - min_b + 1;
   out.count = static_cast<int>(queue.size());
-  std::vector<cv::Point2f> members;
-  for (int i : queue) members.push_back(p[i]);
-  out.box = cv::boundingRect(members);
+  for (int i : queue) {
+    out.points.push_back(p[i]);
+    out.coords.push_back(coord[i] - cv::Point(min_a, min_b));
+  }
+  out.box = cv::boundingRect(out.points);
   return out;
+}
+
+// The junction grid as a rows x cols corner list in row-major order, when it is exactly that
+// pattern (every grid point present once): the last resort where both OpenCV finders fail on a
+// board the saddle detector saw whole (demo image 0008: a board whose white margin is cut by the
+// ring's edge, lost by both finders on sharper renders). Orientation and ids are left to Orient
+// and the same whole-board and homography checks as the finders' grids.
+bool GridFromJunctions(const GridExtent& grid, int rows, int cols,
+                       std::vector<cv::Point2f>* corners) {
+  const bool straight = grid.a == cols && grid.b == rows;
+  if (grid.count != rows * cols || !(straight || (grid.a == rows && grid.b == cols))) return false;
+  corners->assign(grid.points.size(), cv::Point2f(-1, -1));
+  std::vector<bool> taken(grid.points.size(), false);
+  for (size_t i = 0; i < grid.points.size(); ++i) {
+    const int c = straight ? grid.coords[i].x : grid.coords[i].y;
+    const int r = straight ? grid.coords[i].y : grid.coords[i].x;
+    const size_t k = static_cast<size_t>(r * cols + c);
+    if (taken[k]) return false;
+    taken[k] = true;
+    (*corners)[k] = grid.points[i];
+  }
+  return true;
 }
 
 // Index permutations of a rows x cols grid that a board's symmetry allows: 180-degree turns,
@@ -480,7 +506,8 @@ std::vector<BoardDetection> SearchRegion(const cv::Mat& raw_grey, const RingView
   const bool any_match = std::any_of(patterns.begin(), patterns.end(), matches);
   cv::Mat crop = RegionCrop(view, region);
   int found_here = 0;
-  for (int finder = 0; finder < (options.sector_fallback ? 2 : 1); ++finder) {
+  // Finder 0: classic; 1: sector-based; 2: the region's own X-junction grid.
+  for (int finder = 0; finder < (options.sector_fallback ? 3 : 1); ++finder) {
     for (int t : patterns) {
       if (any_match && !matches(t)) continue;
       const TargetSpec& spec = targets[t];
@@ -498,7 +525,13 @@ std::vector<BoardDetection> SearchRegion(const cv::Mat& raw_grey, const RingView
                                       options.max_boards_per_region);
       while (found_here < expected) {
         std::vector<cv::Point2f> corners;
-        if (!FindGrid(crop, spec, finder, &corners)) break;
+        if (finder == 2) {
+          // Junctions are in view pixels; the crop's origin is added back in MakeBoard.
+          if (found_here > 0 || !GridFromJunctions(grid, spec.rows, spec.cols, &corners)) break;
+          for (auto& c : corners) c -= cv::Point2f(region.full.tl());
+        } else if (!FindGrid(crop, spec, finder, &corners)) {
+          break;
+        }
         std::optional<BoardDetection> board =
             MakeBoard(raw_grey, view, model, spec, region, corners, options);
         // A grid the classic finder got wrong (refused: mis-ordered, not a whole board) is left
