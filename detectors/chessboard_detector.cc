@@ -116,27 +116,7 @@ GridExtent MeasureGrid(const std::vector<cv::Point2f>& p, double spacing) {
   return out;
 }
 
-// The junction grid as a rows x cols corner list in row-major order, when it is exactly that
-// pattern (every grid point present once): the last resort where both OpenCV finders fail on a
-// board the saddle detector saw whole (demo image 0008: a board whose white margin is cut by the
-// ring's edge, lost by both finders on sharper renders). Orientation and ids are left to Orient
-// and the same whole-board and homography checks as the finders' grids.
-bool GridFromJunctions(const GridExtent& grid, int rows, int cols,
-                       std::vector<cv::Point2f>* corners) {
-  const bool straight = grid.a == cols && grid.b == rows;
-  if (grid.count != rows * cols || !(straight || (grid.a == rows && grid.b == cols))) return false;
-  corners->assign(grid.points.size(), cv::Point2f(-1, -1));
-  std::vector<bool> taken(grid.points.size(), false);
-  for (size_t i = 0; i < grid.points.size(); ++i) {
-    const int c = straight ? grid.coords[i].x : grid.coords[i].y;
-    const int r = straight ? grid.coords[i].y : grid.coords[i].x;
-    const size_t k = static_cast<size_t>(r * cols + c);
-    if (taken[k]) return false;
-    taken[k] = true;
-    (*corners)[k] = grid.points[i];
-  }
-  return true;
-}
+
 
 // Index permutations of a rows x cols grid that a board's symmetry allows: 180-degree turns,
 // and for square boards 90-degree turns and transposes; mirror images are filtered later by
@@ -163,8 +143,9 @@ std::vector<std::vector<int>> Relabellings(int rows, int cols) {
 
 // Chooses ids for corners found as a rows x cols grid in a view (see the header's rule: +x to
 // the viewer's left, i.e. view -x; +y up, i.e. view -y; proper handedness).
-std::vector<cv::Point2f> Orient(const std::vector<cv::Point2f>& found, int rows, int cols) {
-  std::vector<cv::Point2f> best;
+// Returns perm with oriented[id] = found[perm[id]]; empty if no relabelling is proper.
+std::vector<int> Orient(const std::vector<cv::Point2f>& found, int rows, int cols) {
+  std::vector<int> best;
   double best_score = -1e9;
   for (const auto& perm : Relabellings(rows, cols)) {
     Eigen::Vector2d dc = Eigen::Vector2d::Zero(), dr = Eigen::Vector2d::Zero();
@@ -184,8 +165,7 @@ std::vector<cv::Point2f> Orient(const std::vector<cv::Point2f>& found, int rows,
     const double score = -dc.normalized().x() - dr.normalized().y();
     if (score > best_score) {
       best_score = score;
-      best.assign(found.size(), cv::Point2f());
-      for (size_t i = 0; i < found.size(); ++i) best[i] = found[perm[i]];
+      best = perm;
     }
   }
   return best;
@@ -246,6 +226,67 @@ std::optional<bool> IsXJunction(const RingView& view, const cv::Point2f& p, doub
   return changes == 4;
 }
 
+// The junction grid as a rows x cols corner list in row-major order: the last resort where
+// both OpenCV finders fail on a board the saddle detector saw (demo image 0008: a board whose
+// white margin is cut by the ring's edge, lost by both finders on sharper renders), and the way
+// a board cut by a ring boundary still gives its visible corners. Grid points may be missing
+// only where the ring or the view hides them: their place, predicted by the homography of the
+// grid found, must be too near the edge for the X-junction test (a missing point that the view
+// shows whole means an occlusion or a miss, and the board is refused). So the grid's extents may
+// fall short of the pattern's by one row or column, hidden along one side; when either side
+// could hide it the ids are ambiguous and the board is refused. Missing points get the
+// prediction and `filled` marks them: they help check and orient the board and are never
+// reported (their refinement windows would take in the ring's edge). Ids are left to Orient and
+// the same whole-board and homography checks as the finders' grids.
+bool GridFromJunctions(const RingView& view, const GridExtent& grid, double spacing, int rows,
+                       int cols, std::vector<cv::Point2f>* corners, std::vector<bool>* filled) {
+  const int n = rows * cols;
+  if (grid.count > n || 4 * grid.count < 3 * n) return false;
+  int solutions = 0;
+  for (int transpose = 0; transpose < 2; ++transpose) {
+    const int extent_c = transpose ? grid.b : grid.a, extent_r = transpose ? grid.a : grid.b;
+    const int short_c = cols - extent_c, short_r = rows - extent_r;
+    if (short_c < 0 || short_r < 0 || short_c + short_r > 1) continue;
+    // The hidden row or column before (shift 1) or after (shift 0) the grid found.
+    for (int shift = 0; shift <= short_c + short_r; ++shift) {
+      std::vector<cv::Point2f> out(n, cv::Point2f(0, 0));
+      std::vector<bool> missing(n, true);
+      std::vector<cv::Point2f> at_grid, at_view;
+      bool ok = true;
+      for (size_t i = 0; i < grid.points.size() && ok; ++i) {
+        const int c = (transpose ? grid.coords[i].y : grid.coords[i].x) + (short_c ? shift : 0);
+        const int r = (transpose ? grid.coords[i].x : grid.coords[i].y) + (short_r ? shift : 0);
+        const int k = r * cols + c;
+        ok = missing[k];
+        missing[k] = false;
+        out[k] = grid.points[i];
+        at_grid.emplace_back(static_cast<float>(c), static_cast<float>(r));
+        at_view.push_back(grid.points[i]);
+      }
+      if (!ok) continue;
+      if (grid.count < n) {
+        const cv::Mat h = cv::findHomography(at_grid, at_view, 0);
+        if (h.empty()) continue;
+        std::vector<cv::Point2f> at, predicted;
+        for (int k = 0; k < n; ++k) {
+          if (missing[k]) at.emplace_back(static_cast<float>(k % cols), static_cast<float>(k / cols));
+        }
+        cv::perspectiveTransform(at, predicted, h);
+        for (int k = 0, j = 0; k < n && ok; ++k) {
+          if (!missing[k]) continue;
+          out[k] = predicted[j++];
+          ok = !IsXJunction(view, out[k], 0.35 * spacing).has_value();  // hidden
+        }
+      }
+      if (!ok) continue;
+      ++solutions;
+      *corners = out;
+      *filled = missing;
+    }
+  }
+  return solutions == 1;
+}
+
 // True if a grid of rows x cols corners found in a view (`corners` row-major in view pixels) is
 // a whole board and not part of a larger one: one grid step beyond each side lies the board's
 // outer square corners, which must not be X-junctions: where most of a side's extrapolated
@@ -275,7 +316,9 @@ bool GridIsWholeBoard(const RingView& view, const std::vector<cv::Point2f>& corn
       ++seen;
       junctions += *x ? 1 : 0;
     }
-    if (2 * junctions > seen) return false;
+    // A lone junction beyond a side is no evidence of a larger board: the ring's dark rim next
+    // to a square's corner passes the circle test too (calibration_scene_tags image 0003).
+    if (junctions >= 2 && 2 * junctions > seen) return false;
   }
   return true;
 }
@@ -412,35 +455,47 @@ bool FindGrid(const cv::Mat& crop, const TargetSpec& spec, int finder,
 
 // A grid found in a region's crop made into a board: refined in the view, checked to be a whole
 // board, labelled by the id rule, mapped to the raw image, refined there, checked against the
-// board's homography. nullopt if any check refuses it.
+// board's homography. nullopt if any check refuses it. `filled` (empty: none) marks grid points
+// that the ring or view hides (GridFromJunctions): they take part in the whole-board test and
+// the orientation only.
 std::optional<BoardDetection> MakeBoard(const cv::Mat& raw_grey, const RingView& view,
                                         const RigModel& model, const TargetSpec& spec,
                                         const Region& region, std::vector<cv::Point2f> corners,
-                                        const ChessboardOptions& options) {
+                                        std::vector<bool> filled, const ChessboardOptions& options) {
+  filled.resize(corners.size(), false);
   const cv::Point2f origin(static_cast<float>(region.full.x), static_cast<float>(region.full.y));
   BoardDetection board;
   // A window of about a third of a square: the corner finders' initial corners are up to a
   // few view pixels off in the blurrier (upsampled) inner-ring views, beyond the reach of a
   // fixed 5x5 window.
   const int half = std::clamp(static_cast<int>(0.35 * region.spacing), 2, 8);
-  for (auto& c : corners) c += origin;
-  for (const auto& c : corners) {
+  std::vector<cv::Point2f> seen;
+  for (size_t i = 0; i < corners.size(); ++i) {
+    cv::Point2f& c = corners[i];
+    c += origin;
+    if (filled[i]) continue;
     if (c.x < half + 1 || c.y < half + 1 || c.x > view.width - half - 2 || c.y > view.height - half - 2) {
       return std::nullopt;
     }
+    seen.push_back(c);
   }
-  cv::cornerSubPix(view.image, corners, cv::Size(half, half), cv::Size(-1, -1),
+  cv::cornerSubPix(view.image, seen, cv::Size(half, half), cv::Size(-1, -1),
                    cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 20, 1e-3));
+  for (size_t i = 0, k = 0; i < corners.size(); ++i) {
+    if (!filled[i]) corners[i] = seen[k++];
+  }
   if (!GridIsWholeBoard(view, corners, spec.rows, spec.cols)) return std::nullopt;
-  const std::vector<cv::Point2f> oriented = Orient(corners, spec.rows, spec.cols);
-  if (oriented.empty()) return std::nullopt;
+  const std::vector<int> perm = Orient(corners, spec.rows, spec.cols);
+  if (perm.empty()) return std::nullopt;
+  std::vector<cv::Point2f> oriented(perm.size());
+  for (size_t i = 0; i < perm.size(); ++i) oriented[i] = corners[perm[i]];
   board.mirror = view.mirror;
   Eigen::Vector2d centre = Eigen::Vector2d::Zero();
   std::vector<std::optional<Eigen::Vector2d>> raw(oriented.size());
   for (size_t i = 0; i < oriented.size(); ++i) {
     const Eigen::Vector2d vp(oriented[i].x, oriented[i].y);
     centre += vp / oriented.size();
-    raw[i] = view.ViewToRawExact(model, vp);
+    if (!filled[perm[i]]) raw[i] = view.ViewToRawExact(model, vp);
   }
   board.off_centre = (centre - Eigen::Vector2d(view.cx, view.cy)).norm();
   for (size_t i = 0; i < oriented.size(); ++i) {
@@ -525,15 +580,19 @@ std::vector<BoardDetection> SearchRegion(const cv::Mat& raw_grey, const RingView
                                       options.max_boards_per_region);
       while (found_here < expected) {
         std::vector<cv::Point2f> corners;
+        std::vector<bool> filled;
         if (finder == 2) {
           // Junctions are in view pixels; the crop's origin is added back in MakeBoard.
-          if (found_here > 0 || !GridFromJunctions(grid, spec.rows, spec.cols, &corners)) break;
+          if (found_here > 0 ||
+              !GridFromJunctions(view, grid, region.spacing, spec.rows, spec.cols, &corners, &filled)) {
+            break;
+          }
           for (auto& c : corners) c -= cv::Point2f(region.full.tl());
         } else if (!FindGrid(crop, spec, finder, &corners)) {
           break;
         }
         std::optional<BoardDetection> board =
-            MakeBoard(raw_grey, view, model, spec, region, corners, options);
+            MakeBoard(raw_grey, view, model, spec, region, corners, filled, options);
         // A grid the classic finder got wrong (refused: mis-ordered, not a whole board) is left
         // for the sector finder; one the sector finder got wrong is hidden and counted so that
         // it is not found again.

@@ -17,6 +17,7 @@
 
 #include "calib/synthetic/image_effects.h"
 #include "calib/synthetic/pov_scene.h"
+#include "calib/synthetic/tag_texture.h"
 #include "calib/synthetic/scene.h"
 #include "calib/synthetic/scene_file.h"
 #include "detectors/detect_image.h"
@@ -165,29 +166,30 @@ TEST(ChessboardDetector, ThreeBoardsInBothRingsMatchTheTruth) {
   }
 }
 
-// The demo session's two hardest boards (sample_configs/demo_scene.yaml through the misaligned
-// rig at 960x720, as `omnistereo demo` renders them, same noise): image 0007's 4x11 board at
-// 1.78 m in the inner ring (2.2 px squares; the detector used to return a grid with a third of
-// its corners pulled onto the wrong saddles: 8 wrong ids) and image 0008's 6x7 board at 1.43 m
-// in the outer ring, whose white margin is cut by the ring's edge (used to give 0 of 42). Only a
-// window around each board in its ring is rendered.
-TEST(ChessboardDetector, DemoHardBoardsAreRightOrSilent) {
+struct HardBoard {
+  size_t image;  // index into the scene's images
+  int target, mirror;
+  int min_found;  // measured on these renders, less a margin
+};
+
+// Renders a window around each case's board in its ring (the scene's content, antialiasing and
+// noise, the misaligned rig at the scene's size), detects and checks the board's corners against
+// the truth: at least min_found of them, none wrong (the nearest true corner must carry the id),
+// each within the grid check's reach.
+void ExpectHardBoards(const std::string& scene_file, const std::vector<HardBoard>& cases) {
   const RigParams full = io::ReadModelFile(std::string(OMNISTEREO_SOURCE_DIR) +
                                            "/sample_configs/big_rig_misaligned.yaml");
   const synthetic::Scene scene = synthetic::ReadSceneFile(
-      std::string(OMNISTEREO_SOURCE_DIR) + "/sample_configs/demo_scene.yaml", RigModel(full));
-  ASSERT_EQ(scene.width, 960);
-  const RigParams rig = synthetic::RigAtImageSize(full, scene.width, scene.height);
+      std::string(OMNISTEREO_SOURCE_DIR) + "/sample_configs/" + scene_file, RigModel(full));
+  const RigParams rig = scene.width > 0 ? synthetic::RigAtImageSize(full, scene.width, scene.height)
+                                         : full;  // as `omnistereo render`
   const RigModel model(rig);
-  struct Case {
-    size_t image;
-    int target, mirror;
-  };
-  const Case cases[] = {{6, 0, 2}, {7, 2, 1}};  // images 0007 and 0008
-  const std::string dir = fs::temp_directory_path() / "omni_chessboard_demo_hard";
+  const std::string dir = fs::temp_directory_path() / ("omni_chessboard_hard_" + scene_file);
   fs::remove_all(dir);
   fs::create_directories(dir);
-  for (const Case& c : cases) {
+  std::string error;
+  ASSERT_TRUE(synthetic::WriteTagTextures(scene.targets, dir, &error)) << error;  // tag grids
+  for (const HardBoard& c : cases) {
     const synthetic::SceneImage& image = scene.images[c.image];
     const auto truth = synthetic::ComputeTruth(model, scene, image);
     cv::Rect box;
@@ -200,11 +202,10 @@ TEST(ChessboardDetector, DemoHardBoardsAreRightOrSilent) {
       box = box.empty() ? one : (box | one);
     }
     box &= cv::Rect(0, 0, rig.image_width, rig.image_height);
-    ASSERT_GT(visible, 40);
+    ASSERT_GE(visible, c.min_found);
     synthetic::RenderOptions options = testing::WindowOptions(rig, box);
     options.antialias = scene.antialias;
     const std::string png = dir + "/" + image.name + ".pinhole.png";
-    std::string error;
     cv::Mat window(rig.image_height, rig.image_width, CV_8UC3, cv::Scalar::all(0));
     ASSERT_TRUE(testing::RenderWindowInto(
         synthetic::PovSceneText(rig, synthetic::ContentOf(scene, image)), box, options, png,
@@ -246,16 +247,36 @@ TEST(ChessboardDetector, DemoHardBoardsAreRightOrSilent) {
     double mean = 0;
     for (double e : errors) mean += e / std::max<size_t>(1, errors.size());
     const double max = errors.empty() ? 0 : *std::max_element(errors.begin(), errors.end());
-    std::printf("%s target %d ring %d: %d of %d found, mean %.3f px, max %.3f px, %d wrong\n",
-                image.name.c_str(), c.target, c.mirror, found, visible, mean, max, wrong);
+    std::printf("%s %s target %d ring %d: %d of %d found, mean %.3f px, max %.3f px, %d wrong\n",
+                scene_file.c_str(), image.name.c_str(), c.target, c.mirror, found, visible, mean,
+                max, wrong);
     // The grid check refuses corners more than 0.5 px off the board's homography.
     EXPECT_LT(max, 0.6) << image.name;
     EXPECT_EQ(wrong, 0) << image.name;
-    // Measured 43 of 44 (0007; 2.2 px squares) and 40 of 42 (0008; two corners by the ring's
-    // edge are refused by the grid check).
-    EXPECT_GE(found, 0.9 * visible) << image.name;
+    EXPECT_GE(found, c.min_found) << image.name;
     EXPECT_LT(mean, 0.3) << image.name;
   }
+}
+
+// The demo session's two hardest boards (sample_configs/demo_scene.yaml through the misaligned
+// rig at 960x720, as `omnistereo demo` renders them, same noise): image 0007's 4x11 board at
+// 1.78 m in the inner ring (2.2 px squares; the detector used to return a grid with a third of
+// its corners pulled onto the wrong saddles: 8 wrong ids) and image 0008's 6x7 board at 1.43 m
+// in the outer ring, whose white margin is cut by the ring's edge (used to give 0 of 42; with
+// Lanczos-resampled renders both OpenCV finders lose it and the junction grid finds it).
+// Measured 43 of 44 and 40 of 42 (two corners by the ring's edge are refused by the grid check).
+TEST(ChessboardDetector, DemoHardBoardsAreRightOrSilent) {
+  ExpectHardBoards("demo_scene.yaml", {{6, 0, 2, 40}, {7, 2, 1, 38}});
+}
+
+// calibration_scene_tags' 6x7 board (60 mm squares) where it used to be missed: image 0006 in
+// the inner ring, where one of its 42 corners lies beyond the ring's outer edge (41 visible; a
+// board cut by a ring boundary gave nothing; now its junction grid, one row short, gives the
+// corners whose windows stay inside the ring: measured 35), and image 0003 in the outer ring,
+// whole (42 visible, squares 17-22 px; the ring's dark rim next to a square's corner made a lone
+// junction beyond its side and the whole-board test refused it: measured 42).
+TEST(ChessboardDetector, CutAndFinderLostBoardsGiveTheirVisibleCorners) {
+  ExpectHardBoards("calibration_scene_tags.yaml", {{5, 2, 2, 33}, {2, 2, 1, 40}});
 }
 
 }  // namespace
