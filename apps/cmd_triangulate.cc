@@ -6,7 +6,12 @@
 // predicted sigma and the mean NEES. Without --detections the truth's own pixels are used, with
 // Gaussian noise of --noise_px (the experiment without a detector); --seeds N repeats that N times
 // and prints how the RMSE per range spreads over the seeds beside the propagated prediction.
+// --frame mirror1 gives the points relative to mirror 1's body (frame M1) instead of C; with
+// --truth they are then compared with the true corners in the TRUE rig's M1 (the truth file's
+// model), which takes out the calibrated camera frame's unobservable turn (model/triangulation.h
+// ReferenceBody).
 #include <cstdio>
+#include <filesystem>
 #include <random>
 #include <string>
 
@@ -36,12 +41,29 @@ DEFINE_double(sigma_px_ring2, 0.0, "inner ring's (mirror 2's) pixel sigma if > 0
                                    "them by 1/sigma^2)");
 DEFINE_bool(model_covariance, false, "add the calibrated model's parameter covariance to each "
                                      "point's covariance");
+DEFINE_string(frame, "cam", "frame of the output points and covariances: cam (C) | mirror1 (M1, "
+                            "mirror 1's body; with --truth compared in the true rig's M1)");
 
 namespace omni::apps {
 namespace {
 
 void RequireFlag(const std::string& value, const char* flag, const char* what) {
   if (value.empty()) throw io::InputError(std::string("--") + flag + ": expected " + what);
+}
+
+Pose<double> CamFromMirror1(const RigParams& rig) {
+  return PoseFromBlock(rig.mirror1_pose.data());
+}
+
+// `p` (in the frame `to_from_cam` maps from, C) moved rigidly: point, covariances and pixel
+// Jacobian re-expressed.
+TriangulatedPoint Moved(TriangulatedPoint p, const Pose<double>& to_from_cam) {
+  const Eigen::Matrix3d& r = to_from_cam.rotation;
+  p.point_in_cam = to_from_cam * p.point_in_cam;
+  p.covariance = r * p.covariance * r.transpose();
+  p.model_covariance = r * p.model_covariance * r.transpose();
+  p.jacobian_px = r * p.jacobian_px;
+  return p;
 }
 
 }  // namespace
@@ -65,6 +87,11 @@ int RunTriangulate() {
   options.sigma_px = FLAGS_sigma_px;
   options.sigma_px_ring2 = FLAGS_sigma_px_ring2;
   options.model_covariance = FLAGS_model_covariance;
+  if (FLAGS_frame == "mirror1") {
+    options.reference = ReferenceBody::kMirror1;
+  } else if (FLAGS_frame != "cam") {
+    throw io::InputError("--frame: expected cam or mirror1, got '" + FLAGS_frame + "'");
+  }
   if (FLAGS_method == "midpoint") {
     options.method = TriangulationMethod::kMidpoint;
   } else if (FLAGS_method == "reprojection") {
@@ -88,6 +115,24 @@ int RunTriangulate() {
 
   std::optional<stereo::Truth> truth;
   if (!FLAGS_truth.empty()) truth = stereo::ReadTruthFile(FLAGS_truth);
+  // Output frame from C, and (with --truth) the estimate's M1 taken to the true rig's C.
+  const Pose<double> out_from_cam = options.reference == ReferenceBody::kMirror1
+                                        ? CamFromMirror1(rig).Inverse()
+                                        : Pose<double>{Eigen::Matrix3d::Identity(),
+                                                       Eigen::Vector3d::Zero()};
+  Pose<double> true_cam_from_cam = {Eigen::Matrix3d::Identity(), Eigen::Vector3d::Zero()};
+  if (truth && options.reference == ReferenceBody::kMirror1) {
+    if (truth->model.empty()) {
+      throw io::InputError(FLAGS_truth + ": model: expected the true model file (for --frame "
+                           "mirror1)");
+    }
+    const std::filesystem::path model_path =
+        std::filesystem::path(FLAGS_truth).parent_path() / truth->model;
+    const Pose<double> true_cam_from_mirror1 = CamFromMirror1(io::ReadModelFile(model_path.string()));
+    const Pose<double> mirror1_from_cam = out_from_cam;
+    true_cam_from_cam = {true_cam_from_mirror1.rotation * mirror1_from_cam.rotation,
+                         true_cam_from_mirror1 * mirror1_from_cam.translation};
+  }
 
   // The pixel pairs and the image names.
   std::vector<stereo::CornerPair> pairs;
@@ -126,8 +171,9 @@ int RunTriangulate() {
       ++failed;
       continue;
     }
-    const Eigen::Vector3d& p = point->point_in_cam;
-    const Eigen::Matrix3d& c = point->covariance;
+    const TriangulatedPoint in_frame = Moved(*point, out_from_cam);
+    const Eigen::Vector3d& p = in_frame.point_in_cam;  // in --frame
+    const Eigen::Matrix3d& c = in_frame.covariance;
     out.Add(image_names[pair.image]);
     for (double value : {double(pair.target), double(pair.id), p.x(), p.y(), p.z(), c(0, 0),
                          c(0, 1), c(0, 2), c(1, 1), c(1, 2), c(2, 2), pair.pixel1.x(),
@@ -137,7 +183,9 @@ int RunTriangulate() {
     out.EndRow();
     ++triangulated;
     if (truth) {
-      if (auto e = stereo::CompareWithTruth(*truth, pair, *point)) errors.push_back(*e);
+      if (auto e = stereo::CompareWithTruth(*truth, pair, Moved(*point, true_cam_from_cam))) {
+        errors.push_back(*e);
+      }
       else ++unmatched;
     }
   }
@@ -148,10 +196,11 @@ int RunTriangulate() {
   }
   out.Commit();
   std::printf("triangulate: %ld observations, %zu pairs, %ld triangulated (%s, sigma_px %g/%g%s), "
-              "%ld failed -> %s\n",
+              "%ld failed -> %s (frame %s)\n",
               observations, pairs.size(), triangulated, FLAGS_method.c_str(), FLAGS_sigma_px,
               FLAGS_sigma_px_ring2 > 0 ? FLAGS_sigma_px_ring2 : FLAGS_sigma_px,
-              FLAGS_model_covariance ? " + model covariance" : "", failed, FLAGS_out.c_str());
+              FLAGS_model_covariance ? " + model covariance" : "", failed, FLAGS_out.c_str(),
+              options.reference == ReferenceBody::kMirror1 ? "M1" : "C");
   if (truth) {
     if (FLAGS_detections.empty()) {
       std::printf("pixels: the truth's own, noise %g/%g px (seed %d)\n", FLAGS_noise_px,

@@ -20,7 +20,7 @@ const std::vector<Command>& Commands() {
        RunUnproject},
       {"triangulate", "triangulate corners seen in both rings, with covariance",
        {"model", "detections", "out", "sigma_px", "sigma_px_ring2", "truth", "noise_px", "seed",
-        "method", "model_covariance", "noise_px_ring2", "seeds"},
+        "method", "model_covariance", "noise_px_ring2", "seeds", "frame"},
        RunTriangulate},
       {"tolerance", "check a (calibrated) rig against assembly tolerances; simulate their image effect", {"model", "config"},
        RunTolerance},

@@ -186,7 +186,7 @@ std::optional<TriangulatedPoint> Triangulator::Triangulate(
                    out.jacobian_px.transpose();
   if (options.model_covariance && has_model_covariance_) {
     Eigen::Matrix4d model_px;
-    if (!ModelPixelCovariance(out.point_in_cam, &model_px)) return std::nullopt;
+    if (!ModelPixelCovariance(out.point_in_cam, &model_px, options.reference)) return std::nullopt;
     out.model_covariance = out.jacobian_px * model_px * out.jacobian_px.transpose();
     out.covariance += out.model_covariance;
   }
@@ -209,10 +209,17 @@ bool Triangulator::ProjectBoth(const Eigen::Vector3d& point_in_cam, Eigen::Vecto
 }
 
 bool Triangulator::ModelPixelCovariance(const Eigen::Vector3d& point_in_cam,
-                                        Eigen::Matrix4d* covariance) const {
+                                        Eigen::Matrix4d* covariance,
+                                        ReferenceBody reference) const {
   covariance->setZero();
   const auto x = JetParameters<JetP>(model_.params(), /*seed=*/true);
-  const Vec3<JetP> point = point_in_cam.cast<JetP>();
+  Vec3<JetP> point = point_in_cam.cast<JetP>();
+  if (reference == ReferenceBody::kMirror1) {
+    // The point fixed in M1: its place in C moves with mirror 1's pose parameters.
+    const Pose<double> cam_from_mirror1 = PoseFromBlock(model_.params().mirror1_pose.data());
+    const Eigen::Vector3d point_in_mirror1 = cam_from_mirror1.Inverse() * point_in_cam;
+    point = PoseFromBlock(&x[kPose1]) * point_in_mirror1.cast<JetP>();
+  }
   Vec2<JetP> px[2];
   if (!Path1(x, model_.fixed()).Project(model_.fixed(), point, &px[0])) return false;
   if (!Path2(x, model_.fixed()).Project(model_.fixed(), point, &px[1])) return false;

@@ -61,8 +61,18 @@ enum class TriangulationMethod {
   kReprojection,  // the midpoint refined to minimise the reprojection error in both rings
 };
 
+// The body that the model part of a point's covariance holds the point fixed to. kCam: the
+// camera frame C. kMirror1: mirror 1's body M1 (reflex disc included). A calibration fixes the
+// mirror bodies relative to each other and to the scene much better than the camera frame's
+// orientation: a lens's tangential distortion (dist_p1, dist_p2, held at 0) images nearly like a
+// rotation of the camera against the bodies, so the calibrated C may be turned by up to ~0.1 deg
+// (the tilts' sigma) while M1 is not (see docs/design.md, Calibration). Points measured relative
+// to M1 carry only the bodies' own uncertainty.
+enum class ReferenceBody { kCam, kMirror1 };
+
 struct TriangulationOptions {
   TriangulationMethod method = TriangulationMethod::kMidpoint;
+  ReferenceBody reference = ReferenceBody::kCam;  // for the model part of the covariance
   double sigma_px = 1.0;          // [pixel_covariance_matrix]; the paper assumes 1 px
   // Ring 2's (inner ring's) pixel sigma if > 0, else sigma_px: the two rings' corner errors differ
   // (the inner ring is upsampled and blurrier), so Omega = diag(s1^2, s1^2, s2^2, s2^2). The
@@ -124,9 +134,10 @@ class Triangulator {
                    Eigen::Matrix<double, 4, 3>* jacobian) const;
 
   // The 4x4 pixel covariance that the model's parameter covariance induces at point_in_cam
-  // (J_theta Sigma_theta J_theta^T); zero if the model carries no covariance. False if either
-  // projection is invalid.
-  bool ModelPixelCovariance(const Eigen::Vector3d& point_in_cam, Eigen::Matrix4d* covariance) const;
+  // (J_theta Sigma_theta J_theta^T) for a point held fixed to `reference` while the parameters
+  // vary; zero if the model carries no covariance. False if either projection is invalid.
+  bool ModelPixelCovariance(const Eigen::Vector3d& point_in_cam, Eigen::Matrix4d* covariance,
+                            ReferenceBody reference = ReferenceBody::kCam) const;
 
   bool has_model_covariance() const { return has_model_covariance_; }
   const std::vector<std::string>& unknown_parameters() const { return unknown_parameters_; }

@@ -3,6 +3,8 @@
 // bad input (exit 2, one line, no output file).
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -10,9 +12,11 @@
 
 #include <unistd.h>
 
+#include <Eigen/Geometry>
 #include <opencv2/imgcodecs.hpp>
 
 #include "model/io/csv.h"
+#include "model/io/model_file.h"
 #include "tests/cli_test_util.h"
 
 namespace omni {
@@ -67,6 +71,58 @@ TEST_F(StereoCli, TriangulatesTruthPixelsAndPrintsTheRangeTable) {
     if (std::sscanf(line.c_str(), "%lf %lf", &range, &rmse) == 2 && rmse < 1e-3) ++zero_rows;
   }
   EXPECT_EQ(zero_rows, 6) << out;
+}
+
+// --frame mirror1: the points relative to mirror 1's body (its pose in the model file, applied
+// here independently) and, with --truth, compared in the true rig's M1 (exact here: zero RMSE).
+TEST_F(StereoCli, Mirror1FrameGivesThePointsInTheMirrorBody) {
+  const std::string model = kSampleDir + "big_rig_misaligned.yaml";
+  std::string err, out;
+  ASSERT_EQ(RunOmnistereo("render --model=" + model + " --scene=" + kSampleDir +
+                              "rmse_scene.yaml --no_render --out=" + Path("rmse"),
+                          Path("err.txt"), &err),
+            0)
+      << err;
+  for (const std::string frame : {"cam", "mirror1"}) {
+    ASSERT_EQ(RunOmnistereo("triangulate --model=" + model + " --truth=" + Path("rmse/truth.yaml") +
+                                " --frame=" + frame + " --out=" + Path(frame + ".csv"),
+                            Path("err.txt"), &err, Path("out.txt"), &out),
+              0)
+        << err;
+    int zero_rows = 0;
+    std::istringstream lines(out);
+    std::string line;
+    while (std::getline(lines, line)) {
+      double range = 0, rmse = 1;
+      if (std::sscanf(line.c_str(), "%lf %lf", &range, &rmse) == 2 && rmse < 1e-3) ++zero_rows;
+    }
+    EXPECT_EQ(zero_rows, 6) << frame << "\n" << out;
+  }
+  const RigParams rig = io::ReadModelFile(model);
+  const double rx = rig.mirror1_pose[0], ry = rig.mirror1_pose[1];
+  const Eigen::Matrix3d cam_from_mirror1 =
+      Eigen::AngleAxisd(std::hypot(rx, ry), Eigen::Vector3d(rx, ry, 0).normalized()).matrix();
+  const Eigen::Vector3d mirror1_in_cam(rig.mirror1_pose[2], rig.mirror1_pose[3], rig.mirror1_pose[4]);
+  io::CsvReader in_cam(Path("cam.csv"), {"x_mm", "y_mm", "z_mm"});
+  io::CsvReader in_mirror1(Path("mirror1.csv"), {"x_mm", "y_mm", "z_mm"});
+  std::vector<double> a, b;
+  int rows = 0;
+  double worst = 0;
+  while (in_cam.ReadRow(&a) && in_mirror1.ReadRow(&b)) {
+    const Eigen::Vector3d expected =
+        cam_from_mirror1.transpose() * (Eigen::Vector3d(a[0], a[1], a[2]) - mirror1_in_cam);
+    worst = std::max(worst, (expected - Eigen::Vector3d(b[0], b[1], b[2])).norm());
+    ++rows;
+  }
+  EXPECT_EQ(rows, 480);
+  EXPECT_LT(worst, 1e-6);
+  // A frame the command does not know.
+  EXPECT_EQ(RunOmnistereo("triangulate --model=" + model + " --truth=" + Path("rmse/truth.yaml") +
+                              " --frame=world --out=" + Path("w.csv"),
+                          Path("e"), &err),
+            2);
+  EXPECT_NE(err.find("--frame"), std::string::npos) << err;
+  EXPECT_FALSE(fs::exists(Path("w.csv")));
 }
 
 TEST_F(StereoCli, BadInputFailsWithOneLineAndNoOutput) {
