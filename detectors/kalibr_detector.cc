@@ -118,6 +118,86 @@ int DecodeRotation(const cv::Mat& grey, const std::array<cv::Point2f, 4>& quad, 
   return it->second;
 }
 
+// Reads a quad (view pixels, TL, TR, BR, BL as printed up to a rotation) in all four rotations:
+// the tag id and its homography tag bits -> view pixels, or -1 if no rotation or more than one
+// reads (two readings of one quad: neither is trusted).
+int DecodeQuad(const cv::Mat& grey, const std::array<cv::Point2f, 4>& quad,
+               const KalibrDetectorOptions& options, cv::Matx33d* H) {
+  int id = -1;
+  for (int r = 0; r < 4; ++r) {
+    cv::Matx33d H_r;
+    const int id_r = DecodeRotation(grey, quad, r, options, &H_r);
+    if (id_r < 0) continue;
+    if (id >= 0) return -1;
+    id = id_r;
+    *H = H_r;
+  }
+  return id;
+}
+
+// True if the quad's 6 x 6 data cells are all within min_contrast grey levels of each other:
+// a solid square (Kalibr's corner squares) or an empty frame, not a tag, however its corners are
+// placed (tag36h11 codes have 10 to 25 of their 36 bits light). -1 cells (outside the view) count as
+// not uniform.
+bool DataAreaIsUniform(const cv::Mat& grey, const std::array<cv::Point2f, 4>& quad,
+                       int min_contrast) {
+  const cv::Point2f tag[4] = {{0, 0}, {kBits, 0}, {kBits, kBits}, {0, kBits}};
+  const cv::Matx33d H(cv::getPerspectiveTransform(tag, quad.data()));
+  double lo = 1e9, hi = -1e9;
+  for (int y = 2; y < kBits - 2; ++y) {
+    for (int x = 2; x < kBits - 2; ++x) {
+      const double v = CellValue(grey, H, x, y);
+      if (v < 0) return false;
+      lo = std::min(lo, v);
+      hi = std::max(hi, v);
+    }
+  }
+  return hi - lo < min_contrast;
+}
+
+// True if `p` lies inside one of `tags` (their corners in the view).
+bool InsideAnyTag(const std::vector<KalibrViewTag>& tags, const cv::Point2f& p) {
+  for (const KalibrViewTag& t : tags) {
+    std::vector<cv::Point2f> polygon;
+    for (const Eigen::Vector2d& c : t.corners) {
+      polygon.emplace_back(static_cast<float>(c.x()), static_cast<float>(c.y()));
+    }
+    if (cv::pointPolygonTest(polygon, p, false) > 0) return true;
+  }
+  return false;
+}
+
+// The quad's corners refined as X-junctions (RefineSaddleCorner) with the window the decoded
+// tags' corners get (0.15 side: the 2-bit border around the corner), each allowed to move up to
+// 0.2 side (well short of the corner square's far corners, 0.42 side away). False if any fails
+// or is not a Kalibr X-junction (IsKalibrXJunction: dark tag and corner square, light gaps) as
+// every tag corner is; quads of other things (plain tags' L-corners, blobs) stop here, unread.
+bool RefineQuadCorners(const cv::Mat& grey, const std::array<cv::Point2f, 4>& quad,
+                       int min_contrast, std::array<cv::Point2f, 4>* refined) {
+  double side = 0;
+  for (int k = 0; k < 4; ++k) side += 0.25 * cv::norm(quad[k] - quad[(k + 1) % 4]);
+  const int half = static_cast<int>(std::lround(0.15 * side));
+  for (int k = 0; k < 4; ++k) {
+    Eigen::Vector2d corner;
+    if (!RefineSaddleCorner(grey, Eigen::Vector2d(quad[k].x, quad[k].y), half, 0.2 * side,
+                            &corner)) {
+      return false;
+    }
+    (*refined)[k] = cv::Point2f(static_cast<float>(corner.x()), static_cast<float>(corner.y()));
+  }
+  for (int k = 0; k < 4; ++k) {
+    const Eigen::Vector2d at((*refined)[k].x, (*refined)[k].y);
+    const cv::Point2f next = (*refined)[(k + 1) % 4], previous = (*refined)[(k + 3) % 4];
+    const Eigen::Vector2d to_next = (Eigen::Vector2d(next.x, next.y) - at).normalized();
+    const Eigen::Vector2d to_previous = (Eigen::Vector2d(previous.x, previous.y) - at).normalized();
+    if (!IsKalibrXJunction(grey, at, to_next, to_previous, std::max(1.5, 0.12 * side),
+                           min_contrast)) {
+      return false;
+    }
+  }
+  return true;
+}
+
 // The intersection of two lines given as (vx, vy, x0, y0) from cv::fitLine.
 bool Intersect(const cv::Vec4f& a, const cv::Vec4f& b, cv::Point2f* p) {
   const double det = a[0] * b[1] - a[1] * b[0];
@@ -269,23 +349,26 @@ std::vector<KalibrViewTag> DetectKalibrTagsInView(const cv::Mat& view_grey,
     if (!FitQuad(contour, options.min_side_px * up, &quad)) continue;
     // Enlarged pixel -> view pixel (pixel centres at integers in both).
     for (cv::Point2f& p : quad) p = (p + cv::Point2f(0.5f, 0.5f)) / up - cv::Point2f(0.5f, 0.5f);
-    int id = -1, rotation = -1;
     cv::Matx33d H;
-    for (int r = 0; r < 4; ++r) {
-      cv::Matx33d H_r;
-      const int id_r = DecodeRotation(view_grey, quad, r, options, &H_r);
-      if (id_r < 0) continue;
-      if (id >= 0) {  // two readings of one quad: neither is trusted
-        id = -1;
-        break;
+    int id = DecodeQuad(view_grey, quad, options, &H);
+    // A quad that does not read may still be a tag whose contour missed its corners: where a
+    // neck to a corner square survived the erosion it pulls that corner out and tilts both sides
+    // through it, and the thresholded border band's inner outline is a quad inside the tag; the
+    // border or bit cells are then sampled off their middles. The tag's corners are X-junctions:
+    // refined as saddles they are the tag's corners whatever the contour did, and the tag is read
+    // once more from them. Not for quads inside a tag already read here (the same tag again), nor
+    // for solid squares (Kalibr's corner squares), which no corner placement turns into a tag.
+    if (id < 0 && options.refine_quad_before_decode &&
+        !InsideAnyTag(out, 0.25f * (quad[0] + quad[1] + quad[2] + quad[3])) &&
+        !DataAreaIsUniform(view_grey, quad, options.min_contrast)) {
+      std::array<cv::Point2f, 4> refined;
+      if (RefineQuadCorners(view_grey, quad, options.min_contrast, &refined)) {
+        id = DecodeQuad(view_grey, refined, options, &H);
+        if (id >= 0) quad = refined;
       }
-      id = id_r;
-      rotation = r;
-      H = H_r;
     }
     if (id < 0 || std::count(seen.begin(), seen.end(), id)) continue;
     seen.push_back(id);
-    (void)rotation;
     KalibrViewTag tag;
     tag.tag_id = id;
     // k: 0 bottom-left, 1 bottom-right, 2 top-right, 3 top-left (in tag bits: y down).

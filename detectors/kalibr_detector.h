@@ -36,6 +36,8 @@ struct KalibrDetectorOptions {
   int separation_passes = 3;        // passes with separation_px, +1, +2, ...
   double min_side_px = 10;          // shortest tag side accepted (view pixels)
   double min_bit_margin = 0.05;     // |bit - threshold| / (white - black), each data bit
+  // A quad that does not read is read once more from its corners refined as X-junctions.
+  bool refine_quad_before_decode = true;
   bool refine_in_view = true;       // saddle refinement of the corners in the view
   double max_neighbour_error = 0.15;  // of a tag's corners vs its neighbours' homography / side
 };
