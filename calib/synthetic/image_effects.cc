@@ -22,8 +22,13 @@ cv::Mat ApplyDistortion(const cv::Mat& pinhole_image, const RigParams& rig) {
       map_y.at<float>(v, u) = static_cast<float>(src.y());
     }
   }
+  // Lanczos, not bilinear: the map is locally a sub-pixel shift whose phase drifts with the
+  // radius, and bilinear interpolation blurs by an amount that follows the phase, so the two sides
+  // of an edge are blurred differently and X-junctions move outwards: +0.03 px radially on an
+  // analytic chessboard (image_effects_test), +0.06 px in ring 1 of POV-Ray renders of the
+  // misaligned rig (0.014 without distortion); cubic leaves +0.004, Lanczos under 0.003.
   cv::Mat out;
-  cv::remap(pinhole_image, out, map_x, map_y, cv::INTER_LINEAR, cv::BORDER_CONSTANT);
+  cv::remap(pinhole_image, out, map_x, map_y, cv::INTER_LANCZOS4, cv::BORDER_CONSTANT);
   return out;
 }
 
