@@ -9,6 +9,9 @@
 //   detector: cornerSubPix on the oracle image (exact pixels, no renderer involved);
 //   renderer: POV-Ray image minus oracle (same refinement, same corners).
 // Lens distortion is set to zero: the renders are compared before image_effects.
+// The refinement is the detector's (detectors/corner_refine.h: RefineCornerInRaw); the lines
+// marked "+cc" add its curvature-bias correction (RemoveCurvatureBias from each board's refined
+// corners), as the chessboard detector does.
 //
 // Usage: render_bias MODEL OUT_DIR MODE CONFIG...
 //   MODE: rig (4 boards at 700 and 1200 mm, both rings) or direct (draw_mirrors off, 2 tilted
@@ -28,6 +31,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -37,6 +41,7 @@
 
 #include "calib/synthetic/pov_scene.h"
 #include "calib/synthetic/scene.h"
+#include "detectors/corner_refine.h"
 #include "model/io/model_file.h"
 #include "model/rig_model.h"
 #include "model/target.h"
@@ -283,21 +288,42 @@ struct RingStats {
   Eigen::Vector2d mean = Eigen::Vector2d::Zero();  // mean (du, dv): a constant image shift
 };
 
-std::map<int, RingStats> Measure(const Setup& s, const cv::Mat& img, int half_override,
+// The detector's raw refinement (detectors/corner_refine.h) started at the true corners; with
+// `correct` also its curvature-bias correction from each board's refined neighbours.
+std::map<int, RingStats> Measure(const Setup& s, const cv::Mat& img, int half_override, bool correct,
                                  std::vector<Eigen::Vector2d>* errors) {
   std::map<int, RingStats> stats;
   const double cx = s.rig.camera[2], cy = s.rig.camera[3];
   errors->assign(s.corners.size(), Eigen::Vector2d(NAN, NAN));
-  for (size_t i = 0; i < s.corners.size(); ++i) {
-    const Corner& c = s.corners[i];
+  // Refined corners per board (placement, ring), row-major by id as the detector holds them.
+  std::map<std::pair<int, int>, std::vector<std::optional<Eigen::Vector2d>>> grids;
+  std::map<std::pair<int, int>, std::vector<int>> halves;
+  for (const Corner& c : s.corners) {
+    const TargetSpec& spec = s.scene.targets[s.image.placements[c.placement].target];
+    grids[{c.placement, c.ring}].resize(spec.rows * spec.cols);
+    halves[{c.placement, c.ring}].resize(spec.rows * spec.cols, 1);
+  }
+  for (const Corner& c : s.corners) {
     const int half = half_override > 0 ? half_override
                                        : std::clamp(static_cast<int>(std::lround(0.4 * c.side)), 1, 6);
-    std::vector<cv::Point2f> p{cv::Point2f(static_cast<float>(c.truth.x()), static_cast<float>(c.truth.y()))};
-    if (p[0].x < half + 3 || p[0].y < half + 3 || p[0].x > img.cols - half - 4 || p[0].y > img.rows - half - 4)
+    Eigen::Vector2d p = c.truth;
+    if (p.x() < half + 3 || p.y() < half + 3 || p.x() > img.cols - half - 4 || p.y() > img.rows - half - 4)
       continue;
-    cv::cornerSubPix(img, p, cv::Size(half, half), cv::Size(-1, -1),
-                     cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 40, 1e-4));
-    const Eigen::Vector2d e(p[0].x - c.truth.x(), p[0].y - c.truth.y());
+    if (!detectors::RefineCornerInRaw(img, half, &p)) continue;
+    grids[{c.placement, c.ring}][c.id] = p;
+    halves[{c.placement, c.ring}][c.id] = half;
+  }
+  if (correct) {
+    for (auto& [key, grid] : grids) {
+      const TargetSpec& spec = s.scene.targets[s.image.placements[key.first].target];
+      detectors::RemoveCurvatureBias(spec.rows, spec.cols, halves[key], &grid);
+    }
+  }
+  for (size_t i = 0; i < s.corners.size(); ++i) {
+    const Corner& c = s.corners[i];
+    const auto& p = grids[{c.placement, c.ring}][c.id];
+    if (!p) continue;
+    const Eigen::Vector2d e = *p - c.truth;
     if (e.norm() > 0.5) continue;  // as the detector evaluation: a lost corner, not a bias
     (*errors)[i] = e;
     // Radial: away from the principal point (rings); direct view: the same definition.
@@ -435,20 +461,28 @@ int main(int argc, char** argv) {
   const int samples = std::getenv("SAMPLES") ? std::atoi(std::getenv("SAMPLES")) : 8;
 
   auto t0 = std::chrono::steady_clock::now();
-  const cv::Mat oracle = RenderOracle(s, samples, 0);
+  cv::Mat oracle = RenderOracle(s, samples, 0);
   const double oracle_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   cv::imwrite(dir + "/oracle.png", oracle);
+  if (const char* b = std::getenv("ORACLE_BLUR")) {  // Gaussian sigma (px): a blurrier camera
+    const cv::Mat sharp = oracle.clone();
+    cv::GaussianBlur(sharp, oracle, cv::Size(0, 0), std::atof(b));
+  }
   std::vector<Eigen::Vector2d> e_oracle;
-  Report("oracle", Measure(s, oracle, half_override, &e_oracle), oracle_s);
+  Report("oracle", Measure(s, oracle, half_override, false, &e_oracle), oracle_s);
   CurvatureModel(s, e_oracle, half_override);
+  std::vector<Eigen::Vector2d> e_oracle_curv;
+  Report("oracle+cc", Measure(s, oracle, half_override, true, &e_oracle_curv), -1);
   for (int i = 4; i < argc; ++i) {
     const std::string config = argv[i];
     double seconds = 0;
     const cv::Mat img = RenderPov(s, config, dir, &seconds);
     cv::imwrite(dir + "/" + config.substr(0, 8) + ".png", img);
     std::vector<Eigen::Vector2d> e;
-    Report(config, Measure(s, img, half_override, &e), seconds);
+    Report(config, Measure(s, img, half_override, false, &e), seconds);
     ReportDiff("  -oracle", s, e, e_oracle);
+    std::vector<Eigen::Vector2d> e_curv;
+    Report(config + "+cc", Measure(s, img, half_override, true, &e_curv), -1);
     // Pixel agreement with the oracle (either checker parity): mean |difference| in the windows.
     const cv::Mat inv = 255 - oracle;
     double d0 = 0, d1 = 0, n = 0, sd0 = 0, sd1 = 0;

@@ -9,6 +9,7 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "detectors/corner_refine.h"
 #include "detectors/saddle_points.h"
 
 namespace omni::detectors {
@@ -323,19 +324,6 @@ bool GridIsWholeBoard(const RingView& view, const std::vector<cv::Point2f>& corn
   return true;
 }
 
-// Sub-pixel refinement of one corner in the raw image with a window of half-size `half`.
-bool RefineInRaw(const cv::Mat& raw_grey, int half, Eigen::Vector2d* pixel) {
-  if (pixel->x() < half + 2 || pixel->y() < half + 2 || pixel->x() > raw_grey.cols - half - 3 ||
-      pixel->y() > raw_grey.rows - half - 3) {
-    return false;
-  }
-  std::vector<cv::Point2f> p{cv::Point2f(static_cast<float>(pixel->x()), static_cast<float>(pixel->y()))};
-  cv::cornerSubPix(raw_grey, p, cv::Size(half, half), cv::Size(-1, -1),
-                   cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 40, 1e-4));
-  *pixel = Eigen::Vector2d(p[0].x, p[0].y);
-  return true;
-}
-
 // The refined corners of one board must lie on the board's image: in a view the board is a
 // plane seen by a pinhole (a homography of the target's grid, exact to 0.01 px for the views'
 // rays at 0.5-2 m, measured on ComputeTruth corners), and every corner must sit on its own grid
@@ -498,6 +486,9 @@ std::optional<BoardDetection> MakeBoard(const cv::Mat& raw_grey, const RingView&
     if (!filled[perm[i]]) raw[i] = view.ViewToRawExact(model, vp);
   }
   board.off_centre = (centre - Eigen::Vector2d(view.cx, view.cy)).norm();
+  // Refined raw corners by id (nullopt: hidden, or refused by the refinement) and their windows.
+  std::vector<std::optional<Eigen::Vector2d>> refined(oriented.size());
+  std::vector<int> halves(oriented.size(), 1);
   for (size_t i = 0; i < oriented.size(); ++i) {
     if (!raw[i]) continue;
     Eigen::Vector2d pixel = *raw[i];
@@ -516,17 +507,26 @@ std::optional<BoardDetection> MakeBoard(const cv::Mat& raw_grey, const RingView&
       // 1 px off (demo image 0007), which the grid check then refused.
       const int raw_half = std::clamp(static_cast<int>(std::lround(0.4 * side)), 1, 6);
       const Eigen::Vector2d before = pixel;
-      if (!RefineInRaw(raw_grey, raw_half, &pixel)) continue;
+      if (!RefineCornerInRaw(raw_grey, raw_half, &pixel)) continue;
       // The views are exact only for points at their distance_mm: on the non-central rig a
       // near board's mapped corner is off by a few pixels (1.5-3 px measured in ring 1 at
       // 0.6 m), while a wrong saddle would be a whole square away.
       const double max_shift =
           std::max(options.max_refine_shift_px, options.max_refine_shift_squares * side);
       if ((pixel - before).norm() > max_shift) continue;
+      halves[i] = raw_half;
     }
+    refined[i] = pixel;
+  }
+  // The board's lines from its refined corners, before any is corrected.
+  if (options.refine_in_raw && options.remove_curvature_bias) {
+    RemoveCurvatureBias(spec.rows, spec.cols, halves, &refined);
+  }
+  for (size_t i = 0; i < oriented.size(); ++i) {
+    if (!refined[i]) continue;
     board.ids.push_back(static_cast<int>(i));
     board.view_pixels.emplace_back(oriented[i].x, oriented[i].y);
-    board.raw_pixels.push_back(pixel);
+    board.raw_pixels.push_back(*refined[i]);
   }
   if (!GridFitsBoard(view, model, spec.cols, options, &board)) return std::nullopt;
   return board;

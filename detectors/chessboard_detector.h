@@ -45,6 +45,9 @@ struct ChessboardOptions {
   int max_boards_per_region = 4;
   bool sector_fallback = true;     // findChessboardCornersSB where findChessboardCorners fails
   bool refine_in_raw = true;       // cornerSubPix in the raw image (else: the view's corner mapped)
+  // After the raw refinement: subtract cornerSubPix's bias on the curved images of the board's
+  // lines, predicted from the refined neighbours (detectors/corner_refine.h).
+  bool remove_curvature_bias = true;
   // Raw refinement moving a corner further than the larger of these rejects it.
   double max_refine_shift_px = 1.5;
   double max_refine_shift_squares = 0.3;  // of the local square side in the raw image

@@ -1,0 +1,122 @@
+#include "detectors/corner_refine.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <opencv2/imgproc.hpp>
+
+namespace omni::detectors {
+namespace {
+
+// Both RefineCornerInRaw and the bias model use exactly these settings.
+const cv::TermCriteria kCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 40, 1e-4);
+
+// Signed offset of `d` (relative to the corner) from the parabola s t + s^2 / 2 k, positive on
+// the side of the normal perp(t); near the corner it is the distance to the line.
+double Side(const LocalLine& line, const Eigen::Vector2d& d) {
+  const Eigen::Vector2d n(-line.tangent.y(), line.tangent.x());
+  const double a = line.tangent.dot(d);
+  return n.dot(d) - 0.5 * n.dot(line.curvature) * a * a;
+}
+
+// A predicted offset larger than this means the lines were taken from wrong neighbours (the
+// bias itself is a few hundredths of a pixel): the corner is left uncorrected.
+constexpr double kMaxBiasPx = 0.2;
+
+}  // namespace
+
+bool RefineCornerInRaw(const cv::Mat& grey, int half, Eigen::Vector2d* pixel) {
+  if (pixel->x() < half + 2 || pixel->y() < half + 2 || pixel->x() > grey.cols - half - 3 ||
+      pixel->y() > grey.rows - half - 3) {
+    return false;
+  }
+  std::vector<cv::Point2f> p{cv::Point2f(static_cast<float>(pixel->x()), static_cast<float>(pixel->y()))};
+  cv::cornerSubPix(grey, p, cv::Size(half, half), cv::Size(-1, -1), kCriteria);
+  *pixel = Eigen::Vector2d(p[0].x, p[0].y);
+  return true;
+}
+
+Eigen::Vector2d PredictedRefineBias(const Eigen::Vector2d& corner, const LocalLine& row,
+                                    const LocalLine& col, int half) {
+  // The patch holds the window, cornerSubPix's one-pixel gradient border and room to move.
+  const int r = half + 5, size = 2 * r + 1;
+  const int x0 = static_cast<int>(std::lround(corner.x())) - r;
+  const int y0 = static_cast<int>(std::lround(corner.y())) - r;
+  constexpr int kSamples = 8;  // per pixel side, where an edge crosses the pixel
+  cv::Mat patch(size, size, CV_32F);
+  for (int v = 0; v < size; ++v) {
+    for (int u = 0; u < size; ++u) {
+      // Pixel (x, y) covers [x - 0.5, x + 0.5] x [y - 0.5, y + 0.5] (DESIGN.md §2).
+      const Eigen::Vector2d centre = Eigen::Vector2d(x0 + u, y0 + v) - corner;
+      const double f1 = Side(row, centre), f2 = Side(col, centre);
+      float value;
+      if (std::min(std::abs(f1), std::abs(f2)) > 0.8) {  // beyond the half diagonal: one colour
+        value = f1 * f2 > 0 ? 255.f : 0.f;
+      } else {
+        int bright = 0;
+        for (int a = 0; a < kSamples; ++a) {
+          for (int b = 0; b < kSamples; ++b) {
+            const Eigen::Vector2d d =
+                centre + Eigen::Vector2d((a + 0.5) / kSamples - 0.5, (b + 0.5) / kSamples - 0.5);
+            bright += Side(row, d) * Side(col, d) > 0;
+          }
+        }
+        value = 255.f * bright / (kSamples * kSamples);
+      }
+      patch.at<float>(v, u) = value;
+    }
+  }
+  std::vector<cv::Point2f> p{cv::Point2f(static_cast<float>(corner.x() - x0), static_cast<float>(corner.y() - y0))};
+  const cv::Point2f start = p[0];
+  cv::cornerSubPix(patch, p, cv::Size(half, half), cv::Size(-1, -1), kCriteria);
+  return Eigen::Vector2d(p[0].x - start.x, p[0].y - start.y);
+}
+
+std::optional<LocalLine> LineThroughCorner(const std::vector<std::optional<Eigen::Vector2d>>& corners,
+                                           int rows, int cols, int id, bool along_row) {
+  const int r = id / cols, c = id % cols;
+  const int dr = along_row ? 0 : 1, dc = along_row ? 1 : 0;
+  const auto get = [&](int k) -> std::optional<Eigen::Vector2d> {
+    const int rr = r + k * dr, cc = c + k * dc;
+    if (rr < 0 || cc < 0 || rr >= rows || cc >= cols) return std::nullopt;
+    return corners[rr * cols + cc];
+  };
+  if (!get(0)) return std::nullopt;
+  // q(u) = B + u d1 + u^2 / 2 d2 through A, B, C at u = -1, 0, 1; the corner at u0 = -centre.
+  // Perspective makes u non-uniform along the curve (d2 along the tangent); only the normal
+  // part of d2 bends it. Centred triple first: the curvature there is second-order accurate.
+  for (int centre : {0, 1, -1}) {
+    const auto a = get(centre - 1), b = get(centre), c3 = get(centre + 1);
+    if (!a || !b || !c3) continue;
+    const Eigen::Vector2d d1 = (*c3 - *a) / 2, d2 = *c3 - 2 * *b + *a;
+    const Eigen::Vector2d tangent = d1 - centre * d2;
+    if (tangent.norm() < 1e-6) continue;
+    LocalLine line;
+    line.tangent = tangent.normalized();
+    line.curvature = (d2 - d2.dot(line.tangent) * line.tangent) / tangent.squaredNorm();
+    return line;
+  }
+  for (int k : {1, -1}) {
+    if (const auto q = get(k); q && (*q - *get(0)).norm() > 1e-6) {
+      LocalLine line;
+      line.tangent = (*q - *get(0)).normalized();
+      return line;
+    }
+  }
+  return std::nullopt;
+}
+
+void RemoveCurvatureBias(int rows, int cols, const std::vector<int>& halves,
+                         std::vector<std::optional<Eigen::Vector2d>>* corners) {
+  const std::vector<std::optional<Eigen::Vector2d>> measured = *corners;
+  for (int id = 0; id < rows * cols; ++id) {
+    if (!measured[id]) continue;
+    const auto row = LineThroughCorner(measured, rows, cols, id, true);
+    const auto col = LineThroughCorner(measured, rows, cols, id, false);
+    if (!row || !col) continue;
+    const Eigen::Vector2d bias = PredictedRefineBias(*measured[id], *row, *col, halves[id]);
+    if (bias.norm() <= kMaxBiasPx) (*corners)[id] = *measured[id] - bias;
+  }
+}
+
+}  // namespace omni::detectors

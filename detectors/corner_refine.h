@@ -1,0 +1,57 @@
+// Sub-pixel refinement of chessboard corners in the raw image, and the removal of its curvature
+// bias.
+//
+// cv::cornerSubPix puts a corner where the tangent lines of the edge pixels in its window meet.
+// Through the mirrors a board's straight rows and columns image as curves ([m1], [m2] are not
+// projective), and the tangent at arc length s from the corner passes k s^2 / 2 beside it on the
+// convex side, so the refined corner moves away from the centres of curvature: +0.02 px radially
+// in both rings of the big rig with the detector's window (bench/render_bias, exact box-filtered
+// pixels), which a calibration absorbs into the axial parameters (fx, k1, mirror tz, reflex dz).
+//
+// The correction is a prediction of that bias by the same refinement on a model of the corner:
+// each of the two grid lines through it is a parabola (tangent and curvature from the board's
+// neighbouring refined corners, three consecutive ones along the row and along the column), the
+// model junction is box-filtered exactly at the corner's sub-pixel phase, cornerSubPix runs on it
+// from the model's own corner, and the offset it finds is subtracted from the measured corner.
+// The model carries whatever cornerSubPix does (window weights, discrete pixels, line angles);
+// only the lines' shapes come from the image.
+#pragma once
+
+#include <optional>
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+namespace omni::detectors {
+
+// cv::cornerSubPix of one corner in a grey image with a (2 half + 1)^2 window, started at
+// *pixel. False (pixel unchanged) if the window does not fit in the image.
+bool RefineCornerInRaw(const cv::Mat& grey, int half, Eigen::Vector2d* pixel);
+
+// A grid line through a corner, locally: unit tangent and curvature vector (1/px, pointing to
+// the centre of curvature; zero for a straight line).
+struct LocalLine {
+  Eigen::Vector2d tangent = Eigen::Vector2d::UnitX();
+  Eigen::Vector2d curvature = Eigen::Vector2d::Zero();
+};
+
+// The offset cv::cornerSubPix (half-window `half`) converges to from the true corner `corner`
+// of an ideal junction of two curved lines (exact box-filtered pixels).
+Eigen::Vector2d PredictedRefineBias(const Eigen::Vector2d& corner, const LocalLine& row,
+                                    const LocalLine& col, int half);
+
+// The line through corner `id` of a rows x cols board along its row (along_row) or column, from
+// three consecutive corners of `corners` (row-major by id, nullopt where unknown): the triple
+// centred on it, else the one beside it at a board's edge or a gap. With only one neighbour:
+// a straight line through the two. nullopt without any neighbour along the line.
+std::optional<LocalLine> LineThroughCorner(const std::vector<std::optional<Eigen::Vector2d>>& corners,
+                                           int rows, int cols, int id, bool along_row);
+
+// Subtracts PredictedRefineBias from each known corner of a board refined by RefineCornerInRaw
+// with half-windows `halves` (per id). Lines are taken from the corners as given (all before
+// any correction). Corners without a neighbour along both lines are left as they are.
+void RemoveCurvatureBias(int rows, int cols, const std::vector<int>& halves,
+                         std::vector<std::optional<Eigen::Vector2d>>* corners);
+
+}  // namespace omni::detectors
