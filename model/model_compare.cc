@@ -29,8 +29,9 @@ Eigen::Matrix3d RotationOf(const Eigen::Vector3d& rotation) {
   return Eigen::AngleAxisd(angle, rotation / angle).toRotationMatrix();
 }
 
+// `other` projects other_from_reference * p where the reference saw p.
 ProjectionDifference Difference(const std::vector<BandPoint>& points, const RigModel& other,
-                                const Eigen::Matrix3d& other_from_reference) {
+                                const Eigen::Isometry3d& other_from_reference) {
   ProjectionDifference diff;
   double sum2[2] = {0, 0};
   int n[2] = {0, 0};
@@ -71,7 +72,7 @@ Eigen::VectorXd Residuals(const std::vector<BandPoint>& points, const RigModel& 
 
 ProjectionDifference CompareProjections(const RigModel& reference, const RigModel& other,
                                         double range_mm) {
-  return Difference(StereoBandPoints(reference, range_mm), other, Eigen::Matrix3d::Identity());
+  return Difference(StereoBandPoints(reference, range_mm), other, Eigen::Isometry3d::Identity());
 }
 
 ProjectionDifference CompareProjectionsUpToRotation(const RigModel& reference,
@@ -97,7 +98,26 @@ ProjectionDifference CompareProjectionsUpToRotation(const RigModel& reference,
     if (step.norm() < 1e-12) break;
   }
   if (rotation_rad) *rotation_rad = rotation;
-  return Difference(points, other, RotationOf(rotation));
+  return Difference(points, other, Eigen::Isometry3d(RotationOf(rotation)));
+}
+
+namespace {
+
+Eigen::Isometry3d CamFromMirror1(const RigModel& model) {
+  const Pose<double>& pose = model.path1().cam_from_mirror;
+  Eigen::Isometry3d cam_from_mirror1 = Eigen::Isometry3d::Identity();
+  cam_from_mirror1.linear() = pose.rotation;
+  cam_from_mirror1.translation() = pose.translation;
+  return cam_from_mirror1;
+}
+
+}  // namespace
+
+ProjectionDifference CompareProjectionsInMirror1(const RigModel& reference, const RigModel& other,
+                                                 double range_mm) {
+  const Eigen::Isometry3d other_from_reference =
+      CamFromMirror1(other) * CamFromMirror1(reference).inverse();
+  return Difference(StereoBandPoints(reference, range_mm), other, other_from_reference);
 }
 
 }  // namespace omni

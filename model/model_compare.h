@@ -39,4 +39,13 @@ ProjectionDifference CompareProjectionsUpToRotation(const RigModel& reference,
                                                     const RigModel& other, double range_mm,
                                                     Eigen::Vector3d* rotation_rad = nullptr);
 
+// The same with the points fixed in mirror 1's body M1 instead of in the camera frame: `other`
+// projects other.cam_from_mirror1 * reference.mirror1_from_cam * p where reference projects p.
+// Why: M1 (mirror 1 with the reflex disc) is the rig's physical reference, the frame
+// `triangulate --frame mirror1` reports in; C's pointing against the mirror bodies is what a lens
+// with unknown decentring distortion (dist_p1, dist_p2, held by the calibration) leaves open.
+// Unlike CompareProjectionsUpToRotation nothing is fitted to the reference here.
+ProjectionDifference CompareProjectionsInMirror1(const RigModel& reference, const RigModel& other,
+                                                 double range_mm);
+
 }  // namespace omni

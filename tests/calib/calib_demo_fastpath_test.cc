@@ -44,7 +44,7 @@ void AddSystematicLipOffsets(const RigParams& rig, double sigma_px, unsigned see
 struct FastPathRun {
   RigParams truth;
   CalibrationResult result;
-  ProjectionDifference plain, aligned;
+  ProjectionDifference plain, aligned, in_mirror1;
   Eigen::Vector3d rotation = Eigen::Vector3d::Zero();  // of the camera frame, aligned
 };
 
@@ -79,13 +79,14 @@ FastPathRun SolveDemoFastPath(const RigParams& truth_rig) {
   run.plain = CompareProjections(true_model, RigModel(run.result.rig), 1000);
   run.aligned =
       CompareProjectionsUpToRotation(true_model, RigModel(run.result.rig), 1000, &run.rotation);
+  run.in_mirror1 = CompareProjectionsInMirror1(true_model, RigModel(run.result.rig), 1000);
   std::fprintf(stderr,
                "projection difference at 1 m over %d band points: ideal %.3f / %.3f px, "
                "calibrated %.4f / %.4f px RMS (ring 1 / ring 2); up to a rotation of the camera "
-               "frame (%.4f deg): %.4f / %.4f px\n",
+               "frame (%.4f deg): %.4f / %.4f px; in mirror 1's body: %.4f / %.4f px\n",
                run.plain.points, before.rms_px[0], before.rms_px[1], run.plain.rms_px[0],
                run.plain.rms_px[1], run.rotation.norm() * 180 / M_PI, run.aligned.rms_px[0],
-               run.aligned.rms_px[1]);
+               run.aligned.rms_px[1], run.in_mirror1.rms_px[0], run.in_mirror1.rms_px[1]);
 
   const CalibrationResult& result = run.result;
   EXPECT_TRUE(result.converged);

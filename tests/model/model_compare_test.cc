@@ -1,6 +1,7 @@
 // CompareProjections / CompareProjectionsUpToRotation between two rigs: zero for a rig against
 // itself, never larger after the rotation is removed, and the rotation found is the least-squares
-// one (turning it by a little more either way about any axis makes the difference grow).
+// one (turning it by a little more either way about any axis makes the difference grow);
+// CompareProjectionsInMirror1 against a direct evaluation built from the pose blocks.
 #include <gtest/gtest.h>
 
 #include <cstdio>
@@ -70,6 +71,61 @@ TEST(ModelCompare, RotationRemovedIsTheLeastSquaresOne) {
       EXPECT_GT(total, at_minimum) << "axis " << axis << " sign " << sign;
     }
   }
+}
+
+// cam_from_mirror1 built from its block here, independently of the model's Pose: tilt (rx, ry) as
+// a rotation vector with z = 0, then the translation (DESIGN.md section 2).
+Eigen::Isometry3d CamFromMirror1Block(const RigParams& rig) {
+  const Eigen::Vector3d tilt(rig.mirror1_pose[0], rig.mirror1_pose[1], 0);
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.linear() = Eigen::AngleAxisd(tilt.norm(), tilt.normalized()).toRotationMatrix();
+  pose.translation() =
+      Eigen::Vector3d(rig.mirror1_pose[2], rig.mirror1_pose[3], rig.mirror1_pose[4]);
+  return pose;
+}
+
+TEST(ModelCompare, InMirror1HoldsThePointsInMirror1sBody) {
+  std::mt19937 rng(7);
+  const RigModel truth(testing::MisalignedBigRig(&rng, 0.5, 0.3, true));
+  RigParams near = truth.params();
+  near.camera[2] += 0.8;
+  near.mirror1_pose[0] += 0.03 * M_PI / 180;
+  near.mirror1_pose[1] -= 0.02 * M_PI / 180;
+  near.mirror1_pose[2] += 0.2;
+  near.mirror2_pose[0] += 0.03 * M_PI / 180;
+  const RigModel other(near);
+
+  EXPECT_LT(CompareProjectionsInMirror1(truth, truth, 1000).rms_px[0], 1e-9);
+  // Direct: p in the truth's C -> the truth's M1 -> the other's C.
+  const Eigen::Isometry3d other_from_truth =
+      CamFromMirror1Block(near) * CamFromMirror1Block(truth.params()).inverse();
+  double sum[2] = {0, 0};
+  int n[2] = {0, 0};
+  for (const BandPoint& p : StereoBandPoints(truth, 1000)) {
+    for (int m = 0; m < 2; ++m) {
+      const auto o =
+          other.Project(other_from_truth * p.point_in_cam, m == 0 ? Mirror::kOne : Mirror::kTwo);
+      if (!o) continue;
+      sum[m] += (*o - p.pixel[m]).squaredNorm();
+      ++n[m];
+    }
+  }
+  const ProjectionDifference in_mirror1 = CompareProjectionsInMirror1(truth, other, 1000);
+  const ProjectionDifference plain = CompareProjections(truth, other, 1000);
+  std::printf("in M1 %.3f / %.3f px, plain %.3f / %.3f px\n", in_mirror1.rms_px[0],
+              in_mirror1.rms_px[1], plain.rms_px[0], plain.rms_px[1]);
+  for (int m = 0; m < 2; ++m) {
+    ASSERT_GT(n[m], 500);
+    EXPECT_NEAR(in_mirror1.rms_px[m], std::sqrt(sum[m] / n[m]), 1e-9);
+    EXPECT_GT(std::abs(in_mirror1.rms_px[m] - plain.rms_px[m]), 0.01);  // the frames differ
+  }
+  // With mirror 1's pose shared, M1 and C hold the points alike.
+  RigParams same_mirror1 = near;
+  same_mirror1.mirror1_pose = truth.params().mirror1_pose;
+  const ProjectionDifference a = CompareProjectionsInMirror1(truth, RigModel(same_mirror1), 1000);
+  const ProjectionDifference b = CompareProjections(truth, RigModel(same_mirror1), 1000);
+  EXPECT_NEAR(a.rms_px[0], b.rms_px[0], 1e-12);
+  EXPECT_NEAR(a.rms_px[1], b.rms_px[1], 1e-12);
 }
 
 }  // namespace
