@@ -3,6 +3,7 @@
 
 #include <sys/wait.h>
 
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -33,6 +34,20 @@ inline int RunOmnistereo(const std::string& args, const std::filesystem::path& e
   *err = ReadText(err_file);
   if (out) *out = ReadText(out_file);
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+// One ring's line of `calibrate --truth`'s corner-noise check:
+// "  ring R: <residual> px vs <true error> px over <corners> corners: ratio <ratio>".
+struct CornerNoiseLine {
+  double residual_px = 0, true_error_px = 0, ratio = 0;
+  int corners = 0;
+};
+inline bool ParseCornerNoiseLine(const std::string& out, int ring, CornerNoiseLine* line) {
+  const std::string key = "  ring " + std::to_string(ring) + ": ";
+  const auto at = out.find(key);
+  return at != std::string::npos &&
+         std::sscanf(out.c_str() + at + key.size(), "%lf px vs %lf px over %d corners: ratio %lf",
+                     &line->residual_px, &line->true_error_px, &line->corners, &line->ratio) == 4;
 }
 
 }  // namespace omni::testing

@@ -223,18 +223,11 @@ TEST_F(CalibrateCli, TruthPrintsTheCornerNoiseCheck) {
             0)
       << err;
   for (int ring = 1; ring <= 2; ++ring) {
-    const std::string key = "  ring " + std::to_string(ring) + ": ";
-    const auto at = out.find(key);
-    ASSERT_NE(at, std::string::npos) << out;
-    double residual = 0, true_error = 0, ratio = 0;
-    int corners = 0;
-    ASSERT_EQ(std::sscanf(out.c_str() + at + key.size(), "%lf px vs %lf px over %d corners: ratio %lf",
-                          &residual, &true_error, &corners, &ratio),
-              4)
-        << out;
-    EXPECT_GT(corners, 500);
-    EXPECT_NEAR(true_error, 0.1 * std::sqrt(2.0), 0.1 * 0.1 * std::sqrt(2.0)) << out;
-    EXPECT_NEAR(ratio, 1.0, 0.2) << out;
+    testing::CornerNoiseLine line;
+    ASSERT_TRUE(testing::ParseCornerNoiseLine(out, ring, &line)) << out;
+    EXPECT_GT(line.corners, 500);
+    EXPECT_NEAR(line.true_error_px, 0.1 * std::sqrt(2.0), 0.1 * 0.1 * std::sqrt(2.0)) << out;
+    EXPECT_NEAR(line.ratio, 1.0, 0.2) << out;
   }
 }
 

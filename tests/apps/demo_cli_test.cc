@@ -35,20 +35,12 @@ TEST(DemoCli, CalibratesTheRenderedRigWithinItsSigma) {
       << err << out;
 
   for (int ring = 1; ring <= 2; ++ring) {
-    const std::string key = "  ring " + std::to_string(ring) + ": ";
-    const auto at = out.find(key);
-    ASSERT_NE(at, std::string::npos) << out;
-    double residual = 0, true_error = 0, ratio = 0;
-    int corners = 0;
-    ASSERT_EQ(std::sscanf(out.c_str() + at + key.size(),
-                          "%lf px vs %lf px over %d corners: ratio %lf", &residual, &true_error,
-                          &corners, &ratio),
-              4)
-        << out;
+    testing::CornerNoiseLine line;
+    ASSERT_TRUE(testing::ParseCornerNoiseLine(out, ring, &line)) << out;
     std::printf("ring %d: residual %.4f px, true corner error %.4f px over %d corners\n", ring,
-                residual, true_error, corners);
-    EXPECT_GT(corners, 500);
-    EXPECT_NEAR(residual / true_error, 1.0, 0.2);
+                line.residual_px, line.true_error_px, line.corners);
+    EXPECT_GT(line.corners, 500);
+    EXPECT_NEAR(line.residual_px / line.true_error_px, 1.0, 0.2);
   }
 
   const RigParams truth = io::ReadModelFile((dir / "model.yaml").string());
