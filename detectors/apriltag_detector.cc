@@ -397,6 +397,12 @@ std::vector<TagCornerDetection> DetectTagCorners(const cv::Mat& raw_bgr,
     }
     if (!ok) continue;
     Eigen::Vector2d refined[4];
+    // Kalibr corners are judged one by one: a tag read exactly in its view (and consistent with
+    // its neighbours there) next to the ring's rim has its corner squares and gaps on that side
+    // cut off by the lip band (calibration_scene_tags 0016 and 0019, ring 1: 3 tags lost whole).
+    // Those corners cannot be measured and are dropped; the tag's whole X-junctions are kept
+    // (the grid check below still judges each against the target's other corners).
+    bool whole[4] = {true, true, true, true};
     for (int k = 0; k < 4 && ok; ++k) {
       refined[k] = mapped[k];
       if (t.layout == TargetType::kKalibrAprilGrid) {
@@ -406,11 +412,12 @@ std::vector<TagCornerDetection> DetectTagCorners(const cv::Mat& raw_bgr,
                                      (mapped[(k + 3) % 4] - mapped[k]).norm());
         const Eigen::Vector2d to_next = (mapped[(k + 1) % 4] - mapped[k]).normalized();
         const Eigen::Vector2d to_previous = (mapped[(k + 3) % 4] - mapped[k]).normalized();
-        ok = IsKalibrXJunction(raw_grey8, mapped[k], to_next, to_previous,
-                               std::max(1.5, 0.12 * side), options.kalibr.min_contrast);
-        if (ok && options.kalibr_refine_in_raw) {
-          ok = RefineSaddleCorner(raw_grey8, mapped[k], static_cast<int>(std::lround(0.15 * side)),
-                                  options.max_refine_shift_px, &refined[k]);
+        whole[k] = IsKalibrXJunction(raw_grey8, mapped[k], to_next, to_previous,
+                                     std::max(1.5, 0.12 * side), options.kalibr.min_contrast);
+        if (whole[k] && options.kalibr_refine_in_raw) {
+          whole[k] = RefineSaddleCorner(raw_grey8, mapped[k],
+                                        static_cast<int>(std::lround(0.15 * side)),
+                                        options.max_refine_shift_px, &refined[k]);
         }
         continue;
       }
@@ -418,8 +425,11 @@ std::vector<TagCornerDetection> DetectTagCorners(const cv::Mat& raw_bgr,
       ok = RefineTagCorner(grey, mapped[k], mapped[(k + 1) % 4], mapped[(k + 3) % 4],
                            BorderFraction(t.layout), options, &refined[k]);
     }
-    if (!ok) continue;  // the whole tag or nothing: a half-refined tag is suspect
+    // Plain tags: the whole tag or nothing (a half-refined tag is suspect). Kalibr tags: at least
+    // two whole junctions (fewer: the quad itself is doubtful).
+    if (!ok || std::count(whole, whole + 4, true) < options.kalibr_min_whole_corners) continue;
     for (int k = 0; k < 4; ++k) {
+      if (!whole[k]) continue;
       TagCornerDetection d;
       d.observation.target = target;
       d.observation.id = 4 * t.tag_id + k;

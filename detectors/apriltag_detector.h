@@ -53,6 +53,9 @@ struct TagDetectorOptions {
   // 1 / 2) vs truth, the raw refinement 0.072 / 0.061 px, max 0.18 / 0.21 px: no better.
   KalibrDetectorOptions kalibr;
   bool kalibr_refine_in_raw = false;
+  // A Kalibr tag keeps the corners that are whole X-junctions in the raw image (the others are cut
+  // by the ring's rim) if at least this many are.
+  int kalibr_min_whole_corners = 2;
   bool kalibr_saddle_gate = true;  // false: the quad finder runs on the whole crop
   SaddleOptions kalibr_saddles;  // where the Kalibr quad finder runs (saddle-point clusters)
   double kalibr_region_pad_px = 16;  // added around each cluster's box (view pixels)
