@@ -194,12 +194,32 @@ bool BetterInNeighbour(const RingView& view, const cv::Rect& rect, size_t sector
   return offset > 0.5 * step + kTie && (step - offset) + 0.5 * std::abs(span) < half_fov - 0.02;
 }
 
+// The view's pixels inside the ring (`edge_margin_rad` = 0) or at least `edge_margin_rad` from
+// its edges. Ring 1's images end in a dark rim band inside the ring's modelled edge (5-7 view
+// pixels = 0.02 rad wide in the calibration_scene_tags renders, ring 2 none): a board square's
+// corner next to it reads as an X-junction like the dark invalid area would (image 0015: three
+// "junctions" read on the rim beyond the top side of a 6x7 board in ring 1 made the
+// whole-board test refuse it; 0 of 42 corners found). So the whole-board test, where a false
+// junction refuses a whole board, reads only the pixels away from the edge; the junction grid,
+// where a junction by the edge is a corner to report, reads all of the ring (with the margin
+// there the demo's board 0008/2, cut by the ring's edge, lost 3 of its 40 corners).
+cv::Mat RingPixels(const RingView& view, double edge_margin_rad) {
+  cv::Mat trusted = view.map_x >= 0;
+  const int margin = static_cast<int>(std::ceil(edge_margin_rad * view.f));
+  if (margin > 0) {
+    cv::erode(trusted, trusted, cv::getStructuringElement(cv::MORPH_RECT, {2 * margin + 1, 2 * margin + 1}),
+              cv::Point(-1, -1), 1, cv::BORDER_CONSTANT, cv::Scalar(255));
+  }
+  return trusted;
+}
+
 // Whether the view shows an X-junction (two dark and two bright sectors alternating) at `p`,
-// read on a circle of `radius` pixels; nullopt if part of the circle is outside the ring or the
-// view (the dark invalid area would add sectors). The Hessian saddle test cannot tell this from
+// read on a circle of `radius` pixels; nullopt if part of the circle is outside the `trusted`
+// pixels (RingPixels) or the view (the dark invalid area and the rim would add sectors). The Hessian saddle test cannot tell this from
 // the corner of a single square (an L-corner has the same balanced Hessian at its tip), the
 // circle can: an L-corner has one dark sector, an X-junction two.
-std::optional<bool> IsXJunction(const RingView& view, const cv::Point2f& p, double radius) {
+std::optional<bool> IsXJunction(const RingView& view, const cv::Mat& trusted, const cv::Point2f& p,
+                                double radius) {
   constexpr int kSamples = 24;
   radius = std::max(2.0, radius);
   const cv::Mat& grey = view.image;
@@ -212,7 +232,7 @@ std::optional<bool> IsXJunction(const RingView& view, const cv::Point2f& p, doub
     const int x0 = static_cast<int>(x), y0 = static_cast<int>(y);
     for (int dy = 0; dy <= 1; ++dy) {
       for (int dx = 0; dx <= 1; ++dx) {
-        if (view.map_x.at<float>(y0 + dy, x0 + dx) < 0) return std::nullopt;
+        if (!trusted.at<uchar>(y0 + dy, x0 + dx)) return std::nullopt;
       }
     }
     const float fx = x - x0, fy = y - y0;
@@ -239,7 +259,7 @@ std::optional<bool> IsXJunction(const RingView& view, const cv::Point2f& p, doub
 // prediction and `filled` marks them: they help check and orient the board and are never
 // reported (their refinement windows would take in the ring's edge). Ids are left to Orient and
 // the same whole-board and homography checks as the finders' grids.
-bool GridFromJunctions(const RingView& view, const GridExtent& grid, double spacing, int rows,
+bool GridFromJunctions(const RingView& view, const cv::Mat& in_ring, const GridExtent& grid, double spacing, int rows,
                        int cols, std::vector<cv::Point2f>* corners, std::vector<bool>* filled) {
   const int n = rows * cols;
   if (grid.count > n || 4 * grid.count < 3 * n) return false;
@@ -276,7 +296,7 @@ bool GridFromJunctions(const RingView& view, const GridExtent& grid, double spac
         for (int k = 0, j = 0; k < n && ok; ++k) {
           if (!missing[k]) continue;
           out[k] = predicted[j++];
-          ok = !IsXJunction(view, out[k], 0.35 * spacing).has_value();  // hidden
+          ok = !IsXJunction(view, in_ring, out[k], 0.35 * spacing).has_value();  // hidden
         }
       }
       if (!ok) continue;
@@ -295,7 +315,8 @@ bool GridFromJunctions(const RingView& view, const GridExtent& grid, double spac
 // one especially, accept a sub-grid of a larger board, which would give a smaller target's ids
 // to another board's corners). Points outside the ring or the view are unknown (a board whose
 // outer squares are cut by a ring boundary is still found).
-bool GridIsWholeBoard(const RingView& view, const std::vector<cv::Point2f>& corners, int rows,
+bool GridIsWholeBoard(const RingView& view, const cv::Mat& trusted,
+                      const std::vector<cv::Point2f>& corners, int rows,
                       int cols) {
   if (rows < 2 || cols < 2) return true;
   const auto at = [&](int r, int c) { return corners[r * cols + c]; };
@@ -312,7 +333,7 @@ bool GridIsWholeBoard(const RingView& view, const std::vector<cv::Point2f>& corn
   for (const auto& side : sides) {
     int junctions = 0, seen = 0;
     for (const auto& [edge, inner] : side) {
-      const std::optional<bool> x = IsXJunction(view, 2 * edge - inner, 0.35 * cv::norm(edge - inner));
+      const std::optional<bool> x = IsXJunction(view, trusted, 2 * edge - inner, 0.35 * cv::norm(edge - inner));
       if (!x) continue;  // beyond the ring or the view: unknown
       ++seen;
       junctions += *x ? 1 : 0;
@@ -447,6 +468,7 @@ bool FindGrid(const cv::Mat& crop, const TargetSpec& spec, int finder,
 // that the ring or view hides (GridFromJunctions): they take part in the whole-board test and
 // the orientation only.
 std::optional<BoardDetection> MakeBoard(const cv::Mat& raw_grey, const RingView& view,
+                                        const cv::Mat& trusted,
                                         const RigModel& model, const TargetSpec& spec,
                                         const Region& region, std::vector<cv::Point2f> corners,
                                         std::vector<bool> filled, const ChessboardOptions& options) {
@@ -472,7 +494,7 @@ std::optional<BoardDetection> MakeBoard(const cv::Mat& raw_grey, const RingView&
   for (size_t i = 0, k = 0; i < corners.size(); ++i) {
     if (!filled[i]) corners[i] = seen[k++];
   }
-  if (!GridIsWholeBoard(view, corners, spec.rows, spec.cols)) return std::nullopt;
+  if (!GridIsWholeBoard(view, trusted, corners, spec.rows, spec.cols)) return std::nullopt;
   const std::vector<int> perm = Orient(corners, spec.rows, spec.cols);
   if (perm.empty()) return std::nullopt;
   std::vector<cv::Point2f> oriented(perm.size());
@@ -539,12 +561,13 @@ std::optional<BoardDetection> MakeBoard(const cv::Mat& raw_grey, const RingView&
 // than were found (a failed sector search costs ~60-80 ms, a failed classic one ~10 ms, a
 // successful one 2-20 ms: measured on the demo's 960x720 renders).
 std::vector<BoardDetection> SearchRegion(const cv::Mat& raw_grey, const RingView& view,
+                                         const cv::Mat& in_ring, const cv::Mat& trusted,
                                          const RigModel& model, const std::vector<TargetSpec>& targets,
                                          const std::vector<int>& patterns, const Region& region,
                                          size_t sectors, const ChessboardOptions& options) {
   std::vector<cv::Point2f> junctions;
   for (const auto& q : region.points) {
-    if (IsXJunction(view, q, 0.35 * region.spacing).value_or(false)) junctions.push_back(q);
+    if (IsXJunction(view, in_ring, q, 0.35 * region.spacing).value_or(false)) junctions.push_back(q);
   }
   const GridExtent grid = MeasureGrid(junctions, region.spacing);
   std::vector<BoardDetection> found;
@@ -584,7 +607,7 @@ std::vector<BoardDetection> SearchRegion(const cv::Mat& raw_grey, const RingView
         if (finder == 2) {
           // Junctions are in view pixels; the crop's origin is added back in MakeBoard.
           if (found_here > 0 ||
-              !GridFromJunctions(view, grid, region.spacing, spec.rows, spec.cols, &corners, &filled)) {
+              !GridFromJunctions(view, in_ring, grid, region.spacing, spec.rows, spec.cols, &corners, &filled)) {
             break;
           }
           for (auto& c : corners) c -= cv::Point2f(region.full.tl());
@@ -592,7 +615,7 @@ std::vector<BoardDetection> SearchRegion(const cv::Mat& raw_grey, const RingView
           break;
         }
         std::optional<BoardDetection> board =
-            MakeBoard(raw_grey, view, model, spec, region, corners, filled, options);
+            MakeBoard(raw_grey, view, trusted, model, spec, region, corners, filled, options);
         // A grid the classic finder got wrong (refused: mis-ordered, not a whole board) is left
         // for the sector finder; one the sector finder got wrong is hidden and counted so that
         // it is not found again.
@@ -639,9 +662,10 @@ std::vector<BoardDetection> DetectChessboardBoards(const cv::Mat& raw_grey,
 
   for (size_t vi = 0; vi < views.size(); ++vi) {
     const RingView& view = views[vi];
+    const cv::Mat in_ring = RingPixels(view, 0), trusted = RingPixels(view, options.edge_margin_rad);
     for (const Region& region : Regions(SaddlePoints(view, Saddles(options)), view.image.size(), Saddles(options))) {
       if (BetterInNeighbour(view, region.rect, views.size() / 2)) continue;
-      for (BoardDetection& board : SearchRegion(raw_grey, view, model, targets, patterns, region,
+      for (BoardDetection& board : SearchRegion(raw_grey, view, in_ring, trusted, model, targets, patterns, region,
                                                         views.size() / 2, options)) {
         board.view = static_cast<int>(vi);
         boards.push_back(std::move(board));

@@ -43,6 +43,9 @@ struct ChessboardOptions {
   double saddle_balance = 0.5;    // |trace H| <= balance * sqrt(-det H) at a saddle point
   int min_saddles = 4;             // a region with fewer saddle points is not tried
   int max_boards_per_region = 4;
+  // The whole-board test reads no pixel nearer than this to a ring's edge (its dark rim band,
+  // chessboard_detector.cc RingPixels); radians of view angle.
+  double edge_margin_rad = 0.03;
   bool sector_fallback = true;     // findChessboardCornersSB where findChessboardCorners fails
   bool refine_in_raw = true;       // cornerSubPix in the raw image (else: the view's corner mapped)
   // After the raw refinement: subtract cornerSubPix's bias on the curved images of the board's

@@ -274,9 +274,12 @@ TEST(ChessboardDetector, DemoHardBoardsAreRightOrSilent) {
 // board cut by a ring boundary gave nothing; now its junction grid, one row short, gives the
 // corners whose windows stay inside the ring: measured 35), and image 0003 in the outer ring,
 // whole (42 visible, squares 17-22 px; the ring's dark rim next to a square's corner made a lone
-// junction beyond its side and the whole-board test refused it: measured 42).
+// junction beyond its side and the whole-board test refused it: measured 42), and image 0015 in
+// the inner ring at 0.79 m, whose top squares touch the ring's dark rim band: three "junctions"
+// read on the rim beyond its top side made the whole-board test refuse it (0 of 42; the test
+// now reads no pixel within 0.03 rad of a ring's edge: measured 42).
 TEST(ChessboardDetector, CutAndFinderLostBoardsGiveTheirVisibleCorners) {
-  ExpectHardBoards("calibration_scene_tags.yaml", {{5, 2, 2, 33}, {2, 2, 1, 40}});
+  ExpectHardBoards("calibration_scene_tags.yaml", {{5, 2, 2, 33}, {2, 2, 1, 40}, {14, 2, 1, 40}});
 }
 
 }  // namespace
