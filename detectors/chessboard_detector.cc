@@ -556,10 +556,11 @@ std::optional<BoardDetection> MakeBoard(const cv::Mat& raw_grey, const RingView&
 
 // The boards in one region of a view. Only the patterns whose rows x cols match the extent of
 // the region's X-junction grid are searched when any does (the board's outer square corners pass
-// the saddle test but are not X-junctions), else all of them, larger first. Pass 0 runs the fast
-// classic finder, pass 1 the sector finder where the region's saddle points allow more boards
-// than were found (a failed sector search costs ~60-80 ms, a failed classic one ~10 ms, a
-// successful one 2-20 ms: measured on the demo's 960x720 renders).
+// the saddle test but are not X-junctions), else those that can hold the grid, nearest first.
+// Pass 0 runs the fast classic finder, pass 1 the junction grid, pass 2 the sector finder where
+// the region's saddle points allow more boards than were found (a failed sector search costs
+// ~60-80 ms, a failed classic one ~10 ms, a successful one 2-20 ms: measured on the demo's
+// 960x720 renders).
 std::vector<BoardDetection> SearchRegion(const cv::Mat& raw_grey, const RingView& view,
                                          const cv::Mat& in_ring, const cv::Mat& trusted,
                                          const RigModel& model, const std::vector<TargetSpec>& targets,
@@ -582,20 +583,49 @@ std::vector<BoardDetection> SearchRegion(const cv::Mat& raw_grey, const RingView
   };
   const auto matches = [&](int t) { return near(t, 0); };
   const bool any_match = std::any_of(patterns.begin(), patterns.end(), matches);
+  // Whether the grid fits in the pattern with at most one extra row or column (a background
+  // junction); beyond that the grid cannot be this pattern's board.
+  const auto holds = [&](int t) {
+    const int r = targets[t].rows, c = targets[t].cols;
+    return (grid.a <= r + 1 && grid.b <= c + 1) || (grid.b <= r + 1 && grid.a <= c + 1);
+  };
+  // Without an exact match the patterns nearest the grid's extent go first (larger first among
+  // equals, as `patterns`): a failed classic search costs 10-25 ms per pattern.
+  std::vector<int> order = patterns;
+  const auto distance = [&](int t) {
+    const int r = targets[t].rows, c = targets[t].cols;
+    return std::min(std::abs(r - grid.a) + std::abs(c - grid.b),
+                    std::abs(r - grid.b) + std::abs(c - grid.a));
+  };
+  std::stable_sort(order.begin(), order.end(),
+                   [&](int a, int b) { return distance(a) < distance(b); });
   cv::Mat crop = RegionCrop(view, region);
   int found_here = 0;
-  // Finder 0: classic; 1: sector-based; 2: the region's own X-junction grid.
-  for (int finder = 0; finder < (options.sector_fallback ? 3 : 1); ++finder) {
-    for (int t : patterns) {
+  // The searches, cheapest first: per pattern the classic finder, then the region's own
+  // X-junction grid (~1 ms; it finds the boards cut by a ring's edge that both OpenCV finders
+  // lose: calibration_scene_tags 0006, where the failed sector searches and classic ones for
+  // the other patterns cost 160 ms before it); the sector-based finder after all of them.
+  enum Finder { kClassic, kJunctions, kSector };
+  std::vector<std::pair<Finder, int>> searches;
+  for (int t : order) {
+    searches.emplace_back(kClassic, t);
+    if (options.sector_fallback) searches.emplace_back(kJunctions, t);
+  }
+  for (int t : order) {
+    if (options.sector_fallback) searches.emplace_back(kSector, t);
+  }
+  for (const auto& [finder, t] : searches) {
+    {
       if (any_match && !matches(t)) continue;
       const TargetSpec& spec = targets[t];
       const int n = spec.rows * spec.cols;
       // Without an exact match: not where the junction grid holds under half the pattern's
       // corners (tag grids' bits make saddle regions too: searching them cost ~500 ms per
-      // 1280x960 image), and the sector finder only for patterns within one row or column of
-      // the grid (some junctions missed, or one extra from the background).
-      if (!any_match && 2 * grid.count < n) continue;
-      if (finder == 1 && !any_match && !near(t, 1)) continue;
+      // 1280x960 image) or more rows or columns than the pattern has (plus one), and the sector
+      // finder only for patterns within one row or column of the grid (some junctions missed,
+      // or one extra from the background).
+      if (!any_match && (2 * grid.count < n || !holds(t))) continue;
+      if (finder == kSector && !any_match && !near(t, 1)) continue;
       if (n > 1.3 * region.saddles + 2) continue;
       // Stop at the number of boards the region's saddle points allow (boards bring some extra
       // saddles at their sheet edges).
@@ -604,22 +634,22 @@ std::vector<BoardDetection> SearchRegion(const cv::Mat& raw_grey, const RingView
       while (found_here < expected) {
         std::vector<cv::Point2f> corners;
         std::vector<bool> filled;
-        if (finder == 2) {
+        if (finder == kJunctions) {
           // Junctions are in view pixels; the crop's origin is added back in MakeBoard.
           if (found_here > 0 ||
               !GridFromJunctions(view, in_ring, grid, region.spacing, spec.rows, spec.cols, &corners, &filled)) {
             break;
           }
           for (auto& c : corners) c -= cv::Point2f(region.full.tl());
-        } else if (!FindGrid(crop, spec, finder, &corners)) {
+        } else if (!FindGrid(crop, spec, finder == kClassic ? 0 : 1, &corners)) {
           break;
         }
         std::optional<BoardDetection> board =
             MakeBoard(raw_grey, view, trusted, model, spec, region, corners, filled, options);
-        // A grid the classic finder got wrong (refused: mis-ordered, not a whole board) is left
-        // for the sector finder; one the sector finder got wrong is hidden and counted so that
-        // it is not found again.
-        if (!board && finder == 0) break;
+        // A grid the classic finder or the junctions got wrong (refused: mis-ordered, not a
+        // whole board) is left for the next finder; one the sector finder got wrong is hidden
+        // and counted so that it is not found again.
+        if (!board && finder != kSector) break;
         ++found_here;
         // Hide this grid from the next search in the region.
         std::vector<cv::Point> pts, hull;
