@@ -94,54 +94,223 @@ std::vector<ViewTag> DetectKalibrTags(const cv::Mat& view_grey, int view_index,
   return out;
 }
 
-// Sub-pixel points on one tag edge: from the corner along `along` (unit, towards the next
-// corner) at distances s in [s0, s1], the 50% crossing of the profile across the edge (the
-// black tag on the `inward` side). Returns (s, t) pairs: t the crossing's offset along `inward`.
-std::vector<Eigen::Vector2d> EdgePoints(const cv::Mat& grey, const Eigen::Vector2d& corner,
-                                        const Eigen::Vector2d& along, const Eigen::Vector2d& inward,
-                                        double s0, double s1, double reach_in, double reach_out,
-                                        double black, double white) {
-  std::vector<Eigen::Vector2d> points;
+double Median(std::vector<double> v) {
+  if (v.empty()) return -1;
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return v[v.size() / 2];
+}
+
+// One tag edge in the raw image, from corner a towards corner b: t(s) = c0 + c1 s + c2 s^2 is
+// the edge's offset along `inward` (towards the tag's inside) at distance s along the chord.
+// Quadratic because the mirrors bend the tag's straight edges ([m1], [m2]: a line's image is a
+// conic section's arc; over one tag side its cubic term is far below the noise).
+struct EdgeCurve {
+  Eigen::Vector2d a, along, inward;
+  double length = 0;
+  Eigen::Vector3d c = Eigen::Vector3d::Zero();
+  Eigen::Vector2d Point(double s) const { return a + s * along + (c(0) + c(1) * s + c(2) * s * s) * inward; }
+  Eigen::Vector2d Tangent(double s) const { return along + (c(1) + 2 * c(2) * s) * inward; }
+};
+
+// Least-squares t = c0 + c1 s + c2 s^2 through (s, t) points, then once more without the points
+// farther than 3 rms (and 0.1 px) from the first fit (a data bit's or a neighbour's blur).
+// With `c2` finite the quadratic term is held at it (the curvature the model predicts).
+bool FitQuadratic(std::vector<Eigen::Vector2d> st, double c2, Eigen::Vector3d* c, double* rms) {
+  const bool fixed = std::isfinite(c2);
+  for (int pass = 0; pass < 2; ++pass) {
+    if (st.size() < 6) return false;
+    Eigen::MatrixXd A(st.size(), fixed ? 2 : 3);
+    Eigen::VectorXd b(st.size());
+    for (std::size_t i = 0; i < st.size(); ++i) {
+      const double s = st[i].x();
+      if (fixed) {
+        A.row(i) << 1, s;
+        b(i) = st[i].y() - c2 * s * s;
+      } else {
+        A.row(i) << 1, s, s * s;
+        b(i) = st[i].y();
+      }
+    }
+    const Eigen::VectorXd x = A.colPivHouseholderQr().solve(b);
+    *c = fixed ? Eigen::Vector3d(x(0), x(1), c2) : Eigen::Vector3d(x);
+    const Eigen::VectorXd r = A * x - b;
+    *rms = std::sqrt(r.squaredNorm() / st.size());
+    if (pass == 1) break;
+    const double limit = std::max(3 * *rms, 0.1);
+    std::vector<Eigen::Vector2d> kept;
+    for (std::size_t i = 0; i < st.size(); ++i) {
+      if (std::abs(r(i)) <= limit) kept.push_back(st[i]);
+    }
+    st = std::move(kept);
+  }
+  return c->allFinite();
+}
+
+// Refines `edge` (its offset c0 and slope c1; the curvature c2 kept) by fitting the raw pixels
+// next to it, from reach_out outside to reach_in inside and `margin` clear of both corners, with
+// a blurred step: I = white - (white - black) Phi(d / sigma), d the pixel centre's distance inside
+// the edge curve; levels and sigma fitted too (Gauss-Newton). The profiles' halfway crossings
+// between bilinearly interpolated pixels shift with the edge's phase against the pixel grid
+// (sharp renders: up to ~0.1 px), which along a nearly axis-parallel edge turns the fitted line;
+// the step model sees each pixel where it is.
+bool FitEdgeToPixels(const cv::Mat& grey, double margin, double reach_in, double reach_out,
+                     double black, double white, EdgeCurve* edge) {
+  struct Pixel {
+    double s, u, value;
+  };
+  std::vector<Pixel> pixels;
+  const Eigen::Vector2d ends[2] = {edge->a, edge->a + edge->length * edge->along};
+  const double pad = reach_out + reach_in + 2;
+  const int x0 = static_cast<int>(std::floor(std::min(ends[0].x(), ends[1].x()) - pad));
+  const int x1 = static_cast<int>(std::ceil(std::max(ends[0].x(), ends[1].x()) + pad));
+  const int y0 = static_cast<int>(std::floor(std::min(ends[0].y(), ends[1].y()) - pad));
+  const int y1 = static_cast<int>(std::ceil(std::max(ends[0].y(), ends[1].y()) + pad));
+  if (x0 < 0 || y0 < 0 || x1 >= grey.cols || y1 >= grey.rows) return false;
+  for (int y = y0; y <= y1; ++y) {
+    for (int x = x0; x <= x1; ++x) {
+      const Eigen::Vector2d q = Eigen::Vector2d(x, y) - edge->a;
+      const double s = q.dot(edge->along), u = q.dot(edge->inward);
+      const double d = u - (edge->c(0) + edge->c(1) * s + edge->c(2) * s * s);
+      if (s < margin || s > edge->length - margin || d < -reach_out || d > reach_in) continue;
+      pixels.push_back({s, u, grey.at<float>(y, x)});
+    }
+  }
+  if (pixels.size() < 12) return false;
+  // Parameters: c0, c1, sigma, black, white.
+  Eigen::Matrix<double, 5, 1> p(edge->c(0), edge->c(1), 0.6, black, white);
+  for (int it = 0; it < 8; ++it) {
+    Eigen::Matrix<double, 5, 5> H = Eigen::Matrix<double, 5, 5>::Zero();
+    Eigen::Matrix<double, 5, 1> g = Eigen::Matrix<double, 5, 1>::Zero();
+    for (const Pixel& px : pixels) {
+      const double d = px.u - (p(0) + p(1) * px.s + edge->c(2) * px.s * px.s);
+      const double x = d / p(2);
+      const double Phi = 0.5 * std::erfc(-x / std::sqrt(2.0));
+      const double phi = std::exp(-0.5 * x * x) / std::sqrt(2 * M_PI);
+      const double r = p(4) - (p(4) - p(3)) * Phi - px.value;
+      const double dI_dd = -(p(4) - p(3)) * phi / p(2);
+      Eigen::Matrix<double, 5, 1> J;
+      J << -dI_dd, -dI_dd * px.s, (p(4) - p(3)) * phi * x / p(2), Phi, 1 - Phi;
+      H += J * J.transpose();
+      g += J * r;
+    }
+    const Eigen::Matrix<double, 5, 1> step = H.ldlt().solve(-g);
+    if (!step.allFinite()) return false;
+    p += step;
+    p(2) = std::clamp(p(2), 0.2, 3.0);
+    if (step.head<2>().norm() < 1e-6) break;
+  }
+  if (!(std::abs(p(0) - edge->c(0)) < 1.0 && p(4) - p(3) > 0.1)) return false;
+  edge->c(0) = p(0);
+  edge->c(1) = p(1);
+  return true;
+}
+
+// Fits one tag edge (corner a to corner b, raw pixels, both approximate) in the grey CV_32F raw
+// image. Along the chord, clear of both corners' blur, each profile across the edge gives the
+// sub-pixel point where it crosses halfway between this edge's own black and white: the median
+// values at the black border's middle (border_px / 2 inside) and reach_out outside. Halfway
+// between the levels that the profile itself reaches is where a symmetric blur puts an ideal
+// step's edge, whatever the blur's width (a global min/max level would move it with the noise).
+bool FitTagEdge(const cv::Mat& grey, const Eigen::Vector2d& a, const Eigen::Vector2d& b,
+                const Eigen::Vector2d& tag_centre, double border_px, double reach_out,
+                double curvature, const TagDetectorOptions& options, EdgeCurve* edge) {
+  edge->a = a;
+  edge->length = (b - a).norm();
+  if (!(edge->length >= options.min_edge_px)) return false;
+  edge->along = (b - a) / edge->length;
+  edge->inward = Eigen::Vector2d(-edge->along.y(), edge->along.x());
+  if (edge->inward.dot(tag_centre - a) < 0) edge->inward = -edge->inward;
+  const double margin = options.edge_corner_margin_px;
+  const double reach_in = std::clamp(0.8 * border_px, 0.8, 3.0);
+  std::vector<double> s_values;
+  for (double s = margin; s <= edge->length - margin + 1e-9; s += 0.5) s_values.push_back(s);
+  if (s_values.size() < 6) return false;
+  std::vector<double> blacks, whites;
+  for (const double s : s_values) {
+    const Eigen::Vector2d base = a + s * edge->along;
+    double darkest = 1e9;
+    for (double t = 0; t <= reach_in + 1e-9; t += 0.25) {
+      const Eigen::Vector2d in = base + t * edge->inward;
+      const double value = Bilinear(grey, in.x(), in.y());
+      if (value >= 0) darkest = std::min(darkest, value);
+    }
+    const Eigen::Vector2d out = base - reach_out * edge->inward;
+    blacks.push_back(darkest);
+    whites.push_back(Bilinear(grey, out.x(), out.y()));
+  }
+  const double black = Median(blacks), white = Median(whites);
+  if (!(black >= 0 && white - black > 0.15)) return false;
+  const double half = 0.5 * (black + white);
   constexpr double kStep = 0.1;
-  for (double s = s0; s <= s1 + 1e-9; s += 0.5) {
-    const Eigen::Vector2d base = corner + s * along;
-    const int n = static_cast<int>((reach_in + reach_out) / kStep) + 1;
-    std::vector<double> value(n);
+  const int n = static_cast<int>((reach_in + reach_out) / kStep) + 1;
+  std::vector<Eigen::Vector2d> st;
+  std::vector<double> value(n);
+  for (const double s : s_values) {
+    const Eigen::Vector2d base = a + s * edge->along;
     bool inside_image = true;
     for (int i = 0; i < n && inside_image; ++i) {
-      const double t = reach_in - i * kStep;  // from inside the tag to outside
-      const Eigen::Vector2d p = base + t * inward;
+      const Eigen::Vector2d p = base + (reach_in - i * kStep) * edge->inward;  // inside to outside
       value[i] = Bilinear(grey, p.x(), p.y());
       inside_image = value[i] >= 0;
     }
     if (!inside_image) continue;
-    const double half = 0.5 * (black + white);
-    // The crossing nearest to t = 0 (the predicted edge).
+    // The dark-to-bright crossing (going outwards) nearest to the predicted edge t = 0.
     double best_t = 1e9;
     for (int i = 0; i + 1 < n; ++i) {
-      const double a = value[i] - half, b = value[i + 1] - half;
-      if (a < 0 && b >= 0) {
-        const double t = reach_in - (i + a / (a - b)) * kStep;
+      const double u = value[i] - half, w = value[i + 1] - half;
+      if (u < 0 && w >= 0) {
+        const double t = reach_in - (i + u / (u - w)) * kStep;
         if (std::abs(t) < std::abs(best_t)) best_t = t;
       }
     }
-    if (best_t < 1e8) points.emplace_back(s, best_t);
+    if (best_t < 1e8) st.emplace_back(s, best_t);
   }
-  return points;
+  double rms = 0;
+  if (st.size() < 0.7 * s_values.size()) return false;
+  if (!FitQuadratic(st, curvature, &edge->c, &rms) || rms > options.max_edge_rms_px) return false;
+  return !options.fit_edge_pixels ||
+         FitEdgeToPixels(grey, margin, std::min(options.edge_fit_reach_in * border_px, reach_in),
+                         reach_out, black, white, edge);
 }
 
-// Least-squares t = c0 + c1 s + c2 s^2; rms of the fit in *rms.
-bool FitQuadratic(const std::vector<Eigen::Vector2d>& st, Eigen::Vector3d* c, double* rms) {
-  if (st.size() < 4) return false;
-  Eigen::MatrixXd A(st.size(), 3);
-  Eigen::VectorXd b(st.size());
-  for (std::size_t i = 0; i < st.size(); ++i) {
-    A.row(i) << 1, st[i].x(), st[i].x() * st[i].x();
-    b(i) = st[i].y();
+// The curvature term c2 (t = c0 + c1 s + c2 s^2 across the raw chord, EdgeCurve) of the raw image
+// of the straight view segment from view pixel a to b, t along the normal towards raw pixel
+// `inside`: the view's map (ViewToRaw, from the rig model) at 9 points along it, fitted by a
+// quadratic. NaN if the segment leaves the view's map.
+double EdgeCurvatureFromView(const RingView& view, const Eigen::Vector2d& a, const Eigen::Vector2d& b,
+                             const Eigen::Vector2d& inside) {
+  const auto raw_a = view.ViewToRaw(a), raw_b = view.ViewToRaw(b);
+  if (!raw_a || !raw_b || (*raw_b - *raw_a).norm() < 1e-6) return std::nan("");
+  const Eigen::Vector2d along = (*raw_b - *raw_a).normalized();
+  Eigen::Vector2d normal(-along.y(), along.x());
+  if (normal.dot(inside - *raw_a) < 0) normal = -normal;
+  std::vector<Eigen::Vector2d> st;
+  for (int i = 0; i <= 8; ++i) {
+    const auto raw = view.ViewToRaw(a + (i / 8.0) * (b - a));
+    if (!raw) return std::nan("");
+    st.emplace_back((*raw - *raw_a).dot(along), (*raw - *raw_a).dot(normal));
   }
-  *c = A.colPivHouseholderQr().solve(b);
-  *rms = std::sqrt((A * *c - b).squaredNorm() / st.size());
-  return c->allFinite();
+  Eigen::Vector3d c;
+  double rms = 0;
+  return FitQuadratic(st, std::nan(""), &c, &rms) ? c(2) : std::nan("");
+}
+
+// Where edge `in` (ending at the corner, s near its length) meets edge `out` (starting there):
+// Newton on the two curves from the chord ends.
+bool IntersectEdges(const EdgeCurve& in, const EdgeCurve& out, Eigen::Vector2d* corner) {
+  Eigen::Vector2d s(in.length, 0);
+  for (int it = 0; it < 10; ++it) {
+    const Eigen::Vector2d r = in.Point(s(0)) - out.Point(s(1));
+    Eigen::Matrix2d J;
+    J.col(0) = in.Tangent(s(0));
+    J.col(1) = -out.Tangent(s(1));
+    const Eigen::Vector2d step = J.fullPivLu().solve(-r);
+    if (!step.allFinite()) return false;
+    s += step;
+    if (step.norm() < 1e-9) break;
+  }
+  *corner = out.Point(s(1));
+  return corner->allFinite() && (in.Point(s(0)) - *corner).norm() < 1e-6;
 }
 
 // A Kalibr corner that failed the grid check, refined again in its view by the first step's
@@ -212,72 +381,33 @@ void DropCornersOffTheirTarget(const std::vector<RingView>& views,
 
 }  // namespace
 
-bool RefineTagCorner(const cv::Mat& grey, const Eigen::Vector2d& corner,
-                     const Eigen::Vector2d& next, const Eigen::Vector2d& previous,
-                     double border_fraction, const TagDetectorOptions& options,
-                     Eigen::Vector2d* refined) {
-  const Eigen::Vector2d e[2] = {next - corner, previous - corner};
-  const double len[2] = {e[0].norm(), e[1].norm()};
-  if (!(std::min(len[0], len[1]) >= options.min_edge_px)) return false;
-  Eigen::Vector2d along[2], inward[2];
-  Eigen::Vector3d curve[2];
-  for (int i = 0; i < 2; ++i) {
-    along[i] = e[i] / len[i];
-    // Inward normal: towards the other edge's side of this one (the tag's interior).
-    Eigen::Vector2d n(-along[i].y(), along[i].x());
-    if (n.dot(e[1 - i]) < 0) n = -n;
-    inward[i] = n;
-  }
-  // The tag's black and the outside's white: the darkest and brightest values around the
-  // corner (narrow borders never reach full black on a single profile through their blur).
-  double black = 1e9, white = -1e9;
-  const double side = std::min(len[0], len[1]);
-  const double level_reach = std::clamp(0.5 * side, 2.0, 8.0);
-  for (double a = -level_reach; a <= level_reach; a += 0.5) {
-    for (double b = -level_reach; b <= level_reach; b += 0.5) {
-      const Eigen::Vector2d p = corner + a * along[0] + b * along[1];
-      const double value = Bilinear(grey, p.x(), p.y());
-      if (value < 0) continue;
-      if (a > 0 && b > 0) black = std::min(black, value);  // the tag's quadrant
-      if (a < 0 || b < 0) white = std::max(white, value);
+bool RefineTagCorners(const cv::Mat& grey, const Eigen::Vector2d (&corners)[4],
+                      const double (&curvature)[4], double border_fraction, double spacing,
+                      const TagDetectorOptions& options, Eigen::Vector2d (&refined)[4]) {
+  Eigen::Vector2d centre = Eigen::Vector2d::Zero();
+  for (const auto& c : corners) centre += 0.25 * c;
+  double side[4];
+  for (int j = 0; j < 4; ++j) side[j] = (corners[(j + 1) % 4] - corners[j]).norm();
+  EdgeCurve edges[4];
+  for (int j = 0; j < 4; ++j) {
+    // Edge j runs from corner j to corner j+1; its border is as wide as a bit of the sides
+    // across it. Outside, stay within half the gap to the neighbouring tag.
+    const double across = 0.5 * (side[(j + 1) % 4] + side[(j + 3) % 4]);
+    const double border_px = border_fraction * across;
+    if (border_px < options.min_border_px) return false;
+    const double reach_out = std::clamp(0.5 * spacing * across, 1.0, 2.5);
+    if (!FitTagEdge(grey, corners[j], corners[(j + 1) % 4], centre, border_px, reach_out,
+                    curvature[j], options, &edges[j])) {
+      return false;
     }
   }
-  if (!(white - black > 0.15)) return false;
-  for (int i = 0; i < 2; ++i) {
-    // Measure along the border only (inside it, the data bits may be white), clear of the
-    // corner's own blur, and within the first 40% of the side.
-    const double border_px = border_fraction * len[1 - i];
-    const double reach_in = std::clamp(0.8 * border_px, 0.8, 3.0);
-    const double reach_out = std::clamp(0.8 * border_px, 0.8, 3.0);
-    const double s0 = std::max(1.5, 0.6 * reach_in + 0.8);
-    const double s1 = std::max(s0 + 2.0, std::min(0.4 * len[i], 12.0));
-    const auto st = EdgePoints(grey, corner, along[i], inward[i], s0, s1, reach_in, reach_out, black,
-                               white);
-    double rms = 0;
-    if (!FitQuadratic(st, &curve[i], &rms) || rms > options.max_edge_rms_px) return false;
+  for (int k = 0; k < 4; ++k) {
+    if (!IntersectEdges(edges[(k + 3) % 4], edges[k], &refined[k]) ||
+        (refined[k] - corners[k]).norm() > options.max_refine_shift_px) {
+      return false;
+    }
   }
-  // Intersect P_i(s) = corner + s along_i + t_i(s) inward_i by Newton from the corner.
-  Eigen::Vector2d st(0, 0);  // (s on edge 0, s on edge 1)
-  for (int it = 0; it < 10; ++it) {
-    const auto point = [&](int i, double s) {
-      return Eigen::Vector2d(corner + s * along[i] +
-                             (curve[i](0) + curve[i](1) * s + curve[i](2) * s * s) * inward[i]);
-    };
-    const auto tangent = [&](int i, double s) {
-      return Eigen::Vector2d(along[i] + (curve[i](1) + 2 * curve[i](2) * s) * inward[i]);
-    };
-    const Eigen::Vector2d r = point(0, st(0)) - point(1, st(1));
-    Eigen::Matrix2d J;
-    J.col(0) = tangent(0, st(0));
-    J.col(1) = -tangent(1, st(1));
-    const Eigen::Vector2d step = J.fullPivLu().solve(-r);
-    if (!step.allFinite()) return false;
-    st += step;
-    if (step.norm() < 1e-8) break;
-  }
-  *refined = corner + st(0) * along[0] +
-             (curve[0](0) + curve[0](1) * st(0) + curve[0](2) * st(0) * st(0)) * inward[0];
-  return refined->allFinite() && (*refined - corner).norm() <= options.max_refine_shift_px;
+  return true;
 }
 
 std::vector<TagCornerDetection> DetectTagCorners(const cv::Mat& raw_bgr,
@@ -421,9 +551,22 @@ std::vector<TagCornerDetection> DetectTagCorners(const cv::Mat& raw_bgr,
         }
         continue;
       }
-      if (!options.refine_in_raw) continue;
-      ok = RefineTagCorner(grey, mapped[k], mapped[(k + 1) % 4], mapped[(k + 3) % 4],
-                           BorderFraction(t.layout), options, &refined[k]);
+    }
+    // Plain tags: the four edges fitted in the raw image, the corners where they meet. A tag
+    // whose edges cannot all be measured keeps libapriltag's corners mapped from the view.
+    if (ok && t.layout == TargetType::kAprilTagGrid && options.refine_in_raw) {
+      Eigen::Vector2d fitted[4];
+      const Eigen::Vector2d centre = 0.25 * (mapped[0] + mapped[1] + mapped[2] + mapped[3]);
+      double curvature[4];
+      for (int j = 0; j < 4; ++j) {
+        curvature[j] = options.curvature_from_view
+                           ? EdgeCurvatureFromView(view, t.corners[j], t.corners[(j + 1) % 4], centre)
+                           : std::nan("");
+      }
+      if (RefineTagCorners(grey, mapped, curvature, BorderFraction(t.layout),
+                           targets[target].spacing, options, fitted)) {
+        std::copy(fitted, fitted + 4, refined);
+      }
     }
     // Plain tags: the whole tag or nothing (a half-refined tag is suspect). Kalibr tags: at least
     // two whole junctions (fewer: the quad itself is doubtful).

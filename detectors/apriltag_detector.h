@@ -39,13 +39,20 @@ struct TagDetectorOptions {
   // Each view is searched only in its middle 360/views-per-ring degrees plus this much each side
   // (views overlap): tags up to this wide (at 1 m, 0.17 rad = 170 mm) are whole in some crop.
   double view_overlap_deg = 10.0;
-  double max_refine_shift_px = 1.5;  // refined corner farther from the mapped one: tag dropped
-  double min_edge_px = 5.0;       // shorter tag edges in the raw image are not refined: dropped
+  double max_refine_shift_px = 1.5;  // refined corner farther from the mapped one: tag unrefined
+  double min_edge_px = 5.0;       // shorter tag edges in the raw image: tag unrefined
   double max_edge_rms_px = 0.25;  // of the edge points about their fitted curve
-  // Refine in the raw image (RefineTagCorner). Off by default: on the misaligned-rig renders the
-  // corners libapriltag finds in the views (decimation 1), mapped to raw, measured 0.04-0.07 px
-  // mean error against truth, and this refinement 0.12-0.17 px (it is not yet right).
-  bool refine_in_raw = false;
+  double edge_corner_margin_px = 2.0;  // edge points are measured this far from both corners
+  // Plain tags: refine in the raw image (RefineTagCorners: the 4 edges fitted, corners where they
+  // meet). Off: libapriltag's corners in the views mapped to raw (0.07-0.10 px mean error on
+  // detector_eval_scene; its edge refinement samples the view at whole pixels).
+  bool refine_in_raw = true;
+  bool curvature_from_view = true;
+  bool fit_edge_pixels = true;
+  double edge_fit_reach_in = 0.7;  // of the border's width
+  // Narrower black borders (raw px, across an edge) leave too few pixels between the outside and
+  // the data bits: the tag keeps its mapped corners (tag_grid_tests 70 mm ring 2: 1.3 px).
+  double min_border_px = 1.3;
   // Kalibr AprilGrid: tags found in the views (kalibr_detector.h), their X-junction corners
   // refined by cornerSubPix in the view, mapped to raw, checked to be whole X-junctions there,
   // and (if on) refined again by cornerSubPix in the raw image. Off: on the misaligned-rig renders
@@ -95,12 +102,14 @@ std::vector<TagCornerDetection> DetectTagCorners(const cv::Mat& raw_bgr,
                                                  const std::vector<TargetSpec>& targets,
                                                  const TagDetectorOptions& options = {});
 
-// Refines a tag corner in a grey CV_32F raw image: `corner` and its two neighbouring corners of
-// the same tag (approximate, raw pixels), the tag's border width in bits' fraction of the side
-// (border_fraction: the black border's width / side). False if the edges cannot be measured.
-bool RefineTagCorner(const cv::Mat& grey, const Eigen::Vector2d& corner,
-                     const Eigen::Vector2d& next, const Eigen::Vector2d& previous,
-                     double border_fraction, const TagDetectorOptions& options,
-                     Eigen::Vector2d* refined);
+// Refines a plain tag's four corners (raw pixels, approximate, in k order round the tag) in a grey
+// CV_32F raw image: each edge's sub-pixel points (where profiles across it cross halfway between
+// the black border and the white outside) fitted by a quadratic, the corners where consecutive
+// edges meet. border_fraction: the black border's width / the tag side; spacing: the gap to the
+// neighbouring tags / the tag side (the outside is measured within half of it). False (refined
+// unset) if an edge cannot be measured or a corner moves more than max_refine_shift_px.
+bool RefineTagCorners(const cv::Mat& grey, const Eigen::Vector2d (&corners)[4],
+                      const double (&curvature)[4], double border_fraction, double spacing,
+                      const TagDetectorOptions& options, Eigen::Vector2d (&refined)[4]);
 
 }  // namespace omni::detectors
