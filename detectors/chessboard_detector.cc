@@ -511,6 +511,7 @@ std::optional<BoardDetection> MakeBoard(const cv::Mat& raw_grey, const RingView&
   // Refined raw corners by id (nullopt: hidden, or refused by the refinement) and their windows.
   std::vector<std::optional<Eigen::Vector2d>> refined(oriented.size());
   std::vector<int> halves(oriented.size(), 1);
+  std::vector<double> sides(oriented.size(), 0);
   for (size_t i = 0; i < oriented.size(); ++i) {
     if (!raw[i]) continue;
     Eigen::Vector2d pixel = *raw[i];
@@ -537,8 +538,17 @@ std::optional<BoardDetection> MakeBoard(const cv::Mat& raw_grey, const RingView&
           std::max(options.max_refine_shift_px, options.max_refine_shift_squares * side);
       if ((pixel - before).norm() > max_shift) continue;
       halves[i] = raw_half;
+      sides[i] = side;
     }
     refined[i] = pixel;
+  }
+  // Windows that reach past the corner's own four squares (a board cut by the ring's rim or
+  // lip, its sheet's edge) pulled whole edge rows 0.5-0.9 px off, coherently, which the grid
+  // check cannot see: such corners are refined again in a window that leaves the foreign edge
+  // out, or dropped.
+  if (options.refine_in_raw && options.clean_windows) {
+    KeepWindowsOnTheirSquares(raw_grey, spec.rows, spec.cols, sides, options.min_clean_half,
+                              &halves, &refined);
   }
   // The board's lines from its refined corners, before any is corrected.
   if (options.refine_in_raw && options.remove_curvature_bias) {

@@ -48,6 +48,11 @@ struct ChessboardOptions {
   double edge_margin_rad = 0.03;
   bool sector_fallback = true;     // findChessboardCornersSB where findChessboardCorners fails
   bool refine_in_raw = true;       // cornerSubPix in the raw image (else: the view's corner mapped)
+  // After the raw refinement: a corner whose window takes in more than its own four squares is
+  // refined again in a window that leaves the rest out, or dropped where that window's half
+  // would be under min_clean_half (corner_refine.h KeepWindowsOnTheirSquares).
+  bool clean_windows = true;
+  int min_clean_half = 2;
   // After the raw refinement: subtract cornerSubPix's bias on the curved images of the board's
   // lines, predicted from the refined neighbours (detectors/corner_refine.h).
   bool remove_curvature_bias = true;

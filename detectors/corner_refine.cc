@@ -119,4 +119,79 @@ void RemoveCurvatureBias(int rows, int cols, const std::vector<int>& halves,
   }
 }
 
+int CleanHalfWindow(const cv::Mat& grey, const Eigen::Vector2d& corner, const LocalLine& row,
+                    const LocalLine& col, double side, int half) {
+  // The pixels cornerSubPix may read from: the window, its gradient border, interpolation.
+  const int reach = half + 2;
+  const int u0 = static_cast<int>(std::lround(corner.x())), v0 = static_cast<int>(std::lround(corner.y()));
+  if (u0 - reach < 0 || v0 - reach < 0 || u0 + reach >= grey.cols || v0 + reach >= grey.rows) {
+    return half;  // RefineCornerInRaw refuses it
+  }
+  constexpr double kEdgeBand = 1.5;  // px either side of a line: its blur, the box filter
+  struct Sample {
+    double chebyshev;
+    bool bright_quadrant;
+    float value;
+  };
+  std::vector<Sample> samples;
+  std::vector<float> levels[2];
+  for (int v = v0 - reach; v <= v0 + reach; ++v) {
+    for (int u = u0 - reach; u <= u0 + reach; ++u) {
+      const Eigen::Vector2d d = Eigen::Vector2d(u, v) - corner;
+      const double f1 = Side(row, d), f2 = Side(col, d);
+      const double near = std::min(std::abs(f1), std::abs(f2)), far = std::max(std::abs(f1), std::abs(f2));
+      if (near < kEdgeBand || far > side - kEdgeBand) continue;
+      const float value = grey.depth() == CV_8U ? grey.at<uchar>(v, u) : grey.at<float>(v, u);
+      samples.push_back({d.cwiseAbs().maxCoeff(), f1 * f2 > 0, value});
+      levels[f1 * f2 > 0].push_back(value);
+    }
+  }
+  if (levels[0].empty() || levels[1].empty()) return half;  // squares too small to judge
+  const auto median = [](std::vector<float> x) {
+    std::nth_element(x.begin(), x.begin() + x.size() / 2, x.end());
+    return x[x.size() / 2];
+  };
+  // Which pair of quadrants is bright is read from the image (the model's sign is arbitrary).
+  const float level[2] = {median(levels[0]), median(levels[1])};
+  const float contrast = std::abs(level[1] - level[0]);
+  if (contrast < 20) return half;  // no board to judge against
+  double nearest_foreign = 1e9;
+  for (const Sample& s : samples) {
+    if (std::abs(s.value - level[s.bright_quadrant]) > 0.35f * contrast) {
+      nearest_foreign = std::min(nearest_foreign, s.chebyshev);
+    }
+  }
+  // A window of half h reads up to h + 1 px (gradient) plus the interpolation's pixel.
+  return std::min(half, static_cast<int>(std::ceil(nearest_foreign)) - 3);
+}
+
+int KeepWindowsOnTheirSquares(const cv::Mat& grey, int rows, int cols, const std::vector<double>& sides,
+                              int min_half, std::vector<int>* halves,
+                              std::vector<std::optional<Eigen::Vector2d>>* corners) {
+  int dropped = 0;
+  // Twice: a corner refined again moves the lines its neighbours are judged with.
+  for (int pass = 0; pass < 2; ++pass) {
+    const std::vector<std::optional<Eigen::Vector2d>> measured = *corners;
+    for (int id = 0; id < rows * cols; ++id) {
+      if (!measured[id]) continue;
+      const auto row = LineThroughCorner(measured, rows, cols, id, true);
+      const auto col = LineThroughCorner(measured, rows, cols, id, false);
+      if (!row || !col) continue;
+      int& half = (*halves)[id];
+      const int clean = CleanHalfWindow(grey, *measured[id], *row, *col, sides[id], half);
+      if (clean >= half) continue;
+      Eigen::Vector2d pixel = *measured[id];
+      if (clean < std::min(min_half, half) || !RefineCornerInRaw(grey, clean, &pixel) ||
+          (pixel - *measured[id]).norm() > clean) {
+        (*corners)[id].reset();
+        ++dropped;
+        continue;
+      }
+      half = clean;
+      (*corners)[id] = pixel;
+    }
+  }
+  return dropped;
+}
+
 }  // namespace omni::detectors

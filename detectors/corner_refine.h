@@ -54,4 +54,27 @@ std::optional<LocalLine> LineThroughCorner(const std::vector<std::optional<Eigen
 void RemoveCurvatureBias(int rows, int cols, const std::vector<int>& halves,
                          std::vector<std::optional<Eigen::Vector2d>>* corners);
 
+// The largest half-window <= `half` whose cornerSubPix window around `corner` (with the one-pixel
+// border its gradients read and the half pixel its interpolation adds) shows nothing but the
+// corner's own four squares. The two grid lines through the corner split the window into two
+// dark and two bright quadrants (levels: the median of each pair); a pixel more than 1.5 px from
+// both lines and less than `side` - 1.5 px from them (inside the four squares, not on a blurred
+// edge) must match its quadrant's level to within 35% of the contrast. One that does not (the
+// ring's rim or lip, a board sheet's edge, an occluder) is an edge cornerSubPix would take as one
+// of the corner's: the window is bounded to leave it out. `half` if nothing is found or nothing
+// can be judged (squares too small, no contrast).
+// `grey`: CV_8U or CV_32F.
+int CleanHalfWindow(const cv::Mat& grey, const Eigen::Vector2d& corner, const LocalLine& row,
+                    const LocalLine& col, double side, int half);
+
+// Every known corner of a board refined by RefineCornerInRaw (half-windows `halves`, local
+// square sides `sides`, per id) whose window takes in something besides its own four squares
+// (CleanHalfWindow, lines from the refined neighbours) is refined again from where it is with
+// the clean half-window, or dropped (nullopt) if that is below min(`min_half`, its half): a
+// corner a foreign edge pulled (0.5-0.9 px: the demo's board cut by ring 1's lip) is better
+// absent than wrong. Returns the number of corners dropped.
+int KeepWindowsOnTheirSquares(const cv::Mat& grey, int rows, int cols, const std::vector<double>& sides,
+                              int min_half, std::vector<int>* halves,
+                              std::vector<std::optional<Eigen::Vector2d>>* corners);
+
 }  // namespace omni::detectors

@@ -170,6 +170,9 @@ struct HardBoard {
   size_t image;  // index into the scene's images
   int target, mirror;
   int min_found;  // measured on these renders, less a margin
+  // Bound on every corner's error: the grid check refuses corners more than 0.5 px off the
+  // board's homography, but a row pulled coherently (0.5-0.9 px) passes it.
+  double max_px = 0.6;
 };
 
 // Renders a window around each case's board in its ring (the scene's content, antialiasing and
@@ -250,8 +253,7 @@ void ExpectHardBoards(const std::string& scene_file, const std::vector<HardBoard
     std::printf("%s %s target %d ring %d: %d of %d found, mean %.3f px, max %.3f px, %d wrong\n",
                 scene_file.c_str(), image.name.c_str(), c.target, c.mirror, found, visible, mean,
                 max, wrong);
-    // The grid check refuses corners more than 0.5 px off the board's homography.
-    EXPECT_LT(max, 0.6) << image.name;
+    EXPECT_LT(max, c.max_px) << image.name;
     EXPECT_EQ(wrong, 0) << image.name;
     EXPECT_GE(found, c.min_found) << image.name;
     EXPECT_LT(mean, 0.3) << image.name;
@@ -280,6 +282,19 @@ TEST(ChessboardDetector, DemoHardBoardsAreRightOrSilent) {
 // now reads no pixel within 0.03 rad of a ring's edge: measured 42).
 TEST(ChessboardDetector, CutAndFinderLostBoardsGiveTheirVisibleCorners) {
   ExpectHardBoards("calibration_scene_tags.yaml", {{5, 2, 2, 33}, {2, 2, 1, 40}, {14, 2, 1, 40}});
+}
+
+// Boards cut by a ring's edge whose edge-row corners had their refinement windows take in the
+// edge: the demo's image 0001, the 6x7 board at 1.15 m in the outer ring, its last row's outer
+// squares cut by the blue lip (ids 36-41 were 0.48-0.88 px off, pulled towards the lip), and
+// calibration_scene_tags' image 0009, the 5x8 board at 1.15 m in the inner ring cut by the
+// ring's rim, a thin grey line just beyond its first row (id 4 was 0.53 px off). Each window
+// now shows only its corner's own four squares (KeepWindowsOnTheirSquares: refined again in a
+// smaller window, or dropped). Measured: 41 of 42, max 0.14 px; 35 of 40 (id 4 dropped), max
+// 0.18 px (eval_detectors on the full renders).
+TEST(ChessboardDetector, WindowsCutByTheRingsEdgeStayOnTheirSquares) {
+  ExpectHardBoards("demo_scene.yaml", {{0, 2, 1, 40, 0.3}});
+  ExpectHardBoards("calibration_scene_tags.yaml", {{8, 1, 2, 33, 0.3}});
 }
 
 }  // namespace
