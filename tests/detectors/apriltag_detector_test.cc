@@ -21,6 +21,7 @@
 #include "detectors/apriltag_detector.h"
 #include "detectors/views.h"
 #include "model/io/model_file.h"
+#include "tests/temp_dir.h"
 
 #include "tests/detectors/render_window.h"
 
@@ -67,7 +68,7 @@ Rendered RenderTags() {
   }
   r.scene.images.push_back(image);
   r.truth = synthetic::ComputeTruth(model, r.scene, image);
-  const std::string dir = fs::temp_directory_path() / "omni_tag_detect";
+  const std::string dir = omni::testing::UniqueTempDir("omni_tag_detect");
   fs::remove_all(dir);
   fs::create_directories(dir);
   std::string error;
@@ -181,7 +182,7 @@ TEST(AprilTagDetector, RawEdgeFitBeatsTheViewCornersAgainstTruth) {
   scene.room = false;
   const int target = image.placements[0].target;
   const std::vector<synthetic::CornerTruth> truth = synthetic::ComputeTruth(model, scene, image);
-  const std::string dir = fs::temp_directory_path() / "omni_tag_raw_fit";
+  const std::string dir = omni::testing::UniqueTempDir("omni_tag_raw_fit");
   fs::remove_all(dir);
   fs::create_directories(dir);
   std::string error;

@@ -22,6 +22,7 @@
 #include "calib/synthetic/scene_file.h"
 #include "detectors/detect_image.h"
 #include "model/io/model_file.h"
+#include "tests/temp_dir.h"
 
 #include "tests/detectors/render_window.h"
 
@@ -65,7 +66,7 @@ Rendered RenderBoards() {
   }
   r.scene.images.push_back(image);
   r.truth = synthetic::ComputeTruth(model, r.scene, image);
-  const std::string dir = fs::temp_directory_path() / "omni_chessboard_detect";
+  const std::string dir = omni::testing::UniqueTempDir("omni_chessboard_detect");
   fs::remove_all(dir);
   fs::create_directories(dir);
   cv::Mat pinhole(r.rig.image_height, r.rig.image_width, CV_8UC3, cv::Scalar::all(0));
@@ -187,7 +188,7 @@ void ExpectHardBoards(const std::string& scene_file, const std::vector<HardBoard
   const RigParams rig = scene.width > 0 ? synthetic::RigAtImageSize(full, scene.width, scene.height)
                                          : full;  // as `omnistereo render`
   const RigModel model(rig);
-  const std::string dir = fs::temp_directory_path() / ("omni_chessboard_hard_" + scene_file);
+  const std::string dir = omni::testing::UniqueTempDir("omni_chessboard_hard_" + scene_file);
   fs::remove_all(dir);
   fs::create_directories(dir);
   std::string error;

@@ -8,6 +8,7 @@
 
 #include "model/io/detections_file.h"
 #include "tests/cli_test_util.h"
+#include "tests/temp_dir.h"
 
 namespace omni {
 namespace {
@@ -15,7 +16,7 @@ namespace {
 namespace fs = std::filesystem;
 
 fs::path MakeDir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("omni_detect_cli_" + name);
+  const fs::path dir = omni::testing::UniqueTempDir("omni_detect_cli_" + name);
   fs::remove_all(dir);
   fs::create_directories(dir);
   return dir;

@@ -27,6 +27,7 @@
 #include "detectors/kalibr_detector.h"
 #include "detectors/views.h"
 #include "model/io/model_file.h"
+#include "tests/temp_dir.h"
 
 #include "tests/detectors/render_window.h"
 
@@ -84,7 +85,7 @@ Rendered RenderKalibrGrids() {
   }
   r.scene.images.push_back(image);
   r.truth = synthetic::ComputeTruth(model, r.scene, image);
-  const std::string dir = fs::temp_directory_path() / "omni_kalibr_detect";
+  const std::string dir = omni::testing::UniqueTempDir("omni_kalibr_detect");
   fs::remove_all(dir);
   fs::create_directories(dir);
   std::string error;
@@ -225,7 +226,7 @@ TEST(KalibrDetector, TagsCutByTheRingRimKeepTheirWholeCorners) {
   synthetic::Scene scene =
       synthetic::ReadSceneFile(root + "/sample_configs/calibration_scene_tags.yaml", model);
   std::vector<RingView> views = MakeRingViews(model);
-  const std::string dir = fs::temp_directory_path() / "omni_kalibr_rim";
+  const std::string dir = omni::testing::UniqueTempDir("omni_kalibr_rim");
   fs::create_directories(dir);
   std::string error;
   ASSERT_TRUE(synthetic::WriteTagTextures(scene.targets, dir, &error)) << error;

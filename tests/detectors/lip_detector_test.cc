@@ -15,6 +15,7 @@
 #include "detectors/lip_detector.h"
 #include "detectors/lip_intrinsics.h"
 #include "model/io/model_file.h"
+#include "tests/temp_dir.h"
 
 namespace omni::detectors {
 namespace {
@@ -26,7 +27,7 @@ RigParams ReadSample(const std::string& name) {
 // The rig with nothing in front of it, rendered in a horizontal and a vertical strip through the
 // principal point (4 arcs of every band; full frames are slow), lens distortion applied.
 cv::Mat RenderLipStrips(const RigParams& rig, const std::string& tag) {
-  const std::string dir = std::filesystem::temp_directory_path() / ("omni_lips_" + tag);
+  const std::string dir = omni::testing::UniqueTempDir("omni_lips_" + tag);
   std::filesystem::create_directories(dir);
   const int cx = static_cast<int>(rig.camera[2]), cy = static_cast<int>(rig.camera[3]);
   cv::Mat combined;

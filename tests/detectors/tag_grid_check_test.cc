@@ -28,6 +28,7 @@
 #include "detectors/tag_grid_check.h"
 #include "detectors/views.h"
 #include "model/io/model_file.h"
+#include "tests/temp_dir.h"
 
 #include "tests/detectors/render_window.h"
 
@@ -75,7 +76,7 @@ cv::Mat RenderGridWindow(const SceneSetup& s, int index,
   const int margin = 30;  // over half a tag side (the corner squares and the quiet zone)
   box = cv::Rect(box.x - margin, box.y - margin, box.width + 2 * margin, box.height + 2 * margin) &
         cv::Rect(0, 0, s.rig.image_width, s.rig.image_height);
-  const std::string dir = fs::temp_directory_path() / "omni_tag_grid_check";
+  const std::string dir = omni::testing::UniqueTempDir("omni_tag_grid_check");
   fs::create_directories(dir);
   std::string error;
   EXPECT_TRUE(synthetic::WriteTagTextures(s.scene.targets, dir, &error)) << error;

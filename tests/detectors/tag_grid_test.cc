@@ -20,6 +20,7 @@
 #include "calib/synthetic/tag_texture.h"
 #include "detectors/detect_image.h"
 #include "model/io/model_file.h"
+#include "tests/temp_dir.h"
 
 #include "tests/detectors/render_window.h"
 
@@ -161,7 +162,7 @@ TEST(TagGrids, AngularSizeLimitAt1m) {
   }
   scene.images.push_back(image);
   const auto results =
-      RenderAndDetect(rig, scene, image, fs::temp_directory_path() / "omni_tag_sizes");
+      RenderAndDetect(rig, scene, image, omni::testing::UniqueTempDir("omni_tag_sizes"));
   for (const auto& [key, r] : results) {
     const TargetSpec& s = scene.targets[key.first];
     std::printf("%s %2.0f mm ring %d: %d of %d found, mean %.3f px, max %.3f px, %d wrong\n",
