@@ -106,17 +106,27 @@ std::optional<LocalLine> LineThroughCorner(const std::vector<std::optional<Eigen
   return std::nullopt;
 }
 
-void RemoveCurvatureBias(int rows, int cols, const std::vector<int>& halves,
-                         std::vector<std::optional<Eigen::Vector2d>>* corners) {
-  const std::vector<std::optional<Eigen::Vector2d>> measured = *corners;
+// Calls visit(id, corner, row line, column line) for every measured corner whose row and column
+// lines (through its neighbours in `measured`) are known.
+template <typename Visit>
+void ForEachCornerWithLines(const std::vector<std::optional<Eigen::Vector2d>>& measured, int rows,
+                            int cols, Visit visit) {
   for (int id = 0; id < rows * cols; ++id) {
     if (!measured[id]) continue;
     const auto row = LineThroughCorner(measured, rows, cols, id, true);
     const auto col = LineThroughCorner(measured, rows, cols, id, false);
-    if (!row || !col) continue;
-    const Eigen::Vector2d bias = PredictedRefineBias(*measured[id], *row, *col, halves[id]);
-    if (bias.norm() <= kMaxBiasPx) (*corners)[id] = *measured[id] - bias;
+    if (row && col) visit(id, *measured[id], *row, *col);
   }
+}
+
+void RemoveCurvatureBias(int rows, int cols, const std::vector<int>& halves,
+                         std::vector<std::optional<Eigen::Vector2d>>* corners) {
+  const std::vector<std::optional<Eigen::Vector2d>> measured = *corners;
+  ForEachCornerWithLines(measured, rows, cols, [&](int id, const Eigen::Vector2d& corner,
+                                                   const LocalLine& row, const LocalLine& col) {
+    const Eigen::Vector2d bias = PredictedRefineBias(corner, row, col, halves[id]);
+    if (bias.norm() <= kMaxBiasPx) (*corners)[id] = corner - bias;
+  });
 }
 
 int CleanHalfWindow(const cv::Mat& grey, const Eigen::Vector2d& corner, const LocalLine& row,
@@ -172,24 +182,21 @@ int KeepWindowsOnTheirSquares(const cv::Mat& grey, int rows, int cols, const std
   // Twice: a corner refined again moves the lines its neighbours are judged with.
   for (int pass = 0; pass < 2; ++pass) {
     const std::vector<std::optional<Eigen::Vector2d>> measured = *corners;
-    for (int id = 0; id < rows * cols; ++id) {
-      if (!measured[id]) continue;
-      const auto row = LineThroughCorner(measured, rows, cols, id, true);
-      const auto col = LineThroughCorner(measured, rows, cols, id, false);
-      if (!row || !col) continue;
+    ForEachCornerWithLines(measured, rows, cols, [&](int id, const Eigen::Vector2d& corner,
+                                                     const LocalLine& row, const LocalLine& col) {
       int& half = (*halves)[id];
-      const int clean = CleanHalfWindow(grey, *measured[id], *row, *col, sides[id], half);
-      if (clean >= half) continue;
-      Eigen::Vector2d pixel = *measured[id];
+      const int clean = CleanHalfWindow(grey, corner, row, col, sides[id], half);
+      if (clean >= half) return;
+      Eigen::Vector2d pixel = corner;
       if (clean < std::min(min_half, half) || !RefineCornerInRaw(grey, clean, &pixel) ||
-          (pixel - *measured[id]).norm() > clean) {
+          (pixel - corner).norm() > clean) {
         (*corners)[id].reset();
         ++dropped;
-        continue;
+        return;
       }
       half = clean;
       (*corners)[id] = pixel;
-    }
+    });
   }
   return dropped;
 }

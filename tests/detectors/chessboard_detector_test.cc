@@ -22,6 +22,7 @@
 #include "calib/synthetic/scene_file.h"
 #include "detectors/detect_image.h"
 #include "model/io/model_file.h"
+#include "tests/detectors/nearest_truth.h"
 #include "tests/temp_dir.h"
 
 #include "tests/detectors/render_window.h"
@@ -226,16 +227,8 @@ void ExpectHardBoards(const std::string& scene_file, const std::vector<HardBoard
     for (const auto& o : det.corners) {
       // Wrong: the nearest true corner in the ring is another one (a mis-ordered grid put
       // corners ~1 px from a neighbour's truth, a shifted one a square away).
-      const synthetic::CornerTruth* nearest = nullptr;
-      double e = 1e9;
-      for (const auto& t : truth) {
-        if (!t.pixel[o.mirror - 1]) continue;
-        const double d = (o.pixel - *t.pixel[o.mirror - 1]).norm();
-        if (d < e) {
-          e = d;
-          nearest = &t;
-        }
-      }
+      double e = 0;
+      const synthetic::CornerTruth* nearest = testing::NearestTruth(truth, o.mirror, o.pixel, &e);
       if (!nearest || nearest->target != o.target || nearest->id != o.id) {
         ++wrong;
         ADD_FAILURE() << image.name << ": target " << o.target << " id " << o.id << " ring "

@@ -20,6 +20,7 @@
 #include "calib/synthetic/tag_texture.h"
 #include "detectors/detect_image.h"
 #include "model/io/model_file.h"
+#include "tests/detectors/nearest_truth.h"
 #include "tests/temp_dir.h"
 
 #include "tests/detectors/render_window.h"
@@ -114,16 +115,8 @@ std::map<std::pair<int, int>, GridResult> RenderAndDetect(const RigParams& rig,
   }
   for (const auto& o : det.corners) {
     // Wrong: the nearest true corner in the ring is another one.
-    const synthetic::CornerTruth* nearest = nullptr;
-    double e = 1e9;
-    for (const auto& t : truth) {
-      if (!t.pixel[o.mirror - 1]) continue;
-      const double d = (o.pixel - *t.pixel[o.mirror - 1]).norm();
-      if (d < e) {
-        e = d;
-        nearest = &t;
-      }
-    }
+    double e = 0;
+    const synthetic::CornerTruth* nearest = testing::NearestTruth(truth, o.mirror, o.pixel, &e);
     GridResult& r = results[{o.target, o.mirror}];
     if (!nearest || nearest->target != o.target || nearest->id != o.id || e > 1.0) {
       ++r.wrong;

@@ -1,0 +1,31 @@
+// The wrong-id oracle the detector tests share: a detected corner is right only if the nearest
+// true corner in its ring (ComputeTruth) is the same target and id.
+#pragma once
+
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "calib/synthetic/scene.h"
+
+namespace omni::testing {
+
+// The true corner seen via `mirror` (1 or 2) nearest to `pixel`, and its distance; nullptr if
+// none is seen in that ring.
+inline const synthetic::CornerTruth* NearestTruth(const std::vector<synthetic::CornerTruth>& truth,
+                                                  int mirror, const Eigen::Vector2d& pixel,
+                                                  double* distance) {
+  const synthetic::CornerTruth* nearest = nullptr;
+  *distance = 1e9;
+  for (const auto& t : truth) {
+    if (!t.pixel[mirror - 1]) continue;
+    const double d = (pixel - *t.pixel[mirror - 1]).norm();
+    if (d < *distance) {
+      *distance = d;
+      nearest = &t;
+    }
+  }
+  return nearest;
+}
+
+}  // namespace omni::testing
