@@ -20,6 +20,7 @@
 #include "apps/common_flags.h"
 #include "calib/calibrate.h"
 #include "detectors/detect_image.h"
+#include "detectors/detect_session.h"
 #include "model/io/detections_file.h"
 #include "model/io/model_file.h"
 #include "model/io/session_file.h"
@@ -42,23 +43,16 @@ std::string UtcNow() {
 
 io::Detections DetectSession(const io::Session& session, const RigParams& start) {
   detectors::DetectorContext ctx(start, session.targets, session.use_lips);
-  io::Detections detections;
-  detections.session = session.path;
-  for (size_t i = 0; i < session.images.size(); ++i) {
-    const std::string& file = session.images[i];
-    const cv::Mat image = cv::imread(file, cv::IMREAD_UNCHANGED);
-    if (image.empty()) throw io::InputError(file + ": cannot read the image");
-    std::vector<std::string> warnings;
-    io::ImageDetections found = detectors::DetectImage(image, &ctx, &warnings);
-    found.file = file;
-    found.width = image.cols;
-    found.height = image.rows;
-    for (const auto& w : warnings) std::fprintf(stderr, "%s: %s\n", file.c_str(), w.c_str());
-    std::fprintf(stderr, "[%zu/%zu] %s: %zu corners\n", i + 1, session.images.size(),
-                 file.c_str(), found.corners.size());
-    detections.images.push_back(std::move(found));
-  }
-  return detections;
+  return detectors::DetectSession(
+      session, &ctx, [](const detectors::ImageReport& r, const cv::Mat&, io::ImageDetections*) {
+        for (const auto& w : r.warnings) {
+          std::fprintf(stderr, "warning: %s: %s%s\n", r.file.c_str(), w.c_str(), r.skipped ? "; skipped" : "");
+        }
+        if (!r.skipped) {
+          std::fprintf(stderr, "[%zu/%zu] %s: %d corners in ring 1, %d in ring 2 (%.0f ms)\n",
+                       r.index + 1, r.total, r.file.c_str(), r.corners[0], r.corners[1], r.ms);
+        }
+      });
 }
 
 // The acceptance check "reprojection RMS within 20% of the corner noise" on a synthetic session:

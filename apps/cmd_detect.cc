@@ -1,8 +1,10 @@
 // `omnistereo detect --session S --out detections.yaml [--overlay DIR]`: target corners of every
 // kind (chessboards, AprilTag grids; per ring, with ids consistent between the rings) and lip
 // band edges (colour images, when the session uses lips) in every image of a session, written as an
-// `omnistereo-detections/1` file. Unusable images (unreadable, empty, wrong size) get one warning
+// `omnistereo-detections/1` file. Unreadable images (missing, empty, undecodable) get one warning
 // line each and are left out; if no image is usable nothing is written and the exit code is 2.
+// An image of an unsupported layout (float, 32 bit, colour with a session `bayer:` key) or not
+// of the model's size stops the session with one line naming it: nothing is written.
 // --overlay writes DIR/<image>.png: the ring boundaries, corners coloured by ring (mirror 1
 // green, mirror 2 magenta) with "target:id", lip edge points in yellow.
 #include <chrono>
@@ -18,6 +20,7 @@
 #include "apps/command.h"
 #include "apps/common_flags.h"
 #include "detectors/detect_image.h"
+#include "detectors/detect_session.h"
 #include "model/io/detections_file.h"
 #include "model/io/file_util.h"
 #include "model/io/model_file.h"
@@ -91,40 +94,28 @@ int RunDetect() {
     if (ec) throw io::InputError("--overlay " + FLAGS_overlay + ": cannot create the folder: " + ec.message());
   }
   const fs::path out_dir = fs::absolute(FLAGS_out).parent_path();
-  io::Detections detections;
-  detections.session = RelativeTo(session.path, out_dir);
   int bad = 0, corners = 0;
   const size_t n = session.images.size();
-  for (size_t i = 0; i < n; ++i) {
-    const std::string& file = session.images[i];
-    const auto t0 = std::chrono::steady_clock::now();
-    const cv::Mat image = cv::imread(file, cv::IMREAD_UNCHANGED);
-    std::vector<std::string> warnings;
-    io::ImageDetections det;
-    try {
-      if (image.empty()) throw io::InputError("cannot read the image (missing, empty or not an image)");
-      det = detectors::DetectImage(image, &ctx, &warnings);
-    } catch (const io::InputError& e) {
-      std::fprintf(stderr, "warning: %s: %s; skipped\n", file.c_str(), e.what());
-      ++bad;
-      continue;
-    }
-    det.file = RelativeTo(file, out_dir);
-    if (det.corners.empty()) warnings.push_back("no target corners found");
-    for (const auto& w : warnings) std::fprintf(stderr, "warning: %s: %s\n", file.c_str(), w.c_str());
-    int per_ring[2] = {0, 0};
-    for (const auto& c : det.corners) ++per_ring[c.mirror - 1];
-    corners += static_cast<int>(det.corners.size());
-    if (!FLAGS_overlay.empty()) {
-      WriteOverlay((fs::path(FLAGS_overlay) / (fs::path(file).stem().string() + ".png")).string(),
-                   image, ctx.layout, det);
-    }
-    const double ms =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-    std::fprintf(stderr, "[%zu/%zu] %s: %d corners in ring 1, %d in ring 2, %zu lip edges (%.0f ms)\n",
-                 i + 1, n, file.c_str(), per_ring[0], per_ring[1], det.lips.size(), ms);
-    detections.images.push_back(std::move(det));
-  }
+  io::Detections detections = detectors::DetectSession(
+      session, &ctx,
+      [&](const detectors::ImageReport& r, const cv::Mat& image, io::ImageDetections* det) {
+        const char* file = r.file.c_str();
+        if (r.skipped) {
+          std::fprintf(stderr, "warning: %s: %s; skipped\n", file, r.warnings.front().c_str());
+          ++bad;
+          return;
+        }
+        for (const auto& w : r.warnings) std::fprintf(stderr, "warning: %s: %s\n", file, w.c_str());
+        corners += r.corners[0] + r.corners[1];
+        if (!FLAGS_overlay.empty()) {
+          WriteOverlay((fs::path(FLAGS_overlay) / (fs::path(r.file).stem().string() + ".png")).string(),
+                       image, ctx.layout, *det);
+        }
+        det->file = RelativeTo(r.file, out_dir);
+        std::fprintf(stderr, "[%zu/%zu] %s: %d corners in ring 1, %d in ring 2, %zu lip edges (%.0f ms)\n",
+                     r.index + 1, r.total, file, r.corners[0], r.corners[1], det->lips.size(), r.ms);
+      });
+  detections.session = RelativeTo(session.path, out_dir);
   if (detections.images.empty()) {
     throw io::InputError(FLAGS_session + ": none of the " + std::to_string(n) +
                          " images could be used; nothing written");

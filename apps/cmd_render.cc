@@ -1,5 +1,6 @@
 // `omnistereo render --model M --scene S --out DIR [--no_render] [--jobs N]`: a synthetic session. Writes
-// DIR/NNNN.png (POV-Ray through the model's true mirror geometry, then lens distortion and noise),
+// DIR/NNNN.png (POV-Ray through the model's true mirror geometry, then the camera: lens distortion
+// and the scene's camera_effects; .jpg when they say JPEG),
 // DIR/NNNN.pov, DIR/target<i>_<type>.png (the tag grids' textures), DIR/model.yaml and
 // DIR/truth.yaml (exact pixels from our model), and DIR/session.yaml (omnistereo-session/1 over the
 // rendered images, starting from DIR/model.yaml) for `detect` and `calibrate`. --no_render writes
@@ -18,6 +19,7 @@
 
 #include "apps/command.h"
 #include "apps/common_flags.h"
+#include "calib/synthetic/camera_effects.h"
 #include "calib/synthetic/image_effects.h"
 #include "calib/synthetic/pov_scene.h"
 #include "calib/synthetic/scene_file.h"
@@ -29,11 +31,15 @@
 
 DEFINE_bool(no_render, false, "write only the ground truth, without running POV-Ray");
 DEFINE_int32(jobs, 2, "images rendered at the same time (POV-Ray processes)");
+DEFINE_bool(keep_pinhole, false,
+            "keep POV-Ray's linear pinhole render as DIR/<name>.pinhole.png (16 bit with "
+            "camera_effects), to apply other camera effects later (bench/eval_camera)");
 
 namespace omni::apps {
 namespace {
 
-// Scene image i as DIR/<name>.png: POV-Ray's pinhole render, then lens distortion and noise.
+// Scene image i as DIR/<name>.png (or .jpg): POV-Ray's pinhole render, then the camera: lens
+// distortion and the scene's camera_effects (camera_effects.h), or render.noise_sigma alone.
 void RenderImage(const synthetic::Scene& scene, size_t i, const RigParams& render_rig,
                  const synthetic::RenderOptions& options, const std::string& dir) {
   const auto& image = scene.images[i];
@@ -43,15 +49,26 @@ void RenderImage(const synthetic::Scene& scene, size_t i, const RigParams& rende
                               tmp, options, &error)) {
     throw std::runtime_error(image.name + ": " + error);
   }
-  cv::Mat img = synthetic::ApplyDistortion(cv::imread(tmp, cv::IMREAD_COLOR), render_rig);
-  synthetic::AddNoise(&img, scene.noise_sigma, scene.noise_seed + static_cast<unsigned>(i));
-  std::filesystem::remove(tmp);
+  const cv::Mat pinhole = cv::imread(tmp, cv::IMREAD_UNCHANGED);
+  if (pinhole.empty()) throw std::runtime_error(image.name + ": cannot read POV-Ray's " + tmp);
+  const unsigned seed = scene.noise_seed + static_cast<unsigned>(i);
+  cv::Mat img;
+  if (scene.camera.IsClean()) {
+    img = synthetic::ApplyDistortion(pinhole, render_rig);
+    synthetic::AddNoise(&img, scene.noise_sigma, seed);
+  } else {
+    img = synthetic::ApplyCamera(pinhole, render_rig, scene.camera, seed);
+  }
+  if (!FLAGS_keep_pinhole) std::filesystem::remove(tmp);
   std::error_code ec;
   std::filesystem::rename(dir + "/" + image.name + ".pinhole.pov", dir + "/" + image.name + ".pov",
                           ec);
-  std::vector<uchar> png;
-  if (!cv::imencode(".png", img, png)) throw std::runtime_error("cannot encode " + image.name);
-  io::WriteFileAtomically(dir + "/" + image.name + ".png", std::string(png.begin(), png.end()));
+  std::vector<uchar> bytes;
+  if (!synthetic::EncodeCameraImage(img, scene.camera, &bytes)) {
+    throw std::runtime_error("cannot encode " + image.name);
+  }
+  io::WriteFileAtomically(dir + "/" + image.name + synthetic::ImageExtension(scene.camera),
+                          std::string(bytes.begin(), bytes.end()));
 }
 
 }  // namespace
@@ -75,6 +92,9 @@ int RunRender() {
   options.width = rig.image_width;
   options.height = rig.image_height;
   options.antialias = scene.antialias;
+  // The camera's tone curve needs linear precision (and so do effects applied later).
+  options.bits = scene.camera.IsClean() && !FLAGS_keep_pinhole ? 8 : 16;
+  if (!scene.camera.IsClean()) std::fprintf(stderr, "camera: %s\n", scene.camera.Summary().c_str());
   std::string texture_error;
   if (!FLAGS_no_render &&
       !synthetic::WriteTagTextures(scene.targets, FLAGS_out, &texture_error)) {
@@ -108,8 +128,9 @@ int RunRender() {
       }
       const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       std::lock_guard<std::mutex> lock(mutex);
-      std::fprintf(stderr, "[%d/%zu] %s/%s.png rendered in %.1f s\n", ++rendered, n_render,
-                   FLAGS_out.c_str(), scene.images[i].name.c_str(), s);
+      std::fprintf(stderr, "[%d/%zu] %s/%s%s rendered in %.1f s\n", ++rendered, n_render,
+                   FLAGS_out.c_str(), scene.images[i].name.c_str(),
+                   synthetic::ImageExtension(scene.camera).c_str(), s);
     }
   };
   std::vector<std::thread> threads;
@@ -125,7 +146,9 @@ int RunRender() {
     // A session that `detect` and `calibrate` run on as it is.
     io::Session session;
     session.model_path = FLAGS_out + "/model.yaml";
-    for (const auto& image : scene.images) session.images.push_back(FLAGS_out + "/" + image.name + ".png");
+    for (const auto& image : scene.images) session.images.push_back(FLAGS_out + "/" + image.name +
+                                                 synthetic::ImageExtension(scene.camera));
+    if (scene.camera.raw_mosaic) session.bayer = scene.camera.bayer;
     session.targets = scene.targets;
     session.estimate = {"camera", "distortion", "mirror1_pose", "mirror2_pose", "reflex"};
     io::WriteFileAtomically(FLAGS_out + "/session.yaml", io::SessionText(session, FLAGS_out));

@@ -3,6 +3,9 @@
 // the corner from the axis, the corner error (mean, 99th percentile), the fraction of truly
 // visible corners found, wrong ids, and the time per image on one core.
 //   eval_detectors MODEL SCENE RENDER_DIR [NOMINAL]
+// Images are RENDER_DIR/NNNN.png or .jpg; with EVAL_CAMERA=PRESET (or a camera_effects map in
+// YAML) the camera is applied to the kept linear renders RENDER_DIR/NNNN.pinhole.png instead
+// (render --keep_pinhole), to measure presets and single effects on the same renders.
 // On colour renders it also fits the lip-only intrinsics (InitialIntrinsicsFromLips) from the
 // NOMINAL model (default: MODEL) and compares the principal point it gives with the true one and
 // with the image points that the mirror bodies' poses fix (see LipsReport).
@@ -12,6 +15,8 @@
 #include <cstdio>
 #include <cstdlib>
 #include <ctime>
+#include <filesystem>
+#include <optional>
 #include <map>
 #include <string>
 #include <vector>
@@ -19,6 +24,7 @@
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "calib/synthetic/camera_effects.h"
 #include "calib/synthetic/scene.h"
 #include "calib/synthetic/scene_file.h"
 #include "detectors/detect_image.h"
@@ -125,6 +131,13 @@ int main(int argc, char** argv) {
   std::vector<io::LipEdge> all_lips;  // every image's labelled lip edges, for one pooled fit
   int lip_images = 0;
   const synthetic::Scene scene = synthetic::ReadSceneFile(argv[2], model);
+  // EVAL_CAMERA=PRESET or '{defocus_sigma_px: [0.6, 0.9], ...}': the camera applied to the
+  // render's kept linear images (render --keep_pinhole) instead of reading NNNN.png/.jpg.
+  std::optional<synthetic::CameraEffects> camera;
+  if (const char* text = std::getenv("EVAL_CAMERA")) {
+    camera = synthetic::ParseCameraEffects(text, "EVAL_CAMERA");
+    std::printf("camera: %s\n", camera->Summary().c_str());
+  }
   const auto t_ctx = std::chrono::steady_clock::now();
   detectors::DetectorContext ctx(rig, scene.targets);
   const double ctx_ms =
@@ -140,8 +153,23 @@ int main(int argc, char** argv) {
     if (csv) std::fprintf(csv, "image,target,kind,id,mirror,range_mm,u,v,true_u,true_v\n");
   }
   for (const auto& image : scene.images) {
-    const std::string path = std::string(argv[3]) + "/" + image.name + ".png";
-    const cv::Mat raw = cv::imread(path, cv::IMREAD_UNCHANGED);
+    std::string path = std::string(argv[3]) + "/" + image.name + ".png";
+    cv::Mat raw;
+    if (camera) {
+      // The kept linear render through the camera (and its JPEG, as the file would hold).
+      path = std::string(argv[3]) + "/" + image.name + ".pinhole.png";
+      const cv::Mat pinhole = cv::imread(path, cv::IMREAD_UNCHANGED);
+      if (!pinhole.empty()) {
+        raw = synthetic::ApplyCamera(pinhole, rig, *camera, scene.noise_seed + (&image - &scene.images[0]));
+        std::vector<uchar> bytes;
+        synthetic::EncodeCameraImage(raw, *camera, &bytes);
+        raw = cv::imdecode(bytes, cv::IMREAD_UNCHANGED);
+        if (camera->raw_mosaic) raw = io::DemosaicImage(raw, camera->bayer, io::Demosaic::kEdgeAware);
+      }
+    } else {
+      if (!std::filesystem::exists(path)) path = std::string(argv[3]) + "/" + image.name + ".jpg";
+      raw = cv::imread(path, cv::IMREAD_UNCHANGED);
+    }
     if (raw.empty()) {
       std::fprintf(stderr, "skipping %s (cannot read)\n", path.c_str());
       continue;

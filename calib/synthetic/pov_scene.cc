@@ -192,7 +192,7 @@ bool RenderScene(const std::string& pov_text, const std::string& out_png,
   };
   std::ostringstream cmd;
   cmd << "cd '" << folder << "' && povray -D +I'" << base(pov_path) << "' +O'" << base(out_png)
-      << "' +FN8 File_Gamma=1.0 +W" << options.width
+      << "' +FN" << (options.bits == 16 ? 16 : 8) << " File_Gamma=1.0 +W" << options.width
       << " +H" << options.height;
   if (options.antialias) cmd << " +A0.0 +AM2 +R" << options.antialias_depth;
   else cmd << " -A";

@@ -61,6 +61,7 @@ struct RenderOptions {
   // only it, the rest of the PNG stays black.
   int col0 = 0, col1 = 0, row0 = 0, row1 = 0;
   int threads = 0;             // 0: POV-Ray's default
+  int bits = 8;                // PNG bits per channel (linear: File_Gamma 1.0); 16 for camera effects
 };
 
 // Writes the scene next to out_png (same name, .pov) and runs `povray`; returns false and sets

@@ -123,7 +123,10 @@ bool AddRandomImages(const RigModel& model, const RandomPlacement& random, Scene
       for (int attempt = 0; attempt < 200 && !placed; ++attempt) {
         // Targets of one image in separate azimuth sectors so they do not overlap.
         const double az = sector0 + 2 * M_PI * (k + 0.15 + 0.7 * uni(rng)) / n;
-        const double rho = random.range_min_mm + uni(rng) * (random.range_max_mm - random.range_min_mm);
+        const bool own = static_cast<size_t>(target) < random.target_ranges_mm.size();
+        const double lo = own ? random.target_ranges_mm[target].first : random.range_min_mm;
+        const double hi = own ? random.target_ranges_mm[target].second : random.range_max_mm;
+        const double rho = lo + uni(rng) * (hi - lo);
         // Height between the two foci's levels spread by the range (inside the common FOV).
         const double z_mid = 0.5 * (ideal.c1 + ideal.d - ideal.c2);
         const double z = z_mid + (uni(rng) - 0.5) * 0.3 * rho;

@@ -9,6 +9,7 @@
 
 #include <Eigen/Core>
 
+#include "calib/synthetic/camera_effects.h"
 #include "calib/synthetic/pov_scene.h"
 #include "model/rig_model.h"
 #include "model/target.h"
@@ -35,6 +36,8 @@ struct RandomPlacement {
   int images = 0;
   int targets_min = 1, targets_max = 3;
   double range_min_mm = 500, range_max_mm = 2000;
+  // Optional, one per target: its own [min, max] range (small near targets, big far ones).
+  std::vector<std::pair<double, double>> target_ranges_mm;
   double max_tilt_rad = 0.35;
   unsigned seed = 1;
 };
@@ -54,6 +57,7 @@ struct Scene {
   bool antialias = true;
   double noise_sigma = 0.0;   // grey levels (0..255) of Gaussian sensor noise
   unsigned noise_seed = 1;
+  CameraEffects camera;       // what the camera adds after POV-Ray (`camera_effects:`)
   bool room = false;
   double room_half_size_mm = 3000, room_floor_mm = -1200, room_ceiling_mm = 1800;
   std::vector<TargetSpec> targets;  // as in the session file's `targets:`

@@ -74,6 +74,73 @@ TargetSpec ReadTarget(const YAML::Node& node, const std::string& file, const std
   return t;
 }
 
+// `camera_effects:` as a preset name, or a map {preset: NAME, key: value...} whose keys override
+// the preset's (camera_effects.h; the preset defaults to clean).
+CameraEffects ReadCameraEffects(const YAML::Node& node, const std::string& file) {
+  const std::string key = "camera_effects";
+  const auto preset = [&](const std::string& name) {
+    const auto e = CameraPreset(name);
+    if (!e) {
+      std::string names;
+      for (const auto& n : CameraPresetNames()) names += (names.empty() ? "" : ", ") + n;
+      Fail(file, key, "expected a preset (" + names + ") or a map of effects, got '" + name + "'");
+    }
+    return *e;
+  };
+  if (node.IsScalar()) return preset(node.Scalar());
+  if (!node.IsMap()) Fail(file, key, "expected a preset name or a map {preset: ..., defocus_sigma_px: [outer, inner], ...}");
+  CameraEffects e = preset(node["preset"] && node["preset"].IsScalar() ? node["preset"].Scalar() : "clean");
+  const std::string prefix = key + ".";
+  for (const auto& kv : node) {
+    const std::string k = kv.first.Scalar();
+    const YAML::Node& v = kv.second;
+    if (k == "preset") continue;
+    if (k == "defocus_sigma_px") {
+      if (v.IsSequence() && v.size() == 2) {
+        e.defocus_sigma_px[0] = Number(v[0], file, prefix + k);
+        e.defocus_sigma_px[1] = Number(v[1], file, prefix + k);
+      } else {
+        e.defocus_sigma_px[0] = e.defocus_sigma_px[1] = Number(v, file, prefix + k);
+      }
+    } else if (k == "vignetting") {
+      e.vignetting = Number(v, file, prefix + k);
+    } else if (k == "exposure") {
+      e.exposure = Number(v, file, prefix + k);
+    } else if (k == "bayer") {
+      const auto b = io::ParseBayerPattern(v.IsScalar() ? v.Scalar() : "?");
+      if (!b) Fail(file, prefix + k, "expected RGGB, BGGR, GRBG, GBRG or none");
+      e.bayer = *b;
+    } else if (k == "demosaic") {
+      const auto d = io::ParseDemosaic(v.IsScalar() ? v.Scalar() : "?");
+      if (!d) Fail(file, prefix + k, "expected bilinear, edge_aware or vng");
+      e.demosaic = *d;
+    } else if (k == "full_well_e") {
+      e.full_well_e = Number(v, file, prefix + k);
+    } else if (k == "read_noise") {
+      e.read_noise = Number(v, file, prefix + k);
+    } else if (k == "tone") {
+      const std::string t = v.IsScalar() ? v.Scalar() : "";
+      if (t != "srgb" && t != "linear") Fail(file, prefix + k, "expected srgb or linear");
+      e.tone = t == "srgb" ? ToneCurve::kSrgb : ToneCurve::kLinear;
+    } else if (k == "bits") {
+      e.bits = Int(v, file, prefix + k);
+    } else if (k == "jpeg_quality") {
+      e.jpeg_quality = Int(v, file, prefix + k);
+    } else if (k == "raw_mosaic") {
+      if (!v.IsScalar() || (v.Scalar() != "true" && v.Scalar() != "false")) {
+        Fail(file, prefix + k, "expected true or false");
+      }
+      e.raw_mosaic = v.Scalar() == "true";
+    } else {
+      Fail(file, prefix + k,
+           "unknown key (expected preset, defocus_sigma_px, vignetting, exposure, bayer, demosaic, "
+           "full_well_e, read_noise, tone, bits, jpeg_quality, raw_mosaic)");
+    }
+  }
+  if (const std::string error = e.Check(); !error.empty()) Fail(file, prefix + error.substr(0, error.find(':')), error.substr(error.find(':') + 2));
+  return e;
+}
+
 // The session file's text of a target definition.
 std::string TargetText(const TargetSpec& t) {
   auto num = [](double v) { return io::FormatDouble(v); };
@@ -91,6 +158,16 @@ std::string TargetText(const TargetSpec& t) {
 }
 
 }  // namespace
+
+CameraEffects ParseCameraEffects(const std::string& text, const std::string& what) {
+  YAML::Node node;
+  try {
+    node = YAML::Load(text);
+  } catch (const YAML::Exception& e) {
+    throw InputError(what + ": malformed YAML: " + e.what());
+  }
+  return ReadCameraEffects(node, what);
+}
 
 Scene ReadSceneFile(const std::string& path, const RigModel& model) {
   YAML::Node root;
@@ -122,6 +199,13 @@ Scene ReadSceneFile(const std::string& path, const RigModel& model) {
     s.noise_sigma = NumberOr(r["noise_sigma"], path, "render.noise_sigma", 0.0);
     if (s.noise_sigma < 0) Fail(path, "render.noise_sigma", "expected >= 0");
     s.noise_seed = static_cast<unsigned>(NumberOr(r["noise_seed"], path, "render.noise_seed", 1));
+  }
+  if (const auto camera = root["camera_effects"]) {
+    s.camera = ReadCameraEffects(camera, path);
+    if (!s.camera.IsClean() && s.noise_sigma > 0) {
+      Fail(path, "render.noise_sigma",
+           "expected 0 with camera_effects (their full_well_e and read_noise model the sensor's noise)");
+    }
   }
   if (const auto room = root["room"]) {
     s.room = room["enabled"] ? room["enabled"].as<bool>() : true;
@@ -177,6 +261,19 @@ Scene ReadSceneFile(const std::string& path, const RigModel& model) {
     if (r["range"]) {
       rp.range_min_mm = Number(r["range"][0], path, "random.range");
       rp.range_max_mm = Number(r["range"][1], path, "random.range");
+    }
+    if (const auto tr = r["target_ranges"]) {
+      if (!tr.IsSequence() || tr.size() != s.targets.size()) {
+        Fail(path, "random.target_ranges", "expected one [min, max] (mm) per target, " +
+                                               std::to_string(s.targets.size()) + " in all");
+      }
+      for (size_t k = 0; k < tr.size(); ++k) {
+        const std::string key = "random.target_ranges[" + std::to_string(k) + "]";
+        if (!tr[k].IsSequence() || tr[k].size() != 2) Fail(path, key, "expected [min, max] in mm");
+        const double lo = Number(tr[k][0], path, key), hi = Number(tr[k][1], path, key);
+        if (!(lo > 0 && lo <= hi)) Fail(path, key, "expected 0 < min <= max");
+        rp.target_ranges_mm.emplace_back(lo, hi);
+      }
     }
     rp.max_tilt_rad = NumberOr(r["max_tilt_deg"], path, "random.max_tilt_deg", 20.0) * M_PI / 180;
     rp.seed = static_cast<unsigned>(NumberOr(r["seed"], path, "random.seed", 1));

@@ -3,6 +3,7 @@
 //   format: omnistereo-scene/1
 //   image: {width: 1280, height: 960}          # optional: the model's size
 //   render: {antialias: true, noise_sigma: 0.0, noise_seed: 1}
+//   camera_effects: realistic        # or {preset: realistic, defocus_sigma_px: [0.6, 0.9], ...}
 //   room: {enabled: true, half_size: 3000, floor: -1200, ceiling: 1800}     # mm, z_C up
 //   targets: [{type: chessboard, rows: 6, cols: 8, square: 40.0}]
 //   images:                                   # explicit placements (cam_from_target) ...
@@ -21,6 +22,10 @@ namespace omni::synthetic {
 // Reads a scene file; random images are generated with the model. Throws io::InputError naming
 // the file and key.
 Scene ReadSceneFile(const std::string& path, const RigModel& model);
+
+// `camera_effects:` from YAML text (a preset name or a map, as in the scene file); `what` names
+// the source in errors.
+CameraEffects ParseCameraEffects(const std::string& text, const std::string& what);
 
 // The ground-truth file of a rendered (or fast-path) session: per image the target poses and per
 // corner [placement, target, id, x, y, z, u1, v1, u2, v2] with null where not visible.

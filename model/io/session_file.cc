@@ -138,6 +138,12 @@ Session ReadSessionFile(const std::string& path) {
     session.targets.push_back(ReadTarget(in, targets[i], "targets[" + std::to_string(i) + "]"));
   }
   if (root["lips"].IsDefined()) session.use_lips = in.Bool(root, "", "lips");
+  if (root["bayer"].IsDefined()) {
+    const YAML::Node bayer = root["bayer"];
+    const auto pattern = ParseBayerPattern(bayer.IsScalar() ? bayer.Scalar() : "?");
+    if (!pattern) in.Fail("bayer", "expected RGGB, BGGR, GRBG, GBRG or none", Describe(bayer));
+    session.bayer = *pattern;
+  }
 
   if (root["estimate"].IsDefined()) {
     session.estimate = in.Strings(root, "", "estimate");
@@ -211,6 +217,9 @@ std::string SessionText(const Session& session, const std::string& base_dir) {
     }
   }
   out << "lips: " << (session.use_lips ? "true" : "false") << "\n";
+  if (session.bayer != BayerPattern::kNone) {
+    out << "bayer: " << BayerName(session.bayer) << "   # raw frames, demosaiced when read\n";
+  }
   out << "estimate: [";
   for (std::size_t i = 0; i < session.estimate.size(); ++i) {
     out << (i ? ", " : "") << session.estimate[i];

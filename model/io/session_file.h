@@ -21,6 +21,8 @@
 #include <string>
 #include <vector>
 
+#include "model/io/image_file.h"
+
 #include "model/target.h"
 
 namespace omni::io {
@@ -44,6 +46,9 @@ struct Session {
   std::vector<std::string> images;   // resolved, globs expanded, sorted
   std::vector<TargetSpec> targets;
   bool use_lips = true;
+  // `bayer: RGGB|BGGR|GRBG|GBRG`: the images are raw one-channel frames of that mosaic and are
+  // demosaiced when read (model/io/image_file.h); absent or none: images as the camera wrote them.
+  BayerPattern bayer = BayerPattern::kNone;
   std::vector<std::string> estimate; // groups: camera, distortion, mirror1_pose, mirror2_pose,
                                      // reflex, mirror1_shape, mirror2_shape
   std::map<std::string, ShapePrior> priors;  // key: mirror1_shape | mirror2_shape

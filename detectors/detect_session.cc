@@ -1,0 +1,50 @@
+#include "detectors/detect_session.h"
+
+#include <chrono>
+#include <utility>
+
+#include "model/io/image_file.h"
+
+namespace omni::detectors {
+
+io::Detections DetectSession(const io::Session& session, DetectorContext* ctx,
+                             const ImageCallback& on_image) {
+  const RigParams& rig = ctx->model.params();
+  io::Detections detections;
+  detections.session = session.path;
+  const size_t n = session.images.size();
+  for (size_t i = 0; i < n; ++i) {
+    const auto t0 = std::chrono::steady_clock::now();
+    ImageReport report;
+    report.index = i;
+    report.total = n;
+    report.file = session.images[i];
+    cv::Mat image;
+    try {
+      image = io::ReadImage(report.file, session.bayer);
+    } catch (const io::UnreadableImage& e) {
+      report.skipped = true;
+      report.warnings.push_back(std::string(e.what()).substr(report.file.size() + 2));
+      if (on_image) on_image(report, cv::Mat(), nullptr);
+      continue;
+    }
+    if (image.cols != rig.image_width || image.rows != rig.image_height) {
+      throw io::InputError(report.file + ": expected a " + std::to_string(rig.image_width) + "x" +
+                           std::to_string(rig.image_height) + " image (the model's size, " +
+                           session.model_path + "), got " + std::to_string(image.cols) + "x" +
+                           std::to_string(image.rows) + "; nothing written");
+    }
+    io::ImageDetections det = DetectImage(image, ctx, &report.warnings);
+    det.file = report.file;
+    det.width = image.cols;
+    det.height = image.rows;
+    if (det.corners.empty()) report.warnings.push_back("no target corners found");
+    for (const auto& c : det.corners) ++report.corners[c.mirror - 1];
+    report.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    if (on_image) on_image(report, image, &det);
+    detections.images.push_back(std::move(det));
+  }
+  return detections;
+}
+
+}  // namespace omni::detectors

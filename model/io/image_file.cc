@@ -1,0 +1,136 @@
+#include "model/io/image_file.h"
+
+#include <algorithm>
+#include <cctype>
+#include <filesystem>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+
+namespace omni::io {
+namespace {
+
+std::string Lower(std::string s) {
+  std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return std::tolower(c); });
+  return s;
+}
+
+std::string Describe(const cv::Mat& m) {
+  const int depth = m.depth();
+  const std::string bits = depth == CV_8U || depth == CV_8S     ? "8-bit"
+                           : depth == CV_16U || depth == CV_16S ? "16-bit"
+                           : depth == CV_32F                    ? "32-bit float"
+                           : depth == CV_64F                    ? "64-bit float"
+                                                                : "32-bit integer";
+  return bits + (depth == CV_8S || depth == CV_16S ? " signed" : "") + " image with " +
+         std::to_string(m.channels()) + " channel" + (m.channels() == 1 ? "" : "s");
+}
+
+}  // namespace
+
+std::optional<BayerPattern> ParseBayerPattern(const std::string& name) {
+  const std::string n = Lower(name);
+  if (n.empty() || n == "none") return BayerPattern::kNone;
+  if (n == "rggb") return BayerPattern::kRGGB;
+  if (n == "bggr") return BayerPattern::kBGGR;
+  if (n == "grbg") return BayerPattern::kGRBG;
+  if (n == "gbrg") return BayerPattern::kGBRG;
+  return std::nullopt;
+}
+
+std::string BayerName(BayerPattern pattern) {
+  switch (pattern) {
+    case BayerPattern::kRGGB: return "RGGB";
+    case BayerPattern::kBGGR: return "BGGR";
+    case BayerPattern::kGRBG: return "GRBG";
+    case BayerPattern::kGBRG: return "GBRG";
+    case BayerPattern::kNone: break;
+  }
+  return "none";
+}
+
+std::optional<Demosaic> ParseDemosaic(const std::string& name) {
+  const std::string n = Lower(name);
+  if (n == "bilinear") return Demosaic::kBilinear;
+  if (n == "edge_aware" || n == "ea") return Demosaic::kEdgeAware;
+  if (n == "vng") return Demosaic::kVng;
+  return std::nullopt;
+}
+
+std::string DemosaicName(Demosaic demosaic) {
+  switch (demosaic) {
+    case Demosaic::kBilinear: return "bilinear";
+    case Demosaic::kEdgeAware: return "edge_aware";
+    case Demosaic::kVng: return "vng";
+  }
+  return "edge_aware";
+}
+
+int BayerChannel(BayerPattern pattern, int row, int col) {
+  const char* name = pattern == BayerPattern::kRGGB   ? "RGGB"
+                     : pattern == BayerPattern::kBGGR ? "BGGR"
+                     : pattern == BayerPattern::kGRBG ? "GRBG"
+                                                      : "GBRG";
+  const char c = name[2 * (row & 1) + (col & 1)];
+  return c == 'B' ? 0 : c == 'G' ? 1 : 2;
+}
+
+cv::Mat DemosaicImage(const cv::Mat& mosaic, BayerPattern pattern, Demosaic demosaic) {
+  CV_Assert(mosaic.channels() == 1 && pattern != BayerPattern::kNone);
+  // OpenCV's names follow the second row: our RGGB is its BayerBG (imgproc.hpp's aliases).
+  int code = 0;
+  switch (demosaic) {
+    case Demosaic::kBilinear:
+      code = pattern == BayerPattern::kRGGB   ? cv::COLOR_BayerRGGB2BGR
+             : pattern == BayerPattern::kBGGR ? cv::COLOR_BayerBGGR2BGR
+             : pattern == BayerPattern::kGRBG ? cv::COLOR_BayerGRBG2BGR
+                                              : cv::COLOR_BayerGBRG2BGR;
+      break;
+    case Demosaic::kEdgeAware:
+      code = pattern == BayerPattern::kRGGB   ? cv::COLOR_BayerBG2BGR_EA
+             : pattern == BayerPattern::kBGGR ? cv::COLOR_BayerRG2BGR_EA
+             : pattern == BayerPattern::kGRBG ? cv::COLOR_BayerGB2BGR_EA
+                                              : cv::COLOR_BayerGR2BGR_EA;
+      break;
+    case Demosaic::kVng:
+      code = pattern == BayerPattern::kRGGB   ? cv::COLOR_BayerRGGB2BGR_VNG
+             : pattern == BayerPattern::kBGGR ? cv::COLOR_BayerBGGR2BGR_VNG
+             : pattern == BayerPattern::kGRBG ? cv::COLOR_BayerGRBG2BGR_VNG
+                                              : cv::COLOR_BayerGBRG2BGR_VNG;
+      break;
+  }
+  cv::Mat in = mosaic, out;
+  if (demosaic == Demosaic::kVng && in.depth() != CV_8U) in.convertTo(in, CV_8U, 1.0 / 257.0);
+  cv::cvtColor(in, out, code);
+  return out;
+}
+
+cv::Mat ReadImage(const std::string& path, BayerPattern bayer) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) {
+    throw UnreadableImage(path + ": cannot read the image: expected an image file, got " +
+                     (std::filesystem::exists(path, ec) ? "a folder or special file" : "no such file"));
+  }
+  cv::Mat image = cv::imread(path, cv::IMREAD_UNCHANGED);
+  if (image.empty()) {
+    throw UnreadableImage(path + ": cannot read the image: expected a PNG, TIFF or JPEG file, got one that cannot be decoded");
+  }
+  const bool depth_ok = image.depth() == CV_8U || image.depth() == CV_16U;
+  if (bayer != BayerPattern::kNone) {
+    if (image.channels() != 1 || !depth_ok) {
+      throw InputError(path + ": the session names Bayer pattern " + BayerName(bayer) +
+                       ", so expected a raw one-channel 8- or 16-bit frame, got a " +
+                       Describe(image));
+    }
+    return DemosaicImage(image, bayer, Demosaic::kEdgeAware);
+  }
+  const int ch = image.channels();
+  if (!depth_ok || (ch != 1 && ch != 3 && ch != 4)) {
+    throw InputError(path + ": expected an 8- or 16-bit grey, colour or colour+alpha image, got a " +
+                     Describe(image));
+  }
+  return image;
+}
+
+}  // namespace omni::io

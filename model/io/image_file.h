@@ -1,0 +1,46 @@
+// Images as cameras write them: 8- or 16-bit PNG, TIFF or JPEG, grey or colour, or a raw Bayer
+// frame (one channel, the sensor's mosaic) that we demosaic ourselves. The Bayer pattern names
+// the colours of the top-left 2x2 block, row by row (RGGB: R at (0,0), G at (0,1) and (1,0), B at
+// (1,1)); OpenCV names the same patterns by their second row (RGGB is its "BayerBG").
+#pragma once
+
+#include <optional>
+#include <string>
+
+#include <opencv2/core.hpp>
+
+#include "model/io/file_util.h"
+
+namespace omni::io {
+
+// A missing or undecodable image file (as opposed to one that decodes to an unusable layout).
+class UnreadableImage : public InputError {
+ public:
+  using InputError::InputError;
+};
+
+enum class BayerPattern { kNone, kRGGB, kBGGR, kGRBG, kGBRG };
+enum class Demosaic { kBilinear, kEdgeAware, kVng };
+
+// "RGGB", "BGGR", "GRBG", "GBRG" (any case); "none" or "" -> kNone; nullopt for anything else.
+std::optional<BayerPattern> ParseBayerPattern(const std::string& name);
+std::string BayerName(BayerPattern pattern);
+// "bilinear", "edge_aware", "vng"; nullopt for anything else.
+std::optional<Demosaic> ParseDemosaic(const std::string& name);
+std::string DemosaicName(Demosaic demosaic);
+
+// The BGR channel index (0 blue, 1 green, 2 red) the sensor samples at (row, col).
+int BayerChannel(BayerPattern pattern, int row, int col);
+
+// A one-channel 8- or 16-bit mosaic demosaiced to BGR of the same depth (OpenCV's VNG takes
+// 8 bit only: a 16-bit mosaic is scaled to 8 bit first and the result is 8 bit).
+cv::Mat DemosaicImage(const cv::Mat& mosaic, BayerPattern pattern, Demosaic demosaic);
+
+// Reads an image for detection. Accepted: 8- or 16-bit grey, BGR or BGRA (PNG, TIFF, JPEG, ...);
+// with `bayer` set, a one-channel 8- or 16-bit raw frame, demosaiced edge-aware. Throws
+// InputError "<path>: <what was expected>, got <what>" for a float or 32-bit image, a Bayer
+// pattern named for a colour image, or any other layout; UnreadableImage for a missing or
+// undecodable file.
+cv::Mat ReadImage(const std::string& path, BayerPattern bayer = BayerPattern::kNone);
+
+}  // namespace omni::io
