@@ -1,6 +1,56 @@
 #include "model/lip.h"
 
+#include <cmath>
+
 namespace omni {
+namespace {
+
+struct NamedPaint {
+  const char* name;
+  double r, g, b;  // linear reflectance
+};
+
+// Matte paints' reflectances (linear), roughly as a colour chart measures them.
+constexpr NamedPaint kPaints[] = {
+    {"blue", 0, 0, 1},           {"red", 1, 0, 0},
+    {"navy", 0.02, 0.03, 0.12},  {"matte_red", 0.45, 0.04, 0.03},
+    {"green", 0.05, 0.32, 0.07}, {"orange", 0.75, 0.22, 0.02},
+    {"yellow", 0.72, 0.58, 0.03}, {"white", 0.85, 0.85, 0.85},
+    {"grey", 0.2, 0.2, 0.2},     {"black", 0.03, 0.03, 0.03},
+};
+
+double LinearFromSrgb(double x) {
+  return x <= 0.04045 ? x / 12.92 : std::pow((x + 0.055) / 1.055, 2.4);
+}
+
+int HexDigit(char ch) {
+  if (ch >= '0' && ch <= '9') return ch - '0';
+  if (ch >= 'a' && ch <= 'f') return ch - 'a' + 10;
+  if (ch >= 'A' && ch <= 'F') return ch - 'A' + 10;
+  return -1;
+}
+
+}  // namespace
+
+std::optional<Eigen::Vector3d> LipPaintRgb(const std::string& color) {
+  for (const NamedPaint& p : kPaints) {
+    if (color == p.name) return Eigen::Vector3d(p.r, p.g, p.b);
+  }
+  if (color.size() != 7 || color[0] != '#') return std::nullopt;
+  Eigen::Vector3d rgb;
+  for (int k = 0; k < 3; ++k) {
+    const int hi = HexDigit(color[1 + 2 * k]), lo = HexDigit(color[2 + 2 * k]);
+    if (hi < 0 || lo < 0) return std::nullopt;
+    rgb[k] = LinearFromSrgb((16 * hi + lo) / 255.0);
+  }
+  return rgb;
+}
+
+std::string LipPaintChoices() {
+  std::string out;
+  for (const NamedPaint& p : kPaints) out += std::string(p.name) + ", ";
+  return out + "or \"#rrggbb\" (sRGB)";
+}
 
 const char* LipPathName(LipPath path) {
   switch (path) {

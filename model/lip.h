@@ -40,6 +40,17 @@ bool ParseLipPath(const std::string& name, LipPath* path);
 const char* LipCircleName(LipCircle circle);
 bool ParseLipCircle(const std::string& name, LipCircle* circle);
 
+// A lip's paint (`mirror*.lip.color` in model files) as linear RGB reflectance, 0..1: what the
+// renderer paints the lip with (lit by the room) and what the detector looks for. Names:
+//   blue, red        pure primaries (the paper's rig and the renders before paints were named);
+//   navy, matte_red, green, orange, yellow, white, grey, black: paints as a real rig has them
+//                    (navy <0.02, 0.03, 0.12>: dark and of low chroma);
+//   "#rrggbb"        sRGB hex as a colour picker gives it (quote it in YAML: # starts a comment).
+// nullopt for anything else.
+std::optional<Eigen::Vector3d> LipPaintRgb(const std::string& color);
+// The accepted values, for error messages: "blue, red, navy, ..., or \"#rrggbb\" (sRGB)".
+std::string LipPaintChoices();
+
 // The mirror that owns the lip a path images: direct and via_mirror1 image the blue lip of
 // mirror 1, via_reflex and via_mirror2 the red lip of mirror 2.
 inline Mirror LipOwner(LipPath path) {

@@ -12,6 +12,7 @@
 #include <sys/stat.h>
 
 #include "model/io/yaml_reader.h"
+#include "model/lip.h"
 #include "model/rig_frames.h"
 
 namespace omni::io {
@@ -31,7 +32,15 @@ void ReadPose(const Reader& in, const YAML::Node& map, const std::string& path,
 
 Lip ReadLip(const Reader& in, const YAML::Node& map, const std::string& path) {
   Lip lip;
+  // Renderer and detector both need the paint's colour (model/lip.h), so an unknown one stops
+  // here. An unquoted #rrggbb reads as null: YAML takes it for a comment.
+  if (map["color"].IsDefined() && map["color"].IsNull()) {
+    in.Fail(Join(path, "color"), "expected a paint: " + LipPaintChoices(), Describe(map["color"]));
+  }
   lip.color = in.String(map, path, "color");
+  if (!LipPaintRgb(lip.color)) {
+    in.Fail(Join(path, "color"), "expected a paint: " + LipPaintChoices(), Describe(map["color"]));
+  }
   lip.r_inner = in.Number(map, path, "r_inner");
   if (lip.r_inner < 0) in.Fail(Join(path, "r_inner"), "expected a radius >= 0", Describe(map["r_inner"]));
   lip.r_outer = in.Number(map, path, "r_outer");

@@ -166,5 +166,19 @@ TEST(LipModel, NamesRoundTrip) {
   EXPECT_FALSE(ParseLipPath("via_mirror3", &q));
 }
 
+TEST(LipModel, PaintsByNameAndSrgbHex) {
+  EXPECT_EQ(*LipPaintRgb("blue"), Eigen::Vector3d(0, 0, 1));
+  EXPECT_EQ(*LipPaintRgb("red"), Eigen::Vector3d(1, 0, 0));
+  EXPECT_EQ(*LipPaintRgb("navy"), Eigen::Vector3d(0.02, 0.03, 0.12));
+  for (const char* name : {"matte_red", "green", "orange", "yellow", "white", "grey", "black"}) {
+    EXPECT_TRUE(LipPaintRgb(name)) << name;
+  }
+  // sRGB 0x80 = 128/255 is linear 0.2158605 (IEC 61966-2-1); hex digits in either case.
+  EXPECT_NEAR((*LipPaintRgb("#80fF00") - Eigen::Vector3d(0.2158605, 1, 0)).norm(), 0, 1e-6);
+  for (const char* bad : {"", "Blue", "navy ", "#fff", "#12345g", "80ff00", "#80ff000"}) {
+    EXPECT_FALSE(LipPaintRgb(bad)) << bad;
+  }
+}
+
 }  // namespace
 }  // namespace omni

@@ -115,7 +115,7 @@ RigParams RandomNoncentralRig(std::uint64_t seed) {
   }
   rig.reflex = {uniform(-0.01, 0.01), uniform(-0.01, 0.01), uniform(-0.5, 0.5)};
   rig.lip1 = Lip{"blue", rig.r_sys, rig.r_sys + uniform(1, 5), uniform(120, 140)};
-  rig.lip2 = Lip{"dark red", rig.r_sys, rig.r_sys + uniform(1, 5), uniform(-20, -10)};
+  rig.lip2 = Lip{"#8b1a1a", rig.r_sys, rig.r_sys + uniform(1, 5), uniform(-20, -10)};
 
   CalibrationInfo cal;
   cal.parameters = {"camera.fx",  "camera.fy",  "camera.cx",  "camera.cy",  "distortion.dist_k1",
@@ -411,6 +411,14 @@ INSTANTIATE_TEST_SUITE_P(
         Malformed{"units_cm", {{"length: mm", "length: cm"}}, "units.length", "'mm'"},
         Malformed{"rad_and_deg", {{"reflex: {rx: 0.0,", "reflex: {rx: 0.0, rx_deg: 0.0,"}},
                   "mirror1.reflex.rx", "both"},
+        Malformed{"lip_color_unknown", {{"color: red", "color: crimson"}}, "mirror2.lip.color",
+                  "expected a paint: blue, red, navy"},
+        Malformed{"lip_color_bad_hex", {{"color: red", "color: \"#12345g\""}}, "mirror2.lip.color",
+                  "'#12345g'"},
+        Malformed{"lip_color_unquoted_hex",
+                  {{"lip: {color: red, r_inner: 37.0, r_outer: 40.0, z: -17.29}",
+                    "lip:\n    color: #8b1a1a\n    r_inner: 37.0\n    r_outer: 40.0\n    z: -17.29\n"}},
+                  "mirror2.lip.color", "#rrggbb"},
         Malformed{"lip_outer_inside_inner", {{"r_outer: 40.0, z: 132.71", "r_outer: 30.0, z: 132.71"}},
                   "mirror1.lip.r_outer", "> r_inner"},
         Malformed{"calibration_values_short", {{"", CalibrationWith(", 0.1]", "]")}}, "calibration.values",
