@@ -149,6 +149,7 @@ int RunRender() {
     for (const auto& image : scene.images) session.images.push_back(FLAGS_out + "/" + image.name +
                                                  synthetic::ImageExtension(scene.camera));
     if (scene.camera.raw_mosaic) session.bayer = scene.camera.bayer;
+    session.tone = scene.camera.raw_mosaic ? io::ToneCurve::kLinear : scene.camera.tone;
     session.targets = scene.targets;
     session.estimate = {"camera", "distortion", "mirror1_pose", "mirror2_pose", "reflex"};
     io::WriteFileAtomically(FLAGS_out + "/session.yaml", io::SessionText(session, FLAGS_out));

@@ -140,6 +140,9 @@ int main(int argc, char** argv) {
   }
   const auto t_ctx = std::chrono::steady_clock::now();
   detectors::DetectorContext ctx(rig, scene.targets);
+  // The images are encoded as the camera wrote them (raw mosaics are linear).
+  const synthetic::CameraEffects& effects = camera ? *camera : scene.camera;
+  ctx.tone = effects.raw_mosaic ? io::ToneCurve::kLinear : effects.tone;
   const double ctx_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t_ctx).count();
   std::map<std::pair<int, int>, Bin> bins;  // (mirror, range bin)

@@ -39,7 +39,7 @@ namespace omni::detectors {
 
 struct ChessboardOptions {
   double saddle_sigma = 1.0;       // view pixels: smoothing before the Hessian
-  double saddle_min_contrast = 100; // grey levels across a corner for a saddle point to count
+  double saddle_min_contrast = 125; // grey levels across a corner, at the view's blur (saddle_points.h)
   double saddle_balance = 0.5;    // |trace H| <= balance * sqrt(-det H) at a saddle point
   int min_saddles = 4;             // a region with fewer saddle points is not tried
   int max_boards_per_region = 4;

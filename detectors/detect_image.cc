@@ -41,7 +41,9 @@ io::ImageDetections DetectImage(const cv::Mat& image, DetectorContext* ctx,
   io::ImageDetections out;
   out.width = image.cols;
   out.height = image.rows;
-  const cv::Mat grey = ToGrey(image);
+  // Edges are found as halfway levels between surfaces: only in linear light are they there.
+  const cv::Mat linear = io::LinearImage(image, ctx->tone);
+  const cv::Mat grey = ToGrey(linear);
   RenderViews(grey, &ctx->views);
   out.corners = DetectChessboards(grey, ctx->views, ctx->model, ctx->targets, ctx->chessboard);
   // Tag grids (plain tag36h11 and Kalibr AprilGrids) in the same, already rendered views.
@@ -49,12 +51,12 @@ io::ImageDetections DetectImage(const cv::Mat& image, DetectorContext* ctx,
   for (const TargetSpec& t : ctx->targets) any_tags = any_tags || t.type != TargetType::kChessboard;
   if (any_tags) {
     const std::vector<io::CornerObservation> tags =
-        DetectTagGrids(image, ctx->views, ctx->model, ctx->targets);
+        DetectTagGrids(grey, ctx->views, ctx->model, ctx->targets);
     out.corners.insert(out.corners.end(), tags.begin(), tags.end());
   }
   if (ctx->use_lips) {
     if (image.channels() >= 3) {
-      out.lips = DetectLips(ToBgr8(image), ctx->model);
+      out.lips = DetectLips(ToBgr8(linear), ctx->model);
     } else if (warnings) {
       warnings->push_back("grey image: the coloured lips cannot be detected");
     }

@@ -13,6 +13,7 @@
 #include "detectors/ring_layout.h"
 #include "detectors/views.h"
 #include "model/io/detections_file.h"
+#include "model/io/image_file.h"
 #include "model/rig_model.h"
 #include "model/target.h"
 
@@ -29,10 +30,13 @@ struct DetectorContext {
   std::vector<RingView> views;  // each image is rendered into views[i].image (not thread-safe)
   std::vector<TargetSpec> targets;
   bool use_lips = true;
+  // How the images encode light: DetectImage decodes them to linear first (io::LinearImage).
+  io::ToneCurve tone = io::ToneCurve::kLinear;
   ChessboardOptions chessboard;
 };
 
-// Detects the context's targets in `image` (BGR or grey, 8 or 16 bit, the model's size). Throws
+// Detects the context's targets in `image` (BGR or grey, 8 or 16 bit, the model's size, encoded
+// as ctx->tone says). Throws
 // io::InputError with a one-line reason when the image cannot be used (empty, wrong size);
 // appends a line to *warnings for what was skipped (e.g. lips on a grey image). `file`, `width`
 // and `height` of the result are for the caller to fill in.

@@ -10,6 +10,7 @@ namespace omni::detectors {
 io::Detections DetectSession(const io::Session& session, DetectorContext* ctx,
                              const ImageCallback& on_image) {
   const RigParams& rig = ctx->model.params();
+  ctx->tone = session.tone;
   io::Detections detections;
   detections.session = session.path;
   const size_t n = session.images.size();

@@ -31,8 +31,10 @@ std::vector<cv::Point2f> SaddlePoints(const RingView& view, const SaddleOptions&
   cv::Mat dilated;
   cv::dilate(response, dilated, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(5, 5)));
   // An ideal saddle of contrast C blurred by sigma has Ixy = C / (pi sigma^2); the 3x3 Sobel
-  // second derivatives carry a gain of 4 each. Render blur adds about 0.7 px in quadrature.
-  const double s2 = options.sigma * options.sigma + 0.5;
+  // second derivatives carry a gain of 4 each. The view's own blur adds in quadrature (at least
+  // 0.7 px: the sharpest a render's anti-aliasing and the view's resampling leave).
+  const double blur2 = view.blur_sigma ? *view.blur_sigma * *view.blur_sigma : 0.5;
+  const double s2 = options.sigma * options.sigma + std::max(0.5, blur2);
   const double ixy_min = 4.0 * options.min_contrast / (M_PI * s2);
   const float threshold = static_cast<float>(ixy_min * ixy_min);
   std::vector<cv::Point2f> points;

@@ -13,7 +13,11 @@ namespace omni::detectors {
 
 struct SaddleOptions {
   double sigma = 1.0;           // view pixels: smoothing before the Hessian
-  double min_contrast = 100;    // grey levels across a corner for a saddle point to count
+  // Grey levels across a corner for a saddle point to count, at the view's own blur
+  // (ViewBlurSigma): a blurred X-junction's response falls as 1 / (sigma^2 + blur^2)^2, and the
+  // inner ring's views (upsampled ~1.7x) of a defocused, demosaiced camera image are 2-2.5 view
+  // px blurred against ~0.9 in the outer ring of a clean render.
+  double min_contrast = 125;
   double balance = 0.5;         // |trace H| <= balance * sqrt(-det H) at a saddle point
   int min_saddles = 4;          // a cluster with fewer saddle points is not a region
 };
@@ -27,9 +31,11 @@ struct Region {
 };
 
 // Saddle points of the view: local maxima of Ixy^2 - Ixx Iyy (positive where the Hessian is
-// indefinite, i.e. at X-junctions) above the strength of a saddle of `min_contrast` grey levels,
-// not next to the view's invalid area.
+// indefinite, i.e. at X-junctions) above the strength of a saddle of `min_contrast` grey levels
+// at the view's blur (RingView::blur_sigma), not next to the view's invalid area.
 std::vector<cv::Point2f> SaddlePoints(const RingView& view, const SaddleOptions& options);
+
+
 
 // Groups saddle points into candidate regions: a point links to another closer than 1.25 times
 // the smaller of their 4th-nearest-neighbour distances. Each region's box has a margin of

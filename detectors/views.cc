@@ -183,11 +183,39 @@ cv::Mat ToGrey(const cv::Mat& raw) {
   return grey;
 }
 
+std::optional<double> ViewBlurSigma(const cv::Mat& view_image, const cv::Mat& map_x) {
+  cv::Mat f, gx, gy, magnitude, hi, lo;
+  view_image.convertTo(f, CV_32F);
+  cv::Sobel(f, gx, CV_32F, 1, 0, 3, 1.0 / 8);
+  cv::Sobel(f, gy, CV_32F, 0, 1, 3, 1.0 / 8);
+  cv::magnitude(gx, gy, magnitude);
+  const cv::Mat box = cv::getStructuringElement(cv::MORPH_RECT, cv::Size(13, 13));
+  cv::dilate(f, hi, box);
+  cv::erode(f, lo, box);
+  cv::Mat valid = map_x >= 0;
+  cv::erode(valid, valid, box);  // the window must not reach the view's black outside
+  std::vector<float> ratio;
+  for (int y = 0; y < f.rows; ++y) {
+    const float *m = magnitude.ptr<float>(y), *h = hi.ptr<float>(y), *l = lo.ptr<float>(y);
+    const uchar* ok = valid.ptr<uchar>(y);
+    for (int x = 0; x < f.cols; ++x) {
+      if (ok[x] && h[x] - l[x] >= 60) ratio.push_back(m[x] / (h[x] - l[x]));
+    }
+  }
+  if (ratio.size() < 200) return std::nullopt;
+  const auto k = ratio.begin() + static_cast<long>(0.98 * (ratio.size() - 1));
+  std::nth_element(ratio.begin(), k, ratio.end());
+  // A step of contrast C blurred by s has a peak gradient C / (sqrt(2 pi) s).
+  const double measured = 1.0 / (std::sqrt(2 * M_PI) * *k);
+  return std::sqrt(std::max(0.0, measured * measured - 0.5));
+}
+
 void RenderViews(const cv::Mat& raw, std::vector<RingView>* views) {
   const cv::Mat grey = ToGrey(raw);
   for (RingView& v : *views) {
     cv::remap(grey, v.image, v.map_fixed, v.map_interp, cv::INTER_LINEAR, cv::BORDER_CONSTANT,
               cv::Scalar(0));
+    v.blur_sigma = ViewBlurSigma(v.image, v.map_x);
   }
 }
 

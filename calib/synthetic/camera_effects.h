@@ -26,7 +26,7 @@
 
 namespace omni::synthetic {
 
-enum class ToneCurve { kLinear, kSrgb };
+using io::ToneCurve;
 
 struct CameraEffects {
   std::string preset = "clean";      // the preset these values started from

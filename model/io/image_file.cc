@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cmath>
 #include <filesystem>
+#include <vector>
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -65,6 +67,45 @@ std::string DemosaicName(Demosaic demosaic) {
     case Demosaic::kVng: return "vng";
   }
   return "edge_aware";
+}
+
+std::optional<ToneCurve> ParseToneCurve(const std::string& name) {
+  const std::string n = Lower(name);
+  if (n == "srgb") return ToneCurve::kSrgb;
+  if (n == "linear") return ToneCurve::kLinear;
+  return std::nullopt;
+}
+
+std::string ToneCurveName(ToneCurve tone) { return tone == ToneCurve::kSrgb ? "srgb" : "linear"; }
+
+cv::Mat LinearImage(const cv::Mat& image, ToneCurve tone) {
+  CV_Assert(image.depth() == CV_8U || image.depth() == CV_16U);
+  cv::Mat out;
+  if (tone == ToneCurve::kLinear) {
+    image.convertTo(out, CV_16U, image.depth() == CV_8U ? 257.0 : 1.0);
+    return out;
+  }
+  // IEC 61966-2-1's decoding, tabulated for every input level.
+  const int levels = image.depth() == CV_8U ? 256 : 65536;
+  std::vector<uint16_t> table(levels);
+  for (int i = 0; i < levels; ++i) {
+    const double e = static_cast<double>(i) / (levels - 1);
+    const double l = e <= 0.04045 ? e / 12.92 : std::pow((e + 0.055) / 1.055, 2.4);
+    table[i] = static_cast<uint16_t>(std::lround(l * 65535));
+  }
+  out.create(image.size(), CV_MAKETYPE(CV_16U, image.channels()));
+  const int n = image.cols * image.channels();
+  for (int y = 0; y < image.rows; ++y) {
+    uint16_t* dst = out.ptr<uint16_t>(y);
+    if (image.depth() == CV_8U) {
+      const uchar* src = image.ptr<uchar>(y);
+      for (int k = 0; k < n; ++k) dst[k] = table[src[k]];
+    } else {
+      const uint16_t* src = image.ptr<uint16_t>(y);
+      for (int k = 0; k < n; ++k) dst[k] = table[src[k]];
+    }
+  }
+  return out;
 }
 
 int BayerChannel(BayerPattern pattern, int row, int col) {

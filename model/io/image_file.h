@@ -21,6 +21,9 @@ class UnreadableImage : public InputError {
 
 enum class BayerPattern { kNone, kRGGB, kBGGR, kGRBG, kGBRG };
 enum class Demosaic { kBilinear, kEdgeAware, kVng };
+// How pixel values encode light: sRGB's curve (what colour cameras and JPEGs deliver) or linear
+// (raw frames, machine-vision cameras with gamma off, our clean renders).
+enum class ToneCurve { kLinear, kSrgb };
 
 // "RGGB", "BGGR", "GRBG", "GBRG" (any case); "none" or "" -> kNone; nullopt for anything else.
 std::optional<BayerPattern> ParseBayerPattern(const std::string& name);
@@ -28,6 +31,15 @@ std::string BayerName(BayerPattern pattern);
 // "bilinear", "edge_aware", "vng"; nullopt for anything else.
 std::optional<Demosaic> ParseDemosaic(const std::string& name);
 std::string DemosaicName(Demosaic demosaic);
+
+// "srgb" or "linear"; nullopt for anything else.
+std::optional<ToneCurve> ParseToneCurve(const std::string& name);
+std::string ToneCurveName(ToneCurve tone);
+
+// A 16-bit image of the same channels whose values are linear in the light (an 8- or 16-bit
+// input decoded through `tone`). Detectors measure edges as the halfway level between two
+// surfaces, which only a linear image puts where the edge is.
+cv::Mat LinearImage(const cv::Mat& image, ToneCurve tone);
 
 // The BGR channel index (0 blue, 1 green, 2 red) the sensor samples at (row, col).
 int BayerChannel(BayerPattern pattern, int row, int col);

@@ -143,6 +143,13 @@ Session ReadSessionFile(const std::string& path) {
     const auto pattern = ParseBayerPattern(bayer.IsScalar() ? bayer.Scalar() : "?");
     if (!pattern) in.Fail("bayer", "expected RGGB, BGGR, GRBG, GBRG or none", Describe(bayer));
     session.bayer = *pattern;
+    if (session.bayer != BayerPattern::kNone) session.tone = ToneCurve::kLinear;
+  }
+  if (root["tone"].IsDefined()) {
+    const YAML::Node tone = root["tone"];
+    const auto curve = ParseToneCurve(tone.IsScalar() ? tone.Scalar() : "?");
+    if (!curve) in.Fail("tone", "expected srgb (colour cameras, JPEG) or linear (raw frames, gamma off)", Describe(tone));
+    session.tone = *curve;
   }
 
   if (root["estimate"].IsDefined()) {
@@ -217,6 +224,7 @@ std::string SessionText(const Session& session, const std::string& base_dir) {
     }
   }
   out << "lips: " << (session.use_lips ? "true" : "false") << "\n";
+  out << "tone: " << ToneCurveName(session.tone) << "   # how the images encode light: srgb or linear\n";
   if (session.bayer != BayerPattern::kNone) {
     out << "bayer: " << BayerName(session.bayer) << "   # raw frames, demosaiced when read\n";
   }

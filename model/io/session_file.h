@@ -49,6 +49,9 @@ struct Session {
   // `bayer: RGGB|BGGR|GRBG|GBRG`: the images are raw one-channel frames of that mosaic and are
   // demosaiced when read (model/io/image_file.h); absent or none: images as the camera wrote them.
   BayerPattern bayer = BayerPattern::kNone;
+  // `tone: srgb|linear`: how the images encode light (image_file.h). Absent: srgb, as colour
+  // cameras and JPEGs write, or linear for raw Bayer frames.
+  ToneCurve tone = ToneCurve::kSrgb;
   std::vector<std::string> estimate; // groups: camera, distortion, mirror1_pose, mirror2_pose,
                                      // reflex, mirror1_shape, mirror2_shape
   std::map<std::string, ShapePrior> priors;  // key: mirror1_shape | mirror2_shape
