@@ -182,8 +182,13 @@ bool BetterInNeighbour(const RingView& view, const cv::Rect& rect, size_t sector
   // views then looked better in the other one from both sides (detector_eval_scene 0006: three
   // inner-ring boards at 3.5 m never searched). Near a tie both views search it (kTie); the
   // duplicate is removed later.
+  // Taken on the region's middle row: the views look up or down at their ring's elevation, so
+  // a column is not one azimuth, and at the view's middle row a region near the ring's edge
+  // looked farther out than it is in both neighbouring views (realistic_scene 0002: a 5x6
+  // board in ring 2 at the tie between two views was searched in neither).
+  const double row = rect.y + 0.5 * rect.height;
   const auto azimuth_at = [&](double x) {
-    const Eigen::Vector3d ray = view.RayInCam(Eigen::Vector2d(x, view.cy));
+    const Eigen::Vector3d ray = view.RayInCam(Eigen::Vector2d(x, row));
     return std::atan2(ray.y(), ray.x());
   };
   const double left = azimuth_at(rect.x), right = azimuth_at(rect.x + rect.width);
@@ -525,10 +530,14 @@ std::optional<BoardDetection> MakeBoard(const cv::Mat& raw_grey, const RingView&
         const auto& q = raw[rr * spec.cols + cc];
         if (q) side = std::min(side, (*q - *raw[i]).norm());
       }
-      // A window of 0.4 squares; 3x3 on squares under 3.75 px (the inner ring near 2 m at
-      // 960x720): a 5x5 one there spans neighbouring corners and pulled a third of them about
-      // 1 px off (demo image 0007), which the grid check then refused.
-      const int raw_half = std::clamp(static_cast<int>(std::lround(0.4 * side)), 1, 6);
+      // A window of 0.55 squares (half-width): the more of the four squares' edges it holds, the
+      // less the demosaicing's phase-dependent errors and the noise move the corner
+      // (realistic_scene ring 2 chessboards: 0.4 squares 0.140 px mean, 0.55: 0.099; clean
+      // 0.058 -> 0.049; 0.7 reaches the next corners: 0.17). 3x3 on squares under 3.75 px (the
+      // inner ring near 2 m at 960x720): a 5x5 one there spans neighbouring corners and pulled
+      // a third of them about 1 px off (demo image 0007), which the grid check then refused.
+      const int raw_half =
+          side < 3.75 ? 1 : std::clamp(static_cast<int>(std::lround(0.55 * side)), 2, 8);
       const Eigen::Vector2d before = pixel;
       if (!RefineCornerInRaw(raw_grey, raw_half, &pixel)) continue;
       // The views are exact only for points at their distance_mm: on the non-central rig a
