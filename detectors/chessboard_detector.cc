@@ -533,11 +533,12 @@ std::optional<BoardDetection> MakeBoard(const cv::Mat& raw_grey, const RingView&
       // A window of 0.55 squares (half-width): the more of the four squares' edges it holds, the
       // less the demosaicing's phase-dependent errors and the noise move the corner
       // (realistic_scene ring 2 chessboards: 0.4 squares 0.140 px mean, 0.55: 0.099; clean
-      // 0.058 -> 0.049; 0.7 reaches the next corners: 0.17). 3x3 on squares under 3.75 px (the
-      // inner ring near 2 m at 960x720): a 5x5 one there spans neighbouring corners and pulled
-      // a third of them about 1 px off (demo image 0007), which the grid check then refused.
+      // 0.058 -> 0.049; 0.7 reaches the next corners: 0.17). 3x3 on squares under 3 px (the inner
+      // ring near 2 m at 960x720): a 5x5 one there spans neighbouring corners and pulled a third
+      // of them about 1 px off (demo image 0007), which the grid check then refused; at 3-3.75 px
+      // (inner-ring near boards, radially squeezed) 5x5 keeps them (realistic_scene 0011).
       const int raw_half =
-          side < 3.75 ? 1 : std::clamp(static_cast<int>(std::lround(0.55 * side)), 2, 8);
+          side < 3.0 ? 1 : std::clamp(static_cast<int>(std::lround(0.55 * side)), 2, 8);
       const Eigen::Vector2d before = pixel;
       if (!RefineCornerInRaw(raw_grey, raw_half, &pixel)) continue;
       // The views are exact only for points at their distance_mm: on the non-central rig a
