@@ -322,13 +322,15 @@ std::string TruthText(const Scene& scene, const RigModel& model, const std::stri
     auto vec = [&](const Eigen::Vector3d& v) {
       return "[" + num(v.x()) + ", " + num(v.y()) + ", " + num(v.z()) + "]";
     };
-    out << "  - {mirror: " << lip.mirror << ", color: " << lip.color
+    // Paints are names or "#rrggbb" (model/lip.h); unquoted, YAML would read # as a comment.
+    const std::string color = lip.color[0] == '#' ? "\"" + lip.color + "\"" : lip.color;
+    out << "  - {mirror: " << lip.mirror << ", color: " << color
         << ", centre: " << vec(lip.centre_in_cam) << ", normal: " << vec(lip.normal_in_cam)
         << ", r_inner: " << num(lip.r_inner) << ", r_outer: " << num(lip.r_outer) << "}\n";
   }
   out << "images:\n";
   for (const auto& image : scene.images) {
-    out << "  - file: " << image.name << ".png\n    placements:\n";
+    out << "  - file: " << image.name << ImageExtension(scene.camera) << "\n    placements:\n";
     for (const auto& p : image.placements) {
       const Eigen::AngleAxisd aa(p.cam_from_target_rotation);
       const Eigen::Vector3d w = aa.angle() * aa.axis();

@@ -1,14 +1,18 @@
 // The detector tests render only windows of a frame around their targets (full 1280x960 frames
-// take ~15 s each): POV-Ray's options for the window `box` of the rig's image, and the rendered
-// window pasted into a full pinhole frame (black elsewhere) before lens distortion and noise.
+// take ~15 s each): POV-Ray's options for the window `box` of the rig's image, the rendered
+// window pasted into a full pinhole frame (black elsewhere) before the camera (lens distortion,
+// noise, camera_effects), and the windows around a scene image's targets.
 #pragma once
 
+#include <algorithm>
 #include <string>
+#include <vector>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
 #include "calib/synthetic/pov_scene.h"
+#include "calib/synthetic/scene.h"
 #include "model/rig_params.h"
 
 namespace omni::testing {
@@ -25,12 +29,55 @@ inline synthetic::RenderOptions WindowOptions(const RigParams& rig, const cv::Re
 }
 
 // Renders `pov` with `options` (a window: WindowOptions) to `png` and copies the window `box`
-// into `pinhole` (CV_8UC3, the full frame). False (with `error`) if POV-Ray failed.
+// into `pinhole` (the full frame: CV_8UC3, or CV_16UC3 with options.bits = 16). False (with
+// `error`) if POV-Ray failed.
 inline bool RenderWindowInto(const std::string& pov, const cv::Rect& box,
                              const synthetic::RenderOptions& options, const std::string& png,
                              cv::Mat* pinhole, std::string* error) {
   if (!synthetic::RenderScene(pov, png, options, error)) return false;
-  cv::imread(png, cv::IMREAD_COLOR)(box).copyTo((*pinhole)(box));
+  cv::imread(png, pinhole->depth() == CV_16U ? cv::IMREAD_UNCHANGED : cv::IMREAD_COLOR)(box)
+      .copyTo((*pinhole)(box));
+  return true;
+}
+
+// Renders the windows around every target's corners in each ring (padded by two of the largest
+// square or tag steps in that ring, plus 12 px: the outer squares and white margin) into
+// `pinhole` (the full frame, CV_8UC3 or CV_16UC3 for a 16-bit linear render), files in `dir`.
+inline bool RenderTargetWindows(const RigParams& rig, const synthetic::Scene& scene,
+                                const synthetic::SceneImage& image,
+                                const std::vector<synthetic::CornerTruth>& truth,
+                                const std::string& dir, cv::Mat* pinhole, std::string* error) {
+  const std::string pov = synthetic::PovSceneText(rig, synthetic::ContentOf(scene, image));
+  for (size_t t = 0; t < scene.targets.size(); ++t) {
+    for (int m = 0; m < 2; ++m) {
+      std::vector<Eigen::Vector2d> pixels;
+      for (const auto& c : truth) {
+        if (c.target == static_cast<int>(t) && c.pixel[m]) pixels.push_back(*c.pixel[m]);
+      }
+      if (pixels.empty()) continue;
+      double step = 0;  // the largest distance from a corner to its nearest neighbour
+      for (const auto& a : pixels) {
+        double nearest = 1e9;
+        for (const auto& b : pixels) {
+          if (&a != &b) nearest = std::min(nearest, (a - b).norm());
+        }
+        if (nearest < 1e9) step = std::max(step, nearest);
+      }
+      const int pad = static_cast<int>(2 * step) + 12;
+      cv::Rect box;
+      for (const auto& px : pixels) {
+        const cv::Rect one(static_cast<int>(px.x()) - pad, static_cast<int>(px.y()) - pad,
+                           2 * pad + 1, 2 * pad + 1);
+        box = box.empty() ? one : (box | one);
+      }
+      box &= cv::Rect(0, 0, rig.image_width, rig.image_height);
+      if (box.empty()) continue;
+      synthetic::RenderOptions options = WindowOptions(rig, box);
+      options.bits = pinhole->depth() == CV_16U ? 16 : 8;
+      const std::string png = dir + "/w" + std::to_string(t) + std::to_string(m) + ".png";
+      if (!RenderWindowInto(pov, box, options, png, pinhole, error)) return false;
+    }
+  }
   return true;
 }
 
