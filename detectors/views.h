@@ -48,7 +48,9 @@ struct RingView {
   cv::Mat map_x, map_y;  // CV_32F: raw pixel of each view pixel, -1 where ring `mirror` is not seen
   cv::Mat map_fixed, map_interp;  // the same maps in cv::convertMaps' fast form (for remap)
   cv::Mat image;                  // the last RenderViews result: CV_8U grey
-  std::optional<double> blur_sigma;  // of image's sharpest edges (ViewBlurSigma), view pixels
+  // The blur of the ring's views' sharpest edges (ViewBlurSigma; one value per ring: the median
+  // over every other view), view pixels; nullopt where too few edges show.
+  std::optional<double> blur_sigma;
 
   // Unit ray direction in C of a view pixel (from viewpoint_in_cam).
   Eigen::Vector3d RayInCam(const Eigen::Vector2d& view_pixel) const;
@@ -71,7 +73,7 @@ struct RingView {
 std::vector<RingView> MakeRingViews(const RigModel& model, const ViewOptions& options = {});
 
 // Resamples the raw image (grey or BGR, the model's size) into every view's `image` (grey) and
-// measures its blur_sigma.
+// measures each ring's blur_sigma.
 void RenderViews(const cv::Mat& raw, std::vector<RingView>* views);
 
 // The Gaussian blur (sigma, view pixels) of the sharpest edges the view shows: the camera's and
