@@ -2,10 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <array>
 #include <map>
+#include <set>
 #include <tuple>
 
 #include <Eigen/Dense>
+#include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "detectors/kalibr_detector.h"
@@ -42,28 +45,57 @@ struct ViewTag {
   int view;
 };
 
-std::vector<ViewTag> DetectPlainTags(const cv::Mat& view_grey, int view_index, float decimate) {
+// libapriltag's detector for tag36h11, made once per thread: the quick-decode table for codes up
+// to 2 bits off is ~400k entries.
+struct PlainDetector {
+  apriltag_family_t* family = nullptr;
+  apriltag_detector_t* detector = nullptr;
+  explicit PlainDetector(int max_hamming) {
+    family = tag36h11_create();
+    detector = apriltag_detector_create();
+    apriltag_detector_add_family_bits(detector, family, max_hamming);
+    detector->nthreads = 1;
+  }
+  ~PlainDetector() {
+    apriltag_detector_destroy(detector);
+    tag36h11_destroy(family);
+  }
+};
+
+// Plain tags in a view. Exact codes (hamming 0) are taken as libapriltag reads them; in a blurred
+// view (blur_sigma set) a code up to max_hamming bits off is taken only if the tag's whole
+// blurred pattern reads as that code (ReadTagBlurred): libapriltag thresholds each bit, and bits
+// of one bit width blurred to ~40% contrast fall on the wrong side.
+std::vector<ViewTag> DetectPlainTags(const cv::Mat& view_grey, int view_index, float decimate,
+                                     double blur_sigma, const TagDetectorOptions& options) {
   std::vector<ViewTag> out;
-  apriltag_family_t* family = tag36h11_create();
-  apriltag_detector_t* detector = apriltag_detector_create();
-  apriltag_detector_add_family_bits(detector, family, 0);  // exact codes only
+  static thread_local PlainDetector exact(0), tolerant(2);
+  const bool blurred = options.plain_max_hamming > 0 && blur_sigma > 0;
+  apriltag_detector_t* detector = blurred ? tolerant.detector : exact.detector;
   detector->quad_decimate = decimate;
-  detector->nthreads = 1;
   image_u8_t im{view_grey.cols, view_grey.rows, static_cast<int32_t>(view_grey.step),
                 view_grey.data};
   zarray_t* detections = apriltag_detector_detect(detector, &im);
   for (int i = 0; i < zarray_size(detections); ++i) {
     apriltag_detection_t* det;
     zarray_get(detections, i, &det);
-    if (det->hamming != 0) continue;
+    if (det->hamming > (blurred ? options.plain_max_hamming : 0)) continue;
     ViewTag tag{TargetType::kAprilTagGrid, det->id, {}, view_index};
     // libapriltag puts pixel centres at +0.5; p[k] is our k in an un-mirrored view.
     for (int k = 0; k < 4; ++k) tag.corners[k] = Eigen::Vector2d(det->p[k][0] - 0.5, det->p[k][1] - 0.5);
+    if (det->hamming > 0) {
+      std::array<cv::Point2f, 4> printed;  // TL, TR, BR, BL = k 3, 2, 1, 0
+      for (int j = 0; j < 4; ++j) {
+        printed[j] = cv::Point2f(static_cast<float>(tag.corners[3 - j].x()),
+                                 static_cast<float>(tag.corners[3 - j].y()));
+      }
+      const BlurredReading reading =
+          ReadTagBlurred(view_grey, printed, PlainTagLayout(), blur_sigma, options.kalibr.blurred);
+      if (reading.tag_id != det->id || reading.rotation != 0) continue;
+    }
     out.push_back(tag);
   }
   apriltag_detections_destroy(detections);
-  apriltag_detector_destroy(detector);
-  tag36h11_destroy(family);
   return out;
 }
 
@@ -92,6 +124,112 @@ std::vector<ViewTag> DetectKalibrTags(const cv::Mat& view_grey, int view_index,
     }
   }
   return out;
+}
+
+
+// The printed TL, TR, BR, BL corners of a view tag (our k 3, 2, 1, 0).
+std::array<cv::Point2f, 4> Printed(const Eigen::Vector2d (&corners)[4]) {
+  std::array<cv::Point2f, 4> q;
+  for (int j = 0; j < 4; ++j) {
+    q[j] = cv::Point2f(static_cast<float>(corners[3 - j].x()), static_cast<float>(corners[3 - j].y()));
+  }
+  return q;
+}
+
+// One read tag carries its grid: in a view a target is a homography of its plane, so the tags of
+// a target read in view `v` predict where its other tags are (nearest first, the homography
+// refitted to every tag accepted so far). A predicted tag is taken, with the id its place on the
+// target gives, only if its pattern there fits that code's blurred pattern (TagCodeResidual
+// <= options.grow_max_residual) and, for Kalibr tags, its corners refine as X-junctions near the
+// prediction. A wrong seed cannot carry a grid: its predicted neighbours read as other codes.
+void GrowTagGrids(const cv::Mat& view_grey, const RingView& view, int v,
+                  const std::vector<TargetSpec>& targets, const TagDetectorOptions& options,
+                  std::vector<ViewTag>* found) {
+  const double blur = view.blur_sigma ? *view.blur_sigma : 0.0;
+  for (std::size_t ti = 0; ti < targets.size(); ++ti) {
+    const TargetSpec& target = targets[ti];
+    if (target.type == TargetType::kChessboard) continue;
+    const bool kalibr = target.type == TargetType::kKalibrAprilGrid;
+    // This target's tags read in this view (the first of its layout that holds the id, as below).
+    std::map<std::pair<int, int>, int> have;  // (row, col) -> index in found
+    for (std::size_t i = 0; i < found->size(); ++i) {
+      const ViewTag& t = (*found)[i];
+      if (t.view != v || t.layout != target.type) continue;
+      int row = 0, col = 0;
+      if (!TagCell(target, t.tag_id, &row, &col)) continue;
+      bool earlier = false;  // an earlier target of this layout holds the id
+      for (std::size_t tj = 0; tj < ti && !earlier; ++tj) {
+        int r2 = 0, c2 = 0;
+        earlier = targets[tj].type == target.type && TagCell(targets[tj], t.tag_id, &r2, &c2);
+      }
+      if (!earlier) have[{row, col}] = static_cast<int>(i);
+    }
+    if (have.empty()) continue;
+    std::set<std::pair<int, int>> tried;
+    for (;;) {
+      std::vector<cv::Point2f> plane, in_view;
+      for (const auto& [cell, i] : have) {
+        const ViewTag& t = (*found)[i];
+        for (int k = 0; k < 4; ++k) {
+          const Eigen::Vector3d p = CornerInTarget(target, 4 * t.tag_id + k);
+          plane.emplace_back(static_cast<float>(p.x()), static_cast<float>(p.y()));
+          in_view.emplace_back(static_cast<float>(t.corners[k].x()), static_cast<float>(t.corners[k].y()));
+        }
+      }
+      const cv::Mat H = cv::findHomography(plane, in_view, 0);
+      if (H.empty()) break;
+      // The untried cells next to an accepted tag.
+      std::vector<std::pair<int, int>> next;
+      for (int row = 0; row < target.rows; ++row) {
+        for (int col = 0; col < target.cols; ++col) {
+          if (have.count({row, col}) || tried.count({row, col})) continue;
+          bool adjacent = false;
+          for (const auto& [cell, i] : have) {
+            adjacent |= std::max(std::abs(cell.first - row), std::abs(cell.second - col)) == 1;
+          }
+          if (adjacent) next.emplace_back(row, col);
+        }
+      }
+      if (next.empty()) break;
+      bool grew = false;
+      for (const auto& cell : next) {
+        tried.insert(cell);
+        const int tag_id = TagIdAt(target, cell.first, cell.second);
+        std::vector<cv::Point2f> plane_k, predicted;
+        for (int k = 0; k < 4; ++k) {
+          const Eigen::Vector3d p = CornerInTarget(target, 4 * tag_id + k);
+          plane_k.emplace_back(static_cast<float>(p.x()), static_cast<float>(p.y()));
+        }
+        cv::perspectiveTransform(plane_k, predicted, H);
+        ViewTag tag{target.type, tag_id, {}, v};
+        bool ok = true;
+        double side = 0;
+        for (int k = 0; k < 4; ++k) side += 0.25 * cv::norm(predicted[(k + 1) % 4] - predicted[k]);
+        const double margin = 0.3 * side + 3;
+        for (int k = 0; k < 4 && ok; ++k) {
+          tag.corners[k] = Eigen::Vector2d(predicted[k].x, predicted[k].y);
+          ok = predicted[k].x >= margin && predicted[k].y >= margin &&
+               predicted[k].x < view_grey.cols - margin && predicted[k].y < view_grey.rows - margin &&
+               view.ViewToRaw(tag.corners[k]).has_value();
+        }
+        if (!ok) continue;
+        if (kalibr) {
+          const int half = static_cast<int>(std::lround(0.15 * side));
+          for (int k = 0; k < 4 && ok; ++k) {
+            ok = RefineSaddleCorner(view_grey, tag.corners[k], half, 0.1 * side, &tag.corners[k]);
+          }
+          if (!ok) continue;
+        }
+        const double e = TagCodeResidual(view_grey, Printed(tag.corners),
+                                         kalibr ? KalibrTagLayout() : PlainTagLayout(), blur, tag_id);
+        if (!(e <= options.grow_max_residual)) continue;
+        have[cell] = static_cast<int>(found->size());
+        found->push_back(tag);
+        grew = true;
+      }
+      if (!grew) break;
+    }
+  }
 }
 
 double Median(std::vector<double> v) {
@@ -146,6 +284,18 @@ bool FitQuadratic(std::vector<Eigen::Vector2d> st, double c2, Eigen::Vector3d* c
   return c->allFinite();
 }
 
+// The data bits just behind one edge's black border (1 white, 0 black) along the edge, as the
+// tag's code gives them, and the border's width (raw px). Empty: taken as black (a plain step).
+struct EdgeBits {
+  std::vector<int> cells;  // along the edge, from its first corner
+  double border_px = 0;
+  double At(double f) const {
+    if (cells.empty()) return 0;
+    const int i = std::clamp(static_cast<int>(f * cells.size()), 0, static_cast<int>(cells.size()) - 1);
+    return cells[i];
+  }
+};
+
 // Refines `edge` (its offset c0 and slope c1; the curvature c2 kept) by fitting the raw pixels
 // next to it, from reach_out outside to reach_in inside and `margin` clear of both corners, with
 // a blurred step: I = white - (white - black) Phi(d / sigma), d the pixel centre's distance inside
@@ -154,9 +304,9 @@ bool FitQuadratic(std::vector<Eigen::Vector2d> st, double c2, Eigen::Vector3d* c
 // (sharp renders: up to ~0.1 px), which along a nearly axis-parallel edge turns the fitted line;
 // the step model sees each pixel where it is.
 bool FitEdgeToPixels(const cv::Mat& grey, double margin, double reach_in, double reach_out,
-                     double black, double white, EdgeCurve* edge) {
+                     double black, double white, const EdgeBits& bits, EdgeCurve* edge) {
   struct Pixel {
-    double s, u, value;
+    double s, u, value, bit;
   };
   std::vector<Pixel> pixels;
   const Eigen::Vector2d ends[2] = {edge->a, edge->a + edge->length * edge->along};
@@ -172,7 +322,7 @@ bool FitEdgeToPixels(const cv::Mat& grey, double margin, double reach_in, double
       const double s = q.dot(edge->along), u = q.dot(edge->inward);
       const double d = u - (edge->c(0) + edge->c(1) * s + edge->c(2) * s * s);
       if (s < margin || s > edge->length - margin || d < -reach_out || d > reach_in) continue;
-      pixels.push_back({s, u, grey.at<float>(y, x)});
+      pixels.push_back({s, u, grey.at<float>(y, x), bits.At(s / edge->length)});
     }
   }
   if (pixels.size() < 12) return false;
@@ -182,14 +332,19 @@ bool FitEdgeToPixels(const cv::Mat& grey, double margin, double reach_in, double
     Eigen::Matrix<double, 5, 5> H = Eigen::Matrix<double, 5, 5>::Zero();
     Eigen::Matrix<double, 5, 1> g = Eigen::Matrix<double, 5, 1>::Zero();
     for (const Pixel& px : pixels) {
+      // The border is a bar: behind it (bits.border_px in) a white data bit brings the level
+      // back up, which a blur as wide as the border shows at the edge too.
       const double d = px.u - (p(0) + p(1) * px.s + edge->c(2) * px.s * px.s);
-      const double x = d / p(2);
-      const double Phi = 0.5 * std::erfc(-x / std::sqrt(2.0));
-      const double phi = std::exp(-0.5 * x * x) / std::sqrt(2 * M_PI);
+      const double x = d / p(2), x2 = (d - bits.border_px) / p(2);
+      const double phi1 = std::exp(-0.5 * x * x) / std::sqrt(2 * M_PI);
+      const double phi2 = px.bit * std::exp(-0.5 * x2 * x2) / std::sqrt(2 * M_PI);
+      const double Phi = 0.5 * std::erfc(-x / std::sqrt(2.0)) -
+                         px.bit * 0.5 * std::erfc(-x2 / std::sqrt(2.0));
+      const double phi = phi1 - phi2;
       const double r = p(4) - (p(4) - p(3)) * Phi - px.value;
       const double dI_dd = -(p(4) - p(3)) * phi / p(2);
       Eigen::Matrix<double, 5, 1> J;
-      J << -dI_dd, -dI_dd * px.s, (p(4) - p(3)) * phi * x / p(2), Phi, 1 - Phi;
+      J << -dI_dd, -dI_dd * px.s, (p(4) - p(3)) * (phi1 * x - phi2 * x2) / p(2), Phi, 1 - Phi;
       H += J * J.transpose();
       g += J * r;
     }
@@ -213,7 +368,8 @@ bool FitEdgeToPixels(const cv::Mat& grey, double margin, double reach_in, double
 // step's edge, whatever the blur's width (a global min/max level would move it with the noise).
 bool FitTagEdge(const cv::Mat& grey, const Eigen::Vector2d& a, const Eigen::Vector2d& b,
                 const Eigen::Vector2d& tag_centre, double border_px, double reach_out,
-                double curvature, const TagDetectorOptions& options, EdgeCurve* edge) {
+                double curvature, const EdgeBits& bits, const TagDetectorOptions& options,
+                EdgeCurve* edge) {
   edge->a = a;
   edge->length = (b - a).norm();
   if (!(edge->length >= options.min_edge_px)) return false;
@@ -269,8 +425,11 @@ bool FitTagEdge(const cv::Mat& grey, const Eigen::Vector2d& a, const Eigen::Vect
   if (st.size() < 0.7 * s_values.size()) return false;
   if (!FitQuadratic(st, curvature, &edge->c, &rms) || rms > options.max_edge_rms_px) return false;
   return !options.fit_edge_pixels ||
-         FitEdgeToPixels(grey, margin, std::min(options.edge_fit_reach_in * border_px, reach_in),
-                         reach_out, black, white, edge);
+         FitEdgeToPixels(grey, margin,
+                         bits.cells.empty() || options.edge_fit_reach_in_blurred <= options.edge_fit_reach_in
+                             ? std::min(options.edge_fit_reach_in * border_px, reach_in)
+                             : options.edge_fit_reach_in_blurred * border_px,
+                         reach_out, black, white, bits, edge);
 }
 
 // The curvature term c2 (t = c0 + c1 s + c2 s^2 across the raw chord, EdgeCurve) of the raw image
@@ -383,7 +542,8 @@ void DropCornersOffTheirTarget(const std::vector<RingView>& views,
 
 bool RefineTagCorners(const cv::Mat& grey, const Eigen::Vector2d (&corners)[4],
                       const double (&curvature)[4], double border_fraction, double spacing,
-                      const TagDetectorOptions& options, Eigen::Vector2d (&refined)[4]) {
+                      const TagDetectorOptions& options, Eigen::Vector2d (&refined)[4],
+                      int tag_id) {
   Eigen::Vector2d centre = Eigen::Vector2d::Zero();
   for (const auto& c : corners) centre += 0.25 * c;
   double side[4];
@@ -396,8 +556,26 @@ bool RefineTagCorners(const cv::Mat& grey, const Eigen::Vector2d (&corners)[4],
     const double border_px = border_fraction * across;
     if (border_px < options.min_border_px) return false;
     const double reach_out = std::clamp(0.5 * spacing * across, 1.0, 2.5);
+    EdgeBits bits;
+    bits.border_px = border_px;
+    if (tag_id >= 0 && options.edge_bits) {
+      // Edge j runs from corner k = j to k = j + 1 (k0 bottom-left, k1 bottom-right, k2
+      // top-right, k3 top-left as printed; cells x right, y down from the top-left).
+      const TagLayout layout = PlainTagLayout();
+      const int n = layout.bits, in = layout.border;
+      for (int i = 0; i < n; ++i) {
+        int x = 0, y = 0;
+        switch (j) {
+          case 0: x = i, y = n - 1 - in; break;          // bottom, left to right
+          case 1: x = n - 1 - in, y = n - 1 - i; break;  // right, bottom to top
+          case 2: x = n - 1 - i, y = in; break;          // top, right to left
+          default: x = in, y = i; break;                 // left, top to bottom
+        }
+        bits.cells.push_back(TagCellValue(tag_id, layout, x, y));
+      }
+    }
     if (!FitTagEdge(grey, corners[j], corners[(j + 1) % 4], centre, border_px, reach_out,
-                    curvature[j], options, &edges[j])) {
+                    curvature[j], bits, options, &edges[j])) {
       return false;
     }
   }
@@ -448,7 +626,10 @@ std::vector<TagCornerDetection> DetectTagCorners(const cv::Mat& raw_bgr,
     const int x1 = std::min(view.width, static_cast<int>(view.cx) + half_px + 2);
     const cv::Mat crop = view_grey.colRange(x0, x1).clone();
     std::vector<ViewTag> in_crop;
-    if (want_plain) in_crop = DetectPlainTags(crop, static_cast<int>(v), options.quad_decimate);
+    const double blur = view.blur_sigma ? *view.blur_sigma : 0.0;
+    if (want_plain) {
+      in_crop = DetectPlainTags(crop, static_cast<int>(v), options.quad_decimate, blur, options);
+    }
     for (ViewTag& t : in_crop) {
       for (auto& c : t.corners) c.x() += x0;
       found.push_back(t);
@@ -475,12 +656,20 @@ std::vector<TagCornerDetection> DetectTagCorners(const cv::Mat& raw_bgr,
             cv::Rect(region.rect.x - pad, region.rect.y - pad, region.rect.width + 2 * pad,
                      region.rect.height + 2 * pad) & crop_rect;
         if (box.empty()) continue;
+        KalibrDetectorOptions kalibr = options.kalibr;
+        kalibr.blur_sigma = blur;
         for (ViewTag t : DetectKalibrTags(view_grey(box).clone(), static_cast<int>(v), targets,
-                                          options.kalibr)) {
+                                          kalibr)) {
           for (auto& c : t.corners) c += Eigen::Vector2d(box.x, box.y);
           found.push_back(t);
         }
       }
+    }
+  }
+
+  if (options.grow_grids) {
+    for (std::size_t v = 0; v < views.size(); ++v) {
+      GrowTagGrids(view_images[v], views[v], static_cast<int>(v), targets, options, &found);
     }
   }
 
@@ -563,8 +752,12 @@ std::vector<TagCornerDetection> DetectTagCorners(const cv::Mat& raw_bgr,
                            ? EdgeCurvatureFromView(view, t.corners[j], t.corners[(j + 1) % 4], centre)
                            : std::nan("");
       }
+      TagDetectorOptions tag_options = options;
+      if (!(view.blur_sigma && *view.blur_sigma >= options.blurred_view_sigma)) {
+        tag_options.edge_fit_reach_in_blurred = options.edge_fit_reach_in;
+      }
       if (RefineTagCorners(grey, mapped, curvature, BorderFraction(t.layout),
-                           targets[target].spacing, options, fitted)) {
+                           targets[target].spacing, tag_options, fitted, t.tag_id)) {
         std::copy(fitted, fitted + 4, refined);
       }
     }

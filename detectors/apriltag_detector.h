@@ -38,6 +38,9 @@ struct TagDetectorOptions {
   // libapriltag. 1.5 would save 19 ms per calibration_scene_tags image with the same tags found,
   // but the plain corners move (detector_eval_scene ring 1 mean 0.106 -> 0.112 px): kept at 1.
   float quad_decimate = 1.0f;
+  // In blurred views, libapriltag's readings up to this many bits off are re-read by their
+  // blurred pattern (ReadTagBlurred) and kept only if that gives the same code.
+  int plain_max_hamming = 2;
   // Each view is searched only in its middle 360/views-per-ring degrees plus this much each side
   // (views overlap): tags up to this wide (at 1 m, 0.17 rad = 170 mm) are whole in some crop.
   double view_overlap_deg = 10.0;
@@ -52,6 +55,13 @@ struct TagDetectorOptions {
   bool curvature_from_view = true;  // edge curvature from the view's map (else fitted: noisier)
   bool fit_edge_pixels = true;      // the blurred-step fit after the crossings' fit
   double edge_fit_reach_in = 0.7;   // pixels used inside the edge: this fraction of the border
+  bool edge_bits = true;            // RefineTagCorners: the data bits behind the border modelled
+  // With them, in views blurred more than blurred_view_sigma (view px: the inner ring of a
+  // defocused camera image, 2.1-2.4 against 1.0-1.4 on sharp renders) the fit reaches this far
+  // in (of the border), towards the bit behind it: realistic ring 2 mean 0.133 -> 0.106 px;
+  // farther (1.0) is no better there and worse on sharp views (the bits' own edges).
+  double edge_fit_reach_in_blurred = 0.85;
+  double blurred_view_sigma = 1.6;
   // Narrower black borders (raw px, across an edge) leave too few pixels between the outside and
   // the data bits: the tag keeps its mapped corners (tag_grid_tests 70 mm ring 2: 1.3 px).
   double min_border_px = 1.3;
@@ -71,6 +81,10 @@ struct TagDetectorOptions {
   // Grid check (tag_grid_check.h) of each target's corners per ring after refinement: a corner
   // off the target's homography by more than grid_check.max_residual_px raw px is dropped.
   bool grid_check = true;
+  // Tags of a target predicted in a view from its tags read there (GrowTagGrids), taken if their
+  // blurred pattern fits the code their place gives to this residual (of the contrast).
+  bool grow_grids = true;
+  double grow_max_residual = 0.15;
   TagGridCheckOptions grid_check_options;
   // A Kalibr corner the grid check drops is refined again in its view from the grid's prediction
   // with smaller windows (these fractions of the first one), nearest the prediction first, and
@@ -110,8 +124,11 @@ std::vector<TagCornerDetection> DetectTagCorners(const cv::Mat& raw_bgr,
 // edges meet. border_fraction: the black border's width / the tag side; spacing: the gap to the
 // neighbouring tags / the tag side (the outside is measured within half of it). False (refined
 // unset) if an edge cannot be measured or a corner moves more than max_refine_shift_px.
+// With tag_id >= 0 (and options.edge_bits) the blurred-step fit models the border as the bar it
+// is: the data bits behind it (from the code) bring the level back up one border width in.
 bool RefineTagCorners(const cv::Mat& grey, const Eigen::Vector2d (&corners)[4],
                       const double (&curvature)[4], double border_fraction, double spacing,
-                      const TagDetectorOptions& options, Eigen::Vector2d (&refined)[4]);
+                      const TagDetectorOptions& options, Eigen::Vector2d (&refined)[4],
+                      int tag_id = -1);
 
 }  // namespace omni::detectors

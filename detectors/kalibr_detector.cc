@@ -6,6 +6,7 @@
 #include <memory>
 #include <unordered_map>
 
+#include <Eigen/Dense>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -27,6 +28,7 @@ struct Family {
   std::vector<uint32_t> bit_x, bit_y;
   uint32_t nbits = 0;
   std::unordered_map<uint64_t, int> id_of_code;
+  std::vector<uint64_t> codes;
 };
 
 const Family& Tag36h11() {
@@ -38,6 +40,7 @@ const Family& Tag36h11() {
     f.bit_x.assign(lib->bit_x, lib->bit_x + lib->nbits);
     f.bit_y.assign(lib->bit_y, lib->bit_y + lib->nbits);
     for (uint32_t i = 0; i < lib->ncodes; ++i) f.id_of_code[lib->codes[i]] = static_cast<int>(i);
+    f.codes.assign(lib->codes, lib->codes + lib->ncodes);
     return f;
   }();
   return family;
@@ -245,7 +248,234 @@ bool FitQuad(const std::vector<cv::Point>& contour, double min_side,
   return true;
 }
 
+
+// The blurred pattern of a tag seen through one orientation of its quad: the sampled value of
+// every cell of the tag and of the ring of cells just outside it, and what those samples would be
+// for data bits b (0 black, 1 white) at the view's blur: base + W b, in units of the contrast
+// above black.
+struct BlurredPattern {
+  std::vector<double> v;   // sampled grey values, cells (x, y) = -1..bits, row-major
+  Eigen::MatrixXd W;       // samples x data bits
+  Eigen::VectorXd base;    // samples: the border's, the outside's and corner squares' share
+  std::vector<int> data_sample;  // sample index of each data bit (family bit order)
+};
+
+double Phi(double x) { return 0.5 * std::erfc(-x / std::sqrt(2.0)); }
+
+bool SampleBlurredPattern(const cv::Mat& grey, const std::array<cv::Point2f, 4>& quad,
+                          const TagLayout& layout, double blur_sigma, BlurredPattern* p) {
+  const int n = layout.bits;
+  const cv::Point2f tag[4] = {{0, 0}, {static_cast<float>(n), 0},
+                              {static_cast<float>(n), static_cast<float>(n)},
+                              {0, static_cast<float>(n)}};
+  const cv::Matx33d H(cv::getPerspectiveTransform(tag, quad.data()));
+  const auto at = [&](double x, double y) {
+    const cv::Vec3d q = H * cv::Vec3d(x, y, 1.0);
+    return cv::Point2d(q[0] / q[2], q[1] / q[2]);
+  };
+  const double c = 0.5 * n;
+  const double dx = cv::norm(at(c + 0.5, c) - at(c - 0.5, c));
+  const double dy = cv::norm(at(c, c + 0.5) - at(c, c - 0.5));
+  if (!(dx > 0.5 && dy > 0.5)) return false;
+  // Each cell is sampled at 3 x 3 points +-0.2 bit about its middle (CellValue): adds that
+  // spread to the blur along each axis.
+  const double blur = blur_sigma > 0 ? blur_sigma : 0.8;
+  const double sx = std::sqrt(blur * blur + (2.0 / 3.0) * 0.04 * dx * dx) / dx;  // in bits
+  const double sy = std::sqrt(blur * blur + (2.0 / 3.0) * 0.04 * dy * dy) / dy;
+  constexpr int R = 3;
+  double wx[2 * R + 1], wy[2 * R + 1];
+  for (int k = -R; k <= R; ++k) {
+    wx[k + R] = Phi((k + 0.5) / sx) - Phi((k - 0.5) / sx);
+    wy[k + R] = Phi((k + 0.5) / sy) - Phi((k - 0.5) / sy);
+  }
+  const Family& family = Tag36h11();
+  const int shift = layout.border - 1;
+  // Level of every cell from -1 - R to n + R with the data bits black (-1: a data bit).
+  const int span = n + 2 + 2 * R, lo = -1 - R;
+  std::vector<double> level(span * span, 1.0);
+  for (int y = lo; y < lo + span; ++y) {
+    for (int x = lo; x < lo + span; ++x) {
+      double& l = level[(y - lo) * span + (x - lo)];
+      const bool in_x = x >= 0 && x < n, in_y = y >= 0 && y < n;
+      if (in_x && in_y) {
+        l = 0;
+      } else if (layout.corner_squares && !in_x && !in_y && x >= -3 && x < n + 3 && y >= -3 &&
+                 y < n + 3) {
+        l = 0;
+      }
+    }
+  }
+  const int m = (n + 2) * (n + 2);
+  p->v.assign(m, 0);
+  p->base = Eigen::VectorXd::Zero(m);
+  p->W = Eigen::MatrixXd::Zero(m, family.nbits);
+  p->data_sample.assign(family.nbits, 0);
+  for (int y = -1; y <= n; ++y) {
+    for (int x = -1; x <= n; ++x) {
+      const int i = (y + 1) * (n + 2) + (x + 1);
+      const double value = CellValue(grey, H, x, y);
+      if (value < 0) return false;
+      p->v[i] = value;
+      double b = 0;
+      for (int l = -R; l <= R; ++l) {
+        for (int k = -R; k <= R; ++k) {
+          b += wx[k + R] * wy[l + R] * level[(y + l - lo) * span + (x + k - lo)];
+        }
+      }
+      p->base(i) = b;
+    }
+  }
+  for (uint32_t t = 0; t < family.nbits; ++t) {
+    const int bx = static_cast<int>(family.bit_x[t]) + shift, by = static_cast<int>(family.bit_y[t]) + shift;
+    p->data_sample[t] = (by + 1) * (n + 2) + (bx + 1);
+    for (int y = std::max(-1, by - R); y <= std::min(n, by + R); ++y) {
+      for (int x = std::max(-1, bx - R); x <= std::min(n, bx + R); ++x) {
+        p->W((y + 1) * (n + 2) + (x + 1), t) = wx[bx - x + R] * wy[by - y + R];
+      }
+    }
+  }
+  return true;
+}
+
+// Least-squares levels v = a + c (base + W b) for the code's bits b: rms misfit / c (1e9 if c
+// is not positive).
+double CodeMisfit(const BlurredPattern& p, uint64_t code, double* contrast) {
+  const Family& family = Tag36h11();
+  Eigen::VectorXd b(family.nbits);
+  for (uint32_t t = 0; t < family.nbits; ++t) b(t) = (code >> (family.nbits - 1 - t)) & 1u;
+  const Eigen::VectorXd model = p.base + p.W * b;
+  const int m = static_cast<int>(p.v.size());
+  double sm = 0, sv = 0, smm = 0, smv = 0;
+  for (int i = 0; i < m; ++i) {
+    sm += model(i);
+    sv += p.v[i];
+    smm += model(i) * model(i);
+    smv += model(i) * p.v[i];
+  }
+  const double var_m = smm - sm * sm / m;
+  if (var_m <= 1e-9) return 1e9;
+  const double c = (smv - sm * sv / m) / var_m;
+  const double a = (sv - c * sm) / m;
+  if (contrast) *contrast = c;
+  if (!(c > 0)) return 1e9;
+  double sse = 0;
+  for (int i = 0; i < m; ++i) sse += std::pow(p.v[i] - a - c * model(i), 2);
+  return std::sqrt(sse / m) / c;
+}
+
+// The data bits as hard decisions: the levels from the cells that hold no data bit (data bits
+// taken as 0.5), then the bits deblurred by regularised least squares and thresholded at 0.5.
+uint64_t HardCode(const BlurredPattern& p) {
+  const Family& family = Tag36h11();
+  const int m = static_cast<int>(p.v.size());
+  const Eigen::VectorXd half = p.base + p.W * Eigen::VectorXd::Constant(family.nbits, 0.5);
+  std::vector<bool> is_data(m, false);
+  for (const int i : p.data_sample) is_data[i] = true;
+  double sm = 0, sv = 0, smm = 0, smv = 0;
+  int k = 0;
+  for (int i = 0; i < m; ++i) {
+    if (is_data[i]) continue;
+    sm += half(i);
+    sv += p.v[i];
+    smm += half(i) * half(i);
+    smv += half(i) * p.v[i];
+    ++k;
+  }
+  const double var_m = smm - sm * sm / k;
+  double c = var_m > 1e-9 ? (smv - sm * sv / k) / var_m : 0;
+  if (!(c > 1)) c = 1;
+  const double a = (sv - c * sm) / k;
+  Eigen::VectorXd y(m);
+  for (int i = 0; i < m; ++i) y(i) = (p.v[i] - a) / c - p.base(i);
+  constexpr double kLambda = 0.03;
+  const Eigen::MatrixXd A = p.W.transpose() * p.W +
+                            kLambda * Eigen::MatrixXd::Identity(family.nbits, family.nbits);
+  const Eigen::VectorXd rhs =
+      p.W.transpose() * y + kLambda * Eigen::VectorXd::Constant(family.nbits, 0.5);
+  const Eigen::VectorXd x = A.ldlt().solve(rhs);
+  uint64_t code = 0;
+  for (uint32_t t = 0; t < family.nbits; ++t) code = (code << 1) | (x(t) > 0.5 ? 1u : 0u);
+  return code;
+}
+
 }  // namespace
+
+TagLayout KalibrTagLayout() { return TagLayout{10, 2, true}; }
+
+int TagCellValue(int tag_id, const TagLayout& layout, int x, int y) {
+  const int n = layout.bits;
+  if (x < 0 || y < 0 || x >= n || y >= n) return 1;
+  const Family& family = Tag36h11();
+  if (tag_id < 0 || tag_id >= static_cast<int>(family.codes.size())) return 0;
+  const int shift = layout.border - 1;
+  for (uint32_t t = 0; t < family.nbits; ++t) {
+    if (static_cast<int>(family.bit_x[t]) + shift == x && static_cast<int>(family.bit_y[t]) + shift == y) {
+      return static_cast<int>((family.codes[tag_id] >> (family.nbits - 1 - t)) & 1u);
+    }
+  }
+  return 0;  // the border
+}
+TagLayout PlainTagLayout() { return TagLayout{8, 1, false}; }
+
+BlurredReading ReadTagBlurred(const cv::Mat& grey, const std::array<cv::Point2f, 4>& quad,
+                              const TagLayout& layout, double blur_sigma,
+                              const BlurredReadOptions& options) {
+  BlurredReading out;
+  const Family& family = Tag36h11();
+  // The codes nearest each rotation's hard decisions (at most a few bits off for a readable
+  // tag; tag36h11 codes are 11 apart), then their blurred patterns compared with the samples.
+  struct Candidate {
+    int rotation, id, hamming;
+  };
+  std::vector<Candidate> candidates;
+  BlurredPattern patterns[4];
+  bool valid[4] = {false, false, false, false};
+  for (int r = 0; r < 4; ++r) {
+    std::array<cv::Point2f, 4> q;
+    for (int j = 0; j < 4; ++j) q[j] = quad[(r + j) % 4];
+    valid[r] = SampleBlurredPattern(grey, q, layout, blur_sigma, &patterns[r]);
+    if (!valid[r]) continue;
+    const uint64_t word = HardCode(patterns[r]);
+    for (std::size_t id = 0; id < family.codes.size(); ++id) {
+      const int h = __builtin_popcountll(word ^ family.codes[id]);
+      candidates.push_back({r, static_cast<int>(id), h});
+    }
+  }
+  if (candidates.empty()) return out;
+  const std::size_t keep = std::min<std::size_t>(6, candidates.size());
+  std::partial_sort(candidates.begin(), candidates.begin() + keep, candidates.end(),
+                    [](const Candidate& a, const Candidate& b) { return a.hamming < b.hamming; });
+  candidates.resize(keep);
+  for (const Candidate& c : candidates) {
+    double contrast = 0;
+    const double e = CodeMisfit(patterns[c.rotation], family.codes[c.id], &contrast);
+    if (e < out.residual) {
+      out.second = out.residual;
+      out.residual = e;
+      out.tag_id = c.id;
+      out.rotation = c.rotation;
+      out.contrast = contrast;
+    } else if (e < out.second) {
+      out.second = e;
+    }
+  }
+  // The runner-up is the best of the other 5 nearest codes (any rotation): a code farther from
+  // the hard decisions fits the samples worse still.
+  if (!(out.residual <= options.max_residual && out.second - out.residual >= options.min_margin &&
+        out.second >= options.min_ratio * out.residual && out.contrast >= options.min_contrast)) {
+    out.tag_id = -1;
+  }
+  return out;
+}
+
+double TagCodeResidual(const cv::Mat& grey, const std::array<cv::Point2f, 4>& quad,
+                       const TagLayout& layout, double blur_sigma, int tag_id, double* contrast) {
+  const Family& family = Tag36h11();
+  if (tag_id < 0 || tag_id >= static_cast<int>(family.codes.size())) return 1e9;
+  BlurredPattern p;
+  if (!SampleBlurredPattern(grey, quad, layout, blur_sigma, &p)) return 1e9;
+  return CodeMisfit(p, family.codes[tag_id], contrast);
+}
 
 void DropTagsInconsistentWithNeighbours(const TargetSpec& target, double max_neighbour_error,
                                         std::vector<KalibrViewTag>* tags) {
@@ -310,8 +540,12 @@ cv::Mat KalibrTagMask(const cv::Mat& view_grey, const KalibrDetectorOptions& opt
   cv::Mat big;
   cv::resize(view_grey, big, cv::Size(), up, up, cv::INTER_LINEAR);
   // Threshold halfway between the local darkest and brightest values; flat areas are white.
-  const cv::Mat window = cv::getStructuringElement(
-      cv::MORPH_RECT, cv::Size(options.threshold_window_px, options.threshold_window_px));
+  // The window must reach across the blurred edges (2.5 sigma each side) to see both levels.
+  int window_px = options.threshold_window_px;
+  if (options.blur_sigma > 0) {
+    window_px = std::max(window_px, 2 * static_cast<int>(std::ceil(2.5 * options.blur_sigma * up)) + 1);
+  }
+  const cv::Mat window = cv::getStructuringElement(cv::MORPH_RECT, cv::Size(window_px, window_px));
   cv::Mat lo, hi;
   cv::erode(big, lo, window);
   cv::dilate(big, hi, window);
@@ -365,6 +599,20 @@ std::vector<KalibrViewTag> DetectKalibrTagsInView(const cv::Mat& view_grey,
       if (RefineQuadCorners(view_grey, quad, options.min_contrast, &refined)) {
         id = DecodeQuad(view_grey, refined, options, &H);
         if (id >= 0) quad = refined;
+        // Blurred views (the inner ring of a defocused, demosaiced camera image): bits of one
+        // bit width keep ~40% of the contrast and fail the per-bit margin; the tag is read by
+        // its whole blurred pattern instead (ReadTagBlurred), from the refined X-junctions.
+        if (id < 0 && options.read_blurred && options.blur_sigma > 0) {
+          const BlurredReading reading =
+              ReadTagBlurred(view_grey, refined, KalibrTagLayout(), options.blur_sigma,
+                             options.blurred);
+          if (reading.tag_id >= 0) {
+            id = reading.tag_id;
+            for (int j = 0; j < 4; ++j) quad[j] = refined[(reading.rotation + j) % 4];
+            const cv::Point2f tag[4] = {{0, 0}, {kBits, 0}, {kBits, kBits}, {0, kBits}};
+            H = cv::Matx33d(cv::getPerspectiveTransform(tag, quad.data()));
+          }
+        }
       }
     }
     if (id < 0 || std::count(seen.begin(), seen.end(), id)) continue;

@@ -19,6 +19,7 @@
 // clearly on one side of the threshold; the caller checks the id set and the neighbours.
 #pragma once
 
+#include <array>
 #include <vector>
 
 #include <Eigen/Core>
@@ -27,6 +28,16 @@
 #include "model/target.h"
 
 namespace omni::detectors {
+
+// Acceptance of a blurred reading (ReadTagBlurred). On the true quads of the realistic session
+// (realistic camera preset, inner ring, 2-3 raw px per bit) the right code fits to 0.035 (mean,
+// max 0.066 with the corners 0.8 view px off) and the next code 0.04-0.2 worse, at least 1.46x.
+struct BlurredReadOptions {
+  double max_residual = 0.12;  // rms misfit / contrast of the best code
+  double min_margin = 0.035;   // second - residual
+  double min_ratio = 1.4;      // second / residual
+  double min_contrast = 20;    // grey levels
+};
 
 struct KalibrDetectorOptions {
   int upsample = 2;                 // the view is enlarged this much before thresholding
@@ -40,7 +51,48 @@ struct KalibrDetectorOptions {
   bool refine_quad_before_decode = true;
   bool refine_in_view = true;       // saddle refinement of the corners in the view
   double max_neighbour_error = 0.15;  // of a tag's corners vs its neighbours' homography / side
+  // The view's blur (RingView::blur_sigma, view pixels); 0: unknown (sharp). Scales the mask's
+  // threshold window and erosions, and a quad that does not read exactly is read by its blurred
+  // pattern (ReadTagBlurred) when this is set.
+  double blur_sigma = 0;
+  bool read_blurred = true;
+  BlurredReadOptions blurred;
 };
+
+// How a tag is laid out in bits (model/target.h): Kalibr 10 bits across with a 2-bit border,
+// 3-bit gaps and black squares at the diagonal corners; plain tag36h11 8 bits, 1-bit border.
+struct TagLayout {
+  int bits = 10;
+  int border = 2;
+  bool corner_squares = true;
+};
+TagLayout KalibrTagLayout();
+TagLayout PlainTagLayout();
+
+// The printed value of cell (x, y) of tag `tag_id` (bits from the tag's top-left outer corner,
+// y down): 1 white, 0 black; cells outside the tag are 1.
+int TagCellValue(int tag_id, const TagLayout& layout, int x, int y);
+
+// Reading a tag by its blurred pattern: the view sampled at every bit cell of the tag and its
+// outside ring, compared with what each tag36h11 code in each rotation would give at the view's
+// blur (each cell's Gaussian-weighted neighbours, the bit size from the quad), the levels fitted.
+// residual: rms misfit / fitted contrast of the best code; second: the same for the next code.
+struct BlurredReading {
+  int tag_id = -1;
+  int rotation = -1;  // the printed TL corner is quad[rotation]
+  double residual = 1e9, second = 1e9;
+  double contrast = 0;  // fitted white - black (grey levels)
+};
+// quad: the tag's outer corners (view pixels) TL, TR, BR, BL as printed up to a rotation.
+// tag_id -1 when no code reads with the options' residual and margin.
+BlurredReading ReadTagBlurred(const cv::Mat& grey, const std::array<cv::Point2f, 4>& quad,
+                              const TagLayout& layout, double blur_sigma,
+                              const BlurredReadOptions& options = {});
+// The residual (as BlurredReading::residual) of one code in one orientation: quad is TL, TR, BR,
+// BL as printed. 1e9 outside the image or with no contrast.
+double TagCodeResidual(const cv::Mat& grey, const std::array<cv::Point2f, 4>& quad,
+                       const TagLayout& layout, double blur_sigma, int tag_id,
+                       double* contrast = nullptr);
 
 // A Kalibr tag in a view: its absolute tag id and corners (view pixels), index k (model/target.h:
 // k = 0 bottom-left, 1 bottom-right, 2 top-right, 3 top-left as printed).
