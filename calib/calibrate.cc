@@ -46,11 +46,38 @@ double* GroupBlock(RigParams* rig, const std::string& group) {
   return rig->reflex.data();
 }
 
+// A radial distortion coefficient (dist_k1, dist_k2, dist_k3) is nearly unobservable when its
+// sigma moves the outermost corner by more than this. A fixed bound on the coefficient ignored
+// the radii: the rings reach only r = 0.28 (normalised), where dist_k2 moves a pixel r^2 = 0.08
+// times as much as dist_k1. realistic_scene at 0.1 px determines dist_k2 = 0.05 to 0.085 (0.25 px
+// at the rings' edge), and the old fixed 0.05 named it unobservable; dist_k1's bound stays about
+// where it was (0.063 at r = 0.28, f = 1450).
+constexpr double kDistortionBoundPx = 2.0;
+
+// dist_k3 is refined when freeing it grows the sigmas of dist_k1 and dist_k2 by at most this
+// factor (DecideDistK3): then the session's radii tell the three apart. Over a narrow range of
+// radii r^6 is nearly a combination of r^2 and r^4 and the three trade: realistic_scene's rings
+// reach r = 0.28, where freeing it grows dist_k2's sigma 3.3x and its own would be 1.7.
+constexpr double kMaxK3SigmaGrowth = 2.0;
+
+// The power of r by which the radial coefficient `name` moves a pixel at normalised radius r
+// (the pixel moves by f * k * r^power), 0 for other parameters.
+int RadialPower(const std::string& name) {
+  if (name == "dist_k1") return 3;
+  if (name == "dist_k2") return 5;
+  if (name == "dist_k3") return 7;
+  return 0;
+}
+
 // A parameter's bound above which its sigma means "nearly unobservable" (internal units): far
-// beyond any assembly tolerance, so an estimate this uncertain says nothing.
-double NearlyUnobservableSigma(const std::string& name) {
+// beyond any assembly tolerance, so an estimate this uncertain says nothing. `f` and
+// `outer_radius` (the outermost corner's normalised radius) scale the radial coefficients'.
+double NearlyUnobservableSigma(const std::string& name, double f, double outer_radius) {
   if (name == "fx" || name == "fy" || name == "cx" || name == "cy") return 20.0;  // px
   if (name == "skew") return 5.0;
+  if (RadialPower(name) > 0 && f > 0 && outer_radius > 0) {
+    return kDistortionBoundPx / (f * std::pow(outer_radius, RadialPower(name)));
+  }
   if (name.rfind("dist_", 0) == 0) return 0.05;
   if (name == "c1" || name == "c2") return 2.0;  // mm
   if (name == "k1" || name == "k2") return 0.2;
@@ -133,6 +160,7 @@ class Calibrator {
     lip_fixed_[1].r_ref += kLipSlackMm;
     lip_fixed_[1].r_cam = 0;
     for (const auto& g : options_.estimate) estimate_.insert(g);
+    refine_k3_ = options_.refine_dist_k3;
     Collect(detections);
     if (options_.use_lips) CollectLips(detections);
   }
@@ -146,7 +174,7 @@ class Calibrator {
     if (group == "camera" && !options_.refine_skew) held.push_back(4);
     if (group == "distortion") {
       if (!options_.refine_tangential) held = {2, 3};
-      if (!options_.refine_dist_k3) held.push_back(4);
+      if (!refine_k3_) held.push_back(4);
     }
     return held;
   }
@@ -181,6 +209,11 @@ class Calibrator {
   void EstimateVarianceComponents();
   double Rms(int mirror, int* count) const;  // mirror 0: both
   void Covariance(CalibrationResult* result);
+  // The outermost used corner's radius in normalised image coordinates (at the current camera).
+  double OuterRadius() const;
+  // After Covariance(): frees dist_k3 when the session's radii tell it from dist_k1, dist_k2
+  // (true: solve again); otherwise it stays held. Says which in result->notes.
+  bool DecideDistK3(CalibrationResult* result);
   void CheckDiverged() const;
 
   RigParams rig_;
@@ -190,6 +223,13 @@ class Calibrator {
   std::vector<TargetSpec> targets_;
   CalibrationOptions options_;
   std::set<std::string> estimate_;
+  bool refine_k3_ = false;  // dist_k3 refined (options_.refine_dist_k3, or DecideDistK3)
+  // What the last Covariance() found for a held dist_k3 if it were freed: its sigma and the
+  // largest factor by which dist_k1's and dist_k2's sigmas would grow.
+  struct {
+    bool evaluated = false;
+    double sigma = HUGE_VAL, growth = 0;
+  } k3_probe_;
   std::vector<Observation> obs_;
   std::vector<LipObservation> lips_;
   std::vector<std::unique_ptr<ceres::CostFunction>> lip_costs_;
@@ -912,10 +952,17 @@ void Calibrator::Covariance(CalibrationResult* result) {
   // Columns: the refined rig blocks (tangent coordinates) in RigGroups() order, then the poses.
   // Held coordinates with a considered sigma are freed in this problem so that their columns are
   // evaluated; `column_of` then moves them after the refined ones (ComputeRigCovariance's order).
+  // A held dist_k3 without one is evaluated too (the probe column, right after the refined
+  // ones), so that the same Jacobian says what freeing it would give (DecideDistK3).
+  result->values.resize(0);
+  result->considered.clear();
+  result->unobservable.clear();
+  k3_probe_ = {};
   ceres::Problem::EvaluateOptions eo;
   std::vector<std::string> names;
   std::vector<int> refined_cols, considered_cols;  // Ceres' column of each, in order
   std::vector<double> considered_sigma;
+  int probe_col = -1;
   int col = 0;
   for (const auto& g : RigGroups()) {
     double* block = GroupBlock(&rig_, g);
@@ -936,6 +983,8 @@ void Calibrator::Covariance(CalibrationResult* result) {
         result->considered.push_back({all[k], block[k], consider->second});
         considered_sigma.push_back(consider->second);
         considered_cols.push_back(col++);
+      } else if (all[k] == "dist_k3" && !options_.refine_dist_k3) {
+        probe_col = col++;
       } else {
         still_held.push_back(static_cast<int>(k));
       }
@@ -947,10 +996,12 @@ void Calibrator::Covariance(CalibrationResult* result) {
     }
   }
   const int n_rig = static_cast<int>(names.size());
+  const int n_probe = probe_col >= 0 ? 1 : 0;
   const int n_considered = static_cast<int>(considered_cols.size());
   std::vector<int> column_of(col);
   for (int i = 0; i < n_rig; ++i) column_of[refined_cols[i]] = i;
-  for (int i = 0; i < n_considered; ++i) column_of[considered_cols[i]] = n_rig + i;
+  if (n_probe) column_of[probe_col] = n_rig;
+  for (int i = 0; i < n_considered; ++i) column_of[considered_cols[i]] = n_rig + n_probe + i;
   int n_poses = 0;
   for (auto& p : placements_) {
     if (problem.HasParameterBlock(p.cam_from_target.data())) {
@@ -999,22 +1050,82 @@ void Calibrator::Covariance(CalibrationResult* result) {
   result->n_parameters = n_params;
   result->variance_factor = dof > 0 ? ssr_weighted / dof : 1.0;
 
+  // Each lip edge's detector bias as a considered parameter: the rig does not move, so an edge
+  // is detected with the same bias (blur, anti-aliasing) in every image and it does not average
+  // out over the images; the solve's rig parameters absorb most of it (the residuals do not show
+  // it: correlation factor 1.04 with a 0.03 px offset per edge). Its column (after the considered
+  // coordinates, before the nuisance blocks) moves each of the edge's points across the edge.
   std::vector<Eigen::Triplet<double>> triplets;
+  std::map<std::pair<int, double>, int> edge_column;  // (path, circle radius) -> column
+  if (options_.lip_edge_bias_sigma_px > 0) {
+    const Eigen::Vector2d centre(rig_.camera[2], rig_.camera[3]);
+    int row = 2 * n_obs;
+    for (const auto& l : lips_) {
+      if (l.rejected || !l.projectable) continue;
+      const auto key = std::make_pair(static_cast<int>(l.path), l.radius);
+      const int c = n_rig + n_probe + n_considered +
+                    edge_column.emplace(key, static_cast<int>(edge_column.size())).first->second;
+      const Eigen::Vector2d across = (l.pixel - centre).normalized();
+      triplets.emplace_back(row, c, row_weight[row] * across.x());
+      triplets.emplace_back(row + 1, c, row_weight[row + 1] * across.y());
+      row += 2;
+    }
+    considered_sigma.resize(considered_sigma.size() + edge_column.size(),
+                            options_.lip_edge_bias_sigma_px);
+    result->lip_edges_considered = static_cast<int>(edge_column.size());
+  }
+  const int n_edges = static_cast<int>(edge_column.size());
   for (int r = 0; r < crs.num_rows; ++r) {
     for (int k = crs.rows[r]; k < crs.rows[r + 1]; ++k) {
-      const int c = crs.cols[k] < col ? column_of[crs.cols[k]] : crs.cols[k];
+      const int c = crs.cols[k] < col ? column_of[crs.cols[k]] : crs.cols[k] + n_edges;
       triplets.emplace_back(r, c, row_weight[r] * crs.values[k]);
     }
   }
-  Eigen::SparseMatrix<double, Eigen::RowMajor> jacobian(crs.num_rows, crs.num_cols);
+  Eigen::SparseMatrix<double, Eigen::RowMajor> jacobian(crs.num_rows, crs.num_cols + n_edges);
   jacobian.setFromTriplets(triplets.begin(), triplets.end());
 
   RigCovarianceOptions co;
   co.variance_factor = 1.0;  // the weights are the groups' estimated variances
   co.nuisance_sizes = nuisance_sizes;
   co.considered_sigma = considered_sigma;
-  for (const auto& name : names) co.nearly_unobservable_sigma.push_back(NearlyUnobservableSigma(name));
-  const RigCovariance cov = ComputeRigCovariance(jacobian, n_rig, co);
+  const double outer_radius = OuterRadius();
+  for (const auto& name : names) {
+    co.nearly_unobservable_sigma.push_back(
+        NearlyUnobservableSigma(name, rig_.camera[0], outer_radius));
+  }
+  const int n_front = n_rig + n_probe + static_cast<int>(considered_sigma.size());
+  const Eigen::MatrixXd schur_all = RigSchurComplement(jacobian, n_front, nuisance_sizes);
+  // Held dist_k3: the probe's row and column left out.
+  std::vector<int> kept;
+  for (int i = 0; i < n_front; ++i) {
+    if (!(n_probe && i == n_rig)) kept.push_back(i);
+  }
+  Eigen::MatrixXd schur_held(kept.size(), kept.size());
+  for (size_t i = 0; i < kept.size(); ++i) {
+    for (size_t j = 0; j < kept.size(); ++j) schur_held(i, j) = schur_all(kept[i], kept[j]);
+  }
+  const RigCovariance cov = RigCovarianceFromSchur(schur_held, n_rig, co);
+  if (n_probe) {
+    // Freed: the radial coefficients' sigmas, and dist_k3's (HUGE_VAL if it is unobservable).
+    RigCovarianceOptions freed_options = co;
+    freed_options.nearly_unobservable_sigma.push_back(
+        NearlyUnobservableSigma("dist_k3", rig_.camera[0], outer_radius));
+    const RigCovariance freed = RigCovarianceFromSchur(schur_all, n_rig + 1, freed_options);
+    auto sigma_of = [&](const RigCovariance& c, int index) {
+      for (size_t i = 0; i < c.observable.size(); ++i) {
+        if (c.observable[i] == index) return std::sqrt(std::max(c.covariance(i, i), 0.0));
+      }
+      return HUGE_VAL;
+    };
+    k3_probe_.evaluated = true;
+    k3_probe_.sigma = sigma_of(freed, n_rig);
+    for (int i = 0; i < n_rig; ++i) {
+      if (names[i] != "dist_k1" && names[i] != "dist_k2") continue;
+      const double held = sigma_of(cov, i);
+      k3_probe_.growth =
+          std::max(k3_probe_.growth, held < HUGE_VAL ? sigma_of(freed, i) / held : HUGE_VAL);
+    }
+  }
   const Eigen::VectorXd all_values = result->values;
   result->refined_names = names;
   result->schur_eigenvalues = cov.eigenvalues;
@@ -1037,6 +1148,75 @@ void Calibrator::Covariance(CalibrationResult* result) {
       if (d > 0) result->correlation(i, j) = result->covariance(i, j) / d;
     }
   }
+}
+
+// The camera's rotation against the mirror bodies (the principal point with equal tilts of both
+// mirrors) is a flat valley of the cost, and the held tangential distortion lies along it
+// (docs/design.md, Calibration): the camera frame C's pointing is uncertain by about the sigma of
+// mirror 1's tilt, which is C's rotation against M1. Said in words, since a table of sigmas does
+// not tell a user that C is the uncertain frame and M1 the one to measure in.
+void AddPointingNote(CalibrationResult* result) {
+  int rx = -1, ry = -1;
+  for (size_t i = 0; i < result->names.size(); ++i) {
+    if (result->names[i] == "mirror1.rx") rx = static_cast<int>(i);
+    if (result->names[i] == "mirror1.ry") ry = static_cast<int>(i);
+  }
+  if (rx < 0 || ry < 0) return;
+  std::string held;
+  for (const auto& c : result->considered) {
+    if (c.name == "dist_p1" || c.name == "dist_p2") held += (held.empty() ? "" : ", ") + c.name;
+  }
+  char buf[768];
+  std::snprintf(buf, sizeof(buf),
+                "camera pointing: the camera frame's rotation against the mirror bodies is "
+                "weakly determined (it trades with the principal point and equal tilts of both "
+                "mirrors%s): sigma %.3f / %.3f deg about x / y (mirror1.rx, ry; pixel noise alone "
+                "%.3f / %.3f deg). Points in the camera frame carry it, distances and shapes do "
+                "not: measure in mirror 1's body (triangulate --frame mirror1)",
+                held.empty() ? "" : (", where the held " + held + " go").c_str(),
+                result->sigma(rx) / kDeg, result->sigma(ry) / kDeg,
+                result->noise_sigma(rx) / kDeg, result->noise_sigma(ry) / kDeg);
+  result->notes.push_back(buf);
+}
+
+double Calibrator::OuterRadius() const {
+  double outer = 0;
+  for (const auto& o : obs_) {
+    if (o.rejected || !o.projectable) continue;
+    outer = std::max(outer, std::hypot((o.pixel.x() - rig_.camera[2]) / rig_.camera[0],
+                                       (o.pixel.y() - rig_.camera[3]) / rig_.camera[1]));
+  }
+  return outer;
+}
+
+bool Calibrator::DecideDistK3(CalibrationResult* result) {
+  if (!k3_probe_.evaluated) return false;
+  const double outer = OuterRadius();
+  char buf[512];
+  if (k3_probe_.growth <= kMaxK3SigmaGrowth) {
+    refine_k3_ = true;
+    std::snprintf(buf, sizeof(buf),
+                  "dist_k3 refined: this session's corners reach r = %.3f (normalised), where it "
+                  "is told from dist_k1, dist_k2 (their sigmas grow %.2fx with it)",
+                  outer, k3_probe_.growth);
+  } else {
+    char sigma[64] = "it would not be determined";
+    char growth[64] = "dist_k1, dist_k2 would not be determined";
+    if (k3_probe_.sigma < HUGE_VAL) {
+      std::snprintf(sigma, sizeof(sigma), "its sigma would be %.3g", k3_probe_.sigma);
+    }
+    if (k3_probe_.growth < HUGE_VAL) {
+      std::snprintf(growth, sizeof(growth), "theirs would grow %.1fx", k3_probe_.growth);
+    }
+    std::snprintf(buf, sizeof(buf),
+                  "dist_k3 held at %g: over the radii this session's corners reach (r <= %.3f "
+                  "normalised) it is nearly a combination of dist_k1 and dist_k2 (freed, %s and "
+                  "%s); corners farther out would determine it",
+                  rig_.distortion[4], outer, sigma, growth);
+  }
+  result->notes.push_back(buf);
+  Progress(buf);
+  return refine_k3_;
 }
 
 CalibrationResult Calibrator::Run() {
@@ -1108,6 +1288,22 @@ CalibrationResult Calibrator::Run() {
   // As reported, and the covariance's weights: the groups' noise at the final solution.
   EstimateVarianceComponents();
   CheckDiverged();
+  Covariance(&result);
+  if (DecideDistK3(&result)) {
+    result.stages.push_back(Solve("final", estimate_, false));
+    EstimateVarianceComponents();
+    CheckDiverged();
+    Covariance(&result);
+  }
+  AddPointingNote(&result);
+  if (result.lip_edges_considered > 0) {
+    char buf[256];
+    std::snprintf(buf, sizeof(buf),
+                  "lips: a detector bias of sigma %.3g px on each of the %d lip edges, the same in "
+                  "every image, is carried into the sigmas",
+                  options_.lip_edge_bias_sigma_px, result.lip_edges_considered);
+    result.notes.push_back(buf);
+  }
 
   const int n_total = static_cast<int>(obs_.size());
   int n_outliers = 0;
@@ -1133,7 +1329,6 @@ CalibrationResult Calibrator::Run() {
     Progress("warning: the final stage did not converge in " +
              std::to_string(options_.solver.max_iterations) + " iterations");
   }
-  Covariance(&result);
   result.variance_components = components_;
   result.rejected = rejected_;
   for (const auto& p : placements_) {
@@ -1292,6 +1487,7 @@ std::string ResultTable(const CalibrationResult& result, const RigParams* truth)
   for (const auto& u : result.unobservable) {
     out << u.name << ": not determined by this session (unobservable); needs " << u.hint << "\n";
   }
+  for (const auto& note : result.notes) out << note << "\n";
   std::snprintf(line, sizeof(line),
                 "residuals: rms %.4f px (mirror 1: %.4f, mirror 2: %.4f) over %d observations, "
                 "%zu left out, weighted variance factor %.4g\n",

@@ -8,11 +8,15 @@
 //     rays (a central pose solve per ring, initial_pose.h), refined pose-only with the full model;
 //  2. degenerate sessions are refused before solving (too few observations, all targets at one
 //     range or in one azimuth sector, targets matching nothing);
-//  3. a staged Ceres solve (poses, then intrinsics + poses, then every group of `estimate`) with a
-//     robust loss, then outlier rejection and a final solve without the robust loss;
+//  3. a staged Ceres solve (intrinsics + poses, then the misalignment and the lens distortion,
+//     then every group of `estimate`) with a robust loss, then outlier rejection and a final
+//     solve without the robust loss;
 //  4. the rig parameters' covariance by the Schur complement of the Jacobian (target poses
 //     eliminated), scaled by the posterior variance factor; (nearly) unobservable parameters are
-//     named with what data would fix them (covariance.h).
+//     named with what data would fix them (covariance.h); held parameters that are not known
+//     exactly (dist_p1, dist_p2, the lips' bias) are carried in as considered; dist_k3 is freed
+//     only if the session's radii tell it from dist_k1, dist_k2. What a user should know about
+//     the result (the camera frame's uncertain pointing, dist_k3) is said in words (notes).
 #pragma once
 
 #include <functional>
@@ -49,7 +53,10 @@ struct CalibrationOptions {
   std::map<std::string, io::ShapePrior> priors;
   io::SolverOptions solver;
   bool refine_skew = false;     // the camera's skew is held at its starting value unless asked
-  bool refine_dist_k3 = false;  // likewise dist_k3 (correlates with dist_k1, dist_k2)
+  // dist_k3: refined if true; otherwise held unless the session's corners reach radii where it
+  // is told from dist_k1, dist_k2 (decided after the solve from the covariance: freeing it may
+  // at most double their sigmas; the rings' narrow radii usually hold it). result.notes says.
+  bool refine_dist_k3 = false;
   // dist_p1, dist_p2: held by default: over the rings' radii tangential distortion is nearly the
   // image of a rotation of the camera against the mirror bodies (sigma(cx) grew 5x with them free).
   bool refine_tangential = false;
@@ -59,6 +66,9 @@ struct CalibrationOptions {
   // has |p| of a few 1e-4; 3e-4 turns the calibrated camera frame by ~0.09 deg and moves the
   // tilts along the camera-rotation valley by several noise sigmas).
   std::map<std::string, double> considered_sigma = {{"dist_p1", 5e-4}, {"dist_p2", 5e-4}};
+  // Likewise each lip edge's detector bias across the edge (px), the same in every image (the
+  // rig does not move): many images average the lips' noise but not their bias. 0: none.
+  double lip_edge_bias_sigma_px = 0.03;
   // Degeneracy checks on the target placements (horizontal range and azimuth of each target's
   // centre about the camera axis).
   double min_range_ratio = 1.6;         // max range / min range must reach this (the initial
@@ -119,7 +129,12 @@ struct CalibrationResult {
     double value = 0, sigma = 0;
   };
   std::vector<Considered> considered;
+  int lip_edges_considered = 0;  // lip edges whose bias (lip_edge_bias_sigma_px) is considered
   std::vector<UnobservableParameter> unobservable;  // named, never given a number
+  // What a user of the model should know about this calibration, one sentence each (printed
+  // under the table): dist_k3 held or refined and why, the camera's pointing against the mirror
+  // bodies, the lips' considered bias.
+  std::vector<std::string> notes;
   // Every refined parameter (observable or not) and the eigen-decomposition of the
   // Jacobi-scaled (unit-diagonal) Schur complement over them, eigenvalues ascending: the
   // weakest directions of the data (a near-gauge shows as a tiny eigenvalue).

@@ -59,8 +59,13 @@ Eigen::MatrixXd RigSchurComplement(const Eigen::SparseMatrix<double, Eigen::RowM
 RigCovariance ComputeRigCovariance(const Eigen::SparseMatrix<double, Eigen::RowMajor>& jacobian,
                                    int n_rig, const RigCovarianceOptions& options) {
   const int n_considered = static_cast<int>(options.considered_sigma.size());
-  const Eigen::MatrixXd schur_all =
-      RigSchurComplement(jacobian, n_rig + n_considered, options.nuisance_sizes);
+  return RigCovarianceFromSchur(
+      RigSchurComplement(jacobian, n_rig + n_considered, options.nuisance_sizes), n_rig, options);
+}
+
+RigCovariance RigCovarianceFromSchur(const Eigen::MatrixXd& schur_all, int n_rig,
+                                     const RigCovarianceOptions& options) {
+  const int n_considered = static_cast<int>(options.considered_sigma.size());
   const Eigen::MatrixXd schur = schur_all.topLeftCorner(n_rig, n_rig);
   RigCovariance out;
   std::vector<bool> named(n_rig, false);

@@ -57,7 +57,13 @@ struct RigCovariance {
 RigCovariance ComputeRigCovariance(const Eigen::SparseMatrix<double, Eigen::RowMajor>& jacobian,
                                    int n_rig, const RigCovarianceOptions& options);
 
-// Schur complement of the pose blocks in J^T J (exposed for tests).
+// The same from RigSchurComplement(jacobian, n_rig + n_considered, options.nuisance_sizes): the
+// Schur complement over the rig and considered columns, so that one Jacobian can be analysed
+// with a coordinate held or freed (a principal submatrix holds it).
+RigCovariance RigCovarianceFromSchur(const Eigen::MatrixXd& schur_all, int n_rig,
+                                     const RigCovarianceOptions& options);
+
+// Schur complement of the pose blocks in J^T J.
 Eigen::MatrixXd RigSchurComplement(const Eigen::SparseMatrix<double, Eigen::RowMajor>& jacobian,
                                    int n_rig, const std::vector<int>& nuisance_sizes = {});
 
