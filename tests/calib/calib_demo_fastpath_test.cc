@@ -12,7 +12,6 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <random>
 
 #include "calib/calibrate.h"
 #include "model/model_compare.h"
@@ -24,22 +23,6 @@ namespace {
 constexpr double kNoisePx = 0.1;
 
 using testing::IsMisalignment;
-
-// Shifts every point of each lip edge across the edge (radially about the principal point) by
-// one offset per edge, N(0, sigma_px^2), the same in every image.
-void AddSystematicLipOffsets(const RigParams& rig, double sigma_px, unsigned seed,
-                             io::Detections* detections) {
-  std::mt19937 rng(seed);
-  std::normal_distribution<double> noise(0.0, sigma_px);
-  const Eigen::Vector2d centre(rig.camera[2], rig.camera[3]);
-  std::vector<double> offsets;
-  for (auto& image : detections->images) {
-    for (size_t e = 0; e < image.lips.size(); ++e) {
-      if (e >= offsets.size()) offsets.push_back(noise(rng));
-      for (auto& p : image.lips[e].points) p += offsets[e] * (p - centre).normalized();
-    }
-  }
-}
 
 struct FastPathRun {
   RigParams truth;
@@ -61,7 +44,7 @@ FastPathRun SolveDemoFastPath(const RigParams& truth_rig) {
       synthetic::RigAtImageSize(testing::IdealRig(), truth.image_width, truth.image_height);
   io::Detections detections = testing::NoisyDetections(session, kNoisePx, 17);
   testing::AddLipDetections(truth, 0.03, 19, &detections, 360);
-  AddSystematicLipOffsets(truth, 0.03, 23, &detections);
+  testing::AddSystematicLipOffsets(truth, 0.03, 23, &detections);
 
   CalibrationOptions options;  // the demo's groups: camera, distortion, both poses, reflex
   options.progress = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };

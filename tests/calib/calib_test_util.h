@@ -197,6 +197,23 @@ inline void AddLipDetections(const RigParams& truth, double noise_px, unsigned s
   }
 }
 
+// Shifts every point of each lip edge across the edge (radially about the principal point) by
+// one offset per edge, N(0, sigma_px^2), the same in every image: a detected lip edge's bias
+// (blur, anti-aliasing) repeats in every image, since the rig does not move.
+inline void AddSystematicLipOffsets(const RigParams& rig, double sigma_px, unsigned seed,
+                                    io::Detections* detections) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> noise(0.0, sigma_px);
+  const Eigen::Vector2d centre(rig.camera[2], rig.camera[3]);
+  std::vector<double> offsets;
+  for (auto& image : detections->images) {
+    for (size_t e = 0; e < image.lips.size(); ++e) {
+      if (e >= offsets.size()) offsets.push_back(noise(rng));
+      for (auto& p : image.lips[e].points) p += offsets[e] * (p - centre).normalized();
+    }
+  }
+}
+
 }  // namespace omni::testing
 
 namespace omni::testing {
