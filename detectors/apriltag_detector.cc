@@ -220,8 +220,32 @@ void GrowTagGrids(const cv::Mat& view_grey, const RingView& view, int v,
           }
           if (!ok) continue;
         }
-        const double e = TagCodeResidual(view_grey, Printed(tag.corners),
-                                         kalibr ? KalibrTagLayout() : PlainTagLayout(), blur, tag_id);
+        const TagLayout layout = kalibr ? KalibrTagLayout() : PlainTagLayout();
+        double e = TagCodeResidual(view_grey, Printed(tag.corners), layout, blur, tag_id);
+        if (!kalibr) {
+          // Plain corners are not X-junctions: the prediction (extrapolated from a few tags) is
+          // moved to where the code's pattern fits best, +-0.25 bit in steps of 1/16 bit.
+          const double step = side / layout.bits / 16;
+          Eigen::Vector2d best_shift = Eigen::Vector2d::Zero();
+          for (int pass = 0; pass < 2; ++pass) {
+            const Eigen::Vector2d centre = best_shift;
+            const double h = pass == 0 ? 4 * step : step;
+            for (int dy = -1; dy <= 1; ++dy) {
+              for (int dx = -1; dx <= 1; ++dx) {
+                if (dx == 0 && dy == 0) continue;
+                const Eigen::Vector2d shift = centre + h * Eigen::Vector2d(dx, dy);
+                Eigen::Vector2d moved[4];
+                for (int k = 0; k < 4; ++k) moved[k] = tag.corners[k] + shift;
+                const double e_shift = TagCodeResidual(view_grey, Printed(moved), layout, blur, tag_id);
+                if (e_shift < e) {
+                  e = e_shift;
+                  best_shift = shift;
+                }
+              }
+            }
+          }
+          for (int k = 0; k < 4; ++k) tag.corners[k] += best_shift;
+        }
         if (!(e <= options.grow_max_residual)) continue;
         have[cell] = static_cast<int>(found->size());
         found->push_back(tag);
@@ -629,6 +653,19 @@ std::vector<TagCornerDetection> DetectTagCorners(const cv::Mat& raw_bgr,
     const double blur = view.blur_sigma ? *view.blur_sigma : 0.0;
     if (want_plain) {
       in_crop = DetectPlainTags(crop, static_cast<int>(v), options.quad_decimate, blur, options);
+      // Blurred views: libapriltag's quad finder misses small blurred tags (realistic_scene's
+      // 45 mm tags at 0.3-0.45 m in the inner ring, ~2 raw px per bit); outlines of our own,
+      // read by their blurred pattern, for tags it did not read.
+      if (options.plain_outline_finder && blur >= options.blurred_view_sigma) {
+        for (const KalibrViewTag& t : DetectPlainTagsBlurred(crop, blur, options.kalibr.blurred)) {
+          bool known = false;
+          for (const ViewTag& u : in_crop) known |= u.tag_id == t.tag_id;
+          if (known) continue;
+          ViewTag tag{TargetType::kAprilTagGrid, t.tag_id, {}, static_cast<int>(v)};
+          for (int k = 0; k < 4; ++k) tag.corners[k] = t.corners[k];
+          in_crop.push_back(tag);
+        }
+      }
     }
     for (ViewTag& t : in_crop) {
       for (auto& c : t.corners) c.x() += x0;

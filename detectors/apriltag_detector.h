@@ -41,6 +41,9 @@ struct TagDetectorOptions {
   // In blurred views, libapriltag's readings up to this many bits off are re-read by their
   // blurred pattern (ReadTagBlurred) and kept only if that gives the same code.
   int plain_max_hamming = 2;
+  // In views blurred >= blurred_view_sigma, plain tags are also looked for by their outlines
+  // (DetectPlainTagsBlurred, kalibr_detector.h).
+  bool plain_outline_finder = true;
   // Each view is searched only in its middle 360/views-per-ring degrees plus this much each side
   // (views overlap): tags up to this wide (at 1 m, 0.17 rad = 170 mm) are whole in some crop.
   double view_overlap_deg = 10.0;

@@ -565,6 +565,36 @@ cv::Mat KalibrTagMask(const cv::Mat& view_grey, const KalibrDetectorOptions& opt
   return black;
 }
 
+std::vector<KalibrViewTag> DetectPlainTagsBlurred(const cv::Mat& view_grey, double blur_sigma,
+                                                  const BlurredReadOptions& options) {
+  std::vector<KalibrViewTag> out;
+  KalibrDetectorOptions mask_options;
+  mask_options.upsample = 1;
+  mask_options.separation_px = 0;
+  mask_options.blur_sigma = blur_sigma;
+  const cv::Mat black = KalibrTagMask(view_grey, mask_options);
+  std::vector<std::vector<cv::Point>> contours;
+  cv::findContours(black, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
+  std::vector<int> seen;
+  for (const auto& contour : contours) {
+    std::array<cv::Point2f, 4> quad;
+    if (!FitQuad(contour, mask_options.min_side_px, &quad)) continue;
+    const BlurredReading reading =
+        ReadTagBlurred(view_grey, quad, PlainTagLayout(), blur_sigma, options);
+    if (reading.tag_id < 0 || std::count(seen.begin(), seen.end(), reading.tag_id)) continue;
+    seen.push_back(reading.tag_id);
+    KalibrViewTag tag;
+    tag.tag_id = reading.tag_id;
+    // Printed TL, TR, BR, BL = k 3, 2, 1, 0.
+    for (int j = 0; j < 4; ++j) {
+      const cv::Point2f& p = quad[(reading.rotation + j) % 4];
+      tag.corners[3 - j] = Eigen::Vector2d(p.x, p.y);
+    }
+    out.push_back(tag);
+  }
+  return out;
+}
+
 std::vector<KalibrViewTag> DetectKalibrTagsInView(const cv::Mat& view_grey,
                                                   const KalibrDetectorOptions& options) {
   std::vector<KalibrViewTag> out;

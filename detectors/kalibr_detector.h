@@ -109,6 +109,12 @@ cv::Mat KalibrTagMask(const cv::Mat& view_grey, const KalibrDetectorOptions& opt
 std::vector<KalibrViewTag> DetectKalibrTagsInView(const cv::Mat& view_grey,
                                                   const KalibrDetectorOptions& options = {});
 
+// Plain tag36h11 tags in a blurred CV_8U view read by their blurred pattern (ReadTagBlurred):
+// outlines from the view thresholded between local extremes (window 2.5 blur sigmas each side),
+// quads fitted to them. For views where libapriltag's quad finder misses the tags.
+std::vector<KalibrViewTag> DetectPlainTagsBlurred(const cv::Mat& view_grey, double blur_sigma,
+                                                  const BlurredReadOptions& options = {});
+
 // Neighbour check for the tags of ONE target found in one view: a homography from the target
 // plane to the view fitted by RANSAC to all their corners (CornerInTarget); tags with a corner
 // farther than max_neighbour_error * their side from it are removed. Needs two tags or more
