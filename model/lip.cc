@@ -46,6 +46,11 @@ std::optional<Eigen::Vector3d> LipPaintRgb(const std::string& color) {
   return rgb;
 }
 
+Eigen::Vector3d LipPaintOf(const std::string& color, Mirror owner) {
+  return LipPaintRgb(color).value_or(owner == Mirror::kOne ? Eigen::Vector3d(0, 0, 1)
+                                                           : Eigen::Vector3d(1, 0, 0));
+}
+
 std::string LipPaintChoices() {
   std::string out;
   for (const NamedPaint& p : kPaints) out += std::string(p.name) + ", ";
@@ -107,6 +112,26 @@ std::optional<Eigen::Vector2d> ProjectLipPoint(const RigModel& model, LipPath pa
     return std::nullopt;
   }
   return pixel;
+}
+
+double DistanceToLipCircleImage(const RigModel& model, LipPath path, LipCircle circle,
+                                const Eigen::Vector2d& pixel, Eigen::Vector2d* nearest) {
+  const RigParams& rig = model.params();
+  double phi = std::atan2(pixel.y() - rig.camera[3], pixel.x() - rig.camera[2]);
+  double best = 1e9;
+  for (double step : {1e-2, 5e-4, 2e-5, 1e-6}) {
+    double best_phi = phi;
+    for (int k = -40; k <= 40; ++k) {
+      const auto q = ProjectLipPoint(model, path, circle, phi + k * step);
+      if (q && (*q - pixel).norm() < best) {
+        best = (*q - pixel).norm();
+        best_phi = phi + k * step;
+        if (nearest) *nearest = *q;
+      }
+    }
+    phi = best_phi;
+  }
+  return best;
 }
 
 }  // namespace omni

@@ -48,6 +48,9 @@ bool ParseLipCircle(const std::string& name, LipCircle* circle);
 //   "#rrggbb"        sRGB hex as a colour picker gives it (quote it in YAML: # starts a comment).
 // nullopt for anything else.
 std::optional<Eigen::Vector3d> LipPaintRgb(const std::string& color);
+// The paint of mirror 1's (owner kOne) or mirror 2's lip; blue / red where its colour is not a
+// paint (rigs built in code; model files are checked when read).
+Eigen::Vector3d LipPaintOf(const std::string& color, Mirror owner);
 // The accepted values, for error messages: "blue, red, navy, ..., or \"#rrggbb\" (sRGB)".
 std::string LipPaintChoices();
 
@@ -177,5 +180,12 @@ const Lip& LipOf(const RigParams& rig, LipPath path);
 std::optional<Eigen::Vector2d> ProjectLipPoint(const RigModel& model, LipPath path,
                                                LipCircle circle, double phi,
                                                double* disc_margin_mm = nullptr);
+
+// Distance of a pixel to the image of a lip circle along a path: to the nearest point of the
+// circle's image, found by a coarse-to-fine scan of the azimuth from the pixel's own about the
+// principal point (a ground-truth measure for tests and evaluations; ~0.3 ms). *nearest receives
+// that point. Where the path images no point of the circle near the pixel's azimuth: 1e9.
+double DistanceToLipCircleImage(const RigModel& model, LipPath path, LipCircle circle,
+                                const Eigen::Vector2d& pixel, Eigen::Vector2d* nearest = nullptr);
 
 }  // namespace omni

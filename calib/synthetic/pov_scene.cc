@@ -3,15 +3,23 @@
 #include <sys/wait.h>
 
 #include <cstdio>
+#include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
 
 #include "model/hyperboloid.h"
+#include "model/lip.h"
 #include "model/rig_frames.h"
 
 namespace omni::synthetic {
 namespace {
+
+// Lip lighting: the illuminance on the lips' seen faces (a paint of reflectance 1 renders at this
+// level, so the pure blue and red lips stay below 8-bit saturation, whose clipping would move their
+// edges), of which kLipAmbient is the room's bounce light and the rest the lamps'.
+constexpr double kLipIlluminance = 0.8;
+constexpr double kLipAmbient = 0.15;
 
 std::string Num(double v) {
   char buf[40];
@@ -64,6 +72,37 @@ std::string MirrorObject(const HyperboloidSheet<double>& h, double r_min, double
   return s.str();
 }
 
+// A lip's paint (model/lip.h) as a matte texture: lit by the room's lamps and bounce light.
+std::string LipTexture(const Lip& lip, Mirror owner) {
+  const Eigen::Vector3d rgb = LipPaintOf(lip.color, owner);
+  return "texture { pigment { rgb " + Vec(rgb.x(), rgb.y(), rgb.z()) + " } finish { LipPaint } }";
+}
+
+// The room's lamps (POV-Ray world, y up): the lips are the only diffuse surfaces, everything else
+// is self-lit. A ring of lamps below the lips lights mirror 1's lip from below (its underside is
+// what the camera sees, directly and in mirror 1), a ring above lights mirror 2's lip from above
+// (seen in mirror 2 and the reflex disc). The lamps are shadowless: a room's light is soft, and a
+// point lamp's hard shadow of a mirror body would cross a lip's band as a sharp edge.
+std::string RoomLamps(const RigParams& rig, const SceneContent& content) {
+  constexpr int kLamps = 6;
+  const double radius = 0.6 * content.room_half_size_mm;
+  std::ostringstream s;
+  for (int ring = 0; ring < 2; ++ring) {
+    const double lamp_z = 0.5 * (ring == 0 ? content.room_floor_mm : content.room_ceiling_mm);
+    const double lip_z =
+        ring == 0 ? rig.lip1.z + rig.mirror1_pose[4] : rig.lip2.z + rig.mirror2_pose[4];
+    // Each lamp lights the lip at cos = height / distance to the lamp.
+    const double cos_incidence = std::abs(lamp_z - lip_z) / std::hypot(radius, lamp_z - lip_z);
+    const double intensity = (kLipIlluminance - kLipAmbient) / (kLamps * cos_incidence);
+    for (int k = 0; k < kLamps; ++k) {
+      const double a = 2 * M_PI * (k + 0.25 * (1 + ring)) / kLamps;
+      s << "light_source { " << Vec(radius * std::cos(a), -radius * std::sin(a), lamp_z) << " rgb "
+        << Num(intensity) << " shadowless }\n";
+    }
+  }
+  return s.str();
+}
+
 }  // namespace
 
 std::string PovSceneText(const RigParams& rig, const SceneContent& content) {
@@ -85,10 +124,12 @@ std::string PovSceneText(const RigParams& rig, const SceneContent& content) {
     << "#declare MatteBlack = texture { pigment { rgb 0.02 } finish { ambient 0 diffuse 0 "
        "emission 1 } }\n"
     << "#declare SelfLit = finish { ambient 0 diffuse 0 emission 1 }\n"
+    << "#declare LipPaint = finish { ambient " << Num(kLipAmbient) << " diffuse 1 emission 0 }\n"
     << "camera { perspective location <0, 0, 0>\n"
     << "  direction " << Vec(a, b, 1) << "\n"
     << "  right " << Vec(right_x, 0, 0) << "\n"
     << "  up " << Vec(up_x, up_y, 0) << " }\n"
+    << (content.draw_mirrors ? RoomLamps(rig, content) : "")
     << "union {  // everything below is in C\n";
 
   if (content.draw_mirrors) {
@@ -109,12 +150,12 @@ std::string PovSceneText(const RigParams& rig, const SceneContent& content) {
       << Vec(reflex.normal.x(), reflex.normal.y(), reflex.normal.z()) << ", " << Num(rig.r_ref)
       << " texture { MirrorFinish } }\n"
       << "  disc { " << Vec(0, 0, rig.lip1.z) << ", <0, 0, 1>, " << Num(rig.lip1.r_outer) << ", "
-      << Num(rig.lip1.r_inner) << " pigment { rgb <0, 0, 1> } finish { SelfLit } }\n"
+      << Num(rig.lip1.r_inner) << " " << LipTexture(rig.lip1, Mirror::kOne) << " }\n"
       << "  " << Matrix(cam_from_m1.rotation, cam_from_m1.translation) << "\n  }\n";
     s << "  union {  // mirror 2 body (frame M2), with the camera hole of radius r_cam\n"
       << "  " << MirrorObject(m2, rig.r_cam, rig.r_sys) << "\n"
       << "  disc { " << Vec(0, 0, rig.lip2.z) << ", <0, 0, 1>, " << Num(rig.lip2.r_outer) << ", "
-      << Num(rig.lip2.r_inner) << " pigment { rgb <1, 0, 0> } finish { SelfLit } }\n"
+      << Num(rig.lip2.r_inner) << " " << LipTexture(rig.lip2, Mirror::kTwo) << " }\n"
       << "  " << Matrix(cam_from_m2.rotation, cam_from_m2.translation) << "\n  }\n";
   }
 
