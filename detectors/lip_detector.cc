@@ -14,21 +14,59 @@ namespace {
 
 constexpr int kRadiusSamples = 7;  // samples across the annulus r_inner..r_outer per path
 
-enum class Colour { kBlue, kRed };
+// How much a linear BGR colour looks like the lip's paint, whatever the light on it: the colour's
+// chroma (minus its grey mean) split along the paint's own chroma direction (a) and across it
+// (c_perp); likeness = a - 2 |c_perp|, positive within 27 degrees of the paint's hue. The room's
+// light scales a paint's chroma but keeps its direction, and grey surroundings (a black
+// background, white walls, the rim) score 0 at any brightness, so a dark, weakly coloured paint
+// (navy: chroma 0.08 of full scale) stands out as a bright one does, and a room's patches of a
+// nearby but more saturated hue do not pass for it (a plain projection on the chroma direction
+// scored a light-blue wall 7 times the navy band). Achromatic paints have no chroma: along
+// grey (+ light paints, - dark ones), any chroma counting against.
+class PaintLikeness {
+ public:
+  explicit PaintLikeness(const Eigen::Vector3d& paint_rgb) {
+    const Eigen::Vector3d bgr(paint_rgb[2], paint_rgb[1], paint_rgb[0]);
+    const double grey = bgr.mean();
+    const Eigen::Vector3d chroma = bgr - Eigen::Vector3d::Constant(grey);
+    chromatic_ = chroma.norm() > 0.25 * grey;
+    direction_ = chromatic_ ? chroma.normalized()
+                            : Eigen::Vector3d::Constant((grey >= 0.4 ? 1 : -1) / std::sqrt(3.0));
+  }
+  double operator()(const Eigen::Vector3d& bgr) const {
+    const Eigen::Vector3d chroma = bgr - Eigen::Vector3d::Constant(bgr.mean());
+    if (!chromatic_) return direction_.dot(bgr) - 2 * chroma.norm();
+    const double a = direction_.dot(chroma);
+    return a - 2 * (chroma - a * direction_).norm();
+  }
 
-// Colour score of a BGR pixel (bilinear), 0 outside the image: how much the lip's colour
-// dominates the other two channels.
-double Score(const cv::Mat& bgr, Colour colour, double u, double v) {
-  if (!(u >= 0 && v >= 0 && u <= bgr.cols - 1.001 && v <= bgr.rows - 1.001)) return 0;
+ private:
+  bool chromatic_ = false;
+  Eigen::Vector3d direction_;
+};
+
+// A BGR pixel (bilinear) in 8-bit levels; black outside the image.
+template <typename Pixel>
+Eigen::Vector3d ColourOf(const cv::Mat& bgr, const Eigen::Vector2d& p, double scale) {
+  const double u = p.x(), v = p.y();
+  if (!(u >= 0 && v >= 0 && u <= bgr.cols - 1.001 && v <= bgr.rows - 1.001)) {
+    return Eigen::Vector3d::Zero();
+  }
   const int x = static_cast<int>(u), y = static_cast<int>(v);
   const double fx = u - x, fy = v - y;
-  double c[3];
+  const Pixel* row0 = bgr.ptr<Pixel>(y) + x;
+  const Pixel* row1 = bgr.ptr<Pixel>(y + 1) + x;
+  Eigen::Vector3d c;
   for (int k = 0; k < 3; ++k) {
-    const double p00 = bgr.ptr<cv::Vec3b>(y)[x][k], p01 = bgr.ptr<cv::Vec3b>(y)[x + 1][k];
-    const double p10 = bgr.ptr<cv::Vec3b>(y + 1)[x][k], p11 = bgr.ptr<cv::Vec3b>(y + 1)[x + 1][k];
-    c[k] = (1 - fy) * ((1 - fx) * p00 + fx * p01) + fy * ((1 - fx) * p10 + fx * p11);
+    c[k] = scale * ((1 - fy) * ((1 - fx) * row0[0][k] + fx * row0[1][k]) +
+                    fy * ((1 - fx) * row1[0][k] + fx * row1[1][k]));
   }
-  return colour == Colour::kBlue ? c[0] - std::max(c[1], c[2]) : c[2] - std::max(c[0], c[1]);
+  return c;
+}
+
+Eigen::Vector3d Colour(const cv::Mat& bgr, const Eigen::Vector2d& p) {
+  return bgr.depth() == CV_8U ? ColourOf<cv::Vec3b>(bgr, p, 1.0)
+                              : ColourOf<cv::Vec3w>(bgr, p, 1.0 / 257.0);
 }
 
 // One searched edge on one profile: where the model says the edge image lies.
@@ -40,7 +78,7 @@ struct EdgePrediction {
 
 // An edge kind (band, side) and its label, with the per-profile predictions where unambiguous.
 struct EdgeTrack {
-  Colour colour;
+  Mirror owner;  // whose lip: its paint is the band's colour
   bool outer;  // the band's outer (larger radius) boundary
   LipPath path;
   LipCircle circle;
@@ -98,10 +136,10 @@ class LipPrediction {
     const RigParams& rig = model.params();
     const Eigen::Vector2d centre(rig.camera[2], rig.camera[3]);
     const LipBlocks<double> blocks = LipBlocksOf(rig);
-    for (Colour colour : {Colour::kBlue, Colour::kRed}) {
+    for (Mirror owner : {Mirror::kOne, Mirror::kTwo}) {
       const std::array<LipPath, 2> paths =
-          colour == Colour::kBlue ? std::array<LipPath, 2>{LipPath::kDirect, LipPath::kViaMirror1}
-                                  : std::array<LipPath, 2>{LipPath::kViaReflex, LipPath::kViaMirror2};
+          owner == Mirror::kOne ? std::array<LipPath, 2>{LipPath::kDirect, LipPath::kViaMirror1}
+                                : std::array<LipPath, 2>{LipPath::kViaReflex, LipPath::kViaMirror2};
       const Lip& lip = LipOf(rig, paths[0]);
       if (!(lip.r_outer > lip.r_inner)) continue;
       // Tracks keyed by (side, path, circle): 2 sides x 2 paths x 2 circles.
@@ -109,7 +147,7 @@ class LipPrediction {
       for (bool outer : {false, true})
         for (LipPath path : paths)
           for (LipCircle circle : {LipCircle::kInner, LipCircle::kOuter})
-            tracks.push_back(EdgeTrack{colour, outer, path, circle, {}});
+            tracks.push_back(EdgeTrack{owner, outer, path, circle, {}});
       for (int k = 0; k < options.profiles; ++k) {
         const double phi = 2 * M_PI * k / options.profiles;
         std::vector<Sample> samples;
@@ -180,64 +218,178 @@ std::shared_ptr<const LipPrediction> PredictionFor(const RigModel& model,
   return cached;
 }
 
-// The sub-pixel edge along one profile: where the colour score crosses half-way between the
-// band's level and the outside level, for the strongest transition of the right sign within
-// the search window. False if none with enough contrast.
-bool FindEdge(const cv::Mat& bgr, Colour colour, bool outer, const EdgePrediction& pred,
-              const LipDetectorOptions& options, Eigen::Vector2d* edge) {
-  constexpr double kStep = 0.25;
-  constexpr double kLevelSpan = 3.0;  // px on each side where the levels are taken
-  const double t0 = -options.search_px - kLevelSpan - 1, t1 = options.search_px + kLevelSpan + 1;
-  const int n = static_cast<int>((t1 - t0) / kStep) + 1;
-  std::vector<double> score(n);
-  for (int i = 0; i < n; ++i) {
-    const Eigen::Vector2d p = pred.pixel + (t0 + i * kStep) * pred.outward;
-    score[i] = Score(bgr, colour, p.x(), p.y());
+double Median(std::vector<double> v) {
+  if (v.empty()) return 0;
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return v[v.size() / 2];
+}
+
+// An edge point on one profile and what it was found between.
+struct EdgeCandidate {
+  Eigen::Vector2d pixel;
+  double band = 0;      // paint likeness of the band's colour
+  double contrast = 0;  // |band colour - outside colour| (8-bit levels)
+  double noise = 0;     // spread of the band side's samples along that difference (levels)
+};
+
+// The sub-pixel edge along one profile. The steepest rise of the paint likeness towards the band
+// within the search window is found on single samples. Around it the colour profile is sampled
+// again, each sample the mean over +-tangential_px along arcs about the profiles' centre (the
+// edges nearly follow them; noise and texture average out), and the band's and the outside's
+// colours are the means 1.5-3 px either side. The edge is where the colour, projected on their
+// difference, crosses half-way between them, nearest to the steepest point: a linear image's
+// blurred edge mixes exactly those two colours, so the half-way point stays where it is whatever
+// they are. A projection on the paint's chroma alone did not: against the textured room the
+// outside's chroma varies as much as the navy band's (realistic camera, JPEG: edges 0.53 px
+// into the room, 0.5 px mean error; this way 0.00 px and 0.07 px on the direct path). False if
+// there is no rise, or the band is narrower than min_band_px there (the model may not know
+// where an occluder narrows it). Thresholds are the caller's (ScreenCandidates).
+bool FindEdge(const cv::Mat& bgr, const PaintLikeness& likeness, bool outer,
+              const EdgePrediction& pred, const LipDetectorOptions& options, EdgeCandidate* out) {
+  const double sign = outer ? -1 : 1;  // +1: the band lies outward
+  constexpr double kCoarseStep = 0.5;
+  const int n_coarse = static_cast<int>(2 * (options.search_px + 1) / kCoarseStep) + 1;
+  const double t0 = -options.search_px - 1;
+  std::vector<double> coarse(n_coarse);
+  for (int i = 0; i < n_coarse; ++i) {
+    coarse[i] = likeness(Colour(bgr, pred.pixel + (t0 + i * kCoarseStep) * pred.outward));
   }
-  // Band side: inside (smaller radius) for an outer edge. Sign: +1 if the score rises outward.
-  const double sign = outer ? -1 : 1;
-  const int d = static_cast<int>(std::round(0.5 / kStep));  // derivative over 1 px
   int best = -1;
   double best_slope = 0;
-  for (int i = d; i + d < n; ++i) {
-    const double t = t0 + i * kStep;
-    if (std::abs(t) > options.search_px) continue;
-    const double slope = sign * (score[i + d] - score[i - d]);
+  for (int i = 1; i + 1 < n_coarse; ++i) {
+    if (std::abs(t0 + i * kCoarseStep) > options.search_px) continue;
+    const double slope = sign * (coarse[i + 1] - coarse[i - 1]);
     if (slope > best_slope) {
       best_slope = slope;
       best = i;
     }
   }
   if (best < 0) return false;
-  const int span = static_cast<int>(kLevelSpan / kStep);
-  double band = -1e9, outside = 1e9;
-  for (int i = std::max(0, best - span); i <= std::min(n - 1, best + span); ++i) {
-    const bool band_side = outer ? i <= best : i >= best;
-    if (band_side) band = std::max(band, score[i]);
-    else outside = std::min(outside, score[i]);
+  // Fine colour samples at kStep over +-kHalf px around the coarse edge.
+  constexpr double kStep = 0.25, kHalf = 4.0;
+  const int n = static_cast<int>(2 * kHalf / kStep) + 1, mid = (n - 1) / 2;
+  const double tc = t0 + best * kCoarseStep - kHalf;
+  // On arcs: a straight tangent would average a curved edge inwards by a third of its sagitta
+  // (0.01 px for +-3 px at the inner ring's 200 px radius).
+  constexpr int kTangential = 5;
+  const Eigen::Vector2d centre = pred.pixel - pred.rho * pred.outward;
+  const Eigen::Vector2d tangent(-pred.outward.y(), pred.outward.x());
+  std::vector<Eigen::Vector3d> colour(n, Eigen::Vector3d::Zero());
+  for (int k = 0; k < kTangential; ++k) {
+    const double angle = options.tangential_px * (2.0 * k / (kTangential - 1) - 1) / pred.rho;
+    const Eigen::Vector2d dir = std::cos(angle) * pred.outward + std::sin(angle) * tangent;
+    for (int i = 0; i < n; ++i) {
+      colour[i] += Colour(bgr, centre + (pred.rho + tc + i * kStep) * dir) / kTangential;
+    }
   }
-  if (!(band - outside >= options.min_contrast)) return false;
-  const double half = 0.5 * (band + outside);
-  // The crossing nearest to the steepest point.
-  for (int off = 0; off <= span; ++off) {
-    for (int i : {best - off, best + off - 1}) {
+  // Mean colours 1.5-3 px on the band side (1) and the outside (0) of sample `at`.
+  const int near = static_cast<int>(1.5 / kStep), far = static_cast<int>(3.0 / kStep);
+  auto side_colours = [&](int at, Eigen::Vector3d mean[2]) {
+    mean[0].setZero();
+    mean[1].setZero();
+    int count = 0;
+    for (int off = near; off <= far; ++off) {
+      const int band_i = at + static_cast<int>(sign) * off;
+      const int out_i = at - static_cast<int>(sign) * off;
+      if (band_i < 0 || band_i >= n || out_i < 0 || out_i >= n) return false;
+      mean[1] += colour[band_i];
+      mean[0] += colour[out_i];
+      ++count;
+    }
+    mean[0] /= count;
+    mean[1] /= count;
+    return true;
+  };
+  Eigen::Vector3d level[2];
+  if (!side_colours(mid, level)) return false;
+  Eigen::Vector3d w = level[1] - level[0];
+  if (!(w.squaredNorm() > 0)) return false;
+  // The profile along the colour difference: 0 outside, 1 in the band.
+  std::vector<double> score(n);
+  auto project = [&]() {
+    for (int i = 0; i < n; ++i) score[i] = (colour[i] - level[0]).dot(w) / w.squaredNorm();
+  };
+  project();
+  const int d = 2;  // derivative over 1 px
+  const int reach = static_cast<int>(1.0 / kStep);
+  int steep = -1;
+  best_slope = 0;
+  for (int i = std::max(d, mid - reach); i <= std::min(n - 1 - d, mid + reach); ++i) {
+    const double slope = sign * (score[i + d] - score[i - d]);
+    if (slope > best_slope) {
+      best_slope = slope;
+      steep = i;
+    }
+  }
+  if (steep < 0 || !side_colours(steep, level)) return false;
+  w = level[1] - level[0];
+  if (!(w.squaredNorm() > 0)) return false;
+  project();
+  out->band = likeness(level[1]);
+  if (!(out->band > likeness(level[0]))) return false;
+  out->contrast = w.norm();
+  double sum = 0, sum2 = 0;
+  int count = 0;
+  for (int off = near; off <= far; ++off) {
+    const double x = score[steep + static_cast<int>(sign) * off];
+    sum += x;
+    sum2 += x * x;
+    ++count;
+  }
+  out->noise =
+      out->contrast * std::sqrt(std::max(0.0, sum2 / count - (sum / count) * (sum / count)));
+  // The crossing of 1/2 nearest to the steepest point.
+  for (int off = 0; off <= far; ++off) {
+    for (int i : {steep - off, steep + off - 1}) {
       if (i < 0 || i + 1 >= n) continue;
-      const double a = score[i] - half, b = score[i + 1] - half;
+      const double a = score[i] - 0.5, b = score[i + 1] - 0.5;
       if ((a <= 0 && b > 0) || (a >= 0 && b < 0)) {
-        const double t = t0 + kStep * (i + a / (a - b));
-        // The band must be at least min_band_px wide in the image too (the model may not know
-        // where an occluder narrows it).
-        const double band_dir = outer ? -1 : 1;
-        for (double w = 0.5; w <= options.min_band_px; w += kStep) {
-          const int k = static_cast<int>(std::lround((t + band_dir * w - t0) / kStep));
-          if (k < 0 || k >= n || score[k] < half) return false;
+        const double t = i + a / (a - b);  // in fine samples
+        for (double width = 0.5; width <= options.min_band_px; width += kStep) {
+          const int k = static_cast<int>(std::lround(t + sign * width / kStep));
+          if (k < 0 || k >= n || score[k] < 0.5) return false;
         }
-        *edge = pred.pixel + t * pred.outward;
+        out->pixel = pred.pixel + (tc + kStep * t) * pred.outward;
         return true;
       }
     }
   }
   return false;
+}
+
+// Keeps the candidates (in profile order along one edge) whose contrast stands out of the image
+// noise (min_snr times the larger of the edge's median band-side spread and the candidate's own:
+// a band side that is not flat is a band narrower than the level span or a foreign edge; and at
+// least min_contrast levels)
+// and whose contrast and band level are like their neighbours' along the edge (at least
+// min_relative times the median of the 2 * kNeighbours nearest candidates): the levels vary with
+// the paint, the lighting and the camera, so no absolute level is right for every image, while
+// a background of the paint's hue or a foreign edge differs from the lip's own profiles.
+std::vector<int> ScreenCandidates(const std::vector<EdgeCandidate>& c,
+                                  const LipDetectorOptions& options) {
+  constexpr int kNeighbours = 10;
+  std::vector<int> kept;
+  if (c.empty()) return kept;
+  std::vector<double> noise;
+  for (const EdgeCandidate& e : c) noise.push_back(e.noise);
+  const double floor = std::max(options.min_contrast, options.min_snr * Median(noise));
+  const int n = static_cast<int>(c.size());
+  for (int i = 0; i < n; ++i) {
+    const double contrast = c[i].contrast;
+    if (contrast < std::max(floor, options.min_snr * c[i].noise)) continue;
+    std::vector<double> contrasts, bands;
+    for (int k = std::max(0, i - kNeighbours); k <= std::min(n - 1, i + kNeighbours); ++k) {
+      if (k == i) continue;
+      contrasts.push_back(c[k].contrast);
+      bands.push_back(c[k].band);
+    }
+    if (!contrasts.empty() && (contrast < options.min_relative * Median(contrasts) ||
+                               c[i].band < options.min_relative * Median(bands))) {
+      continue;
+    }
+    kept.push_back(i);
+  }
+  return kept;
 }
 
 // Conic through points (least squares on Hartley-normalised coordinates, smallest singular
@@ -349,7 +501,8 @@ std::vector<LipEdgeFit> DetectLipEdges(const cv::Mat& raw_bgr, const RigModel& m
                                        const LipDetectorOptions& options) {
   std::vector<LipEdgeFit> out;
   const RigParams& rig = model.params();
-  if (raw_bgr.empty() || raw_bgr.type() != CV_8UC3 || raw_bgr.cols != rig.image_width ||
+  if (raw_bgr.empty() || (raw_bgr.type() != CV_8UC3 && raw_bgr.type() != CV_16UC3) ||
+      raw_bgr.cols != rig.image_width ||
       raw_bgr.rows != rig.image_height) {
     return out;
   }
@@ -358,16 +511,21 @@ std::vector<LipEdgeFit> DetectLipEdges(const cv::Mat& raw_bgr, const RigModel& m
     LipEdgeFit fit;
     fit.path = track.path;
     fit.circle = track.circle;
-    fit.edge.mirror = track.colour == Colour::kBlue ? 1 : 2;
+    fit.edge.mirror = track.owner == Mirror::kOne ? 1 : 2;
     fit.edge.edge = track.outer ? "outer" : "inner";
     fit.edge.circle = LipCircleName(track.circle);
     fit.edge.path = LipPathName(track.path);
     fit.n_profiles = static_cast<int>(track.predictions.size());
-    std::vector<Eigen::Vector2d> found;
+    const PaintLikeness likeness(
+        LipPaintOf(track.owner == Mirror::kOne ? rig.lip1.color : rig.lip2.color, track.owner));
+    std::vector<EdgeCandidate> candidates;
     for (const EdgePrediction& pred : track.predictions) {
-      Eigen::Vector2d edge;
-      if (FindEdge(raw_bgr, track.colour, track.outer, pred, options, &edge)) found.push_back(edge);
+      EdgeCandidate c;
+      if (FindEdge(raw_bgr, likeness, track.outer, pred, options, &c)) candidates.push_back(c);
     }
+    const std::vector<int> kept = ScreenCandidates(candidates, options);
+    std::vector<Eigen::Vector2d> found;
+    for (int i : kept) found.push_back(candidates[i].pixel);
     fit.n_found = static_cast<int>(found.size());
     std::vector<int> inliers;
     if (!FitEllipseRobust(found, options, &fit.ellipse, &inliers)) continue;
@@ -377,6 +535,16 @@ std::vector<LipEdgeFit> DetectLipEdges(const cv::Mat& raw_bgr, const RigModel& m
       sum2 += std::pow(fit.ellipse.Distance(found[i]), 2);
     }
     fit.rms_px = std::sqrt(sum2 / inliers.size());
+    std::vector<double> band, contrast, noise;
+    for (int i : inliers) {
+      const EdgeCandidate& c = candidates[kept[i]];
+      band.push_back(c.band);
+      contrast.push_back(c.contrast);
+      noise.push_back(c.noise);
+    }
+    fit.band = Median(band);
+    fit.contrast = Median(contrast);
+    fit.noise = Median(noise);
     out.push_back(std::move(fit));
   }
   return out;

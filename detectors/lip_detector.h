@@ -1,21 +1,25 @@
-// Lip detection: sub-pixel edge points of the coloured lip bands (blue: mirror 1's lip, red:
-// mirror 2's) labelled with the 3D circle and optical path each edge is the image of, cleaned by
-// a robust ellipse fit per edge.
+// Lip detection: sub-pixel edge points of the painted lip bands (mirror 1's lip and mirror 2's,
+// each of the paint its model file names: model/lip.h) labelled with the 3D circle and optical
+// path each edge is the image of, cleaned by a robust ellipse fit per edge.
 //
-// A coloured band is the union of several images of the same annulus (model/lip.h): the blue
-// band is the lip seen directly plus mirror 1's reflection of its underside, the red band mirror
-// 2's reflection of its lip (plus the lip in the reflex disc where the disc's rim does not hide
-// it, which on the designed rigs it always does). The model (the ideal one is enough) predicts,
-// for every azimuth, the image of each (circle, path) pair; a band edge is kept at that azimuth
-// only if it is unambiguous: the outermost (innermost) covered radius of the band is the image
-// of a lip circle along one path, the lip is seen on its band side along the same path over at
-// least `min_band_px`, and no
-// other (circle, path) image of the band lies within `min_margin_px`. Edges clipped by an
-// occluder (the reflex disc's rim) are dropped.
+// A coloured band is the union of several images of the same annulus (model/lip.h): mirror 1's
+// band is the lip seen directly plus mirror 1's reflection of its underside, mirror 2's band
+// mirror 2's reflection of its lip (plus the lip in the reflex disc where the disc's rim does not
+// hide it, which on the designed rigs it always does). The model (the ideal one is enough)
+// predicts, for every azimuth, the image of each (circle, path) pair; a band edge is kept at that
+// azimuth only if it is unambiguous: the outermost (innermost) covered radius of the band is the
+// image of a lip circle along one path, the lip is seen on its band side along the same path
+// over at least `min_band_px`, and no other (circle, path) image of the band lies within
+// `min_margin_px`. Edges clipped by an occluder (the reflex disc's rim) are dropped.
 //
-// Edge points: along radial profiles from the band's predicted centre, the colour score (blue:
-// B - max(R, G); red: R - max(G, B)) crosses half-way between its band and outside levels; the
-// search window is +-search_px around the prediction, so the model may be misaligned by that much.
+// Edge points, on a LINEAR image (camera images decoded from sRGB first, as DetectImage does):
+// along radial profiles from the principal point, within +-search_px of the prediction (so the
+// model may be misaligned by that much), where the colour turns from the outside's into the
+// band's. The band is told by its likeness to the paint's hue (any brightness: the room lights
+// it), the point is placed where the two colours mix half and half (FindEdge in the .cc). No
+// absolute level is assumed: a point is kept if its colour contrast stands min_snr times above
+// the band's noise and is at least min_relative of its neighbours' along the edge (a dark navy
+// band gives 20 levels, a bright red one 80 on the same image).
 #pragma once
 
 #include <vector>
@@ -34,7 +38,10 @@ struct LipDetectorOptions {
   double search_px = 14;         // half-width of the search window around the prediction
   double min_margin_px = 1.5;    // to the nearest other (circle, path) image of the same band
   double min_band_px = 2.5;      // visible band width along the edge's own path
-  double min_contrast = 60;      // band minus outside colour score (0..255) for an edge point
+  double tangential_px = 3;      // profile samples average the colour over +-this along the edge
+  double min_snr = 6;            // colour contrast over the band side's noise
+  double min_relative = 0.4;     // contrast and paint likeness over their neighbours' median
+  double min_contrast = 2;       // levels (0..255): below this a linear 8-bit edge is quantisation
   double ransac_inlier_px = 0.5; // ellipse fit: Sampson distance of an inlier
   int ransac_iterations = 300;
   int min_points = 30;           // fewer inliers: the edge is dropped
@@ -58,11 +65,14 @@ struct LipEdgeFit {
   Ellipse ellipse;
   double rms_px = 0;   // of the inliers to the ellipse
   int n_profiles = 0;  // profiles where the edge was labelled unambiguous and searched
-  int n_found = 0;     // edge points found before the ellipse fit
+  int n_found = 0;     // edge points found and kept before the ellipse fit
+  // Medians over the inliers, in 8-bit linear levels: the band's paint likeness, its colour
+  // contrast to the outside and the band side's noise (what the paint, light and camera give).
+  double band = 0, contrast = 0, noise = 0;
 };
 
-// The edges the model labels unambiguous, detected in a BGR image (the model's size). Grey or
-// wrongly sized images give no edges.
+// The edges the model labels unambiguous, detected in a linear BGR image (8 or 16 bit, the
+// model's size). Grey or wrongly sized images give no edges.
 std::vector<LipEdgeFit> DetectLipEdges(const cv::Mat& raw_bgr, const RigModel& model,
                                        const LipDetectorOptions& options = {});
 
