@@ -184,7 +184,7 @@ TEST_F(CalibrateCli, TruthPrintsTheCornerNoiseCheck) {
   std::string err, out;
   ASSERT_EQ(Run("render --model='" + std::string(OMNI_SOURCE_DIR) +
                     "/sample_configs/big_rig_misaligned.yaml' --scene='" + OMNI_SOURCE_DIR +
-                    "/sample_configs/demo_scene.yaml' --no_render --out='" + dir_.string() + "'",
+                    "/sample_configs/small_clean_scene.yaml' --no_render --out='" + dir_.string() + "'",
                 &err),
             0)
       << err;

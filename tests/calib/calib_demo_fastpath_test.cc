@@ -1,5 +1,5 @@
 // The demo session's geometry on the fast path (issue #6's POV-Ray acceptance without the
-// renderer): sample_configs/demo_scene.yaml's placements, the misaligned big rig at the scene's
+// renderer): sample_configs/small_clean_scene.yaml's placements, the misaligned big rig at the scene's
 // 960x720 as the truth, exact corners from ComputeTruth plus Gaussian noise of 0.1 px, lip edge
 // points like the detector's (1440 per image) with small independent noise plus a systematic
 // per-edge offset common to every image (a rendered lip is the same in every image: its
@@ -38,7 +38,7 @@ FastPathRun SolveDemoFastPath(const RigParams& truth_rig) {
   FastPathRun run;
   testing::SyntheticSession session;
   run.truth = testing::MakeSceneSession(
-      truth_rig, std::string(OMNI_SOURCE_DIR) + "/sample_configs/demo_scene.yaml", &session);
+      truth_rig, std::string(OMNI_SOURCE_DIR) + "/sample_configs/small_clean_scene.yaml", &session);
   const RigParams& truth = run.truth;
   const RigParams ideal =
       synthetic::RigAtImageSize(testing::IdealRig(), truth.image_width, truth.image_height);

@@ -1,5 +1,5 @@
 // Predicted uncertainty vs Monte Carlo (issue #6): the demo session's geometry on the fast path
-// (sample_configs/demo_scene.yaml's placements, the misaligned big rig without tangential
+// (sample_configs/small_clean_scene.yaml's placements, the misaligned big rig without tangential
 // distortion as the truth, so that the held dist_p1 = dist_p2 = 0 are exact and the pixel noise
 // is the only error), solved again and again with fresh Gaussian noise of known sigma on the
 // corners (0.1 px) and the lip edge points (0.03 px). The spread of each misalignment parameter
@@ -31,7 +31,7 @@ TEST(CalibMonteCarlo, PredictedSigmaMatchesSpread) {
   truth_rig.distortion[2] = truth_rig.distortion[3] = 0;
   testing::SyntheticSession session;
   const RigParams truth = testing::MakeSceneSession(
-      truth_rig, std::string(OMNI_SOURCE_DIR) + "/sample_configs/demo_scene.yaml", &session);
+      truth_rig, std::string(OMNI_SOURCE_DIR) + "/sample_configs/small_clean_scene.yaml", &session);
   const double corner_noise_px = 0.1, lip_noise_px = 0.03;
   const int solves = std::getenv("MC_SOLVES") ? std::atoi(std::getenv("MC_SOLVES")) : 100;
 

@@ -254,7 +254,7 @@ void ExpectHardBoards(const std::string& scene_file, const std::vector<HardBoard
   }
 }
 
-// The demo session's two hardest boards (sample_configs/demo_scene.yaml through the misaligned
+// The demo session's two hardest boards (sample_configs/small_clean_scene.yaml through the misaligned
 // rig at 960x720, as `omnistereo demo` renders them, same noise): image 0007's 4x11 board at
 // 1.78 m in the inner ring (2.2 px squares; the detector used to return a grid with a third of
 // its corners pulled onto the wrong saddles: 8 wrong ids) and image 0008's 6x7 board at 1.43 m
@@ -262,7 +262,7 @@ void ExpectHardBoards(const std::string& scene_file, const std::vector<HardBoard
 // Lanczos-resampled renders both OpenCV finders lose it and the junction grid finds it).
 // Measured 43 of 44 and 40 of 42 (two corners by the ring's edge are refused by the grid check).
 TEST(ChessboardDetector, DemoHardBoardsAreRightOrSilent) {
-  ExpectHardBoards("demo_scene.yaml", {{6, 0, 2, 40}, {7, 2, 1, 38}});
+  ExpectHardBoards("small_clean_scene.yaml", {{6, 0, 2, 40}, {7, 2, 1, 38}});
 }
 
 // calibration_scene_tags' 6x7 board (60 mm squares) where it used to be missed: image 0006 in
@@ -287,7 +287,7 @@ TEST(ChessboardDetector, CutAndFinderLostBoardsGiveTheirVisibleCorners) {
 // smaller window, or dropped). Measured: 41 of 42, max 0.14 px; 35 of 40 (id 4 dropped), max
 // 0.18 px (eval_detectors on the full renders).
 TEST(ChessboardDetector, WindowsCutByTheRingsEdgeStayOnTheirSquares) {
-  ExpectHardBoards("demo_scene.yaml", {{0, 2, 1, 40, 0.3}});
+  ExpectHardBoards("small_clean_scene.yaml", {{0, 2, 1, 40, 0.3}});
   ExpectHardBoards("calibration_scene_tags.yaml", {{8, 1, 2, 33, 0.3}});
 }
 
