@@ -219,12 +219,12 @@ void RenderViews(const cv::Mat& raw, std::vector<RingView>* views) {
     cv::remap(grey, v.image, v.map_fixed, v.map_interp, cv::INTER_LINEAR, cv::BORDER_CONSTANT,
               cv::Scalar(0));
   }
-  // One blur per ring (its views agree within ~5%): the median over every other view of it.
+  // One blur per ring (its views agree within ~5%): the median over its views that show enough
+  // edges (every view: a scene may show edges in a few views only).
   for (Mirror mirror : {Mirror::kOne, Mirror::kTwo}) {
     std::vector<double> measured;
-    int k = 0;
     for (const RingView& v : *views) {
-      if (v.mirror != mirror || k++ % 2) continue;
+      if (v.mirror != mirror) continue;
       if (const auto b = ViewBlurSigma(v.image, v.map_x)) measured.push_back(*b);
     }
     std::optional<double> ring_blur;

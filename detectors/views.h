@@ -49,7 +49,7 @@ struct RingView {
   cv::Mat map_fixed, map_interp;  // the same maps in cv::convertMaps' fast form (for remap)
   cv::Mat image;                  // the last RenderViews result: CV_8U grey
   // The blur of the ring's views' sharpest edges (ViewBlurSigma; one value per ring: the median
-  // over every other view), view pixels; nullopt where too few edges show.
+  // over its views that show enough edges), view pixels; nullopt where none does.
   std::optional<double> blur_sigma;
 
   // Unit ray direction in C of a view pixel (from viewpoint_in_cam).
