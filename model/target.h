@@ -40,6 +40,16 @@ struct TargetSpec {
   std::string family = "tag36h11";
 };
 
+// A chessboard of rows x cols inner corners and squares of square_mm.
+inline TargetSpec ChessboardSpec(int rows, int cols, double square_mm) {
+  TargetSpec t;
+  t.type = TargetType::kChessboard;
+  t.rows = rows;
+  t.cols = cols;
+  t.square_mm = square_mm;
+  return t;
+}
+
 // "chessboard", "apriltag_grid", "kalibr_aprilgrid".
 const char* TargetTypeName(TargetType type);
 // Parses a type name; false if unknown.

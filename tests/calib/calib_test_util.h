@@ -62,12 +62,7 @@ struct SyntheticSession {
 };
 
 inline TargetSpec Chessboard(int rows, int cols, double square_mm) {
-  TargetSpec t;
-  t.type = TargetType::kChessboard;
-  t.rows = rows;
-  t.cols = cols;
-  t.square_mm = square_mm;
-  return t;
+  return ChessboardSpec(rows, cols, square_mm);
 }
 
 // Random placements of chessboards around the rig (calib/synthetic RandomPlacement).

@@ -26,21 +26,12 @@ namespace {
 
 namespace fs = std::filesystem;
 
-TargetSpec Board(int rows, int cols, double square_mm) {
-  TargetSpec s;
-  s.type = TargetType::kChessboard;
-  s.rows = rows;
-  s.cols = cols;
-  s.square_mm = square_mm;
-  return s;
-}
-
 TEST(CameraImages, ChessboardsNearAndFarInBothRingsOfARealisticCamera) {
   const RigParams rig = io::ReadModelFile(std::string(OMNISTEREO_SOURCE_DIR) +
                                           "/sample_configs/big_rig_real_lens.yaml");
   const RigModel model(rig);
   synthetic::Scene scene;
-  scene.targets = {Board(4, 7, 16), Board(5, 6, 35), Board(3, 8, 90)};
+  scene.targets = {ChessboardSpec(4, 7, 16), ChessboardSpec(5, 6, 35), ChessboardSpec(3, 8, 90)};
   const IdealModel ideal = rig.Ideal();
   const double z_mid = 0.5 * (ideal.c1 + ideal.d - ideal.c2);
   synthetic::SceneImage image{"camera", {}};

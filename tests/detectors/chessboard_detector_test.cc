@@ -32,15 +32,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-TargetSpec Board(int rows, int cols, double square_mm) {
-  TargetSpec s;
-  s.type = TargetType::kChessboard;
-  s.rows = rows;
-  s.cols = cols;
-  s.square_mm = square_mm;
-  return s;
-}
-
 struct Rendered {
   RigParams rig;
   synthetic::Scene scene;
@@ -55,7 +46,7 @@ Rendered RenderBoards() {
   r.rig = io::ReadModelFile(std::string(OMNISTEREO_SOURCE_DIR) +
                             "/sample_configs/big_rig_misaligned.yaml");
   const RigModel model(r.rig);
-  r.scene.targets = {Board(6, 8, 40), Board(5, 7, 60), Board(4, 6, 80)};
+  r.scene.targets = {ChessboardSpec(6, 8, 40), ChessboardSpec(5, 7, 60), ChessboardSpec(4, 6, 80)};
   const IdealModel ideal = r.rig.Ideal();
   const double z_mid = 0.5 * (ideal.c1 + ideal.d - ideal.c2);
   synthetic::SceneImage image{"boards", {}};
