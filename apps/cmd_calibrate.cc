@@ -1,7 +1,8 @@
 // `omnistereo calibrate --session S --out calibrated.yaml [--detections D] [--truth_model T]
 // [--truth TRUTH]`: estimate the non-central rig from a session (calib/calibrate.h). Without
 // --detections the session's images go through the detectors. Progress per stage on stderr; the
-// parameter table (mm, deg, with sigma; with --truth_model also the true value) on stdout; with
+// parameter table (mm, deg, with sigma; with --truth_model also the true value and the projection
+// difference from the true rig at 1 m) on stdout; with
 // --truth (a synthetic session's omnistereo-truth/1) also the reprojection RMS per ring against
 // the detector's true corner error over the same corners; the calibrated model, with its
 // `calibration:` section, written atomically to --out only if the solve succeeded.
@@ -24,6 +25,7 @@
 #include "model/io/detections_file.h"
 #include "model/io/model_file.h"
 #include "model/io/session_file.h"
+#include "model/model_compare.h"
 #include "model/stereo/sparse_triangulation.h"
 
 DEFINE_string(truth_model, "", "calibrate: the true model file, to add a truth column to the table");
@@ -101,6 +103,24 @@ void PrintCornerNoiseCheck(const calib::CalibrationResult& result, const io::Det
   if (unmatched > 0) std::printf("  (%d detected corners have no true counterpart)\n", unmatched);
 }
 
+// With --truth_model: what the calibration is worth for measuring, as the projection difference
+// from the true rig of points at 1 m over the stereo band, held in mirror 1's body (what
+// `triangulate --frame mirror1` measures) and in the camera frame.
+void PrintTruthProjection(const RigParams& truth, const RigParams& calibrated) {
+  const RigModel true_model(truth);
+  const RigModel calibrated_model(calibrated);
+  const ProjectionDifference in_mirror1 =
+      CompareProjectionsInMirror1(true_model, calibrated_model, 1000);
+  const ProjectionDifference in_cam = CompareProjections(true_model, calibrated_model, 1000);
+  std::printf("against the true model: projection difference at 1 m over the stereo band, RMS "
+              "(max) per ring\n");
+  std::printf("  points in mirror 1's body: ring 1 %.3f (%.3f) px, ring 2 %.3f (%.3f) px\n",
+              in_mirror1.rms_px[0], in_mirror1.max_px[0], in_mirror1.rms_px[1],
+              in_mirror1.max_px[1]);
+  std::printf("  points in the camera frame: ring 1 %.3f (%.3f) px, ring 2 %.3f (%.3f) px\n",
+              in_cam.rms_px[0], in_cam.max_px[0], in_cam.rms_px[1], in_cam.max_px[1]);
+}
+
 }  // namespace
 
 int RunCalibrate() {
@@ -139,6 +159,7 @@ int RunCalibrate() {
   std::printf("solved in %.2f s (%s); %zu target placements in %zu images\n", seconds,
               result.converged ? "converged" : "NOT converged", result.placements.size(),
               detections.images.size());
+  if (truth) PrintTruthProjection(*truth, result.rig);
   io::WriteModelFile(FLAGS_out, result.rig);
   std::printf("calibrated model written to %s\n", FLAGS_out.c_str());
   return 0;
