@@ -535,6 +535,14 @@ bool RefineSaddleCorner(const cv::Mat& grey, const Eigen::Vector2d& corner, int 
   return refined->allFinite() && (*refined - corner).norm() <= max_shift_px;
 }
 
+// Erodes a black mask by `passes` steps of a 3x3 cross (an erosion by n steps equals n erosions
+// by one step, so a mask separated by n + 1 is the one separated by n, eroded once more).
+void SeparateTags(int passes, cv::Mat* black) {
+  if (passes <= 0) return;
+  cv::erode(*black, *black, cv::getStructuringElement(cv::MORPH_CROSS, cv::Size(3, 3)),
+            cv::Point(-1, -1), passes);
+}
+
 cv::Mat KalibrTagMask(const cv::Mat& view_grey, const KalibrDetectorOptions& options) {
   const int up = std::max(1, options.upsample);
   cv::Mat big;
@@ -558,10 +566,7 @@ cv::Mat KalibrTagMask(const cv::Mat& view_grey, const KalibrDetectorOptions& opt
     }
   }
   // Break the tags' corner contacts with Kalibr's corner squares.
-  if (options.separation_px > 0) {
-    cv::erode(black, black, cv::getStructuringElement(cv::MORPH_CROSS, cv::Size(3, 3)),
-              cv::Point(-1, -1), options.separation_px);
-  }
+  SeparateTags(options.separation_px, &black);
   return black;
 }
 
@@ -602,10 +607,11 @@ std::vector<KalibrViewTag> DetectKalibrTagsInView(const cv::Mat& view_grey,
   std::vector<int> seen;
   // Blur decides how wide the tag-to-corner-square necks are: more erosion passes for blurrier
   // (inner-ring) views; a tag found in an earlier pass is not read again.
+  // The thresholded mask is made once (resizing and the local extremes were ~60% of this
+  // function); each pass erodes the previous pass's mask by one more step.
+  cv::Mat black = KalibrTagMask(view_grey, options);
   for (int pass = 0; pass < std::max(1, options.separation_passes); ++pass) {
-  KalibrDetectorOptions pass_options = options;
-  pass_options.separation_px = options.separation_px + pass;
-  const cv::Mat black = KalibrTagMask(view_grey, pass_options);
+  if (pass > 0) SeparateTags(1, &black);
   std::vector<std::vector<cv::Point>> contours;
   cv::findContours(black, contours, cv::RETR_LIST, cv::CHAIN_APPROX_NONE);
   for (const auto& contour : contours) {
