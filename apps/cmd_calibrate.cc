@@ -20,6 +20,7 @@
 #include "apps/command.h"
 #include "apps/common_flags.h"
 #include "calib/calibrate.h"
+#include "calib/projection_uncertainty.h"
 #include "detectors/detect_image.h"
 #include "detectors/detect_session.h"
 #include "model/io/detections_file.h"
@@ -70,8 +71,10 @@ void PrintCornerNoiseCheck(const calib::CalibrationResult& result, const io::Det
   int count[2] = {0, 0}, unmatched = 0;
   for (size_t i = 0; i < detections.images.size(); ++i) {
     const stereo::TruthImage* image = nullptr;
+    // By file name: detections may name the images by path, the truth by name.
+    const auto base = [](const std::string& f) { return f.substr(f.find_last_of('/') + 1); };
     for (const auto& t : truth.images) {
-      if (t.file == detections.images[i].file) image = &t;
+      if (base(t.file) == base(detections.images[i].file)) image = &t;
     }
     for (const auto& c : detections.images[i].corners) {
       if (rejected.count({static_cast<int>(i), c.target, c.id, c.mirror})) continue;
@@ -159,7 +162,25 @@ int RunCalibrate() {
   std::printf("solved in %.2f s (%s); %zu target placements in %zu images\n", seconds,
               result.converged ? "converged" : "NOT converged", result.placements.size(),
               detections.images.size());
-  if (truth) PrintTruthProjection(*truth, result.rig);
+  const calib::ProjectionUncertainty predicted = calib::PredictProjectionUncertainty(result, 1000);
+  std::printf("projection uncertainty at 1 m (from the covariance: the expected RMS difference "
+              "from the true rig over the stereo band)\n");
+  std::printf("  points in mirror 1's body: ring 1 %.3f px, ring 2 %.3f px; in the camera frame: "
+              "ring 1 %.3f px, ring 2 %.3f px\n",
+              predicted.in_mirror1_px[0], predicted.in_mirror1_px[1], predicted.in_cam_px[0],
+              predicted.in_cam_px[1]);
+  if (truth) {
+    PrintTruthProjection(*truth, result.rig);
+    const calib::ProjectionErrorShare share = calib::ShareOfProjectionError(result, *truth, 1000);
+    std::printf("  linearised, points in mirror 1's body: ring 1 %.3f px, ring 2 %.3f px; with "
+                "one group's error alone:", share.total_px[0], share.total_px[1]);
+    for (size_t g = 0; g < share.groups.size(); ++g) {
+      std::printf(" %s %.3f / %.3f", share.groups[g].c_str(), share.group_px[g][0],
+                  share.group_px[g][1]);
+    }
+    std::printf("\n  parameter error against the covariance: chi^2 %.1f for %d parameters\n",
+                share.chi2, share.dof);
+  }
   io::WriteModelFile(FLAGS_out, result.rig);
   std::printf("calibrated model written to %s\n", FLAGS_out.c_str());
   return 0;

@@ -1138,6 +1138,9 @@ void Calibrator::Covariance(CalibrationResult* result) {
   }
   for (int i : cov.unobservable) result->unobservable.push_back({names[i], HintFor(names[i])});
   result->covariance = cov.covariance;
+  result->considered_sensitivity = cov.considered_sensitivity;
+  result->considered_column_sigma =
+      Eigen::Map<const Eigen::VectorXd>(considered_sigma.data(), considered_sigma.size());
   result->sigma = cov.covariance.diagonal().cwiseMax(0.0).cwiseSqrt();
   result->noise_sigma = cov.noise_covariance.diagonal().cwiseMax(0.0).cwiseSqrt();
   const int m = static_cast<int>(result->sigma.size());
@@ -1397,6 +1400,20 @@ const std::vector<std::string>& BlockParameterNames(const std::string& group) {
   return it == names.end() ? none : it->second;
 }
 
+double* ParameterOf(RigParams* rig, const std::string& name) {
+  for (const auto& g : RigGroups()) {
+    const auto& names = BlockParameterNames(g);
+    for (size_t k = 0; k < names.size(); ++k) {
+      if (names[k] == name) return GroupBlock(rig, g) + k;
+    }
+  }
+  return nullptr;
+}
+
+const double* ParameterOf(const RigParams& rig, const std::string& name) {
+  return ParameterOf(const_cast<RigParams*>(&rig), name);
+}
+
 CalibrationOptions OptionsFromSession(const io::Session& session) {
   CalibrationOptions options;
   options.estimate = session.estimate;
@@ -1438,13 +1455,8 @@ double Display(const std::string& name, double value, const char** unit) {
 }
 
 double TruthOf(const RigParams& rig, const std::string& name) {
-  for (const auto& g : RigGroups()) {
-    const auto& names = BlockParameterNames(g);
-    for (size_t k = 0; k < names.size(); ++k) {
-      if (names[k] == name) return GroupBlock(const_cast<RigParams*>(&rig), g)[k];
-    }
-  }
-  return NAN;
+  const double* value = ParameterOf(rig, name);
+  return value ? *value : NAN;
 }
 
 }  // namespace

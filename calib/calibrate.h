@@ -129,7 +129,11 @@ struct CalibrationResult {
     double value = 0, sigma = 0;
   };
   std::vector<Considered> considered;
-  int lip_edges_considered = 0;  // lip edges whose bias (lip_edge_bias_sigma_px) is considered
+  int lip_edges_considered = 0;
+  // d value / d held value (rows: names) of each considered column: `considered` in order, then
+  // the lip edges' biases (calib/projection_uncertainty.h), and the sigma assumed for each.
+  Eigen::MatrixXd considered_sensitivity;
+  Eigen::VectorXd considered_column_sigma;  // lip edges whose bias (lip_edge_bias_sigma_px) is considered
   std::vector<UnobservableParameter> unobservable;  // named, never given a number
   // What a user of the model should know about this calibration, one sentence each (printed
   // under the table): dist_k3 held or refined and why, the camera's pointing against the mirror
@@ -174,6 +178,10 @@ CalibrationOptions OptionsFromSession(const io::Session& session);
 // The rig parameter's name in files and tables (camera: fx ... skew; dist_k1 ...; c1, k1, c2, k2;
 // mirror1.rx ... mirror1.tz; mirror2.*; reflex.rx, reflex.ry, reflex.dz).
 const std::vector<std::string>& BlockParameterNames(const std::string& group);
+
+// The parameter `name` (as in BlockParameterNames) in `rig`; nullptr if there is none.
+double* ParameterOf(RigParams* rig, const std::string& name);
+const double* ParameterOf(const RigParams& rig, const std::string& name);
 
 // The table printed after a calibration: parameter, value, sigma (and truth if given) in assembly
 // units (px, mm, deg), then the unobservable parameters with hints, residual statistics, stages.

@@ -116,9 +116,10 @@ RigCovariance RigCovarianceFromSchur(const Eigen::MatrixXd& schur_all, int n_rig
   // The considered parameters' share: full / variance_factor is S_xx^-1 (on the measured
   // subspace), so the estimate's sensitivity to them is -full / variance_factor * S_xc.
   Eigen::MatrixXd considered_share = Eigen::MatrixXd::Zero(n_rig, n_rig);
+  Eigen::MatrixXd sensitivity = Eigen::MatrixXd::Zero(n_rig, n_considered);
   if (n_considered > 0 && options.variance_factor > 0) {
-    const Eigen::MatrixXd sensitivity =
-        (full / options.variance_factor) * schur_all.topRightCorner(n_rig, n_considered);
+    sensitivity =
+        -(full / options.variance_factor) * schur_all.topRightCorner(n_rig, n_considered);
     const Eigen::VectorXd var_c =
         Eigen::Map<const Eigen::VectorXd>(options.considered_sigma.data(), n_considered)
             .array()
@@ -137,6 +138,10 @@ RigCovariance RigCovarianceFromSchur(const Eigen::MatrixXd& schur_all, int n_rig
   }
   out.noise_covariance = Restrict(full, out.observable);
   out.covariance = Restrict(full + considered_share, out.observable);
+  out.considered_sensitivity.resize(out.observable.size(), n_considered);
+  for (size_t a = 0; a < out.observable.size(); ++a) {
+    out.considered_sensitivity.row(a) = sensitivity.row(out.observable[a]);
+  }
   for (int i = 0; i < n_rig; ++i) {
     if (named[i]) out.unobservable.push_back(i);
   }

@@ -47,6 +47,9 @@ struct RigCovariance {
   Eigen::MatrixXd covariance;     // over `observable`, scaled by the variance factor, plus the
                                   // considered parameters' share
   Eigen::MatrixXd noise_covariance;  // the same without the considered parameters' share
+  // d estimate / d held value of each considered column (-S_xx^-1 S_xc), rows `observable`:
+  // how a held value off by dc moves the estimate.
+  Eigen::MatrixXd considered_sensitivity;
   Eigen::VectorXd eigenvalues;    // of the Jacobi-scaled Schur complement, ascending
   Eigen::MatrixXd eigenvectors;   // columns, same order (in the scaled coordinates)
 };

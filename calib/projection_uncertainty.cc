@@ -1,0 +1,193 @@
+#include "calib/projection_uncertainty.h"
+
+#include <cmath>
+
+#include <Eigen/Eigenvalues>
+#include <optional>
+
+#include "model/model_compare.h"
+#include "model/rig_frames.h"
+#include "model/rig_model.h"
+
+namespace omni::calib {
+namespace {
+
+// Every 4th stereo-band point of model_compare.h (~500 at 1 m): the figure is an RMS over a
+// smooth field, so a quarter of the points gives it to ~1%.
+constexpr int kPointStride = 4;
+
+// The band's points in C and in M1 (at `rig`), and their pixels' derivatives with respect to
+// the parameters `names` (central differences of step `steps`), per ring: rows 2 per usable
+// point. A point counts where every perturbed model projects it in both rings.
+struct BandJacobian {
+  Eigen::MatrixXd in_mirror1[2], in_cam[2];
+};
+
+BandJacobian Jacobians(const RigParams& rig, const std::vector<std::string>& names,
+                       const std::vector<double>& steps, double range_mm) {
+  const RigModel model(rig);
+  std::vector<BandPoint> band = StereoBandPoints(model, range_mm);
+  std::vector<Eigen::Vector3d> in_cam, in_mirror1;
+  const Pose<double> cam_from_mirror1 = PoseFromBlock(rig.mirror1_pose.data());
+  const Pose<double> mirror1_from_cam = cam_from_mirror1.Inverse();
+  for (size_t i = 0; i < band.size(); i += kPointStride) {
+    in_cam.push_back(band[i].point_in_cam);
+    in_mirror1.push_back(mirror1_from_cam * band[i].point_in_cam);
+  }
+  const int n_points = static_cast<int>(in_cam.size());
+  const int n = static_cast<int>(names.size());
+  // pixels[frame][ring][param][sign] per point.
+  std::vector<std::optional<Eigen::Vector2d>> px[2][2][2];
+  Eigen::MatrixXd d[2][2];
+  for (int f = 0; f < 2; ++f) {
+    for (int m = 0; m < 2; ++m) d[f][m] = Eigen::MatrixXd::Zero(2 * n_points, n);
+  }
+  std::vector<bool> ok(n_points, true);
+  for (int j = 0; j < n; ++j) {
+    for (int sign = 0; sign < 2; ++sign) {
+      RigParams perturbed = rig;
+      *ParameterOf(&perturbed, names[j]) += (sign ? 1 : -1) * steps[j];
+      const RigModel other(perturbed);
+      const Pose<double> other_cam_from_mirror1 = PoseFromBlock(perturbed.mirror1_pose.data());
+      for (int p = 0; p < n_points; ++p) {
+        for (int f = 0; f < 2; ++f) {
+          const Eigen::Vector3d point = f == 0 ? other_cam_from_mirror1 * in_mirror1[p] : in_cam[p];
+          for (int m = 0; m < 2; ++m) {
+            const auto pixel = other.Project(point, m == 0 ? Mirror::kOne : Mirror::kTwo);
+            if (!pixel) {
+              ok[p] = false;
+              continue;
+            }
+            const Eigen::Vector2d v = (sign ? 0.5 : -0.5) * *pixel / steps[j];
+            d[f][m].block<2, 1>(2 * p, j) += v;
+          }
+        }
+      }
+    }
+  }
+  BandJacobian out;
+  int kept = 0;
+  for (int p = 0; p < n_points; ++p) kept += ok[p];
+  for (int f = 0; f < 2; ++f) {
+    for (int m = 0; m < 2; ++m) {
+      Eigen::MatrixXd& target = f == 0 ? out.in_mirror1[m] : out.in_cam[m];
+      target.resize(2 * kept, n);
+      int row = 0;
+      for (int p = 0; p < n_points; ++p) {
+        if (!ok[p]) continue;
+        target.middleRows(row, 2) = d[f][m].middleRows(2 * p, 2);
+        row += 2;
+      }
+    }
+  }
+  return out;
+}
+
+double Step(const std::string& name, double sigma) {
+  // A tenth of a sigma where it is known (the pixels are linear far beyond that); otherwise a
+  // small fixed step in the parameter's unit.
+  if (sigma > 0) return 0.1 * sigma;
+  return name.find('.') != std::string::npos ? 1e-5 : 1e-4;
+}
+
+}  // namespace
+
+ProjectionUncertainty PredictProjectionUncertainty(const CalibrationResult& result,
+                                                   double range_mm) {
+  ProjectionUncertainty out;
+  const int n = static_cast<int>(result.names.size());
+  if (n == 0) return out;
+  // Columns: the refined parameters, then the named considered ones (their direct effect).
+  std::vector<std::string> names = result.names;
+  std::vector<double> steps;
+  for (int i = 0; i < n; ++i) steps.push_back(Step(names[i], result.sigma(i)));
+  for (const auto& c : result.considered) {
+    names.push_back(c.name);
+    steps.push_back(Step(c.name, c.sigma));
+  }
+  const BandJacobian jac = Jacobians(result.rig, names, steps, range_mm);
+  const int n_named = static_cast<int>(result.considered.size());
+  const int n_columns = static_cast<int>(result.considered_column_sigma.size());
+  for (int f = 0; f < 2; ++f) {
+    for (int m = 0; m < 2; ++m) {
+      const Eigen::MatrixXd& j_all = f == 0 ? jac.in_mirror1[m] : jac.in_cam[m];
+      if (j_all.rows() == 0) continue;
+      const Eigen::MatrixXd j = j_all.leftCols(n);
+      // Pixel noise: trace(J C J^T); each considered column: its direct effect plus the
+      // estimate's response to it, times its sigma.
+      double sum = 0;
+      if (result.considered_sensitivity.cols() == n_columns && n_columns > 0) {
+        // Covariance without the considered share, rebuilt from the sensitivity.
+        Eigen::MatrixXd share = Eigen::MatrixXd::Zero(n, n);
+        for (int c = 0; c < n_columns; ++c) {
+          const Eigen::VectorXd s = result.considered_sensitivity.col(c);
+          share += result.considered_column_sigma(c) * result.considered_column_sigma(c) * s *
+                   s.transpose();
+        }
+        const Eigen::MatrixXd noise = result.covariance - share;
+        sum += (j * noise * j.transpose()).trace();
+        for (int c = 0; c < n_columns; ++c) {
+          Eigen::VectorXd effect = j * result.considered_sensitivity.col(c);
+          if (c < n_named) effect += j_all.col(n + c);
+          sum += result.considered_column_sigma(c) * result.considered_column_sigma(c) *
+                 effect.squaredNorm();
+        }
+      } else {
+        sum = (j * result.covariance * j.transpose()).trace();
+      }
+      const double rms = std::sqrt(std::max(sum, 0.0) / (j.rows() / 2));
+      (f == 0 ? out.in_mirror1_px : out.in_cam_px)[m] = rms;
+      out.points = static_cast<int>(j.rows() / 2);
+    }
+  }
+  return out;
+}
+
+ProjectionErrorShare ShareOfProjectionError(const CalibrationResult& result,
+                                            const RigParams& truth, double range_mm) {
+  ProjectionErrorShare out;
+  const int n = static_cast<int>(result.names.size());
+  if (n == 0) return out;
+  std::vector<double> steps;
+  Eigen::VectorXd error(n);
+  for (int i = 0; i < n; ++i) {
+    steps.push_back(Step(result.names[i], result.sigma(i)));
+    error(i) = result.values(i) - *ParameterOf(truth, result.names[i]);
+  }
+  const BandJacobian jac = Jacobians(result.rig, result.names, steps, range_mm);
+  out.groups = {"camera", "distortion", "mirror1", "mirror2", "reflex"};
+  auto group_of = [](const std::string& name) {
+    if (name.rfind("dist_", 0) == 0) return 1;
+    if (name.rfind("mirror1.", 0) == 0 || name == "c1" || name == "k1") return 2;
+    if (name.rfind("mirror2.", 0) == 0 || name == "c2" || name == "k2") return 3;
+    if (name.rfind("reflex.", 0) == 0) return 4;
+    return 0;
+  };
+  out.group_px.assign(out.groups.size(), {0, 0});
+  for (int m = 0; m < 2; ++m) {
+    const Eigen::MatrixXd& j = jac.in_mirror1[m];
+    const double points = j.rows() / 2;
+    if (points == 0) continue;
+    out.total_px[m] = std::sqrt((j * error).squaredNorm() / points);
+    for (size_t g = 0; g < out.groups.size(); ++g) {
+      Eigen::VectorXd part = Eigen::VectorXd::Zero(n);
+      for (int i = 0; i < n; ++i) {
+        if (group_of(result.names[i]) == static_cast<int>(g)) part(i) = error(i);
+      }
+      out.group_px[g][m] = std::sqrt((j * part).squaredNorm() / points);
+    }
+  }
+  // Mahalanobis distance over the observable parameters (pseudo-inverse: the covariance may be
+  // nearly singular along the camera-rotation valley).
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(result.covariance);
+  const double tol = 1e-14 * eig.eigenvalues().cwiseAbs().maxCoeff();
+  const Eigen::VectorXd projected = eig.eigenvectors().transpose() * error;
+  out.chi2 = 0;
+  for (int k = 0; k < n; ++k) {
+    if (eig.eigenvalues()(k) > tol) out.chi2 += projected(k) * projected(k) / eig.eigenvalues()(k);
+  }
+  out.dof = n;
+  return out;
+}
+
+}  // namespace omni::calib
