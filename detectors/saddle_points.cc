@@ -12,6 +12,15 @@ namespace omni::detectors {
 // Saddle points of the view: local maxima of Ixy^2 - Ixx Iyy (positive where the Hessian is
 // indefinite, i.e. at X-junctions) above the strength of a saddle of `min_contrast` grey levels.
 std::vector<cv::Point2f> SaddlePoints(const RingView& view, const SaddleOptions& options) {
+  const double blur = view.blur_sigma.value_or(-1);
+  RingView::SaddleCache& cache = view.saddle_cache;
+  if (cache.image_data != nullptr && cache.image_data == view.image.data &&
+      cache.image_size == view.image.size() &&
+      cache.sigma == options.sigma && cache.min_contrast == options.min_contrast &&
+      cache.balance == options.balance && cache.blur == blur) {
+    return cache.points;
+  }
+  cache = {};
   cv::Mat f, ixx, iyy, ixy;
   view.image.convertTo(f, CV_32F);
   cv::GaussianBlur(f, f, cv::Size(0, 0), options.sigma);
@@ -44,6 +53,10 @@ std::vector<cv::Point2f> SaddlePoints(const RingView& view, const SaddleOptions&
     for (int x = 0; x < response.cols; ++x) {
       if (r[x] > threshold && r[x] >= d[x]) points.emplace_back(x, y);
     }
+  }
+  if (!view.image.empty()) {
+    cache = {view.image.data, view.image.size(), options.sigma, options.min_contrast,
+             options.balance, blur, points};
   }
   return points;
 }

@@ -32,7 +32,8 @@ struct Region {
 
 // Saddle points of the view: local maxima of Ixy^2 - Ixx Iyy (positive where the Hessian is
 // indefinite, i.e. at X-junctions) above the strength of a saddle of `min_contrast` grey levels
-// at the view's blur (RingView::blur_sigma), not next to the view's invalid area.
+// at the view's blur (RingView::blur_sigma), not next to the view's invalid area. Kept in
+// view.saddle_cache: asked again with the same options for the same image, returns that.
 std::vector<cv::Point2f> SaddlePoints(const RingView& view, const SaddleOptions& options);
 
 

@@ -218,6 +218,7 @@ void RenderViews(const cv::Mat& raw, std::vector<RingView>* views) {
   for (RingView& v : *views) {
     cv::remap(grey, v.image, v.map_fixed, v.map_interp, cv::INTER_LINEAR, cv::BORDER_CONSTANT,
               cv::Scalar(0));
+    v.saddle_cache = {};
   }
   // One blur per ring (its views agree within ~5%): the median over its views that show enough
   // edges (every view: a scene may show edges in a few views only).

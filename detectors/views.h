@@ -51,6 +51,15 @@ struct RingView {
   // The blur of the ring's views' sharpest edges (ViewBlurSigma; one value per ring: the median
   // over its views that show enough edges), view pixels; nullopt where none does.
   std::optional<double> blur_sigma;
+  // The X-junctions last found in `image` (SaddlePoints, saddle_points.h) and what they were
+  // found with: chessboards and Kalibr grids search the same ones. RenderViews clears it.
+  struct SaddleCache {
+    const uchar* image_data = nullptr;  // nullptr: empty
+    cv::Size image_size;
+    double sigma = 0, min_contrast = 0, balance = 0, blur = 0;
+    std::vector<cv::Point2f> points;
+  };
+  mutable SaddleCache saddle_cache;
 
   // Unit ray direction in C of a view pixel (from viewpoint_in_cam).
   Eigen::Vector3d RayInCam(const Eigen::Vector2d& view_pixel) const;
