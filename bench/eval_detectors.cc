@@ -6,6 +6,9 @@
 // Images are RENDER_DIR/NNNN.png or .jpg; with EVAL_CAMERA=PRESET (or a camera_effects map in
 // YAML) the camera is applied to the kept linear renders RENDER_DIR/NNNN.pinhole.png instead
 // (render --keep_pinhole), to measure presets and single effects on the same renders.
+// Corners found by guided detection across rings (detectors/guided_detection.h) are also
+// tabulated on their own (EVAL_GUIDED=0 turns it off). EVAL_DETECT_MODEL=FILE detects with that
+// model (e.g. the ideal design a user starts from) while the truth comes from MODEL.
 // On colour renders it also fits the lip-only intrinsics (InitialIntrinsicsFromLips) from the
 // NOMINAL model (default: MODEL) and compares the principal point it gives with the true one and
 // with the image points that the mirror bodies' poses fix (see LipsReport).
@@ -139,7 +142,10 @@ int main(int argc, char** argv) {
     std::printf("camera: %s\n", camera->Summary().c_str());
   }
   const auto t_ctx = std::chrono::steady_clock::now();
-  detectors::DetectorContext ctx(rig, scene.targets);
+  const char* detect_model = std::getenv("EVAL_DETECT_MODEL");
+  detectors::DetectorContext ctx(detect_model ? io::ReadModelFile(detect_model) : rig, scene.targets);
+  if (const char* g = std::getenv("EVAL_GUIDED")) ctx.guided.enabled = std::string(g) != "0";
+  if (detect_model) std::printf("detecting with %s\n", detect_model);
   // The images are encoded as the camera wrote them (raw mosaics are linear).
   const synthetic::CameraEffects& effects = camera ? *camera : scene.camera;
   ctx.tone = effects.raw_mosaic ? io::ToneCurve::kLinear : effects.tone;
@@ -147,13 +153,14 @@ int main(int argc, char** argv) {
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t_ctx).count();
   std::map<std::pair<int, int>, Bin> bins;  // (mirror, range bin)
   std::map<std::pair<int, int>, Bin> by_kind;  // (target type, mirror), all ranges
+  std::map<std::pair<int, int>, Bin> guided_by_kind;  // the same, guided corners only
   std::vector<double> times_ms, cpu_ms;  // wall clock, process CPU time (one thread)
   const double match_px = 3.0;
   // EVAL_DETECTORS_CSV=FILE: every matched corner (detected and true pixel, range) for analysis.
   std::FILE* csv = nullptr;
   if (const char* csv_path = std::getenv("EVAL_DETECTORS_CSV")) {
     csv = std::fopen(csv_path, "w");
-    if (csv) std::fprintf(csv, "image,target,kind,id,mirror,range_mm,u,v,true_u,true_v\n");
+    if (csv) std::fprintf(csv, "image,target,kind,id,mirror,range_mm,u,v,true_u,true_v,guided\n");
   }
   for (const auto& image : scene.images) {
     std::string path = std::string(argv[3]) + "/" + image.name + ".png";
@@ -179,7 +186,8 @@ int main(int argc, char** argv) {
     }
     const auto t0 = std::chrono::steady_clock::now();
     const std::clock_t c0 = std::clock();
-    const io::ImageDetections det = detectors::DetectImage(raw, &ctx);
+    std::vector<bool> guided;
+    const io::ImageDetections det = detectors::DetectImage(raw, &ctx, nullptr, &guided);
     cpu_ms.push_back(1000.0 * (std::clock() - c0) / CLOCKS_PER_SEC);
     times_ms.push_back(
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
@@ -189,7 +197,10 @@ int main(int argc, char** argv) {
     }
     const auto truth = synthetic::ComputeTruth(model, scene, image);
     std::vector<bool> truth_found(truth.size() * 2, false);
-    for (const auto& o : det.corners) {
+    for (size_t k = 0; k < det.corners.size(); ++k) {
+      const io::CornerObservation& o = det.corners[k];
+      Bin* guided_bin =
+          guided[k] ? &guided_by_kind[{static_cast<int>(scene.targets[o.target].type), o.mirror}] : nullptr;
       // The nearest visible true corner in the same ring.
       double best = 1e9;
       int best_i = -1;
@@ -213,18 +224,20 @@ int main(int argc, char** argv) {
       if (best_i < 0 || best > match_px || truth[best_i].id != o.id ||
           !same_pattern(truth[best_i].target, o.target)) {
         ++bin.wrong;
-        std::fprintf(stderr, "%s: wrong: target %d id %d mirror %d at (%.1f, %.1f): nearest truth "
-                     "target %d id %d at %.2f px\n", image.name.c_str(), o.target, o.id, o.mirror,
+        if (guided_bin) ++guided_bin->wrong;
+        std::fprintf(stderr, "%s: wrong%s: target %d id %d mirror %d at (%.1f, %.1f): nearest truth "
+                     "target %d id %d at %.2f px\n", image.name.c_str(), guided_bin ? " (guided)" : "", o.target, o.id, o.mirror,
                      o.pixel.x(), o.pixel.y(), best_i >= 0 ? truth[best_i].target : -1,
                      best_i >= 0 ? truth[best_i].id : -1, best);
         continue;
       }
       bin.errors.push_back(best);
+      if (guided_bin) guided_bin->errors.push_back(best);
       if (csv) {
         const Eigen::Vector2d& t = *truth[best_i].pixel[o.mirror - 1];
-        std::fprintf(csv, "%s,%d,%s,%d,%d,%.1f,%.4f,%.4f,%.4f,%.4f\n", image.name.c_str(), o.target,
+        std::fprintf(csv, "%s,%d,%s,%d,%d,%.1f,%.4f,%.4f,%.4f,%.4f,%d\n", image.name.c_str(), o.target,
                      kKindNames[static_cast<int>(scene.targets[o.target].type)], o.id, o.mirror,
-                     range, o.pixel.x(), o.pixel.y(), t.x(), t.y());
+                     range, o.pixel.x(), o.pixel.y(), t.x(), t.y(), guided_bin ? 1 : 0);
       }
       if (best > 0.5) {  // right id but far off: named, like wrong ids, to find the cause
         std::fprintf(stderr, "%s: off: target %d id %d mirror %d at (%.1f, %.1f): %.2f px from "
@@ -300,6 +313,15 @@ int main(int argc, char** argv) {
     std::printf("%-6d %-10s %8d %8zu %7.1f%% %8.4f %8.4f\n", key.second, kKindNames[key.first],
                 bin.visible, bin.errors.size(), 100.0 * bin.found / std::max(1, bin.visible),
                 kind_mean, Percentile(bin.errors, 0.99));
+  }
+  // Guided corners alone (guided_detection.h): how many, their error and wrong ids.
+  std::printf("guided corners (across rings):\n%-6s %-10s %8s %8s %8s %6s\n", "ring", "kind",
+              "found", "mean_px", "p99_px", "wrong");
+  for (const auto& [key, bin] : guided_by_kind) {
+    double guided_mean = 0;
+    for (double e : bin.errors) guided_mean += e / std::max<size_t>(1, bin.errors.size());
+    std::printf("%-6d %-10s %8zu %8.4f %8.4f %6d\n", key.second, kKindNames[key.first],
+                bin.errors.size(), guided_mean, Percentile(bin.errors, 0.99), bin.wrong);
   }
   std::sort(times_ms.begin(), times_ms.end());
   if (!times_ms.empty()) {

@@ -1,5 +1,6 @@
 #include "detectors/detect_image.h"
 
+#include <algorithm>
 #include <utility>
 
 #include <opencv2/imgproc.hpp>
@@ -30,7 +31,7 @@ DetectorContext::DetectorContext(const RigParams& rig, std::vector<TargetSpec> t
       use_lips(lips) {}
 
 io::ImageDetections DetectImage(const cv::Mat& image, DetectorContext* ctx,
-                                std::vector<std::string>* warnings) {
+                                std::vector<std::string>* warnings, std::vector<bool>* guided) {
   const RigParams& rig = ctx->model.params();
   if (image.empty()) throw io::InputError("the image is empty or could not be decoded");
   if (image.cols != rig.image_width || image.rows != rig.image_height) {
@@ -53,6 +54,14 @@ io::ImageDetections DetectImage(const cv::Mat& image, DetectorContext* ctx,
     const std::vector<io::CornerObservation> tags =
         DetectTagGrids(grey, ctx->views, ctx->model, ctx->targets);
     out.corners.insert(out.corners.end(), tags.begin(), tags.end());
+  }
+  const size_t per_ring = out.corners.size();
+  const std::vector<io::CornerObservation> across =
+      GuidedCorners(grey, ctx->views, ctx->model, ctx->targets, out.corners, ctx->guided);
+  out.corners.insert(out.corners.end(), across.begin(), across.end());
+  if (guided) {
+    guided->assign(out.corners.size(), false);
+    std::fill(guided->begin() + per_ring, guided->end(), true);
   }
   if (ctx->use_lips) {
     if (image.channels() >= 3) {

@@ -10,6 +10,7 @@
 #include <opencv2/core.hpp>
 
 #include "detectors/chessboard_detector.h"
+#include "detectors/guided_detection.h"
 #include "detectors/ring_layout.h"
 #include "detectors/views.h"
 #include "model/io/detections_file.h"
@@ -33,14 +34,17 @@ struct DetectorContext {
   // How the images encode light: DetectImage decodes them to linear first (io::LinearImage).
   io::ToneCurve tone = io::ToneCurve::kLinear;
   ChessboardOptions chessboard;
+  GuidedOptions guided;  // corners of targets found in one ring looked for in the other
 };
 
 // Detects the context's targets in `image` (BGR or grey, 8 or 16 bit, the model's size, encoded
 // as ctx->tone says). Throws
 // io::InputError with a one-line reason when the image cannot be used (empty, wrong size);
 // appends a line to *warnings for what was skipped (e.g. lips on a grey image). `file`, `width`
-// and `height` of the result are for the caller to fill in.
+// and `height` of the result are for the caller to fill in. With `guided`: one flag per corner,
+// true where guided detection across rings found it (guided_detection.h; those come last).
 io::ImageDetections DetectImage(const cv::Mat& image, DetectorContext* ctx,
-                                std::vector<std::string>* warnings = nullptr);
+                                std::vector<std::string>* warnings = nullptr,
+                                std::vector<bool>* guided = nullptr);
 
 }  // namespace omni::detectors

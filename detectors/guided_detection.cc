@@ -1,0 +1,566 @@
+#include "detectors/guided_detection.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <optional>
+#include <set>
+
+#include <Eigen/Geometry>
+#include <opencv2/calib3d.hpp>
+
+#include "calib/initial_pose.h"
+#include "detectors/corner_refine.h"
+#include "detectors/kalibr_detector.h"
+#include "detectors/saddle_points.h"
+
+namespace omni::detectors {
+namespace {
+
+// A target's X-junctions on its plane (mm): the corners it reports (ids) and, for the alignment's
+// test, one row / column of the same lattice beyond them all round (no id).
+// parity: which diagonal is dark alternates with it (chessboard: row + col; Kalibr: k, the
+// tag's black square and the corner square lie on one diagonal at k = 0, 2 and on the other at
+// k = 1, 3).
+struct Junction {
+  int id = -1;
+  Eigen::Vector2d plane = Eigen::Vector2d::Zero();
+  int parity = 0;
+};
+
+struct Lattice {
+  std::vector<Junction> corners, extension;
+  double polarity_offset_mm = 0;  // along each axis, into the junction's four quadrants
+};
+
+std::optional<Lattice> LatticeOf(const TargetSpec& t) {
+  Lattice lattice;
+  if (t.type == TargetType::kChessboard) {
+    const double sq = t.square_mm;
+    for (int r = -1; r <= t.rows; ++r) {
+      for (int c = -1; c <= t.cols; ++c) {
+        const bool inside = r >= 0 && c >= 0 && r < t.rows && c < t.cols;
+        Junction j{inside ? r * t.cols + c : -1, Eigen::Vector2d(c * sq, r * sq), (r + c) & 1};
+        (inside ? lattice.corners : lattice.extension).push_back(j);
+      }
+    }
+    lattice.polarity_offset_mm = 0.35 * sq;
+    return lattice;
+  }
+  if (t.type != TargetType::kKalibrAprilGrid) return std::nullopt;  // plain tags: no X-junctions
+  const double pitch = TagPitch(t);
+  const int tag00 = TagIdAt(t, 0, 0);
+  for (int r = -1; r <= t.rows; ++r) {
+    for (int c = -1; c <= t.cols; ++c) {
+      const bool inside = r >= 0 && c >= 0 && r < t.rows && c < t.cols;
+      for (int k = 0; k < 4; ++k) {
+        const Eigen::Vector2d p = CornerInTarget(t, 4 * tag00 + k).head<2>() +
+                                  Eigen::Vector2d(c * pitch, r * pitch);
+        Junction j{inside ? 4 * TagIdAt(t, r, c) + k : -1, p, k & 1};
+        (inside ? lattice.corners : lattice.extension).push_back(j);
+      }
+    }
+  }
+  lattice.polarity_offset_mm = 0.35 * t.spacing * t.tag_size_mm;
+  return lattice;
+}
+
+Eigen::Vector2d Apply(const cv::Mat& h, const Eigen::Vector2d& p) {
+  const double x = h.at<double>(0, 0) * p.x() + h.at<double>(0, 1) * p.y() + h.at<double>(0, 2);
+  const double y = h.at<double>(1, 0) * p.x() + h.at<double>(1, 1) * p.y() + h.at<double>(1, 2);
+  const double w = h.at<double>(2, 0) * p.x() + h.at<double>(2, 1) * p.y() + h.at<double>(2, 2);
+  return Eigen::Vector2d(x / w, y / w);
+}
+
+double Sample(const cv::Mat& grey, const Eigen::Vector2d& p) {
+  const double u = std::clamp(p.x(), 0.0, grey.cols - 1.001);
+  const double v = std::clamp(p.y(), 0.0, grey.rows - 1.001);
+  const int i = static_cast<int>(u), j = static_cast<int>(v);
+  const double a = u - i, b = v - j;
+  const auto at = [&](int y, int x) { return static_cast<double>(grey.at<uchar>(y, x)); };
+  return (1 - b) * ((1 - a) * at(j, i) + a * at(j, i + 1)) +
+         b * ((1 - a) * at(j + 1, i) + a * at(j + 1, i + 1));
+}
+
+// Which diagonal of the junction at `plane` is dark in the view (H: plane -> view), times
+// (-1)^parity: +1 or -1, 0 where the four quadrants do not read as an X-junction (each dark
+// sample darker than both bright ones by a quarter of the junction's contrast).
+int Polarity(const cv::Mat& view_grey, const cv::Mat& h, const Junction& j, double offset) {
+  double s[4];
+  const Eigen::Vector2d d[4] = {{offset, offset}, {-offset, -offset}, {offset, -offset}, {-offset, offset}};
+  for (int i = 0; i < 4; ++i) s[i] = Sample(view_grey, Apply(h, j.plane + d[i]));
+  const double contrast = *std::max_element(s, s + 4) - *std::min_element(s, s + 4);
+  if (contrast < 20) return 0;
+  int sign = 0;
+  if (std::min(s[2], s[3]) - std::max(s[0], s[1]) > 0.25 * contrast) sign = 1;   // (1,1) dark
+  if (std::min(s[0], s[1]) - std::max(s[2], s[3]) > 0.25 * contrast) sign = -1;  // (1,-1) dark
+  return (j.parity ? -1 : 1) * sign;
+}
+
+// The view of `mirror` that shows most of `raw` (ties: nearest its centre), with the view
+// pixels of those it shows; -1 if none shows 4.
+int BestView(const std::vector<RingView>& views, const RigModel& model, Mirror mirror,
+             const std::vector<Eigen::Vector2d>& raw,
+             std::vector<std::optional<Eigen::Vector2d>>* in_view) {
+  int best = -1;
+  size_t best_count = 0;
+  double best_off = 1e18;
+  for (size_t v = 0; v < views.size(); ++v) {
+    if (views[v].mirror != mirror) continue;
+    std::vector<std::optional<Eigen::Vector2d>> pixels(raw.size());
+    size_t count = 0;
+    Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+    for (size_t i = 0; i < raw.size(); ++i) {
+      pixels[i] = views[v].RawToView(model, raw[i]);
+      if (!pixels[i]) continue;
+      ++count;
+      mean += *pixels[i];
+    }
+    if (count < 4) continue;
+    const double off = (mean / count - Eigen::Vector2d(views[v].cx, views[v].cy)).norm();
+    if (count > best_count || (count == best_count && off < best_off)) {
+      best = static_cast<int>(v);
+      best_count = count;
+      best_off = off;
+      *in_view = std::move(pixels);
+    }
+  }
+  return best;
+}
+
+// Plane -> view homography of the junctions `ids` (lattice order) seen at `pixels`.
+cv::Mat FitHomography(const std::vector<Eigen::Vector2d>& plane,
+                      const std::vector<Eigen::Vector2d>& pixels, int method, double tolerance) {
+  if (plane.size() < 4) return cv::Mat();
+  std::vector<cv::Point2f> a, b;
+  for (size_t i = 0; i < plane.size(); ++i) {
+    a.emplace_back(static_cast<float>(plane[i].x()), static_cast<float>(plane[i].y()));
+    b.emplace_back(static_cast<float>(pixels[i].x()), static_cast<float>(pixels[i].y()));
+  }
+  return cv::findHomography(a, b, method, tolerance);
+}
+
+// Saddle points as buckets for nearest-neighbour look-ups within `cell`.
+class SaddleIndex {
+ public:
+  SaddleIndex(std::vector<Eigen::Vector2d> points, double cell) : points_(std::move(points)), cell_(cell) {
+    for (size_t i = 0; i < points_.size(); ++i) buckets_[Key(points_[i])].push_back(static_cast<int>(i));
+  }
+  // The nearest point within `radius` (<= cell) of p; -1 if none.
+  int Nearest(const Eigen::Vector2d& p, double radius) const {
+    const auto [bx, by] = Key(p);
+    int best = -1;
+    double best_d = radius;
+    for (int y = by - 1; y <= by + 1; ++y) {
+      for (int x = bx - 1; x <= bx + 1; ++x) {
+        const auto it = buckets_.find({x, y});
+        if (it == buckets_.end()) continue;
+        for (int i : it->second) {
+          const double d = (points_[i] - p).norm();
+          if (d <= best_d) {
+            best_d = d;
+            best = i;
+          }
+        }
+      }
+    }
+    return best;
+  }
+  const std::vector<Eigen::Vector2d>& points() const { return points_; }
+
+ private:
+  std::pair<int, int> Key(const Eigen::Vector2d& p) const {
+    return {static_cast<int>(std::floor(p.x() / cell_)), static_cast<int>(std::floor(p.y() / cell_))};
+  }
+  std::vector<Eigen::Vector2d> points_;
+  double cell_;
+  std::map<std::pair<int, int>, std::vector<int>> buckets_;
+};
+
+struct Seeds {
+  std::vector<Eigen::Vector3d> plane;
+  std::vector<Eigen::Vector2d> raw;
+  std::vector<int> ids;
+};
+
+// Guided corners of target `ti` in ring `dest` from its corners in the other ring.
+std::vector<io::CornerObservation> GuideTarget(
+    const cv::Mat& raw_grey, const std::vector<RingView>& views, const RigModel& model,
+    const std::vector<TargetSpec>& targets, int ti, const Lattice& lattice, const Seeds& source,
+    Mirror source_mirror, const Seeds& own, Mirror dest, const GuidedOptions& options) {
+  std::vector<io::CornerObservation> out;
+  const TargetSpec& target = targets[ti];
+  std::set<int> have(own.ids.begin(), own.ids.end());
+  std::vector<Eigen::Vector2d> plane_all;
+  for (const Junction& j : lattice.corners) plane_all.push_back(j.plane);
+
+  // 1. The prediction H0 in a view of ring `dest`: from the ring's own corners where it has
+  // enough, else from the pose the source ring gives.
+  cv::Mat h0;
+  int v = -1;
+  double radius = 0;  // translation search radius (view px)
+  std::vector<std::optional<Eigen::Vector2d>> in_view;
+  if (static_cast<int>(own.ids.size()) >= options.min_seed_corners) {
+    v = BestView(views, model, dest, own.raw, &in_view);
+    if (v < 0) return out;
+    std::vector<Eigen::Vector2d> p, q;
+    for (size_t i = 0; i < own.raw.size(); ++i) {
+      if (!in_view[i]) continue;
+      p.push_back(own.plane[i].head<2>());
+      q.push_back(*in_view[i]);
+    }
+    h0 = FitHomography(p, q, 0, 0);
+  } else {
+    calib::PoseGuess pose;
+    if (!calib::CentralPoseFromRing(model, source_mirror, source.plane, source.raw, &pose)) return out;
+    const Eigen::Matrix3d cam_from_target =
+        Eigen::AngleAxisd(pose.rotation.norm(), pose.rotation.normalized()).toRotationMatrix();
+    std::vector<Eigen::Vector2d> raw, plane;
+    for (const Junction& j : lattice.corners) {
+      const Eigen::Vector3d point_in_cam =
+          cam_from_target * Eigen::Vector3d(j.plane.x(), j.plane.y(), 0) + pose.translation;
+      const auto pixel = model.Project(point_in_cam, dest);
+      if (!pixel) continue;
+      raw.push_back(*pixel);
+      plane.push_back(j.plane);
+    }
+    v = BestView(views, model, dest, raw, &in_view);
+    if (v < 0) return out;
+    std::vector<Eigen::Vector2d> p, q;
+    double raw_span = 0, view_span = 0;
+    for (size_t i = 0; i < raw.size(); ++i) {
+      if (!in_view[i]) continue;
+      p.push_back(plane[i]);
+      q.push_back(*in_view[i]);
+      if (q.size() > 1) {
+        raw_span = std::max(raw_span, (raw[i] - raw[0]).norm());
+        view_span = std::max(view_span, (*in_view[i] - q.front()).norm());
+      }
+    }
+    h0 = FitHomography(p, q, 0, 0);
+    if (raw_span <= 0) return out;
+    radius = options.max_prediction_error_px * view_span / raw_span;
+  }
+  if (h0.empty()) return out;
+  const RingView& view = views[v];
+  const cv::Mat& grey = view.image;
+
+  // Which diagonal is dark at parity-0 junctions in the source ring (its view, its corners'
+  // homography there): a one-square shift of a chessboard (Kalibr: a gap's) flips it.
+  int source_sign = 0;
+  {
+    std::vector<std::optional<Eigen::Vector2d>> source_view;
+    const int sv = BestView(views, model, source_mirror, source.raw, &source_view);
+    if (sv < 0) return out;
+    std::vector<Eigen::Vector2d> p, q;
+    std::vector<int> ids;
+    for (size_t i = 0; i < source.raw.size(); ++i) {
+      if (!source_view[i]) continue;
+      p.push_back(source.plane[i].head<2>());
+      q.push_back(*source_view[i]);
+      ids.push_back(source.ids[i]);
+    }
+    const cv::Mat hs = FitHomography(p, q, 0, 0);
+    if (hs.empty()) return out;
+    std::map<int, const Junction*> by_id;
+    for (const Junction& j : lattice.corners) by_id[j.id] = &j;
+    int sum = 0, counted = 0;
+    for (int id : ids) {
+      const auto it = by_id.find(id);
+      if (it == by_id.end()) continue;
+      const int sign = Polarity(views[sv].image, hs, *it->second, lattice.polarity_offset_mm);
+      sum += sign;
+      counted += sign != 0;
+    }
+    if (counted == 0 || std::abs(sum) < options.min_polarity_agreement * counted) return out;
+    source_sign = sum > 0 ? 1 : -1;
+  }
+
+  // 2. The lattice in the view and the saddle points around it.
+  std::vector<Eigen::Vector2d> predicted, extension;
+  for (const Junction& j : lattice.corners) predicted.push_back(Apply(h0, j.plane));
+  for (const Junction& j : lattice.extension) extension.push_back(Apply(h0, j.plane));
+  std::vector<double> nearest;
+  for (size_t i = 0; i < predicted.size(); ++i) {
+    double d = 1e18;
+    for (size_t k = 0; k < predicted.size(); ++k) {
+      if (k != i) d = std::min(d, (predicted[k] - predicted[i]).norm());
+    }
+    nearest.push_back(d);
+  }
+  std::nth_element(nearest.begin(), nearest.begin() + nearest.size() / 2, nearest.end());
+  const double spacing = nearest[nearest.size() / 2];
+  const double tolerance = options.match_fraction * spacing;
+  if (!(tolerance >= 1.0)) return out;  // junctions under ~3 view px apart: not searched
+  if (radius == 0) radius = 1.5 * tolerance;
+  double x0 = 1e18, y0 = 1e18, x1 = -1e18, y1 = -1e18;
+  for (const auto& p : extension) {
+    x0 = std::min(x0, p.x()), y0 = std::min(y0, p.y()), x1 = std::max(x1, p.x()), y1 = std::max(y1, p.y());
+  }
+  const double pad = radius + spacing;
+  const cv::Rect roi = cv::Rect(cv::Point(static_cast<int>(x0 - pad), static_cast<int>(y0 - pad)),
+                                cv::Point(static_cast<int>(x1 + pad) + 1, static_cast<int>(y1 + pad) + 1)) &
+                       cv::Rect(0, 0, view.width, view.height);
+  if (roi.width < 8 || roi.height < 8) return out;
+  RingView crop = view;  // shallow: headers on the view's own data
+  crop.image = grey(roi);
+  crop.map_x = view.map_x(roi);
+  SaddleOptions saddle_options;
+  saddle_options.min_contrast = options.saddle_min_contrast;
+  // Saddle points that read as X-junctions (an L-corner at a board's outer square passes the
+  // Hessian test), each with its polarity for both diagonals.
+  // The X test reads along the target's diagonals as the prediction orients them.
+  // A lattice junction matches only saddles of its own polarity (as the source ring shows it).
+  std::vector<Eigen::Vector2d> saddles, by_sign[2];  // all; dark diagonal (1,1), (1,-1)
+  const cv::Mat h0_inverse = h0.inv();
+  for (const cv::Point2f& s : SaddlePoints(crop, saddle_options)) {
+    const Eigen::Vector2d at(s.x + roi.x, s.y + roi.y);
+    const Junction probe{-1, Apply(h0_inverse, at), 0};
+    const int sign = Polarity(grey, h0, probe, lattice.polarity_offset_mm);
+    if (sign == 0) continue;
+    saddles.push_back(at);
+    by_sign[sign > 0 ? 0 : 1].push_back(at);
+  }
+  if (static_cast<int>(saddles.size()) < options.min_matched) return out;
+  const double cell = std::max(tolerance, 1.0);
+  const SaddleIndex any(saddles, cell), positive(by_sign[0], cell), negative(by_sign[1], cell);
+  // The saddle matching junction j at view pixel p; nullopt if none.
+  const auto match_of = [&](const Junction& j, const Eigen::Vector2d& p) -> std::optional<Eigen::Vector2d> {
+    const SaddleIndex& index = source_sign * (j.parity ? -1 : 1) > 0 ? positive : negative;
+    const int m = index.Nearest(p, tolerance);
+    if (m < 0) return std::nullopt;
+    return index.points()[m];
+  };
+
+  // The translation most junctions agree on, against every other.
+  std::set<std::pair<long, long>> tried;
+  std::vector<std::pair<int, Eigen::Vector2d>> scored;  // (in - ext, shift)
+  for (const auto& p : predicted) {
+    for (const auto& s : saddles) {
+      const Eigen::Vector2d shift = s - p;
+      if (shift.norm() > radius) continue;
+      const std::pair<long, long> key{std::lround(2 * shift.x() / tolerance),
+                                      std::lround(2 * shift.y() / tolerance)};
+      if (!tried.insert(key).second) continue;
+      int in = 0, ext = 0;
+      for (size_t i = 0; i < predicted.size(); ++i) in += match_of(lattice.corners[i], predicted[i] + shift).has_value();
+      for (const auto& e : extension) ext += any.Nearest(e + shift, tolerance) >= 0;
+      scored.emplace_back(in - ext, shift);
+    }
+  }
+  if (scored.empty()) return out;
+  // 3. The best translations (distinct by 2 tolerances), each refined to the homography of its
+  // matched saddles (RANSAC, then least squares on the tight matches: the prediction's scale
+  // and turn are off too) and scored again; the best must beat every other alignment.
+  std::sort(scored.begin(), scored.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+  struct Alignment {
+    cv::Mat h;
+    int score = 0, matched = 0, ext = 0;
+  };
+  const auto refine = [&](const Eigen::Vector2d& shift) {
+    Alignment a;
+    cv::Mat h = h0.clone();
+    h.row(0) += shift.x() * h.row(2);
+    h.row(1) += shift.y() * h.row(2);
+    for (int round = 0; round < 3; ++round) {
+      std::vector<Eigen::Vector2d> p, q;
+      for (const Junction& j : lattice.corners) {
+        const auto m = match_of(j, Apply(h, j.plane));
+        if (!m) continue;
+        p.push_back(j.plane);
+        q.push_back(*m);
+      }
+      const cv::Mat refit = FitHomography(p, q, round == 0 ? cv::RANSAC : 0, tolerance);
+      if (refit.empty()) break;
+      h = refit;
+    }
+    a.h = h;
+    for (const Junction& j : lattice.corners) a.matched += match_of(j, Apply(h, j.plane)).has_value();
+    for (const Junction& j : lattice.extension) a.ext += any.Nearest(Apply(h, j.plane), tolerance) >= 0;
+    a.score = a.matched - a.ext;
+    return a;
+  };
+  std::vector<Eigen::Vector2d> starts;
+  for (const auto& [score, shift] : scored) {
+    if (static_cast<int>(starts.size()) >= options.alignments_refined) break;
+    bool distinct = true;
+    for (const auto& s0 : starts) distinct &= (shift - s0).norm() > 2 * tolerance;
+    if (distinct) starts.push_back(shift);
+  }
+  std::vector<Alignment> alignments;
+  for (const auto& shift : starts) alignments.push_back(refine(shift));
+  std::sort(alignments.begin(), alignments.end(), [](const auto& a, const auto& b) { return a.score > b.score; });
+  Eigen::Vector2d centre = Eigen::Vector2d::Zero();
+  for (const Junction& j : lattice.corners) centre += j.plane / lattice.corners.size();
+  const Alignment& best = alignments.front();
+  int second = 0;
+  for (size_t k = 1; k < alignments.size(); ++k) {
+    if ((Apply(alignments[k].h, centre) - Apply(best.h, centre)).norm() > tolerance) {
+      second = std::max(second, alignments[k].score);
+    }
+  }
+  if (best.matched < options.min_matched ||
+      best.score - second < std::max<double>(options.min_margin, options.min_margin_fraction * best.score)) {
+    return out;
+  }
+  const cv::Mat h = best.h;
+  const int matched = best.matched;
+  if (best.ext > options.max_extension_fraction * matched) return out;
+  std::vector<int> match(lattice.corners.size(), -1);
+  for (size_t i = 0; i < lattice.corners.size(); ++i) {
+    match[i] = match_of(lattice.corners[i], Apply(h, lattice.corners[i].plane)) ? 1 : -1;
+  }
+
+  // 4. Refinement of the matched junctions the ring does not have yet.
+  const bool chessboard = target.type == TargetType::kChessboard;
+  std::map<int, Eigen::Vector2d> refined;  // id -> raw pixel
+  std::map<int, size_t> index_of;
+  for (size_t i = 0; i < lattice.corners.size(); ++i) index_of[lattice.corners[i].id] = i;
+  const auto raw_of = [&](int id) -> std::optional<Eigen::Vector2d> {
+    const auto it = index_of.find(id);
+    if (it == index_of.end()) return std::nullopt;
+    return view.ViewToRaw(Apply(h, lattice.corners[it->second].plane));
+  };
+  if (chessboard) {
+    const int n = target.rows * target.cols;
+    std::vector<std::optional<Eigen::Vector2d>> corners(n);
+    std::vector<int> halves(n, 1);
+    std::vector<double> sides(n, 0);
+    // The ring's own corners take part as the guided ones' neighbours (their lines, their
+    // windows' check), as in the per-ring detector's board; only the guided ones are reported.
+    std::map<int, Eigen::Vector2d> own_raw;
+    for (size_t i = 0; i < own.ids.size(); ++i) own_raw[own.ids[i]] = own.raw[i];
+    for (int id = 0; id < n; ++id) {
+      const size_t i = index_of[id];
+      const bool is_own = own_raw.count(id) > 0;
+      if (match[i] < 0 && !is_own) continue;
+      const auto start = is_own ? std::optional<Eigen::Vector2d>(own_raw[id]) : raw_of(id);
+      if (!start) continue;
+      const int r = id / target.cols, c = id % target.cols;
+      double side = 1e9;
+      for (auto [dr, dc] : {std::pair{0, 1}, {0, -1}, {1, 0}, {-1, 0}}) {
+        const int rr = r + dr, cc = c + dc;
+        if (rr < 0 || cc < 0 || rr >= target.rows || cc >= target.cols) continue;
+        if (const auto q = raw_of(rr * target.cols + cc)) side = std::min(side, (*q - *start).norm());
+      }
+      if (side > 1e8) continue;
+      // The per-ring detector's window (chessboard_detector.cc MakeBoard): 0.55 squares.
+      const int half = side < 3.0 ? 1 : std::clamp(static_cast<int>(std::lround(0.55 * side)), 2, 8);
+      Eigen::Vector2d pixel = *start;
+      if (!is_own && !RefineCornerInRaw(raw_grey, half, &pixel)) continue;
+      if ((pixel - *start).norm() > std::max(1.5, 0.3 * side)) continue;
+      corners[id] = pixel;
+      halves[id] = half;
+      sides[id] = side;
+    }
+    KeepWindowsOnTheirSquares(raw_grey, target.rows, target.cols, sides, 2, &halves, &corners);
+    RemoveCurvatureBias(target.rows, target.cols, halves, &corners);
+    for (int id = 0; id < n; ++id) {
+      if (corners[id] && !have.count(id)) refined[id] = *corners[id];
+    }
+  } else {
+    const KalibrDetectorOptions kalibr;
+    for (size_t i = 0; i < lattice.corners.size(); ++i) {
+      const int id = lattice.corners[i].id;
+      if (match[i] < 0 || have.count(id)) continue;
+      const int tag = id / 4, k = id % 4;
+      const auto raw = raw_of(id), next = raw_of(4 * tag + (k + 1) % 4), previous = raw_of(4 * tag + (k + 3) % 4);
+      if (!raw || !next || !previous) continue;
+      double side_view = 0;
+      for (int m = 0; m < 4; ++m) {
+        side_view += 0.25 * (Apply(h, lattice.corners[index_of[4 * tag + (m + 1) % 4]].plane) -
+                             Apply(h, lattice.corners[index_of[4 * tag + m]].plane)).norm();
+      }
+      Eigen::Vector2d in_view;
+      if (!RefineSaddleCorner(grey, Apply(h, lattice.corners[i].plane),
+                              static_cast<int>(std::lround(0.15 * side_view)), 0.1 * side_view, &in_view)) {
+        continue;
+      }
+      const auto pixel = view.ViewToRaw(in_view);
+      if (!pixel) continue;
+      const double side_raw = std::min((*next - *raw).norm(), (*previous - *raw).norm());
+      if (!IsKalibrXJunction(raw_grey, *pixel, (*next - *raw).normalized(), (*previous - *raw).normalized(),
+                             std::max(1.5, 0.12 * side_raw), kalibr.min_contrast)) {
+        continue;
+      }
+      refined[id] = *pixel;
+    }
+  }
+  if (refined.empty() || (own.ids.empty() && static_cast<int>(refined.size()) < options.min_kept)) return out;
+
+  // 5. The grid check with the ring's own corners of the target.
+  std::vector<GridCorner> grid;
+  for (size_t i = 0; i < own.ids.size(); ++i) grid.push_back({own.plane[i].head<2>(), own.raw[i], v});
+  std::vector<int> guided_ids;
+  for (const auto& [id, pixel] : refined) {
+    grid.push_back({CornerInTarget(target, id).head<2>(), pixel, v});
+    guided_ids.push_back(id);
+  }
+  const std::vector<GridFit> fits = CornersFittingTargetHomography(views, model, grid, options.grid_check);
+  std::vector<io::CornerObservation> kept;
+  for (size_t g = 0; g < guided_ids.size(); ++g) {
+    const GridFit& fit = fits[own.ids.size() + g];
+    if (!fit.keep || fit.residual_px < 0) continue;
+    io::CornerObservation o;
+    o.target = ti;
+    o.id = guided_ids[g];
+    o.mirror = MirrorIndex(dest);
+    o.pixel = refined[guided_ids[g]];
+    kept.push_back(o);
+  }
+  // Ids anchored by the ring's own corners need no quorum; ids from the other ring do.
+  if (own.ids.empty() && static_cast<int>(kept.size()) < options.min_kept) return out;
+  return kept;
+}
+
+}  // namespace
+
+std::vector<io::CornerObservation> GuidedCorners(const cv::Mat& raw_grey,
+                                                 const std::vector<RingView>& views,
+                                                 const RigModel& model,
+                                                 const std::vector<TargetSpec>& targets,
+                                                 const std::vector<io::CornerObservation>& found,
+                                                 const GuidedOptions& options) {
+  std::vector<io::CornerObservation> out;
+  if (!options.enabled) return out;
+  for (size_t ti = 0; ti < targets.size(); ++ti) {
+    const TargetSpec& target = targets[ti];
+    const std::optional<Lattice> lattice = LatticeOf(target);
+    if (!lattice) continue;
+    // Chessboards of one pattern cannot be told apart (the detector reports the first): the
+    // seed's size would be a guess.
+    bool unique = true;
+    for (size_t tj = 0; tj < targets.size(); ++tj) {
+      unique &= tj == ti || targets[tj].type != target.type || target.type != TargetType::kChessboard ||
+                targets[tj].rows != target.rows || targets[tj].cols != target.cols;
+    }
+    if (!unique) continue;
+    Seeds ring[2];
+    for (const io::CornerObservation& o : found) {
+      if (o.target != static_cast<int>(ti) || !HasCorner(target, o.id)) continue;
+      Seeds& s = ring[o.mirror - 1];
+      s.plane.push_back(CornerInTarget(target, o.id));
+      s.raw.push_back(o.pixel);
+      s.ids.push_back(o.id);
+    }
+    for (int d = 0; d < 2; ++d) {
+      const Seeds& source = ring[1 - d];
+      if (static_cast<int>(source.ids.size()) < options.min_seed_corners) continue;
+      if (static_cast<int>(ring[d].ids.size()) >= CornerCount(target)) continue;
+      const Mirror dest = d == 0 ? Mirror::kOne : Mirror::kTwo;
+      const Mirror from = d == 0 ? Mirror::kTwo : Mirror::kOne;
+      for (io::CornerObservation& o : GuideTarget(raw_grey, views, model, targets, static_cast<int>(ti),
+                                                  *lattice, source, from, ring[d], dest, options)) {
+        // Not where the ring already has a corner of another target.
+        bool taken = false;
+        for (const io::CornerObservation& f : found) {
+          taken |= f.mirror == o.mirror && (f.pixel - o.pixel).norm() < 2.0;
+        }
+        if (!taken) out.push_back(o);
+      }
+    }
+  }
+  return out;
+}
+
+}  // namespace omni::detectors

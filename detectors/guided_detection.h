@@ -1,0 +1,81 @@
+// Guided detection across rings (issue 17): a target identified in one ring gives its pose, the
+// pose predicts its X-junctions in the other ring, and they are looked for there without
+// decoding. For the inner ring's small tags (under 2 raw px per bit: too small to read) and
+// chessboards that one ring's finders lose (cut by a ring's edge, near boards), whose
+// X-junctions are still sharp.
+//
+// Per target found in ring s (chessboards: their corners; Kalibr AprilGrids: their read tags'
+// corners; at least min_seed_corners) and missing corners in ring d:
+//  1. cam_from_target from ring s's corners (calib::CentralPoseFromRing, the model's rays);
+//     projected through ring d (RigModel::Project) and taken into the view of ring d that holds
+//     most of them (RawToView): in a view the target is a homography of its plane, H0. Where
+//     ring d already has corners of the target, H0 is fitted to them instead.
+//  2. The model's prediction is 10-25 raw px off on an ideal model of a misaligned rig, more than
+//     a near board's square: the target's lattice (its X-junctions) is matched to the view's
+//     saddle points (saddle_points.h) by the translation that the most junctions agree on, scored
+//     minus the junctions that the lattice extended by one row / column around the target would
+//     also find (a lattice shifted by one row or column finds its extension on the board). The
+//     best translation must beat every other by a margin, or the target is left alone (a board
+//     cut on both sides of one direction cannot be told from its shift).
+//  3. A homography fitted to the matched saddles (RANSAC, then least squares on the tight
+//     matches); every junction's polarity (which diagonal is dark) against its parity must agree
+//     with the one ring s shows (a one-square shift of a chessboard flips it; Kalibr: a shift by
+//     a gap does).
+//  4. Each matched junction refined as the per-ring detector refines its kind: chessboards by
+//     cornerSubPix in the raw image (corner_refine.h, windows kept on their squares, curvature
+//     bias removed), Kalibr corners by cornerSubPix in the view mapped to raw and checked to be
+//     whole X-junctions in the raw image.
+//  5. The grid check (tag_grid_check.h) on all the target's corners in ring d, the found ones and
+//     the guided ones: a guided corner is kept only if checked and within its tolerance.
+// Ids come from the target's lattice, fixed by ring s's ids and the alignment; a wrong
+// alignment would give every corner a wrong id, so where any check is in doubt nothing is kept.
+#pragma once
+
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "detectors/tag_grid_check.h"
+#include "detectors/views.h"
+#include "model/io/detections_file.h"
+#include "model/rig_model.h"
+#include "model/target.h"
+
+namespace omni::detectors {
+
+struct GuidedOptions {
+  bool enabled = true;
+  int min_seed_corners = 6;          // corners of the target in the seeding ring
+  // How far (raw px) the model's prediction may be off: the translation search radius.
+  double max_prediction_error_px = 30;
+  // Saddle points count from this contrast (grey levels; SaddlePoints): lower than the per-ring
+  // detectors' 125, the lattice is the evidence here.
+  double saddle_min_contrast = 50;
+  // A lattice junction matches a saddle within this fraction of the distance to its nearest
+  // other junction (view px).
+  double match_fraction = 0.3;
+  int min_matched = 6;
+  // The best translation's score must exceed every other's by this many junctions and by this
+  // fraction of its own score.
+  int min_margin = 3;
+  double min_margin_fraction = 0.2;
+  // Junctions of the lattice's extension found (a lattice that goes on beyond the target: a
+  // shifted alignment or a bigger board) above this fraction of the matched ones: refused.
+  double max_extension_fraction = 0.1;
+  // Polarity (step 3): this fraction of the matched junctions must agree with ring s.
+  double min_polarity_agreement = 0.8;
+  int alignments_refined = 6;  // best distinct translations refined to homographies
+  int min_kept = 4;  // fewer guided corners of a target in a ring after the checks: none kept
+  TagGridCheckOptions grid_check;
+};
+
+// Guided corners (only ids not in `found` for their target and ring) from the targets `found`
+// holds. `raw_grey`: the raw image as CV_8U grey; `views` rendered from it (RenderViews).
+std::vector<io::CornerObservation> GuidedCorners(const cv::Mat& raw_grey,
+                                                 const std::vector<RingView>& views,
+                                                 const RigModel& model,
+                                                 const std::vector<TargetSpec>& targets,
+                                                 const std::vector<io::CornerObservation>& found,
+                                                 const GuidedOptions& options = {});
+
+}  // namespace omni::detectors

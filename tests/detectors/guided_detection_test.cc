@@ -1,0 +1,157 @@
+// Guided detection across rings (detectors/guided_detection.h) on POV-Ray windows of
+// near_scene's placements (the issue-17 session) through big_rig_large_reflex and the realistic
+// camera preset, scored against the exact truth (ComputeTruth): targets that the outer ring
+// identifies and the inner ring's detectors lose (a 16 mm chessboard at 0.44 m, 80 mm Kalibr
+// tags at 0.9 m: ~1.5 raw px per bit) are found in the inner ring from the outer ring's pose,
+// with the true model and with the ideal design of the same size (the prediction then 10-25 raw
+// px off), ids right or absent.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "calib/synthetic/camera_effects.h"
+#include "calib/synthetic/scene.h"
+#include "calib/synthetic/scene_file.h"
+#include "calib/synthetic/tag_texture.h"
+#include "detectors/detect_image.h"
+#include "model/io/model_file.h"
+#include "tests/detectors/nearest_truth.h"
+#include "tests/detectors/render_window.h"
+#include "tests/temp_dir.h"
+
+namespace omni::detectors {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct RingScore {
+  int visible = 0, found = 0, guided = 0, wrong = 0;
+  double mean = 0, worst = 0;
+};
+
+// One placement of near_scene (image `image_index`, its target `target`) rendered alone in
+// windows and taken through the realistic camera.
+struct Case {
+  RigParams rig;
+  synthetic::Scene scene;
+  std::vector<synthetic::CornerTruth> truth;
+  cv::Mat photo;
+};
+
+Case RenderCase(int image_index, int target, const std::string& name) {
+  Case c;
+  const std::string configs = std::string(OMNISTEREO_SOURCE_DIR) + "/sample_configs/";
+  c.rig = io::ReadModelFile(configs + "big_rig_large_reflex.yaml");
+  const RigModel model(c.rig);
+  const synthetic::Scene near = synthetic::ReadSceneFile(configs + "near_scene.yaml", model);
+  c.scene.targets = near.targets;
+  synthetic::SceneImage image{name, {}};
+  for (const synthetic::Placement& p : near.images.at(image_index).placements) {
+    if (p.target == target) image.placements.push_back(p);
+  }
+  EXPECT_EQ(image.placements.size(), 1u);
+  c.scene.images.push_back(image);
+  c.truth = synthetic::ComputeTruth(model, c.scene, image);
+  const std::string dir = omni::testing::UniqueTempDir("omni_guided_" + name);
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  cv::Mat pinhole(c.rig.image_height, c.rig.image_width, CV_16UC3, cv::Scalar::all(0));
+  std::string error;
+  EXPECT_TRUE(synthetic::WriteTagTextures(c.scene.targets, dir, &error)) << error;
+  EXPECT_TRUE(omni::testing::RenderTargetWindows(c.rig, c.scene, image, c.truth, dir, &pinhole, &error))
+      << error;
+  const synthetic::CameraEffects camera = *synthetic::CameraPreset("realistic");
+  std::vector<uchar> jpeg;
+  EXPECT_TRUE(synthetic::EncodeCameraImage(synthetic::ApplyCamera(pinhole, c.rig, camera, 11), camera, &jpeg));
+  c.photo = cv::imdecode(jpeg, cv::IMREAD_UNCHANGED);
+  cv::imwrite(dir + "/camera.jpg", c.photo);  // to look at when the test fails
+  return c;
+}
+
+// Detects with `detector_rig` as the model (guided on or off) and scores per ring.
+std::array<RingScore, 2> Detect(const Case& c, const RigParams& detector_rig, bool guided_on) {
+  DetectorContext ctx(detector_rig, c.scene.targets, /*use_lips=*/false);
+  ctx.tone = io::ToneCurve::kSrgb;
+  ctx.guided.enabled = guided_on;
+  std::vector<bool> guided;
+  const io::ImageDetections det = DetectImage(c.photo, &ctx, nullptr, &guided);
+  std::array<RingScore, 2> s;
+  for (const auto& t : c.truth) {
+    for (int m = 0; m < 2; ++m) s[m].visible += t.pixel[m].has_value();
+  }
+  for (size_t k = 0; k < det.corners.size(); ++k) {
+    const io::CornerObservation& o = det.corners[k];
+    RingScore& r = s[o.mirror - 1];
+    double d = 0;
+    const synthetic::CornerTruth* near = omni::testing::NearestTruth(c.truth, o.mirror, o.pixel, &d);
+    if (!near || d > 3 || near->id != o.id || near->target != o.target) {
+      ++r.wrong;
+      continue;
+    }
+    ++r.found;
+    r.guided += guided[k];
+    r.mean += d;
+    r.worst = std::max(r.worst, d);
+  }
+  for (RingScore& r : s) r.mean /= std::max(1, r.found);
+  return s;
+}
+
+// The rig's ideal design (no misalignment, same size and reflex disc): what a user starts from.
+RigParams Ideal(RigParams rig) {
+  rig.mirror1_pose.fill(0);
+  rig.mirror2_pose.fill(0);
+  rig.reflex.fill(0);
+  return rig;
+}
+
+void Print(const char* what, const std::array<RingScore, 2>& s) {
+  for (int m = 0; m < 2; ++m) {
+    std::printf("%s ring %d: %d of %d corners (%d guided), mean %.3f px, max %.3f px, %d wrong\n",
+                what, m + 1, s[m].found, s[m].visible, s[m].guided, s[m].mean, s[m].worst, s[m].wrong);
+  }
+}
+
+void ExpectGuidedInnerRing(const Case& c, double min_fraction, double max_mean, double max_worst) {
+  const auto without = Detect(c, c.rig, false);
+  const auto with = Detect(c, c.rig, true);
+  const auto ideal = Detect(c, Ideal(c.rig), true);
+  Print("unguided", without);
+  Print("guided", with);
+  Print("guided, ideal model", ideal);
+  // The case needs guidance: the inner ring's own detectors find at most half of it.
+  EXPECT_LE(without[1].found, 0.5 * without[1].visible);
+  EXPECT_GE(with[0].found, 0.95 * with[0].visible);
+  for (const auto* s : {&with, &ideal}) {
+    EXPECT_GE((*s)[1].found, min_fraction * (*s)[1].visible);
+    EXPECT_GT((*s)[1].guided, 0);
+    EXPECT_LE((*s)[1].mean, max_mean);
+    EXPECT_LE((*s)[1].worst, max_worst);
+    EXPECT_EQ((*s)[0].wrong + (*s)[1].wrong, 0);
+  }
+}
+
+TEST(GuidedDetection, NearChessboardInTheInnerRingFromTheOuterRing) {
+  // near_scene 0005: the 4x7 chessboard of 16 mm squares at 0.44 m (~4 raw px squares in the
+  // inner ring). Measured: 27 / 26 of 28 (true / ideal model), mean 0.19 px, max 0.34 px; a
+  // wrong id would be a square off.
+  const Case c = RenderCase(4, 0, "chess");
+  ExpectGuidedInnerRing(c, 0.9, 0.25, 0.5);
+}
+
+TEST(GuidedDetection, SmallKalibrTagsInTheInnerRingFromTheOuterRing) {
+  // near_scene 0004: the 2x4 Kalibr AprilGrid of 80 mm tags at 0.91 m (~1.5 raw px per bit in
+  // the inner ring). Measured: 15 of 32 found, mean 0.34 px, max 0.57-0.61 px (true and ideal
+  // model): the X-junctions between a 4.5 px corner square and the tag's 3 px border refine no
+  // better here (RefineSaddleCorner, as the Kalibr detector's own: 0.27 px on this target in
+  // near_scene), and the grid check drops the 0.5 px ones; a wrong id would be a gap (4.5 px) off.
+  const Case c = RenderCase(3, 4, "kalibr");
+  ExpectGuidedInnerRing(c, 0.4, 0.4, 0.75);
+}
+
+}  // namespace
+}  // namespace omni::detectors
