@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <memory>
+#include <tuple>
 #include <unordered_map>
 
 #include <Eigen/Dense>
@@ -70,23 +71,29 @@ double CellValue(const cv::Mat& grey, const cv::Matx33d& H, double cx, double cy
   return sum / 9;
 }
 
-// Reads the tag whose outer corners in the view are quad[(r + j) % 4], j = top-left, top-right,
-// bottom-right, bottom-left as printed. Returns the tag id or -1.
-int DecodeRotation(const cv::Mat& grey, const std::array<cv::Point2f, 4>& quad, int r,
-                   const KalibrDetectorOptions& options, cv::Matx33d* H_out) {
+// A quad's cells (CellValue) sampled once, with the homography of rotation 0 (tag corners
+// TL, TR, BR, BL as printed -> quad[0..3]). Reading the quad in rotation r only permutes them: a
+// quarter turn of the tag square takes cell (x, y) to (kBits - 1 - y, x) and CellValue's 3 x 3
+// samples onto themselves, so the border test is the same in every rotation and is done once.
+struct QuadCells {
+  double cell[kBits][kBits];  // [y][x]; the data cells (2..kBits-3 each way) only
+  double threshold = 0, contrast = 0;
+};
+
+// Samples the quad's cells and tests its border. Black: the 2-bit border. White: the middle of
+// the gap (3 bits wide) along each side, clear of the corner squares. False if the border is not
+// black against white gaps by options.min_contrast, or any border cell is outside the view.
+bool SampleQuadCells(const cv::Mat& grey, const std::array<cv::Point2f, 4>& quad,
+                     const KalibrDetectorOptions& options, QuadCells* cells) {
   const cv::Point2f tag[4] = {{0, 0}, {kBits, 0}, {kBits, kBits}, {0, kBits}};
-  cv::Point2f image[4];
-  for (int j = 0; j < 4; ++j) image[j] = quad[(r + j) % 4];
-  const cv::Matx33d H(cv::getPerspectiveTransform(tag, image));
-  // Black: the 2-bit border. White: the middle of the gap (3 bits wide) along each side, clear
-  // of the corner squares.
+  const cv::Matx33d H(cv::getPerspectiveTransform(tag, quad.data()));
   double black = 0, black_max = 0, white = 0;
   int n_black = 0, n_white = 0;
   for (int y = 0; y < kBits; ++y) {
     for (int x = 0; x < kBits; ++x) {
       if (x >= 2 && x < kBits - 2 && y >= 2 && y < kBits - 2) continue;
       const double v = CellValue(grey, H, x, y);
-      if (v < 0) return -1;
+      if (v < 0) return false;
       black += v;
       black_max = std::max(black_max, v);
       ++n_black;
@@ -101,24 +108,34 @@ int DecodeRotation(const cv::Mat& grey, const std::array<cv::Point2f, 4>& quad, 
       ++n_white;
     }
   }
-  if (n_white < kBits) return -1;
+  if (n_white < kBits) return false;
   black /= n_black;
   white /= n_white;
-  const double contrast = white - black;
-  if (contrast < options.min_contrast) return -1;
-  const double threshold = 0.5 * (black + white);
-  if (black_max > threshold) return -1;
+  cells->contrast = white - black;
+  if (cells->contrast < options.min_contrast) return false;
+  cells->threshold = 0.5 * (black + white);
+  if (black_max > cells->threshold) return false;
+  for (int y = 2; y < kBits - 2; ++y) {
+    for (int x = 2; x < kBits - 2; ++x) cells->cell[y][x] = CellValue(grey, H, x, y);
+  }
+  return true;
+}
+
+// The tag read from the cells with tag corner j at quad[(r + j) % 4]: its id, or -1.
+int ReadRotation(const QuadCells& cells, int r, const KalibrDetectorOptions& options) {
   const Family& family = Tag36h11();
   uint64_t code = 0;
   for (uint32_t i = 0; i < family.nbits; ++i) {
-    const double v = CellValue(grey, H, family.bit_x[i] + kBorderShift, family.bit_y[i] + kBorderShift);
-    if (v < 0 || std::abs(v - threshold) < options.min_bit_margin * contrast) return -1;
-    code = (code << 1) | (v > threshold ? 1u : 0u);
+    int x = family.bit_x[i] + kBorderShift, y = family.bit_y[i] + kBorderShift;
+    for (int k = 0; k < r; ++k) std::tie(x, y) = std::make_pair(kBits - 1 - y, x);
+    const double v = cells.cell[y][x];
+    if (v < 0 || std::abs(v - cells.threshold) < options.min_bit_margin * cells.contrast) {
+      return -1;
+    }
+    code = (code << 1) | (v > cells.threshold ? 1u : 0u);
   }
   const auto it = family.id_of_code.find(code);
-  if (it == family.id_of_code.end()) return -1;
-  *H_out = H;
-  return it->second;
+  return it == family.id_of_code.end() ? -1 : it->second;
 }
 
 // Reads a quad (view pixels, TL, TR, BR, BL as printed up to a rotation) in all four rotations:
@@ -126,14 +143,21 @@ int DecodeRotation(const cv::Mat& grey, const std::array<cv::Point2f, 4>& quad, 
 // reads (two readings of one quad: neither is trusted).
 int DecodeQuad(const cv::Mat& grey, const std::array<cv::Point2f, 4>& quad,
                const KalibrDetectorOptions& options, cv::Matx33d* H) {
-  int id = -1;
+  QuadCells cells;
+  if (!SampleQuadCells(grey, quad, options, &cells)) return -1;
+  int id = -1, rotation = 0;
   for (int r = 0; r < 4; ++r) {
-    cv::Matx33d H_r;
-    const int id_r = DecodeRotation(grey, quad, r, options, &H_r);
+    const int id_r = ReadRotation(cells, r, options);
     if (id_r < 0) continue;
     if (id >= 0) return -1;
     id = id_r;
-    *H = H_r;
+    rotation = r;
+  }
+  if (id >= 0) {
+    const cv::Point2f tag[4] = {{0, 0}, {kBits, 0}, {kBits, kBits}, {0, kBits}};
+    cv::Point2f image[4];
+    for (int j = 0; j < 4; ++j) image[j] = quad[(rotation + j) % 4];
+    *H = cv::Matx33d(cv::getPerspectiveTransform(tag, image));
   }
   return id;
 }
