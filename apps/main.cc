@@ -1,8 +1,10 @@
 // omnistereo <command> [--flags]: the toolkit's one executable (DESIGN.md §5).
+#include <algorithm>
 #include <cstdio>
 #include <cstring>
 #include <exception>
 #include <string>
+#include <vector>
 
 #include <gflags/gflags.h>
 #include <glog/logging.h>
@@ -27,6 +29,54 @@ void PrintCommandHelp(const Command& c) {
     if (!info.default_value.empty()) std::printf("  [default: %s]", info.default_value.c_str());
     std::printf("\n");
   }
+}
+
+// Edit distance (insertions, deletions, substitutions, transpositions of neighbours).
+int EditDistance(const std::string& a, const std::string& b) {
+  std::vector<std::vector<int>> d(a.size() + 1, std::vector<int>(b.size() + 1));
+  for (std::size_t i = 0; i <= a.size(); ++i) d[i][0] = static_cast<int>(i);
+  for (std::size_t j = 0; j <= b.size(); ++j) d[0][j] = static_cast<int>(j);
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      d[i][j] = std::min({d[i - 1][j] + 1, d[i][j - 1] + 1,
+                          d[i - 1][j - 1] + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      if (i > 1 && j > 1 && a[i - 1] == b[j - 2] && a[i - 2] == b[j - 1]) {
+        d[i][j] = std::min(d[i][j], d[i - 2][j - 2] + 1);
+      }
+    }
+  }
+  return d[a.size()][b.size()];
+}
+
+// The first argument that looks like a flag (-name, --name, --name=value, --noname for a bool)
+// but names none gflags knows, with the closest of the command's flags; empty if all are known.
+// gflags itself is told to allow unknown flags (it is re-parsed per command), so a misspelt
+// --modle would otherwise be dropped and its value reported as an unexpected argument.
+std::string UnknownFlagMessage(const Command& command, int argc, char** argv) {
+  for (int i = 2; i < argc; ++i) {
+    const std::string arg = argv[i];
+    if (arg == "--") break;
+    if (arg.size() < 2 || arg[0] != '-') continue;
+    std::string name = arg.substr(arg[1] == '-' ? 2 : 1);
+    name = name.substr(0, name.find('='));
+    gflags::CommandLineFlagInfo info;
+    if (gflags::GetCommandLineFlagInfo(name.c_str(), &info)) continue;
+    if (name.rfind("no", 0) == 0 && gflags::GetCommandLineFlagInfo(name.substr(2).c_str(), &info) &&
+        info.type == "bool") {
+      continue;
+    }
+    std::string message = "unknown flag --" + name;
+    std::string best;
+    int best_distance = 3;  // suggest only near misses
+    for (const std::string& flag : command.flags) {
+      const int distance = EditDistance(name, flag);
+      if (distance < best_distance) best_distance = distance, best = flag;
+    }
+    message += best.empty() ? " (omnistereo " + std::string(command.name) + " --help lists its flags)"
+                            : "; did you mean --" + best + "?";
+    return message;
+  }
+  return "";
 }
 
 }  // namespace
@@ -54,6 +104,10 @@ int main(int argc, char** argv) {
       PrintCommandHelp(*command);
       return 0;
     }
+  }
+  if (const std::string unknown = UnknownFlagMessage(*command, argc, argv); !unknown.empty()) {
+    std::fprintf(stderr, "omnistereo %s: %s\n", command->name, unknown.c_str());
+    return 2;
   }
   // Shift so that gflags sees "omnistereo-<command> --flags".
   std::string program = std::string("omnistereo ") + command->name;

@@ -3,15 +3,69 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstdio>
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <filesystem>
+#include <mutex>
 #include <vector>
 
+#include <opencv2/core/utils/logger.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-
 namespace omni::io {
 namespace {
+
+// Decodes an image file with the decoders' own messages kept off stderr: libpng prints
+// "libpng error: ..." itself for a damaged PNG (OpenCV offers no hook) and OpenCV logs a warning
+// for a file it cannot decode. Our one line (UnreadableImage) says it instead. stderr (fd 2) is
+// pointed at /dev/null only while decoding, under a lock.
+cv::Mat DecodeQuietly(const std::string& path) {
+  static std::mutex mutex;
+  std::lock_guard<std::mutex> lock(mutex);
+  cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_SILENT);
+  std::fflush(stderr);
+  const int saved = ::dup(2);
+  const int null = ::open("/dev/null", O_WRONLY);
+  if (saved >= 0 && null >= 0) ::dup2(null, 2);
+  cv::Mat image;
+  try {
+    image = cv::imread(path, cv::IMREAD_UNCHANGED);
+  } catch (const cv::Exception&) {
+    image.release();
+  }
+  std::fflush(stderr);
+  if (saved >= 0 && null >= 0) ::dup2(saved, 2);
+  if (null >= 0) ::close(null);
+  if (saved >= 0) ::close(saved);
+  return image;
+}
+
+// True for a JPEG file (starts with the SOI marker FF D8) with no end-of-image marker (FF D9)
+// near its end: a file cut short in copying. libjpeg decodes such a file with its missing part
+// grey, and says so only on stderr.
+bool IsTruncatedJpeg(const std::string& path) {
+  std::FILE* f = std::fopen(path.c_str(), "rb");
+  if (!f) return false;
+  unsigned char head[2] = {0, 0};
+  const bool jpeg = std::fread(head, 1, 2, f) == 2 && head[0] == 0xFF && head[1] == 0xD8;
+  bool end_marker = false;
+  if (jpeg) {
+    std::fseek(f, 0, SEEK_END);
+    const long size = std::ftell(f);
+    const long tail = std::min(size, 4096L);  // cameras may pad after the marker
+    std::vector<unsigned char> bytes(static_cast<std::size_t>(tail));
+    std::fseek(f, size - tail, SEEK_SET);
+    const std::size_t got = std::fread(bytes.data(), 1, bytes.size(), f);
+    for (std::size_t i = 0; i + 1 < got && !end_marker; ++i) {
+      end_marker = bytes[i] == 0xFF && bytes[i + 1] == 0xD9;
+    }
+  }
+  std::fclose(f);
+  return jpeg && !end_marker;
+}
 
 std::string Lower(std::string s) {
   std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return std::tolower(c); });
@@ -153,7 +207,11 @@ cv::Mat ReadImage(const std::string& path, BayerPattern bayer) {
     throw UnreadableImage(path + ": cannot read the image: expected an image file, got " +
                      (std::filesystem::exists(path, ec) ? "a folder or special file" : "no such file"));
   }
-  cv::Mat image = cv::imread(path, cv::IMREAD_UNCHANGED);
+  if (IsTruncatedJpeg(path)) {
+    throw UnreadableImage(path + ": cannot read the image: expected a whole JPEG file, got one "
+                                 "cut short (no end-of-image marker)");
+  }
+  cv::Mat image = DecodeQuietly(path);
   if (image.empty()) {
     throw UnreadableImage(path + ": cannot read the image: expected a PNG, TIFF or JPEG file, got one that cannot be decoded");
   }

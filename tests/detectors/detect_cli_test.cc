@@ -65,6 +65,46 @@ TEST(DetectCliTest, BadImagesAreSkippedWithOneLineEach) {
   EXPECT_EQ(det.session, "session.yaml");
 }
 
+// Files cut short in copying: a PNG whose decoder fails (libpng would print its own "libpng
+// error" line) and a JPEG with no end-of-image marker (libjpeg would decode it with its missing
+// part grey and say so only on stderr): each is skipped with our one line and nothing else.
+TEST(DetectCliTest, FilesCutShortAreSkippedWithOurLineOnly) {
+  const fs::path dir = MakeDir("cut_short");
+  cv::Mat noise(960, 1280, CV_8UC3);
+  cv::randu(noise, 0, 255);
+  std::vector<uchar> png, jpeg;
+  cv::imencode(".png", noise, png);
+  cv::imencode(".jpg", noise, jpeg);
+  std::ofstream(dir / "cut.png", std::ios::binary)
+      .write(reinterpret_cast<const char*>(png.data()), static_cast<long>(png.size() / 2));
+  std::ofstream(dir / "cut.jpg", std::ios::binary)
+      .write(reinterpret_cast<const char*>(jpeg.data()), static_cast<long>(jpeg.size() / 2));
+  cv::imwrite((dir / "grey.png").string(), cv::Mat(960, 1280, CV_8U, cv::Scalar(128)));
+  WriteSession(dir, "[cut.png, cut.jpg, grey.png]", "lips: false\n");
+  std::string err, out;
+  EXPECT_EQ(Detect(dir, &err, &out), 0) << err;
+  EXPECT_NE(err.find("cut.png: cannot read the image"), std::string::npos) << err;
+  EXPECT_NE(err.find("cut.jpg: cannot read the image: expected a whole JPEG file"),
+            std::string::npos) << err;
+  EXPECT_EQ(err.find("libpng"), std::string::npos) << err;
+  EXPECT_EQ(err.find("JPEG"), err.find("JPEG file")) << err;  // no libjpeg "Corrupt JPEG data"
+  // The two files, grey.png's "no target corners found" and its progress line.
+  EXPECT_EQ(Lines(err), 4) << err;
+  EXPECT_NE(out.find("1 of 3 images used (2 skipped)"), std::string::npos) << out;
+}
+
+// A misspelt flag is named, with the command's flag it is closest to.
+TEST(DetectCliTest, MisspeltFlagIsNamed) {
+  const fs::path dir = MakeDir("flag");
+  std::string err;
+  const int code = testing::RunOmnistereo("detect --sesion " + (dir / "session.yaml").string() +
+                                              " --out=" + (dir / "det.yaml").string(),
+                                          dir / "err.txt", &err, dir / "out.txt", nullptr);
+  EXPECT_EQ(code, 2);
+  EXPECT_EQ(err, "omnistereo detect: unknown flag --sesion; did you mean --session?\n");
+  EXPECT_FALSE(fs::exists(dir / "det.yaml"));
+}
+
 TEST(DetectCliTest, NoUsableImageWritesNothing) {
   const fs::path dir = MakeDir("none");
   std::ofstream(dir / "broken.png") << "not a png";
