@@ -10,6 +10,7 @@
 #include <opencv2/calib3d.hpp>
 
 #include "calib/initial_pose.h"
+#include "detectors/apriltag_detector.h"
 #include "detectors/corner_refine.h"
 #include "detectors/kalibr_detector.h"
 #include "detectors/saddle_points.h"
@@ -17,15 +18,17 @@
 namespace omni::detectors {
 namespace {
 
-// A target's X-junctions on its plane (mm): the corners it reports (ids) and, for the alignment's
+// A target's junctions on its plane (mm): the corners it reports (ids) and, for the alignment's
 // test, one row / column of the same lattice beyond them all round (no id).
-// parity: which diagonal is dark alternates with it (chessboard: row + col; Kalibr: k, the
-// tag's black square and the corner square lie on one diagonal at k = 0, 2 and on the other at
-// k = 1, 3).
+// X-junctions (chessboards, Kalibr): parity tells which diagonal is dark (chessboard: row + col;
+// Kalibr: k, the tag's black square and the corner square lie on one diagonal at k = 0, 2 and
+// on the other at k = 1, 3). Plain tags' corners are L-corners: `quadrant` is the dark one
+// (Polarity's sample order), the tag's inside.
 struct Junction {
   int id = -1;
   Eigen::Vector2d plane = Eigen::Vector2d::Zero();
   int parity = 0;
+  int quadrant = -1;  // L-corners only
 };
 
 struct Lattice {
@@ -47,7 +50,10 @@ std::optional<Lattice> LatticeOf(const TargetSpec& t) {
     lattice.polarity_offset_mm = 0.35 * sq;
     return lattice;
   }
-  if (t.type != TargetType::kKalibrAprilGrid) return std::nullopt;  // plain tags: no X-junctions
+  const bool kalibr = t.type == TargetType::kKalibrAprilGrid;
+  // Plain tag corner k's inside (plane x right, y down) as a sample index of Quadrant:
+  // k0 bottom-left (+x,-y), k1 bottom-right (-x,-y), k2 top-right (-x,+y), k3 top-left (+x,+y).
+  const int inside_quadrant[4] = {2, 1, 3, 0};
   const double pitch = TagPitch(t);
   const int tag00 = TagIdAt(t, 0, 0);
   for (int r = -1; r <= t.rows; ++r) {
@@ -56,12 +62,14 @@ std::optional<Lattice> LatticeOf(const TargetSpec& t) {
       for (int k = 0; k < 4; ++k) {
         const Eigen::Vector2d p = CornerInTarget(t, 4 * tag00 + k).head<2>() +
                                   Eigen::Vector2d(c * pitch, r * pitch);
-        Junction j{inside ? 4 * TagIdAt(t, r, c) + k : -1, p, k & 1};
+        Junction j{inside ? 4 * TagIdAt(t, r, c) + k : -1, p, k & 1, kalibr ? -1 : inside_quadrant[k]};
         (inside ? lattice.corners : lattice.extension).push_back(j);
       }
     }
   }
-  lattice.polarity_offset_mm = 0.35 * t.spacing * t.tag_size_mm;
+  // Kalibr: inside the corner square (side spacing * tag) and the 2-bit border; plain: inside the
+  // 1-bit border (a bit is an eighth of the tag).
+  lattice.polarity_offset_mm = kalibr ? 0.35 * t.spacing * t.tag_size_mm : 0.5 * t.tag_size_mm / 8;
   return lattice;
 }
 
@@ -95,6 +103,21 @@ int Polarity(const cv::Mat& view_grey, const cv::Mat& h, const Junction& j, doub
   if (std::min(s[2], s[3]) - std::max(s[0], s[1]) > 0.25 * contrast) sign = 1;   // (1,1) dark
   if (std::min(s[0], s[1]) - std::max(s[2], s[3]) > 0.25 * contrast) sign = -1;  // (1,-1) dark
   return (j.parity ? -1 : 1) * sign;
+}
+
+// The dark quadrant of an L-corner at `plane` (samples as Polarity's), -1 unless exactly one
+// quadrant is dark (darker than the other three by 40% of the contrast).
+int Quadrant(const cv::Mat& view_grey, const cv::Mat& h, const Eigen::Vector2d& plane, double offset) {
+  double s[4];
+  const Eigen::Vector2d d[4] = {{offset, offset}, {-offset, -offset}, {offset, -offset}, {-offset, offset}};
+  for (int i = 0; i < 4; ++i) s[i] = Sample(view_grey, Apply(h, plane + d[i]));
+  const int dark = static_cast<int>(std::min_element(s, s + 4) - s);
+  const double contrast = *std::max_element(s, s + 4) - s[dark];
+  if (contrast < 20) return -1;
+  for (int i = 0; i < 4; ++i) {
+    if (i != dark && s[i] - s[dark] < 0.4 * contrast) return -1;
+  }
+  return dark;
 }
 
 // The view of `mirror` that shows most of `raw` (ties: nearest its centre), with the view
@@ -247,8 +270,9 @@ std::vector<io::CornerObservation> GuideTarget(
 
   // Which diagonal is dark at parity-0 junctions in the source ring (its view, its corners'
   // homography there): a one-square shift of a chessboard (Kalibr: a gap's) flips it.
+  const bool l_corners = lattice.corners.front().quadrant >= 0;
   int source_sign = 0;
-  {
+  if (!l_corners) {
     std::vector<std::optional<Eigen::Vector2d>> source_view;
     const int sv = BestView(views, model, source_mirror, source.raw, &source_view);
     if (sv < 0) return out;
@@ -311,22 +335,30 @@ std::vector<io::CornerObservation> GuideTarget(
   // Hessian test), each with its polarity for both diagonals.
   // The X test reads along the target's diagonals as the prediction orients them.
   // A lattice junction matches only saddles of its own polarity (as the source ring shows it).
-  std::vector<Eigen::Vector2d> saddles, by_sign[2];  // all; dark diagonal (1,1), (1,-1)
+  // Plain tags' L-corners (the Hessian test passes at their tips too) by their dark quadrant.
+  std::vector<Eigen::Vector2d> saddles, by_class[4];  // X: dark diagonal (1,1), (1,-1); L: quadrant
   const cv::Mat h0_inverse = h0.inv();
   for (const cv::Point2f& s : SaddlePoints(crop, saddle_options)) {
     const Eigen::Vector2d at(s.x + roi.x, s.y + roi.y);
     const Junction probe{-1, Apply(h0_inverse, at), 0};
-    const int sign = Polarity(grey, h0, probe, lattice.polarity_offset_mm);
-    if (sign == 0) continue;
+    int class_index = -1;
+    if (l_corners) {
+      class_index = Quadrant(grey, h0, probe.plane, lattice.polarity_offset_mm);
+    } else if (const int sign = Polarity(grey, h0, probe, lattice.polarity_offset_mm)) {
+      class_index = sign > 0 ? 0 : 1;
+    }
+    if (class_index < 0) continue;
     saddles.push_back(at);
-    by_sign[sign > 0 ? 0 : 1].push_back(at);
+    by_class[class_index].push_back(at);
   }
   if (static_cast<int>(saddles.size()) < options.min_matched) return out;
   const double cell = std::max(tolerance, 1.0);
-  const SaddleIndex any(saddles, cell), positive(by_sign[0], cell), negative(by_sign[1], cell);
+  const SaddleIndex any(saddles, cell);
+  const SaddleIndex classes[4] = {{by_class[0], cell}, {by_class[1], cell}, {by_class[2], cell}, {by_class[3], cell}};
   // The saddle matching junction j at view pixel p; nullopt if none.
   const auto match_of = [&](const Junction& j, const Eigen::Vector2d& p) -> std::optional<Eigen::Vector2d> {
-    const SaddleIndex& index = source_sign * (j.parity ? -1 : 1) > 0 ? positive : negative;
+    const SaddleIndex& index =
+        l_corners ? classes[j.quadrant] : classes[source_sign * (j.parity ? -1 : 1) > 0 ? 0 : 1];
     const int m = index.Nearest(p, tolerance);
     if (m < 0) return std::nullopt;
     return index.points()[m];
@@ -457,6 +489,40 @@ std::vector<io::CornerObservation> GuideTarget(
     RemoveCurvatureBias(target.rows, target.cols, halves, &corners);
     for (int id = 0; id < n; ++id) {
       if (corners[id] && !have.count(id)) refined[id] = *corners[id];
+    }
+  } else if (l_corners) {
+    // Plain tags: the four edges fitted in the raw image (RefineTagCorners, as the tag detector
+    // refines them; the data bits behind the border from the code of the tag's place), from the
+    // corners the alignment puts there; a tag whole or not at all.
+    cv::Mat grey32;
+    raw_grey.convertTo(grey32, CV_32F, 1.0 / 255);
+    TagDetectorOptions tag_options;
+    if (!(view.blur_sigma && *view.blur_sigma >= tag_options.blurred_view_sigma)) {
+      tag_options.edge_fit_reach_in_blurred = tag_options.edge_fit_reach_in;
+    }
+    std::set<int> tags;
+    for (const Junction& j : lattice.corners) tags.insert(j.id / 4);
+    for (const int tag : tags) {
+      Eigen::Vector2d corners[4], fitted[4];
+      double curvature[4];
+      int matched_here = 0, wanted = 0;
+      bool ok = true;
+      for (int k = 0; k < 4 && ok; ++k) {
+        matched_here += match[index_of[4 * tag + k]] >= 0;
+        wanted += !have.count(4 * tag + k);
+        const auto raw = raw_of(4 * tag + k);
+        ok = raw.has_value();
+        if (ok) corners[k] = *raw;
+        curvature[k] = std::nan("");  // fitted
+      }
+      if (!ok || wanted == 0 || matched_here < 3) continue;
+      if (!RefineTagCorners(grey32, corners, curvature, 1.0 / PlainTagLayout().bits, target.spacing,
+                            tag_options, fitted, tag)) {
+        continue;
+      }
+      for (int k = 0; k < 4; ++k) {
+        if (!have.count(4 * tag + k)) refined[4 * tag + k] = fitted[k];
+      }
     }
   } else {
     const KalibrDetectorOptions kalibr;

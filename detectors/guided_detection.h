@@ -1,30 +1,35 @@
 // Guided detection across rings (issue 17): a target identified in one ring gives its pose, the
-// pose predicts its X-junctions in the other ring, and they are looked for there without
-// decoding. For the inner ring's small tags (under 2 raw px per bit: too small to read) and
-// chessboards that one ring's finders lose (cut by a ring's edge, near boards), whose
-// X-junctions are still sharp.
+// pose predicts its junctions in the other ring, and they are looked for there without
+// decoding. For the inner ring's small tags (about 2 raw px per bit: too small to read) and
+// chessboards that one ring's finders lose (cut by a ring's edge, near boards), whose corners
+// are still sharp. Chessboards' and Kalibr grids' corners are X-junctions; plain tag36h11
+// grids' are L-corners (one dark quadrant: the tag's), which the saddle test also finds.
 //
-// Per target found in ring s (chessboards: their corners; Kalibr AprilGrids: their read tags'
-// corners; at least min_seed_corners) and missing corners in ring d:
+// Per target found in ring s (chessboards: their corners; tag grids: their read tags' corners;
+// at least min_seed_corners) and missing corners in ring d:
 //  1. cam_from_target from ring s's corners (calib::CentralPoseFromRing, the model's rays);
 //     projected through ring d (RigModel::Project) and taken into the view of ring d that holds
 //     most of them (RawToView): in a view the target is a homography of its plane, H0. Where
 //     ring d already has corners of the target, H0 is fitted to them instead.
 //  2. The model's prediction is 10-25 raw px off on an ideal model of a misaligned rig, more than
-//     a near board's square: the target's lattice (its X-junctions) is matched to the view's
+//     a near board's square: the target's lattice (its junctions) is matched to the view's
 //     saddle points (saddle_points.h) by the translation that the most junctions agree on, scored
 //     minus the junctions that the lattice extended by one row / column around the target would
 //     also find (a lattice shifted by one row or column finds its extension on the board). The
 //     best translation must beat every other by a margin, or the target is left alone (a board
 //     cut on both sides of one direction cannot be told from its shift).
-//  3. A homography fitted to the matched saddles (RANSAC, then least squares on the tight
-//     matches); every junction's polarity (which diagonal is dark) against its parity must agree
-//     with the one ring s shows (a one-square shift of a chessboard flips it; Kalibr: a shift by
-//     a gap does).
+//     A junction matches only a saddle of its own polarity: X-junctions, which diagonal is dark,
+//     against their parity, as ring s shows it (a one-square shift of a chessboard flips it;
+//     Kalibr: a shift by a gap does); L-corners, which quadrant is dark (the tag's inside).
+//  3. The best translations refined to homographies of their matched saddles (RANSAC, then
+//     least squares on the tight matches: the prediction's scale and turn are off too) and
+//     scored again; the best must beat every other alignment by the margin.
 //  4. Each matched junction refined as the per-ring detector refines its kind: chessboards by
 //     cornerSubPix in the raw image (corner_refine.h, windows kept on their squares, curvature
 //     bias removed), Kalibr corners by cornerSubPix in the view mapped to raw and checked to be
-//     whole X-junctions in the raw image.
+//     whole X-junctions in the raw image, plain tags by their four edges in the raw image
+//     (RefineTagCorners with the code of the tag's place; three of its corners matched, the
+//     tag whole or not at all).
 //  5. The grid check (tag_grid_check.h) on all the target's corners in ring d, the found ones and
 //     the guided ones: a guided corner is kept only if checked and within its tolerance.
 // Ids come from the target's lattice, fixed by ring s's ids and the alignment; a wrong
@@ -62,7 +67,7 @@ struct GuidedOptions {
   // Junctions of the lattice's extension found (a lattice that goes on beyond the target: a
   // shifted alignment or a bigger board) above this fraction of the matched ones: refused.
   double max_extension_fraction = 0.1;
-  // Polarity (step 3): this fraction of the matched junctions must agree with ring s.
+  // X-junctions: this fraction of ring s's corners must show one polarity (step 2).
   double min_polarity_agreement = 0.8;
   int alignments_refined = 6;  // best distinct translations refined to homographies
   int min_kept = 4;  // fewer guided corners of a target in a ring after the checks: none kept
