@@ -602,13 +602,16 @@ std::vector<io::CornerObservation> GuidedCorners(const cv::Mat& raw_grey,
     }
     if (!unique) continue;
     Seeds ring[2];
+    bool repeated = false;  // one target placed twice in an image: whose pose would it be?
     for (const io::CornerObservation& o : found) {
       if (o.target != static_cast<int>(ti) || !HasCorner(target, o.id)) continue;
       Seeds& s = ring[o.mirror - 1];
+      repeated |= std::find(s.ids.begin(), s.ids.end(), o.id) != s.ids.end();
       s.plane.push_back(CornerInTarget(target, o.id));
       s.raw.push_back(o.pixel);
       s.ids.push_back(o.id);
     }
+    if (repeated) continue;
     for (int d = 0; d < 2; ++d) {
       const Seeds& source = ring[1 - d];
       if (static_cast<int>(source.ids.size()) < options.min_seed_corners) continue;
