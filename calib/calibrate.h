@@ -9,8 +9,10 @@
 //  2. degenerate sessions are refused before solving (too few observations, all targets at one
 //     range or in one azimuth sector, targets matching nothing);
 //  3. a staged Ceres solve (intrinsics + poses, then the misalignment and the lens distortion,
-//     then every group of `estimate`) with a robust loss, then outlier rejection and a final
-//     solve without the robust loss;
+//     then every group of `estimate`) with a robust loss on (a subset of) the corners only; then
+//     the lip edge points, as normal points (their means over the images per 0.25 deg of each
+//     edge), and weighted rounds without the robust loss (variance components, outlier
+//     rejection) until the weights settle; a stage that ends worse than it began is undone;
 //  4. the rig parameters' covariance by the Schur complement of the Jacobian (target poses
 //     eliminated), scaled by the posterior variance factor; (nearly) unobservable parameters are
 //     named with what data would fix them (covariance.h); held parameters that are not known
@@ -98,6 +100,9 @@ struct StageReport {
   double initial_rms_px = 0, final_rms_px = 0;
   int n_observations = 0;
   bool converged = false;
+  // The stage ended worse than it began (its cost rose, or the corners' RMS rose by more than
+  // 2%) and was undone: the parameters are those it started from.
+  bool undone = false;
   std::string termination;  // Ceres' message
   double seconds = 0;
 };
@@ -155,9 +160,12 @@ struct CalibrationResult {
   double rms_px = 0;
   double per_mirror_rms_px[2] = {0, 0};
   int n_observations = 0;  // corners used in the final solve
-  int n_lip_points = 0;    // lip edge points used in the final solve
-  int n_lip_rejected = 0;  // lip edge points left out (outliers, not projectable)
-  double lip_rms_px = 0;   // of the lip edge points' residuals
+  int n_lip_points = 0;    // detected lip edge points used in the final solve
+  int n_lip_rejected = 0;  // detected lip edge points left out (outliers, not projectable)
+  // The normal points the used ones went into (their means over the images per azimuth bin of
+  // each edge, calibrate.cc): the lip residuals of the solve.
+  int n_lip_normal_points = 0;
+  double lip_rms_px = 0;   // of the used detected points' distances across the edge
   int n_parameters = 0;    // rig + pose parameters of the final solve
   std::vector<RejectedObservation> rejected;
   std::vector<StageReport> stages;
