@@ -10,7 +10,9 @@
 // Reports per edge (mirror, side, circle, path) the points kept, their mean / p95 / max distance
 // to the image of their labelled circle in MODEL (DistanceToLipCircleImage; `outward`: the mean
 // signed, + away from the principal point; `no_truth`: points where MODEL images no such circle
-// point, left out of the distances), the band's paint likeness, colour contrast and noise
+// point, left out of the distances; `edge_mn` / `edge_p95`: the distance to the band edge with
+// the occlusion followed, ProjectLipEdge, over every point; `on_rim`: points whose edge there is
+// the reflex disc's rim), the band's paint likeness, colour contrast and noise
 // (LipEdgeFit, 8-bit linear levels), the lip-only fit of f and the principal point
 // (InitialIntrinsicsFromLips from NOMINAL and from MODEL) and the CPU time of DetectLipEdges.
 #include <algorithm>
@@ -49,6 +51,8 @@ double Percentile(std::vector<double> v, double p) {
 
 struct EdgeStats {
   std::vector<double> distances, band, contrast, noise;
+  std::vector<double> edge_distances;  // to the band edge with the occlusion followed
+  int on_rim = 0;                      // points whose band edge is the reflex disc's rim
   double signed_sum = 0;
   int images = 0;
   int no_truth = 0;  // points where the true rig images no point of their circle
@@ -118,6 +122,10 @@ int main(int argc, char** argv) {
         // Signed: + where the point lies farther from the principal point than the truth.
         Eigen::Vector2d q;
         const double d = DistanceToLipCircleImage(truth, fit.path, fit.circle, p, &q);
+        LipBound bound = LipBound::kCircle;
+        s.edge_distances.push_back(
+            DistanceToLipEdgeImage(truth, fit.path, fit.circle, p, nullptr, &bound));
+        if (bound == LipBound::kReflexRim) ++s.on_rim;
         if (d > 1e8) {
           ++s.no_truth;
           continue;
@@ -136,18 +144,24 @@ int main(int argc, char** argv) {
       all_edges.push_back(fit.edge);
     }
   }
-  std::printf("%-6s %-6s %-8s %-12s %6s %7s %8s %8s %8s %8s %7s %8s %6s %8s\n", "mirror", "edge",
-              "circle", "path", "images", "points", "mean_px", "p95_px", "max_px", "outward",
-              "band", "contrast", "noise", "no_truth");
+  std::printf("%-6s %-6s %-8s %-12s %6s %7s %8s %8s %8s %8s %7s %8s %6s %8s %8s %8s %6s\n",
+              "mirror", "edge", "circle", "path", "images", "points", "mean_px", "p95_px",
+              "max_px", "outward", "band", "contrast", "noise", "no_truth", "edge_mn", "edge_p95",
+              "on_rim");
   for (const auto& [key, s] : stats) {
     double mean = 0;
     for (double d : s.distances) mean += d / s.distances.size();
-    std::printf("%-6d %-6s %-8s %-12s %6d %7zu %8.4f %8.4f %8.4f %+8.4f %7.1f %8.1f %6.2f %8d\n",
-                std::get<0>(key), std::get<1>(key).c_str(), std::get<2>(key).c_str(),
-                std::get<3>(key).c_str(), s.images, s.distances.size(), mean,
-                Percentile(s.distances, 0.95), Percentile(s.distances, 1.0),
-                s.signed_sum / std::max<size_t>(1, s.distances.size()), Percentile(s.band, 0.5),
-                Percentile(s.contrast, 0.5), Percentile(s.noise, 0.5), s.no_truth);
+    double edge_mean = 0;
+    for (double d : s.edge_distances) edge_mean += d / s.edge_distances.size();
+    std::printf(
+        "%-6d %-6s %-8s %-12s %6d %7zu %8.4f %8.4f %8.4f %+8.4f %7.1f %8.1f %6.2f %8d %8.4f %8.4f "
+        "%6d\n",
+        std::get<0>(key), std::get<1>(key).c_str(), std::get<2>(key).c_str(),
+        std::get<3>(key).c_str(), s.images, s.distances.size(), mean,
+        Percentile(s.distances, 0.95), Percentile(s.distances, 1.0),
+        s.signed_sum / std::max<size_t>(1, s.distances.size()), Percentile(s.band, 0.5),
+        Percentile(s.contrast, 0.5), Percentile(s.noise, 0.5), s.no_truth, edge_mean,
+        Percentile(s.edge_distances, 0.95), s.on_rim);
   }
   if (!cpu_ms.empty()) {
     double sum = 0;

@@ -5,6 +5,12 @@
 // that circle point along the path minus the observed pixel, weighted like a corner. Per point
 // this adds 2 residuals and 1 unknown: the component across the edge constrains the rig.
 //
+// The curve is the band's edge with the occlusion followed (ProjectLipEdge, model/lip.h): where
+// the reflex disc's rim hides the lip circle a via_reflex point was labelled with, the residual
+// is to the rim's image instead, decided anew at every evaluation (the detector labels edges on
+// a model that may not know where the rim hides them; 190 of 410 points per image on a rig with
+// a larger, tilted disc).
+//
 // The lips are what the target corners cannot give: the blue lip is seen straight by the camera
 // (pinhole + distortion of a point at a known place in mirror 1's body, no mirror in between) and
 // via mirror 1, the red lip via mirror 2; an edge at a known metric radius and height pins the
@@ -29,6 +35,7 @@ struct LipPointCost {
   LipPath path;
   double radius, lip_z;  // the circle in its mirror's body frame (mm)
   RigFixed fixed;
+  double disc_radius_mm = 0;  // the reflex disc's rim that clips via_reflex bands (0: none)
 
   template <typename T>
   bool operator()(const T* camera, const T* distortion, const T* mirror1_shape,
@@ -37,7 +44,10 @@ struct LipPointCost {
     const LipBlocks<T> blocks{camera, distortion, mirror1_shape, mirror1_pose,
                               reflex, mirror2_shape, mirror2_pose};
     Vec2<T> pixel;
-    if (!ProjectLipPoint(blocks, fixed, path, T(radius), T(lip_z), phi[0], &pixel)) return false;
+    if (!ProjectLipEdge(blocks, fixed, path, T(radius), T(lip_z), phi[0], disc_radius_mm,
+                        &pixel)) {
+      return false;
+    }
     residual[0] = pixel.x() - T(observed.x());
     residual[1] = pixel.y() - T(observed.y());
     return true;
@@ -65,9 +75,10 @@ struct LipPointCost {
   static ceres::CostFunction* Create(const Eigen::Vector2d& observed, LipPath path, double radius,
                                      double lip_z, const RigFixed& fixed,
                                      const uint32_t* held_camera = nullptr,
-                                     const uint32_t* held_distortion = nullptr) {
+                                     const uint32_t* held_distortion = nullptr,
+                                     double disc_radius_mm = 0) {
     return new CostFunction(
-        LipPointCost{observed, path, radius, lip_z, fixed}, NoDerivative(path),
+        LipPointCost{observed, path, radius, lip_z, fixed, disc_radius_mm}, NoDerivative(path),
         {held_camera, held_distortion, nullptr, nullptr, nullptr, nullptr, nullptr, nullptr});
   }
 };

@@ -114,24 +114,63 @@ std::optional<Eigen::Vector2d> ProjectLipPoint(const RigModel& model, LipPath pa
   return pixel;
 }
 
-double DistanceToLipCircleImage(const RigModel& model, LipPath path, LipCircle circle,
-                                const Eigen::Vector2d& pixel, Eigen::Vector2d* nearest) {
-  const RigParams& rig = model.params();
+namespace {
+
+// Distance of a pixel to a curve pixel(phi), by a coarse-to-fine scan of phi from the pixel's own
+// azimuth about the principal point.
+template <typename Curve>
+double DistanceToCurve(const RigParams& rig, const Curve& curve, const Eigen::Vector2d& pixel,
+                       Eigen::Vector2d* nearest, double* nearest_phi) {
   double phi = std::atan2(pixel.y() - rig.camera[3], pixel.x() - rig.camera[2]);
   double best = 1e9;
   for (double step : {1e-2, 5e-4, 2e-5, 1e-6}) {
     double best_phi = phi;
     for (int k = -40; k <= 40; ++k) {
-      const auto q = ProjectLipPoint(model, path, circle, phi + k * step);
-      if (q && (*q - pixel).norm() < best) {
-        best = (*q - pixel).norm();
+      Eigen::Vector2d q;
+      if (curve(phi + k * step, &q) && q.allFinite() && (q - pixel).norm() < best) {
+        best = (q - pixel).norm();
         best_phi = phi + k * step;
-        if (nearest) *nearest = *q;
+        if (nearest) *nearest = q;
       }
     }
     phi = best_phi;
   }
+  if (nearest_phi) *nearest_phi = phi;
   return best;
+}
+
+}  // namespace
+
+double DistanceToLipCircleImage(const RigModel& model, LipPath path, LipCircle circle,
+                                const Eigen::Vector2d& pixel, Eigen::Vector2d* nearest) {
+  return DistanceToCurve(
+      model.params(),
+      [&](double phi, Eigen::Vector2d* q) {
+        const auto p = ProjectLipPoint(model, path, circle, phi);
+        if (p) *q = *p;
+        return p.has_value();
+      },
+      pixel, nearest, nullptr);
+}
+
+double DistanceToLipEdgeImage(const RigModel& model, LipPath path, LipCircle circle,
+                              const Eigen::Vector2d& pixel, Eigen::Vector2d* nearest,
+                              LipBound* bound) {
+  const RigParams& rig = model.params();
+  const Lip& lip = LipOf(rig, path);
+  const double radius = circle == LipCircle::kInner ? lip.r_inner : lip.r_outer;
+  const LipBlocks<double> blocks = LipBlocksOf(rig);
+  auto curve = [&](double phi, Eigen::Vector2d* q) {
+    return ProjectLipEdge(blocks, model.fixed(), path, radius, lip.z, phi, model.fixed().r_ref, q);
+  };
+  double phi = 0;
+  const double d = DistanceToCurve(rig, curve, pixel, nearest, &phi);
+  if (bound && d < 1e8) {
+    Eigen::Vector2d q;
+    ProjectLipEdge(blocks, model.fixed(), path, radius, lip.z, phi, model.fixed().r_ref, &q,
+                   bound);
+  }
+  return d;
 }
 
 }  // namespace omni

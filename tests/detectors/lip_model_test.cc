@@ -112,6 +112,119 @@ TEST(LipModel, ViaReflexTracesBackAndRespectsTheDiscRim) {
   EXPECT_EQ(n, 144);
 }
 
+// Whether a pixel shows mirror 2's lip in the reflex disc, by an independent backward trace:
+// camera ray -> reflex plane (inside the disc) -> reflected ray -> lip plane within the annulus.
+bool ShowsLip2ViaReflex(const RigParams& rig, const Eigen::Vector2d& pixel) {
+  const Pose<double> cam_from_m1 = PoseFromBlock(rig.mirror1_pose.data());
+  const Plane<double> plane_m1 = ReflexPlaneInMirror1(rig.reflex.data(), rig.d);
+  const Eigen::Vector3d plane_point = cam_from_m1 * plane_m1.point;
+  const Eigen::Vector3d plane_normal = cam_from_m1.Rotate(plane_m1.normal);
+  const Eigen::Vector3d d = CameraRay(rig, pixel);
+  const Eigen::Vector3d x = plane_point.dot(plane_normal) / d.dot(plane_normal) * d;
+  if ((x - plane_point).norm() > rig.r_ref) return false;
+  const double r = HitLipPlane(rig, Mirror::kTwo, x, Reflect(d, plane_normal)).head<2>().norm();
+  return r >= rig.lip2.r_inner && r <= rig.lip2.r_outer;
+}
+
+// The band's outer edge along the image ray from the principal point through `towards`, by
+// stepping outward from `start_rho` until the pixel no longer shows the lip, then bisection.
+double TracedOuterEdge(const RigParams& rig, const Eigen::Vector2d& towards, double start_rho) {
+  const Eigen::Vector2d pp(rig.camera[2], rig.camera[3]);
+  const Eigen::Vector2d u = (towards - pp).normalized();
+  double inside = start_rho;
+  EXPECT_TRUE(ShowsLip2ViaReflex(rig, pp + inside * u));
+  double outside = inside;
+  while (ShowsLip2ViaReflex(rig, pp + outside * u)) outside += 0.25;
+  for (int i = 0; i < 50; ++i) {
+    const double mid = 0.5 * (inside + outside);
+    (ShowsLip2ViaReflex(rig, pp + mid * u) ? inside : outside) = mid;
+  }
+  return 0.5 * (inside + outside);
+}
+
+// Issue #17: on a rig whose reflex disc is larger than the design's and tilted with mirror 1,
+// the disc's rim, not the lip's outer circle, ends the red band seen in the disc over part of the
+// azimuths. ProjectLipEdge must follow the band's true edge (traced pixel by pixel) at every
+// azimuth; the plain circle image misses it by about a pixel where the rim hides it.
+TEST(LipModel, ViaReflexEdgeFollowsTheDiscRimWhereItHidesTheLip) {
+  const RigParams rig = io::ReadModelFile(std::string(OMNISTEREO_SOURCE_DIR) +
+                                          "/sample_configs/big_rig_large_reflex.yaml");
+  const RigModel model(rig);
+  const Eigen::Vector2d pp(rig.camera[2], rig.camera[3]);
+  const LipBlocks<double> blocks = LipBlocksOf(rig);
+  int on_rim = 0;
+  double worst = 0, circle_miss = 0;
+  for (int k = 0; k < 180; ++k) {
+    const double phi = 2 * M_PI * k / 180 + 0.003;
+    Eigen::Vector2d edge;
+    LipBound bound;
+    ASSERT_TRUE(ProjectLipEdge(blocks, model.fixed(), LipPath::kViaReflex, rig.lip2.r_outer,
+                               rig.lip2.z, phi, rig.r_ref, &edge, &bound));
+    const auto inner = ProjectLipPoint(model, LipPath::kViaReflex, LipCircle::kInner, phi);
+    ASSERT_TRUE(inner);  // the lip's inner circle stays inside the disc all round
+    const double traced = TracedOuterEdge(rig, edge, (*inner - pp).norm() + 0.5);
+    worst = std::max(worst, std::abs(traced - (edge - pp).norm()));
+    if (bound == LipBound::kReflexRim) {
+      ++on_rim;
+      // The circle's own image (margin < 0: hidden) lies beyond the traced edge.
+      Eigen::Vector2d circle_px;  // no disc rim: the circle's image as if the disc were wider
+      ASSERT_TRUE(ProjectLipEdge(blocks, model.fixed(), LipPath::kViaReflex, rig.lip2.r_outer,
+                                 rig.lip2.z, phi, 1e9, &circle_px));
+      circle_miss = std::max(circle_miss, (circle_px - pp).norm() - traced);
+    }
+  }
+  EXPECT_LT(worst, 1e-3);                   // px
+  EXPECT_GT(on_rim, 0.3 * 180);             // ~43% of the azimuths on this rig
+  EXPECT_LT(on_rim, 0.6 * 180);
+  EXPECT_GT(circle_miss, 1.0);              // what a residual to the circle would be off by
+}
+
+// The clipped branch's Jet derivatives (reflex tilt, mirror 1's decentre, phi) against finite
+// differences: the calibration's residual moves the rim with the parameters.
+TEST(LipModel, ViaReflexRimEdgeJetDerivativeMatchesFiniteDifferences) {
+  using Jet = ceres::Jet<double, 3>;
+  const RigParams rig = io::ReadModelFile(std::string(OMNISTEREO_SOURCE_DIR) +
+                                          "/sample_configs/big_rig_large_reflex.yaml");
+  const RigModel model(rig);
+  const double phi = M_PI;  // the rim hides the outer circle there
+  Jet camera[5], dist[5], s1[2], s2[2], p1[5], p2[5], reflex[3];
+  for (int i = 0; i < 5; ++i) {
+    camera[i] = Jet(rig.camera[i]);
+    dist[i] = Jet(rig.distortion[i]);
+    p1[i] = Jet(rig.mirror1_pose[i]);
+    p2[i] = Jet(rig.mirror2_pose[i]);
+  }
+  for (int i = 0; i < 2; ++i) {
+    s1[i] = Jet(rig.mirror1_shape[i]);
+    s2[i] = Jet(rig.mirror2_shape[i]);
+  }
+  for (int i = 0; i < 3; ++i) reflex[i] = Jet(rig.reflex[i]);
+  reflex[0] = Jet(rig.reflex[0], 0);
+  p1[2] = Jet(rig.mirror1_pose[2], 1);
+  const LipBlocks<Jet> blocks{camera, dist, s1, p1, reflex, s2, p2};
+  Vec2<Jet> pixel;
+  LipBound bound;
+  ASSERT_TRUE(ProjectLipEdge(blocks, model.fixed(), LipPath::kViaReflex, Jet(rig.lip2.r_outer),
+                             Jet(rig.lip2.z), Jet(phi, 2), rig.r_ref, &pixel, &bound));
+  ASSERT_EQ(bound, LipBound::kReflexRim);
+  const double h[3] = {1e-7, 1e-6, 1e-6};
+  for (int k = 0; k < 3; ++k) {
+    RigParams plus = rig, minus = rig;
+    double phi_p = phi, phi_m = phi;
+    if (k == 0) { plus.reflex[0] += h[k]; minus.reflex[0] -= h[k]; }
+    if (k == 1) { plus.mirror1_pose[2] += h[k]; minus.mirror1_pose[2] -= h[k]; }
+    if (k == 2) { phi_p += h[k]; phi_m -= h[k]; }
+    Eigen::Vector2d a, b;
+    ASSERT_TRUE(ProjectLipEdge(LipBlocksOf(plus), model.fixed(), LipPath::kViaReflex,
+                               rig.lip2.r_outer, rig.lip2.z, phi_p, rig.r_ref, &a));
+    ASSERT_TRUE(ProjectLipEdge(LipBlocksOf(minus), model.fixed(), LipPath::kViaReflex,
+                               rig.lip2.r_outer, rig.lip2.z, phi_m, rig.r_ref, &b));
+    const Eigen::Vector2d fd = (a - b) / (2 * h[k]);
+    EXPECT_NEAR(pixel.x().v[k], fd.x(), 1e-5 * (1 + std::abs(fd.x()))) << k;
+    EXPECT_NEAR(pixel.y().v[k], fd.y(), 1e-5 * (1 + std::abs(fd.y()))) << k;
+  }
+}
+
 TEST(LipModel, JetDerivativeMatchesFiniteDifferences) {
   using Jet = ceres::Jet<double, 3>;
   const RigParams rig = Misaligned();
