@@ -177,14 +177,20 @@ ProjectionErrorShare ShareOfProjectionError(const CalibrationResult& result,
       out.group_px[g][m] = std::sqrt((j * part).squaredNorm() / points);
     }
   }
-  // Mahalanobis distance over the observable parameters (pseudo-inverse: the covariance may be
-  // nearly singular along the camera-rotation valley).
-  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(result.covariance);
-  const double tol = 1e-14 * eig.eigenvalues().cwiseAbs().maxCoeff();
-  const Eigen::VectorXd projected = eig.eigenvectors().transpose() * error;
+  // Mahalanobis distance over the observable parameters, on the correlation matrix (Jacobi
+  // scaled: px, rad and mm compare) with a pseudo-inverse (the camera-rotation valley makes it
+  // nearly singular).
+  const Eigen::VectorXd scale = result.covariance.diagonal().cwiseMax(1e-300).cwiseSqrt();
+  const Eigen::MatrixXd correlation =
+      scale.cwiseInverse().asDiagonal() * result.covariance * scale.cwiseInverse().asDiagonal();
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(correlation);
+  const Eigen::VectorXd projected =
+      eig.eigenvectors().transpose() * error.cwiseQuotient(scale);
   out.chi2 = 0;
   for (int k = 0; k < n; ++k) {
-    if (eig.eigenvalues()(k) > tol) out.chi2 += projected(k) * projected(k) / eig.eigenvalues()(k);
+    if (eig.eigenvalues()(k) > 1e-10 * eig.eigenvalues().maxCoeff()) {
+      out.chi2 += projected(k) * projected(k) / eig.eigenvalues()(k);
+    }
   }
   out.dof = n;
   return out;
