@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # Installs the Debian 12 packages the toolkit needs, only if one is missing (run as root).
+# Extra packages may be named as arguments (scripts/fuzz.sh adds clang and its fuzzer runtime).
 set -euo pipefail
 packages=(cmake g++ make pkg-config libeigen3-dev libceres-dev libopencv-dev libopencv-contrib-dev
   libapriltag-dev libgflags-dev libgoogle-glog-dev libnlopt-cxx-dev libyaml-cpp-dev povray
-  googletest libgtest-dev libbenchmark-dev)
+  googletest libgtest-dev libbenchmark-dev "$@")
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

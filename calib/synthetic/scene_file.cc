@@ -31,6 +31,16 @@ double NumberOr(const YAML::Node& node, const std::string& file, const std::stri
   return node ? Number(node, file, key) : d;
 }
 
+bool BoolOr(const YAML::Node& node, const std::string& file, const std::string& key, bool d) {
+  if (!node) return d;
+  bool value = d;
+  if (!node.IsScalar() || !YAML::convert<bool>::decode(node, value)) {
+    Fail(file, key, "expected true or false" +
+                        (node.IsScalar() ? ", got '" + node.Scalar() + "'" : std::string()));
+  }
+  return value;
+}
+
 Eigen::Vector3d Vec3(const YAML::Node& node, const std::string& file, const std::string& key) {
   if (!node || !node.IsSequence() || node.size() != 3) Fail(file, key, "expected [x, y, z]");
   return Eigen::Vector3d(Number(node[0], file, key), Number(node[1], file, key),
@@ -195,7 +205,7 @@ Scene ReadSceneFile(const std::string& path, const RigModel& model) {
     }
   }
   if (const auto r = root["render"]) {
-    if (r["antialias"]) s.antialias = r["antialias"].as<bool>();
+    s.antialias = BoolOr(r["antialias"], path, "render.antialias", s.antialias);
     s.noise_sigma = NumberOr(r["noise_sigma"], path, "render.noise_sigma", 0.0);
     if (s.noise_sigma < 0) Fail(path, "render.noise_sigma", "expected >= 0");
     s.noise_seed = static_cast<unsigned>(NumberOr(r["noise_seed"], path, "render.noise_seed", 1));
@@ -208,7 +218,7 @@ Scene ReadSceneFile(const std::string& path, const RigModel& model) {
     }
   }
   if (const auto room = root["room"]) {
-    s.room = room["enabled"] ? room["enabled"].as<bool>() : true;
+    s.room = BoolOr(room["enabled"], path, "room.enabled", true);
     s.room_half_size_mm = NumberOr(room["half_size"], path, "room.half_size", s.room_half_size_mm);
     s.room_floor_mm = NumberOr(room["floor"], path, "room.floor", s.room_floor_mm);
     s.room_ceiling_mm = NumberOr(room["ceiling"], path, "room.ceiling", s.room_ceiling_mm);

@@ -174,7 +174,8 @@ Session ReadSessionFile(const std::string& path) {
     const YAML::Node priors = root["priors"];
     if (!IsMap(priors)) in.Fail("priors", "expected a map {mirror1_shape: {...}}", Describe(priors));
     for (const auto& item : priors) {
-      const std::string name = item.first.as<std::string>();
+      if (!item.first.IsScalar()) in.Fail("priors", "expected names as keys", Describe(item.first));
+      const std::string name = item.first.Scalar();
       const std::string key = "priors." + name;
       if (name != "mirror1_shape" && name != "mirror2_shape") {
         in.Fail(key, "expected mirror1_shape or mirror2_shape", "'" + name + "'");
@@ -191,7 +192,8 @@ Session ReadSessionFile(const std::string& path) {
     if (!IsMap(consider)) in.Fail("consider", "expected a map {dist_p1: sigma, ...}", Describe(consider));
     session.consider.emplace();
     for (const auto& item : consider) {
-      const std::string name = item.first.as<std::string>();
+      if (!item.first.IsScalar()) in.Fail("consider", "expected names as keys", Describe(item.first));
+      const std::string name = item.first.Scalar();
       const std::string key = "consider." + name;
       if (name != "dist_p1" && name != "dist_p2" && name != "dist_k3" && name != "skew") {
         in.Fail(key, "expected dist_p1, dist_p2, dist_k3 or skew", "'" + name + "'");

@@ -122,6 +122,8 @@ TEST_F(SessionFileTest, MalformedInputNamesTheKey) {
       {"dist_p2: 0}", "dist_p2: -1e-4}", "consider.dist_p2"},
       {"dist_p2: 0}", "dist_k1: 1e-4}", "consider.dist_k1"},
       {"{dist_p1: 0.0004, dist_p2: 0}", "[dist_p1]", "consider"},
+      // Found by scripts/fuzz.sh: a key that is not a name (was a yaml-cpp bad-conversion error).
+      {"{dist_p1: 0.0004, dist_p2: 0}", "{[dist_p1]: 0.0004}", "consider"},
   };
   for (const Case& c : cases) {
     std::string text = kGood;
