@@ -11,6 +11,7 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "detectors/corner_refine.h"
 #include "detectors/kalibr_detector.h"
 #include "detectors/saddle_points.h"
 
@@ -774,6 +775,24 @@ std::vector<TagCornerDetection> DetectTagCorners(const cv::Mat& raw_bgr,
           whole[k] = RefineSaddleCorner(raw_grey8, mapped[k],
                                         static_cast<int>(std::lround(0.15 * side)),
                                         options.max_refine_shift_px, &refined[k]);
+        }
+        if (whole[k] && options.kalibr_fit_junction) {
+          // The junction's lines: the tag's edges through the corner, continued along the corner
+          // square's sides, as the view's map bends them (raw points half a tag side either side).
+          const auto line = [&](int other) -> std::optional<LocalLine> {
+            const Eigen::Vector2d step = 0.5 * (t.corners[other] - t.corners[k]);
+            std::vector<std::optional<Eigen::Vector2d>> points = {
+                view.ViewToRaw(t.corners[k] - step), mapped[k], view.ViewToRaw(t.corners[k] + step)};
+            if (!points[0] || !points[2]) return std::nullopt;
+            return LineThroughCorner(points, 1, 3, 1, true);
+          };
+          const auto row = line((k + 1) % 4), col = line((k + 3) % 4);
+          if (row && col) {
+            if (const auto fit = FitBlurredJunction(grey, refined[k], *row, *col,
+                                                    options.kalibr_junction_window * side)) {
+              refined[k] = fit->corner;
+            }
+          }
         }
         continue;
       }

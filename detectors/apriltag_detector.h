@@ -75,6 +75,12 @@ struct TagDetectorOptions {
   // 1 / 2) vs truth, the raw refinement 0.072 / 0.061 px, max 0.18 / 0.21 px: no better.
   KalibrDetectorOptions kalibr;
   bool kalibr_refine_in_raw = false;
+  // Kalibr corners fitted in the raw image by a blurred X-junction model (corner_refine.h
+  // FitBlurredJunction) over this fraction of the tag side (half-width): the 2-bit border, where
+  // all four quadrants are still uniform (near_scene ring 2 mean, clean / realistic: 0.15 of the
+  // side 0.075 / 0.090 px, 0.2: 0.032 / 0.049, 0.25: 0.035 / 0.082, the blurred data bits in).
+  bool kalibr_fit_junction = true;
+  double kalibr_junction_window = 0.2;
   // A Kalibr tag keeps the corners that are whole X-junctions in the raw image (the others are cut
   // by the ring's rim) if at least this many are.
   int kalibr_min_whole_corners = 2;

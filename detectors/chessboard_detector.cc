@@ -561,7 +561,10 @@ std::optional<BoardDetection> MakeBoard(const cv::Mat& raw_grey, const RingView&
                               &halves, &refined);
   }
   // The board's lines from its refined corners, before any is corrected.
-  if (options.refine_in_raw && options.remove_curvature_bias) {
+  if (options.refine_in_raw && options.fit_junctions) {
+    FitBoardJunctions(raw_grey, spec.rows, spec.cols, sides, halves, options.junction_window_squares,
+                      &refined);
+  } else if (options.refine_in_raw && options.remove_curvature_bias) {
     RemoveCurvatureBias(spec.rows, spec.cols, halves, &refined);
   }
   for (size_t i = 0; i < oriented.size(); ++i) {

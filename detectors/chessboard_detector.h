@@ -56,6 +56,11 @@ struct ChessboardOptions {
   // After the raw refinement: subtract cornerSubPix's bias on the curved images of the board's
   // lines, predicted from the refined neighbours (detectors/corner_refine.h).
   bool remove_curvature_bias = true;
+  // After the raw refinement: each corner fitted by a blurred X-junction model
+  // (corner_refine.h FitBoardJunctions; the curvature correction where it cannot be), in a
+  // window of this many squares (half-width).
+  bool fit_junctions = true;
+  double junction_window_squares = 0.55;
   // Raw refinement moving a corner further than the larger of these rejects it.
   double max_refine_shift_px = 1.5;
   double max_refine_shift_squares = 0.3;  // of the local square side in the raw image

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include <Eigen/Cholesky>
 #include <opencv2/imgproc.hpp>
 
 namespace omni::detectors {
@@ -173,6 +174,164 @@ int CleanHalfWindow(const cv::Mat& grey, const Eigen::Vector2d& corner, const Lo
   }
   // A window of half h reads up to h + 1 px (gradient) plus the interpolation's pixel.
   return std::min(half, static_cast<int>(std::ceil(nearest_foreign)) - 3);
+}
+
+std::optional<JunctionFit> FitBlurredJunction(const cv::Mat& grey, const Eigen::Vector2d& start,
+                                              const LocalLine& row, const LocalLine& col,
+                                              double half, double sigma0) {
+  CV_Assert(grey.depth() == CV_8U || grey.depth() == CV_32F);
+  const int reach = static_cast<int>(std::floor(half));
+  const int u0 = static_cast<int>(std::lround(start.x())), v0 = static_cast<int>(std::lround(start.y()));
+  if (u0 - reach - 1 < 0 || v0 - reach - 1 < 0 || u0 + reach + 1 >= grey.cols ||
+      v0 + reach + 1 >= grey.rows) {
+    return std::nullopt;
+  }
+  struct Pixel {
+    Eigen::Vector2d x;
+    double value;
+  };
+  std::vector<Pixel> pixels;
+  for (int v = v0 - reach - 1; v <= v0 + reach + 1; ++v) {
+    for (int u = u0 - reach - 1; u <= u0 + reach + 1; ++u) {
+      if (std::abs(u - start.x()) > half || std::abs(v - start.y()) > half) continue;
+      pixels.push_back({Eigen::Vector2d(u, v),
+                        grey.depth() == CV_8U ? grey.at<uchar>(v, u) : grey.at<float>(v, u)});
+    }
+  }
+  if (pixels.size() < 16) return std::nullopt;
+  // Curvature along each line's normal perp(t) (held while the tangent turns: it is the
+  // neighbours' estimate, good to a few percent of the few-hundredths-of-a-pixel effect).
+  const auto normal_curvature = [](const LocalLine& l) {
+    return l.curvature.dot(Eigen::Vector2d(-l.tangent.y(), l.tangent.x()));
+  };
+  const double k[2] = {normal_curvature(row), normal_curvature(col)};
+  // Parameters: corner (2), the lines' tangent angles (2), a, b, s.
+  using Vec7 = Eigen::Matrix<double, 7, 1>;
+  using Mat7 = Eigen::Matrix<double, 7, 7>;
+  Vec7 q;
+  q << start.x(), start.y(), std::atan2(row.tangent.y(), row.tangent.x()),
+      std::atan2(col.tangent.y(), col.tangent.x()), 0, 0, sigma0;
+  const double kErfScale = std::sqrt(0.5), kGaussScale = std::sqrt(2 / M_PI);
+  // Residuals (and, with J, their Jacobian rows) at q; returns the sum of squares.
+  const auto evaluate = [&](const Vec7& q, Mat7* jtj, Vec7* jtr) {
+    const double s = q[6];
+    double e[2], g[2], dd_dth[2], dd_ds[2];
+    Eigen::Vector2d dd_dp[2];
+    double sum = 0;
+    Eigen::Vector2d tangents[2], normals[2];
+    for (int i = 0; i < 2; ++i) {
+      tangents[i] = Eigen::Vector2d(std::cos(q[2 + i]), std::sin(q[2 + i]));
+      normals[i] = Eigen::Vector2d(-tangents[i].y(), tangents[i].x());
+    }
+    for (const Pixel& p : pixels) {
+      const Eigen::Vector2d r = p.x - q.head<2>();
+      for (int i = 0; i < 2; ++i) {
+        const Eigen::Vector2d& t = tangents[i];
+        const Eigen::Vector2d& n = normals[i];
+        const double along = t.dot(r);
+        const double d = n.dot(r) - 0.5 * k[i] * (along * along + s * s);
+        e[i] = std::erf(kErfScale * d / s);
+        if (!jtj) continue;
+        g[i] = kGaussScale / s * std::exp(-0.5 * d * d / (s * s));
+        dd_dp[i] = -n + k[i] * along * t;
+        dd_dth[i] = -along - k[i] * along * n.dot(r);
+        dd_ds[i] = -d / s - k[i] * s;
+      }
+      const double res = q[4] + q[5] * e[0] * e[1] - p.value;
+      sum += res * res;
+      if (!jtj) continue;
+      Vec7 j;
+      j.head<2>() = q[5] * (g[0] * e[1] * dd_dp[0] + e[0] * g[1] * dd_dp[1]);
+      j[2] = q[5] * g[0] * e[1] * dd_dth[0];
+      j[3] = q[5] * e[0] * g[1] * dd_dth[1];
+      j[4] = 1;
+      j[5] = e[0] * e[1];
+      j[6] = q[5] * (g[0] * dd_ds[0] * e[1] + e[0] * g[1] * dd_ds[1]);
+      jtj->selfadjointView<Eigen::Lower>().rankUpdate(j);
+      *jtr += j * res;
+    }
+    return sum;
+  };
+  // The levels, linear given the shape: a + b S by least squares.
+  {
+    Eigen::Matrix2d a = Eigen::Matrix2d::Zero();
+    Eigen::Vector2d b = Eigen::Vector2d::Zero();
+    for (const Pixel& p : pixels) {
+      const Eigen::Vector2d r = p.x - start;
+      double shape = 1;
+      for (int i = 0; i < 2; ++i) {
+        const Eigen::Vector2d t(std::cos(q[2 + i]), std::sin(q[2 + i])), n(-t.y(), t.x());
+        shape *= std::erf(kErfScale * n.dot(r) / sigma0);
+      }
+      const Eigen::Vector2d f(1, shape);
+      a += f * f.transpose();
+      b += f * p.value;
+    }
+    const Eigen::Vector2d levels = a.ldlt().solve(b);
+    q[4] = levels[0];
+    q[5] = levels[1];
+  }
+  double cost = evaluate(q, nullptr, nullptr);
+  double lambda = 1e-3;
+  for (int iteration = 0; iteration < 30; ++iteration) {
+    Mat7 jtj = Mat7::Zero();
+    Vec7 jtr = Vec7::Zero();
+    evaluate(q, &jtj, &jtr);
+    jtj = jtj.selfadjointView<Eigen::Lower>();
+    bool accepted = false, converged = false;
+    for (int attempt = 0; attempt < 8 && !accepted; ++attempt) {
+      Mat7 damped = jtj;
+      damped.diagonal() *= 1 + lambda;
+      const Vec7 step = -damped.ldlt().solve(jtr);
+      Vec7 next = q + step;
+      next[6] = std::clamp(next[6], 0.3, 0.5 * half + 0.5);  // a blur, not the window's width
+      const double next_cost = evaluate(next, nullptr, nullptr);
+      if (next_cost < cost) {
+        converged = step.head<2>().norm() < 1e-3;
+        q = next;
+        cost = next_cost;
+        lambda = std::max(0.1 * lambda, 1e-7);
+        accepted = true;
+      } else {
+        lambda *= 10;
+      }
+    }
+    if (!accepted || converged) break;
+  }
+  if (std::abs(q[0] - start.x()) > half || std::abs(q[1] - start.y()) > half) return std::nullopt;
+  JunctionFit fit;
+  fit.corner = q.head<2>();
+  fit.sigma = q[6];
+  fit.contrast = std::abs(q[5]);
+  fit.rms = std::sqrt(cost / pixels.size());
+  return fit;
+}
+
+int FitBoardJunctions(const cv::Mat& grey, int rows, int cols, const std::vector<double>& sides,
+                      const std::vector<int>& halves, double window_squares,
+                      std::vector<std::optional<Eigen::Vector2d>>* corners) {
+  const std::vector<std::optional<Eigen::Vector2d>> measured = *corners;
+  std::vector<bool> fitted(measured.size(), false);
+  // Twice: the lines (above all their curvature, a second difference of three corners) come
+  // from the neighbours, which the first pass makes several times more accurate.
+  for (int pass = 0; pass < 2; ++pass) {
+    const std::vector<std::optional<Eigen::Vector2d>> lines_from = *corners;
+    ForEachCornerWithLines(lines_from, rows, cols, [&](int id, const Eigen::Vector2d& corner,
+                                                       const LocalLine& row, const LocalLine& col) {
+      const double half = std::min(window_squares * sides[id], static_cast<double>(halves[id]));
+      const Eigen::Vector2d& start = *measured[id];
+      if (const auto fit = FitBlurredJunction(grey, corner, row, col, half);
+          fit && (fit->corner - start).norm() <= std::max(0.5, 0.15 * sides[id])) {
+        (*corners)[id] = fit->corner;
+        fitted[id] = true;
+        return;
+      }
+      fitted[id] = false;
+      const Eigen::Vector2d bias = PredictedRefineBias(start, row, col, halves[id]);
+      (*corners)[id] = bias.norm() <= kMaxBiasPx ? start - bias : start;
+    });
+  }
+  return static_cast<int>(std::count(fitted.begin(), fitted.end(), true));
 }
 
 int KeepWindowsOnTheirSquares(const cv::Mat& grey, int rows, int cols, const std::vector<double>& sides,

@@ -73,6 +73,44 @@ int CleanHalfWindow(const cv::Mat& grey, const Eigen::Vector2d& corner, const Lo
 // the clean half-window, or dropped (nullopt) if that is below min(`min_half`, its half): a
 // corner a foreign edge pulled (0.5-0.9 px: the demo's board cut by ring 1's lip) is better
 // absent than wrong. Returns the number of corners dropped.
+// A blurred X-junction fitted to the pixels: the model a camera images a chessboard corner as.
+//   I(x) = a + b erf(d1 / (sqrt2 s)) erf(d2 / (sqrt2 s)),
+// d1, d2 the signed offsets of the pixel centre x from the corner's two grid lines, each a
+// parabola through the corner (its tangent angle fitted, its curvature given: LocalLine); a
+// Gaussian blur of s px (the lens's defocus, the demosaicing, the pixel's box; fitted) moves a
+// curved edge's halfway level s^2 k / 2 towards its centre of curvature, which d1, d2 carry.
+// The product is exact for a Gaussian-blurred junction of perpendicular lines and otherwise
+// has the junction's point symmetry, so its centre is where the junction's is.
+// Why not cornerSubPix: its equations use every gradient's direction, and in small blurred
+// squares (the inner ring's 4-6 px) the demosaicing's colour errors along an edge and the
+// neighbouring edges' blur turn those directions: realistic_scene ring 2, 0.09 px mean from
+// cornerSubPix against 0.035 from this fit on the same corners. Fitting the levels themselves
+// averages such errors over the edge.
+struct JunctionFit {
+  Eigen::Vector2d corner = Eigen::Vector2d::Zero();
+  double sigma = 0;     // fitted blur (px)
+  double contrast = 0;  // |b|: half the difference between the bright and dark squares
+  double rms = 0;       // of the pixel residuals (grey levels)
+};
+
+// Levenberg-Marquardt from `start` over the pixels within `half` (px, Chebyshev) of it;
+// row / col give the lines' tangents to start from and their curvatures (held). nullopt if the
+// window leaves the image, holds under 16 pixels, or the fit leaves the window.
+std::optional<JunctionFit> FitBlurredJunction(const cv::Mat& grey, const Eigen::Vector2d& start,
+                                              const LocalLine& row, const LocalLine& col,
+                                              double half, double sigma0 = 1.0);
+
+// Every known corner of a board refined by RefineCornerInRaw (half-windows `halves`, local
+// square sides `sides`, per id) fitted by FitBlurredJunction from where it is, its lines from
+// the refined neighbours (all taken before any corner moves), in a window of half
+// min(window_squares * side, halves[id]) (KeepWindowsOnTheirSquares may have narrowed it).
+// Where the fit is not possible (small squares, no neighbours along both lines) or moves the
+// corner further than max(0.5 px, 0.15 squares) (it then did not fit that junction), the corner
+// gets the curvature-bias correction of RemoveCurvatureBias instead. Returns the number fitted.
+int FitBoardJunctions(const cv::Mat& grey, int rows, int cols, const std::vector<double>& sides,
+                      const std::vector<int>& halves, double window_squares,
+                      std::vector<std::optional<Eigen::Vector2d>>* corners);
+
 int KeepWindowsOnTheirSquares(const cv::Mat& grey, int rows, int cols, const std::vector<double>& sides,
                               int min_half, std::vector<int>* halves,
                               std::vector<std::optional<Eigen::Vector2d>>* corners);

@@ -4,6 +4,8 @@
 // demosaic, shot and read noise, sRGB, JPEG 92), decoded as the session says (tone: srgb), and
 // scored against the exact truth. The inner ring's views of such images are ~2.2 view px
 // blurred; with a saddle threshold for sharp renders it lost every chessboard (0 of 82 here).
+// The corners must be accurate too, above all the inner ring's small squares (corner_refine.h
+// FitBlurredJunction).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -80,8 +82,12 @@ TEST(CameraImages, ChessboardsNearAndFarInBothRingsOfARealisticCamera) {
     std::printf("ring %d: %d of %d corners, mean %.3f px, max %.3f px\n", m + 1, found[m],
                 visible[m], sum[m] / std::max(1, found[m]), worst[m]);
     EXPECT_GE(found[m], 0.95 * visible[m]) << "ring " << m + 1;
-    EXPECT_LE(sum[m] / std::max(1, found[m]), 0.10) << "ring " << m + 1;
-    EXPECT_LE(worst[m], 0.5) << "ring " << m + 1;
+    // cornerSubPix alone (and its curvature correction) gave ring 2 0.090 px mean, max 0.32
+    // here (ring 1 0.043 / 0.085): the demosaicing's errors along the 4-6 px squares' edges
+    // turned its gradients. The blurred-junction fit (corner_refine.h): 0.029 / 0.114 (0.017 /
+    // 0.041).
+    EXPECT_LE(sum[m] / std::max(1, found[m]), 0.05) << "ring " << m + 1;
+    EXPECT_LE(worst[m], 0.2) << "ring " << m + 1;
   }
   EXPECT_EQ(wrong, 0);
 }
