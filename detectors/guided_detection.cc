@@ -11,6 +11,7 @@
 
 #include "calib/initial_pose.h"
 #include "detectors/apriltag_detector.h"
+#include "detectors/chessboard_detector.h"
 #include "detectors/corner_refine.h"
 #include "detectors/kalibr_detector.h"
 #include "detectors/saddle_points.h"
@@ -486,7 +487,9 @@ std::vector<io::CornerObservation> GuideTarget(
       sides[id] = side;
     }
     KeepWindowsOnTheirSquares(raw_grey, target.rows, target.cols, sides, 2, &halves, &corners);
-    RemoveCurvatureBias(target.rows, target.cols, halves, &corners);
+    // The junction fit the chessboard detector runs (the curvature correction where it cannot).
+    FitBoardJunctions(raw_grey, target.rows, target.cols, sides, halves, ChessboardOptions().junction_window_squares,
+                      &corners);
     for (int id = 0; id < n; ++id) {
       if (corners[id] && !have.count(id)) refined[id] = *corners[id];
     }
@@ -549,7 +552,22 @@ std::vector<io::CornerObservation> GuideTarget(
                              std::max(1.5, 0.12 * side_raw), kalibr.min_contrast)) {
         continue;
       }
-      refined[id] = *pixel;
+      Eigen::Vector2d corner = *pixel;
+      // The junction fitted as the Kalibr detector fits it (corner_refine.h FitBlurredJunction):
+      // its lines the tag's edges through the corner, as the view's map bends them.
+      const Eigen::Vector2d at_view = Apply(h, lattice.corners[i].plane);
+      const auto line = [&](int other) -> std::optional<LocalLine> {
+        const Eigen::Vector2d step = 0.5 * (Apply(h, lattice.corners[index_of[4 * tag + other]].plane) - at_view);
+        std::vector<std::optional<Eigen::Vector2d>> points = {view.ViewToRaw(at_view - step), *raw,
+                                                              view.ViewToRaw(at_view + step)};
+        if (!points[0] || !points[2]) return std::nullopt;
+        return LineThroughCorner(points, 1, 3, 1, true);
+      };
+      const auto row = line((k + 1) % 4), col = line((k + 3) % 4);
+      if (row && col) {
+        if (const auto fit = FitBlurredJunction(raw_grey, corner, *row, *col, 0.15 * side_raw)) corner = fit->corner;
+      }
+      refined[id] = corner;
     }
   }
   if (refined.empty() || (own.ids.empty() && static_cast<int>(refined.size()) < options.min_kept)) return out;
