@@ -179,6 +179,17 @@ CameraEffects ParseCameraEffects(const std::string& text, const std::string& wha
   return ReadCameraEffects(node, what);
 }
 
+namespace {
+
+// A section that must be a map ({key: value, ...}) where it is given.
+void ExpectMap(const YAML::Node& root, const std::string& path, const char* key) {
+  if (root[key] && !root[key].IsMap()) Fail(path, key, "expected a map {name: value, ...}");
+}
+
+Scene ParseScene(const YAML::Node& root, const std::string& path, const RigModel& model);
+
+}  // namespace
+
 Scene ReadSceneFile(const std::string& path, const RigModel& model) {
   YAML::Node root;
   try {
@@ -188,7 +199,23 @@ Scene ReadSceneFile(const std::string& path, const RigModel& model) {
   } catch (const YAML::Exception& e) {
     throw InputError(path + ": malformed YAML: " + e.what());
   }
+  // Entries of an unexpected shape deep inside (a scalar where a list or map belongs) that the
+  // checks below do not name reach yaml-cpp's own error, which gives the line and column.
+  try {
+    return ParseScene(root, path, model);
+  } catch (const YAML::Exception& e) {
+    std::string what = e.what();
+    const std::string prefix = "yaml-cpp: error at ";
+    if (what.rfind(prefix, 0) == 0) what = what.substr(prefix.size());
+    throw InputError(path + ": " + what + " (an entry of the wrong shape: a list or map expected?)");
+  }
+}
+
+namespace {
+
+Scene ParseScene(const YAML::Node& root, const std::string& path, const RigModel& model) {
   if (!root.IsMap()) Fail(path, "format", "expected a YAML mapping with format: omnistereo-scene/1");
+  for (const char* key : {"image", "render", "room", "random", "rings"}) ExpectMap(root, path, key);
   const std::string format = root["format"] && root["format"].IsScalar() ? root["format"].Scalar() : "";
   if (format.rfind("omnistereo-scene/1", 0) != 0) {
     Fail(path, "format", "expected omnistereo-scene/1, got '" + format + "'");
@@ -316,6 +343,8 @@ Scene ReadSceneFile(const std::string& path, const RigModel& model) {
   if (s.images.empty()) s.images.push_back(SceneImage{"0001", {}});
   return s;
 }
+
+}  // namespace
 
 std::string TruthText(const Scene& scene, const RigModel& model, const std::string& model_file) {
   auto num = [](double v) { return io::FormatDouble(v); };

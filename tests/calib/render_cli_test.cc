@@ -223,13 +223,17 @@ TEST_F(RenderCli, BadSceneFailsWithOneLineAndWritesNoTruth) {
     EXPECT_FALSE(fs::exists(dir_ + "/bad3/truth.yaml"));
   }
   // Found by scripts/fuzz.sh: a flag that is not true or false (was yaml-cpp's "bad conversion").
-  for (const char* flags : {"render: {antialias: tr\xff\xffue}", "room: {enabled: [yes]}"}) {
+  // A section that is not a map, and a list entry that is not a list (yaml-cpp's "operator[]
+  // call on a scalar" before).
+  for (const char* flags : {"render: {antialias: tr\xff\xffue}", "room: {enabled: [yes]}",
+                            "render: antialias", "markers: [{center: 3}]"}) {
     std::ofstream(dir_ + "/bad_flag.yaml") << "format: omnistereo-scene/1\n" << flags
                                            << "\ntargets: [{type: chessboard, rows: 4, cols: 5, "
                                               "square: 60}]\nrandom: {images: 1}\n";
     EXPECT_EQ(RunCli("render --model " + dir_ + "/model.yaml --scene " + dir_ + "/bad_flag.yaml --out " +
                      dir_ + "/bad4", &err), 2) << flags;
-    EXPECT_NE(err.find("expected true or false"), std::string::npos) << err;
+    EXPECT_NE(err.find("bad_flag.yaml: "), std::string::npos) << err;
+    EXPECT_EQ(err.find("yaml-cpp"), std::string::npos) << err;
     EXPECT_EQ(std::count(err.begin(), err.end(), '\n'), 1) << err;
   }
   // A target is in one place per image: two per image need two definitions.
