@@ -34,8 +34,10 @@ std::vector<cv::Point2f> SaddlePoints(const RingView& view, const SaddleOptions&
   cv::Mat unbalanced = trace.mul(trace) > options.balance * options.balance * response;
   response.setTo(0, unbalanced);
   // Not next to the view's invalid area (its edge is a strong false feature).
-  cv::Mat valid = view.map_x >= 0, valid_inner;
-  cv::erode(valid, valid_inner, cv::Mat(), cv::Point(-1, -1), 3);
+  // (A view cut to a crop keeps its whole view's mask: made afresh then.)
+  const cv::Mat valid_inner = view.valid_for_saddles.size() == view.map_x.size()
+                                  ? view.valid_for_saddles
+                                  : SaddleValidMask(view.map_x);
   response.setTo(0, ~valid_inner);
   cv::Mat dilated;
   cv::dilate(response, dilated, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(5, 5)));

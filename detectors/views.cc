@@ -87,6 +87,8 @@ RingView MakeView(const RigModel& model, Mirror mirror, double azimuth, double e
     }
   }
   cv::convertMaps(v.map_x, v.map_y, v.map_fixed, v.map_interp, CV_16SC2);
+  v.valid_for_blur = BlurValidMask(v.map_x);
+  v.valid_for_saddles = SaddleValidMask(v.map_x);
   return v;
 }
 
@@ -183,15 +185,30 @@ cv::Mat ToGrey(const cv::Mat& raw) {
   return grey;
 }
 
+cv::Mat BlurValidMask(const cv::Mat& map_x) {
+  cv::Mat valid;  // the 13 x 13 window must not reach the view's black outside
+  cv::erode(map_x >= 0, valid, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(13, 13)));
+  return valid;
+}
+
+cv::Mat SaddleValidMask(const cv::Mat& map_x) {
+  cv::Mat valid;  // not next to the view's invalid area (its edge is a strong false feature)
+  cv::erode(map_x >= 0, valid, cv::Mat(), cv::Point(-1, -1), 3);
+  return valid;
+}
+
 std::optional<double> ViewBlurSigma(const cv::Mat& view_image, const cv::Mat& map_x) {
+  return BlurWhereValid(view_image, BlurValidMask(map_x));
+}
+
+std::optional<double> BlurWhereValid(const cv::Mat& view_image, const cv::Mat& valid) {
   CV_Assert(view_image.type() == CV_8U);
-  cv::Mat gx, gy, hi, lo, valid;
+  cv::Mat gx, gy, hi, lo;
   cv::Sobel(view_image, gx, CV_16S, 1, 0, 3);
   cv::Sobel(view_image, gy, CV_16S, 0, 1, 3);
   const cv::Mat box = cv::getStructuringElement(cv::MORPH_RECT, cv::Size(13, 13));
   cv::dilate(view_image, hi, box);
   cv::erode(view_image, lo, box);
-  cv::erode(map_x >= 0, valid, box);  // the window must not reach the view's black outside
   // Every second pixel of every second row: the percentile does not need them all.
   std::vector<float> ratio;
   for (int y = 0; y < view_image.rows; y += 2) {
@@ -226,7 +243,9 @@ void RenderViews(const cv::Mat& raw, std::vector<RingView>* views) {
     std::vector<double> measured;
     for (const RingView& v : *views) {
       if (v.mirror != mirror) continue;
-      if (const auto b = ViewBlurSigma(v.image, v.map_x)) measured.push_back(*b);
+      const cv::Mat valid =
+          v.valid_for_blur.size() == v.map_x.size() ? v.valid_for_blur : BlurValidMask(v.map_x);
+      if (const auto b = BlurWhereValid(v.image, valid)) measured.push_back(*b);
     }
     std::optional<double> ring_blur;
     if (!measured.empty()) {

@@ -48,6 +48,10 @@ struct RingView {
   cv::Mat map_x, map_y;  // CV_32F: raw pixel of each view pixel, -1 where ring `mirror` is not seen
   cv::Mat map_fixed, map_interp;  // the same maps in cv::convertMaps' fast form (for remap)
   cv::Mat image;                  // the last RenderViews result: CV_8U grey
+  // Where the ring is seen, shrunk so that a window centred there stays inside it: 13 x 13 for
+  // the blur measure, 3 steps of 3 x 3 for saddle points. Made with the maps (empty: computed
+  // when needed).
+  cv::Mat valid_for_blur, valid_for_saddles;
   // The blur of the ring's views' sharpest edges (ViewBlurSigma; one value per ring: the median
   // over its views that show enough edges), view pixels; nullopt where none does.
   std::optional<double> blur_sigma;
@@ -92,6 +96,12 @@ void RenderViews(const cv::Mat& raw, std::vector<RingView>* views);
 // 0.5; calibrated on box-filtered blurred checkerboards, exact to 5% for s = 0.5-2 px).
 // nullopt where fewer than 200 pixels have such contrast.
 std::optional<double> ViewBlurSigma(const cv::Mat& view_image, const cv::Mat& map_x);
+// The same with the mask of pixels to measure given (BlurValidMask of the view's map).
+std::optional<double> BlurWhereValid(const cv::Mat& view_image, const cv::Mat& valid);
+
+// RingView::valid_for_blur and valid_for_saddles from a view's map_x (CV_8U, 255 = usable).
+cv::Mat BlurValidMask(const cv::Mat& map_x);
+cv::Mat SaddleValidMask(const cv::Mat& map_x);
 
 // Grey CV_8U copy of a raw image (BGR, BGRA or grey; 8 or 16 bit).
 cv::Mat ToGrey(const cv::Mat& raw);
