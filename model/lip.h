@@ -80,10 +80,9 @@ bool ProjectLipDirect(const T* camera, const T* distortion, const T* mirror1_pos
   double pose_d[5], reflex_d[3];
   for (int i = 0; i < 5; ++i) pose_d[i] = ScalarPart(mirror1_pose[i]);
   for (int i = 0; i < 3; ++i) reflex_d[i] = ScalarPart(reflex[i]);
-  const Pose<double> cam_from_mirror1 = PoseFromBlock(pose_d);
-  const Plane<double> plane_in_m1 = ReflexPlaneInMirror1(reflex_d, fixed.d);
-  const Eigen::Vector3d plane_point = cam_from_mirror1 * plane_in_m1.point;
-  const Eigen::Vector3d plane_normal = cam_from_mirror1.Rotate(plane_in_m1.normal);
+  const Plane<double> plane_in_cam = ReflexPlaneInCam(pose_d, reflex_d, fixed.d);
+  const Eigen::Vector3d plane_point = plane_in_cam.point;
+  const Eigen::Vector3d plane_normal = plane_in_cam.normal;
   const Eigen::Vector3d p = ScalarPart(point_in_cam);
   const double camera_side = -plane_point.dot(plane_normal);
   const double point_side = (p - plane_point).dot(plane_normal);
@@ -108,10 +107,7 @@ template <typename T>
 bool ProjectLipViaReflex(const T* camera, const T* distortion, const T* mirror1_pose,
                          const T* reflex, const RigFixed& fixed, const Vec3<T>& point_in_cam,
                          Vec2<T>* pixel, double* disc_margin_mm = nullptr) {
-  const Pose<T> cam_from_mirror1 = PoseFromBlock(mirror1_pose);
-  const Plane<T> plane_in_m1 = ReflexPlaneInMirror1(reflex, T(fixed.d));
-  const Plane<T> plane{cam_from_mirror1 * plane_in_m1.point,
-                       cam_from_mirror1.Rotate(plane_in_m1.normal)};
+  const Plane<T> plane = ReflexPlaneInCam(mirror1_pose, reflex, T(fixed.d));
   const T camera_side = -plane.point.dot(plane.normal);
   const T point_side = (point_in_cam - plane.point).dot(plane.normal);
   if (!(ScalarPart(camera_side) > 0) || !(ScalarPart(point_side) > 0)) return false;
@@ -193,10 +189,7 @@ bool ProjectLipEdge(const LipBlocks<T>& b, const RigFixed& fixed, LipPath path, 
     return ProjectLipPoint(b, fixed, path, radius, lip_z, phi, pixel);
   }
   const Vec3<T> point_in_cam = LipPointInCam(b.mirror2_pose, radius, lip_z, phi);
-  const Pose<T> cam_from_mirror1 = PoseFromBlock(b.mirror1_pose);
-  const Plane<T> plane_in_m1 = ReflexPlaneInMirror1(b.reflex, T(fixed.d));
-  const Plane<T> plane{cam_from_mirror1 * plane_in_m1.point,
-                       cam_from_mirror1.Rotate(plane_in_m1.normal)};
+  const Plane<T> plane = ReflexPlaneInCam(b.mirror1_pose, b.reflex, T(fixed.d));
   const T camera_side = -plane.point.dot(plane.normal);
   const T point_side = (point_in_cam - plane.point).dot(plane.normal);
   if (!(ScalarPart(camera_side) > 0) || !(ScalarPart(point_side) > 0)) return false;

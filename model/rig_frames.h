@@ -78,6 +78,15 @@ Plane<T> ReflexPlaneInMirror1(const T* reflex_block, const T& d) {
   return Plane<T>{Vec3<T>(T(0), T(0), d / T(2) + reflex_block[2]), R * Vec3<T>(T(0), T(0), T(-1))};
 }
 
+// The reflex plane in C: the disc is part of mirror 1's body (cam_from_mirror1 from its pose
+// block [rx, ry, tx, ty, tz]).
+template <typename T>
+Plane<T> ReflexPlaneInCam(const T* mirror1_pose, const T* reflex_block, const T& d) {
+  const Pose<T> cam_from_mirror1 = PoseFromBlock(mirror1_pose);
+  const Plane<T> in_mirror1 = ReflexPlaneInMirror1(reflex_block, d);
+  return Plane<T>{cam_from_mirror1 * in_mirror1.point, cam_from_mirror1.Rotate(in_mirror1.normal)};
+}
+
 // Mirror a point in a plane.
 template <typename T>
 Vec3<T> MirrorPoint(const Plane<T>& plane, const Vec3<T>& p) {
