@@ -173,12 +173,14 @@ int main(int argc, char** argv) {
         raw = synthetic::ApplyCamera(pinhole, rig, *camera, scene.noise_seed + (&image - &scene.images[0]));
         std::vector<uchar> bytes;
         synthetic::EncodeCameraImage(raw, *camera, &bytes);
+        ctx.chroma_halved = io::HasHalvedChroma(bytes);
         raw = cv::imdecode(bytes, cv::IMREAD_UNCHANGED);
         if (camera->raw_mosaic) raw = io::DemosaicImage(raw, camera->bayer, io::Demosaic::kEdgeAware);
       }
     } else {
       if (!std::filesystem::exists(path)) path = std::string(argv[3]) + "/" + image.name + ".jpg";
       raw = cv::imread(path, cv::IMREAD_UNCHANGED);
+      ctx.chroma_halved = io::HasHalvedChroma(path);
     }
     if (raw.empty()) {
       std::fprintf(stderr, "skipping %s (cannot read)\n", path.c_str());

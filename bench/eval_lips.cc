@@ -103,17 +103,20 @@ int main(int argc, char** argv) {
     if (image.empty()) continue;
     bool srgb = argc >= 4 ? std::string(argv[3]) == "srgb"
                           : std::filesystem::path(file).extension() == ".jpg";
+    detectors::LipDetectorOptions options;
+    options.chroma_halved = io::HasHalvedChroma(file);
     if (camera) {  // the camera on the linear render, and its file as the camera writes it
       image = synthetic::ApplyCamera(image, truth_params, *camera, 1 + (&file - &files[0]));
       std::vector<uchar> bytes;
       synthetic::EncodeCameraImage(image, *camera, &bytes);
+      options.chroma_halved = io::HasHalvedChroma(bytes);
       image = cv::imdecode(bytes, cv::IMREAD_COLOR | cv::IMREAD_ANYDEPTH);
       srgb = camera->tone == synthetic::ToneCurve::kSrgb;
     }
     cv::Mat linear = io::LinearImage(image, srgb ? io::ToneCurve::kSrgb : io::ToneCurve::kLinear);
     if (eight_bit) linear.convertTo(linear, CV_8U, 1.0 / 257.0);
     const std::clock_t c0 = std::clock();
-    const std::vector<detectors::LipEdgeFit> fits = detectors::DetectLipEdges(linear, nominal);
+    const std::vector<detectors::LipEdgeFit> fits = detectors::DetectLipEdges(linear, nominal, options);
     cpu_ms.push_back(1000.0 * (std::clock() - c0) / CLOCKS_PER_SEC);
     for (const detectors::LipEdgeFit& fit : fits) {
       EdgeStats& s = stats[{fit.edge.mirror, fit.edge.edge, fit.edge.circle, fit.edge.path}];

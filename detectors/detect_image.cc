@@ -65,7 +65,9 @@ io::ImageDetections DetectImage(const cv::Mat& image, DetectorContext* ctx,
   }
   if (ctx->use_lips) {
     if (image.channels() >= 3) {
-      out.lips = DetectLips(ToBgr8(linear), ctx->model);
+      LipDetectorOptions lip_options;
+      lip_options.chroma_halved = ctx->chroma_halved;
+      out.lips = DetectLips(ToBgr8(linear), ctx->model, lip_options);
     } else if (warnings) {
       warnings->push_back("grey image: the coloured lips cannot be detected");
     }

@@ -33,6 +33,9 @@ struct DetectorContext {
   bool use_lips = true;
   // How the images encode light: DetectImage decodes them to linear first (io::LinearImage).
   io::ToneCurve tone = io::ToneCurve::kLinear;
+  // Whether the CURRENT image's chroma was stored at half its luma's resolution (a JPEG:
+  // io::HasHalvedChroma; DetectSession sets it per image): lip edges are then placed on the luma.
+  bool chroma_halved = false;
   ChessboardOptions chessboard;
   GuidedOptions guided;  // corners of targets found in one ring looked for in the other
 };

@@ -35,6 +35,7 @@ io::Detections DetectSession(const io::Session& session, DetectorContext* ctx,
                            session.model_path + "), got " + std::to_string(image.cols) + "x" +
                            std::to_string(image.rows) + "; nothing written");
     }
+    ctx->chroma_halved = io::HasHalvedChroma(report.file);
     io::ImageDetections det = DetectImage(image, ctx, &report.warnings);
     det.file = report.file;
     det.width = image.cols;

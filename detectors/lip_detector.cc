@@ -64,6 +64,18 @@ Eigen::Vector3d ColourOf(const cv::Mat& bgr, const Eigen::Vector2d& p, double sc
   return c;
 }
 
+// The sRGB encoding of a linear level, both on the 8-bit scale.
+double SrgbLevel(double linear_level) {
+  const double x = std::clamp(linear_level / 255.0, 0.0, 1.0);
+  return 255.0 * (x <= 0.0031308 ? 12.92 * x : 1.055 * std::pow(x, 1 / 2.4) - 0.055);
+}
+
+// The luma Y' of a linear BGR colour (8-bit levels): Rec. 601 weights on the sRGB-encoded
+// values, what JPEG keeps at full resolution.
+double LumaOf(const Eigen::Vector3d& bgr) {
+  return 0.114 * SrgbLevel(bgr[0]) + 0.587 * SrgbLevel(bgr[1]) + 0.299 * SrgbLevel(bgr[2]);
+}
+
 Eigen::Vector3d Colour(const cv::Mat& bgr, const Eigen::Vector2d& p) {
   return bgr.depth() == CV_8U ? ColourOf<cv::Vec3b>(bgr, p, 1.0)
                               : ColourOf<cv::Vec3w>(bgr, p, 1.0 / 257.0);
@@ -232,6 +244,53 @@ struct EdgeCandidate {
   double noise = 0;     // spread of the band side's samples along that difference (levels)
 };
 
+// Where the profile's luma Y' (fine samples) reaches the Y' of the half-and-half linear mix of
+// the outside's and the band's colours (level[0], level[1]), nearest to the colour crossing t
+// and within 1 px of it; t itself if Y' is not luma_min_snr times above its noise there (a dark
+// or blue band against black). The side means of Y' are measured 1.5-3 px either side, and the
+// mix's Y' is placed between them as it lies between the sides' colours' Y': noise raises the
+// mean Y' of dark levels (sRGB is concave there), the same on both sides of the edge.
+double LumaCrossing(const std::vector<double>& luma, const Eigen::Vector3d level[2], double sign,
+                    double t, double luma_min_snr) {
+  constexpr double kStep = 0.25;
+  const int n = static_cast<int>(luma.size());
+  const int near = static_cast<int>(1.5 / kStep), far = static_cast<int>(3.0 / kStep);
+  const int at = static_cast<int>(std::lround(t));
+  double mean[2] = {0, 0}, spread[2] = {0, 0};
+  int count = 0;
+  for (int off = near; off <= far; ++off) {
+    const int band_i = at + static_cast<int>(sign) * off, out_i = at - static_cast<int>(sign) * off;
+    if (band_i < 0 || band_i >= n || out_i < 0 || out_i >= n) return t;
+    mean[0] += luma[out_i];
+    mean[1] += luma[band_i];
+    spread[0] += luma[out_i] * luma[out_i];
+    spread[1] += luma[band_i] * luma[band_i];
+    ++count;
+  }
+  for (int s = 0; s < 2; ++s) {
+    mean[s] /= count;
+    spread[s] = std::sqrt(std::max(0.0, spread[s] / count - mean[s] * mean[s]));
+  }
+  const double y0 = LumaOf(level[0]), y1 = LumaOf(level[1]);
+  const double y_half = LumaOf(0.5 * (level[0] + level[1]));
+  // Noise floor of half a level: 8-bit JPEG's own rounding.
+  const double noise = std::max({spread[0], spread[1], 0.5});
+  if (!(std::abs(y1 - y0) > 0) || std::abs(mean[1] - mean[0]) < luma_min_snr * noise) return t;
+  const double target = mean[0] + (y_half - y0) / (y1 - y0) * (mean[1] - mean[0]);
+  double best = t, best_distance = 1.0 / kStep;  // within 1 px
+  for (int i = std::max(0, at - far); i + 1 < n && i <= at + far; ++i) {
+    const double a = luma[i] - target, b = luma[i + 1] - target;
+    if ((a <= 0 && b > 0) || (a >= 0 && b < 0)) {
+      const double ti = i + a / (a - b);
+      if (std::abs(ti - t) < best_distance) {
+        best_distance = std::abs(ti - t);
+        best = ti;
+      }
+    }
+  }
+  return best;
+}
+
 // The sub-pixel edge along one profile. The steepest rise of the paint likeness towards the band
 // within the search window is found on single samples. Around it the colour profile is sampled
 // again, each sample the mean over +-tangential_px along arcs about the profiles' centre (the
@@ -275,11 +334,14 @@ bool FindEdge(const cv::Mat& bgr, const PaintLikeness& likeness, bool outer,
   const Eigen::Vector2d centre = pred.pixel - pred.rho * pred.outward;
   const Eigen::Vector2d tangent(-pred.outward.y(), pred.outward.x());
   std::vector<Eigen::Vector3d> colour(n, Eigen::Vector3d::Zero());
+  std::vector<double> luma(options.chroma_halved ? n : 0, 0.0);
   for (int k = 0; k < kTangential; ++k) {
     const double angle = options.tangential_px * (2.0 * k / (kTangential - 1) - 1) / pred.rho;
     const Eigen::Vector2d dir = std::cos(angle) * pred.outward + std::sin(angle) * tangent;
     for (int i = 0; i < n; ++i) {
-      colour[i] += Colour(bgr, centre + (pred.rho + tc + i * kStep) * dir) / kTangential;
+      const Eigen::Vector3d c = Colour(bgr, centre + (pred.rho + tc + i * kStep) * dir);
+      colour[i] += c / kTangential;
+      if (!luma.empty()) luma[i] += LumaOf(c) / kTangential;
     }
   }
   // Mean colours 1.5-3 px on the band side (1) and the outside (0) of sample `at`.
@@ -344,11 +406,12 @@ bool FindEdge(const cv::Mat& bgr, const PaintLikeness& likeness, bool outer,
       if (i < 0 || i + 1 >= n) continue;
       const double a = score[i] - 0.5, b = score[i + 1] - 0.5;
       if ((a <= 0 && b > 0) || (a >= 0 && b < 0)) {
-        const double t = i + a / (a - b);  // in fine samples
+        double t = i + a / (a - b);  // in fine samples
         for (double width = 0.5; width <= options.min_band_px; width += kStep) {
           const int k = static_cast<int>(std::lround(t + sign * width / kStep));
           if (k < 0 || k >= n || score[k] < 0.5) return false;
         }
+        if (!luma.empty()) t = LumaCrossing(luma, level, sign, t, options.luma_min_snr);
         out->pixel = pred.pixel + (tc + kStep * t) * pred.outward;
         return true;
       }
@@ -550,9 +613,10 @@ std::vector<LipEdgeFit> DetectLipEdges(const cv::Mat& raw_bgr, const RigModel& m
   return out;
 }
 
-std::vector<io::LipEdge> DetectLips(const cv::Mat& raw_bgr, const RigModel& model) {
+std::vector<io::LipEdge> DetectLips(const cv::Mat& raw_bgr, const RigModel& model,
+                                    const LipDetectorOptions& options) {
   std::vector<io::LipEdge> out;
-  for (LipEdgeFit& fit : DetectLipEdges(raw_bgr, model)) out.push_back(std::move(fit.edge));
+  for (LipEdgeFit& fit : DetectLipEdges(raw_bgr, model, options)) out.push_back(std::move(fit.edge));
   return out;
 }
 

@@ -20,6 +20,12 @@
 // absolute level is assumed: a point is kept if its colour contrast stands min_snr times above
 // the band's noise and is at least min_relative of its neighbours' along the edge (a dark navy
 // band gives 20 levels, a bright red one 80 on the same image).
+//
+// JPEG (4:2:0 or 4:2:2, what cameras write) keeps the sRGB luma Y' at full resolution but the
+// chroma at half: a colour edge's mix is then not the linear half-and-half one (saturated blue /
+// red bands read 0.15-0.23 px wider or narrower a side). With `chroma_halved` the point is placed
+// where Y' reaches the Y' of the linear half-and-half mix of the two sides' colours, wherever Y'
+// stands luma_min_snr times above its noise (else on the colour, as without).
 #pragma once
 
 #include <vector>
@@ -45,6 +51,8 @@ struct LipDetectorOptions {
   double ransac_inlier_px = 0.5; // ellipse fit: Sampson distance of an inlier
   int ransac_iterations = 300;
   int min_points = 30;           // fewer inliers: the edge is dropped
+  bool chroma_halved = false;    // the image's chroma had half the luma's resolution (JPEG)
+  double luma_min_snr = 4;       // luma contrast over its noise to place a point on the luma
 };
 
 // An ellipse as the conic a u^2 + b uv + c v^2 + d u + e v + f = 0 (unit norm) with its centre,
@@ -77,7 +85,8 @@ std::vector<LipEdgeFit> DetectLipEdges(const cv::Mat& raw_bgr, const RigModel& m
                                        const LipDetectorOptions& options = {});
 
 // The detections-file view of DetectLipEdges.
-std::vector<io::LipEdge> DetectLips(const cv::Mat& raw_bgr, const RigModel& model);
+std::vector<io::LipEdge> DetectLips(const cv::Mat& raw_bgr, const RigModel& model,
+                                    const LipDetectorOptions& options = {});
 
 // Robust ellipse fit (RANSAC on 5-point conics, then least squares on the inliers); false if
 // fewer than min_points inliers. *inliers receives their indices.

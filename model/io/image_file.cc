@@ -67,6 +67,53 @@ bool IsTruncatedJpeg(const std::string& path) {
   return jpeg && !end_marker;
 }
 
+}  // namespace
+
+bool HasHalvedChroma(const std::vector<unsigned char>& bytes) {
+  const std::size_t size = bytes.size();
+  if (size < 4 || bytes[0] != 0xFF || bytes[1] != 0xD8) return false;
+  // Segments up to the first frame header (SOF0-SOF15 but DHT C4, JPG C8, DAC CC) or scan.
+  std::size_t i = 2;
+  while (i + 1 < size && bytes[i] == 0xFF) {
+    while (i + 1 < size && bytes[i + 1] == 0xFF) ++i;  // fill bytes
+    const int marker = bytes[i + 1];
+    i += 2;
+    if (marker == 0xD9 || marker == 0xDA) return false;
+    if (marker == 0x01 || (marker >= 0xD0 && marker <= 0xD7)) continue;  // no length
+    if (i + 2 > size) return false;
+    const std::size_t length = (std::size_t{bytes[i]} << 8) | bytes[i + 1];  // with its 2 bytes
+    const bool frame = marker >= 0xC0 && marker <= 0xCF && marker != 0xC4 && marker != 0xC8 &&
+                       marker != 0xCC;
+    if (frame) {
+      // precision, height (2), width (2), components; per component: id, sampling factors
+      // (H << 4 | V), quantisation table. The first component is the luma.
+      const std::size_t components = i + 7 < size ? bytes[i + 7] : 0;
+      if (components < 3 || i + 8 + 3 * components > size) return false;
+      const int luma = bytes[i + 9];
+      for (std::size_t c = 1; c < components; ++c) {
+        const int chroma = bytes[i + 9 + 3 * c];
+        if ((chroma >> 4) < (luma >> 4) || (chroma & 15) < (luma & 15)) return true;
+      }
+      return false;
+    }
+    if (length < 2) return false;
+    i += length;
+  }
+  return false;
+}
+
+bool HasHalvedChroma(const std::string& path) {
+  std::FILE* f = std::fopen(path.c_str(), "rb");
+  if (!f) return false;
+  // The frame header follows the metadata segments (EXIF, ICC profiles: at most a few 64 KB).
+  std::vector<unsigned char> head(1 << 20);
+  head.resize(std::fread(head.data(), 1, head.size(), f));
+  std::fclose(f);
+  return HasHalvedChroma(head);
+}
+
+namespace {
+
 std::string Lower(std::string s) {
   std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return std::tolower(c); });
   return s;

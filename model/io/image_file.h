@@ -6,6 +6,7 @@
 
 #include <optional>
 #include <string>
+#include <vector>
 
 #include <opencv2/core.hpp>
 
@@ -47,6 +48,14 @@ int BayerChannel(BayerPattern pattern, int row, int col);
 // A one-channel 8- or 16-bit mosaic demosaiced to BGR of the same depth (OpenCV's VNG takes
 // 8 bit only: a 16-bit mosaic is scaled to 8 bit first and the result is 8 bit).
 cv::Mat DemosaicImage(const cv::Mat& mosaic, BayerPattern pattern, Demosaic demosaic);
+
+// True for a JPEG file whose colour components (Cb, Cr) are stored at a lower resolution than its
+// luma (4:2:0, 4:2:2, 4:1:1: what cameras and most software write), read from its frame header;
+// false for 4:4:4, grey JPEGs and every other file. Detectors that place edges on colour need
+// it: the chroma of such a file is blurred twice as much as its luma, in sRGB.
+bool HasHalvedChroma(const std::string& path);
+// The same for a file's bytes (its start: the headers before the first scan).
+bool HasHalvedChroma(const std::vector<unsigned char>& bytes);
 
 // Reads an image for detection. Accepted: 8- or 16-bit grey, BGR or BGRA (PNG, TIFF, JPEG, ...);
 // with `bayer` set, a one-channel 8- or 16-bit raw frame, demosaiced edge-aware. Throws

@@ -6,8 +6,11 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
+#include <string>
 #include <vector>
 
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "calib/synthetic/camera_effects.h"
@@ -143,6 +146,48 @@ TEST(CameraEffects, PresetsAndTheirYamlOverrides) {
   EXPECT_THROW(ParseCameraEffects("{bits: 16, jpeg_quality: 90}", "t"), io::InputError);
   EXPECT_THROW(ParseCameraEffects("{bayer: RGBG}", "t"), io::InputError);
   EXPECT_THROW(ParseCameraEffects("{defocus: 1}", "t"), io::InputError);
+}
+
+// The chroma resolution of a JPEG is read from its frame header (io::HasHalvedChroma): the
+// camera's JPEG (libjpeg's default 4:2:0) says halved, the same file with its luma sampling
+// factors rewritten to 1x1 (4:4:4) says not, and so do a grey JPEG, a PNG, and cut or foreign
+// bytes (no crash).
+TEST(CameraEffects, JpegChromaResolutionIsReadFromTheFrameHeader) {
+  const RigParams rig = RigWithoutLens();
+  const CameraEffects realistic = ParseCameraEffects("realistic", "test camera");
+  std::vector<uchar> jpeg;
+  ASSERT_TRUE(EncodeCameraImage(ApplyCamera(Flat(rig, {9000, 20000, 30000}), rig, realistic, 1),
+                                realistic, &jpeg));
+  EXPECT_TRUE(io::HasHalvedChroma(jpeg));
+  // The luma's sampling factors: the first component of the first frame header (FF C0).
+  size_t sof = 0;
+  for (size_t i = 2; i + 1 < jpeg.size(); ++i) {
+    if (jpeg[i] == 0xFF && jpeg[i + 1] == 0xC0) {
+      sof = i;
+      break;
+    }
+  }
+  ASSERT_GT(sof, 0u);
+  ASSERT_EQ(jpeg[sof + 9], 3);       // components
+  EXPECT_EQ(jpeg[sof + 11], 0x22);   // luma 2x2: chroma (1x1) at half resolution both ways
+  std::vector<uchar> full = jpeg;
+  full[sof + 11] = 0x11;
+  EXPECT_FALSE(io::HasHalvedChroma(full));
+  std::vector<uchar> grey, png;
+  ASSERT_TRUE(cv::imencode(".jpg", cv::Mat(64, 64, CV_8UC1, cv::Scalar(90)), grey));
+  EXPECT_FALSE(io::HasHalvedChroma(grey));
+  ASSERT_TRUE(cv::imencode(".png", cv::Mat(64, 64, CV_8UC3, cv::Scalar(1, 2, 3)), png));
+  EXPECT_FALSE(io::HasHalvedChroma(png));
+  for (size_t cut : {size_t{0}, size_t{3}, sof, sof + 10}) {
+    EXPECT_FALSE(io::HasHalvedChroma(std::vector<uchar>(jpeg.begin(), jpeg.begin() + cut))) << cut;
+  }
+  EXPECT_FALSE(io::HasHalvedChroma(std::vector<uchar>(300, 0xFF)));
+  // From a file: the same answer; a missing file is not halved.
+  const std::string path = ::testing::TempDir() + "/omni_chroma_test.jpg";
+  cv::imwrite(path, cv::Mat(64, 64, CV_8UC3, cv::Scalar(10, 200, 30)));
+  EXPECT_TRUE(io::HasHalvedChroma(path));
+  std::remove(path.c_str());
+  EXPECT_FALSE(io::HasHalvedChroma(path));
 }
 
 }  // namespace
