@@ -12,7 +12,8 @@
 // signed, + away from the principal point; `no_truth`: points where MODEL images no such circle
 // point, left out of the distances; `edge_mn` / `edge_p95`: the distance to the band edge with
 // the occlusion followed, ProjectLipEdge, over every point; `on_rim`: points whose edge there is
-// the reflex disc's rim), the band's paint likeness, colour contrast and noise
+// the reflex disc's rim; `curve_mn` / `curve_p95`: the edge as a curve, per point the mean
+// signed distance of the image's points within +-2.5 deg of its azimuth), the band's paint likeness, colour contrast and noise
 // (LipEdgeFit, 8-bit linear levels), the lip-only fit of f and the principal point
 // (InitialIntrinsicsFromLips from NOMINAL and from MODEL) and the CPU time of DetectLipEdges.
 #include <algorithm>
@@ -52,6 +53,10 @@ double Percentile(std::vector<double> v, double p) {
 struct EdgeStats {
   std::vector<double> distances, band, contrast, noise;
   std::vector<double> edge_distances;  // to the band edge with the occlusion followed
+  // The edge as a curve: per point, the mean signed distance of the points within +-kCurveDeg
+  // of its azimuth (about the principal point) in the same image, what a local fit of the edge
+  // there would be off by (the points' own scatter averages out, their common offset stays).
+  std::vector<double> curve_offsets;
   int on_rim = 0;                      // points whose band edge is the reflex disc's rim
   double signed_sum = 0;
   int images = 0;
@@ -121,6 +126,7 @@ int main(int argc, char** argv) {
     for (const detectors::LipEdgeFit& fit : fits) {
       EdgeStats& s = stats[{fit.edge.mirror, fit.edge.edge, fit.edge.circle, fit.edge.path}];
       ++s.images;
+      std::vector<std::pair<double, double>> azimuth_signed;  // this image's points of the edge
       for (const Eigen::Vector2d& p : fit.edge.points) {
         // Signed: + where the point lies farther from the principal point than the truth.
         Eigen::Vector2d q;
@@ -136,10 +142,24 @@ int main(int argc, char** argv) {
         const Eigen::Vector2d pp(truth_params.camera[2], truth_params.camera[3]);
         s.distances.push_back(d);
         s.signed_sum += (p - pp).norm() > (q - pp).norm() ? d : -d;
+        azimuth_signed.push_back({std::atan2(p.y() - pp.y(), p.x() - pp.x()),
+                                  (p - pp).norm() > (q - pp).norm() ? d : -d});
         if (std::getenv("EVAL_LIPS_POINTS")) {  // every point: mirror, path, u, v, signed error
           std::printf("point %d %s %.2f %.2f %+.3f\n", fit.edge.mirror, fit.edge.path.c_str(),
                       p.x(), p.y(), (p - pp).norm() > (q - pp).norm() ? d : -d);
         }
+      }
+      constexpr double kCurveDeg = 2.5;
+      for (const auto& [azimuth, unused] : azimuth_signed) {
+        double sum = 0;
+        int count = 0;
+        for (const auto& [other, signed_d] : azimuth_signed) {
+          if (std::abs(std::remainder(other - azimuth, 2 * M_PI)) <= kCurveDeg * M_PI / 180) {
+            sum += signed_d;
+            ++count;
+          }
+        }
+        s.curve_offsets.push_back(std::abs(sum / count));
       }
       s.band.push_back(fit.band);
       s.contrast.push_back(fit.contrast);
@@ -147,24 +167,27 @@ int main(int argc, char** argv) {
       all_edges.push_back(fit.edge);
     }
   }
-  std::printf("%-6s %-6s %-8s %-12s %6s %7s %8s %8s %8s %8s %7s %8s %6s %8s %8s %8s %6s\n",
+  std::printf("%-6s %-6s %-8s %-12s %6s %7s %8s %8s %8s %8s %7s %8s %6s %8s %8s %8s %6s %8s %9s\n",
               "mirror", "edge", "circle", "path", "images", "points", "mean_px", "p95_px",
               "max_px", "outward", "band", "contrast", "noise", "no_truth", "edge_mn", "edge_p95",
-              "on_rim");
+              "on_rim", "curve_mn", "curve_p95");
   for (const auto& [key, s] : stats) {
     double mean = 0;
     for (double d : s.distances) mean += d / s.distances.size();
     double edge_mean = 0;
     for (double d : s.edge_distances) edge_mean += d / s.edge_distances.size();
+    double curve_mean = 0;
+    for (double d : s.curve_offsets) curve_mean += d / s.curve_offsets.size();
     std::printf(
         "%-6d %-6s %-8s %-12s %6d %7zu %8.4f %8.4f %8.4f %+8.4f %7.1f %8.1f %6.2f %8d %8.4f %8.4f "
-        "%6d\n",
+        "%6d %8.4f %9.4f\n",
         std::get<0>(key), std::get<1>(key).c_str(), std::get<2>(key).c_str(),
         std::get<3>(key).c_str(), s.images, s.distances.size(), mean,
         Percentile(s.distances, 0.95), Percentile(s.distances, 1.0),
         s.signed_sum / std::max<size_t>(1, s.distances.size()), Percentile(s.band, 0.5),
         Percentile(s.contrast, 0.5), Percentile(s.noise, 0.5), s.no_truth, edge_mean,
-        Percentile(s.edge_distances, 0.95), s.on_rim);
+        Percentile(s.edge_distances, 0.95), s.on_rim, curve_mean,
+        Percentile(s.curve_offsets, 0.95));
   }
   if (!cpu_ms.empty()) {
     double sum = 0;
