@@ -15,17 +15,26 @@
 // at the image centre, fx = fy = 1450 px as in the design files).
 #include <sys/resource.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <ctime>
+#include <map>
+#include <random>
 #include <string>
+#include <thread>
+
+#include <Eigen/Eigenvalues>
 
 #include <glog/logging.h>
 
 #include "calib/calibrate.h"
 #include "model/io/model_file.h"
+#include "model/io/session_file.h"
+#include "model/lip.h"
 #include "model/model_compare.h"
 #include "model/rig_model.h"
 #include "tests/calib/calib_test_util.h"
@@ -33,6 +42,22 @@
 using namespace omni;
 
 namespace {
+
+// Monte Carlo mode (issue 17: the sigmas within 20% on a realistic-preset session):
+//   bench_calibrate montecarlo SESSION.yaml DETECTIONS.yaml [solves=50] [workers=2]
+// calibrates the session's real detections once (from the session's model, its options): the
+// reference R0. Then each of `solves` synthetic sessions keeps exactly the observations R0 used,
+// each replaced by its value under R0 plus white Gaussian noise of the group's measured sigma:
+// corners projected from R0's target poses with R0's per-ring sigma per axis, lip edge points
+// moved to the nearest point of R0's band edge (model/lip.h DistanceToLipEdgeImage) with R0's
+// lip RMS across the edge as the per-axis sigma. Each is solved from R0's rig (its own session
+// options, one thread per solve, `workers` solves at a time). Per parameter: the spread of the
+// solves against the mean predicted pixel-noise sigma (CalibrationResult::noise_sigma, the
+// covariance without the considered parameters' share: the synthetic noise is white and
+// unbiased, p1 = p2 = 0 held exactly), and the bias; then the spread's chi^2 against the solves'
+// mean noise covariance (pseudo-inverse of its Jacobi-scaled form, so the camera-rotation valley's
+// near-gauge counts by its own eigenvalue): mean d^T C^+ d over the solves, ~rank if the
+// covariance's shape is right too. R0's own variance components are printed beside.
 
 // RIG's ideal design: what a user starts from (sample_configs/big_rig_ideal.yaml's camera).
 RigParams IdealDesignOf(const RigParams& rig, int width, int height) {
@@ -111,10 +136,249 @@ int RunScene(int argc, char** argv) {
   return 0;
 }
 
+// R0's exact value of every observation it used: corners from its target poses, lip points on
+// its band edges. Noise is added per solve (Noisy).
+struct ExactSession {
+  io::Detections detections;  // exact pixels; lips keep their edge labels
+  int corners[2] = {0, 0}, lip_points = 0, lip_dropped = 0;
+};
+
+ExactSession ExactOf(const calib::CalibrationResult& r0, const std::vector<TargetSpec>& targets,
+                     const io::Detections& detections) {
+  const RigModel model(r0.rig);
+  std::map<std::pair<int, int>, const calib::TargetPlacementEstimate*> pose;
+  for (const auto& p : r0.placements) pose[{p.image, p.target}] = &p;
+  std::map<std::tuple<int, int, int, int>, bool> rejected;
+  for (const auto& o : r0.rejected) rejected[{o.image, o.target, o.id, o.mirror}] = true;
+  ExactSession out;
+  out.detections.session = detections.session;
+  for (int i = 0; i < static_cast<int>(detections.images.size()); ++i) {
+    const io::ImageDetections& in = detections.images[i];
+    io::ImageDetections image;
+    image.file = in.file;
+    image.width = in.width;
+    image.height = in.height;
+    for (const auto& o : in.corners) {
+      const auto it = pose.find({i, o.target});
+      if (it == pose.end() || rejected.count({i, o.target, o.id, o.mirror})) continue;
+      const Eigen::Vector3d& w = it->second->rotation;
+      const Eigen::Matrix3d r = w.norm() > 0
+                                    ? Eigen::AngleAxisd(w.norm(), w / w.norm()).toRotationMatrix()
+                                    : Eigen::Matrix3d::Identity();
+      const Eigen::Vector3d point =
+          r * CornerInTarget(targets[o.target], o.id) + it->second->translation;
+      const auto px = model.Project(point, o.mirror == 1 ? Mirror::kOne : Mirror::kTwo);
+      if (!px) continue;
+      io::CornerObservation exact = o;
+      exact.pixel = *px;
+      image.corners.push_back(exact);
+      ++out.corners[o.mirror - 1];
+    }
+    for (const auto& edge : in.lips) {
+      LipPath path;
+      LipCircle circle;
+      if (!ParseLipPath(edge.path, &path) || !ParseLipCircle(edge.circle, &circle)) continue;
+      io::LipEdge exact = edge;
+      exact.points.clear();
+      for (const auto& p : edge.points) {
+        Eigen::Vector2d nearest;
+        // Points R0 could have left out as outliers (a few robust sigmas) are left out here too.
+        if (DistanceToLipEdgeImage(model, path, circle, p, &nearest) <= 1.0) {
+          exact.points.push_back(nearest);
+        } else {
+          ++out.lip_dropped;
+        }
+      }
+      out.lip_points += static_cast<int>(exact.points.size());
+      if (!exact.points.empty()) image.lips.push_back(exact);
+    }
+    out.detections.images.push_back(image);
+  }
+  return out;
+}
+
+io::Detections Noisy(const ExactSession& exact, const double corner_sigma_px[2],
+                     double lip_sigma_px, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> unit(0.0, 1.0);
+  io::Detections d = exact.detections;
+  for (auto& image : d.images) {
+    for (auto& o : image.corners) {
+      const double s = corner_sigma_px[o.mirror - 1];
+      o.pixel += s * Eigen::Vector2d(unit(rng), unit(rng));
+    }
+    for (auto& edge : image.lips) {
+      for (auto& p : edge.points) p += lip_sigma_px * Eigen::Vector2d(unit(rng), unit(rng));
+    }
+  }
+  return d;
+}
+
+int RunMonteCarlo(int argc, char** argv) {
+  if (argc < 4) {
+    std::fprintf(stderr, "usage: bench_calibrate montecarlo SESSION.yaml DETECTIONS.yaml "
+                         "[solves=50] [workers=2]\n");
+    return 2;
+  }
+  const io::Session session = io::ReadSessionFile(argv[2]);
+  const io::Detections detections = io::ReadDetectionsFile(argv[3]);
+  const int solves = argc > 4 ? std::max(2, std::atoi(argv[4])) : 50;
+  const int workers = argc > 5 ? std::max(1, std::atoi(argv[5])) : 2;
+  const RigParams start = io::ReadModelFile(session.model_path);
+  calib::CalibrationOptions options = calib::OptionsFromSession(session);
+  const auto t0 = std::chrono::steady_clock::now();
+  const calib::CalibrationResult r0 = calib::Calibrate(start, session.targets, detections, options);
+  std::printf("reference R0 (the session's detections): %.1f s wall, rms %.4f px over %d corners, "
+              "%d lip points (%d normal points), lips rms %.4f px\n",
+              std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),
+              r0.rms_px, r0.n_observations, r0.n_lip_points, r0.n_lip_normal_points,
+              r0.lip_rms_px);
+  double corner_sigma[2] = {0, 0};
+  for (const auto& g : r0.variance_components) {
+    std::printf("  R0 %-15s s %.4f px per axis, correlation factor %.2f, weighted as %.4f px\n",
+                g.group.c_str(), g.sigma_px, g.correlation_factor, g.weight_sigma_px);
+    if (g.group == "corners ring 1") corner_sigma[0] = g.sigma_px;
+    if (g.group == "corners ring 2") corner_sigma[1] = g.sigma_px;
+  }
+  const double lip_sigma = options.use_lips ? r0.lip_rms_px : 0.0;
+  const ExactSession exact = ExactOf(r0, session.targets, detections);
+  std::printf("synthetic sessions: %d / %d corners (rings 1 / 2) at %.4f / %.4f px per axis, %d lip "
+              "points at %.4f px per axis (%d farther than 1 px from R0's edge left out); %d "
+              "solves from R0's rig, %d at a time, one thread each\n",
+              exact.corners[0], exact.corners[1], corner_sigma[0], corner_sigma[1],
+              exact.lip_points, lip_sigma, exact.lip_dropped, solves, workers);
+
+  options.progress = nullptr;
+  options.solver.threads = 1;
+  std::vector<calib::CalibrationResult> results(solves);
+  std::vector<std::string> errors(solves);
+  std::vector<double> seconds(solves, 0);
+  const auto t1 = std::chrono::steady_clock::now();
+  auto run = [&](int first) {
+    for (int k = first; k < solves; k += workers) {
+      const auto ts = std::chrono::steady_clock::now();
+      try {
+        results[k] = calib::Calibrate(r0.rig, session.targets,
+                                      Noisy(exact, corner_sigma, lip_sigma, 1000 + k), options);
+      } catch (const std::exception& e) {
+        errors[k] = e.what();
+      }
+      seconds[k] = std::chrono::duration<double>(std::chrono::steady_clock::now() - ts).count();
+    }
+  };
+  std::vector<std::thread> pool;
+  for (int w = 1; w < workers; ++w) pool.emplace_back(run, w);
+  run(0);
+  for (auto& t : pool) t.join();
+  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
+
+  // Per parameter over the solves that converged with R0's parameter list.
+  std::vector<int> good;
+  for (int k = 0; k < solves; ++k) {
+    if (!errors[k].empty()) {
+      std::printf("solve %d failed: %s\n", k, errors[k].c_str());
+    } else if (results[k].names != r0.names) {
+      std::printf("solve %d: other parameters observable than R0's (left out)\n", k);
+    } else {
+      good.push_back(k);
+    }
+  }
+  const int n = static_cast<int>(good.size());
+  std::printf("%d of %d solves used, %.1f s wall (%.1f s per solve on one thread)\n", n, solves,
+              wall, [&] { double s = 0; for (double x : seconds) s += x; return s / solves; }());
+  if (n < 2) return 1;
+  {
+    std::map<std::string, std::pair<double, double>> groups;  // mean s, mean tau
+    for (int k : good) {
+      for (const auto& g : results[k].variance_components) {
+        groups[g.group].first += g.sigma_px / n;
+        groups[g.group].second += g.correlation_factor / n;
+      }
+    }
+    for (const auto& [name, v] : groups) {
+      std::printf("  solves' %-15s mean s %.4f px per axis, correlation factor %.2f\n",
+                  name.c_str(), v.first, v.second);
+    }
+  }
+  const int p = static_cast<int>(r0.names.size());
+  Eigen::MatrixXd x(n, p);
+  Eigen::VectorXd predicted = Eigen::VectorXd::Zero(p);
+  for (int a = 0; a < n; ++a) {
+    x.row(a) = results[good[a]].values.transpose();
+    predicted += results[good[a]].noise_sigma / n;
+  }
+  const Eigen::VectorXd mean = x.colwise().mean().transpose();
+  const Eigen::MatrixXd d = x.rowwise() - mean.transpose();
+  const Eigen::VectorXd spread = (d.array().square().colwise().sum() / (n - 1)).sqrt().transpose();
+  std::printf("%-14s %14s %12s %12s %7s %12s\n", "parameter", "R0 value", "spread", "predicted",
+              "ratio", "bias/spread");
+  double worst = 0;
+  std::string worst_name;
+  for (int i = 0; i < p; ++i) {
+    const double ratio = spread(i) / predicted(i);
+    const double bias = (mean(i) - r0.values(i)) / spread(i);
+    std::printf("%-14s %14.6g %12.4g %12.4g %7.3f %12.2f\n", r0.names[i].c_str(), r0.values(i),
+                spread(i), predicted(i), ratio, bias);
+    if (std::abs(ratio - 1) > worst) worst = std::abs(ratio - 1), worst_name = r0.names[i];
+  }
+  std::printf("ratio sd from sampling alone ~ 1/sqrt(2 n) = %.3f; worst |ratio - 1| %.3f (%s)\n",
+              1 / std::sqrt(2.0 * n), worst, worst_name.c_str());
+
+  // chi^2 of the spread against the predicted pixel-noise covariance (each solve's covariance
+  // minus its considered share, averaged over the solves: R0's own would weigh the lips by the
+  // real session's correlation factor, the synthetic white lip noise gives ~1), Jacobi-scaled,
+  // pseudo-inverse at 1e-10 of the largest eigenvalue.
+  Eigen::MatrixXd noise_cov = Eigen::MatrixXd::Zero(p, p);
+  for (int a = 0; a < n; ++a) {
+    const calib::CalibrationResult& r = results[good[a]];
+    Eigen::MatrixXd c = r.covariance;
+    if (r.considered_sensitivity.cols() == r.considered_column_sigma.size() &&
+        r.considered_sensitivity.rows() == p) {
+      c -= r.considered_sensitivity *
+           r.considered_column_sigma.array().square().matrix().asDiagonal() *
+           r.considered_sensitivity.transpose();
+    }
+    noise_cov += c / n;
+  }
+  const Eigen::VectorXd scale = noise_cov.diagonal().cwiseMax(1e-300).cwiseSqrt();
+  std::printf("mean noise covariance: sqrt(diagonal) / mean noise_sigma in %.4f .. %.4f\n",
+              scale.cwiseQuotient(predicted).minCoeff(), scale.cwiseQuotient(predicted).maxCoeff());
+  const Eigen::MatrixXd scaled = scale.cwiseInverse().asDiagonal() * noise_cov *
+                                 scale.cwiseInverse().asDiagonal();
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(scaled);
+  const double tol = 1e-10 * eig.eigenvalues().maxCoeff();
+  int rank = 0;
+  double chi2 = 0;
+  Eigen::VectorXd per_direction = Eigen::VectorXd::Zero(p);
+  for (int a = 0; a < n; ++a) {
+    const Eigen::VectorXd z = eig.eigenvectors().transpose() *
+                              (d.row(a).transpose().cwiseQuotient(scale));
+    for (int k = 0; k < p; ++k) {
+      if (eig.eigenvalues()(k) <= tol) continue;
+      per_direction(k) += z(k) * z(k) / eig.eigenvalues()(k) / (n - 1);
+    }
+  }
+  for (int k = 0; k < p; ++k) {
+    if (eig.eigenvalues()(k) <= tol) continue;
+    ++rank;
+    chi2 += per_direction(k);
+  }
+  std::printf("chi^2 of the spread against the predicted noise covariance: %.2f per solve for %d "
+              "directions (expected %d; sampling sd ~%.2f)\n", chi2, rank, rank,
+              std::sqrt(2.0 * rank / n));
+  std::printf("per eigen-direction (Jacobi-scaled eigenvalue ascending: variance ratio): ");
+  for (int k = 0; k < p; ++k) {
+    if (eig.eigenvalues()(k) > tol) std::printf("%.2g:%.2f ", eig.eigenvalues()(k), per_direction(k));
+  }
+  std::printf("\n");
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   FLAGS_minloglevel = 2;  // Ceres's per-trial-step warnings, as in the CLI
+  if (argc > 1 && std::string(argv[1]) == "montecarlo") return RunMonteCarlo(argc, argv);
   if (argc > 2 && std::string(argv[1]).size() > 5 &&
       std::string(argv[1]).substr(std::string(argv[1]).size() - 5) == ".yaml") {
     return RunScene(argc, argv);
