@@ -20,27 +20,49 @@
 # Renders are cached in OUT_DIR (a re-run only detects, calibrates and triangulates again, so it
 # picks up detector and calibration fixes in a few seconds); a folder is rendered again when its
 # scene file differs from the copy kept beside the render (OUT_DIR/*/scene.yaml), or after
-# deleting OUT_DIR/*/0001.png. Rendering takes ~15-20 s per image (6 RMSE images per rig, 12
-# calibration images) with one POV-Ray process. Last: the ideal rig without a detector (exact pixels + the paper's 0.08 px,
+# deleting OUT_DIR/*/session.yaml. Rendering takes ~15-20 s per image on a quiet machine (6 RMSE
+# images per rig, 12 calibration images) with one POV-Ray process (30-130 s with the machine's 2
+# cores shared). Last: the ideal rig without a detector (exact pixels + the paper's 0.08 px,
 # 300 seeds): the predicted RMSE and how an 80-point RMSE spreads over seeds.
-# Usage: scripts/rmse_table.sh [OUT_DIR]   (OMNISTEREO=path/to/omnistereo, SIGMA_PX=1, JOBS=1)
+# CAMERA (default realistic: the images as a user's colour camera gives them, defocus, Bayer
+# mosaic + demosaic, shot/read noise, JPEG; calib/synthetic/camera_effects.h) is written into
+# copies of both scene files (OUT_DIR/scenes/) as `camera_effects:`; CAMERA=clean renders the
+# scene files as they are (antialiased, 1 grey level of noise in the calibration session). The
+# pinhole renders are kept (NNNN.pinhole.png) so that bench/eval_detectors can apply other
+# camera effects to them (EVAL_CAMERA).
+# Usage: scripts/rmse_table.sh [OUT_DIR]   (OMNISTEREO=path/to/omnistereo, SIGMA_PX=1, JOBS=1,
+#        CAMERA=realistic | clean | mild | harsh)
 set -euo pipefail
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
 EXE=${OMNISTEREO:-$ROOT/build/apps/omnistereo}
 OUT=${1:-/tmp/omnistereo_rmse}
 SIGMA_PX=${SIGMA_PX:-1}
 JOBS=${JOBS:-1}
+CAMERA=${CAMERA:-realistic}
 CONFIGS=$ROOT/sample_configs
 NOMINAL=$CONFIGS/big_rig_ideal.yaml  # the ideal design at the RMSE scene's image size (1280x960)
-mkdir -p "$OUT"
+mkdir -p "$OUT/scenes"
 OUT=$(cd "$OUT" && pwd)
 
+scene_with_camera() {  # scene file -> its copy with `camera_effects: $CAMERA` (path printed)
+  local scene=$1 copy="$OUT/scenes/$(basename "$1")"
+  if [ "$CAMERA" = clean ]; then
+    cp "$scene" "$copy"
+  else  # the camera's own sensor noise replaces render.noise_sigma (the scene reader wants 0)
+    sed -e '/^camera_effects:/d' -e 's/noise_sigma: *[0-9.]*/noise_sigma: 0.0/' \
+        -e "s/^render: .*/&\ncamera_effects: $CAMERA/" "$scene" > "$copy"
+  fi
+  echo "$copy"
+}
+
 render() {  # rig, scene, dir: render unless the images and truth of this very scene are there
-  local rig=$1 scene=$2 dir=$3
-  if [ ! -f "$dir/truth.yaml" ] || [ ! -f "$dir/0001.png" ] || [ ! -f "$dir/session.yaml" ] ||
-     ! cmp -s "$scene" "$dir/scene.yaml"; then
+  local rig=$1 scene=$2 dir=$3 first
+  first=$(sed -n 's/^ *- *"\{0,1\}\([^"]*\.\(png\|jpg\)\)"\{0,1\} *$/\1/p' "$dir/session.yaml" 2>/dev/null | head -n 1 || true)
+  if [ ! -f "$dir/truth.yaml" ] || [ ! -f "$dir/session.yaml" ] || [ -z "$first" ] ||
+     [ ! -f "$dir/$first" ] || ! cmp -s "$scene" "$dir/scene.yaml"; then
     rm -f "$dir/scene.yaml"
-    "$EXE" render --model="$CONFIGS/$rig.yaml" --scene="$scene" --out="$dir" --jobs="$JOBS"
+    nice "$EXE" render --model="$CONFIGS/$rig.yaml" --scene="$scene" --out="$dir" --jobs="$JOBS" \
+      --keep_pinhole
     cp "$scene" "$dir/scene.yaml"
   fi
 }
@@ -63,13 +85,16 @@ triangulate() {  # label, rig dir, model, extra flags...
 }
 
 # The RMSE scene through both rigs.
+RMSE_SCENE=$(scene_with_camera "$CONFIGS/rmse_scene.yaml")
+CALIBRATION_SCENE=$(scene_with_camera "$CONFIGS/rmse_calibration_scene.yaml")
+echo "camera: $CAMERA"
 for rig in big_rig_ideal big_rig_misaligned; do
-  render "$rig" "$CONFIGS/rmse_scene.yaml" "$OUT/$rig"
+  render "$rig" "$RMSE_SCENE" "$OUT/$rig"
   detect "$OUT/$rig"
 done
 
 # The calibration session of the misaligned rig (1280x960, as the RMSE scene).
-render big_rig_misaligned "$CONFIGS/rmse_calibration_scene.yaml" "$OUT/calibration"
+render big_rig_misaligned "$CALIBRATION_SCENE" "$OUT/calibration"
 detect "$OUT/calibration"
 echo "calibrating the misaligned rig from the ideal design ($OUT/calibration/calibrate.log)"
 "$EXE" calibrate --session="$OUT/calibration/session.yaml" \
