@@ -301,7 +301,7 @@ double LumaCrossing(const std::vector<double>& luma, const Eigen::Vector3d level
 // they are. A projection on the paint's chroma alone did not: against the textured room the
 // outside's chroma varies as much as the navy band's (realistic camera, JPEG: edges 0.53 px
 // into the room, 0.5 px mean error; this way 0.00 px and 0.07 px on the direct path). False if
-// there is no rise, or the band is narrower than min_band_px there (the model may not know
+// there is no rise, or the band is narrower than min_measured_band_px there (the model may not know
 // where an occluder narrows it). Thresholds are the caller's (ScreenCandidates).
 bool FindEdge(const cv::Mat& bgr, const PaintLikeness& likeness, bool outer,
               const EdgePrediction& pred, const LipDetectorOptions& options, EdgeCandidate* out) {
@@ -324,10 +324,14 @@ bool FindEdge(const cv::Mat& bgr, const PaintLikeness& likeness, bool outer,
     }
   }
   if (best < 0) return false;
-  // Fine colour samples at kStep over +-kHalf px around the coarse edge.
-  constexpr double kStep = 0.25, kHalf = 4.0;
-  const int n = static_cast<int>(2 * kHalf / kStep) + 1, mid = (n - 1) / 2;
-  const double tc = t0 + best * kCoarseStep - kHalf;
+  // Fine colour samples at kStep from kOutside px outside the coarse edge to kOutside or
+  // min_measured_band_px + 2 px (whichever is more) into the band: the side means need 3 px, the
+  // steepest point may lie 1 px from the coarse edge and the crossing 1 px from that.
+  constexpr double kStep = 0.25, kOutside = 4.0;
+  const double inside = std::max(kOutside, options.min_measured_band_px + 2.0);
+  const int n = static_cast<int>((kOutside + inside) / kStep) + 1;
+  const int mid = static_cast<int>((sign > 0 ? kOutside : inside) / kStep);  // the coarse edge
+  const double tc = t0 + best * kCoarseStep - mid * kStep;
   // On arcs: a straight tangent would average a curved edge inwards by a third of its sagitta
   // (0.01 px for +-3 px at the inner ring's 200 px radius).
   constexpr int kTangential = 5;
@@ -407,7 +411,11 @@ bool FindEdge(const cv::Mat& bgr, const PaintLikeness& likeness, bool outer,
       const double a = score[i] - 0.5, b = score[i + 1] - 0.5;
       if ((a <= 0 && b > 0) || (a >= 0 && b < 0)) {
         double t = i + a / (a - b);  // in fine samples
-        for (double width = 0.5; width <= options.min_band_px; width += kStep) {
+        // The band's own colour over min_measured_band_px: where the band's other edge comes
+        // nearer, its blur reaches the band side's samples (1.5-3 px in), the band's level reads
+        // low and the crossing moves into the band (0.4-0.5 px at 3.5-4 px wide: the via_mirror2
+        // band where the reflex disc's rim narrows it more than the prior model says).
+        for (double width = 0.5; width <= options.min_measured_band_px; width += kStep) {
           const int k = static_cast<int>(std::lround(t + sign * width / kStep));
           if (k < 0 || k >= n || score[k] < 0.5) return false;
         }

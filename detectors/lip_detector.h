@@ -43,7 +43,8 @@ struct LipDetectorOptions {
   int profiles = 720;            // radial profiles per full circle
   double search_px = 14;         // half-width of the search window around the prediction
   double min_margin_px = 1.5;    // to the nearest other (circle, path) image of the same band
-  double min_band_px = 2.5;      // visible band width along the edge's own path
+  double min_band_px = 2.5;      // visible band width along the edge's own path (prior model)
+  double min_measured_band_px = 4.5;  // the band's colour found this far past the edge point
   double tangential_px = 3;      // profile samples average the colour over +-this along the edge
   double min_snr = 6;            // colour contrast over the band side's noise
   double min_relative = 0.4;     // contrast and paint likeness over their neighbours' median
