@@ -152,6 +152,21 @@ int BestView(const std::vector<RingView>& views, const RigModel& model, Mirror m
   return best;
 }
 
+// The raw pixel of view pixel at + step, or where the view's map ends before it (a target seen
+// at the ring's edge through a model whose ring is offset from the image's: the ideal design of
+// a misaligned rig, 10-25 raw px), extrapolated linearly from the longest of step / 2, / 4, / 8
+// that maps (the local direction and length are what the callers need). nullopt if `at` does
+// not map or none of them does.
+std::optional<Eigen::Vector2d> RawTowards(const RingView& view, const Eigen::Vector2d& at,
+                                          const Eigen::Vector2d& step) {
+  const auto origin = view.ViewToRaw(at);
+  if (!origin) return std::nullopt;
+  for (double f = 1; f >= 0.125; f *= 0.5) {
+    if (const auto p = view.ViewToRaw(at + f * step)) return *origin + (*p - *origin) / f;
+  }
+  return std::nullopt;
+}
+
 // Plane -> view homography of the junctions `ids` (lattice order) seen at `pixels`.
 cv::Mat FitHomography(const std::vector<Eigen::Vector2d>& plane,
                       const std::vector<Eigen::Vector2d>& pixels, int method, double tolerance) {
@@ -528,12 +543,20 @@ std::vector<io::CornerObservation> GuideTarget(
       }
     }
   } else {
-    const KalibrDetectorOptions kalibr;
+    const TagDetectorOptions tag_options;  // the Kalibr detector's junction window
+    const KalibrDetectorOptions& kalibr = tag_options.kalibr;
     for (size_t i = 0; i < lattice.corners.size(); ++i) {
       const int id = lattice.corners[i].id;
       if (match[i] < 0 || have.count(id)) continue;
       const int tag = id / 4, k = id % 4;
-      const auto raw = raw_of(id), next = raw_of(4 * tag + (k + 1) % 4), previous = raw_of(4 * tag + (k + 3) % 4);
+      const Eigen::Vector2d at_view = Apply(h, lattice.corners[i].plane);
+      const auto view_of = [&](int other) { return Apply(h, lattice.corners[index_of[4 * tag + other]].plane); };
+      // The tag's edges' directions and length in raw: its neighbouring corners may lie beyond
+      // the view's map (a tag at the ring's edge seen through the ideal design) while this one
+      // does not: from inside the view (near_scene 0002, 200 mm tags at 2 m: 37 -> 43 of 48).
+      const auto raw = raw_of(id);
+      const auto next = RawTowards(view, at_view, view_of((k + 1) % 4) - at_view);
+      const auto previous = RawTowards(view, at_view, view_of((k + 3) % 4) - at_view);
       if (!raw || !next || !previous) continue;
       double side_view = 0;
       for (int m = 0; m < 4; ++m) {
@@ -552,22 +575,25 @@ std::vector<io::CornerObservation> GuideTarget(
                              std::max(1.5, 0.12 * side_raw), kalibr.min_contrast)) {
         continue;
       }
-      Eigen::Vector2d corner = *pixel;
+      const Eigen::Vector2d corner = *pixel;
       // The junction fitted as the Kalibr detector fits it (corner_refine.h FitBlurredJunction):
       // its lines the tag's edges through the corner, as the view's map bends them.
-      const Eigen::Vector2d at_view = Apply(h, lattice.corners[i].plane);
       const auto line = [&](int other) -> std::optional<LocalLine> {
-        const Eigen::Vector2d step = 0.5 * (Apply(h, lattice.corners[index_of[4 * tag + other]].plane) - at_view);
-        std::vector<std::optional<Eigen::Vector2d>> points = {view.ViewToRaw(at_view - step), *raw,
-                                                              view.ViewToRaw(at_view + step)};
+        const Eigen::Vector2d step = 0.5 * (view_of(other) - at_view);
+        std::vector<std::optional<Eigen::Vector2d>> points = {RawTowards(view, at_view, -step), *raw,
+                                                              RawTowards(view, at_view, step)};
         if (!points[0] || !points[2]) return std::nullopt;
         return LineThroughCorner(points, 1, 3, 1, true);
       };
+      // Over the same fraction of the tag side (the 2-bit border): at 0.15 the inner ring's
+      // 9-12 px tags left a window of under 16 pixels, the fit refused, and the view's
+      // cornerSubPix corner (0.3-0.9 px off there) was kept. A corner the fit cannot measure is
+      // left out: guided corners have no decoded quad to vouch for them.
       const auto row = line((k + 1) % 4), col = line((k + 3) % 4);
-      if (row && col) {
-        if (const auto fit = FitBlurredJunction(raw_grey, corner, *row, *col, 0.15 * side_raw)) corner = fit->corner;
-      }
-      refined[id] = corner;
+      if (!row || !col) continue;
+      const auto fit = FitBlurredJunction(raw_grey, corner, *row, *col, tag_options.kalibr_junction_window * side_raw);
+      if (!fit) continue;
+      refined[id] = fit->corner;
     }
   }
   if (refined.empty() || (own.ids.empty() && static_cast<int>(refined.size()) < options.min_kept)) return out;

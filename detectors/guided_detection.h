@@ -26,8 +26,9 @@
 //     scored again; the best must beat every other alignment by the margin.
 //  4. Each matched junction refined as the per-ring detector refines its kind: chessboards by
 //     cornerSubPix in the raw image (corner_refine.h, windows kept on their squares, curvature
-//     bias removed), Kalibr corners by cornerSubPix in the view mapped to raw and checked to be
-//     whole X-junctions in the raw image, plain tags by their four edges in the raw image
+//     bias removed), Kalibr corners by cornerSubPix in the view mapped to raw, checked to be
+//     whole X-junctions in the raw image and fitted as blurred junctions over the Kalibr
+//     detector's window (FitBlurredJunction; a corner it cannot fit is left out), plain tags by their four edges in the raw image
 //     (RefineTagCorners with the code of the tag's place; three of its corners matched, the
 //     tag whole or not at all).
 //  5. The grid check (tag_grid_check.h) on all the target's corners in ring d, the found ones and
