@@ -222,6 +222,96 @@ struct Seeds {
   std::vector<int> ids;
 };
 
+// Kalibr junctions of the aligned lattice (plane -> view `h`) that lie beyond the view's map,
+// where the model's ring ends short of the image's (the ideal design of a misaligned rig: 10-25
+// raw px; near_scene's 200 mm tags along the red lip), measured in the raw image from the
+// target's corners around them: a quadratic of the plane coordinates fitted to the ring's corners
+// of the target (own and guided, `known`) within 2 tag pitches (at least 10, within 0.15 px rms;
+// a homography leaves 0.6-0.7 px over that reach in the inner ring) predicts the junction
+// (extrapolated to the ring's edge: 0.2-1.3 px off), raw cornerSubPix, the same X-junction check
+// and blurred-junction fit as inside the view measure it, and it is kept within
+// max(0.5 px, 0.08 tag sides) of the prediction: the fit found the junction the lattice puts
+// there, not a neighbour (a corner square's side, 0.3 tag sides, away). The view's grid check
+// cannot see it. Ids from the lattice, as for every guided corner.
+std::vector<io::CornerObservation> KalibrBeyondTheView(const cv::Mat& raw_grey, const RingView& view,
+                                                       const TargetSpec& target, const Lattice& lattice,
+                                                       const cv::Mat& h, const Seeds& own,
+                                                       const std::vector<io::CornerObservation>& guided,
+                                                       const GuidedOptions& options) {
+  std::vector<io::CornerObservation> out;
+  std::map<int, Eigen::Vector2d> known;
+  for (size_t i = 0; i < own.ids.size(); ++i) known[own.ids[i]] = own.raw[i];
+  for (const io::CornerObservation& o : guided) known[o.id] = o.pixel;
+  if (known.size() < 6) return out;
+  const TagDetectorOptions tag_options;
+  const double pitch = TagPitch(target);
+  // raw = a quadratic in the plane coordinates (per pitch, about the junction): the mirror's
+  // image of a plane bends its rows over a few pitches (a homography leaves 0.6-0.7 px there).
+  struct LocalMap {
+    Eigen::Vector2d at = Eigen::Vector2d::Zero();
+    Eigen::Matrix<double, 6, 2> coefficients;
+    Eigen::Vector2d operator()(const Eigen::Vector2d& plane, double pitch) const {
+      const Eigen::Vector2d d = (plane - at) / pitch;
+      Eigen::Matrix<double, 6, 1> f;
+      f << 1, d.x(), d.y(), d.x() * d.x(), d.x() * d.y(), d.y() * d.y();
+      return coefficients.transpose() * f;
+    }
+  };
+  const auto local_map = [&](const Eigen::Vector2d& at, LocalMap* map) {
+    std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>> near;
+    for (const auto& [id, raw] : known) {
+      const Eigen::Vector2d plane = CornerInTarget(target, id).head<2>();
+      if ((plane - at).norm() <= 2.0 * pitch) near.emplace_back(plane, raw);
+    }
+    if (near.size() < 10) return false;
+    Eigen::MatrixXd a(near.size(), 6), b(near.size(), 2);
+    for (size_t i = 0; i < near.size(); ++i) {
+      const Eigen::Vector2d d = (near[i].first - at) / pitch;
+      a.row(i) << 1, d.x(), d.y(), d.x() * d.x(), d.x() * d.y(), d.y() * d.y();
+      b.row(i) = near[i].second.transpose();
+    }
+    map->at = at;
+    map->coefficients = a.colPivHouseholderQr().solve(b);
+    double ss = 0;
+    for (const auto& [plane, raw] : near) ss += ((*map)(plane, pitch) - raw).squaredNorm();
+    return std::sqrt(ss / near.size()) <= 0.15;
+  };
+  for (const Junction& j : lattice.corners) {
+    if (known.count(j.id) || view.ViewToRaw(Apply(h, j.plane))) continue;
+    LocalMap map;
+    if (!local_map(j.plane, &map)) continue;
+    const int k = j.id % 4;
+    const Eigen::Vector2d predicted = map(j.plane, pitch);
+    const auto corner_of = [&](int other) {
+      return map(CornerInTarget(target, 4 * (j.id / 4) + other).head<2>(), pitch);
+    };
+    const Eigen::Vector2d next = corner_of((k + 1) % 4), previous = corner_of((k + 3) % 4);
+    const double side_raw = std::min((next - predicted).norm(), (previous - predicted).norm());
+    Eigen::Vector2d start;
+    if (!RefineSaddleCorner(raw_grey, predicted, static_cast<int>(std::lround(0.15 * side_raw)), 0.2 * side_raw,
+                            &start) ||
+        !IsKalibrXJunction(raw_grey, start, (next - predicted).normalized(), (previous - predicted).normalized(),
+                           std::max(1.5, 0.12 * side_raw), tag_options.kalibr.min_contrast)) {
+      continue;
+    }
+    const auto line = [&](int other) -> std::optional<LocalLine> {
+      const Eigen::Vector2d to = CornerInTarget(target, 4 * (j.id / 4) + other).head<2>() - j.plane;
+      std::vector<std::optional<Eigen::Vector2d>> points = {map(j.plane - 0.5 * to, pitch), predicted,
+                                                            map(j.plane + 0.5 * to, pitch)};
+      return LineThroughCorner(points, 1, 3, 1, true);
+    };
+    const auto row = line((k + 1) % 4), col = line((k + 3) % 4);
+    if (!row || !col) continue;
+    const auto fit = FitBlurredJunction(raw_grey, start, *row, *col, tag_options.kalibr_junction_window * side_raw);
+    if (!fit || (fit->corner - predicted).norm() > std::max(options.grid_check.max_residual_px, 0.08 * side_raw)) continue;
+    io::CornerObservation o;
+    o.id = j.id;
+    o.pixel = fit->corner;
+    out.push_back(o);
+  }
+  return out;
+}
+
 // Guided corners of target `ti` in ring `dest` from its corners in the other ring.
 std::vector<io::CornerObservation> GuideTarget(
     const cv::Mat& raw_grey, const std::vector<RingView>& views, const RigModel& model,
@@ -620,6 +710,13 @@ std::vector<io::CornerObservation> GuideTarget(
   }
   // Ids anchored by the ring's own corners need no quorum; ids from the other ring do.
   if (own.ids.empty() && static_cast<int>(kept.size()) < options.min_kept) return out;
+  if (target.type == TargetType::kKalibrAprilGrid) {
+    for (io::CornerObservation o : KalibrBeyondTheView(raw_grey, view, target, lattice, h, own, kept, options)) {
+      o.target = ti;
+      o.mirror = MirrorIndex(dest);
+      kept.push_back(o);
+    }
+  }
   return kept;
 }
 

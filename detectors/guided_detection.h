@@ -28,9 +28,11 @@
 //     cornerSubPix in the raw image (corner_refine.h, windows kept on their squares, curvature
 //     bias removed), Kalibr corners by cornerSubPix in the view mapped to raw, checked to be
 //     whole X-junctions in the raw image and fitted as blurred junctions over the Kalibr
-//     detector's window (FitBlurredJunction; a corner it cannot fit is left out), plain tags by their four edges in the raw image
-//     (RefineTagCorners with the code of the tag's place; three of its corners matched, the
-//     tag whole or not at all).
+//     detector's window (FitBlurredJunction; a corner it cannot fit is left out; junctions
+//     beyond the view's map, at the ring's edge through an ideal model, from a quadratic of their
+//     neighbours' raw pixels: KalibrBeyondTheView), plain tags by their four edges in the raw
+//     image (RefineTagCorners with the code of the tag's place; three of its corners matched,
+//     the tag whole or not at all).
 //  5. The grid check (tag_grid_check.h) on all the target's corners in ring d, the found ones and
 //     the guided ones: a guided corner is kept only if checked and within its tolerance.
 // Ids come from the target's lattice, fixed by ring s's ids and the alignment; a wrong

@@ -171,13 +171,14 @@ TEST(GuidedDetection, KalibrTagsBeyondTheIdealModelsRingEdge) {
   // (18 px tags) along the red lip. Detected with the ideal design, whose inner ring is offset
   // from the image's by the misalignment, the view ends short of three tags' outer corners:
   // the inner ring's own detector reads 36 of the 48 corners, and guidance found 1 more while it
-  // needed the tag's neighbouring corners in the view for the junction's directions. Measured
-  // with those directions extrapolated from inside the view (RawTowards): 43 of 48, the rest
-  // beyond the view (no saddle point to match); true model 48 of 48.
+  // needed the tag's neighbouring corners in the view for the junction's directions. Measured:
+  // 43 of 48 with those directions extrapolated from inside the view (RawTowards), 47 of 48
+  // (mean 0.051 px, max 0.21) with the junctions beyond the view measured from a quadratic of
+  // their neighbours (KalibrBeyondTheView); true model 48 of 48.
   const Case c = RenderCase(1, 5, "kalibr_edge");
   const auto ideal = Detect(c, Ideal(c.rig), true);
   Print("guided, ideal model", ideal);
-  EXPECT_GE(ideal[1].found, 42);
+  EXPECT_GE(ideal[1].found, 46);
   EXPECT_LE(ideal[1].mean, 0.08);
   EXPECT_LE(ideal[1].worst, 0.3);
   EXPECT_EQ(ideal[0].wrong + ideal[1].wrong, 0);
