@@ -37,7 +37,7 @@ bool HasForbiddenChar(std::string_view s) {
 
 CsvReader::CsvReader(std::string path, std::vector<std::string> columns)
     : path_(std::move(path)), columns_(std::move(columns)) {
-  file_ = std::fopen(path_.c_str(), "rb");
+  file_.reset(std::fopen(path_.c_str(), "rb"));
   if (file_ == nullptr) {
     const std::string why = errno == ENOENT ? "no such file" : std::strerror(errno);
     throw InputError(path_ + ": expected a readable CSV file, got " + why);
@@ -83,9 +83,7 @@ CsvReader::CsvReader(std::string path, std::vector<std::string> columns)
   }
 }
 
-CsvReader::~CsvReader() {
-  if (file_ != nullptr) std::fclose(file_);
-}
+CsvReader::~CsvReader() = default;
 
 int CsvReader::ColumnIndex(std::string_view name) const {
   for (std::size_t i = 0; i < header_.size(); ++i) {
@@ -123,10 +121,10 @@ bool CsvReader::NextLine(std::string_view* line) {
       begin_ = 0;
     }
     if (end_ == buffer_.size()) buffer_.resize(buffer_.size() * 2);
-    const std::size_t n = std::fread(buffer_.data() + end_, 1, buffer_.size() - end_, file_);
+    const std::size_t n = std::fread(buffer_.data() + end_, 1, buffer_.size() - end_, file_.get());
     end_ += n;
     if (n == 0) {
-      if (std::ferror(file_)) Fail("expected a readable file, got a read error");
+      if (std::ferror(file_.get())) Fail("expected a readable file, got a read error");
       eof_ = true;
     }
   }

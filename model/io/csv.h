@@ -54,7 +54,8 @@ class CsvReader {
 
   std::string path_;
   std::vector<std::string> columns_;
-  std::FILE* file_ = nullptr;
+  // Owned so that it is closed when the constructor throws too (a bad header leaked it).
+  std::unique_ptr<std::FILE, int (*)(std::FILE*)> file_{nullptr, &std::fclose};
   std::vector<char> buffer_;
   std::size_t begin_ = 0, end_ = 0;  // unread bytes are buffer_[begin_, end_)
   bool eof_ = false;

@@ -7,6 +7,8 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <filesystem>
+#include <iterator>
 #include <limits>
 #include <random>
 
@@ -142,6 +144,25 @@ TEST(CsvTest, HeaderProblemsNameFileAndColumn) {
             0u);
   EXPECT_EQ(ErrorOf([&] { CsvReader reader(dir / "none.csv", kPointColumns); }),
             dir / "none.csv" + ": expected a readable CSV file, got no such file");
+}
+
+// Found by scripts/fuzz.sh (fuzz_pixels_csv ran out of file descriptors): a reader whose
+// header is rejected must close its file. The oracle is the process's own list of open files.
+TEST(CsvTest, RejectedHeaderClosesTheFile) {
+  ScratchDir dir;
+  const std::string path = dir / "p.csv";
+  const auto open_files = [] {
+    return std::distance(std::filesystem::directory_iterator("/proc/self/fd"),
+                         std::filesystem::directory_iterator{});
+  };
+  for (const char* text : {"x_mm,y_mm\n1,2\n", "x_mm,y_mm,x_mm\n", "\n\n"}) {
+    WriteText(path, text);
+    const auto before = open_files();
+    for (int i = 0; i < 50; ++i) {
+      EXPECT_NE(ErrorOf([&] { CsvReader reader(path, kPointColumns); }), "no error");
+    }
+    EXPECT_EQ(open_files(), before) << text;
+  }
 }
 
 TEST(CsvTest, WrongFieldCountNamesTheLine) {
