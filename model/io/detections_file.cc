@@ -1,5 +1,7 @@
 #include "model/io/detections_file.h"
 
+#include <cmath>
+#include <limits>
 #include <sstream>
 
 #include "model/io/yaml_reader.h"
@@ -13,7 +15,8 @@ constexpr int kFormatMajor = 1;
 int IntegerAt(const Reader& in, const YAML::Node& row, std::size_t i, const std::string& key,
               int min) {
   const double v = in.Number(row[i], key + "[" + std::to_string(i) + "]");
-  if (v != static_cast<int>(v) || v < min) {
+  // Range first: casting a double beyond int's range is undefined behaviour.
+  if (!(v >= min && v <= std::numeric_limits<int>::max()) || v != std::floor(v)) {
     in.Fail(key + "[" + std::to_string(i) + "]", "expected an integer >= " + std::to_string(min),
             Describe(row[i]));
   }

@@ -184,6 +184,11 @@ TEST(DetectionsFileTest, BadRowsNameTheKey) {
       {"[0, 12, 1, 1.0]", "images[0].corners[0]"},
       {"[0, -1, 1, 1.0, 2.0]", "images[0].corners[0][1]"},
       {"[0, 12, 1, u, 2.0]", "images[0].corners[0][3]"},
+      // Beyond int's range or not whole (the range check came after a cast that is undefined
+      // behaviour for such a value).
+      {"[0, 1e30, 1, 1.0, 2.0]", "images[0].corners[0][1]"},
+      {"[3000000000, 12, 1, 1.0, 2.0]", "images[0].corners[0][0]"},
+      {"[0, 12.5, 1, 1.0, 2.0]", "images[0].corners[0][1]"},
   };
   for (const auto& [row, key] : cases) {
     std::ofstream(path) << "format: omnistereo-detections/1\nimages:\n  - file: a.png\n"
