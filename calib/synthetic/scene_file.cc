@@ -1,6 +1,7 @@
 #include "calib/synthetic/scene_file.h"
 
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 #include <Eigen/Geometry>
@@ -47,10 +48,28 @@ Eigen::Vector3d Vec3(const YAML::Node& node, const std::string& file, const std:
                          Number(node[2], file, key));
 }
 
-int Int(const YAML::Node& node, const std::string& file, const std::string& key) {
+// A whole number that fits the integer it goes into (a cast from a double out of range is
+// undefined behaviour: scripts/fuzz.sh's fuzz_scene found image.width 9.6e29).
+long WholeNumber(const YAML::Node& node, const std::string& file, const std::string& key,
+                 long lo, long hi) {
   const double v = Number(node, file, key);
-  if (v != std::floor(v)) Fail(file, key, "expected a whole number");
-  return static_cast<int>(v);
+  if (v != std::floor(v) || v < static_cast<double>(lo) || v > static_cast<double>(hi)) {
+    Fail(file, key, "expected a whole number from " + std::to_string(lo) + " to " +
+                        std::to_string(hi) + ", got '" + node.Scalar() + "'");
+  }
+  return static_cast<long>(v);
+}
+
+int Int(const YAML::Node& node, const std::string& file, const std::string& key) {
+  return static_cast<int>(WholeNumber(node, file, key, std::numeric_limits<int>::min(),
+                                      std::numeric_limits<int>::max()));
+}
+
+unsigned SeedOr(const YAML::Node& node, const std::string& file, const std::string& key,
+                unsigned d) {
+  return node ? static_cast<unsigned>(
+                    WholeNumber(node, file, key, 0, std::numeric_limits<unsigned>::max()))
+              : d;
 }
 
 // One entry of `targets:` with the session file's keys (model/io/session_file.h):
@@ -235,7 +254,7 @@ Scene ParseScene(const YAML::Node& root, const std::string& path, const RigModel
     s.antialias = BoolOr(r["antialias"], path, "render.antialias", s.antialias);
     s.noise_sigma = NumberOr(r["noise_sigma"], path, "render.noise_sigma", 0.0);
     if (s.noise_sigma < 0) Fail(path, "render.noise_sigma", "expected >= 0");
-    s.noise_seed = static_cast<unsigned>(NumberOr(r["noise_seed"], path, "render.noise_seed", 1));
+    s.noise_seed = SeedOr(r["noise_seed"], path, "render.noise_seed", 1);
   }
   if (const auto camera = root["camera_effects"]) {
     s.camera = ReadCameraEffects(camera, path);
@@ -290,7 +309,10 @@ Scene ParseScene(const YAML::Node& root, const std::string& path, const RigModel
   }
   if (const auto r = root["random"]) {
     RandomPlacement rp;
-    rp.images = Int(r["images"], path, "random.images");
+    // A bound, so that a typo cannot make the parser place millions of images (scripts/fuzz.sh's
+    // fuzz_scene: images 25601 took > 10 s before rendering anything); a session is ~10-50.
+    constexpr long kMaxRandomImages = 1000;
+    rp.images = static_cast<int>(WholeNumber(r["images"], path, "random.images", 0, kMaxRandomImages));
     if (r["targets"]) {
       rp.targets_min = Int(r["targets"][0], path, "random.targets");
       rp.targets_max = Int(r["targets"][1], path, "random.targets");
@@ -313,7 +335,7 @@ Scene ParseScene(const YAML::Node& root, const std::string& path, const RigModel
       }
     }
     rp.max_tilt_rad = NumberOr(r["max_tilt_deg"], path, "random.max_tilt_deg", 20.0) * M_PI / 180;
-    rp.seed = static_cast<unsigned>(NumberOr(r["seed"], path, "random.seed", 1));
+    rp.seed = SeedOr(r["seed"], path, "random.seed", 1);
     if (rp.images < 0 || rp.targets_min < 1 || rp.targets_max < rp.targets_min ||
         rp.range_min_mm <= 0 || rp.range_max_mm < rp.range_min_mm) {
       Fail(path, "random", "expected images >= 0, 1 <= targets[0] <= targets[1], 0 < range[0] <= range[1]");

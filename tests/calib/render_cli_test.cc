@@ -236,6 +236,27 @@ TEST_F(RenderCli, BadSceneFailsWithOneLineAndWritesNoTruth) {
     EXPECT_EQ(err.find("yaml-cpp"), std::string::npos) << err;
     EXPECT_EQ(std::count(err.begin(), err.end(), '\n'), 1) << err;
   }
+  // Found by scripts/fuzz.sh (UBSan): a whole number beyond the integer it goes into (was a
+  // double-to-int cast out of range, undefined behaviour); a negative or fractional seed.
+  const std::pair<std::string, std::string> bad_numbers[] = {
+      {"image: {width: 960444444444444444444444444444, height: 720}", "image.width"},
+      {"render: {noise_seed: -1}", "render.noise_seed"},
+      {"render: {noise_seed: 1.5}", "render.noise_seed"},
+      // (a timeout: 25601 random images placed in the parser)
+      {"random: {images: 25601}", "random.images"}};
+  for (const auto& [line, key] : bad_numbers) {
+    std::ofstream(dir_ + "/bad_number.yaml") << "format: omnistereo-scene/1\n" << line
+                                             << "\ntargets: [{type: chessboard, rows: 4, cols: 5, "
+                                                "square: 60}]\n"
+                                             << (line.find("random:") == std::string::npos
+                                                     ? "random: {images: 1}\n" : "");
+    EXPECT_EQ(RunCli("render --model " + dir_ + "/model.yaml --scene " + dir_ +
+                     "/bad_number.yaml --out " + dir_ + "/bad5", &err), 2) << line;
+    EXPECT_NE(err.find("bad_number.yaml: " + key + ": expected a whole number"), std::string::npos)
+        << err;
+    EXPECT_EQ(std::count(err.begin(), err.end(), '\n'), 1) << err;
+    EXPECT_FALSE(fs::exists(dir_ + "/bad5/truth.yaml"));
+  }
   // A target is in one place per image: two per image need two definitions.
   std::ofstream(dir_ + "/twice.yaml") << "format: omnistereo-scene/1\ntargets: [{type: chessboard, "
                                          "rows: 4, cols: 5, square: 60}]\nrandom: {images: 1, targets: [2, 2]}\n";
