@@ -323,7 +323,10 @@ bool FindEdge(const cv::Mat& bgr, const PaintLikeness& likeness, bool outer,
       best = i;
     }
   }
-  if (best < 0) return false;
+  // The steepest rise at the window's border: the edge itself lies beyond it (the prior is that
+  // far off), and the profile around the border is its slope, not its two sides (demo3 from the
+  // ideal design: via_mirror2 points 1-4 px off where the edge lay 16 px from the prediction).
+  if (best < 0 || std::abs(t0 + best * kCoarseStep) > options.search_px - kCoarseStep) return false;
   // Fine colour samples at kStep from kOutside px outside the coarse edge to kOutside or
   // min_measured_band_px + 2 px (whichever is more) into the band: the side means need 3 px, the
   // steepest point may lie 1 px from the coarse edge and the crossing 1 px from that.

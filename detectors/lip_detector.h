@@ -41,7 +41,8 @@ namespace omni::detectors {
 
 struct LipDetectorOptions {
   int profiles = 720;            // radial profiles per full circle
-  double search_px = 14;         // half-width of the search window around the prediction
+  double search_px = 20;         // half-width of the search window around the prediction (the
+                                 // ideal design's prediction is 10-20 px off on a built rig)
   double min_margin_px = 1.5;    // to the nearest other (circle, path) image of the same band
   double min_band_px = 2.5;      // visible band width along the edge's own path (prior model)
   double min_measured_band_px = 4.5;  // the band's colour found this far past the edge point
