@@ -183,10 +183,15 @@ cv::Mat FitHomography(const std::vector<Eigen::Vector2d>& plane,
 class SaddleIndex {
  public:
   SaddleIndex(std::vector<Eigen::Vector2d> points, double cell) : points_(std::move(points)), cell_(cell) {
-    for (size_t i = 0; i < points_.size(); ++i) buckets_[Key(points_[i])].push_back(static_cast<int>(i));
+    for (size_t i = 0; i < points_.size(); ++i) {
+      if (points_[i].cwiseAbs().maxCoeff() < 1e6) buckets_[Key(points_[i])].push_back(static_cast<int>(i));
+    }
   }
   // The nearest point within `radius` (<= cell) of p; -1 if none.
   int Nearest(const Eigen::Vector2d& p, double radius) const {
+    // A prediction far off the image (a degenerate pose or homography) has no bucket: its key
+    // would not fit an int (UBSan: GuidedDetection.SmallKalibrTagsInTheInnerRingFromTheOuterRing).
+    if (!(p.cwiseAbs().maxCoeff() < 1e6)) return -1;
     const auto [bx, by] = Key(p);
     int best = -1;
     double best_d = radius;
