@@ -9,6 +9,8 @@
 
 #include <Eigen/Dense>
 
+#include "model/io/image_file.h"
+
 namespace omni::detectors {
 namespace {
 
@@ -65,10 +67,7 @@ Eigen::Vector3d ColourOf(const cv::Mat& bgr, const Eigen::Vector2d& p, double sc
 }
 
 // The sRGB encoding of a linear level, both on the 8-bit scale.
-double SrgbLevel(double linear_level) {
-  const double x = std::clamp(linear_level / 255.0, 0.0, 1.0);
-  return 255.0 * (x <= 0.0031308 ? 12.92 * x : 1.055 * std::pow(x, 1 / 2.4) - 0.055);
-}
+double SrgbLevel(double linear_level) { return 255.0 * io::SrgbFromLinear(linear_level / 255.0); }
 
 // The luma Y' of a linear BGR colour (8-bit levels): Rec. 601 weights on the sRGB-encoded
 // values, what JPEG keeps at full resolution.

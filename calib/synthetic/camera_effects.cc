@@ -123,12 +123,6 @@ cv::Mat InnerRingWeight(const RigParams& rig, double feather_px) {
 
 namespace {
 
-// sRGB's encoding of linear light in [0, 1] (IEC 61966-2-1).
-float SrgbFromLinear(float x) {
-  x = std::clamp(x, 0.0f, 1.0f);
-  return x <= 0.0031308f ? 12.92f * x : 1.055f * std::pow(x, 1.0f / 2.4f) - 0.055f;
-}
-
 cv::Mat Defocus(const cv::Mat& image, const RigParams& rig, const double sigma[2]) {
   auto blur = [&](double s) {
     if (s <= 0) return image.clone();
@@ -231,7 +225,7 @@ cv::Mat ApplyCamera(const cv::Mat& linear_render, const RigParams& rig,
     float* p = colour.ptr<float>(0);
     CV_Assert(colour.isContinuous());
     const int n = colour.rows * colour.cols * colour.channels();
-    for (int k = 0; k < n; ++k) p[k] = SrgbFromLinear(p[k]);
+    for (int k = 0; k < n; ++k) p[k] = static_cast<float>(io::SrgbFromLinear(p[k]));
   }
   return Quantise(colour, e.bits);
 }

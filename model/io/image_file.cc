@@ -69,6 +69,11 @@ bool IsTruncatedJpeg(const std::string& path) {
 
 }  // namespace
 
+double SrgbFromLinear(double linear) {
+  const double x = std::clamp(linear, 0.0, 1.0);
+  return x <= 0.0031308 ? 12.92 * x : 1.055 * std::pow(x, 1 / 2.4) - 0.055;
+}
+
 bool HasHalvedChroma(const std::vector<unsigned char>& bytes) {
   const std::size_t size = bytes.size();
   if (size < 4 || bytes[0] != 0xFF || bytes[1] != 0xD8) return false;

@@ -37,6 +37,9 @@ std::string DemosaicName(Demosaic demosaic);
 std::optional<ToneCurve> ParseToneCurve(const std::string& name);
 std::string ToneCurveName(ToneCurve tone);
 
+// sRGB's encoding of linear light, both in [0, 1] (IEC 61966-2-1; clamped).
+double SrgbFromLinear(double linear);
+
 // A 16-bit image of the same channels whose values are linear in the light (an 8- or 16-bit
 // input decoded through `tone`). Detectors measure edges as the halfway level between two
 // surfaces, which only a linear image puts where the edge is.
