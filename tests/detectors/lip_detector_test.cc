@@ -313,7 +313,9 @@ std::map<LipPath, double> SignedOffsets(const cv::Mat& image, const RigParams& t
 // JPEG keeps the chroma at half resolution in sRGB: placed on the colour, the dark navy band's
 // edges move 0.15-0.2 px (narrower against the strips' black); placed on the luma Y' (what a
 // JPEG keeps whole, as DetectImage does for such files: io::HasHalvedChroma) every edge moves
-// less. What is left there is the decoder's clipping of the smeared chroma at black (docs).
+// less. What is left there is not the decoder's clipping of the smeared chroma at black (on the
+// file's own Y' plane the navy band reads narrower still) but mostly the sensor noise in navy's
+// near-black channels under sRGB's curve (docs/experiments.md, lip edges on JPEG).
 TEST_F(LipDetectorOnPaintedRealisticRender, JpegEdgesPlacedOnTheLumaMoveLess) {
   ASSERT_FALSE(jpeg_->empty());
   LipDetectorOptions luma;
