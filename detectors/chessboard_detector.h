@@ -22,8 +22,11 @@
 // degrees away from that attitude gets rotated ids (consistently in both rings).
 //
 // Limits: two chessboard targets with the same rows x cols cannot be told apart (the first in
-// the list is reported); only boards whose whole inner-corner grid is inside one view are found
-// (a board cut by a ring boundary gives no corners).
+// the list is reported). A board that a ring boundary cuts by at most one row or column, along
+// one side, gives the corners it shows (GridFromJunctions; where either side could hide the row
+// the ids are ambiguous and the board is refused); corners whose refinement window would take in
+// the ring's edge are left out. Boards cut further are found from the other ring's view of them
+// (guided_detection.h).
 #pragma once
 
 #include <vector>

@@ -64,7 +64,7 @@ Pose<T> PoseFromBlock(const T* block) {
   return Pose<T>{RotationFromTilt(block[0], block[1]), Vec3<T>(block[2], block[3], block[4])};
 }
 
-// A plane {x : normal . x = offset}, unit normal.
+// A plane through `point` with unit `normal`: {x : normal . (x - point) = 0}.
 template <typename T>
 struct Plane {
   Vec3<T> point;
