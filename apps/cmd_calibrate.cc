@@ -131,6 +131,11 @@ int RunCalibrate() {
     throw io::InputError("--session and --out are required");
   }
   const io::Session session = io::ReadSessionFile(FLAGS_session);
+  if (session.targets.empty()) {
+    throw io::InputError(FLAGS_session + ": targets: [] is a lips-only session: calibrate needs "
+                         "target corners (`omnistereo detect` checks the intrinsics from the lips "
+                         "alone)");
+  }
   const RigParams start = io::ReadModelFile(session.model_path);
   const io::Detections detections = FLAGS_detections.empty()
                                         ? DetectSession(session, start)

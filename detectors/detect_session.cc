@@ -40,7 +40,9 @@ io::Detections DetectSession(const io::Session& session, DetectorContext* ctx,
     det.file = report.file;
     det.width = image.cols;
     det.height = image.rows;
-    if (det.corners.empty()) report.warnings.push_back("no target corners found");
+    if (det.corners.empty() && !ctx->targets.empty()) {
+      report.warnings.push_back("no target corners found");
+    }
     for (const auto& c : det.corners) ++report.corners[c.mirror - 1];
     report.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     if (on_image) on_image(report, image, &det);

@@ -130,9 +130,11 @@ Session ReadSessionFile(const std::string& path) {
   session.model_path = Resolve(base_dir, in.String(root, "", "model"));
   session.images = ExpandImages(in, root, base_dir);
 
+  // An empty list is a lips-only session: `detect` checks a new camera's intrinsics from the lips
+  // alone; `calibrate` needs targets and says so.
   const YAML::Node targets = root["targets"];
-  if (!IsSequence(targets) || targets.size() == 0) {
-    in.Fail("targets", "expected a list of at least one target", Describe(targets));
+  if (!IsSequence(targets)) {
+    in.Fail("targets", "expected a list of targets ([] for a lips-only session)", Describe(targets));
   }
   for (std::size_t i = 0; i < targets.size(); ++i) {
     session.targets.push_back(ReadTarget(in, targets[i], "targets[" + std::to_string(i) + "]"));
@@ -213,7 +215,7 @@ std::string SessionText(const Session& session, const std::string& base_dir) {
   out << "model: " << Quote(Relative(session.model_path, base_dir)) << "\n";
   out << "images:\n";
   for (const auto& image : session.images) out << "  - " << Quote(Relative(image, base_dir)) << "\n";
-  out << "targets:\n";
+  out << "targets:" << (session.targets.empty() ? " []" : "") << "\n";
   for (const TargetSpec& t : session.targets) {
     out << "  - {type: " << TargetTypeName(t.type) << ", rows: " << t.rows << ", cols: " << t.cols;
     if (t.type == TargetType::kChessboard) {

@@ -150,6 +150,11 @@ TEST_F(CalibrateCli, TargetsThatMatchNothing) {
   ExpectFailure(Files(SessionWith(session_->targets), none), "match nothing");
 }
 
+// A lips-only session (targets: []) is for detect's intrinsics check: calibrate says so.
+TEST_F(CalibrateCli, LipsOnlySessionIsRefused) {
+  ExpectFailure(Files(SessionWith({}), *detections_), "lips-only session: calibrate needs target");
+}
+
 // A wrong square size (10x the printed one) puts every target 10x farther: no rig near the
 // starting one explains the corners.
 TEST_F(CalibrateCli, WrongSquareSizeFailsInsteadOfWritingAModel) {

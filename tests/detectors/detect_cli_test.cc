@@ -5,13 +5,17 @@
 // Images as cameras write them (8/16-bit PNG and TIFF, JPEG, grey or colour, raw Bayer frames
 // with the session's `bayer:` key) are read.
 #include <algorithm>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 
+#include "calib/synthetic/image_effects.h"
 #include "model/io/detections_file.h"
+#include "model/io/model_file.h"
+#include "tests/detectors/render_window.h"
 #include "tests/cli_test_util.h"
 #include "tests/temp_dir.h"
 
@@ -159,6 +163,47 @@ TEST(DetectCliTest, ImagesAsCamerasWriteThemAreRead) {
   WriteSession(raw, "[raw16.png]", "bayer: GRBG\n");
   EXPECT_EQ(Detect(raw, &err, &out), 0) << err;
   EXPECT_NE(out.find("1 of 1 images used (0 skipped)"), std::string::npos) << out;
+}
+
+// A lips-only session (targets: []) on a render of the misaligned rig's lips (the strips
+// through the principal point, 16-bit linear, through the rig's lens): the lip edges are written,
+// no image is warned about missing target corners, and the intrinsics the lips give are printed
+// against the model's. The oracle is the rig as rendered: with it as the model the lips' f lies
+// within 0.1% of its own (lip_detector_test: +0.001%) and the principal point where the mirror
+// bodies put the lips' centres, within 1 px of LipReferencePointsOf's points (here only printed:
+// each body gives its own).
+TEST(DetectCliTest, LipsOnlySessionPrintsTheLipsIntrinsics) {
+  const fs::path dir = MakeDir("lips_only");
+  const std::string model = std::string(OMNISTEREO_SOURCE_DIR) + "/sample_configs/big_rig_misaligned.yaml";
+  const RigParams rig = io::ReadModelFile(model);
+  const cv::Mat pinhole = testing::RenderLipStrips(rig, "detect_cli", 16);
+  ASSERT_FALSE(pinhole.empty());
+  const cv::Mat strips = synthetic::ApplyDistortion(pinhole, rig);  // the rig's own lens
+  cv::imwrite((dir / "lips.png").string(), strips);
+  std::ofstream(dir / "session.yaml") << "format: omnistereo-session/1\n"
+                                      << "model: " << model << "\n"
+                                      << "images: [lips.png]\ntone: linear\ntargets: []\n";
+  std::string err, out;
+  ASSERT_EQ(Detect(dir, &err, &out), 0) << err;
+  EXPECT_EQ(err.find("no target corners"), std::string::npos) << err;
+  EXPECT_NE(out.find("1 of 1 images used (0 skipped), 0 corners"), std::string::npos) << out;
+  const io::Detections det = io::ReadDetectionsFile((dir / "det.yaml").string());
+  ASSERT_EQ(det.images.size(), 1u);
+  EXPECT_GE(det.images[0].lips.size(), 3u);
+  const auto at = out.find("lips only: f ");
+  ASSERT_NE(at, std::string::npos) << out;
+  const double f = std::stod(out.substr(at + 13));
+  const double f_model = 0.5 * (rig.camera[0] + rig.camera[1]);
+  EXPECT_NEAR(f / f_model, 1.0, 0.001) << out;
+  std::printf("%s", out.c_str());
+
+  // Nothing to detect: one line, nothing written.
+  std::ofstream(dir / "session.yaml", std::ios::app) << "lips: false\n";
+  fs::remove(dir / "det.yaml");
+  EXPECT_EQ(Detect(dir, &err), 2);
+  EXPECT_NE(err.find("nothing to detect"), std::string::npos) << err;
+  EXPECT_EQ(Lines(err), 1) << err;
+  EXPECT_FALSE(fs::exists(dir / "det.yaml"));
 }
 
 }  // namespace

@@ -19,6 +19,7 @@
 #include "detectors/lip_intrinsics.h"
 #include "model/io/image_file.h"
 #include "model/io/model_file.h"
+#include "tests/detectors/render_window.h"
 #include "tests/temp_dir.h"
 
 namespace omni::detectors {
@@ -26,35 +27,6 @@ namespace {
 
 RigParams ReadSample(const std::string& name) {
   return io::ReadModelFile(std::string(OMNISTEREO_SOURCE_DIR) + "/sample_configs/" + name);
-}
-
-// The rig with nothing in front of it, rendered in a horizontal and a vertical strip through the
-// principal point (4 arcs of every band; full frames are slow): the linear pinhole render at
-// `bits` per channel (lens distortion not yet applied).
-cv::Mat RenderLipStrips(const RigParams& rig, const std::string& tag, int bits = 8) {
-  const std::string dir = omni::testing::UniqueTempDir("omni_lips_" + tag);
-  std::filesystem::create_directories(dir);
-  const int cx = static_cast<int>(rig.camera[2]), cy = static_cast<int>(rig.camera[3]);
-  cv::Mat combined;
-  for (int strip = 0; strip < 2; ++strip) {
-    synthetic::RenderOptions opt;
-    opt.width = rig.image_width;
-    opt.height = rig.image_height;
-    opt.bits = bits;
-    if (strip == 0) {
-      opt.col0 = 0, opt.col1 = rig.image_width, opt.row0 = cy - 60, opt.row1 = cy + 60;
-    } else {
-      opt.col0 = cx - 60, opt.col1 = cx + 60, opt.row0 = 0, opt.row1 = rig.image_height;
-    }
-    const std::string png = dir + "/strip" + std::to_string(strip) + ".png";
-    std::string error;
-    EXPECT_TRUE(synthetic::RenderScene(synthetic::PovSceneText(rig, {}), png, opt, &error)) << error;
-    const cv::Mat img = cv::imread(png, cv::IMREAD_COLOR | cv::IMREAD_ANYDEPTH);
-    if (img.empty()) return {};
-    combined = combined.empty() ? img : cv::max(combined, img);
-  }
-  std::filesystem::remove_all(dir);
-  return combined;
 }
 
 // The lip edges DetectLipEdges finds with `prior_name` as its model, against the true rig's exact
@@ -100,7 +72,7 @@ class LipDetectorOnRender : public ::testing::Test {
   static void SetUpTestSuite() {
     truth_ = new RigParams(ReadSample("big_rig_misaligned.yaml"));
     image_ = new cv::Mat(
-        synthetic::ApplyDistortion(RenderLipStrips(*truth_, "misaligned"), *truth_));
+        synthetic::ApplyDistortion(testing::RenderLipStrips(*truth_, "misaligned"), *truth_));
   }
   static void TearDownTestSuite() {
     delete truth_;
@@ -197,7 +169,7 @@ class LipDetectorOnPaintedRealisticRender : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     truth_ = new RigParams(ReadSample("big_rig_painted.yaml"));
-    pinhole_ = new cv::Mat(RenderLipStrips(*truth_, "painted", 16));
+    pinhole_ = new cv::Mat(testing::RenderLipStrips(*truth_, "painted", 16));
     jpeg_ = new cv::Mat(Camera("realistic"));
     sensor_ = new cv::Mat(Camera("{preset: realistic, bayer: none, jpeg_quality: 0}"));
   }

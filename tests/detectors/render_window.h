@@ -1,7 +1,7 @@
 // The detector tests render only windows of a frame around their targets (full 1280x960 frames
 // take ~15 s each): POV-Ray's options for the window `box` of the rig's image, the rendered
 // window pasted into a full pinhole frame (black elsewhere) before the camera (lens distortion,
-// noise, camera_effects), and the windows around a scene image's targets.
+// noise, camera_effects), the windows around a scene image's targets, and the lips' strips.
 #pragma once
 
 #include <algorithm>
@@ -11,9 +11,12 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include <gtest/gtest.h>
+
 #include "calib/synthetic/pov_scene.h"
 #include "calib/synthetic/scene.h"
 #include "model/rig_params.h"
+#include "tests/temp_dir.h"
 
 namespace omni::testing {
 
@@ -79,6 +82,38 @@ inline bool RenderTargetWindows(const RigParams& rig, const synthetic::Scene& sc
     }
   }
   return true;
+}
+
+// The rig with nothing in front of it, rendered in a horizontal and a vertical strip through the
+// principal point (4 arcs of every band; full frames are slow): the linear pinhole render at
+// `bits` per channel (lens distortion not yet applied).
+inline cv::Mat RenderLipStrips(const RigParams& rig, const std::string& tag, int bits = 8) {
+  const std::string dir = UniqueTempDir("omni_lips_" + tag);
+  std::filesystem::create_directories(dir);
+  const int cx = static_cast<int>(rig.camera[2]), cy = static_cast<int>(rig.camera[3]);
+  cv::Mat combined;
+  for (int strip = 0; strip < 2; ++strip) {
+    synthetic::RenderOptions opt;
+    opt.width = rig.image_width;
+    opt.height = rig.image_height;
+    opt.bits = bits;
+    if (strip == 0) {
+      opt.col0 = 0, opt.col1 = rig.image_width, opt.row0 = cy - 60, opt.row1 = cy + 60;
+    } else {
+      opt.col0 = cx - 60, opt.col1 = cx + 60, opt.row0 = 0, opt.row1 = rig.image_height;
+    }
+    const std::string png = dir + "/strip" + std::to_string(strip) + ".png";
+    std::string error;
+    if (!synthetic::RenderScene(synthetic::PovSceneText(rig, {}), png, opt, &error)) {
+      ADD_FAILURE() << error;
+      return {};
+    }
+    const cv::Mat img = cv::imread(png, cv::IMREAD_COLOR | cv::IMREAD_ANYDEPTH);
+    if (img.empty()) return {};
+    combined = combined.empty() ? img : cv::max(combined, img);
+  }
+  std::filesystem::remove_all(dir);
+  return combined;
 }
 
 }  // namespace omni::testing

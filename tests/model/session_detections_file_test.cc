@@ -101,6 +101,30 @@ TEST_F(SessionFileTest, WrittenTextReadsBackTheSame) {
   EXPECT_EQ(t.solver.loss, "cauchy");
 }
 
+// `targets: []` is a lips-only session (detect checks the intrinsics from the lips alone); it is
+// written back as such. A missing or scalar `targets` is still an error naming the key.
+TEST_F(SessionFileTest, LipsOnlySessionHasNoTargets) {
+  std::string text = kGood;
+  const auto from = text.find("targets:\n"), to = text.find("estimate:");
+  ASSERT_NE(from, std::string::npos);
+  text.replace(from, to - from, "targets: []\n");
+  const Session s = ReadSessionFile(Write(text));
+  EXPECT_TRUE(s.targets.empty());
+  EXPECT_TRUE(s.use_lips);
+  const std::string written = SessionText(s, dir_.string());
+  EXPECT_NE(written.find("targets: []\n"), std::string::npos) << written;
+  EXPECT_TRUE(ReadSessionFile(Write(written)).targets.empty());
+  for (const char* bad : {"", "targets: chessboard\n"}) {
+    std::string t = text;
+    t.replace(t.find("targets: []\n"), 12, bad);
+    const std::string error = ErrorOf(t);
+    EXPECT_NE(error.find("session.yaml: targets: expected a list of targets ([] for a lips-only "
+                         "session)"),
+              std::string::npos)
+        << error;
+  }
+}
+
 TEST_F(SessionFileTest, MalformedInputNamesTheKey) {
   struct Case {
     std::string from, to, key;
