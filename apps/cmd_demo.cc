@@ -4,7 +4,7 @@
 //      (sample_configs/big_rig_misaligned.yaml) with POV-Ray;
 //   2. start from the paper's ideal design (sample_configs/big_rig_ideal.yaml) at the session's
 //      image size, as a user with a freshly built rig would;
-//   3. detect the chessboards and lips;
+//   3. detect the targets (chessboards, tag grids) and the lips;
 //   4. calibrate, and print every parameter with its sigma against the truth;
 //   5. say what calibration gained: projection difference from the true model over both rings'
 //      stereo band at 1 m, for the ideal and for the calibrated model, with the points fixed in

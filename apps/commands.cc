@@ -9,7 +9,7 @@ const std::vector<Command>& Commands() {
       {"design", "maximise the baseline of an ideal rig design [optimization_of_baseline]",
        {"config", "out", "curves_out"}, RunDesign},
       {"render", "render a rig model and scene with POV-Ray, with ground truth",
-       {"model", "scene", "out", "no_render", "jobs"}, RunRender},
+       {"model", "scene", "out", "no_render", "jobs", "keep_pinhole"}, RunRender},
       {"detect", "detect targets and lips in a session's images", {"session", "out", "overlay"},
        RunDetect},
       {"calibrate", "bundle-adjust the non-central model from a session",
