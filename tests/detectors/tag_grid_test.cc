@@ -162,20 +162,18 @@ TEST(TagGrids, AngularSizeLimitAt1m) {
                 s.type == TargetType::kAprilTagGrid ? "plain " : "kalibr", s.tag_size_mm,
                 key.second, r.found, r.visible, r.Mean(), r.Max(), r.wrong);
     EXPECT_EQ(r.wrong, 0);
-    // Measured (noise 1): plain grids from 70 mm (inner ring ~11 px tags, 1.4 px per bit) all
-    // found in both rings at 0.06-0.13 px mean (0.19 px at 50 mm in the outer ring, none in the
-    // inner); Kalibr grids from 90 mm all found in the outer ring at 0.06-0.07 px, but in the
-    // inner ring only 4 of 24 at 90 mm and 20 of 24 at 120 mm (its 10-bit tag and 2-bit border
-    // need ~2 raw px per bit there). A lost tag would drop 4 corners; a corner taken from the
-    // view unrefined or off by a bit would be 0.5+ px.
+    // Measured (noise 1, at 1446b24): plain grids from 70 mm (inner ring ~11 px tags, 1.4 px per
+    // bit) all found in both rings at 0.04-0.10 px mean (none at 50 mm in the inner ring);
+    // Kalibr grids all found in the outer ring at 0.03-0.04 px, and in the inner ring from 70 mm
+    // at 0.02-0.03 px (max 0.11; read by their expected blurred pattern, or guided from the outer
+    // ring), 19 of 24 at 50 mm (0.28 px: ~0.8 raw px per bit). A lost tag would drop 4 corners; a
+    // corner taken from the view unrefined or off by a bit would be 0.5+ px.
     const bool plain = s.type == TargetType::kAprilTagGrid;
-    if ((plain && s.tag_size_mm >= 70) || (!plain && s.tag_size_mm >= 90 && key.second == 1)) {
+    if ((plain && s.tag_size_mm >= 70) ||
+        (!plain && s.tag_size_mm >= (key.second == 1 ? 50 : 70))) {
       EXPECT_GE(r.found, 0.95 * r.visible) << s.tag_size_mm << " mm, ring " << key.second;
       EXPECT_LT(r.Mean(), plain ? 0.15 : 0.1) << s.tag_size_mm << " mm, ring " << key.second;
       EXPECT_LT(r.Max(), 0.35) << s.tag_size_mm << " mm, ring " << key.second;
-    }
-    if (!plain && s.tag_size_mm >= 120 && key.second == 2) {
-      EXPECT_GE(r.found, 0.75 * r.visible) << "Kalibr 120 mm, inner ring";
     }
   }
 }
