@@ -27,6 +27,7 @@
 #include "model/io/file_util.h"
 #include "model/io/model_file.h"
 #include "model/io/session_file.h"
+#include "model/rig_parameters.h"
 #include "model/rig_model.h"
 
 DEFINE_bool(no_render, false, "write only the ground truth, without running POV-Ray");
@@ -151,7 +152,7 @@ int RunRender() {
     if (scene.camera.raw_mosaic) session.bayer = scene.camera.bayer;
     session.tone = scene.camera.raw_mosaic ? io::ToneCurve::kLinear : scene.camera.tone;
     session.targets = scene.targets;
-    session.estimate = {"camera", "distortion", "mirror1_pose", "mirror2_pose", "reflex"};
+    session.estimate = DefaultEstimateBlocks();
     io::WriteFileAtomically(FLAGS_out + "/session.yaml", io::SessionText(session, FLAGS_out));
   }
   if (n_render == 0) {

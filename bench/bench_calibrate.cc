@@ -326,7 +326,7 @@ int RunMonteCarlo(int argc, char** argv) {
   }
   const int p = static_cast<int>(names.size());
   Eigen::VectorXd reference(p);  // R0's value of each parameter
-  for (int i = 0; i < p; ++i) reference(i) = *calib::ParameterOf(r0.rig, names[i]);
+  for (int i = 0; i < p; ++i) reference(i) = *ParameterOf(r0.rig, names[i]);
   Eigen::MatrixXd x(n, p);
   Eigen::VectorXd predicted = Eigen::VectorXd::Zero(p);
   for (int a = 0; a < n; ++a) {

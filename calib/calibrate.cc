@@ -20,6 +20,7 @@
 #include "calib/lip_cost.h"
 #include "calib/variance_components.h"
 #include "model/lip.h"
+#include "model/rig_parameters.h"
 #include "model/rig_model.h"
 
 namespace omni::calib {
@@ -31,23 +32,6 @@ constexpr double kLipSpacingDeg = 0.25;  // see Calibrator::NormalLipPoints
 constexpr int kRobustStageCorners = 2000;  // see Calibrator::SelectRobustStageCorners
 
 // The rig's parameter groups in covariance order.
-const std::vector<std::string>& RigGroups() {
-  static const std::vector<std::string> groups = {"camera",        "distortion",   "mirror1_shape",
-                                                  "mirror2_shape", "mirror1_pose", "mirror2_pose",
-                                                  "reflex"};
-  return groups;
-}
-
-double* GroupBlock(RigParams* rig, const std::string& group) {
-  if (group == "camera") return rig->camera.data();
-  if (group == "distortion") return rig->distortion.data();
-  if (group == "mirror1_shape") return rig->mirror1_shape.data();
-  if (group == "mirror2_shape") return rig->mirror2_shape.data();
-  if (group == "mirror1_pose") return rig->mirror1_pose.data();
-  if (group == "mirror2_pose") return rig->mirror2_pose.data();
-  return rig->reflex.data();
-}
-
 // A radial distortion coefficient (dist_k1, dist_k2, dist_k3) is nearly unobservable when its
 // sigma moves the outermost corner by more than this. A fixed bound on the coefficient ignored
 // the radii: the rings reach only r = 0.28 (normalised), where dist_k2 moves a pixel r^2 = 0.08
@@ -71,43 +55,16 @@ int RadialPower(const std::string& name) {
   return 0;
 }
 
-// A parameter's bound above which its sigma means "nearly unobservable" (internal units): far
-// beyond any assembly tolerance, so an estimate this uncertain says nothing. `f` and
-// `outer_radius` (the outermost corner's normalised radius) scale the radial coefficients'.
+// A parameter's bound above which its sigma means "nearly unobservable" (internal units): the
+// table's (model/rig_parameters.h), or for a radial coefficient the one that moves the outermost
+// corner (normalised radius `outer_radius`) by kDistortionBoundPx at focal length `f`.
 double NearlyUnobservableSigma(const std::string& name, double f, double outer_radius) {
-  if (name == "fx" || name == "fy" || name == "cx" || name == "cy") return 20.0;  // px
-  if (name == "skew") return 5.0;
-  if (RadialPower(name) > 0 && f > 0 && outer_radius > 0) {
-    return kDistortionBoundPx / (f * std::pow(outer_radius, RadialPower(name)));
+  if (RadialPower(name) > 0) {
+    return f > 0 && outer_radius > 0
+               ? kDistortionBoundPx / (f * std::pow(outer_radius, RadialPower(name)))
+               : 0.05;
   }
-  if (name.rfind("dist_", 0) == 0) return 0.05;
-  if (name == "c1" || name == "c2") return 2.0;  // mm
-  if (name == "k1" || name == "k2") return 0.2;
-  const std::string coord = name.substr(name.find('.') + 1);
-  if (coord == "rx" || coord == "ry") return 1.0 * kDeg;
-  return 1.0;  // tx, ty, tz, dz: mm
-}
-
-std::string HintFor(const std::string& name) {
-  if (name == "fx" || name == "fy" || name == "cx" || name == "cy" || name == "skew") {
-    return "targets filling both rings all around the rig, at near and far ranges";
-  }
-  if (name.rfind("dist_", 0) == 0) {
-    return "corners over the whole radial extent of both rings (targets at several heights and "
-           "ranges)";
-  }
-  if (name == "c1" || name == "k1" || name == "c2" || name == "k2") {
-    return "a manufacturing-tolerance prior on the mirror shape, or targets at many ranges";
-  }
-  const std::string coord = name.substr(name.find('.') + 1);
-  if (coord == "tz" || coord == "dz") {
-    return "targets at several ranges including near ones (0.3-0.6 m): an axial shift shows only "
-           "as parallax";
-  }
-  if (name.rfind("reflex.", 0) == 0) {
-    return "inner-ring (mirror 2) observations all around the rig";
-  }
-  return "targets all around the rig (full azimuth) and at several heights";
+  return FindRigParameter(name)->unobservable_sigma;
 }
 
 struct Observation {
@@ -179,11 +136,13 @@ class Calibrator {
   // Coordinates of a refined block that stay at their starting values.
   std::vector<int> HeldCoordinates(const std::string& group) const {
     std::vector<int> held;
-    if (group == "camera" && !options_.refine_skew) held.push_back(4);
-    if (group == "distortion") {
-      if (!options_.refine_tangential) held = {2, 3};
-      if (!refine_k3_) held.push_back(4);
-    }
+    auto hold = [&](const char* name) {
+      const RigParameter* p = FindRigParameter(name);
+      if (group == p->block) held.push_back(p->index);
+    };
+    if (!options_.refine_skew) hold("skew");
+    if (!options_.refine_tangential) hold("dist_p1"), hold("dist_p2");
+    if (!refine_k3_) hold("dist_k3");
     return held;
   }
   void Progress(const std::string& line) const {
@@ -836,7 +795,7 @@ int Calibrator::BuildProblem(ceres::Problem* problem, const std::set<std::string
   for (const char* shape : {"mirror1_shape", "mirror2_shape"}) {
     const auto prior = options_.priors.find(shape);
     if (!groups.count(shape) || prior == options_.priors.end()) continue;
-    double* block = GroupBlock(&rig_, shape);
+    double* block = BlockIn(&rig_, shape);
     const double sigmas[2] = {prior->second.sigma_c, prior->second.sigma_k};
     for (int k = 0; k < 2; ++k) {
       if (!(sigmas[k] > 0)) continue;
@@ -846,8 +805,9 @@ int Calibrator::BuildProblem(ceres::Problem* problem, const std::set<std::string
       if (prior_blocks) prior_blocks->push_back(id);
     }
   }
-  for (const auto& g : RigGroups()) {
-    double* block = GroupBlock(&rig_, g);
+  for (const RigBlock& b : kRigBlocks) {
+    const std::string g = b.name;
+    double* block = BlockIn(&rig_, g);
     if (!problem->HasParameterBlock(block)) continue;
     if (!groups.count(g)) {
       problem->SetParameterBlockConstant(block);
@@ -905,8 +865,9 @@ StageReport Calibrator::Solve(const std::string& name, const std::set<std::strin
   for (auto& l : lips_) {
     if (problem.HasParameterBlock(l.phi.data())) ordering->AddElementToGroup(l.phi.data(), 0);
   }
-  for (const auto& g : RigGroups()) {
-    double* block = GroupBlock(&rig_, g);
+  for (const RigBlock& b : kRigBlocks) {
+    const std::string g = b.name;
+    double* block = BlockIn(&rig_, g);
     if (problem.HasParameterBlock(block)) ordering->AddElementToGroup(block, 1);
   }
   so.linear_solver_ordering.reset(ordering);
@@ -1096,23 +1057,11 @@ void Calibrator::EstimateVarianceComponents(bool lip_correlation) {
 }
 
 void Calibrator::CheckDiverged() const {
-  auto bad = [](double v, double limit) { return !std::isfinite(v) || std::abs(v) > limit; };
-  const struct {
-    const char* name;
-    double value, limit;
-  } checks[] = {
-      {"mirror1.rx", rig_.mirror1_pose[0], 10 * kDeg}, {"mirror1.ry", rig_.mirror1_pose[1], 10 * kDeg},
-      {"mirror1.tx", rig_.mirror1_pose[2], 20},        {"mirror1.ty", rig_.mirror1_pose[3], 20},
-      {"mirror1.tz", rig_.mirror1_pose[4], 20},        {"mirror2.rx", rig_.mirror2_pose[0], 10 * kDeg},
-      {"mirror2.ry", rig_.mirror2_pose[1], 10 * kDeg}, {"mirror2.tx", rig_.mirror2_pose[2], 20},
-      {"mirror2.ty", rig_.mirror2_pose[3], 20},        {"mirror2.tz", rig_.mirror2_pose[4], 20},
-      {"reflex.rx", rig_.reflex[0], 10 * kDeg},        {"reflex.ry", rig_.reflex[1], 10 * kDeg},
-      {"reflex.dz", rig_.reflex[2], 20},
-  };
-  for (const auto& c : checks) {
-    if (bad(c.value, c.limit)) {
-      throw CalibrationError(std::string("the solve diverged: ") + c.name + " went to " +
-                             std::to_string(c.value) +
+  for (const RigParameter& p : RigParameterTable()) {
+    const double value = *ParameterOf(rig_, p.name);
+    if (p.diverged_beyond > 0 && !(std::abs(value) <= p.diverged_beyond)) {
+      throw CalibrationError(std::string("the solve diverged: ") + p.name + " went to " +
+                             std::to_string(value) +
                              " (beyond any assembly error); check the starting model and the "
                              "target definitions (square size)");
     }
@@ -1132,7 +1081,7 @@ void Calibrator::Covariance(CalibrationResult* result) {
   std::vector<ceres::ResidualBlockId> corner_blocks, prior_blocks;
   const int n_obs = BuildProblem(&problem, estimate_, nullptr, &corner_blocks, &prior_blocks);
 
-  // Columns: the refined rig blocks (tangent coordinates) in RigGroups() order, then the poses.
+  // Columns: the refined rig blocks (tangent coordinates) in kRigBlocks order, then the poses.
   // Held coordinates with a considered sigma are freed in this problem so that their columns are
   // evaluated; `column_of` then moves them after the refined ones (ComputeRigCovariance's order).
   // A held dist_k3 without one is evaluated too (the probe column, right after the refined
@@ -1147,8 +1096,9 @@ void Calibrator::Covariance(CalibrationResult* result) {
   std::vector<double> considered_sigma;
   int probe_col = -1;
   int col = 0;
-  for (const auto& g : RigGroups()) {
-    double* block = GroupBlock(&rig_, g);
+  for (const RigBlock& b : kRigBlocks) {
+    const std::string g = b.name;
+    double* block = BlockIn(&rig_, g);
     if (!estimate_.count(g) || !problem.HasParameterBlock(block)) continue;
     eo.parameter_blocks.push_back(block);
     const auto& all = BlockParameterNames(g);
@@ -1339,7 +1289,7 @@ void Calibrator::Covariance(CalibrationResult* result) {
     result->names.push_back(names[cov.observable[i]]);
     result->values(i) = all_values(cov.observable[i]);
   }
-  for (int i : cov.unobservable) result->unobservable.push_back({names[i], HintFor(names[i])});
+  for (int i : cov.unobservable) result->unobservable.push_back({names[i], FindRigParameter(names[i])->hint});
   result->covariance = cov.covariance;
   result->considered_sensitivity = cov.considered_sensitivity;
   result->considered_column_sigma =
@@ -1653,35 +1603,6 @@ CalibrationResult Calibrator::Run() {
 
 }  // namespace
 
-const std::vector<std::string>& BlockParameterNames(const std::string& group) {
-  static const std::map<std::string, std::vector<std::string>> names = {
-      {"camera", {"fx", "fy", "cx", "cy", "skew"}},
-      {"distortion", {"dist_k1", "dist_k2", "dist_p1", "dist_p2", "dist_k3"}},
-      {"mirror1_shape", {"c1", "k1"}},
-      {"mirror2_shape", {"c2", "k2"}},
-      {"mirror1_pose", {"mirror1.rx", "mirror1.ry", "mirror1.tx", "mirror1.ty", "mirror1.tz"}},
-      {"mirror2_pose", {"mirror2.rx", "mirror2.ry", "mirror2.tx", "mirror2.ty", "mirror2.tz"}},
-      {"reflex", {"reflex.rx", "reflex.ry", "reflex.dz"}},
-  };
-  static const std::vector<std::string> none;
-  const auto it = names.find(group);
-  return it == names.end() ? none : it->second;
-}
-
-double* ParameterOf(RigParams* rig, const std::string& name) {
-  for (const auto& g : RigGroups()) {
-    const auto& names = BlockParameterNames(g);
-    for (size_t k = 0; k < names.size(); ++k) {
-      if (names[k] == name) return GroupBlock(rig, g) + k;
-    }
-  }
-  return nullptr;
-}
-
-const double* ParameterOf(const RigParams& rig, const std::string& name) {
-  return ParameterOf(const_cast<RigParams*>(&rig), name);
-}
-
 CalibrationOptions OptionsFromSession(const io::Session& session) {
   CalibrationOptions options;
   options.estimate = session.estimate;
@@ -1707,19 +1628,9 @@ namespace {
 
 // Value and unit of a parameter in assembly units (deg for tilts).
 double Display(const std::string& name, double value, const char** unit) {
-  const std::string coord = name.substr(name.find('.') + 1);
-  if (name.find('.') != std::string::npos && (coord == "rx" || coord == "ry")) {
-    *unit = "deg";
-    return value / kDeg;
-  }
-  if (name == "fx" || name == "fy" || name == "cx" || name == "cy" || name == "skew") {
-    *unit = "px";
-  } else if (name.rfind("dist_", 0) == 0 || name == "k1" || name == "k2") {
-    *unit = "";
-  } else {
-    *unit = "mm";
-  }
-  return value;
+  const RigParameter* p = FindRigParameter(name);
+  *unit = DisplayUnit(*p);
+  return DisplayValue(*p, value);
 }
 
 double TruthOf(const RigParams& rig, const std::string& name) {

@@ -33,6 +33,7 @@
 #include "model/io/detections_file.h"
 #include "model/io/file_util.h"
 #include "model/io/session_file.h"
+#include "model/rig_parameters.h"
 #include "model/rig_params.h"
 #include "model/target.h"
 
@@ -183,13 +184,8 @@ CalibrationResult Calibrate(const RigParams& start, const std::vector<TargetSpec
 // Options from a session file's estimate / priors / solver sections.
 CalibrationOptions OptionsFromSession(const io::Session& session);
 
-// The rig parameter's name in files and tables (camera: fx ... skew; dist_k1 ...; c1, k1, c2, k2;
-// mirror1.rx ... mirror1.tz; mirror2.*; reflex.rx, reflex.ry, reflex.dz).
-const std::vector<std::string>& BlockParameterNames(const std::string& group);
-
-// The parameter `name` (as in BlockParameterNames) in `rig`; nullptr if there is none.
-double* ParameterOf(RigParams* rig, const std::string& name);
-const double* ParameterOf(const RigParams& rig, const std::string& name);
+// The rig parameters' names, blocks and units: model/rig_parameters.h (BlockParameterNames,
+// ParameterOf).
 
 // The table printed after a calibration: parameter, value, sigma (and truth if given) in assembly
 // units (px, mm, deg), then the unobservable parameters with hints, residual statistics, stages.

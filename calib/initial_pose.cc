@@ -9,11 +9,9 @@
 namespace omni::calib {
 
 Eigen::Vector3d FocusInCam(const RigParams& rig, Mirror mirror) {
-  if (mirror == Mirror::kOne) {
-    return PoseFromBlock(rig.mirror1_pose.data()) * Eigen::Vector3d(0, 0, rig.mirror1_shape[0]);
-  }
-  return PoseFromBlock(rig.mirror2_pose.data()) *
-         Eigen::Vector3d(0, 0, rig.d - rig.mirror2_shape[0]);
+  return mirror == Mirror::kOne
+             ? Focus1InCam(rig.mirror1_pose.data(), rig.mirror1_shape.data())
+             : Focus2InCam(rig.mirror2_pose.data(), rig.mirror2_shape.data(), rig.d);
 }
 
 bool CentralPoseFromRing(const RigModel& start, Mirror mirror,

@@ -60,9 +60,8 @@ LipReferencePoints LipReferencePointsOf(const RigParams& rig) {
   const Pose<double> cam_from_m1 = PoseFromBlock(rig.mirror1_pose.data());
   const Pose<double> cam_from_m2 = PoseFromBlock(rig.mirror2_pose.data());
   const Eigen::Vector3d ez(0, 0, 1);
-  const Plane<double> reflex_in_m1 = ReflexPlaneInMirror1(rig.reflex.data(), rig.d);
-  const Plane<double> reflex_in_cam{cam_from_m1 * reflex_in_m1.point,
-                                    cam_from_m1.Rotate(reflex_in_m1.normal)};
+  const Plane<double> reflex_in_cam =
+      ReflexPlaneInCam(rig.mirror1_pose.data(), rig.reflex.data(), rig.d);
   const Eigen::Vector3d n = reflex_in_cam.normal;
   // Mirror 2's axis direction towards -z (from the reflex disc to mirror 2) mirrored in the plane.
   const Eigen::Vector3d axis2_down = -cam_from_m2.Rotate(ez);

@@ -93,11 +93,9 @@ RingLayout ComputeRingLayout(const RigModel& model) {
   }), layout.centre);
   // The reflex disc: centre + R(rx, ry) (x, y, 0) in M1 (rig_frames.h).
   const Plane<double> reflex_in_mirror1 = ReflexPlaneInMirror1(rig.reflex.data(), rig.d);
-  const Eigen::Matrix3d reflex_rotation = RotationFromTilt(rig.reflex[0], rig.reflex[1]);
   layout.reflex_edge = ToBoundary(CurvePixels([&](double t) {
-    const Eigen::Vector3d p = reflex_in_mirror1.point +
-        reflex_rotation * Eigen::Vector3d(rig.r_ref * std::cos(t), rig.r_ref * std::sin(t), 0);
-    return DirectPixel(model, cam_from_mirror1 * p);
+    return DirectPixel(model, cam_from_mirror1 * ReflexRimInMirror1(rig.reflex.data(), rig.d,
+                                                                    rig.r_ref, t));
   }), layout.centre);
   layout.mirror1_cut = ToBoundary(CurvePixels([&](double t) {
     // Bisection on r for the point of mirror 1 at azimuth t that lies on the reflex plane.

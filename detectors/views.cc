@@ -32,9 +32,8 @@ RingView MakeView(const RigModel& model, Mirror mirror, double azimuth, double e
   v.distance_mm = options.distance_mm;
   const RigParams& rig = model.params();
   v.viewpoint_in_cam = mirror == Mirror::kOne
-      ? Eigen::Vector3d(model.path1().cam_from_mirror * Eigen::Vector3d(0, 0, rig.mirror1_shape[0]))
-      : Eigen::Vector3d(model.path2().cam_from_mirror *
-                        Eigen::Vector3d(0, 0, rig.d - rig.mirror2_shape[0]));
+      ? Focus1InCam(rig.mirror1_pose.data(), rig.mirror1_shape.data())
+      : Focus2InCam(rig.mirror2_pose.data(), rig.mirror2_shape.data(), rig.d);
   const Eigen::Vector3d forward(std::cos(v.elevation) * std::cos(azimuth),
                                 std::cos(v.elevation) * std::sin(azimuth), std::sin(v.elevation));
   const Eigen::Vector3d right = forward.cross(Eigen::Vector3d::UnitZ()).normalized();

@@ -87,6 +87,26 @@ Plane<T> ReflexPlaneInCam(const T* mirror1_pose, const T* reflex_block, const T&
   return Plane<T>{cam_from_mirror1 * in_mirror1.point, cam_from_mirror1.Rotate(in_mirror1.normal)};
 }
 
+// A point of the reflex disc's rim (radius r_ref) at angle t, in mirror 1's body frame: the
+// plane's point + R(rx, ry) (r_ref cos t, r_ref sin t, 0), the disc tilted with its plane.
+template <typename T>
+Vec3<T> ReflexRimInMirror1(const T* reflex_block, const T& d, const T& r_ref, const T& t) {
+  const Mat3<T> R = RotationFromTilt(reflex_block[0], reflex_block[1]);
+  return ReflexPlaneInMirror1(reflex_block, d).point +
+         R * Vec3<T>(r_ref * cos(t), r_ref * sin(t), T(0));
+}
+
+// The mirrors' outer foci (their viewpoints in the SVP model) in C: the ideal model's
+// f1 = (0, 0, c1) and f2 = (0, 0, d - c2) (ideal_model.h) carried by each mirror's pose block.
+template <typename T>
+Vec3<T> Focus1InCam(const T* mirror1_pose, const T* mirror1_shape) {
+  return PoseFromBlock(mirror1_pose) * Vec3<T>(T(0), T(0), mirror1_shape[0]);
+}
+template <typename T>
+Vec3<T> Focus2InCam(const T* mirror2_pose, const T* mirror2_shape, const T& d) {
+  return PoseFromBlock(mirror2_pose) * Vec3<T>(T(0), T(0), d - mirror2_shape[0]);
+}
+
 // Mirror a point in a plane.
 template <typename T>
 Vec3<T> MirrorPoint(const Plane<T>& plane, const Vec3<T>& p) {

@@ -17,8 +17,9 @@ using Jet3 = ceres::Jet<double, 3>;
 using JetP = ceres::Jet<double, kNumModelParameters>;
 
 // Offsets of the blocks in the flat parameter order (triangulation.h).
-constexpr int kCamera = 0, kDistortion = 5, kShape1 = 10, kShape2 = 12, kPose1 = 14, kPose2 = 19,
-              kReflex = 24;
+constexpr int kCamera = kCameraOffset, kDistortion = kDistortionOffset, kShape1 = kShape1Offset,
+              kShape2 = kShape2Offset, kPose1 = kPose1Offset, kPose2 = kPose2Offset,
+              kReflex = kReflexOffset;
 
 std::array<double, kNumModelParameters> FlatParameters(const RigParams& p) {
   std::array<double, kNumModelParameters> flat{};
@@ -73,28 +74,9 @@ struct TriangulatorJetPaths {
   Mirror2Path<Jet3> path2;
 };
 
-int ModelParameterIndex(const std::string& full_name) {
-  static const std::map<std::string, int> kIndex = {
-      {"fx", kCamera + 0},         {"fy", kCamera + 1},         {"cx", kCamera + 2},
-      {"cy", kCamera + 3},         {"skew", kCamera + 4},       {"dist_k1", kDistortion + 0},
-      {"dist_k2", kDistortion + 1}, {"dist_p1", kDistortion + 2}, {"dist_p2", kDistortion + 3},
-      {"dist_k3", kDistortion + 4}, {"c1", kShape1 + 0},         {"k1", kShape1 + 1},
-      {"c2", kShape2 + 0},         {"k2", kShape2 + 1},         {"mirror1.rx", kPose1 + 0},
-      {"mirror1.ry", kPose1 + 1},  {"mirror1.tx", kPose1 + 2},  {"mirror1.ty", kPose1 + 3},
-      {"mirror1.tz", kPose1 + 4},  {"mirror2.rx", kPose2 + 0},  {"mirror2.ry", kPose2 + 1},
-      {"mirror2.tx", kPose2 + 2},  {"mirror2.ty", kPose2 + 3},  {"mirror2.tz", kPose2 + 4},
-      {"reflex.rx", kReflex + 0},  {"reflex.ry", kReflex + 1},  {"reflex.dz", kReflex + 2},
-  };
-  std::string name = full_name;
-  for (const char* prefix : {"camera.", "distortion."}) {
-    if (name.rfind(prefix, 0) == 0) name = name.substr(std::string(prefix).size());
-  }
-  for (const char* alias : {"mirror1.c1", "mirror1.k1", "mirror2.c2", "mirror2.k2",
-                            "mirror1.reflex.rx", "mirror1.reflex.ry", "mirror1.reflex.dz"}) {
-    if (name == alias) name = name.substr(8);  // drop "mirrorN."
-  }
-  const auto it = kIndex.find(name);
-  return it == kIndex.end() ? -1 : it->second;
+int ModelParameterIndex(const std::string& name) {
+  const RigParameter* p = FindRigParameter(name);
+  return p ? p->flat : -1;
 }
 
 Triangulator::Triangulator(const RigModel& model)

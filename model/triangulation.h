@@ -31,6 +31,7 @@
 #include <Eigen/LU>
 
 #include "model/rig_model.h"
+#include "model/rig_parameters.h"
 #include "model/types.h"
 
 namespace omni {
@@ -96,13 +97,9 @@ struct TriangulatedPoint {
   int iterations = 0;               // Gauss-Newton iterations (kReprojection only)
 };
 
-// Flat order of the model parameters that a calibration covariance may name (27 entries):
-// camera[5], distortion[5], mirror1_shape[2], mirror2_shape[2], mirror1_pose[5],
-// mirror2_pose[5], reflex[3] (model/rig_params.h). Returns -1 for an unknown name. Accepted
-// names: fx fy cx cy skew, dist_k1 dist_k2 dist_p1 dist_p2 dist_k3, c1 k1 c2 k2,
-// mirror1.{rx,ry,tx,ty,tz}, mirror2.{rx,ry,tx,ty,tz}, reflex.{rx,ry,dz}; optional prefixes
-// "camera.", "distortion." and "mirror1."/"mirror2." before c/k, "mirror1." before "reflex.".
-constexpr int kNumModelParameters = 27;
+// A calibration covariance's parameter (FindRigParameter's spellings) in the flat order of
+// model/rig_parameters.h (its `flat`); -1 for an unknown name.
+constexpr int kNumModelParameters = kRigParameterCount;
 int ModelParameterIndex(const std::string& name);
 
 // The diagonal of [pixel_covariance_matrix] Omega for (u1, v1, u2, v2) under these options.

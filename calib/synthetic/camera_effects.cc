@@ -99,9 +99,6 @@ cv::Mat InnerRingWeight(const RigParams& rig, double feather_px) {
   // reflex plane's point (rig_frames.h), imaged straight through the lens (the camera sees the
   // disc directly; everything inside its image is the inner ring).
   const Pose<double> cam_from_mirror1 = PoseFromBlock(rig.mirror1_pose.data());
-  const Plane<double> plane = ReflexPlaneInMirror1(rig.reflex.data(), rig.d);
-  const Eigen::Vector3d n = plane.normal.normalized();
-  const Eigen::Vector3d a = n.unitOrthogonal(), b = n.cross(a);
   const Pinhole<double> cam = rig.Intrinsics();
   const RadTan<double> dist = rig.Distortion();
   std::vector<cv::Point> rim;
@@ -109,9 +106,8 @@ cv::Mat InnerRingWeight(const RigParams& rig, double feather_px) {
   constexpr int kSub = 16;  // fixed-point sub-pixel bits of fillPoly: 1/16 px
   for (int k = 0; k < kSamples; ++k) {
     const double phi = 2 * M_PI * k / kSamples;
-    const Eigen::Vector3d p_in_mirror1 =
-        plane.point + rig.r_ref * (std::cos(phi) * a + std::sin(phi) * b);
-    const Eigen::Vector3d p = cam_from_mirror1 * p_in_mirror1;
+    const Eigen::Vector3d p =
+        cam_from_mirror1 * ReflexRimInMirror1(rig.reflex.data(), rig.d, rig.r_ref, phi);
     const Eigen::Vector2d uv = cam.PixelFromNormalized(dist.Distort(Eigen::Vector2d(p.x() / p.z(), p.y() / p.z())));
     rim.emplace_back(cvRound(uv.x() * kSub), cvRound(uv.y() * kSub));
   }

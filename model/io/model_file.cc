@@ -13,6 +13,7 @@
 
 #include "model/io/yaml_reader.h"
 #include "model/lip.h"
+#include "model/rig_parameters.h"
 #include "model/rig_frames.h"
 
 namespace omni::io {
@@ -21,13 +22,15 @@ namespace {
 constexpr char kFormatPrefix[] = "omnistereo-model/";
 constexpr int kFormatMajor = 1;
 
-void ReadPose(const Reader& in, const YAML::Node& map, const std::string& path,
-              std::array<double, 5>* pose) {
-  (*pose)[0] = in.Angle(map, path, "rx");
-  (*pose)[1] = in.Angle(map, path, "ry");
-  (*pose)[2] = in.Number(map, path, "tx");
-  (*pose)[3] = in.Number(map, path, "ty");
-  (*pose)[4] = in.Number(map, path, "tz");
+// A parameter block's values from its map, each under its table key (model/rig_parameters.h;
+// tilts read as angles).
+void ReadBlock(const Reader& in, const YAML::Node& map, const std::string& path,
+               const std::string& block, double* values) {
+  for (const RigParameter& p : RigParameterTable()) {
+    if (block != p.block) continue;
+    values[p.index] = p.unit == ParameterUnit::kRadian ? in.Angle(map, path, p.Key().c_str())
+                                                       : in.Number(map, path, p.Key().c_str());
+  }
 }
 
 Lip ReadLip(const Reader& in, const YAML::Node& map, const std::string& path) {
@@ -52,18 +55,23 @@ Lip ReadLip(const Reader& in, const YAML::Node& map, const std::string& path) {
   return lip;
 }
 
+// The blocks an ideal model holds at 0, and the maps they are written in.
+const std::pair<const char*, const char*> kMisalignmentBlocks[] = {
+    {"distortion", "camera.distortion"},
+    {"mirror1_pose", "mirror1.cam_from_mirror"},
+    {"reflex", "mirror1.reflex"},
+    {"mirror2_pose", "mirror2.cam_from_mirror"}};
+
 // kind: ideal means exactly the SVP rig: a nonzero misalignment would be silently dropped.
 void CheckIdeal(const Reader& in, const RigParams& rig) {
   auto check = [&](double value, const std::string& key) {
     if (value != 0) in.Fail(key, "expected 0 because kind is ideal", FormatDouble(value));
   };
-  static const char* const kPose[] = {"rx", "ry", "tx", "ty", "tz"};
-  static const char* const kDist[] = {"dist_k1", "dist_k2", "dist_p1", "dist_p2", "dist_k3"};
-  static const char* const kReflex[] = {"rx", "ry", "dz"};
-  for (int i = 0; i < 5; ++i) check(rig.distortion[i], std::string("camera.distortion.") + kDist[i]);
-  for (int i = 0; i < 5; ++i) check(rig.mirror1_pose[i], std::string("mirror1.cam_from_mirror.") + kPose[i]);
-  for (int i = 0; i < 3; ++i) check(rig.reflex[i], std::string("mirror1.reflex.") + kReflex[i]);
-  for (int i = 0; i < 5; ++i) check(rig.mirror2_pose[i], std::string("mirror2.cam_from_mirror.") + kPose[i]);
+  for (const auto& [block, path] : kMisalignmentBlocks) {
+    for (const RigParameter& p : RigParameterTable()) {
+      if (block == std::string(p.block)) check(*ParameterOf(rig, p.name), Join(path, p.Key()));
+    }
+  }
 }
 
 CalibrationInfo ReadCalibration(const Reader& in, const YAML::Node& root) {
@@ -232,9 +240,14 @@ std::vector<std::string> Nums(const std::vector<double>& values) {
   return items;
 }
 
-std::string PoseMap(const std::array<double, 5>& p) {
-  return "{rx: " + Num(p[0]) + ", ry: " + Num(p[1]) + ", tx: " + Num(p[2]) + ", ty: " + Num(p[3]) +
-         ", tz: " + Num(p[4]) + "}";
+// A parameter block as a flow map under its table keys, after `lead` ("model: radtan, ").
+std::string BlockMap(const std::string& block, const double* values, const std::string& lead = "") {
+  std::string out = "{" + lead;
+  for (const RigParameter& p : RigParameterTable()) {
+    if (block != p.block) continue;
+    out += (out.size() > 1 + lead.size() ? ", " : "") + p.Key() + ": " + Num(values[p.index]);
+  }
+  return out + "}";
 }
 
 std::string LipMap(const Lip& lip) {
@@ -293,8 +306,7 @@ RigParams ParseModelText(const std::string& text, const std::string& file) {
   if (dist_model != "radtan") {
     in.Fail("camera.distortion.model", "expected 'radtan'", Describe(dist["model"]));
   }
-  static const char* const kDist[] = {"dist_k1", "dist_k2", "dist_p1", "dist_p2", "dist_k3"};
-  for (int i = 0; i < 5; ++i) rig.distortion[i] = in.Number(dist, "camera.distortion", kDist[i]);
+  ReadBlock(in, dist, "camera.distortion", "distortion", rig.distortion.data());
 
   const YAML::Node design = in.Map(root, "design", "design");
   rig.mirror1_shape[0] = in.Positive(design, "design", "c1");
@@ -318,17 +330,15 @@ RigParams ParseModelText(const std::string& text, const std::string& file) {
   }
 
   const YAML::Node m1 = in.Map(root, "mirror1", "mirror1");
-  ReadPose(in, in.Map(m1, "mirror1.cam_from_mirror", "cam_from_mirror"), "mirror1.cam_from_mirror",
-           &rig.mirror1_pose);
-  const YAML::Node reflex = in.Map(m1, "mirror1.reflex", "reflex");
-  rig.reflex[0] = in.Angle(reflex, "mirror1.reflex", "rx");
-  rig.reflex[1] = in.Angle(reflex, "mirror1.reflex", "ry");
-  rig.reflex[2] = in.Number(reflex, "mirror1.reflex", "dz");
+  ReadBlock(in, in.Map(m1, "mirror1.cam_from_mirror", "cam_from_mirror"),
+            "mirror1.cam_from_mirror", "mirror1_pose", rig.mirror1_pose.data());
+  ReadBlock(in, in.Map(m1, "mirror1.reflex", "reflex"), "mirror1.reflex", "reflex",
+            rig.reflex.data());
   rig.lip1 = ReadLip(in, in.Map(m1, "mirror1.lip", "lip"), "mirror1.lip");
 
   const YAML::Node m2 = in.Map(root, "mirror2", "mirror2");
-  ReadPose(in, in.Map(m2, "mirror2.cam_from_mirror", "cam_from_mirror"), "mirror2.cam_from_mirror",
-           &rig.mirror2_pose);
+  ReadBlock(in, in.Map(m2, "mirror2.cam_from_mirror", "cam_from_mirror"),
+            "mirror2.cam_from_mirror", "mirror2_pose", rig.mirror2_pose.data());
   rig.lip2 = ReadLip(in, in.Map(m2, "mirror2.lip", "lip"), "mirror2.lip");
 
   if (rig.kind == ModelKind::kIdeal) CheckIdeal(in, rig);
@@ -344,15 +354,16 @@ RigParams ReadModelFile(const std::string& path) {
 ModelDerived ComputeModelDerived(const RigParams& rig) {
   const Pose<double> cam_from_mirror1 = PoseFromBlock(rig.mirror1_pose.data());
   const Pose<double> cam_from_mirror2 = PoseFromBlock(rig.mirror2_pose.data());
-  const Plane<double> reflex_in_mirror1 = ReflexPlaneInMirror1(rig.reflex.data(), rig.d);
+  const Plane<double> reflex_in_cam =
+      ReflexPlaneInCam(rig.mirror1_pose.data(), rig.reflex.data(), rig.d);
   const Eigen::Vector3d unit_z = Eigen::Vector3d::UnitZ();
   ModelDerived out;
-  out.focus1_in_cam = cam_from_mirror1 * Eigen::Vector3d(0, 0, rig.mirror1_shape[0]);
+  out.focus1_in_cam = Focus1InCam(rig.mirror1_pose.data(), rig.mirror1_shape.data());
   out.axis1_in_cam = cam_from_mirror1.Rotate(unit_z);
-  out.focus2_in_cam = cam_from_mirror2 * Eigen::Vector3d(0, 0, rig.d - rig.mirror2_shape[0]);
+  out.focus2_in_cam = Focus2InCam(rig.mirror2_pose.data(), rig.mirror2_shape.data(), rig.d);
   out.axis2_in_cam = cam_from_mirror2.Rotate(unit_z);
-  out.reflex_point_in_cam = cam_from_mirror1 * reflex_in_mirror1.point;
-  out.reflex_normal_in_cam = cam_from_mirror1.Rotate(reflex_in_mirror1.normal);
+  out.reflex_point_in_cam = reflex_in_cam.point;
+  out.reflex_normal_in_cam = reflex_in_cam.normal;
   out.baseline = (out.focus1_in_cam - out.focus2_in_cam).norm();
   return out;
 }
@@ -379,9 +390,7 @@ std::string ModelFileText(const RigParams& rig) {
   Line(&out, 2, "cy: " + Num(rig.camera[3]));
   Line(&out, 2, "skew: " + Num(rig.camera[4]));
   const auto& k = rig.distortion;
-  Line(&out, 2, "distortion: {model: radtan, dist_k1: " + Num(k[0]) + ", dist_k2: " + Num(k[1]) +
-                    ", dist_p1: " + Num(k[2]) + ", dist_p2: " + Num(k[3]) +
-                    ", dist_k3: " + Num(k[4]) + "}");
+  Line(&out, 2, "distortion: " + BlockMap("distortion", k.data(), "model: radtan, "));
   Line(&out, 0, "design:", "the paper's primary parameters (mm, unitless k) and physical radii");
   Line(&out, 2, "c1: " + Num(rig.mirror1_shape[0]));
   Line(&out, 2, "c2: " + Num(rig.mirror2_shape[0]));
@@ -392,13 +401,12 @@ std::string ModelFileText(const RigParams& rig) {
   Line(&out, 2, "r_ref: " + Num(rig.r_ref), "radius of the planar reflex disc");
   Line(&out, 2, "r_cam: " + Num(rig.r_cam), "radius of mirror 2's central hole");
   Line(&out, 0, "mirror1:", "body of mirror 1; the reflex disc is part of it");
-  Line(&out, 2, "cam_from_mirror: " + PoseMap(rig.mirror1_pose));
-  Line(&out, 2, "reflex: {rx: " + Num(rig.reflex[0]) + ", ry: " + Num(rig.reflex[1]) +
-                    ", dz: " + Num(rig.reflex[2]) + "}",
+  Line(&out, 2, "cam_from_mirror: " + BlockMap("mirror1_pose", rig.mirror1_pose.data()));
+  Line(&out, 2, "reflex: " + BlockMap("reflex", rig.reflex.data()),
        "mirror-1 frame: plane through (0,0,d/2+dz), normal exp([rx,ry,0])*(0,0,-1)");
   Line(&out, 2, "lip: " + LipMap(rig.lip1), "flat annulus, mirror-1 frame");
   Line(&out, 0, "mirror2:");
-  Line(&out, 2, "cam_from_mirror: " + PoseMap(rig.mirror2_pose));
+  Line(&out, 2, "cam_from_mirror: " + BlockMap("mirror2_pose", rig.mirror2_pose.data()));
   Line(&out, 2, "lip: " + LipMap(rig.lip2), "flat annulus, mirror-2 frame");
 
   const ModelDerived derived = ComputeModelDerived(rig);

@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "model/io/yaml_reader.h"
+#include "model/rig_parameters.h"
 
 namespace omni::io {
 namespace {
@@ -112,9 +113,14 @@ std::string Quote(const std::string& text) {
 }  // namespace
 
 const std::vector<std::string>& EstimableGroups() {
-  static const std::vector<std::string> groups = {
-      "camera", "distortion", "mirror1_pose", "mirror2_pose", "reflex", "mirror1_shape",
-      "mirror2_shape"};
+  // The default ones first, then the mirror shapes (model/rig_parameters.h).
+  static const std::vector<std::string> groups = [] {
+    std::vector<std::string> out = DefaultEstimateBlocks();
+    for (const RigBlock& b : kRigBlocks) {
+      if (std::find(out.begin(), out.end(), b.name) == out.end()) out.push_back(b.name);
+    }
+    return out;
+  }();
   return groups;
 }
 
@@ -161,15 +167,15 @@ Session ReadSessionFile(const std::string& path) {
       const std::string& g = session.estimate[i];
       const auto& known = EstimableGroups();
       if (std::find(known.begin(), known.end(), g) == known.end()) {
-        in.Fail("estimate[" + std::to_string(i) + "]",
-                "expected one of camera, distortion, mirror1_pose, mirror2_pose, reflex, "
-                "mirror1_shape, mirror2_shape",
+        std::string choices;
+        for (const auto& k : known) choices += (choices.empty() ? "" : ", ") + k;
+        in.Fail("estimate[" + std::to_string(i) + "]", "expected one of " + choices,
                 Describe(root["estimate"][i]));
       }
       if (!seen.insert(g).second) in.Fail("estimate[" + std::to_string(i) + "]", "expected each group once", "'" + g + "' twice");
     }
   } else {
-    session.estimate = {"camera", "distortion", "mirror1_pose", "mirror2_pose", "reflex"};
+    session.estimate = DefaultEstimateBlocks();
   }
 
   if (root["priors"].IsDefined()) {
@@ -197,8 +203,13 @@ Session ReadSessionFile(const std::string& path) {
       if (!item.first.IsScalar()) in.Fail("consider", "expected names as keys", Describe(item.first));
       const std::string name = item.first.Scalar();
       const std::string key = "consider." + name;
-      if (name != "dist_p1" && name != "dist_p2" && name != "dist_k3" && name != "skew") {
-        in.Fail(key, "expected dist_p1, dist_p2, dist_k3 or skew", "'" + name + "'");
+      const RigParameter* p = FindRigParameter(name);
+      if (!p || !p->considerable || name != p->name) {
+        std::string choices;
+        for (const RigParameter& c : RigParameterTable()) {
+          if (c.considerable) choices += (choices.empty() ? "" : ", ") + std::string(c.name);
+        }
+        in.Fail(key, "expected one of " + choices, "'" + name + "'");
       }
       const double sigma = in.Number(item.second, key);
       if (!(sigma >= 0)) in.Fail(key, "expected a sigma >= 0", Describe(item.second));

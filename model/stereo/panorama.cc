@@ -60,8 +60,8 @@ PanoramaGeometry MakePanoramaGeometry(const RigModel& model, const PanoramaOptio
   g.radius_mm = options.cylinder_radius_mm;
   const Pose<double> cam_from_mirror1 = PoseFromBlock(rig.mirror1_pose.data());
   const Pose<double> cam_from_mirror2 = PoseFromBlock(rig.mirror2_pose.data());
-  g.viewpoint_in_cam[0] = cam_from_mirror1 * Eigen::Vector3d(0, 0, rig.mirror1_shape[0]);
-  g.viewpoint_in_cam[1] = cam_from_mirror2 * Eigen::Vector3d(0, 0, rig.d - rig.mirror2_shape[0]);
+  g.viewpoint_in_cam[0] = Focus1InCam(rig.mirror1_pose.data(), rig.mirror1_shape.data());
+  g.viewpoint_in_cam[1] = Focus2InCam(rig.mirror2_pose.data(), rig.mirror2_shape.data(), rig.d);
   // The common axis: the baseline direction (from F2 up to F1).
   const Eigen::Vector3d axis = (g.viewpoint_in_cam[0] - g.viewpoint_in_cam[1]).normalized();
   const Eigen::Vector3d x = (Eigen::Vector3d::UnitX() - axis.x() * axis).normalized();

@@ -38,21 +38,11 @@ inline RigParams IdealRig() {
   return io::ReadModelFile(std::string(OMNI_SOURCE_DIR) + "/sample_configs/big_rig_ideal.yaml");
 }
 
-// The value in `rig` of the calibration parameter `name` (calib::BlockParameterNames); NaN if
-// there is none, which fails any comparison with it.
+// The value in `rig` of the calibration parameter `name` (model/rig_parameters.h); NaN if there
+// is none, which fails any comparison with it.
 inline double TruthValue(const RigParams& rig, const std::string& name) {
-  const char* groups[] = {"camera", "distortion", "mirror1_shape", "mirror2_shape",
-                          "mirror1_pose", "mirror2_pose", "reflex"};
-  const double* blocks[] = {rig.camera.data(), rig.distortion.data(), rig.mirror1_shape.data(),
-                            rig.mirror2_shape.data(), rig.mirror1_pose.data(),
-                            rig.mirror2_pose.data(), rig.reflex.data()};
-  for (int g = 0; g < 7; ++g) {
-    const auto& names = calib::BlockParameterNames(groups[g]);
-    for (size_t k = 0; k < names.size(); ++k) {
-      if (names[k] == name) return blocks[g][k];
-    }
-  }
-  return NAN;
+  const double* value = ParameterOf(rig, name);
+  return value ? *value : NAN;
 }
 
 struct SyntheticSession {

@@ -1,0 +1,171 @@
+#include "model/rig_parameters.h"
+
+#include <cmath>
+#include <map>
+
+namespace omni {
+namespace {
+
+constexpr double kRad = M_PI / 180.0;  // one degree in rad
+
+constexpr const char* kCameraHint = "targets filling both rings all around the rig, at near and far ranges";
+constexpr const char* kDistortionHint =
+    "corners over the whole radial extent of both rings (targets at several heights and ranges)";
+constexpr const char* kShapeHint =
+    "a manufacturing-tolerance prior on the mirror shape, or targets at many ranges";
+constexpr const char* kLateralHint =
+    "targets all around the rig (full azimuth) and at several heights";
+constexpr const char* kAxialHint =
+    "targets at several ranges including near ones (0.3-0.6 m): an axial shift shows only as "
+    "parallax";
+constexpr const char* kReflexTiltHint = "inner-ring (mirror 2) observations all around the rig";
+
+using U = ParameterUnit;
+
+// Bounds: 20 px for the pinhole, 5 px of skew, 0.05 for a tangential coefficient, 2 mm for a
+// shape's c and 0.2 for its k, 1 deg for a tilt and 1 mm for a shift: each far beyond what an
+// assembly error or a mirror's manufacture gives. Divergence: 10 deg, 20 mm.
+// clang-format off
+constexpr std::array<RigParameter, kRigParameterCount> kTable = {{
+    {"fx",         "camera",        0,  0, U::kPixel,      20.0,       0,         false, kCameraHint},
+    {"fy",         "camera",        1,  1, U::kPixel,      20.0,       0,         false, kCameraHint},
+    {"cx",         "camera",        2,  2, U::kPixel,      20.0,       0,         false, kCameraHint},
+    {"cy",         "camera",        3,  3, U::kPixel,      20.0,       0,         false, kCameraHint},
+    {"skew",       "camera",        4,  4, U::kPixel,      5.0,        0,         true,  kCameraHint},
+    {"dist_k1",    "distortion",    0,  5, U::kNone,       0,          0,         false, kDistortionHint},
+    {"dist_k2",    "distortion",    1,  6, U::kNone,       0,          0,         false, kDistortionHint},
+    {"dist_p1",    "distortion",    2,  7, U::kNone,       0.05,       0,         true,  kDistortionHint},
+    {"dist_p2",    "distortion",    3,  8, U::kNone,       0.05,       0,         true,  kDistortionHint},
+    {"dist_k3",    "distortion",    4,  9, U::kNone,       0,          0,         true,  kDistortionHint},
+    {"c1",         "mirror1_shape", 0, 10, U::kMillimetre, 2.0,        0,         false, kShapeHint},
+    {"k1",         "mirror1_shape", 1, 11, U::kNone,       0.2,        0,         false, kShapeHint},
+    {"c2",         "mirror2_shape", 0, 12, U::kMillimetre, 2.0,        0,         false, kShapeHint},
+    {"k2",         "mirror2_shape", 1, 13, U::kNone,       0.2,        0,         false, kShapeHint},
+    {"mirror1.rx", "mirror1_pose",  0, 14, U::kRadian,     1.0 * kRad, 10 * kRad, false, kLateralHint},
+    {"mirror1.ry", "mirror1_pose",  1, 15, U::kRadian,     1.0 * kRad, 10 * kRad, false, kLateralHint},
+    {"mirror1.tx", "mirror1_pose",  2, 16, U::kMillimetre, 1.0,        20.0,      false, kLateralHint},
+    {"mirror1.ty", "mirror1_pose",  3, 17, U::kMillimetre, 1.0,        20.0,      false, kLateralHint},
+    {"mirror1.tz", "mirror1_pose",  4, 18, U::kMillimetre, 1.0,        20.0,      false, kAxialHint},
+    {"mirror2.rx", "mirror2_pose",  0, 19, U::kRadian,     1.0 * kRad, 10 * kRad, false, kLateralHint},
+    {"mirror2.ry", "mirror2_pose",  1, 20, U::kRadian,     1.0 * kRad, 10 * kRad, false, kLateralHint},
+    {"mirror2.tx", "mirror2_pose",  2, 21, U::kMillimetre, 1.0,        20.0,      false, kLateralHint},
+    {"mirror2.ty", "mirror2_pose",  3, 22, U::kMillimetre, 1.0,        20.0,      false, kLateralHint},
+    {"mirror2.tz", "mirror2_pose",  4, 23, U::kMillimetre, 1.0,        20.0,      false, kAxialHint},
+    {"reflex.rx",  "reflex",        0, 24, U::kRadian,     1.0 * kRad, 10 * kRad, false, kReflexTiltHint},
+    {"reflex.ry",  "reflex",        1, 25, U::kRadian,     1.0 * kRad, 10 * kRad, false, kReflexTiltHint},
+    {"reflex.dz",  "reflex",        2, 26, U::kMillimetre, 1.0,        20.0,      false, kAxialHint},
+}};
+// clang-format on
+
+// The table agrees with kRigBlocks: each block's parameters in order, at its offset.
+constexpr bool TableMatchesBlocks() {
+  int i = 0;
+  for (const RigBlock& b : kRigBlocks) {
+    for (int k = 0; k < b.size; ++k, ++i) {
+      if (kTable[i].index != k || kTable[i].flat != b.offset + k) return false;
+      const char* x = kTable[i].block;
+      const char* y = b.name;
+      while (*x && *x == *y) ++x, ++y;
+      if (*x != *y) return false;
+    }
+  }
+  return i == kRigParameterCount;
+}
+static_assert(TableMatchesBlocks(), "kTable and kRigBlocks disagree");
+
+}  // namespace
+
+std::string RigParameter::Key() const {
+  const std::string full = name;
+  const size_t dot = full.find('.');
+  return dot == std::string::npos ? full : full.substr(dot + 1);
+}
+
+const std::array<RigParameter, kRigParameterCount>& RigParameterTable() { return kTable; }
+
+const RigParameter* FindRigParameter(const std::string& name) {
+  static const std::map<std::string, const RigParameter*> by_name = [] {
+    std::map<std::string, const RigParameter*> m;
+    for (const RigParameter& p : kTable) {
+      m[p.name] = &p;
+      // A model file's spellings: the section the value is written under, then its key.
+      const std::string block = p.block;
+      if (block == "camera") m["camera." + std::string(p.name)] = &p;
+      if (block == "distortion") m["camera." + std::string(p.name)] = &p;
+      if (block == "distortion") {
+        m["distortion." + std::string(p.name)] = &p;
+        m["camera.distortion." + std::string(p.name)] = &p;
+      }
+      if (block == "mirror1_shape") m["mirror1." + std::string(p.name)] = &p;
+      if (block == "mirror2_shape") m["mirror2." + std::string(p.name)] = &p;
+      if (block == "reflex") m["mirror1.reflex." + p.Key()] = &p;
+    }
+    return m;
+  }();
+  const auto it = by_name.find(name);
+  return it == by_name.end() ? nullptr : it->second;
+}
+
+const RigBlock* FindRigBlock(const std::string& name) {
+  for (const RigBlock& b : kRigBlocks) {
+    if (name == b.name) return &b;
+  }
+  return nullptr;
+}
+
+const std::vector<std::string>& BlockParameterNames(const std::string& block) {
+  static const std::map<std::string, std::vector<std::string>> names = [] {
+    std::map<std::string, std::vector<std::string>> m;
+    for (const RigParameter& p : kTable) m[p.block].push_back(p.name);
+    return m;
+  }();
+  static const std::vector<std::string> none;
+  const auto it = names.find(block);
+  return it == names.end() ? none : it->second;
+}
+
+const std::vector<std::string>& DefaultEstimateBlocks() {
+  static const std::vector<std::string> blocks = {"camera", "distortion", "mirror1_pose",
+                                                  "mirror2_pose", "reflex"};
+  return blocks;
+}
+
+const double* BlockIn(const RigParams& rig, const std::string& block) {
+  const std::array<const double*, 7> arrays = {
+      rig.camera.data(),       rig.distortion.data(),   rig.mirror1_shape.data(),
+      rig.mirror2_shape.data(), rig.mirror1_pose.data(), rig.mirror2_pose.data(),
+      rig.reflex.data()};
+  for (size_t i = 0; i < kRigBlocks.size(); ++i) {
+    if (block == kRigBlocks[i].name) return arrays[i];
+  }
+  return nullptr;
+}
+
+double* BlockIn(RigParams* rig, const std::string& block) {
+  return const_cast<double*>(BlockIn(static_cast<const RigParams&>(*rig), block));
+}
+
+const double* ParameterOf(const RigParams& rig, const std::string& name) {
+  const RigParameter* p = FindRigParameter(name);
+  return p ? BlockIn(rig, p->block) + p->index : nullptr;
+}
+
+double* ParameterOf(RigParams* rig, const std::string& name) {
+  return const_cast<double*>(ParameterOf(static_cast<const RigParams&>(*rig), name));
+}
+
+double DisplayValue(const RigParameter& p, double value) {
+  return p.unit == ParameterUnit::kRadian ? value / kRad : value;
+}
+
+const char* DisplayUnit(const RigParameter& p) {
+  switch (p.unit) {
+    case ParameterUnit::kPixel: return "px";
+    case ParameterUnit::kNone: return "";
+    case ParameterUnit::kMillimetre: return "mm";
+    case ParameterUnit::kRadian: return "deg";
+  }
+  return "";
+}
+
+}  // namespace omni
