@@ -39,6 +39,10 @@
 
 namespace omni::calib {
 
+// The lips enter the solve as normal points: the means of each edge's points over the images per
+// this much azimuth (calibrator_observations.cc NormalLipPoints).
+inline constexpr double kLipSpacingDeg = 0.25;
+
 // A calibration that cannot be done with this input (degenerate session, no matches, a diverging
 // solve); what() is one line naming the cause and what would fix it. An InputError so that the
 // CLI reports it as bad input (exit 2).
