@@ -51,24 +51,8 @@ void RequireFlag(const std::string& value, const char* flag, const char* what) {
   if (value.empty()) throw io::InputError(std::string("--") + flag + ": expected " + what);
 }
 
-Pose<double> CamFromMirror1(const RigParams& rig) {
-  return PoseFromBlock(rig.mirror1_pose.data());
-}
-
-// `p` (in the frame `to_from_cam` maps from, C) moved rigidly: point, covariances and pixel
-// Jacobian re-expressed.
-TriangulatedPoint Moved(TriangulatedPoint p, const Pose<double>& to_from_cam) {
-  const Eigen::Matrix3d& r = to_from_cam.rotation;
-  p.point_in_cam = to_from_cam * p.point_in_cam;
-  p.covariance = r * p.covariance * r.transpose();
-  p.model_covariance = r * p.model_covariance * r.transpose();
-  p.jacobian_px = r * p.jacobian_px;
-  return p;
-}
-
-}  // namespace
-
-int RunTriangulate() {
+// The flags as triangulation options; throws io::InputError naming the flag.
+TriangulationOptions OptionsFromFlags() {
   RequireFlag(FLAGS_model, "model", "a model file (omnistereo-model/1)");
   RequireFlag(FLAGS_out, "out", "the output CSV path");
   if (FLAGS_detections.empty() && FLAGS_truth.empty()) {
@@ -99,7 +83,94 @@ int RunTriangulate() {
   } else {
     throw io::InputError("--method: expected midpoint or reprojection, got '" + FLAGS_method + "'");
   }
+  return options;
+}
 
+// The true rig of --truth (its `model:` file), needed to compare in M1.
+RigParams TrueRig(const stereo::Truth& truth) {
+  if (truth.model.empty()) {
+    throw io::InputError(FLAGS_truth + ": model: expected the true model file (for --frame "
+                         "mirror1)");
+  }
+  return io::ReadModelFile(
+      (std::filesystem::path(FLAGS_truth).parent_path() / truth.model).string());
+}
+
+// The corner pairs: from --detections (paired by the model), or the truth's pixels plus noise.
+struct Pairs {
+  std::vector<stereo::CornerPair> pairs;
+  std::vector<std::string> image_names;
+  long observations = 0;
+};
+Pairs ReadPairs(const Triangulator& triangulator, const std::optional<stereo::Truth>& truth) {
+  Pairs out;
+  if (FLAGS_detections.empty()) {
+    std::mt19937 rng(static_cast<unsigned>(FLAGS_seed));
+    out.pairs = stereo::TruthPairs(*truth, FLAGS_noise_px, &rng, FLAGS_noise_px_ring2);
+    for (const auto& image : truth->images) out.image_names.push_back(image.file);
+    out.observations = 2 * static_cast<long>(out.pairs.size());
+    return out;
+  }
+  const io::Detections detections = io::ReadDetectionsFile(FLAGS_detections);
+  for (int i = 0; i < static_cast<int>(detections.images.size()); ++i) {
+    const auto& image = detections.images[i];
+    out.image_names.push_back(image.file);
+    out.observations += static_cast<long>(image.corners.size());
+    const auto image_pairs = stereo::PairCorners(triangulator, i, image.corners);
+    out.pairs.insert(out.pairs.end(), image_pairs.begin(), image_pairs.end());
+  }
+  if (truth && truth->images.size() != detections.images.size()) {
+    throw io::InputError(FLAGS_truth + ": images: expected " +
+                         std::to_string(detections.images.size()) +
+                         " images as in the detections file, got " +
+                         std::to_string(truth->images.size()));
+  }
+  return out;
+}
+
+void WriteCsv(const stereo::SessionTriangulation& result,
+              const std::vector<std::string>& image_names) {
+  io::CsvWriter out(FLAGS_out, {"image", "target", "id", "x_mm", "y_mm", "z_mm", "cov_xx",
+                                "cov_xy", "cov_xz", "cov_yy", "cov_yz", "cov_zz", "u1", "v1",
+                                "u2", "v2", "gap_mm"});
+  for (const auto& [pair, point] : result.points) {
+    const Eigen::Vector3d& p = point.point_in_cam;  // in --frame
+    const Eigen::Matrix3d& c = point.covariance;
+    out.Add(image_names[pair.image]);
+    for (double value : {double(pair.target), double(pair.id), p.x(), p.y(), p.z(), c(0, 0),
+                         c(0, 1), c(0, 2), c(1, 1), c(1, 2), c(2, 2), pair.pixel1.x(),
+                         pair.pixel1.y(), pair.pixel2.x(), pair.pixel2.y(), point.gap_mm}) {
+      out.Add(value);
+    }
+    out.EndRow();
+  }
+  out.Commit();
+}
+
+void PrintTruthTables(const Triangulator& triangulator, const stereo::Truth& truth,
+                      const stereo::SessionTriangulation& result,
+                      const TriangulationOptions& options) {
+  const double noise2 = FLAGS_noise_px_ring2 >= 0 ? FLAGS_noise_px_ring2 : FLAGS_noise_px;
+  if (FLAGS_detections.empty()) {
+    std::printf("pixels: the truth's own, noise %g/%g px (seed %d)\n", FLAGS_noise_px, noise2,
+                FLAGS_seed);
+  }
+  std::printf("%s", stereo::FormatRangeTable(stereo::RangeTable(result.errors)).c_str());
+  if (result.unmatched > 0) std::printf("(%ld points without a true corner)\n", result.unmatched);
+  if (FLAGS_seeds > 0) {
+    std::printf("over %d seeds (from %d), noise %g/%g px (rings 1/2), RMSE in mm:\n", FLAGS_seeds,
+                FLAGS_seed, FLAGS_noise_px, noise2);
+    std::printf("%s", stereo::FormatSeedSpread(
+                          stereo::SeedSpread(triangulator, truth, FLAGS_noise_px, noise2,
+                                             FLAGS_seeds, static_cast<unsigned>(FLAGS_seed),
+                                             options)).c_str());
+  }
+}
+
+}  // namespace
+
+int RunTriangulate() {
+  const TriangulationOptions options = OptionsFromFlags();
   const RigParams rig = io::ReadModelFile(FLAGS_model);
   const Triangulator triangulator{RigModel(rig)};
   if (FLAGS_model_covariance && !triangulator.has_model_covariance()) {
@@ -112,112 +183,29 @@ int RunTriangulate() {
                  triangulator.unknown_parameters().size(),
                  triangulator.unknown_parameters()[0].c_str());
   }
-
   std::optional<stereo::Truth> truth;
   if (!FLAGS_truth.empty()) truth = stereo::ReadTruthFile(FLAGS_truth);
-  // Output frame from C, and (with --truth) the estimate's M1 taken to the true rig's C.
-  const Pose<double> out_from_cam = options.reference == ReferenceBody::kMirror1
-                                        ? CamFromMirror1(rig).Inverse()
-                                        : Pose<double>{Eigen::Matrix3d::Identity(),
-                                                       Eigen::Vector3d::Zero()};
-  Pose<double> true_cam_from_cam = {Eigen::Matrix3d::Identity(), Eigen::Vector3d::Zero()};
-  if (truth && options.reference == ReferenceBody::kMirror1) {
-    if (truth->model.empty()) {
-      throw io::InputError(FLAGS_truth + ": model: expected the true model file (for --frame "
-                           "mirror1)");
-    }
-    const std::filesystem::path model_path =
-        std::filesystem::path(FLAGS_truth).parent_path() / truth->model;
-    const Pose<double> true_cam_from_mirror1 = CamFromMirror1(io::ReadModelFile(model_path.string()));
-    const Pose<double> mirror1_from_cam = out_from_cam;
-    true_cam_from_cam = {true_cam_from_mirror1.rotation * mirror1_from_cam.rotation,
-                         true_cam_from_mirror1 * mirror1_from_cam.translation};
-  }
+  std::optional<RigParams> true_rig;
+  if (truth && options.reference == ReferenceBody::kMirror1) true_rig = TrueRig(*truth);
+  const stereo::OutputFrames frames =
+      stereo::FramesOf(rig, options.reference, true_rig ? &*true_rig : nullptr);
 
-  // The pixel pairs and the image names.
-  std::vector<stereo::CornerPair> pairs;
-  std::vector<std::string> image_names;
-  long observations = 0;
-  if (!FLAGS_detections.empty()) {
-    const io::Detections detections = io::ReadDetectionsFile(FLAGS_detections);
-    for (int i = 0; i < static_cast<int>(detections.images.size()); ++i) {
-      const auto& image = detections.images[i];
-      image_names.push_back(image.file);
-      observations += static_cast<long>(image.corners.size());
-      const auto image_pairs = stereo::PairCorners(triangulator, i, image.corners);
-      pairs.insert(pairs.end(), image_pairs.begin(), image_pairs.end());
-    }
-    if (truth && truth->images.size() != detections.images.size()) {
-      throw io::InputError(FLAGS_truth + ": images: expected " +
-                           std::to_string(detections.images.size()) +
-                           " images as in the detections file, got " +
-                           std::to_string(truth->images.size()));
-    }
-  } else {
-    std::mt19937 rng(static_cast<unsigned>(FLAGS_seed));
-    pairs = stereo::TruthPairs(*truth, FLAGS_noise_px, &rng, FLAGS_noise_px_ring2);
-    for (const auto& image : truth->images) image_names.push_back(image.file);
-    observations = 2 * static_cast<long>(pairs.size());
-  }
-
-  io::CsvWriter out(FLAGS_out, {"image", "target", "id", "x_mm", "y_mm", "z_mm", "cov_xx",
-                                "cov_xy", "cov_xz", "cov_yy", "cov_yz", "cov_zz", "u1", "v1",
-                                "u2", "v2", "gap_mm"});
-  std::vector<stereo::CornerError> errors;
-  long triangulated = 0, failed = 0, unmatched = 0;
-  for (const auto& pair : pairs) {
-    const auto point = triangulator.Triangulate(pair.pixel1, pair.pixel2, options);
-    if (!point) {
-      ++failed;
-      continue;
-    }
-    const TriangulatedPoint in_frame = Moved(*point, out_from_cam);
-    const Eigen::Vector3d& p = in_frame.point_in_cam;  // in --frame
-    const Eigen::Matrix3d& c = in_frame.covariance;
-    out.Add(image_names[pair.image]);
-    for (double value : {double(pair.target), double(pair.id), p.x(), p.y(), p.z(), c(0, 0),
-                         c(0, 1), c(0, 2), c(1, 1), c(1, 2), c(2, 2), pair.pixel1.x(),
-                         pair.pixel1.y(), pair.pixel2.x(), pair.pixel2.y(), point->gap_mm}) {
-      out.Add(value);
-    }
-    out.EndRow();
-    ++triangulated;
-    if (truth) {
-      if (auto e = stereo::CompareWithTruth(*truth, pair, Moved(*point, true_cam_from_cam))) {
-        errors.push_back(*e);
-      }
-      else ++unmatched;
-    }
-  }
-  if (triangulated == 0) {
+  const Pairs pairs = ReadPairs(triangulator, truth);
+  const stereo::SessionTriangulation result = stereo::TriangulatePairs(
+      triangulator, pairs.pairs, options, frames, truth ? &*truth : nullptr);
+  if (result.points.empty()) {
     throw io::InputError((FLAGS_detections.empty() ? FLAGS_truth : FLAGS_detections) +
                          ": expected corners seen in both rings (mirror 1 and 2), got none that "
                          "triangulate");
   }
-  out.Commit();
-  std::printf("triangulate: %ld observations, %zu pairs, %ld triangulated (%s, sigma_px %g/%g%s), "
+  WriteCsv(result, pairs.image_names);
+  std::printf("triangulate: %ld observations, %zu pairs, %zu triangulated (%s, sigma_px %g/%g%s), "
               "%ld failed -> %s (frame %s)\n",
-              observations, pairs.size(), triangulated, FLAGS_method.c_str(), FLAGS_sigma_px,
-              FLAGS_sigma_px_ring2 > 0 ? FLAGS_sigma_px_ring2 : FLAGS_sigma_px,
-              FLAGS_model_covariance ? " + model covariance" : "", failed, FLAGS_out.c_str(),
-              options.reference == ReferenceBody::kMirror1 ? "M1" : "C");
-  if (truth) {
-    if (FLAGS_detections.empty()) {
-      std::printf("pixels: the truth's own, noise %g/%g px (seed %d)\n", FLAGS_noise_px,
-                  FLAGS_noise_px_ring2 >= 0 ? FLAGS_noise_px_ring2 : FLAGS_noise_px, FLAGS_seed);
-    }
-    std::printf("%s", stereo::FormatRangeTable(stereo::RangeTable(errors)).c_str());
-    if (unmatched > 0) std::printf("(%ld points without a true corner)\n", unmatched);
-  }
-  if (FLAGS_seeds > 0) {
-    const double noise2 = FLAGS_noise_px_ring2 >= 0 ? FLAGS_noise_px_ring2 : FLAGS_noise_px;
-    std::printf("over %d seeds (from %d), noise %g/%g px (rings 1/2), RMSE in mm:\n", FLAGS_seeds,
-                FLAGS_seed, FLAGS_noise_px, noise2);
-    std::printf("%s", stereo::FormatSeedSpread(
-                          stereo::SeedSpread(triangulator, *truth, FLAGS_noise_px, noise2,
-                                             FLAGS_seeds, static_cast<unsigned>(FLAGS_seed),
-                                             options)).c_str());
-  }
+              pairs.observations, pairs.pairs.size(), result.points.size(), FLAGS_method.c_str(),
+              FLAGS_sigma_px, FLAGS_sigma_px_ring2 > 0 ? FLAGS_sigma_px_ring2 : FLAGS_sigma_px,
+              FLAGS_model_covariance ? " + model covariance" : "", result.failed,
+              FLAGS_out.c_str(), options.reference == ReferenceBody::kMirror1 ? "M1" : "C");
+  if (truth) PrintTruthTables(triangulator, *truth, result, options);
   return 0;
 }
 

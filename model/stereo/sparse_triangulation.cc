@@ -382,4 +382,49 @@ std::string FormatSeedSpread(const std::vector<SeedSpreadRow>& rows) {
   return out;
 }
 
+TriangulatedPoint Moved(TriangulatedPoint p, const Pose<double>& to_from_cam) {
+  const Eigen::Matrix3d& r = to_from_cam.rotation;
+  p.point_in_cam = to_from_cam * p.point_in_cam;
+  p.covariance = r * p.covariance * r.transpose();
+  p.model_covariance = r * p.model_covariance * r.transpose();
+  p.jacobian_px = r * p.jacobian_px;
+  return p;
+}
+
+OutputFrames FramesOf(const RigParams& rig, ReferenceBody reference, const RigParams* true_rig) {
+  const Pose<double> identity{Eigen::Matrix3d::Identity(), Eigen::Vector3d::Zero()};
+  OutputFrames frames{identity, identity};
+  if (reference != ReferenceBody::kMirror1) return frames;
+  const Pose<double> mirror1_from_cam = PoseFromBlock(rig.mirror1_pose.data()).Inverse();
+  frames.out_from_cam = mirror1_from_cam;
+  if (true_rig) {
+    const Pose<double> true_cam_from_mirror1 = PoseFromBlock(true_rig->mirror1_pose.data());
+    frames.true_cam_from_cam = {true_cam_from_mirror1.rotation * mirror1_from_cam.rotation,
+                                true_cam_from_mirror1 * mirror1_from_cam.translation};
+  }
+  return frames;
+}
+
+SessionTriangulation TriangulatePairs(const Triangulator& triangulator,
+                                      const std::vector<CornerPair>& pairs,
+                                      const TriangulationOptions& options,
+                                      const OutputFrames& frames, const Truth* truth) {
+  SessionTriangulation out;
+  for (const auto& pair : pairs) {
+    const auto point = triangulator.Triangulate(pair.pixel1, pair.pixel2, options);
+    if (!point) {
+      ++out.failed;
+      continue;
+    }
+    out.points.push_back({pair, Moved(*point, frames.out_from_cam)});
+    if (!truth) continue;
+    if (auto e = CompareWithTruth(*truth, pair, Moved(*point, frames.true_cam_from_cam))) {
+      out.errors.push_back(*e);
+    } else {
+      ++out.unmatched;
+    }
+  }
+  return out;
+}
+
 }  // namespace omni::stereo

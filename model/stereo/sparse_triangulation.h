@@ -124,4 +124,35 @@ std::vector<SeedSpreadRow> SeedSpread(const Triangulator& triangulator, const Tr
                                       unsigned first_seed, const TriangulationOptions& options);
 std::string FormatSeedSpread(const std::vector<SeedSpreadRow>& rows);
 
+// A triangulated point moved rigidly into the frame that `to_from_cam` maps C to: the point,
+// both covariances and the pixel Jacobian re-expressed.
+TriangulatedPoint Moved(TriangulatedPoint p, const Pose<double>& to_from_cam);
+
+// The frames of a session's triangulation: the output frame from C (C itself, or mirror 1's
+// body M1 of `rig`) and, for the comparison with a truth, the estimate's C taken to the true
+// rig's C (identity in C; through M1 when the output is in M1, since the estimated and the true
+// M1 are the same body: `true_rig` is then required).
+struct OutputFrames {
+  Pose<double> out_from_cam;
+  Pose<double> true_cam_from_cam;
+};
+OutputFrames FramesOf(const RigParams& rig, ReferenceBody reference, const RigParams* true_rig);
+
+// Every pair triangulated with `options` and expressed in frames.out_from_cam's frame; with a
+// truth, each compared with its true corner in the true rig's C (CompareWithTruth).
+struct TriangulatedPair {
+  CornerPair pair;
+  TriangulatedPoint point;  // in the output frame
+};
+struct SessionTriangulation {
+  std::vector<TriangulatedPair> points;
+  long failed = 0;                  // pairs that did not triangulate
+  long unmatched = 0;               // with a truth: points without a true corner
+  std::vector<CornerError> errors;  // with a truth
+};
+SessionTriangulation TriangulatePairs(const Triangulator& triangulator,
+                                      const std::vector<CornerPair>& pairs,
+                                      const TriangulationOptions& options,
+                                      const OutputFrames& frames, const Truth* truth);
+
 }  // namespace omni::stereo
