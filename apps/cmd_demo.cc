@@ -19,7 +19,7 @@
 
 #include "apps/command.h"
 #include "apps/common_flags.h"
-#include "calib/synthetic/scene.h"
+#include "synthetic/scene.h"
 #include "model/io/model_file.h"
 #include "model/io/session_file.h"
 #include "model/model_compare.h"

@@ -26,11 +26,10 @@ DEFINE_double(max_sigma_mm, 0, "drop points whose sigma exceeds this (mm); 0 kee
 DEFINE_bool(ply_ascii, false, "write the PLY as text instead of binary");
 
 namespace omni::apps {
+namespace {
 
-int RunDepth() {
-  const RigModel model(io::ReadModelFile(RequireStereoFlag(FLAGS_model, "model", "a model file")));
-  const cv::Mat image = ReadModelImage(model);
-  const std::string dir = RequireOutputFolder();
+// The flags as dense-stereo options; throws io::InputError naming the flag.
+stereo::DepthOptions OptionsFromFlags() {
   if (FLAGS_num_disparities < 16 || FLAGS_num_disparities % 16 != 0 ||
       FLAGS_num_disparities > 1024) {
     throw io::InputError("--num_disparities: expected a multiple of 16 in 16..1024, got " +
@@ -47,14 +46,13 @@ int RunDepth() {
   options.block_size = FLAGS_block_size;
   options.sigma_px = FLAGS_sigma_px;
   options.max_sigma_mm = FLAGS_max_sigma_mm;
+  return options;
+}
 
-  auto t0 = std::chrono::steady_clock::now();
-  const stereo::DenseStereo dense(model, PanoramaOptionsFromFlags(), options);
-  const double setup_s =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  const stereo::DepthFrame frame = dense.Compute(image);
-
-  // Disparity images: 16-bit (16 d) and an 8-bit view scaled to the disparity range.
+// Writes the panoramas, the disparity images (16-bit 16 d, and an 8-bit view scaled to the
+// disparity range) and the cloud; returns the points' median sigma (mm; 0 without points).
+double WriteDepthFrame(const stereo::DepthFrame& frame, const stereo::DepthOptions& options,
+                       const std::string& dir) {
   cv::Mat valid = frame.disparity == frame.disparity;  // false at NaN
   cv::Mat d16, d8;
   cv::Mat scaled = frame.disparity * 16.0;
@@ -84,23 +82,38 @@ int RunDepth() {
   WriteImageAtomically(dir + "/disparity.png", d8);
   WriteImageAtomically(dir + "/disparity16.png", d16);
   io::WritePlyFile(dir + "/cloud.ply", cloud, !FLAGS_ply_ascii);
+  if (sigmas.empty()) return 0;
+  std::nth_element(sigmas.begin(), sigmas.begin() + sigmas.size() / 2, sigmas.end());
+  return sigmas[sigmas.size() / 2];
+}
 
-  double median_sigma = 0;
-  if (!sigmas.empty()) {
-    std::nth_element(sigmas.begin(), sigmas.begin() + sigmas.size() / 2, sigmas.end());
-    median_sigma = sigmas[sigmas.size() / 2];
-  }
+}  // namespace
+
+int RunDepth() {
+  const RigModel model(io::ReadModelFile(RequireStereoFlag(FLAGS_model, "model", "a model file")));
+  const cv::Mat image = ReadModelImage(model);
+  const std::string dir = RequireOutputFolder();
+  const stereo::DepthOptions options = OptionsFromFlags();
+
+  auto t0 = std::chrono::steady_clock::now();
+  const stereo::DenseStereo dense(model, PanoramaOptionsFromFlags(), options);
+  const double setup_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const stereo::DepthFrame frame = dense.Compute(image);
+  const double median_sigma = WriteDepthFrame(frame, options, dir);
+
   const int band_pixels =
       (frame.band_row_end - frame.band_row_begin) * frame.disparity.cols;
   std::printf("depth: panoramas %dx%d, matched rows %d..%d, %zu points of %d band pixels "
               "(median sigma %.1f mm at sigma_px %g)\n",
               frame.disparity.cols, frame.disparity.rows, frame.band_row_begin,
-              frame.band_row_end, cloud.size(), band_pixels, median_sigma, options.sigma_px);
+              frame.band_row_end, frame.points.size(), band_pixels, median_sigma,
+              options.sigma_px);
   std::printf("time: setup (LUTs, ray tables) %.2f s; per frame: remap %.1f ms, SGBM %.1f ms, "
               "triangulation %.1f ms -> %s/cloud.ply\n",
               setup_s, 1e3 * frame.seconds_remap, 1e3 * frame.seconds_sgbm,
               1e3 * frame.seconds_triangulation, dir.c_str());
-  if (cloud.empty()) std::fprintf(stderr, "depth: warning: no stereo match in the image\n");
+  if (frame.points.empty()) std::fprintf(stderr, "depth: warning: no stereo match in the image\n");
   return 0;
 }
 

@@ -11,8 +11,8 @@
 
 #include "apps/command.h"
 #include "apps/common_flags.h"
-#include "calib/synthetic/render_session.h"
-#include "calib/synthetic/scene_file.h"
+#include "synthetic/render_session.h"
+#include "synthetic/scene_file.h"
 #include "model/io/model_file.h"
 #include "model/rig_model.h"
 

@@ -1,7 +1,7 @@
 // Speed and memory of the calibration solve (issue #6: a 20-image session of ~10k corner
 // observations in <= 5 s wall on 2 cores, peak memory <= 1 GB; issue 17: <= 2 s). A timed run,
 // not a Google Benchmark loop (one solve is seconds): the misaligned big rig's exact corners from
-// calib/synthetic's fast path plus 0.1 px noise, lips as the detector reports them, the ideal
+// synthetic's fast path plus 0.1 px noise, lips as the detector reports them, the ideal
 // design as the start, the session's default solver options (2 threads).
 //   bench_calibrate [images=20] [targets_per_image=4] [values_out.txt]
 // values_out.txt (optional): one line per refined parameter "name value sigma" (internal units),

@@ -27,9 +27,9 @@
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgcodecs.hpp>
 
-#include "calib/synthetic/camera_effects.h"
-#include "calib/synthetic/scene.h"
-#include "calib/synthetic/scene_file.h"
+#include "synthetic/camera_effects.h"
+#include "synthetic/scene.h"
+#include "synthetic/scene_file.h"
 #include "detectors/detect_image.h"
 #include "detectors/lip_intrinsics.h"
 #include "model/lip.h"

@@ -32,8 +32,8 @@
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgcodecs.hpp>
 
-#include "calib/synthetic/camera_effects.h"
-#include "calib/synthetic/scene_file.h"
+#include "synthetic/camera_effects.h"
+#include "synthetic/scene_file.h"
 #include "detectors/lip_detector.h"
 #include "detectors/lip_intrinsics.h"
 #include "model/io/image_file.h"

@@ -39,8 +39,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "calib/synthetic/pov_scene.h"
-#include "calib/synthetic/scene.h"
+#include "synthetic/pov_scene.h"
+#include "synthetic/scene.h"
 #include "detectors/corner_refine.h"
 #include "model/io/model_file.h"
 #include "model/rig_model.h"

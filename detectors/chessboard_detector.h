@@ -13,7 +13,7 @@
 // A board found in two overlapping views is kept from the view whose centre it is nearest.
 //
 // Corner ids (id = row * cols + col, model/target.h) follow one rule in both rings, which is how
-// calib/synthetic places boards: seen from the rig, the target's +x (increasing col) points
+// synthetic places boards: seen from the rig, the target's +x (increasing col) points
 // towards increasing azimuth (counter-clockwise about +z_C, the viewer's LEFT) and its +y
 // (increasing row) points UP (+z_C); corner 0 is the lowest, rightmost inner corner seen from the
 // rig. Among the labellings a board's symmetry allows (180 degrees; 90 degrees too for square

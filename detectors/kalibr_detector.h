@@ -9,7 +9,7 @@
 // empty corner squares. Here the black mask is opened by a one-pixel erosion, which breaks the
 // blur-sized necks at the touching points, the tags' outlines become quads again, and we decode
 // them ourselves (10 x 10 bits: 2-bit black border, tag36h11's 6 x 6 data bits, codes and bit
-// positions from libapriltag's family as calib/synthetic/tag_texture.cc prints them).
+// positions from libapriltag's family as synthetic/tag_texture.cc prints them).
 //
 // The same corner squares make every tag corner an X-junction (black tag and black square in
 // opposite quadrants, white gaps in the other two), i.e. a chessboard-like saddle: cornerSubPix

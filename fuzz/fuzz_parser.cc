@@ -21,7 +21,7 @@
 #include "model/io/session_file.h"
 #include "model/io/tolerance_file.h"
 #include "model/rig_model.h"
-#include "calib/synthetic/scene_file.h"
+#include "synthetic/scene_file.h"
 
 namespace {
 

@@ -25,7 +25,7 @@
 # cores shared). Last: the ideal rig without a detector (exact pixels + the paper's 0.08 px,
 # 300 seeds): the predicted RMSE and how an 80-point RMSE spreads over seeds.
 # CAMERA (default realistic: the images as a user's colour camera gives them, defocus, Bayer
-# mosaic + demosaic, shot/read noise, JPEG; calib/synthetic/camera_effects.h) is written into
+# mosaic + demosaic, shot/read noise, JPEG; synthetic/camera_effects.h) is written into
 # copies of both scene files (OUT_DIR/scenes/) as `camera_effects:`; CAMERA=clean renders the
 # scene files as they are (antialiased, 1 grey level of noise in the calibration session). The
 # pinhole renders are kept (NNNN.pinhole.png) so that bench/eval_detectors can apply other

@@ -56,7 +56,7 @@ struct Truth {
   std::vector<double> range_bins_mm;
 };
 
-// Reads `omnistereo-truth/1` (calib/synthetic/scene_file.h TruthText); throws io::InputError
+// Reads `omnistereo-truth/1` (synthetic/scene_file.h TruthText); throws io::InputError
 // naming the file and key.
 Truth ReadTruthFile(const std::string& path);
 

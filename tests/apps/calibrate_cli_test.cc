@@ -1,5 +1,5 @@
 // Runs the real `omnistereo calibrate` on a synthetic session (exact corners of the misaligned big
-// rig from calib/synthetic's fast path plus known noise, written as a session and a detections
+// rig from synthetic's fast path plus known noise, written as a session and a detections
 // file): the model file it writes equals what the library's Calibrate gives for the same inputs,
 // and every bad session ends with a non-zero exit, one message naming the cause, and no model file
 // (an existing one untouched).

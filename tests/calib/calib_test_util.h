@@ -1,6 +1,6 @@
 // Synthetic calibration sessions for the calibration tests: the misaligned big rig
 // (sample_configs/big_rig_misaligned.yaml) as the truth, exact corner pixels from
-// calib/synthetic's ComputeTruth (the fast path, no rendering) plus Gaussian pixel noise, and the
+// synthetic's ComputeTruth (the fast path, no rendering) plus Gaussian pixel noise, and the
 // ideal design (sample_configs/big_rig_ideal.yaml) as the starting model.
 #pragma once
 
@@ -13,8 +13,8 @@
 #include <vector>
 
 #include "calib/calibrate.h"
-#include "calib/synthetic/scene.h"
-#include "calib/synthetic/scene_file.h"
+#include "synthetic/scene.h"
+#include "synthetic/scene_file.h"
 #include "model/io/detections_file.h"
 #include "model/io/model_file.h"
 #include "model/lip.h"
@@ -55,7 +55,7 @@ inline TargetSpec Chessboard(int rows, int cols, double square_mm) {
   return ChessboardSpec(rows, cols, square_mm);
 }
 
-// Random placements of chessboards around the rig (calib/synthetic RandomPlacement).
+// Random placements of chessboards around the rig (synthetic RandomPlacement).
 inline SyntheticSession MakeSession(const RigParams& truth_rig,
                                     const synthetic::RandomPlacement& random,
                                     const std::vector<TargetSpec>& boards) {

@@ -15,8 +15,8 @@
 
 #include <opencv2/imgcodecs.hpp>
 
-#include "calib/synthetic/camera_effects.h"
-#include "calib/synthetic/scene.h"
+#include "synthetic/camera_effects.h"
+#include "synthetic/scene.h"
 #include "detectors/detect_image.h"
 #include "model/io/model_file.h"
 #include "tests/detectors/nearest_truth.h"

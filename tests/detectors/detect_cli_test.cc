@@ -12,7 +12,7 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 
-#include "calib/synthetic/image_effects.h"
+#include "synthetic/image_effects.h"
 #include "model/io/detections_file.h"
 #include "model/io/model_file.h"
 #include "tests/detectors/render_window.h"

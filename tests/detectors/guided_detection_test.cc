@@ -13,10 +13,10 @@
 
 #include <opencv2/imgcodecs.hpp>
 
-#include "calib/synthetic/camera_effects.h"
-#include "calib/synthetic/scene.h"
-#include "calib/synthetic/scene_file.h"
-#include "calib/synthetic/tag_texture.h"
+#include "synthetic/camera_effects.h"
+#include "synthetic/scene.h"
+#include "synthetic/scene_file.h"
+#include "synthetic/tag_texture.h"
 #include "detectors/detect_image.h"
 #include "model/io/model_file.h"
 #include "tests/detectors/nearest_truth.h"

@@ -18,11 +18,11 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
-#include "calib/synthetic/image_effects.h"
-#include "calib/synthetic/pov_scene.h"
-#include "calib/synthetic/scene.h"
-#include "calib/synthetic/scene_file.h"
-#include "calib/synthetic/tag_texture.h"
+#include "synthetic/image_effects.h"
+#include "synthetic/pov_scene.h"
+#include "synthetic/scene.h"
+#include "synthetic/scene_file.h"
+#include "synthetic/tag_texture.h"
 #include "detectors/apriltag_detector.h"
 #include "detectors/kalibr_detector.h"
 #include "detectors/views.h"

@@ -11,10 +11,10 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
-#include "calib/synthetic/camera_effects.h"
-#include "calib/synthetic/image_effects.h"
-#include "calib/synthetic/pov_scene.h"
-#include "calib/synthetic/scene_file.h"
+#include "synthetic/camera_effects.h"
+#include "synthetic/image_effects.h"
+#include "synthetic/pov_scene.h"
+#include "synthetic/scene_file.h"
 #include "detectors/lip_detector.h"
 #include "detectors/lip_intrinsics.h"
 #include "model/io/image_file.h"

@@ -6,7 +6,7 @@
 
 #include <Eigen/Core>
 
-#include "calib/synthetic/scene.h"
+#include "synthetic/scene.h"
 
 namespace omni::testing {
 

@@ -13,8 +13,8 @@
 
 #include <gtest/gtest.h>
 
-#include "calib/synthetic/pov_scene.h"
-#include "calib/synthetic/scene.h"
+#include "synthetic/pov_scene.h"
+#include "synthetic/scene.h"
 #include "model/rig_params.h"
 #include "tests/temp_dir.h"
 

@@ -14,10 +14,10 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
-#include "calib/synthetic/image_effects.h"
-#include "calib/synthetic/pov_scene.h"
-#include "calib/synthetic/scene.h"
-#include "calib/synthetic/tag_texture.h"
+#include "synthetic/image_effects.h"
+#include "synthetic/pov_scene.h"
+#include "synthetic/scene.h"
+#include "synthetic/tag_texture.h"
 #include "detectors/detect_image.h"
 #include "model/io/model_file.h"
 #include "tests/detectors/nearest_truth.h"

@@ -9,8 +9,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "calib/synthetic/image_effects.h"
-#include "calib/synthetic/pov_scene.h"
+#include "synthetic/image_effects.h"
+#include "synthetic/pov_scene.h"
 #include "model/ideal_model.h"
 #include "model/rig_model.h"
 #include "model/rig_params.h"

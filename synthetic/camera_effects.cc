@@ -1,4 +1,4 @@
-#include "calib/synthetic/camera_effects.h"
+#include "synthetic/camera_effects.h"
 
 #include <algorithm>
 #include <cmath>
@@ -7,7 +7,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "calib/synthetic/image_effects.h"
+#include "synthetic/image_effects.h"
 #include "model/rig_frames.h"
 
 namespace omni::synthetic {

@@ -1,4 +1,4 @@
-#include "calib/synthetic/scene_file.h"
+#include "synthetic/scene_file.h"
 
 #include <cmath>
 #include <limits>
@@ -7,7 +7,7 @@
 #include <Eigen/Geometry>
 #include <yaml-cpp/yaml.h>
 
-#include "calib/synthetic/tag_texture.h"
+#include "synthetic/tag_texture.h"
 #include "model/io/file_util.h"
 
 namespace omni::synthetic {

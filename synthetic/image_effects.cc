@@ -1,4 +1,4 @@
-#include "calib/synthetic/image_effects.h"
+#include "synthetic/image_effects.h"
 
 #include <opencv2/imgproc.hpp>
 

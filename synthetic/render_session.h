@@ -5,7 +5,7 @@
 #include <functional>
 #include <string>
 
-#include "calib/synthetic/scene.h"
+#include "synthetic/scene.h"
 #include "model/io/session_file.h"
 #include "model/rig_params.h"
 

@@ -1,4 +1,4 @@
-#include "calib/synthetic/pov_scene.h"
+#include "synthetic/pov_scene.h"
 
 #include <sys/wait.h>
 

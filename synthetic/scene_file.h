@@ -15,7 +15,7 @@
 
 #include <string>
 
-#include "calib/synthetic/scene.h"
+#include "synthetic/scene.h"
 
 namespace omni::synthetic {
 

@@ -9,8 +9,8 @@
 
 #include <Eigen/Core>
 
-#include "calib/synthetic/camera_effects.h"
-#include "calib/synthetic/pov_scene.h"
+#include "synthetic/camera_effects.h"
+#include "synthetic/pov_scene.h"
 #include "model/rig_model.h"
 #include "model/target.h"
 

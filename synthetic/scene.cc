@@ -1,11 +1,11 @@
-#include "calib/synthetic/scene.h"
+#include "synthetic/scene.h"
 
 #include <cmath>
 #include <random>
 
 #include <Eigen/Geometry>
 
-#include "calib/synthetic/tag_texture.h"
+#include "synthetic/tag_texture.h"
 #include "model/ideal_analysis.h"
 #include "model/rig_frames.h"
 

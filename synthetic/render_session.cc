@@ -1,4 +1,4 @@
-#include "calib/synthetic/render_session.h"
+#include "synthetic/render_session.h"
 
 #include <algorithm>
 #include <atomic>
@@ -12,11 +12,11 @@
 
 #include <opencv2/imgcodecs.hpp>
 
-#include "calib/synthetic/camera_effects.h"
-#include "calib/synthetic/image_effects.h"
-#include "calib/synthetic/pov_scene.h"
-#include "calib/synthetic/scene_file.h"
-#include "calib/synthetic/tag_texture.h"
+#include "synthetic/camera_effects.h"
+#include "synthetic/image_effects.h"
+#include "synthetic/pov_scene.h"
+#include "synthetic/scene_file.h"
+#include "synthetic/tag_texture.h"
 #include "model/io/file_util.h"
 #include "model/io/model_file.h"
 #include "model/rig_model.h"

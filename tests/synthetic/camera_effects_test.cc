@@ -1,4 +1,4 @@
-// The synthetic camera (calib/synthetic/camera_effects.h) against independent oracles: the
+// The synthetic camera (synthetic/camera_effects.h) against independent oracles: the
 // Bayer pattern each preset names (a flat colour survives mosaic + demosaic, a wrong channel map
 // would swap it), the noise model's variance, sRGB's published values, the vignetting law, and
 // which ring each pixel's defocus comes from (RigModel::Unproject's ray trace, not the rim
@@ -13,8 +13,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "calib/synthetic/camera_effects.h"
-#include "calib/synthetic/scene_file.h"
+#include "synthetic/camera_effects.h"
+#include "synthetic/scene_file.h"
 #include "model/io/image_file.h"
 #include "model/io/model_file.h"
 #include "model/rig_model.h"

@@ -13,7 +13,7 @@
 #include <opencv2/aruco.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "calib/synthetic/tag_texture.h"
+#include "synthetic/tag_texture.h"
 #include "model/target.h"
 
 namespace omni {

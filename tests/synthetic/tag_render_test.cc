@@ -13,10 +13,10 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "calib/synthetic/image_effects.h"
-#include "calib/synthetic/pov_scene.h"
-#include "calib/synthetic/scene.h"
-#include "calib/synthetic/tag_texture.h"
+#include "synthetic/image_effects.h"
+#include "synthetic/pov_scene.h"
+#include "synthetic/scene.h"
+#include "synthetic/tag_texture.h"
 #include "model/io/model_file.h"
 #include "model/rig_model.h"
 

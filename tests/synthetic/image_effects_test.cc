@@ -9,7 +9,7 @@
 
 #include <opencv2/imgproc.hpp>
 
-#include "calib/synthetic/image_effects.h"
+#include "synthetic/image_effects.h"
 #include "model/camera.h"
 #include "model/ideal_model.h"
 #include "model/rig_params.h"

@@ -1,4 +1,4 @@
-#include "calib/synthetic/tag_texture.h"
+#include "synthetic/tag_texture.h"
 
 #include <cmath>
 #include <memory>
