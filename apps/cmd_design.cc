@@ -11,7 +11,7 @@
 #include "apps/common_flags.h"
 #include "model/design/optimizer.h"
 #include "model/design/sensitivity.h"
-#include "model/io/design_config.h"
+#include "model/design/design_config.h"
 #include "model/io/model_file.h"
 #include "model/rig_params.h"
 
@@ -22,7 +22,7 @@ namespace {
 
 constexpr double kDeg = 180.0 / M_PI;
 
-void PrintReport(const design::OptimizerResult& result, const io::DesignConfig& config) {
+void PrintReport(const design::OptimizerResult& result, const design::DesignConfig& config) {
   const design::DesignEvaluation& e = result.best;
   const DesignParams& t = e.theta;
   std::printf("status: %s (%s), %d evaluations, best start #%d\n\n", ToString(result.status),
@@ -108,7 +108,7 @@ int RunDesign() {
   if (FLAGS_config.empty()) {
     throw io::InputError("--config: expected the path of a design config (omnistereo-design/1)");
   }
-  const io::DesignConfig config = io::ReadDesignConfig(FLAGS_config);
+  const design::DesignConfig config = design::ReadDesignConfig(FLAGS_config);
   const design::OptimizerResult result = design::OptimizeBaseline(config.options);
   if (result.status == design::OptimizerStatus::kInvalidOptions) {
     throw io::InputError(FLAGS_config + ": " + result.message);

@@ -8,7 +8,7 @@
 #include "apps/common_flags.h"
 #include "model/design/tolerance.h"
 #include "model/io/model_file.h"
-#include "model/io/tolerance_file.h"
+#include "model/design/tolerance_file.h"
 
 namespace omni::apps {
 
@@ -17,7 +17,7 @@ int RunTolerance() {
     throw io::InputError("--model and --config (an omnistereo-tolerances/1 file) are required");
   }
   const RigParams rig = io::ReadModelFile(FLAGS_model);
-  const io::ToleranceFile tol = io::ReadToleranceFile(FLAGS_config);
+  const design::ToleranceFile tol = design::ReadToleranceFile(FLAGS_config);
 
   const auto checks = design::CheckTolerances(rig, tol.spec);
   const bool calibrated = rig.calibration && !rig.calibration->covariance.empty();

@@ -9,7 +9,7 @@
 #include <Eigen/Geometry>
 #include <opencv2/calib3d.hpp>
 
-#include "calib/initial_pose.h"
+#include "model/pose/initial_pose.h"
 #include "detectors/apriltag_detector.h"
 #include "detectors/chessboard_detector.h"
 #include "detectors/corner_refine.h"
@@ -345,8 +345,8 @@ std::vector<io::CornerObservation> GuideTarget(
     }
     h0 = FitHomography(p, q, 0, 0);
   } else {
-    calib::PoseGuess pose;
-    if (!calib::CentralPoseFromRing(model, source_mirror, source.plane, source.raw, &pose)) return out;
+    PoseGuess pose;
+    if (!CentralPoseFromRing(model, source_mirror, source.plane, source.raw, &pose)) return out;
     const Eigen::Matrix3d cam_from_target =
         Eigen::AngleAxisd(pose.rotation.norm(), pose.rotation.normalized()).toRotationMatrix();
     std::vector<Eigen::Vector2d> raw, plane;

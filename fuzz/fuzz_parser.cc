@@ -13,13 +13,13 @@
 #include <vector>
 
 #include "model/io/csv.h"
-#include "model/io/design_config.h"
+#include "model/design/design_config.h"
 #include "model/io/detections_file.h"
 #include "model/io/file_util.h"
 #include "model/io/model_file.h"
 #include "model/io/ply.h"
 #include "model/io/session_file.h"
-#include "model/io/tolerance_file.h"
+#include "model/design/tolerance_file.h"
 #include "model/rig_model.h"
 #include "synthetic/scene_file.h"
 
@@ -52,9 +52,9 @@ void Parse(const std::string& path) {
   } else if (parser == "detections") {
     io::ReadDetectionsFile(path);
   } else if (parser == "design") {
-    io::ReadDesignConfig(path);
+    design::ReadDesignConfig(path);
   } else if (parser == "tolerance") {
-    io::ReadToleranceFile(path);
+    design::ReadToleranceFile(path);
   } else if (parser == "scene") {
     synthetic::ReadSceneFile(path, SceneRig());
   } else if (parser == "points_csv" || parser == "pixels_csv") {

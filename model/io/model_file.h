@@ -8,6 +8,7 @@
 #include <Eigen/Core>
 
 #include "model/io/file_util.h"  // InputError, AtomicFile
+#include "model/model_derived.h"
 #include "model/rig_params.h"
 
 namespace omni::io {
@@ -38,16 +39,5 @@ std::string ModelFileText(const RigParams& rig);
 // Parses model-file text; `file` names the source in error messages. Throws InputError.
 RigParams ParseModelText(const std::string& text, const std::string& file);
 
-// The `derived:` section: what the pose blocks mean in the camera frame, for people and tools.
-struct ModelDerived {
-  Eigen::Vector3d focus1_in_cam;  // mirror 1's primary focus, (0,0,c1) in M1
-  Eigen::Vector3d axis1_in_cam;   // mirror 1's axis, cam_from_mirror1 rotation * (0,0,1)
-  Eigen::Vector3d focus2_in_cam;  // mirror 2's primary focus, (0,0,d-c2) in M2
-  Eigen::Vector3d axis2_in_cam;
-  Eigen::Vector3d reflex_point_in_cam;   // the reflex plane's point (0,0,d/2+dz in M1)
-  Eigen::Vector3d reflex_normal_in_cam;  // its unit normal (nominally (0,0,-1))
-  double baseline = 0;                   // |focus1 - focus2|
-};
-ModelDerived ComputeModelDerived(const RigParams& rig);
 
 }  // namespace omni::io

@@ -1,8 +1,11 @@
-#include "model/io/tolerance_file.h"
+#include "model/design/tolerance_file.h"
 
 #include "model/io/yaml_reader.h"
 
-namespace omni::io {
+namespace omni::design {
+
+// The shared YAML reader and its errors (model/io/yaml_reader.h).
+using namespace omni::io;
 namespace {
 
 // A limit >= 0 under `name` (or `name`_deg for angles), -1 if absent.
@@ -31,7 +34,7 @@ ToleranceFile ReadToleranceFile(const std::string& path) {
     const char* body = m == 0 ? "mirror1" : "mirror2";
     if (!root[body].IsDefined()) continue;
     const YAML::Node map = in.Map(root, body, body);
-    design::BodyTolerance& tol = file.spec.mirror[m];
+    BodyTolerance& tol = file.spec.mirror[m];
     tol.decentre_mm = Limit(in, map, body, "decentre", false);
     tol.tilt_rad = Limit(in, map, body, "tilt", true);
     tol.axial_mm = Limit(in, map, body, "axial", false);
@@ -59,4 +62,4 @@ ToleranceFile ReadToleranceFile(const std::string& path) {
   return file;
 }
 
-}  // namespace omni::io
+}  // namespace omni::design

@@ -1,11 +1,14 @@
-#include "model/io/design_config.h"
+#include "model/design/design_config.h"
 
 
 #include <cmath>
 
 #include "model/io/yaml_reader.h"
 
-namespace omni::io {
+namespace omni::design {
+
+// The shared YAML reader and its errors (model/io/yaml_reader.h).
+using namespace omni::io;
 namespace {
 
 constexpr char kFormatPrefix[] = "omnistereo-design/";
@@ -89,7 +92,7 @@ DesignConfig ReadDesignConfig(const std::string& path) {
   }
 
   DesignConfig config;
-  design::OptimizerOptions& o = config.options;
+  OptimizerOptions& o = config.options;
 
   const YAML::Node box = r.Map(root, "", "search_box");
   o.lower = r.Theta(box, "search_box", "lower");
@@ -113,15 +116,15 @@ DesignConfig ReadDesignConfig(const std::string& path) {
   o.k_ratio_min = r.Number(c, ck, "k_ratio_min");
   o.mass_max_g = r.Positive(c, ck, "mass_max_g");
   o.mass_model = r.Word(c, ck, "mass_model", "authors", "full", "authors") == "authors"
-                     ? design::MassModel::kAuthors
-                     : design::MassModel::kFull;
+                     ? MassModel::kAuthors
+                     : MassModel::kFull;
   o.h_sys_max = r.Positive(c, ck, "h_sys_max");
   o.vertex_offset_min = r.Number(c, ck, "vertex_offset_min");
   o.theta1_max_limit = r.Number(c, ck, "theta1_max_limit_deg") * kRadPerDeg;
   o.theta1_max_sense = r.Word(c, ck, "theta1_max_sense", "at_least", "at_most", "at_least") ==
                                "at_least"
-                           ? design::Theta1MaxSense::kAtLeast
-                           : design::Theta1MaxSense::kAtMost;
+                           ? Theta1MaxSense::kAtLeast
+                           : Theta1MaxSense::kAtMost;
   o.theta1_min_limit = r.Number(c, ck, "theta1_min_limit_deg") * kRadPerDeg;
   o.theta2_min_limit = r.Number(c, ck, "theta2_min_limit_deg") * kRadPerDeg;
 
@@ -161,7 +164,7 @@ DesignConfig ReadDesignConfig(const std::string& path) {
   }
   if (root["start"]) {
     // The given start goes first, followed by the default set.
-    o.starts = design::DefaultStarts(o);
+    o.starts = DefaultStarts(o);
     o.starts.insert(o.starts.begin(), r.Theta(root, "", "start"));
   }
 
@@ -170,4 +173,4 @@ DesignConfig ReadDesignConfig(const std::string& path) {
   return config;
 }
 
-}  // namespace omni::io
+}  // namespace omni::design

@@ -1,4 +1,4 @@
-// Initial target poses from the starting model's rays (calibration step 1). Each ring of a
+// Initial target poses from a model's rays (calibration step 1; guided detection's seeding ring). Each ring of a
 // central (or nearly central) rig is a central camera at its mirror's primary focus F_i
 // [bp_ray1_wrt_F1], [bp_ray2_wrt_F2]: the rays of a placement's corners are rotated so their mean
 // is +z, read as normalised coordinates of a virtual pinhole camera at F_i and handed to a planar
@@ -11,7 +11,7 @@
 
 #include "model/rig_model.h"
 
-namespace omni::calib {
+namespace omni {
 
 struct PoseGuess {
   Eigen::Vector3d rotation = Eigen::Vector3d::Zero();  // cam_from_target, angle-axis
@@ -24,7 +24,4 @@ bool CentralPoseFromRing(const RigModel& start, Mirror mirror,
                          const std::vector<Eigen::Vector3d>& corners_in_target,
                          const std::vector<Eigen::Vector2d>& pixels, PoseGuess* pose);
 
-// The primary focus of a mirror in C: (0,0,c1) in M1 or (0,0,d-c2) in M2, mapped by cam_from_mirror.
-Eigen::Vector3d FocusInCam(const RigParams& rig, Mirror mirror);
-
-}  // namespace omni::calib
+}  // namespace omni

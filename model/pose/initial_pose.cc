@@ -1,4 +1,4 @@
-#include "calib/initial_pose.h"
+#include "model/pose/initial_pose.h"
 
 #include <opencv2/calib3d.hpp>
 
@@ -6,13 +6,17 @@
 
 #include "model/rig_frames.h"
 
-namespace omni::calib {
+namespace omni {
+namespace {
 
+// The primary focus of a mirror in C (rig_frames.h).
 Eigen::Vector3d FocusInCam(const RigParams& rig, Mirror mirror) {
   return mirror == Mirror::kOne
              ? Focus1InCam(rig.mirror1_pose.data(), rig.mirror1_shape.data())
              : Focus2InCam(rig.mirror2_pose.data(), rig.mirror2_shape.data(), rig.d);
 }
+
+}  // namespace
 
 bool CentralPoseFromRing(const RigModel& start, Mirror mirror,
                          const std::vector<Eigen::Vector3d>& corners_in_target,
@@ -67,4 +71,4 @@ bool CentralPoseFromRing(const RigModel& start, Mirror mirror,
   return true;
 }
 
-}  // namespace omni::calib
+}  // namespace omni

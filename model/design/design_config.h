@@ -19,18 +19,18 @@
 #include "model/design/optimizer.h"
 #include "model/io/model_file.h"
 
-namespace omni::io {
+namespace omni::design {
 
 struct DesignConfig {
-  design::OptimizerOptions options;
+  OptimizerOptions options;
   Pinhole<double> camera{1450.0, 1450.0, 639.5, 479.5, 0.0};
   int image_width = 1280, image_height = 960;
 };
 
-// Throws InputError naming the file and the key for: a missing or unreadable file, malformed YAML,
+// Throws io::InputError naming the file and the key for: a missing or unreadable file, malformed YAML,
 // a format other than omnistereo-design/1.x, a missing required key, a value that is not a finite
 // number, k <= 2, c <= 0, d <= 0, r_sys <= 0, a lower bound above its upper bound, r_cam <= 0,
 // non-positive focal lengths or image size, an unknown enum word.
 DesignConfig ReadDesignConfig(const std::string& path);
 
-}  // namespace omni::io
+}  // namespace omni::design

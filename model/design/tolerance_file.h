@@ -12,16 +12,16 @@
 
 #include "model/design/tolerance.h"
 
-namespace omni::io {
+namespace omni::design {
 
 struct ToleranceFile {
-  design::ToleranceSpec spec;
+  ToleranceSpec spec;
   int simulate_samples = 200;
   double simulate_range_mm = 1000;
   unsigned simulate_seed = 1;
 };
 
-// Throws InputError naming the file and key.
+// Throws io::InputError naming the file and key.
 ToleranceFile ReadToleranceFile(const std::string& path);
 
-}  // namespace omni::io
+}  // namespace omni::design

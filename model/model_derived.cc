@@ -1,0 +1,24 @@
+#include "model/model_derived.h"
+
+#include "model/rig_frames.h"
+
+namespace omni {
+
+ModelDerived ComputeModelDerived(const RigParams& rig) {
+  const Pose<double> cam_from_mirror1 = PoseFromBlock(rig.mirror1_pose.data());
+  const Pose<double> cam_from_mirror2 = PoseFromBlock(rig.mirror2_pose.data());
+  const Plane<double> reflex_in_cam =
+      ReflexPlaneInCam(rig.mirror1_pose.data(), rig.reflex.data(), rig.d);
+  const Eigen::Vector3d unit_z = Eigen::Vector3d::UnitZ();
+  ModelDerived out;
+  out.focus1_in_cam = Focus1InCam(rig.mirror1_pose.data(), rig.mirror1_shape.data());
+  out.axis1_in_cam = cam_from_mirror1.Rotate(unit_z);
+  out.focus2_in_cam = Focus2InCam(rig.mirror2_pose.data(), rig.mirror2_shape.data(), rig.d);
+  out.axis2_in_cam = cam_from_mirror2.Rotate(unit_z);
+  out.reflex_point_in_cam = reflex_in_cam.point;
+  out.reflex_normal_in_cam = reflex_in_cam.normal;
+  out.baseline = (out.focus1_in_cam - out.focus2_in_cam).norm();
+  return out;
+}
+
+}  // namespace omni

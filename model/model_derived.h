@@ -1,0 +1,22 @@
+// What a rig's pose blocks mean in the camera frame C (a model file's `derived:` section, for
+// people and other tools): the mirrors' foci and axes, the reflex plane, the baseline.
+#pragma once
+
+#include <Eigen/Core>
+
+#include "model/rig_params.h"
+
+namespace omni {
+
+struct ModelDerived {
+  Eigen::Vector3d focus1_in_cam;  // mirror 1's primary focus, (0,0,c1) in M1
+  Eigen::Vector3d axis1_in_cam;   // mirror 1's axis, cam_from_mirror1 rotation * (0,0,1)
+  Eigen::Vector3d focus2_in_cam;  // mirror 2's primary focus, (0,0,d-c2) in M2
+  Eigen::Vector3d axis2_in_cam;
+  Eigen::Vector3d reflex_point_in_cam;   // the reflex plane's point (0,0,d/2+dz in M1)
+  Eigen::Vector3d reflex_normal_in_cam;  // its unit normal (nominally (0,0,-1))
+  double baseline = 0;                   // |focus1 - focus2|
+};
+ModelDerived ComputeModelDerived(const RigParams& rig);
+
+}  // namespace omni
