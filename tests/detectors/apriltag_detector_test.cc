@@ -23,7 +23,7 @@
 #include "model/io/model_file.h"
 #include "tests/temp_dir.h"
 
-#include "tests/detectors/render_window.h"
+#include "tests/render_window.h"
 
 namespace omni::detectors {
 namespace {

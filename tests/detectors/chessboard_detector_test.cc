@@ -25,7 +25,7 @@
 #include "tests/detectors/nearest_truth.h"
 #include "tests/temp_dir.h"
 
-#include "tests/detectors/render_window.h"
+#include "tests/render_window.h"
 
 namespace omni::detectors {
 namespace {

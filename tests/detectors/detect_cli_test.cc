@@ -15,7 +15,7 @@
 #include "synthetic/image_effects.h"
 #include "model/io/detections_file.h"
 #include "model/io/model_file.h"
-#include "tests/detectors/render_window.h"
+#include "tests/render_window.h"
 #include "tests/cli_test_util.h"
 #include "tests/temp_dir.h"
 

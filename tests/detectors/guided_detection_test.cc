@@ -20,7 +20,7 @@
 #include "detectors/detect_image.h"
 #include "model/io/model_file.h"
 #include "tests/detectors/nearest_truth.h"
-#include "tests/detectors/render_window.h"
+#include "tests/render_window.h"
 #include "tests/temp_dir.h"
 
 namespace omni::detectors {

@@ -19,7 +19,7 @@
 #include "detectors/lip_intrinsics.h"
 #include "model/io/image_file.h"
 #include "model/io/model_file.h"
-#include "tests/detectors/render_window.h"
+#include "tests/render_window.h"
 #include "tests/temp_dir.h"
 
 namespace omni::detectors {

@@ -19,6 +19,7 @@
 #include "synthetic/tag_texture.h"
 #include "model/io/model_file.h"
 #include "model/rig_model.h"
+#include "tests/render_window.h"
 
 namespace omni {
 namespace {
@@ -143,13 +144,7 @@ TEST_F(TagRender, TruthCornersLieOnRenderedTagEdgesThroughTheMisalignedRig) {
     }
     box &= cv::Rect(0, 0, rig.image_width, rig.image_height);
     ASSERT_FALSE(box.empty());
-    synthetic::RenderOptions options;
-    options.width = rig.image_width;
-    options.height = rig.image_height;
-    options.col0 = box.x;
-    options.col1 = box.x + box.width;
-    options.row0 = box.y;
-    options.row1 = box.y + box.height;
+    const synthetic::RenderOptions options = omni::testing::WindowOptions(rig, box);
     const std::string png = dir + "/window" + std::to_string(t) + ".png";
     ASSERT_TRUE(synthetic::RenderScene(synthetic::PovSceneText(rig, synthetic::ContentOf(scene, image)),
                                        png, options, &error)) << error;

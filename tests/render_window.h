@@ -1,4 +1,4 @@
-// The detector tests render only windows of a frame around their targets (full 1280x960 frames
+// Tests that render only windows of a frame around their targets (full 1280x960 frames
 // take ~15 s each): POV-Ray's options for the window `box` of the rig's image, the rendered
 // window pasted into a full pinhole frame (black elsewhere) before the camera (lens distortion,
 // noise, camera_effects), the windows around a scene image's targets, and the lips' strips.
