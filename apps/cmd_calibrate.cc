@@ -21,11 +21,13 @@
 #include "apps/common_flags.h"
 #include "calib/calibrate.h"
 #include "calib/projection_uncertainty.h"
+#include "calib/session_options.h"
 #include "detectors/detect_image.h"
 #include "detectors/detect_session.h"
 #include "model/io/detections_file.h"
 #include "model/io/model_file.h"
 #include "model/io/session_file.h"
+#include "model/io/truth_file.h"
 #include "model/model_compare.h"
 #include "model/stereo/sparse_triangulation.h"
 
@@ -44,10 +46,10 @@ std::string UtcNow() {
   return buf;
 }
 
-io::Detections DetectSession(const io::Session& session, const RigParams& start) {
+Observations DetectSession(const io::Session& session, const RigParams& start) {
   detectors::DetectorContext ctx(start, session.targets, session.use_lips);
   return detectors::DetectSession(
-      session, &ctx, [](const detectors::ImageReport& r, const cv::Mat&, io::ImageDetections*) {
+      session, &ctx, [](const detectors::ImageReport& r, const cv::Mat&, ImageObservations*) {
         for (const auto& w : r.warnings) {
           std::fprintf(stderr, "warning: %s: %s%s\n", r.file.c_str(), w.c_str(), r.skipped ? "; skipped" : "");
         }
@@ -62,26 +64,26 @@ io::Detections DetectSession(const io::Session& session, const RigParams& start)
 // the detector's true error (detected - true pixel, 2-D RMS) over exactly the corners the solve
 // kept, per ring, next to the solve's reprojection RMS. A ratio well under 1 means the fit absorbs
 // part of the detector's error (coherent over boards), well over 1 a model that cannot fit.
-void PrintCornerNoiseCheck(const calib::CalibrationResult& result, const io::Detections& detections,
+void PrintCornerNoiseCheck(const calib::CalibrationResult& result, const Observations& detections,
                            const std::string& truth_path) {
-  const stereo::Truth truth = stereo::ReadTruthFile(truth_path);
+  const Truth truth = io::ReadTruthFile(truth_path);
   std::set<std::tuple<int, int, int, int>> rejected;
   for (const auto& r : result.rejected) rejected.emplace(r.image, r.target, r.id, r.mirror);
   double squared[2] = {0, 0};
   int count[2] = {0, 0}, unmatched = 0;
   for (size_t i = 0; i < detections.images.size(); ++i) {
-    const stereo::TruthImage* image = nullptr;
+    const TruthImage* image = nullptr;
     // By file name: detections may name the images by path, the truth by name.
     const auto base = [](const std::string& f) { return f.substr(f.find_last_of('/') + 1); };
     for (const auto& t : truth.images) {
       if (base(t.file) == base(detections.images[i].file)) image = &t;
     }
     for (const auto& c : detections.images[i].corners) {
-      if (rejected.count({static_cast<int>(i), c.target, c.id, c.mirror})) continue;
+      if (rejected.count({static_cast<int>(i), c.target, c.id, MirrorIndex(c.mirror)})) continue;
       // A target may be placed several times in one image: the nearest true corner.
       double best = INFINITY;
-      for (const auto& t : image ? image->corners : std::vector<stereo::TruthCorner>{}) {
-        const auto& pixel = t.pixel[c.mirror - 1];
+      for (const auto& t : image ? image->corners : std::vector<TruthCorner>{}) {
+        const auto& pixel = t.pixel[MirrorIndex(c.mirror) - 1];
         if (t.target == c.target && t.id == c.id && pixel) {
           best = std::min(best, (c.pixel - *pixel).squaredNorm());
         }
@@ -90,8 +92,8 @@ void PrintCornerNoiseCheck(const calib::CalibrationResult& result, const io::Det
         ++unmatched;
         continue;
       }
-      squared[c.mirror - 1] += best;
-      ++count[c.mirror - 1];
+      squared[MirrorIndex(c.mirror) - 1] += best;
+      ++count[MirrorIndex(c.mirror) - 1];
     }
   }
   std::printf("corner noise (--truth %s): reprojection RMS against the detector's true error "
@@ -137,7 +139,7 @@ int RunCalibrate() {
                          "alone)");
   }
   const RigParams start = io::ReadModelFile(session.model_path);
-  const io::Detections detections = FLAGS_detections.empty()
+  const Observations detections = FLAGS_detections.empty()
                                         ? DetectSession(session, start)
                                         : io::ReadDetectionsFile(FLAGS_detections);
 

@@ -47,7 +47,7 @@ std::string RelativeTo(const std::string& path, const fs::path& base_dir) {
 }
 
 void WriteOverlay(const std::string& path, const cv::Mat& image, const detectors::RingLayout& layout,
-                  const io::ImageDetections& det) {
+                  const ImageObservations& det) {
   cv::Mat out;
   if (image.channels() == 1) {
     cv::cvtColor(detectors::ToGrey(image), out, cv::COLOR_GRAY2BGR);
@@ -72,7 +72,7 @@ void WriteOverlay(const std::string& path, const cv::Mat& image, const detectors
     }
   }
   for (const auto& c : det.corners) {
-    const cv::Scalar colour = c.mirror == 1 ? cv::Scalar(0, 220, 0) : cv::Scalar(255, 0, 255);
+    const cv::Scalar colour = c.mirror == Mirror::kOne ? cv::Scalar(0, 220, 0) : cv::Scalar(255, 0, 255);
     const cv::Point p(cvRound(c.pixel.x()), cvRound(c.pixel.y()));
     cv::drawMarker(out, p, colour, cv::MARKER_CROSS, 5, 1);
     cv::putText(out, std::to_string(c.target) + ":" + std::to_string(c.id), p + cv::Point(2, -2),
@@ -88,8 +88,8 @@ void WriteOverlay(const std::string& path, const cv::Mat& image, const detectors
 // their misalignment, and f absorbs the lens's radial distortion and the bodies' axial offsets
 // (lip_intrinsics.h; measured: f -0.5 to -0.6%, principal point 5-9 px from the true one on a rig
 // misaligned by 0.3 mm and 0.3 deg).
-void PrintLipCheck(const io::Detections& detections, const RigModel& model) {
-  std::vector<io::LipEdge> edges;
+void PrintLipCheck(const Observations& detections, const RigModel& model) {
+  std::vector<LipEdgeObservation> edges;
   for (const auto& image : detections.images) {
     edges.insert(edges.end(), image.lips.begin(), image.lips.end());
   }
@@ -134,9 +134,9 @@ int RunDetect() {
   const fs::path out_dir = fs::absolute(FLAGS_out).parent_path();
   int bad = 0, corners = 0;
   const size_t n = session.images.size();
-  io::Detections detections = detectors::DetectSession(
+  Observations detections = detectors::DetectSession(
       session, &ctx,
-      [&](const detectors::ImageReport& r, const cv::Mat& image, io::ImageDetections* det) {
+      [&](const detectors::ImageReport& r, const cv::Mat& image, ImageObservations* det) {
         const char* file = r.file.c_str();
         if (r.skipped) {
           std::fprintf(stderr, "warning: %s: %s; skipped\n", file, r.warnings.front().c_str());

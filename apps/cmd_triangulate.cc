@@ -22,6 +22,7 @@
 #include "model/io/csv.h"
 #include "model/io/detections_file.h"
 #include "model/io/model_file.h"
+#include "model/io/truth_file.h"
 #include "model/stereo/sparse_triangulation.h"
 #include "model/triangulation.h"
 
@@ -87,7 +88,7 @@ TriangulationOptions OptionsFromFlags() {
 }
 
 // The true rig of --truth (its `model:` file), needed to compare in M1.
-RigParams TrueRig(const stereo::Truth& truth) {
+RigParams TrueRig(const Truth& truth) {
   if (truth.model.empty()) {
     throw io::InputError(FLAGS_truth + ": model: expected the true model file (for --frame "
                          "mirror1)");
@@ -102,7 +103,7 @@ struct Pairs {
   std::vector<std::string> image_names;
   long observations = 0;
 };
-Pairs ReadPairs(const Triangulator& triangulator, const std::optional<stereo::Truth>& truth) {
+Pairs ReadPairs(const Triangulator& triangulator, const std::optional<Truth>& truth) {
   Pairs out;
   if (FLAGS_detections.empty()) {
     std::mt19937 rng(static_cast<unsigned>(FLAGS_seed));
@@ -111,7 +112,7 @@ Pairs ReadPairs(const Triangulator& triangulator, const std::optional<stereo::Tr
     out.observations = 2 * static_cast<long>(out.pairs.size());
     return out;
   }
-  const io::Detections detections = io::ReadDetectionsFile(FLAGS_detections);
+  const Observations detections = io::ReadDetectionsFile(FLAGS_detections);
   for (int i = 0; i < static_cast<int>(detections.images.size()); ++i) {
     const auto& image = detections.images[i];
     out.image_names.push_back(image.file);
@@ -147,7 +148,7 @@ void WriteCsv(const stereo::SessionTriangulation& result,
   out.Commit();
 }
 
-void PrintTruthTables(const Triangulator& triangulator, const stereo::Truth& truth,
+void PrintTruthTables(const Triangulator& triangulator, const Truth& truth,
                       const stereo::SessionTriangulation& result,
                       const TriangulationOptions& options) {
   const double noise2 = FLAGS_noise_px_ring2 >= 0 ? FLAGS_noise_px_ring2 : FLAGS_noise_px;
@@ -183,8 +184,8 @@ int RunTriangulate() {
                  triangulator.unknown_parameters().size(),
                  triangulator.unknown_parameters()[0].c_str());
   }
-  std::optional<stereo::Truth> truth;
-  if (!FLAGS_truth.empty()) truth = stereo::ReadTruthFile(FLAGS_truth);
+  std::optional<Truth> truth;
+  if (!FLAGS_truth.empty()) truth = io::ReadTruthFile(FLAGS_truth);
   std::optional<RigParams> true_rig;
   if (truth && options.reference == ReferenceBody::kMirror1) true_rig = TrueRig(*truth);
   const stereo::OutputFrames frames =

@@ -32,6 +32,8 @@
 #include <glog/logging.h>
 
 #include "calib/calibrate.h"
+#include "calib/session_options.h"
+#include "model/io/detections_file.h"
 #include "model/io/model_file.h"
 #include "model/io/session_file.h"
 #include "model/lip.h"
@@ -114,7 +116,7 @@ int RunScene(int argc, char** argv) {
   const int lip_profiles = argc > 4 ? std::atoi(argv[4]) : 360;
   testing::SyntheticSession session;
   const RigParams truth = testing::MakeSceneSession(truth_rig, argv[1], &session);
-  io::Detections detections = testing::NoisyDetections(session, corner_noise, 3);
+  Observations detections = testing::NoisyDetections(session, corner_noise, 3);
   if (lip_profiles > 0) testing::AddLipDetections(truth, 0.03, 4, &detections, lip_profiles);
   size_t corners = 0, lip_points = 0;
   for (const auto& image : detections.images) {
@@ -139,12 +141,12 @@ int RunScene(int argc, char** argv) {
 // R0's exact value of every observation it used: corners from its target poses, lip points on
 // its band edges. Noise is added per solve (Noisy).
 struct ExactSession {
-  io::Detections detections;  // exact pixels; lips keep their edge labels
+  Observations detections;  // exact pixels; lips keep their edge labels
   int corners[2] = {0, 0}, lip_points = 0, lip_dropped = 0;
 };
 
 ExactSession ExactOf(const calib::CalibrationResult& r0, const std::vector<TargetSpec>& targets,
-                     const io::Detections& detections) {
+                     const Observations& detections) {
   const RigModel model(r0.rig);
   std::map<std::pair<int, int>, const calib::TargetPlacementEstimate*> pose;
   for (const auto& p : r0.placements) pose[{p.image, p.target}] = &p;
@@ -153,32 +155,32 @@ ExactSession ExactOf(const calib::CalibrationResult& r0, const std::vector<Targe
   ExactSession out;
   out.detections.session = detections.session;
   for (int i = 0; i < static_cast<int>(detections.images.size()); ++i) {
-    const io::ImageDetections& in = detections.images[i];
-    io::ImageDetections image;
+    const ImageObservations& in = detections.images[i];
+    ImageObservations image;
     image.file = in.file;
     image.width = in.width;
     image.height = in.height;
     for (const auto& o : in.corners) {
       const auto it = pose.find({i, o.target});
-      if (it == pose.end() || rejected.count({i, o.target, o.id, o.mirror})) continue;
+      if (it == pose.end() || rejected.count({i, o.target, o.id, MirrorIndex(o.mirror)})) continue;
       const Eigen::Vector3d& w = it->second->rotation;
       const Eigen::Matrix3d r = w.norm() > 0
                                     ? Eigen::AngleAxisd(w.norm(), w / w.norm()).toRotationMatrix()
                                     : Eigen::Matrix3d::Identity();
       const Eigen::Vector3d point =
           r * CornerInTarget(targets[o.target], o.id) + it->second->translation;
-      const auto px = model.Project(point, o.mirror == 1 ? Mirror::kOne : Mirror::kTwo);
+      const auto px = model.Project(point, o.mirror);
       if (!px) continue;
-      io::CornerObservation exact = o;
+      CornerObservation exact = o;
       exact.pixel = *px;
       image.corners.push_back(exact);
-      ++out.corners[o.mirror - 1];
+      ++out.corners[MirrorIndex(o.mirror) - 1];
     }
     for (const auto& edge : in.lips) {
-      LipPath path;
-      LipCircle circle;
-      if (!ParseLipPath(edge.path, &path) || !ParseLipCircle(edge.circle, &circle)) continue;
-      io::LipEdge exact = edge;
+      if (!edge.path || !edge.circle) continue;
+      const LipPath path = *edge.path;
+      const LipCircle circle = *edge.circle;
+      LipEdgeObservation exact = edge;
       exact.points.clear();
       for (const auto& p : edge.points) {
         Eigen::Vector2d nearest;
@@ -197,14 +199,14 @@ ExactSession ExactOf(const calib::CalibrationResult& r0, const std::vector<Targe
   return out;
 }
 
-io::Detections Noisy(const ExactSession& exact, const double corner_sigma_px[2],
+Observations Noisy(const ExactSession& exact, const double corner_sigma_px[2],
                      double lip_sigma_px, unsigned seed) {
   std::mt19937 rng(seed);
   std::normal_distribution<double> unit(0.0, 1.0);
-  io::Detections d = exact.detections;
+  Observations d = exact.detections;
   for (auto& image : d.images) {
     for (auto& o : image.corners) {
-      const double s = corner_sigma_px[o.mirror - 1];
+      const double s = corner_sigma_px[MirrorIndex(o.mirror) - 1];
       o.pixel += s * Eigen::Vector2d(unit(rng), unit(rng));
     }
     for (auto& edge : image.lips) {
@@ -221,7 +223,7 @@ int RunMonteCarlo(int argc, char** argv) {
     return 2;
   }
   const io::Session session = io::ReadSessionFile(argv[2]);
-  const io::Detections detections = io::ReadDetectionsFile(argv[3]);
+  const Observations detections = io::ReadDetectionsFile(argv[3]);
   const int solves = argc > 4 ? std::max(2, std::atoi(argv[4])) : 50;
   const int workers = argc > 5 ? std::max(1, std::atoi(argv[5])) : 2;
   const RigParams start = io::ReadModelFile(session.model_path);
@@ -419,7 +421,7 @@ int main(int argc, char** argv) {
       testing::MisalignedRig(), random,
       {testing::Chessboard(7, 10, 40.0), testing::Chessboard(8, 9, 45.0),
        testing::Chessboard(6, 11, 50.0), testing::Chessboard(9, 12, 35.0)});
-  io::Detections detections = testing::NoisyDetections(session, 0.1, 3);
+  Observations detections = testing::NoisyDetections(session, 0.1, 3);
   testing::AddLipDetections(testing::MisalignedRig(), 0.05, 4, &detections, 360);
   size_t corners = 0, lip_points = 0;
   for (const auto& image : detections.images) {

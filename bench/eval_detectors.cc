@@ -68,7 +68,7 @@ const char* kKindNames[] = {"chessboard", "apriltag", "kalibr"};  // by TargetTy
 // only (via_mirror2: mirror 2 and the reflex plane), and all edges from the nominal with the
 // true lens distortion (what part of the focal-length error the distortion makes).
 void LipsReport(const RigParams& truth, const RigParams& nominal,
-                const std::vector<io::LipEdge>& edges, int n_images) {
+                const std::vector<LipEdgeObservation>& edges, int n_images) {
   const double f_true = 0.5 * (truth.camera[0] + truth.camera[1]);
   const Eigen::Vector2d pp(truth.camera[2], truth.camera[3]);
   const detectors::LipReferencePoints ref = detectors::LipReferencePointsOf(truth);
@@ -101,9 +101,9 @@ void LipsReport(const RigParams& truth, const RigParams& nominal,
                       {"mirror2_edges", &nominal, 2},
                       {"all_true_lens", &nominal_true_lens, 0}};
   for (const Fit& fit : fits) {
-    std::vector<io::LipEdge> used;
-    for (const io::LipEdge& e : edges) {
-      if (fit.mirror == 0 || e.mirror == fit.mirror) used.push_back(e);
+    std::vector<LipEdgeObservation> used;
+    for (const LipEdgeObservation& e : edges) {
+      if (fit.mirror == 0 || MirrorIndex(e.mirror) == fit.mirror) used.push_back(e);
     }
     const auto est = detectors::InitialIntrinsicsFromLips(used, RigModel(*fit.prior));
     if (!est) {
@@ -131,7 +131,7 @@ int main(int argc, char** argv) {
   const RigParams rig = io::ReadModelFile(argv[1]);
   const RigModel model(rig);
   const RigParams nominal = argc == 5 ? io::ReadModelFile(argv[4]) : rig;
-  std::vector<io::LipEdge> all_lips;  // every image's labelled lip edges, for one pooled fit
+  std::vector<LipEdgeObservation> all_lips;  // every image's labelled lip edges, for one pooled fit
   int lip_images = 0;
   const synthetic::Scene scene = synthetic::ReadSceneFile(argv[2], model);
   // EVAL_CAMERA=PRESET or '{defocus_sigma_px: [0.6, 0.9], ...}': the camera applied to the
@@ -194,7 +194,7 @@ int main(int argc, char** argv) {
     const auto t0 = std::chrono::steady_clock::now();
     const std::clock_t c0 = std::clock();
     std::vector<bool> guided;
-    const io::ImageDetections det = detectors::DetectImage(raw, &ctx, nullptr, &guided);
+    const ImageObservations det = detectors::DetectImage(raw, &ctx, nullptr, &guided);
     cpu_ms.push_back(1000.0 * (std::clock() - c0) / CLOCKS_PER_SEC);
     times_ms.push_back(
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
@@ -205,14 +205,14 @@ int main(int argc, char** argv) {
     const auto truth = synthetic::ComputeTruth(model, scene, image);
     std::vector<bool> truth_found(truth.size() * 2, false);
     for (size_t k = 0; k < det.corners.size(); ++k) {
-      const io::CornerObservation& o = det.corners[k];
+      const CornerObservation& o = det.corners[k];
       Bin* guided_bin =
-          guided[k] ? &guided_by_kind[{static_cast<int>(scene.targets[o.target].type), o.mirror}] : nullptr;
+          guided[k] ? &guided_by_kind[{static_cast<int>(scene.targets[o.target].type), MirrorIndex(o.mirror)}] : nullptr;
       // The nearest visible true corner in the same ring.
       double best = 1e9;
       int best_i = -1;
       for (size_t i = 0; i < truth.size(); ++i) {
-        const auto& px = truth[i].pixel[o.mirror - 1];
+        const auto& px = truth[i].pixel[MirrorIndex(o.mirror) - 1];
         if (!px) continue;
         const double d = (*px - o.pixel).norm();
         if (d < best) {
@@ -221,7 +221,7 @@ int main(int argc, char** argv) {
         }
       }
       const double range = best_i >= 0 ? truth[best_i].point_in_cam.head<2>().norm() : 0;
-      Bin& bin = bins[{o.mirror, RangeBin(range)}];
+      Bin& bin = bins[{MirrorIndex(o.mirror), RangeBin(range)}];
       // Targets with the same rows x cols cannot be told apart in an image (the detector reports
       // the first): the target is right if its pattern is.
       const auto same_pattern = [&](int a, int b) {
@@ -233,7 +233,7 @@ int main(int argc, char** argv) {
         ++bin.wrong;
         if (guided_bin) ++guided_bin->wrong;
         std::fprintf(stderr, "%s: wrong%s: target %d id %d mirror %d at (%.1f, %.1f): nearest truth "
-                     "target %d id %d at %.2f px\n", image.name.c_str(), guided_bin ? " (guided)" : "", o.target, o.id, o.mirror,
+                     "target %d id %d at %.2f px\n", image.name.c_str(), guided_bin ? " (guided)" : "", o.target, o.id, MirrorIndex(o.mirror),
                      o.pixel.x(), o.pixel.y(), best_i >= 0 ? truth[best_i].target : -1,
                      best_i >= 0 ? truth[best_i].id : -1, best);
         continue;
@@ -241,18 +241,18 @@ int main(int argc, char** argv) {
       bin.errors.push_back(best);
       if (guided_bin) guided_bin->errors.push_back(best);
       if (csv) {
-        const Eigen::Vector2d& t = *truth[best_i].pixel[o.mirror - 1];
+        const Eigen::Vector2d& t = *truth[best_i].pixel[MirrorIndex(o.mirror) - 1];
         std::fprintf(csv, "%s,%d,%s,%d,%d,%.1f,%.4f,%.4f,%.4f,%.4f,%d,1\n", image.name.c_str(), o.target,
-                     kKindNames[static_cast<int>(scene.targets[o.target].type)], o.id, o.mirror,
+                     kKindNames[static_cast<int>(scene.targets[o.target].type)], o.id, MirrorIndex(o.mirror),
                      range, o.pixel.x(), o.pixel.y(), t.x(), t.y(), guided_bin ? 1 : 0);
       }
       if (best > 0.5) {  // right id but far off: named, like wrong ids, to find the cause
         std::fprintf(stderr, "%s: off: target %d id %d mirror %d at (%.1f, %.1f): %.2f px from "
-                     "truth\n", image.name.c_str(), o.target, o.id, o.mirror, o.pixel.x(),
+                     "truth\n", image.name.c_str(), o.target, o.id, MirrorIndex(o.mirror), o.pixel.x(),
                      o.pixel.y(), best);
       }
-      by_kind[{static_cast<int>(scene.targets[o.target].type), o.mirror}].errors.push_back(best);
-      truth_found[2 * best_i + o.mirror - 1] = true;
+      by_kind[{static_cast<int>(scene.targets[o.target].type), MirrorIndex(o.mirror)}].errors.push_back(best);
+      truth_found[2 * best_i + MirrorIndex(o.mirror) - 1] = true;
     }
     // (target, mirror) -> visible, found, range: to name the boards that were missed.
     std::map<std::pair<int, int>, std::array<double, 3>> boards;

@@ -101,7 +101,7 @@ int main(int argc, char** argv) {
               truth_params.lip2.color.c_str(), argv[1], argv[2], files.size(),
               eight_bit ? "8-bit" : "16-bit");
   std::map<std::tuple<int, std::string, std::string, std::string>, EdgeStats> stats;
-  std::vector<io::LipEdge> all_edges;
+  std::vector<LipEdgeObservation> all_edges;
   std::vector<double> cpu_ms;
   for (const std::string& file : files) {
     cv::Mat image = cv::imread(file, cv::IMREAD_COLOR | cv::IMREAD_ANYDEPTH);
@@ -124,16 +124,17 @@ int main(int argc, char** argv) {
     const std::vector<detectors::LipEdgeFit> fits = detectors::DetectLipEdges(linear, nominal, options);
     cpu_ms.push_back(1000.0 * (std::clock() - c0) / CLOCKS_PER_SEC);
     for (const detectors::LipEdgeFit& fit : fits) {
-      EdgeStats& s = stats[{fit.edge.mirror, fit.edge.edge, fit.edge.circle, fit.edge.path}];
+      EdgeStats& s = stats[{MirrorIndex(fit.edge.mirror), BandEdgeName(fit.edge.edge),
+                             LipCircleName(*fit.edge.circle), LipPathName(*fit.edge.path)}];
       ++s.images;
       std::vector<std::pair<double, double>> azimuth_signed;  // this image's points of the edge
       for (const Eigen::Vector2d& p : fit.edge.points) {
         // Signed: + where the point lies farther from the principal point than the truth.
         Eigen::Vector2d q;
-        const double d = DistanceToLipCircleImage(truth, fit.path, fit.circle, p, &q);
+        const double d = DistanceToLipCircleImage(truth, *fit.edge.path, *fit.edge.circle, p, &q);
         LipBound bound = LipBound::kCircle;
         s.edge_distances.push_back(
-            DistanceToLipEdgeImage(truth, fit.path, fit.circle, p, nullptr, &bound));
+            DistanceToLipEdgeImage(truth, *fit.edge.path, *fit.edge.circle, p, nullptr, &bound));
         if (bound == LipBound::kReflexRim) ++s.on_rim;
         if (d > 1e8) {
           ++s.no_truth;
@@ -145,7 +146,7 @@ int main(int argc, char** argv) {
         azimuth_signed.push_back({std::atan2(p.y() - pp.y(), p.x() - pp.x()),
                                   (p - pp).norm() > (q - pp).norm() ? d : -d});
         if (std::getenv("EVAL_LIPS_POINTS")) {  // every point: mirror, path, u, v, signed error
-          std::printf("point %d %s %.2f %.2f %+.3f\n", fit.edge.mirror, fit.edge.path.c_str(),
+          std::printf("point %d %s %.2f %.2f %+.3f\n", MirrorIndex(fit.edge.mirror), LipPathName(*fit.edge.path),
                       p.x(), p.y(), (p - pp).norm() > (q - pp).norm() ? d : -d);
         }
       }

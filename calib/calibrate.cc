@@ -228,21 +228,11 @@ CalibrationResult Calibrator::Run() {
   return result;
 }
 
-CalibrationOptions OptionsFromSession(const io::Session& session) {
-  CalibrationOptions options;
-  options.estimate = session.estimate;
-  options.priors = session.priors;
-  options.solver = session.solver;
-  options.use_lips = session.use_lips;
-  if (session.consider) options.considered_sigma = *session.consider;
-  return options;
-}
-
 CalibrationResult Calibrate(const RigParams& start, const std::vector<TargetSpec>& targets,
-                            const io::Detections& detections, const CalibrationOptions& options) {
+                            const Observations& detections, const CalibrationOptions& options) {
   for (const auto& g : options.estimate) {
     if (BlockParameterNames(g).empty()) {
-      throw io::InputError("estimate: unknown parameter group '" + g + "'");
+      throw InputError("estimate: unknown parameter group '" + g + "'");
     }
   }
   Calibrator calibrator(start, targets, detections, options);

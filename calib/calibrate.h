@@ -30,9 +30,9 @@
 #include <Eigen/Core>
 
 #include "calib/variance_components.h"
-#include "model/io/detections_file.h"
-#include "model/io/file_util.h"
-#include "model/io/session_file.h"
+#include "model/calibration_settings.h"
+#include "model/input_error.h"
+#include "model/observations.h"
 #include "model/rig_parameters.h"
 #include "model/rig_params.h"
 #include "model/target.h"
@@ -46,19 +46,19 @@ inline constexpr double kLipSpacingDeg = 0.25;
 // A calibration that cannot be done with this input (degenerate session, no matches, a diverging
 // solve); what() is one line naming the cause and what would fix it. An InputError so that the
 // CLI reports it as bad input (exit 2).
-class CalibrationError : public io::InputError {
+class CalibrationError : public InputError {
  public:
-  using io::InputError::InputError;
+  using InputError::InputError;
 };
 
 struct CalibrationOptions {
-  // Parameter groups to refine (io::EstimableGroups()); the others stay at the starting model.
+  // Parameter groups to refine (blocks of model/rig_parameters.h); the others stay at the start.
   std::vector<std::string> estimate = {"camera", "distortion", "mirror1_pose", "mirror2_pose",
                                        "reflex"};
   // Gaussian priors for refined mirror shapes (key mirror1_shape | mirror2_shape). A shape group
   // in `estimate` without a prior is refined freely.
-  std::map<std::string, io::ShapePrior> priors;
-  io::SolverOptions solver;
+  std::map<std::string, ShapePrior> priors;
+  SolverOptions solver;
   bool refine_skew = false;     // the camera's skew is held at its starting value unless asked
   // dist_k3: refined if true; otherwise held unless the session's corners reach radii where it
   // is told from dist_k1, dist_k2 (decided after the solve from the covariance: freeing it may
@@ -180,13 +180,10 @@ struct CalibrationResult {
 
 // Calibrates from detections (pixels of target corners per image and ring). `targets` are the
 // session's targets (detections refer to them by index). Throws CalibrationError for degenerate
-// or unusable input and for a solve that diverges; io::InputError for detections that refer to
+// or unusable input and for a solve that diverges; InputError for detections that refer to
 // a target or corner id the session does not have.
 CalibrationResult Calibrate(const RigParams& start, const std::vector<TargetSpec>& targets,
-                            const io::Detections& detections, const CalibrationOptions& options);
-
-// Options from a session file's estimate / priors / solver sections.
-CalibrationOptions OptionsFromSession(const io::Session& session);
+                            const Observations& detections, const CalibrationOptions& options);
 
 // The rig parameters' names, blocks and units: model/rig_parameters.h (BlockParameterNames,
 // ParameterOf).

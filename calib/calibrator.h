@@ -80,7 +80,7 @@ struct Placement {
 class Calibrator {
  public:
   Calibrator(const RigParams& start, const std::vector<TargetSpec>& targets,
-             const io::Detections& detections, const CalibrationOptions& options)
+             const Observations& detections, const CalibrationOptions& options)
       : rig_(start), targets_(targets), options_(options) {
     rig_.kind = ModelKind::kNoncentral;
     rig_.calibration.reset();
@@ -125,7 +125,7 @@ class Calibrator {
   void Progress(const std::string& line) const {
     if (options_.progress) options_.progress(line);
   }
-  void Collect(const io::Detections& detections);
+  void Collect(const Observations& detections);
   void InitialisePoses();
   void CheckDegeneracy() const;
   bool Reproject(const Observation& obs, Eigen::Vector2d* pixel) const;
@@ -137,7 +137,7 @@ class Calibrator {
     return path == LipPath::kDirect || path == LipPath::kViaMirror1 ? lip_fixed_[0]
                                                                      : lip_fixed_[1];
   }
-  void CollectLips(const io::Detections& detections);
+  void CollectLips(const Observations& detections);
   void InitialiseLipAzimuths();
   void NormalLipPoints();
   void SelectRobustStageCorners();

@@ -2,29 +2,26 @@
 
 namespace omni::calib {
 
-void Calibrator::Collect(const io::Detections& detections) {
+void Calibrator::Collect(const Observations& detections) {
   n_images_ = static_cast<int>(detections.images.size());
   std::map<std::pair<int, int>, int> placement_of;
   std::vector<int> per_target(targets_.size(), 0);
   for (size_t i = 0; i < detections.images.size(); ++i) {
-    const io::ImageDetections& image = detections.images[i];
+    const ImageObservations& image = detections.images[i];
     for (size_t k = 0; k < image.corners.size(); ++k) {
-      const io::CornerObservation& c = image.corners[k];
+      const CornerObservation& c = image.corners[k];
       const std::string where = image.file + ": corner " + std::to_string(k);
       if (c.target < 0 || c.target >= static_cast<int>(targets_.size())) {
-        throw io::InputError(where + ": target index " + std::to_string(c.target) +
+        throw InputError(where + ": target index " + std::to_string(c.target) +
                              " is not one of the session's " + std::to_string(targets_.size()) +
                              " targets");
       }
       if (!HasCorner(targets_[c.target], c.id)) {
-        throw io::InputError(where + ": corner id " + std::to_string(c.id) +
+        throw InputError(where + ": corner id " + std::to_string(c.id) +
                              " is not on target " + std::to_string(c.target) + " (" +
                              TargetTypeName(targets_[c.target].type) + ")");
       }
-      if (c.mirror != 1 && c.mirror != 2) {
-        throw io::InputError(where + ": mirror must be 1 or 2, got " + std::to_string(c.mirror));
-      }
-      if (!c.pixel.allFinite()) throw io::InputError(where + ": pixel is not finite");
+      if (!c.pixel.allFinite()) throw InputError(where + ": pixel is not finite");
       const auto key = std::make_pair(static_cast<int>(i), c.target);
       auto it = placement_of.find(key);
       if (it == placement_of.end()) {
@@ -38,7 +35,7 @@ void Calibrator::Collect(const io::Detections& detections) {
       o.image = static_cast<int>(i);
       o.target = c.target;
       o.id = c.id;
-      o.mirror = c.mirror;
+      o.mirror = MirrorIndex(c.mirror);
       o.placement = it->second;
       o.pixel = c.pixel;
       o.corner_in_target = CornerInTarget(targets_[c.target], c.id);
@@ -67,34 +64,32 @@ void Calibrator::Collect(const io::Detections& detections) {
   }
 }
 
-void Calibrator::CollectLips(const io::Detections& detections) {
+void Calibrator::CollectLips(const Observations& detections) {
   for (size_t i = 0; i < detections.images.size(); ++i) {
-    const io::ImageDetections& image = detections.images[i];
+    const ImageObservations& image = detections.images[i];
     for (size_t e = 0; e < image.lips.size(); ++e) {
-      const io::LipEdge& edge = image.lips[e];
+      const LipEdgeObservation& edge = image.lips[e];
       const std::string where = image.file + ": lip edge " + std::to_string(e);
-      LipPath path;
-      LipCircle circle;
-      if (!ParseLipPath(edge.path, &path)) {
-        throw io::InputError(where + ": path must be direct, via_mirror1, via_reflex or "
-                             "via_mirror2, got '" + edge.path + "'");
+      if (!edge.path || !edge.circle) {
+        throw InputError(where + ": the edge is not labelled with the lip circle and optical "
+                             "path it images (circle: r_inner | r_outer, path: direct | "
+                             "via_mirror1 | via_reflex | via_mirror2); `omnistereo detect` "
+                             "labels its edges");
       }
-      if (!ParseLipCircle(edge.circle, &circle)) {
-        throw io::InputError(where + ": circle must be r_inner or r_outer, got '" + edge.circle +
-                             "'");
-      }
-      if (edge.mirror != MirrorIndex(LipOwner(path))) {
-        throw io::InputError(where + ": path " + edge.path + " images the lip of mirror " +
+      const LipPath path = *edge.path;
+      const LipCircle circle = *edge.circle;
+      if (LipOwner(path) != edge.mirror) {
+        throw InputError(where + ": path " + LipPathName(path) + " images the lip of mirror " +
                              std::to_string(MirrorIndex(LipOwner(path))) + ", but mirror is " +
-                             std::to_string(edge.mirror));
+                             std::to_string(MirrorIndex(edge.mirror)));
       }
       const Lip& lip = LipOf(rig_, path);
       if (!(lip.r_outer > lip.r_inner && lip.r_inner >= 0)) {
-        throw io::InputError(where + ": the starting model has no lip on mirror " +
-                             std::to_string(edge.mirror) + " (lip r_inner < r_outer expected)");
+        throw InputError(where + ": the starting model has no lip on mirror " +
+                             std::to_string(MirrorIndex(edge.mirror)) + " (lip r_inner < r_outer expected)");
       }
       for (const Eigen::Vector2d& p : edge.points) {
-        if (!p.allFinite()) throw io::InputError(where + ": a point is not finite");
+        if (!p.allFinite()) throw InputError(where + ": a point is not finite");
         LipObservation l;
         l.image = static_cast<int>(i);
         l.path = path;

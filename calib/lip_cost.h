@@ -43,14 +43,8 @@ struct LipPointCost {
                   const T* mirror2_pose, const T* phi, T* residual) const {
     const LipBlocks<T> blocks{camera, distortion, mirror1_shape, mirror1_pose,
                               reflex, mirror2_shape, mirror2_pose};
-    Vec2<T> pixel;
-    if (!ProjectLipEdge(blocks, fixed, path, T(radius), T(lip_z), phi[0], disc_radius_mm,
-                        &pixel)) {
-      return false;
-    }
-    residual[0] = pixel.x() - T(observed.x());
-    residual[1] = pixel.y() - T(observed.y());
-    return true;
+    return LipEdgeResidual(blocks, fixed, path, T(radius), T(lip_z), phi[0], disc_radius_mm,
+                           observed, residual);
   }
 
   using CostFunction = SlotAutoDiffCostFunction<LipPointCost, 2, 5, 5, 2, 5, 3, 2, 5, 1>;

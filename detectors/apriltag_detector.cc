@@ -534,8 +534,8 @@ void DropCornersOffTheirTarget(const std::vector<RingView>& views,
                                std::vector<TagCornerDetection>* detections) {
   std::map<std::pair<int, int>, std::vector<std::size_t>> groups;  // (target, mirror) -> indices
   for (std::size_t i = 0; i < detections->size(); ++i) {
-    const io::CornerObservation& o = (*detections)[i].observation;
-    groups[{o.target, o.mirror}].push_back(i);
+    const CornerObservation& o = (*detections)[i].observation;
+    groups[{o.target, MirrorIndex(o.mirror)}].push_back(i);
   }
   std::vector<bool> keep(detections->size(), true);
   for (const auto& [key, members] : groups) {
@@ -825,7 +825,7 @@ std::vector<TagCornerDetection> DetectTagCorners(const cv::Mat& raw_bgr,
       TagCornerDetection d;
       d.observation.target = target;
       d.observation.id = 4 * t.tag_id + k;
-      d.observation.mirror = MirrorIndex(view.mirror);
+      d.observation.mirror = view.mirror;
       d.observation.pixel = refined[k];
       d.tag_id = t.tag_id;
       d.mapped = mapped[k];
@@ -839,11 +839,11 @@ std::vector<TagCornerDetection> DetectTagCorners(const cv::Mat& raw_bgr,
   return out;
 }
 
-std::vector<io::CornerObservation> DetectTagGrids(const cv::Mat& raw_bgr,
+std::vector<CornerObservation> DetectTagGrids(const cv::Mat& raw_bgr,
                                                   const std::vector<RingView>& views,
                                                   const RigModel& model,
                                                   const std::vector<TargetSpec>& targets) {
-  std::vector<io::CornerObservation> out;
+  std::vector<CornerObservation> out;
   for (const TagCornerDetection& d : DetectTagCorners(raw_bgr, views, model, targets)) {
     out.push_back(d.observation);
   }

@@ -28,7 +28,7 @@
 #include "detectors/saddle_points.h"
 #include "detectors/tag_grid_check.h"
 #include "detectors/views.h"
-#include "model/io/detections_file.h"
+#include "model/observations.h"
 #include "model/rig_model.h"
 #include "model/target.h"
 
@@ -104,7 +104,7 @@ struct TagDetectorOptions {
 
 // One detected tag corner with its diagnostics.
 struct TagCornerDetection {
-  io::CornerObservation observation;
+  CornerObservation observation;
   int tag_id = 0;
   Eigen::Vector2d mapped = Eigen::Vector2d::Zero();  // the view detector's corner mapped to raw
   int view = 0;                     // index of the view its tag was found in
@@ -116,7 +116,7 @@ struct TagCornerDetection {
 // Tag-grid corners in a raw image. `views` come from MakeRingViews for `model`; their `image` is
 // used if RenderViews filled it for this raw image, otherwise the views are resampled here.
 // Target index = index in `targets`; chessboard targets are skipped.
-std::vector<io::CornerObservation> DetectTagGrids(const cv::Mat& raw_bgr,
+std::vector<CornerObservation> DetectTagGrids(const cv::Mat& raw_bgr,
                                                   const std::vector<RingView>& views,
                                                   const RigModel& model,
                                                   const std::vector<TargetSpec>& targets);

@@ -771,18 +771,18 @@ std::vector<BoardDetection> DetectChessboardBoards(const cv::Mat& raw_grey,
   return kept;
 }
 
-std::vector<io::CornerObservation> DetectChessboards(const cv::Mat& raw_grey,
+std::vector<CornerObservation> DetectChessboards(const cv::Mat& raw_grey,
                                                      const std::vector<RingView>& views,
                                                      const RigModel& model,
                                                      const std::vector<TargetSpec>& targets,
                                                      const ChessboardOptions& options) {
-  std::vector<io::CornerObservation> out;
+  std::vector<CornerObservation> out;
   for (const BoardDetection& b : DetectChessboardBoards(raw_grey, views, model, targets, options)) {
     for (size_t i = 0; i < b.ids.size(); ++i) {
-      io::CornerObservation o;
+      CornerObservation o;
       o.target = b.target;
       o.id = b.ids[i];
-      o.mirror = MirrorIndex(b.mirror);
+      o.mirror = b.mirror;
       o.pixel = b.raw_pixels[i];
       out.push_back(o);
     }

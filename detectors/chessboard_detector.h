@@ -34,7 +34,7 @@
 #include <opencv2/core.hpp>
 
 #include "detectors/views.h"
-#include "model/io/detections_file.h"
+#include "model/observations.h"
 #include "model/rig_model.h"
 #include "model/target.h"
 
@@ -94,7 +94,7 @@ std::vector<BoardDetection> DetectChessboardBoards(const cv::Mat& raw_grey,
                                                    const std::vector<TargetSpec>& targets,
                                                    const ChessboardOptions& options = {});
 
-std::vector<io::CornerObservation> DetectChessboards(const cv::Mat& raw_grey,
+std::vector<CornerObservation> DetectChessboards(const cv::Mat& raw_grey,
                                                      const std::vector<RingView>& views,
                                                      const RigModel& model,
                                                      const std::vector<TargetSpec>& targets,

@@ -30,7 +30,7 @@ DetectorContext::DetectorContext(const RigParams& rig, std::vector<TargetSpec> t
       targets(std::move(target_specs)),
       use_lips(lips) {}
 
-io::ImageDetections DetectImage(const cv::Mat& image, DetectorContext* ctx,
+ImageObservations DetectImage(const cv::Mat& image, DetectorContext* ctx,
                                 std::vector<std::string>* warnings, std::vector<bool>* guided) {
   const RigParams& rig = ctx->model.params();
   if (image.empty()) throw io::InputError("the image is empty or could not be decoded");
@@ -39,7 +39,7 @@ io::ImageDetections DetectImage(const cv::Mat& image, DetectorContext* ctx,
                          std::to_string(image.rows) + ", the model expects " +
                          std::to_string(rig.image_width) + "x" + std::to_string(rig.image_height));
   }
-  io::ImageDetections out;
+  ImageObservations out;
   out.width = image.cols;
   out.height = image.rows;
   // Edges are found as halfway levels between surfaces: only in linear light are they there.
@@ -51,12 +51,12 @@ io::ImageDetections DetectImage(const cv::Mat& image, DetectorContext* ctx,
   bool any_tags = false;
   for (const TargetSpec& t : ctx->targets) any_tags = any_tags || t.type != TargetType::kChessboard;
   if (any_tags) {
-    const std::vector<io::CornerObservation> tags =
+    const std::vector<CornerObservation> tags =
         DetectTagGrids(grey, ctx->views, ctx->model, ctx->targets);
     out.corners.insert(out.corners.end(), tags.begin(), tags.end());
   }
   const size_t per_ring = out.corners.size();
-  const std::vector<io::CornerObservation> across =
+  const std::vector<CornerObservation> across =
       GuidedCorners(grey, ctx->views, ctx->model, ctx->targets, out.corners, ctx->guided);
   out.corners.insert(out.corners.end(), across.begin(), across.end());
   if (guided) {

@@ -13,7 +13,7 @@
 #include "detectors/guided_detection.h"
 #include "detectors/ring_layout.h"
 #include "detectors/views.h"
-#include "model/io/detections_file.h"
+#include "model/observations.h"
 #include "model/io/image_file.h"
 #include "model/rig_model.h"
 #include "model/target.h"
@@ -46,7 +46,7 @@ struct DetectorContext {
 // appends a line to *warnings for what was skipped (e.g. lips on a grey image). `file`, `width`
 // and `height` of the result are for the caller to fill in. With `guided`: one flag per corner,
 // true where guided detection across rings found it (guided_detection.h; those come last).
-io::ImageDetections DetectImage(const cv::Mat& image, DetectorContext* ctx,
+ImageObservations DetectImage(const cv::Mat& image, DetectorContext* ctx,
                                 std::vector<std::string>* warnings = nullptr,
                                 std::vector<bool>* guided = nullptr);
 

@@ -7,11 +7,11 @@
 
 namespace omni::detectors {
 
-io::Detections DetectSession(const io::Session& session, DetectorContext* ctx,
+Observations DetectSession(const io::Session& session, DetectorContext* ctx,
                              const ImageCallback& on_image) {
   const RigParams& rig = ctx->model.params();
   ctx->tone = session.tone;
-  io::Detections detections;
+  Observations detections;
   detections.session = session.path;
   const size_t n = session.images.size();
   for (size_t i = 0; i < n; ++i) {
@@ -36,14 +36,14 @@ io::Detections DetectSession(const io::Session& session, DetectorContext* ctx,
                            std::to_string(image.rows) + "; nothing written");
     }
     ctx->chroma_halved = io::HasHalvedChroma(report.file);
-    io::ImageDetections det = DetectImage(image, ctx, &report.warnings);
+    ImageObservations det = DetectImage(image, ctx, &report.warnings);
     det.file = report.file;
     det.width = image.cols;
     det.height = image.rows;
     if (det.corners.empty() && !ctx->targets.empty()) {
       report.warnings.push_back("no target corners found");
     }
-    for (const auto& c : det.corners) ++report.corners[c.mirror - 1];
+    for (const auto& c : det.corners) ++report.corners[MirrorIndex(c.mirror) - 1];
     report.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     if (on_image) on_image(report, image, &det);
     detections.images.push_back(std::move(det));

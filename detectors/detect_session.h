@@ -10,7 +10,7 @@
 #include <opencv2/core.hpp>
 
 #include "detectors/detect_image.h"
-#include "model/io/detections_file.h"
+#include "model/observations.h"
 #include "model/io/session_file.h"
 
 namespace omni::detectors {
@@ -28,12 +28,12 @@ struct ImageReport {
 // Called after each image with its report, the image as read (empty when skipped) and its
 // detections (file left as listed).
 using ImageCallback =
-    std::function<void(const ImageReport&, const cv::Mat& image, io::ImageDetections* detections)>;
+    std::function<void(const ImageReport&, const cv::Mat& image, ImageObservations* detections)>;
 
 // Detects every image of the session. Unreadable images are skipped (reported); an image of an
 // unsupported layout (io::ReadImage), or whose size is not the model's, ends the session: throws
 // io::InputError naming the file and what was expected, before anything is written.
-io::Detections DetectSession(const io::Session& session, DetectorContext* ctx,
+Observations DetectSession(const io::Session& session, DetectorContext* ctx,
                              const ImageCallback& on_image = nullptr);
 
 }  // namespace omni::detectors

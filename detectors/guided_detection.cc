@@ -238,15 +238,15 @@ struct Seeds {
 // max(0.5 px, 0.08 tag sides) of the prediction: the fit found the junction the lattice puts
 // there, not a neighbour (a corner square's side, 0.3 tag sides, away). The view's grid check
 // cannot see it. Ids from the lattice, as for every guided corner.
-std::vector<io::CornerObservation> KalibrBeyondTheView(const cv::Mat& raw_grey, const RingView& view,
+std::vector<CornerObservation> KalibrBeyondTheView(const cv::Mat& raw_grey, const RingView& view,
                                                        const TargetSpec& target, const Lattice& lattice,
                                                        const cv::Mat& h, const Seeds& own,
-                                                       const std::vector<io::CornerObservation>& guided,
+                                                       const std::vector<CornerObservation>& guided,
                                                        const GuidedOptions& options) {
-  std::vector<io::CornerObservation> out;
+  std::vector<CornerObservation> out;
   std::map<int, Eigen::Vector2d> known;
   for (size_t i = 0; i < own.ids.size(); ++i) known[own.ids[i]] = own.raw[i];
-  for (const io::CornerObservation& o : guided) known[o.id] = o.pixel;
+  for (const CornerObservation& o : guided) known[o.id] = o.pixel;
   if (known.size() < 6) return out;
   const TagDetectorOptions tag_options;
   const double pitch = TagPitch(target);
@@ -309,7 +309,7 @@ std::vector<io::CornerObservation> KalibrBeyondTheView(const cv::Mat& raw_grey, 
     if (!row || !col) continue;
     const auto fit = FitBlurredJunction(raw_grey, start, *row, *col, tag_options.kalibr_junction_window * side_raw);
     if (!fit || (fit->corner - predicted).norm() > std::max(options.grid_check.max_residual_px, 0.08 * side_raw)) continue;
-    io::CornerObservation o;
+    CornerObservation o;
     o.id = j.id;
     o.pixel = fit->corner;
     out.push_back(o);
@@ -318,11 +318,11 @@ std::vector<io::CornerObservation> KalibrBeyondTheView(const cv::Mat& raw_grey, 
 }
 
 // Guided corners of target `ti` in ring `dest` from its corners in the other ring.
-std::vector<io::CornerObservation> GuideTarget(
+std::vector<CornerObservation> GuideTarget(
     const cv::Mat& raw_grey, const std::vector<RingView>& views, const RigModel& model,
     const std::vector<TargetSpec>& targets, int ti, const Lattice& lattice, const Seeds& source,
     Mirror source_mirror, const Seeds& own, Mirror dest, const GuidedOptions& options) {
-  std::vector<io::CornerObservation> out;
+  std::vector<CornerObservation> out;
   const TargetSpec& target = targets[ti];
   std::set<int> have(own.ids.begin(), own.ids.end());
   std::vector<Eigen::Vector2d> plane_all;
@@ -702,23 +702,23 @@ std::vector<io::CornerObservation> GuideTarget(
     guided_ids.push_back(id);
   }
   const std::vector<GridFit> fits = CornersFittingTargetHomography(views, model, grid, options.grid_check);
-  std::vector<io::CornerObservation> kept;
+  std::vector<CornerObservation> kept;
   for (size_t g = 0; g < guided_ids.size(); ++g) {
     const GridFit& fit = fits[own.ids.size() + g];
     if (!fit.keep || fit.residual_px < 0) continue;
-    io::CornerObservation o;
+    CornerObservation o;
     o.target = ti;
     o.id = guided_ids[g];
-    o.mirror = MirrorIndex(dest);
+    o.mirror = dest;
     o.pixel = refined[guided_ids[g]];
     kept.push_back(o);
   }
   // Ids anchored by the ring's own corners need no quorum; ids from the other ring do.
   if (own.ids.empty() && static_cast<int>(kept.size()) < options.min_kept) return out;
   if (target.type == TargetType::kKalibrAprilGrid) {
-    for (io::CornerObservation o : KalibrBeyondTheView(raw_grey, view, target, lattice, h, own, kept, options)) {
+    for (CornerObservation o : KalibrBeyondTheView(raw_grey, view, target, lattice, h, own, kept, options)) {
       o.target = ti;
-      o.mirror = MirrorIndex(dest);
+      o.mirror = dest;
       kept.push_back(o);
     }
   }
@@ -727,13 +727,13 @@ std::vector<io::CornerObservation> GuideTarget(
 
 }  // namespace
 
-std::vector<io::CornerObservation> GuidedCorners(const cv::Mat& raw_grey,
+std::vector<CornerObservation> GuidedCorners(const cv::Mat& raw_grey,
                                                  const std::vector<RingView>& views,
                                                  const RigModel& model,
                                                  const std::vector<TargetSpec>& targets,
-                                                 const std::vector<io::CornerObservation>& found,
+                                                 const std::vector<CornerObservation>& found,
                                                  const GuidedOptions& options) {
-  std::vector<io::CornerObservation> out;
+  std::vector<CornerObservation> out;
   if (!options.enabled) return out;
   for (size_t ti = 0; ti < targets.size(); ++ti) {
     const TargetSpec& target = targets[ti];
@@ -749,9 +749,9 @@ std::vector<io::CornerObservation> GuidedCorners(const cv::Mat& raw_grey,
     if (!unique) continue;
     Seeds ring[2];
     bool repeated = false;  // one target placed twice in an image: whose pose would it be?
-    for (const io::CornerObservation& o : found) {
+    for (const CornerObservation& o : found) {
       if (o.target != static_cast<int>(ti) || !HasCorner(target, o.id)) continue;
-      Seeds& s = ring[o.mirror - 1];
+      Seeds& s = ring[MirrorIndex(o.mirror) - 1];
       repeated |= std::find(s.ids.begin(), s.ids.end(), o.id) != s.ids.end();
       s.plane.push_back(CornerInTarget(target, o.id));
       s.raw.push_back(o.pixel);
@@ -764,11 +764,11 @@ std::vector<io::CornerObservation> GuidedCorners(const cv::Mat& raw_grey,
       if (static_cast<int>(ring[d].ids.size()) >= CornerCount(target)) continue;
       const Mirror dest = d == 0 ? Mirror::kOne : Mirror::kTwo;
       const Mirror from = d == 0 ? Mirror::kTwo : Mirror::kOne;
-      for (io::CornerObservation& o : GuideTarget(raw_grey, views, model, targets, static_cast<int>(ti),
+      for (CornerObservation& o : GuideTarget(raw_grey, views, model, targets, static_cast<int>(ti),
                                                   *lattice, source, from, ring[d], dest, options)) {
         // Not where the ring already has a corner of another target.
         bool taken = false;
-        for (const io::CornerObservation& f : found) {
+        for (const CornerObservation& f : found) {
           taken |= f.mirror == o.mirror && (f.pixel - o.pixel).norm() < 2.0;
         }
         if (!taken) out.push_back(o);

@@ -45,7 +45,7 @@
 
 #include "detectors/tag_grid_check.h"
 #include "detectors/views.h"
-#include "model/io/detections_file.h"
+#include "model/observations.h"
 #include "model/rig_model.h"
 #include "model/target.h"
 
@@ -79,11 +79,11 @@ struct GuidedOptions {
 
 // Guided corners (only ids not in `found` for their target and ring) from the targets `found`
 // holds. `raw_grey`: the raw image as CV_8U grey; `views` rendered from it (RenderViews).
-std::vector<io::CornerObservation> GuidedCorners(const cv::Mat& raw_grey,
+std::vector<CornerObservation> GuidedCorners(const cv::Mat& raw_grey,
                                                  const std::vector<RingView>& views,
                                                  const RigModel& model,
                                                  const std::vector<TargetSpec>& targets,
-                                                 const std::vector<io::CornerObservation>& found,
+                                                 const std::vector<CornerObservation>& found,
                                                  const GuidedOptions& options = {});
 
 }  // namespace omni::detectors

@@ -582,12 +582,10 @@ std::vector<LipEdgeFit> DetectLipEdges(const cv::Mat& raw_bgr, const RigModel& m
   const std::shared_ptr<const LipPrediction> prediction = PredictionFor(model, options);
   for (const EdgeTrack& track : prediction->tracks()) {
     LipEdgeFit fit;
-    fit.path = track.path;
-    fit.circle = track.circle;
-    fit.edge.mirror = track.owner == Mirror::kOne ? 1 : 2;
-    fit.edge.edge = track.outer ? "outer" : "inner";
-    fit.edge.circle = LipCircleName(track.circle);
-    fit.edge.path = LipPathName(track.path);
+    fit.edge.mirror = track.owner;
+    fit.edge.edge = track.outer ? BandEdge::kOuter : BandEdge::kInner;
+    fit.edge.circle = track.circle;
+    fit.edge.path = track.path;
     fit.n_profiles = static_cast<int>(track.predictions.size());
     const PaintLikeness likeness(
         LipPaintOf(track.owner == Mirror::kOne ? rig.lip1.color : rig.lip2.color, track.owner));
@@ -623,9 +621,9 @@ std::vector<LipEdgeFit> DetectLipEdges(const cv::Mat& raw_bgr, const RigModel& m
   return out;
 }
 
-std::vector<io::LipEdge> DetectLips(const cv::Mat& raw_bgr, const RigModel& model,
+std::vector<LipEdgeObservation> DetectLips(const cv::Mat& raw_bgr, const RigModel& model,
                                     const LipDetectorOptions& options) {
-  std::vector<io::LipEdge> out;
+  std::vector<LipEdgeObservation> out;
   for (LipEdgeFit& fit : DetectLipEdges(raw_bgr, model, options)) out.push_back(std::move(fit.edge));
   return out;
 }

@@ -33,7 +33,7 @@
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
 
-#include "model/io/detections_file.h"
+#include "model/observations.h"
 #include "model/lip.h"
 #include "model/rig_model.h"
 
@@ -69,9 +69,7 @@ struct Ellipse {
 
 // One detected lip edge: the points that survived the ellipse fit, their labels and the fit.
 struct LipEdgeFit {
-  io::LipEdge edge;  // mirror, edge, circle, path, points (inliers)
-  LipPath path = LipPath::kDirect;
-  LipCircle circle = LipCircle::kOuter;
+  LipEdgeObservation edge;  // mirror, edge, circle, path (always set), points (inliers)
   Ellipse ellipse;
   double rms_px = 0;   // of the inliers to the ellipse
   int n_profiles = 0;  // profiles where the edge was labelled unambiguous and searched
@@ -87,7 +85,7 @@ std::vector<LipEdgeFit> DetectLipEdges(const cv::Mat& raw_bgr, const RigModel& m
                                        const LipDetectorOptions& options = {});
 
 // The detections-file view of DetectLipEdges.
-std::vector<io::LipEdge> DetectLips(const cv::Mat& raw_bgr, const RigModel& model,
+std::vector<LipEdgeObservation> DetectLips(const cv::Mat& raw_bgr, const RigModel& model,
                                     const LipDetectorOptions& options = {});
 
 // Robust ellipse fit (RANSAC on 5-point conics, then least squares on the inliers); false if

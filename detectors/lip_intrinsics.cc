@@ -10,8 +10,8 @@
 namespace omni::detectors {
 namespace {
 
-// Residual of one edge point: its pixel minus the image of its lip circle at azimuth phi along
-// its path, with camera = (f, f, cx, cy, 0) and every other block at the nominal values.
+// Residual of one edge point (model/lip.h LipEdgeResidual, as in the calibration) with camera =
+// (f, f, cx, cy, 0) and every other block at the nominal values.
 struct LipPointResidual {
   LipPointResidual(const RigModel* model, LipPath path, double radius, const Eigen::Vector2d& pixel)
       : model(model), path(path), radius(radius), pixel(pixel) {}
@@ -32,14 +32,8 @@ struct LipPointResidual {
     }
     for (int i = 0; i < 3; ++i) reflex[i] = T(rig.reflex[i]);
     const LipBlocks<T> blocks{camera, distortion, shape1, pose1, reflex, shape2, pose2};
-    Vec2<T> projected;
-    if (!ProjectLipPoint(blocks, model->fixed(), path, T(radius), T(LipOf(rig, path).z), phi[0],
-                         &projected)) {
-      return false;
-    }
-    residual[0] = projected.x() - T(pixel.x());
-    residual[1] = projected.y() - T(pixel.y());
-    return true;
+    return LipEdgeResidual(blocks, model->fixed(), path, T(radius), T(LipOf(rig, path).z), phi[0],
+                           model->fixed().r_ref, pixel, residual);
   }
 
   const RigModel* model;
@@ -75,7 +69,7 @@ LipReferencePoints LipReferencePointsOf(const RigParams& rig) {
   return out;
 }
 
-std::optional<LipIntrinsics> InitialIntrinsicsFromLips(const std::vector<io::LipEdge>& edges,
+std::optional<LipIntrinsics> InitialIntrinsicsFromLips(const std::vector<LipEdgeObservation>& edges,
                                                        const RigModel& nominal) {
   const RigParams& rig = nominal.params();
   double intrinsics[3] = {0.5 * (rig.camera[0] + rig.camera[1]), rig.camera[2], rig.camera[3]};
@@ -85,11 +79,10 @@ std::optional<LipIntrinsics> InitialIntrinsicsFromLips(const std::vector<io::Lip
     Eigen::Vector2d pixel;
   };
   std::vector<Point> points;
-  for (const io::LipEdge& edge : edges) {
-    LipPath path;
-    LipCircle circle;
-    if (!ParseLipPath(edge.path, &path) || !ParseLipCircle(edge.circle, &circle)) continue;
-    if (MirrorIndex(LipOwner(path)) != edge.mirror) continue;
+  for (const LipEdgeObservation& edge : edges) {
+    if (!edge.path || !edge.circle || LipOwner(*edge.path) != edge.mirror) continue;
+    const LipPath path = *edge.path;
+    const LipCircle circle = *edge.circle;
     const Lip& lip = LipOf(rig, path);
     const double radius = circle == LipCircle::kInner ? lip.r_inner : lip.r_outer;
     for (const Eigen::Vector2d& p : edge.points) points.push_back(Point{path, radius, p});
@@ -110,8 +103,8 @@ std::optional<LipIntrinsics> InitialIntrinsicsFromLips(const std::vector<io::Lip
     for (int k = -kScanHalf; k <= kScanHalf; ++k) {
       Eigen::Vector2d q;
       const double a = phi0 + k * kScanStep;
-      if (!ProjectLipPoint(LipBlocksOf(rig), nominal.fixed(), p.path, p.radius,
-                           LipOf(rig, p.path).z, a, &q)) {
+      if (!ProjectLipEdge(LipBlocksOf(rig), nominal.fixed(), p.path, p.radius,
+                          LipOf(rig, p.path).z, a, nominal.fixed().r_ref, &q)) {
         continue;
       }
       const double dist = (q - p.pixel).norm();

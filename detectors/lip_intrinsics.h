@@ -15,7 +15,7 @@
 #include <optional>
 #include <vector>
 
-#include "model/io/detections_file.h"
+#include "model/observations.h"
 #include "model/rig_model.h"
 
 namespace omni::detectors {
@@ -29,7 +29,7 @@ struct LipIntrinsics {
 
 // nullopt if fewer than 20 usable labelled points or the solve fails. Edges without a known
 // circle/path label are ignored.
-std::optional<LipIntrinsics> InitialIntrinsicsFromLips(const std::vector<io::LipEdge>& edges,
+std::optional<LipIntrinsics> InitialIntrinsicsFromLips(const std::vector<LipEdgeObservation>& edges,
                                                        const RigModel& nominal);
 
 // Where a rig's mirror bodies put the points a lip-only fit can find instead of the principal

@@ -23,22 +23,13 @@
 #include <Eigen/Core>
 
 #include "model/camera.h"
+#include "model/observations.h"
 #include "model/rig_frames.h"
 #include "model/rig_model.h"
 #include "model/rig_params.h"
 #include "model/types.h"
 
 namespace omni {
-
-enum class LipPath { kDirect, kViaMirror1, kViaReflex, kViaMirror2 };
-enum class LipCircle { kInner, kOuter };
-
-// Names as in the detections file: direct | via_mirror1 | via_reflex | via_mirror2, and
-// r_inner | r_outer. Parse* return false for an unknown name.
-const char* LipPathName(LipPath path);
-bool ParseLipPath(const std::string& name, LipPath* path);
-const char* LipCircleName(LipCircle circle);
-bool ParseLipCircle(const std::string& name, LipCircle* circle);
 
 // A lip's paint (`mirror*.lip.color` in model files) as linear RGB reflectance, 0..1: what the
 // renderer paints the lip with (lit by the room) and what the detector looks for. Names:
@@ -53,12 +44,6 @@ std::optional<Eigen::Vector3d> LipPaintRgb(const std::string& color);
 Eigen::Vector3d LipPaintOf(const std::string& color, Mirror owner);
 // The accepted values, for error messages: "blue, red, navy, ..., or \"#rrggbb\" (sRGB)".
 std::string LipPaintChoices();
-
-// The mirror that owns the lip a path images: direct and via_mirror1 image the blue lip of
-// mirror 1, via_reflex and via_mirror2 the red lip of mirror 2.
-inline Mirror LipOwner(LipPath path) {
-  return path == LipPath::kDirect || path == LipPath::kViaMirror1 ? Mirror::kOne : Mirror::kTwo;
-}
 
 // The point at azimuth phi (about the mirror's axis, from its x axis) on the circle of the given
 // radius at height lip_z in the mirror's body frame, in C: cam_from_mirror * (r cos, r sin, z).
@@ -210,6 +195,21 @@ bool ProjectLipEdge(const LipBlocks<T>& b, const RigFixed& fixed, LipPath path, 
                        b.distortion[4]};
   *pixel = cam.PixelFromNormalized(
       dist.Distort(Vec2<T>(crossing.x() / crossing.z(), crossing.y() / crossing.z())));
+  return true;
+}
+
+// The residual of one lip edge point observed at `observed`, as the image of the band edge at
+// azimuth phi (ProjectLipEdge) minus the observation; false where the path does not see the
+// point. The one lip residual: the calibration's (calib/lip_cost.h, every block free) and the
+// lip-only intrinsics' (detectors/lip_intrinsics.cc, f and the principal point free).
+template <typename T>
+bool LipEdgeResidual(const LipBlocks<T>& b, const RigFixed& fixed, LipPath path, const T& radius,
+                     const T& lip_z, const T& phi, double disc_radius_mm,
+                     const Eigen::Vector2d& observed, T* residual) {
+  Vec2<T> pixel;
+  if (!ProjectLipEdge(b, fixed, path, radius, lip_z, phi, disc_radius_mm, &pixel)) return false;
+  residual[0] = pixel.x() - T(observed.x());
+  residual[1] = pixel.y() - T(observed.y());
   return true;
 }
 

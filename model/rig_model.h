@@ -164,10 +164,7 @@ struct Mirror2Path {
   static Mirror2Path FromBlocks(const T* camera, const T* distortion, const T* mirror1_pose,
                                 const T* reflex, const T* mirror2_shape, const T* mirror2_pose,
                                 const RigFixed& fixed) {
-    const Pose<T> cam_from_mirror1 = PoseFromBlock(mirror1_pose);
-    const Plane<T> reflex_in_mirror1 = ReflexPlaneInMirror1(reflex, T(fixed.d));
-    const Plane<T> reflex_in_cam{cam_from_mirror1 * reflex_in_mirror1.point,
-                                 cam_from_mirror1.Rotate(reflex_in_mirror1.normal)};
+    const Plane<T> reflex_in_cam = ReflexPlaneInCam(mirror1_pose, reflex, T(fixed.d));
     Mirror2Path p{Pinhole<T>{camera[0], camera[1], camera[2], camera[3], camera[4]},
                   RadTan<T>{distortion[0], distortion[1], distortion[2], distortion[3],
                             distortion[4]},

@@ -35,23 +35,44 @@ CornerObservation ReadCorner(const Reader& in, const YAML::Node& row, const std:
   CornerObservation c;
   c.target = IntegerAt(in, row, 0, key, 0);
   c.id = IntegerAt(in, row, 1, key, 0);
-  c.mirror = IntegerAt(in, row, 2, key, 1);
-  if (c.mirror > 2) in.Fail(key + "[2]", "expected mirror 1 or 2", Describe(row[2]));
+  const int mirror = IntegerAt(in, row, 2, key, 1);
+  if (mirror > 2) in.Fail(key + "[2]", "expected mirror 1 or 2", Describe(row[2]));
+  c.mirror = mirror == 1 ? Mirror::kOne : Mirror::kTwo;
   c.pixel = Eigen::Vector2d(in.Number(row[3], key + "[3]"), in.Number(row[4], key + "[4]"));
   return c;
 }
 
-LipEdge ReadLip(const Reader& in, const YAML::Node& node, const std::string& key) {
+LipEdgeObservation ReadLip(const Reader& in, const YAML::Node& node, const std::string& key) {
   if (!IsMap(node)) in.Fail(key, "expected {mirror, edge, points}", Describe(node));
-  LipEdge lip;
-  lip.mirror = in.Integer(node, key, "mirror", 1);
-  if (lip.mirror > 2) in.Fail(Join(key, "mirror"), "expected 1 or 2", Describe(node["mirror"]));
-  lip.edge = in.String(node, key, "edge");
-  if (lip.edge != "inner" && lip.edge != "outer") {
+  LipEdgeObservation lip;
+  const int mirror = in.Integer(node, key, "mirror", 1);
+  if (mirror > 2) in.Fail(Join(key, "mirror"), "expected 1 or 2", Describe(node["mirror"]));
+  lip.mirror = mirror == 1 ? Mirror::kOne : Mirror::kTwo;
+  if (!ParseBandEdge(in.String(node, key, "edge"), &lip.edge)) {
     in.Fail(Join(key, "edge"), "expected inner or outer", Describe(node["edge"]));
   }
-  if (node["circle"].IsDefined()) lip.circle = in.String(node, key, "circle");
-  if (node["path"].IsDefined()) lip.path = in.String(node, key, "path");
+  if (node["circle"].IsDefined()) {
+    LipCircle circle;
+    if (!ParseLipCircle(in.String(node, key, "circle"), &circle)) {
+      in.Fail(Join(key, "circle"), "expected r_inner or r_outer", Describe(node["circle"]));
+    }
+    lip.circle = circle;
+  }
+  if (node["path"].IsDefined()) {
+    LipPath path;
+    if (!ParseLipPath(in.String(node, key, "path"), &path)) {
+      in.Fail(Join(key, "path"), "expected direct, via_mirror1, via_reflex or via_mirror2",
+              Describe(node["path"]));
+    }
+    if (LipOwner(path) != lip.mirror) {
+      in.Fail(Join(key, "path"),
+              std::string("expected a path imaging mirror ") + std::to_string(mirror) +
+                  "'s lip (" + LipPathName(path) + " images mirror " +
+                  std::to_string(MirrorIndex(LipOwner(path))) + "'s)",
+              Describe(node["path"]));
+    }
+    lip.path = path;
+  }
   const YAML::Node points = node["points"];
   const std::string pkey = Join(key, "points");
   if (!IsSequence(points)) in.Fail(pkey, "expected a list of [u, v]", Describe(points));
@@ -63,12 +84,12 @@ LipEdge ReadLip(const Reader& in, const YAML::Node& node, const std::string& key
 
 }  // namespace
 
-Detections ReadDetectionsFile(const std::string& path) {
+Observations ReadDetectionsFile(const std::string& path) {
   const YAML::Node root = LoadYamlFile(path, "detections file");
   const Reader in(path);
   if (!IsMap(root)) in.Fail("format", "expected a YAML map starting with 'format:'", Describe(root));
   CheckFormat(in, root, kFormatPrefix, kFormatMajor);
-  Detections d;
+  Observations d;
   if (root["session"].IsDefined()) d.session = in.String(root, "", "session");
   const YAML::Node images = root["images"];
   if (!IsSequence(images)) in.Fail("images", "expected a list of images", Describe(images));
@@ -76,7 +97,7 @@ Detections ReadDetectionsFile(const std::string& path) {
     const std::string key = "images[" + std::to_string(i) + "]";
     const YAML::Node node = images[i];
     if (!IsMap(node)) in.Fail(key, "expected {file, width, height, corners, lips}", Describe(node));
-    ImageDetections image;
+    ImageObservations image;
     image.file = in.String(node, key, "file");
     image.width = in.Integer(node, key, "width", 1);
     image.height = in.Integer(node, key, "height", 1);
@@ -102,7 +123,7 @@ Detections ReadDetectionsFile(const std::string& path) {
   return d;
 }
 
-std::string DetectionsText(const Detections& d) {
+std::string DetectionsText(const Observations& d) {
   std::ostringstream out;
   auto quote = [](const std::string& s) {
     std::string q = "\"";
@@ -115,20 +136,20 @@ std::string DetectionsText(const Detections& d) {
   out << "format: omnistereo-detections/1\n";
   if (!d.session.empty()) out << "session: " << quote(d.session) << "\n";
   out << "images:" << (d.images.empty() ? " []" : "") << "\n";
-  for (const ImageDetections& image : d.images) {
+  for (const ImageObservations& image : d.images) {
     out << "  - file: " << quote(image.file) << "\n";
     out << "    width: " << image.width << "\n    height: " << image.height << "\n";
     out << "    # [target, corner id, mirror, u, v]\n";
     out << "    corners:" << (image.corners.empty() ? " []" : "") << "\n";
     for (const CornerObservation& c : image.corners) {
-      out << "      - [" << c.target << ", " << c.id << ", " << c.mirror << ", "
+      out << "      - [" << c.target << ", " << c.id << ", " << MirrorIndex(c.mirror) << ", "
           << FormatDouble(c.pixel.x()) << ", " << FormatDouble(c.pixel.y()) << "]\n";
     }
     out << "    lips:" << (image.lips.empty() ? " []" : "") << "\n";
-    for (const LipEdge& lip : image.lips) {
-      out << "      - {mirror: " << lip.mirror << ", edge: " << lip.edge;
-      if (!lip.circle.empty()) out << ", circle: " << lip.circle;
-      if (!lip.path.empty()) out << ", path: " << lip.path;
+    for (const LipEdgeObservation& lip : image.lips) {
+      out << "      - {mirror: " << MirrorIndex(lip.mirror) << ", edge: " << BandEdgeName(lip.edge);
+      if (lip.circle) out << ", circle: " << LipCircleName(*lip.circle);
+      if (lip.path) out << ", path: " << LipPathName(*lip.path);
       out << ", points: [";
       for (std::size_t i = 0; i < lip.points.size(); ++i) {
         out << (i ? ", " : "") << "[" << FormatDouble(lip.points[i].x()) << ", "
@@ -140,7 +161,7 @@ std::string DetectionsText(const Detections& d) {
   return out.str();
 }
 
-void WriteDetectionsFile(const std::string& path, const Detections& detections) {
+void WriteDetectionsFile(const std::string& path, const Observations& detections) {
   WriteFileAtomically(path, DetectionsText(detections));
 }
 

@@ -7,14 +7,13 @@
 #include <string>
 #include <string_view>
 
+#include "model/input_error.h"
+
 namespace omni::io {
 
-// Thrown for unreadable or invalid input files; what() names the file and the key (or line) and
-// says what was expected, ready to print as the one line a user sees.
-class InputError : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
+// Thrown for unreadable or invalid input files (model/input_error.h): what() names the file and
+// the key (or line) and says what was expected.
+using InputError = omni::InputError;
 
 // A file written under a temporary name in the folder of `path` (same file system, so the final
 // rename is atomic) and renamed onto `path` by Commit(). Destroyed without a successful Commit(),

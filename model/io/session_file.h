@@ -21,24 +21,11 @@
 #include <string>
 #include <vector>
 
+#include "model/calibration_settings.h"
 #include "model/io/image_file.h"
-
 #include "model/target.h"
 
 namespace omni::io {
-
-struct ShapePrior {
-  double sigma_c = 0.0;  // mm, on c1 or c2
-  double sigma_k = 0.0;  // unitless, on k1 or k2
-};
-
-struct SolverOptions {
-  int max_iterations = 100;
-  std::string loss = "huber";  // huber | cauchy | none
-  double loss_scale_px = 1.0;
-  double outlier_px = 3.0;     // reject observations whose residual norm exceeds this
-  int threads = 2;
-};
 
 struct Session {
   std::string path;                  // the session file as given

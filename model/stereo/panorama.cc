@@ -58,8 +58,6 @@ PanoramaGeometry MakePanoramaGeometry(const RigModel& model, const PanoramaOptio
   g.z_min = std::tan(theta_min);
   g.height = std::max(1, static_cast<int>(std::lround((g.z_max - g.z_min) / g.l_px)));
   g.radius_mm = options.cylinder_radius_mm;
-  const Pose<double> cam_from_mirror1 = PoseFromBlock(rig.mirror1_pose.data());
-  const Pose<double> cam_from_mirror2 = PoseFromBlock(rig.mirror2_pose.data());
   g.viewpoint_in_cam[0] = Focus1InCam(rig.mirror1_pose.data(), rig.mirror1_shape.data());
   g.viewpoint_in_cam[1] = Focus2InCam(rig.mirror2_pose.data(), rig.mirror2_shape.data(), rig.d);
   // The common axis: the baseline direction (from F2 up to F1).

@@ -8,19 +8,17 @@
 
 #include <Eigen/Cholesky>
 
-#include "model/io/yaml_reader.h"
-
 namespace omni::stereo {
 
 std::vector<CornerPair> PairCorners(const Triangulator& triangulator, int image,
-                                    const std::vector<io::CornerObservation>& corners,
+                                    const std::vector<CornerObservation>& corners,
                                     double max_gap_fraction) {
   // The azimuth of each observation's ray (0 where it does not back-project: never paired).
   std::vector<double> azimuth(corners.size(), 0.0);
   std::vector<char> ok(corners.size(), 0);
   for (size_t i = 0; i < corners.size(); ++i) {
     const auto ray = triangulator.model().Unproject(corners[i].pixel);
-    if (!ray || MirrorIndex(ray->mirror) != corners[i].mirror) continue;
+    if (!ray || ray->mirror != corners[i].mirror) continue;
     azimuth[i] = std::atan2(ray->ray.direction.y(), ray->ray.direction.x());
     ok[i] = 1;
   }
@@ -29,7 +27,7 @@ std::vector<CornerPair> PairCorners(const Triangulator& triangulator, int image,
   for (int i = 0; i < static_cast<int>(corners.size()); ++i) {
     if (!ok[i]) continue;
     const auto key = std::make_pair(corners[i].target, corners[i].id);
-    (corners[i].mirror == 1 ? ring1 : ring2)[key].push_back(i);
+    (corners[i].mirror == Mirror::kOne ? ring1 : ring2)[key].push_back(i);
   }
   struct Candidate {
     double azimuth_difference;
@@ -67,9 +65,6 @@ std::vector<CornerPair> PairCorners(const Triangulator& triangulator, int image,
   return pairs;
 }
 
-namespace {
-
-// The scene's distinct placement ranges (horizontal), boards within 10% merged, as bin centres.
 std::vector<double> RangeBins(const Truth& truth) {
   std::vector<double> ranges;
   for (const auto& image : truth.images) {
@@ -91,6 +86,8 @@ std::vector<double> RangeBins(const Truth& truth) {
   return bins;
 }
 
+namespace {
+
 double NearestBin(const std::vector<double>& bins, double range) {
   double best = range, best_d = INFINITY;
   for (double b : bins) {
@@ -101,65 +98,6 @@ double NearestBin(const std::vector<double>& bins, double range) {
 }
 
 }  // namespace
-
-Truth ReadTruthFile(const std::string& path) {
-  const io::Reader in(path);
-  const YAML::Node root = io::LoadYamlFile(path, "truth file (omnistereo-truth/1)");
-  io::CheckFormat(in, root, "omnistereo-truth/", 1);
-  Truth truth;
-  if (io::IsScalar(root["model"])) truth.model = root["model"].Scalar();
-  const YAML::Node images = root["images"];
-  if (!io::IsSequence(images)) in.Fail("images", "expected a list of images", io::Describe(images));
-  for (std::size_t i = 0; i < images.size(); ++i) {
-    const std::string key = "images[" + std::to_string(i) + "]";
-    const YAML::Node image = images[i];
-    if (!io::IsMap(image)) in.Fail(key, "expected a map", io::Describe(image));
-    TruthImage out;
-    out.file = in.String(image, key, "file");
-    const YAML::Node placements = image["placements"];
-    if (!io::IsSequence(placements)) {
-      in.Fail(key + ".placements", "expected a list", io::Describe(placements));
-    }
-    for (std::size_t p = 0; p < placements.size(); ++p) {
-      const std::string pkey = key + ".placements[" + std::to_string(p) + "]";
-      const std::vector<double> t = in.Numbers(placements[p], pkey, "translation");
-      if (t.size() != 3) in.Fail(pkey + ".translation", "expected 3 numbers", "another count");
-      out.placement_translation.emplace_back(t[0], t[1], t[2]);
-    }
-    const YAML::Node corners = image["corners"];
-    if (corners.IsDefined() && !corners.IsNull()) {
-      if (!corners.IsSequence()) in.Fail(key + ".corners", "expected a list", io::Describe(corners));
-      for (std::size_t c = 0; c < corners.size(); ++c) {
-        const std::string ckey = key + ".corners[" + std::to_string(c) + "]";
-        const YAML::Node row = corners[c];
-        if (!io::IsSequence(row) || row.size() != 10) {
-          in.Fail(ckey, "expected [placement, target, id, x, y, z, u1, v1, u2, v2]",
-                  io::Describe(row));
-        }
-        TruthCorner tc;
-        tc.placement = static_cast<int>(in.Number(row[0], ckey + "[0]"));
-        tc.target = static_cast<int>(in.Number(row[1], ckey + "[1]"));
-        tc.id = static_cast<int>(in.Number(row[2], ckey + "[2]"));
-        if (tc.placement < 0 || tc.placement >= static_cast<int>(out.placement_translation.size())) {
-          in.Fail(ckey + "[0]", "expected a placement index of this image", io::Describe(row[0]));
-        }
-        for (int k = 0; k < 3; ++k) {
-          tc.point_in_cam[k] = in.Number(row[3 + k], ckey + "[" + std::to_string(3 + k) + "]");
-        }
-        for (int m = 0; m < 2; ++m) {
-          const YAML::Node u = row[6 + 2 * m], v = row[7 + 2 * m];
-          if (u.IsNull() || v.IsNull()) continue;
-          tc.pixel[m] = Eigen::Vector2d(in.Number(u, ckey + "[" + std::to_string(6 + 2 * m) + "]"),
-                                        in.Number(v, ckey + "[" + std::to_string(7 + 2 * m) + "]"));
-        }
-        out.corners.push_back(tc);
-      }
-    }
-    truth.images.push_back(std::move(out));
-  }
-  truth.range_bins_mm = RangeBins(truth);
-  return truth;
-}
 
 std::vector<CornerPair> TruthPairs(const Truth& truth, double noise_px, std::mt19937* rng,
                                    double noise_px_ring2) {
@@ -185,7 +123,9 @@ std::vector<CornerPair> TruthPairs(const Truth& truth, double noise_px, std::mt1
 // A detected corner farther than this from the true pixel (in either ring) has no true corner.
 constexpr double kMaxPixelDistance = 3.0;
 
-std::optional<CornerError> CompareWithTruth(const Truth& truth, const CornerPair& pair,
+std::optional<CornerError> CompareWithTruth(const Truth& truth,
+                                            const std::vector<double>& range_bins_mm,
+                                            const CornerPair& pair,
                                             const TriangulatedPoint& estimate) {
   if (pair.image < 0 || pair.image >= static_cast<int>(truth.images.size())) return std::nullopt;
   const TruthImage& image = truth.images[pair.image];
@@ -198,7 +138,7 @@ std::optional<CornerError> CompareWithTruth(const Truth& truth, const CornerPair
   }
   if (!best) return std::nullopt;
   CornerError e;
-  e.range_bin_mm = NearestBin(truth.range_bins_mm,
+  e.range_bin_mm = NearestBin(range_bins_mm,
                               image.placement_translation[best->placement].head<2>().norm());
   e.error = estimate.point_in_cam - best->point_in_cam;
   e.covariance = estimate.covariance;
@@ -317,6 +257,7 @@ std::vector<SeedSpreadRow> SeedSpread(const Triangulator& triangulator, const Tr
     std::vector<double> per_seed;
   };
   std::map<double, Bin> bins;
+  const std::vector<double> range_bins = RangeBins(truth);
   const double s2 = noise_px_ring2 >= 0 ? noise_px_ring2 : noise_px;
   const Eigen::Vector4d omega(noise_px * noise_px, noise_px * noise_px, s2 * s2, s2 * s2);
   // The prediction: A at the exact pixels.
@@ -324,7 +265,7 @@ std::vector<SeedSpreadRow> SeedSpread(const Triangulator& triangulator, const Tr
   for (const CornerPair& pair : TruthPairs(truth, 0.0, &unused)) {
     const auto point = triangulator.Triangulate(pair.pixel1, pair.pixel2, options);
     if (!point) continue;
-    const auto e = CompareWithTruth(truth, pair, *point);
+    const auto e = CompareWithTruth(truth, range_bins, pair, *point);
     if (!e) continue;
     Bin& bin = bins[e->range_bin_mm];
     ++bin.points;
@@ -336,7 +277,7 @@ std::vector<SeedSpreadRow> SeedSpread(const Triangulator& triangulator, const Tr
     for (const CornerPair& pair : TruthPairs(truth, noise_px, &rng, s2)) {
       const auto point = triangulator.Triangulate(pair.pixel1, pair.pixel2, options);
       if (!point) continue;
-      const auto e = CompareWithTruth(truth, pair, *point);
+      const auto e = CompareWithTruth(truth, range_bins, pair, *point);
       if (!e) continue;
       run[e->range_bin_mm].first += e->error.squaredNorm();
       ++run[e->range_bin_mm].second;
@@ -410,6 +351,7 @@ SessionTriangulation TriangulatePairs(const Triangulator& triangulator,
                                       const TriangulationOptions& options,
                                       const OutputFrames& frames, const Truth* truth) {
   SessionTriangulation out;
+  const std::vector<double> range_bins = truth ? RangeBins(*truth) : std::vector<double>{};
   for (const auto& pair : pairs) {
     const auto point = triangulator.Triangulate(pair.pixel1, pair.pixel2, options);
     if (!point) {
@@ -418,7 +360,7 @@ SessionTriangulation TriangulatePairs(const Triangulator& triangulator,
     }
     out.points.push_back({pair, Moved(*point, frames.out_from_cam)});
     if (!truth) continue;
-    if (auto e = CompareWithTruth(*truth, pair, Moved(*point, frames.true_cam_from_cam))) {
+    if (auto e = CompareWithTruth(*truth, range_bins, pair, Moved(*point, frames.true_cam_from_cam))) {
       out.errors.push_back(*e);
     } else {
       ++out.unmatched;

@@ -1,7 +1,7 @@
 // The paper's sparse triangulation experiment (tab:rmse_triangulation_experiment): corners seen
 // in both rings are paired, triangulated (model/triangulation.h) and compared with the true
-// corners of a synthetic session (the `omnistereo-truth/1` file that `render` writes), per
-// horizontal range.
+// corners of a synthetic session (model/truth.h; the `omnistereo-truth/1` file that `render`
+// writes, read by model/io/truth_file.h), per horizontal range.
 #pragma once
 
 #include <cmath>
@@ -12,7 +12,8 @@
 
 #include <Eigen/Core>
 
-#include "model/io/detections_file.h"
+#include "model/observations.h"
+#include "model/truth.h"
 #include "model/triangulation.h"
 
 namespace omni::stereo {
@@ -35,30 +36,12 @@ struct CornerPair {
 // keeps none there (azimuths 4.1-5.6 deg apart, gaps 7-10% of the range).
 constexpr double kMaxPairAzimuthDifference = 5 * M_PI / 180;
 std::vector<CornerPair> PairCorners(const Triangulator& triangulator, int image,
-                                    const std::vector<io::CornerObservation>& corners,
+                                    const std::vector<CornerObservation>& corners,
                                     double max_gap_fraction = 0.05);
 
-// What the truth file says about one image.
-struct TruthCorner {
-  int placement = 0, target = 0, id = 0;
-  Eigen::Vector3d point_in_cam = Eigen::Vector3d::Zero();
-  std::optional<Eigen::Vector2d> pixel[2];  // [0] mirror 1, [1] mirror 2
-};
-struct TruthImage {
-  std::string file;
-  std::vector<Eigen::Vector3d> placement_translation;  // cam_from_target translations, mm
-  std::vector<TruthCorner> corners;
-};
-struct Truth {
-  std::string model;
-  std::vector<TruthImage> images;
-  // The scene's distinct horizontal placement ranges (boards within 10% merged; ReadTruthFile).
-  std::vector<double> range_bins_mm;
-};
-
-// Reads `omnistereo-truth/1` (synthetic/scene_file.h TruthText); throws io::InputError
-// naming the file and key.
-Truth ReadTruthFile(const std::string& path);
+// The scene's distinct horizontal placement ranges (boards within 10% merged), as the range
+// bins of the experiment's table.
+std::vector<double> RangeBins(const Truth& truth);
 
 // Corner pairs straight from the truth pixels, with Gaussian noise of noise_px per coordinate
 // (for running the experiment without a detector); ring 2 (mirror 2) gets noise_px_ring2 if
@@ -84,8 +67,10 @@ struct CornerError {
 // both rings. The target index is not used: a detector cannot tell apart chessboards of the same
 // rows x cols (the RMSE scene has one 4x5 board per range, differing only in square size), so
 // its target indices need not be the scene's. The range bin is the horizontal range of the board's placement,
-// rounded to the scene's distinct placement ranges (boards within 10% share a bin).
-std::optional<CornerError> CompareWithTruth(const Truth& truth, const CornerPair& pair,
+// rounded to the nearest of range_bins_mm (RangeBins(truth)).
+std::optional<CornerError> CompareWithTruth(const Truth& truth,
+                                            const std::vector<double>& range_bins_mm,
+                                            const CornerPair& pair,
                                             const TriangulatedPoint& estimate);
 
 struct RangeRow {

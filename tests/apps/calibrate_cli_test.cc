@@ -14,10 +14,12 @@
 #include <gtest/gtest.h>
 
 #include "calib/calibrate.h"
+#include "calib/session_options.h"
 #include "model/io/detections_file.h"
 #include "model/io/file_util.h"
 #include "model/io/model_file.h"
 #include "model/io/session_file.h"
+#include "model/io/truth_file.h"
 #include "model/stereo/sparse_triangulation.h"
 #include "tests/calib/calib_test_util.h"
 #include "tests/cli_test_util.h"
@@ -48,7 +50,7 @@ class CalibrateCli : public ::testing::Test {
         testing::MisalignedRig(), random,
         {testing::Chessboard(4, 11, 40.0), testing::Chessboard(5, 8, 50.0),
          testing::Chessboard(6, 7, 60.0)}));
-    detections_ = new io::Detections(testing::NoisyDetections(*session_, 0.1, 5));
+    detections_ = new Observations(testing::NoisyDetections(*session_, 0.1, 5));
     testing::AddLipDetections(testing::MisalignedRig(), 0.05, 6, detections_, 90);
   }
   static void TearDownTestSuite() {
@@ -74,7 +76,7 @@ class CalibrateCli : public ::testing::Test {
     return s;
   }
   // Writes the session and detections files; returns the command's arguments.
-  std::string Files(const io::Session& session, const io::Detections& detections) const {
+  std::string Files(const io::Session& session, const Observations& detections) const {
     io::WriteFileAtomically((dir_ / "session.yaml").string(),
                             io::SessionText(session, dir_.string()));
     io::WriteDetectionsFile((dir_ / "detections.yaml").string(), detections);
@@ -103,12 +105,12 @@ class CalibrateCli : public ::testing::Test {
   }
 
   static testing::SyntheticSession* session_;
-  static io::Detections* detections_;
+  static Observations* detections_;
   fs::path dir_;
 };
 
 testing::SyntheticSession* CalibrateCli::session_ = nullptr;
-io::Detections* CalibrateCli::detections_ = nullptr;
+Observations* CalibrateCli::detections_ = nullptr;
 
 // The CLI is the library plus file I/O: the model it writes carries the library's values and
 // sigmas (to the file's 17 significant digits; Ceres with 2 threads may reorder sums, hence a
@@ -137,7 +139,7 @@ TEST_F(CalibrateCli, WritesTheLibrarysCalibration) {
 }
 
 TEST_F(CalibrateCli, TooFewObservations) {
-  io::Detections one = *detections_;
+  Observations one = *detections_;
   one.images.resize(1);
   io::Session session = SessionWith(session_->targets);
   session.images.resize(1);
@@ -145,7 +147,7 @@ TEST_F(CalibrateCli, TooFewObservations) {
 }
 
 TEST_F(CalibrateCli, TargetsThatMatchNothing) {
-  io::Detections none = *detections_;
+  Observations none = *detections_;
   for (auto& image : none.images) image.corners.clear();
   ExpectFailure(Files(SessionWith(session_->targets), none), "match nothing");
 }
@@ -193,13 +195,13 @@ TEST_F(CalibrateCli, TruthPrintsTheCornerNoiseCheck) {
                 &err),
             0)
       << err;
-  const stereo::Truth truth = stereo::ReadTruthFile((dir_ / "truth.yaml").string());
-  io::Detections detections;
+  const Truth truth = io::ReadTruthFile((dir_ / "truth.yaml").string());
+  Observations detections;
   detections.session = "session.yaml";
   std::mt19937 rng(7);
   std::normal_distribution<double> noise(0.0, 0.1);
   for (const auto& image : truth.images) {
-    io::ImageDetections d;
+    ImageObservations d;
     d.file = image.file;
     d.width = 960;
     d.height = 720;
@@ -207,7 +209,8 @@ TEST_F(CalibrateCli, TruthPrintsTheCornerNoiseCheck) {
       for (int m = 0; m < 2; ++m) {
         if (!c.pixel[m]) continue;
         d.corners.push_back(
-            {c.target, c.id, m + 1, *c.pixel[m] + Eigen::Vector2d(noise(rng), noise(rng))});
+            {c.target, c.id, m == 0 ? Mirror::kOne : Mirror::kTwo,
+             *c.pixel[m] + Eigen::Vector2d(noise(rng), noise(rng))});
       }
     }
     detections.images.push_back(d);

@@ -26,7 +26,7 @@ testing::SyntheticSession Session(double range_min, double range_max, int images
                               {testing::Chessboard(6, 8, 40.0), testing::Chessboard(5, 7, 60.0), testing::Chessboard(6, 8, 40.0)});
 }
 
-std::string ErrorOf(const io::Detections& detections, const std::vector<TargetSpec>& targets) {
+std::string ErrorOf(const Observations& detections, const std::vector<TargetSpec>& targets) {
   try {
     CalibrationOptions options;
     options.progress = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
@@ -46,10 +46,10 @@ TEST(CalibDegenerate, TooFewObservations) {
 }
 
 // Keeps the placements whose centre (horizontal range rho, azimuth az about the axis) passes.
-io::Detections Filtered(const testing::SyntheticSession& session,
+Observations Filtered(const testing::SyntheticSession& session,
                         const std::function<bool(double rho, double az)>& keep_centre,
                         int* kept_placements) {
-  io::Detections detections = testing::NoisyDetections(session, 0.2, 1);
+  Observations detections = testing::NoisyDetections(session, 0.2, 1);
   *kept_placements = 0;
   for (size_t i = 0; i < detections.images.size(); ++i) {
     const auto& placements = session.scene.images[i].placements;
@@ -66,7 +66,7 @@ io::Detections Filtered(const testing::SyntheticSession& session,
       keep[target] = keep_centre(std::hypot(c.x(), c.y()), std::atan2(c.y(), c.x()));
       *kept_placements += keep[target];
     }
-    std::vector<io::CornerObservation> kept;
+    std::vector<CornerObservation> kept;
     for (const auto& c : detections.images[i].corners) {
       if (keep[c.target]) kept.push_back(c);
     }
@@ -78,7 +78,7 @@ io::Detections Filtered(const testing::SyntheticSession& session,
 TEST(CalibDegenerate, AllTargetsAtOneRange) {
   const auto session = Session(500, 2000, 30, 22);
   int kept = 0;
-  const io::Detections detections =
+  const Observations detections =
       Filtered(session, [](double rho, double) { return rho > 900 && rho < 1100; }, &kept);
   ASSERT_GE(kept, 3);
   const std::string error = ErrorOf(detections, session.targets);
@@ -88,7 +88,7 @@ TEST(CalibDegenerate, AllTargetsAtOneRange) {
 TEST(CalibDegenerate, AllTargetsInOneAzimuthSector) {
   const auto session = Session(500, 2000, 30, 23);
   int kept = 0;
-  const io::Detections detections =
+  const Observations detections =
       Filtered(session, [](double, double az) { return std::abs(az) < 30 * M_PI / 180; }, &kept);
   ASSERT_GE(kept, 3);
   const std::string error = ErrorOf(detections, session.targets);
@@ -97,7 +97,7 @@ TEST(CalibDegenerate, AllTargetsInOneAzimuthSector) {
 
 TEST(CalibDegenerate, TargetSpecMatchingNothing) {
   const auto session = Session(500, 2000, 3, 24);
-  io::Detections detections = testing::NoisyDetections(session, 0.2, 1);
+  Observations detections = testing::NoisyDetections(session, 0.2, 1);
   for (auto& image : detections.images) image.corners.clear();  // what a wrong rows x cols gives
   const std::string error = ErrorOf(detections, session.targets);
   EXPECT_NE(error.find("match nothing"), std::string::npos) << error;
@@ -105,7 +105,7 @@ TEST(CalibDegenerate, TargetSpecMatchingNothing) {
 
 TEST(CalibDegenerate, CornerOfAnUnknownTarget) {
   const auto session = Session(500, 2000, 3, 25);
-  io::Detections detections = testing::NoisyDetections(session, 0.2, 1);
+  Observations detections = testing::NoisyDetections(session, 0.2, 1);
   detections.images[0].corners[0].target = 99;
   const std::string error = ErrorOf(detections, session.targets);
   EXPECT_NE(error.find("InputError: "), std::string::npos) << error;

@@ -42,7 +42,7 @@ FastPathRun SolveDemoFastPath(const RigParams& truth_rig) {
   const RigParams& truth = run.truth;
   const RigParams ideal =
       synthetic::RigAtImageSize(testing::IdealRig(), truth.image_width, truth.image_height);
-  io::Detections detections = testing::NoisyDetections(session, kNoisePx, 17);
+  Observations detections = testing::NoisyDetections(session, kNoisePx, 17);
   testing::AddLipDetections(truth, 0.03, 19, &detections, 360);
   testing::AddSystematicLipOffsets(truth, 0.03, 23, &detections);
 

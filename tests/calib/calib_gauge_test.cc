@@ -41,7 +41,7 @@ CalibrationResult Analyse(const RigParams& truth, const std::vector<std::string>
       truth, random,
       {testing::Chessboard(6, 8, 40.0), testing::Chessboard(5, 7, 60.0),
        testing::Chessboard(6, 8, 40.0)});
-  io::Detections d = testing::NoisyDetections(session, 0.0, 1);
+  Observations d = testing::NoisyDetections(session, 0.0, 1);
   if (lips) testing::AddLipDetections(truth, 0.0, 1, &d, 180);
   CalibrationOptions options;
   options.estimate = groups;

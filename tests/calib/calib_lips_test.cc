@@ -33,14 +33,15 @@ TEST(CalibLips, LipsPinFocalLengthDistortionAndHeights) {
       truth, random,
       {testing::Chessboard(6, 8, 40.0), testing::Chessboard(5, 7, 60.0),
        testing::Chessboard(6, 8, 40.0)});
-  const io::Detections corners_only = testing::NoisyDetections(session, 0.3, 5);
-  io::Detections with_lips = corners_only;
+  const Observations corners_only = testing::NoisyDetections(session, 0.3, 5);
+  Observations with_lips = corners_only;
   testing::AddLipDetections(truth, 0.3, 7, &with_lips, 180);
   int n_lip_points = 0;
   for (const auto& e : with_lips.images[0].lips) {
     n_lip_points += static_cast<int>(e.points.size());
-    std::fprintf(stderr, "lip edge: mirror %d %s %s via %s, %zu points\n", e.mirror,
-                 e.edge.c_str(), e.circle.c_str(), e.path.c_str(), e.points.size());
+    std::fprintf(stderr, "lip edge: mirror %d %s %s via %s, %zu points\n", MirrorIndex(e.mirror),
+                 BandEdgeName(e.edge), LipCircleName(*e.circle), LipPathName(*e.path),
+                 e.points.size());
   }
   ASSERT_GT(n_lip_points, 100);
 

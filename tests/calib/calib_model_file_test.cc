@@ -20,7 +20,7 @@ TEST(CalibModelFile, CalibrationSectionRoundTrip) {
   random.seed = 11;
   const auto session = testing::MakeSession(
       truth, random, {testing::Chessboard(6, 8, 40.0), testing::Chessboard(5, 7, 60.0), testing::Chessboard(6, 8, 40.0)});
-  io::Detections d = testing::NoisyDetections(session, 0.3, 5);
+  Observations d = testing::NoisyDetections(session, 0.3, 5);
   testing::AddLipDetections(truth, 0.3, 7, &d, 90);
   d.images[0].corners[0].pixel += Eigen::Vector2d(25, 0);  // one outlier
   const CalibrationResult result = Calibrate(testing::IdealRig(), session.targets, d, {});

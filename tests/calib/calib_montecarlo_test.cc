@@ -39,7 +39,7 @@ TEST(CalibMonteCarlo, PredictedSigmaMatchesSpread) {
   std::vector<CalibrationResult> results(solves);
   auto run = [&](int first, int step) {
     for (int k = first; k < solves; k += step) {
-      io::Detections detections = testing::NoisyDetections(session, corner_noise_px, 1000 + k);
+      Observations detections = testing::NoisyDetections(session, corner_noise_px, 1000 + k);
       testing::AddLipDetections(truth, lip_noise_px, 5000 + k, &detections, 90);
       CalibrationOptions options;
       options.solver.threads = 1;

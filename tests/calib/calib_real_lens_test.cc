@@ -56,7 +56,7 @@ RealLensRun SolveRealLens(const RigParams& lens_rig, double noise_px) {
   run.truth = testing::MakeSceneSession(
       lens_rig, std::string(OMNI_SOURCE_DIR) + "/sample_configs/realistic_scene.yaml", &session);
   const RigParams& truth = run.truth;
-  io::Detections detections = testing::NoisyDetections(session, noise_px, 17);
+  Observations detections = testing::NoisyDetections(session, noise_px, 17);
   testing::AddLipDetections(truth, 0.03, 19, &detections, 360);
   testing::AddSystematicLipOffsets(truth, 0.03, 23, &detections);
 

@@ -34,7 +34,7 @@ TEST(CalibRecovery, MisalignedRigWithinThreeSigma) {
   random.seed = 11;
   const auto session = testing::MakeSession(truth, random, {testing::Chessboard(6, 8, 40.0), testing::Chessboard(5, 7, 60.0), testing::Chessboard(6, 8, 40.0)});
   const double noise_px = 0.3;
-  const io::Detections detections = testing::NoisyDetections(session, noise_px, 5);
+  const Observations detections = testing::NoisyDetections(session, noise_px, 5);
 
   CalibrationOptions options;
   options.estimate = {"camera", "mirror1_pose", "mirror2_pose", "reflex"};

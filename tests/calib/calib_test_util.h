@@ -15,7 +15,7 @@
 #include "calib/calibrate.h"
 #include "synthetic/scene.h"
 #include "synthetic/scene_file.h"
-#include "model/io/detections_file.h"
+#include "model/observations.h"
 #include "model/io/model_file.h"
 #include "model/lip.h"
 #include "model/target.h"
@@ -78,13 +78,13 @@ inline SyntheticSession MakeSession(const RigParams& truth_rig,
 }
 
 // The session's detections: every visible corner with N(0, noise_px^2) added to u and v.
-inline io::Detections NoisyDetections(const SyntheticSession& s, double noise_px, unsigned seed) {
+inline Observations NoisyDetections(const SyntheticSession& s, double noise_px, unsigned seed) {
   std::mt19937 rng(seed);
   std::normal_distribution<double> noise(0.0, noise_px);
-  io::Detections d;
+  Observations d;
   d.session = "synthetic";
   for (size_t i = 0; i < s.truth.size(); ++i) {
-    io::ImageDetections image;
+    ImageObservations image;
     image.file = s.scene.images[i].name + ".png";
     image.width = 1280;
     image.height = 960;
@@ -98,10 +98,10 @@ inline io::Detections NoisyDetections(const SyntheticSession& s, double noise_px
     for (const auto& c : s.truth[i]) {
       for (int m = 0; m < 2; ++m) {
         if (!c.pixel[m]) continue;
-        io::CornerObservation o;
+        CornerObservation o;
         o.target = session_target[c.placement];
         o.id = c.id;
-        o.mirror = m + 1;
+        o.mirror = m == 0 ? Mirror::kOne : Mirror::kTwo;
         o.pixel = *c.pixel[m] + Eigen::Vector2d(noise(rng), noise(rng));
         image.corners.push_back(o);
       }
@@ -118,7 +118,7 @@ inline io::Detections NoisyDetections(const SyntheticSession& s, double noise_px
 // model/lip.h at the truth rig plus N(0, noise_px^2) per axis; `profiles` azimuths per circle.
 // Added to every image of `detections` (each image sees the same lips, with its own noise).
 inline void AddLipDetections(const RigParams& truth, double noise_px, unsigned seed,
-                             io::Detections* detections, int profiles = 360) {
+                             Observations* detections, int profiles = 360) {
   const RigModel model(truth);
   const Eigen::Vector2d centre(truth.camera[2], truth.camera[3]);
   struct Image {
@@ -171,11 +171,11 @@ inline void AddLipDetections(const RigParams& truth, double noise_px, unsigned s
   for (auto& image : detections->images) {
     for (const auto& [key, points] : edges) {
       if (points.size() < 30) continue;  // the detector drops short edges
-      io::LipEdge edge;
-      edge.mirror = std::get<0>(key);
-      edge.edge = std::get<1>(key) ? "outer" : "inner";
-      edge.path = LipPathName(static_cast<LipPath>(std::get<2>(key)));
-      edge.circle = LipCircleName(static_cast<LipCircle>(std::get<3>(key)));
+      LipEdgeObservation edge;
+      edge.mirror = std::get<0>(key) == 1 ? Mirror::kOne : Mirror::kTwo;
+      edge.edge = std::get<1>(key) ? BandEdge::kOuter : BandEdge::kInner;
+      edge.path = static_cast<LipPath>(std::get<2>(key));
+      edge.circle = static_cast<LipCircle>(std::get<3>(key));
       for (const auto& p : points) edge.points.push_back(p + Eigen::Vector2d(noise(rng), noise(rng)));
       image.lips.push_back(edge);
     }
@@ -186,7 +186,7 @@ inline void AddLipDetections(const RigParams& truth, double noise_px, unsigned s
 // one offset per edge, N(0, sigma_px^2), the same in every image: a detected lip edge's bias
 // (blur, anti-aliasing) repeats in every image, since the rig does not move.
 inline void AddSystematicLipOffsets(const RigParams& rig, double sigma_px, unsigned seed,
-                                    io::Detections* detections) {
+                                    Observations* detections) {
   std::mt19937 rng(seed);
   std::normal_distribution<double> noise(0.0, sigma_px);
   const Eigen::Vector2d centre(rig.camera[2], rig.camera[3]);

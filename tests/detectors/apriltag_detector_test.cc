@@ -123,8 +123,8 @@ TEST(AprilTagDetector, BothLayoutsInBothRingsMatchTheTruth) {
   for (const TagCornerDetection& d : found) {
     const auto& o = d.observation;
     const int layout = r.scene.targets[o.target].type == TargetType::kKalibrAprilGrid;
-    Stats& s = stats[layout][o.mirror - 1];
-    const auto it = truth.find({o.target, o.id, o.mirror});
+    Stats& s = stats[layout][MirrorIndex(o.mirror) - 1];
+    const auto it = truth.find({o.target, o.id, MirrorIndex(o.mirror)});
     if (it == truth.end() || (it->second - o.pixel).norm() > 2.0) {
       ++s.wrong;
       continue;
@@ -229,8 +229,8 @@ TEST(AprilTagDetector, RawEdgeFitBeatsTheViewCornersAgainstTruth) {
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     for (const TagCornerDetection& d : found) {
       const auto& o = d.observation;
-      Stats& s = stats[refine][o.mirror - 1];
-      const auto it = true_pixel.find({o.id, o.mirror});
+      Stats& s = stats[refine][MirrorIndex(o.mirror) - 1];
+      const auto it = true_pixel.find({o.id, MirrorIndex(o.mirror)});
       if (o.target != target || it == true_pixel.end() || (it->second - o.pixel).norm() > 1.0) {
         ++s.wrong;
         continue;

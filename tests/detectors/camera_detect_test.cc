@@ -60,14 +60,14 @@ TEST(CameraImages, ChessboardsNearAndFarInBothRingsOfARealisticCamera) {
 
   DetectorContext ctx(rig, scene.targets);
   ctx.tone = io::ToneCurve::kSrgb;
-  const io::ImageDetections det = DetectImage(photo, &ctx);
+  const ImageObservations det = DetectImage(photo, &ctx);
   int visible[2] = {0, 0}, found[2] = {0, 0}, wrong = 0;
   double sum[2] = {0, 0}, worst[2] = {0, 0};
   for (const auto& c : truth) {
     for (int m = 0; m < 2; ++m) visible[m] += c.pixel[m].has_value();
   }
   for (const auto& o : det.corners) {
-    const int m = o.mirror - 1;
+    const int m = MirrorIndex(o.mirror) - 1;
     double d = 0;
     const synthetic::CornerTruth* near = omni::testing::NearestTruth(truth, o.mirror, o.pixel, &d);
     if (!near || d > 3 || near->id != o.id || near->target != o.target) {

@@ -103,7 +103,7 @@ Rendered RenderBoards() {
 TEST(ChessboardDetector, ThreeBoardsInBothRingsMatchTheTruth) {
   const Rendered r = RenderBoards();
   DetectorContext ctx(r.rig, r.scene.targets, /*use_lips=*/false);
-  const io::ImageDetections det = DetectImage(r.image, &ctx);
+  const ImageObservations det = DetectImage(r.image, &ctx);
 
   // Truth by (target, id, mirror).
   std::map<std::tuple<int, int, int>, Eigen::Vector2d> truth;
@@ -119,19 +119,19 @@ TEST(ChessboardDetector, ThreeBoardsInBothRingsMatchTheTruth) {
   std::map<std::pair<int, int>, int> found_per_board;  // (target, mirror)
   int wrong = 0;
   for (const auto& o : det.corners) {
-    const auto it = truth.find({o.target, o.id, o.mirror});
+    const auto it = truth.find({o.target, o.id, MirrorIndex(o.mirror)});
     const double e = it == truth.end() ? 1e9 : (o.pixel - it->second).norm();
     if (e > 2.0) {  // a wrong id lands a square or more away from its truth
       ++wrong;
-      ADD_FAILURE() << "target " << o.target << " id " << o.id << " ring " << o.mirror
+      ADD_FAILURE() << "target " << o.target << " id " << o.id << " ring " << MirrorIndex(o.mirror)
                     << " is " << e << " px from its truth";
       continue;
     }
-    errors[o.mirror].push_back(e);
-    ++found_per_board[{o.target, o.mirror}];
+    errors[MirrorIndex(o.mirror)].push_back(e);
+    ++found_per_board[{o.target, MirrorIndex(o.mirror)}];
   }
   std::set<std::tuple<int, int, int>> reported;
-  for (const auto& o : det.corners) reported.insert({o.target, o.id, o.mirror});
+  for (const auto& o : det.corners) reported.insert({o.target, o.id, MirrorIndex(o.mirror)});
   for (const auto& [key, px] : truth) {
     if (!reported.count(key)) {
       std::printf("missed: target %d id %d ring %d at (%.1f, %.1f)\n", std::get<0>(key),
@@ -212,7 +212,7 @@ void ExpectHardBoards(const std::string& scene_file, const std::vector<HardBoard
     cv::imwrite(dir + "/" + image.name + ".png", raw);  // to look at when the test fails
 
     DetectorContext ctx(rig, scene.targets, /*use_lips=*/false);
-    const io::ImageDetections det = DetectImage(raw, &ctx);
+    const ImageObservations det = DetectImage(raw, &ctx);
     int found = 0, wrong = 0;
     std::vector<double> errors;
     for (const auto& o : det.corners) {
@@ -223,11 +223,11 @@ void ExpectHardBoards(const std::string& scene_file, const std::vector<HardBoard
       if (!nearest || nearest->target != o.target || nearest->id != o.id) {
         ++wrong;
         ADD_FAILURE() << image.name << ": target " << o.target << " id " << o.id << " ring "
-                      << o.mirror << ": the nearest truth is " << (nearest ? nearest->id : -1)
+                      << MirrorIndex(o.mirror) << ": the nearest truth is " << (nearest ? nearest->id : -1)
                       << " at " << e << " px";
         continue;
       }
-      if (o.target == c.target && o.mirror == c.mirror) {
+      if (o.target == c.target && MirrorIndex(o.mirror) == c.mirror) {
         ++found;
         errors.push_back(e);
       }

@@ -61,7 +61,7 @@ TEST(DetectCliTest, BadImagesAreSkippedWithOneLineEach) {
   EXPECT_NE(err.find("broken.png: cannot read"), std::string::npos) << err;
   EXPECT_NE(err.find("grey.png: no target corners found"), std::string::npos) << err;
   EXPECT_NE(out.find("1 of 3 images used (2 skipped)"), std::string::npos) << out;
-  const io::Detections det = io::ReadDetectionsFile((dir / "det.yaml").string());
+  const Observations det = io::ReadDetectionsFile((dir / "det.yaml").string());
   ASSERT_EQ(det.images.size(), 1u);
   EXPECT_EQ(det.images[0].file, "grey.png");
   EXPECT_EQ(det.images[0].width, 1280);
@@ -187,7 +187,7 @@ TEST(DetectCliTest, LipsOnlySessionPrintsTheLipsIntrinsics) {
   ASSERT_EQ(Detect(dir, &err, &out), 0) << err;
   EXPECT_EQ(err.find("no target corners"), std::string::npos) << err;
   EXPECT_NE(out.find("1 of 1 images used (0 skipped), 0 corners"), std::string::npos) << out;
-  const io::Detections det = io::ReadDetectionsFile((dir / "det.yaml").string());
+  const Observations det = io::ReadDetectionsFile((dir / "det.yaml").string());
   ASSERT_EQ(det.images.size(), 1u);
   EXPECT_GE(det.images[0].lips.size(), 3u);
   const auto at = out.find("lips only: f ");

@@ -80,14 +80,14 @@ std::array<RingScore, 2> Detect(const Case& c, const RigParams& detector_rig, bo
   ctx.tone = io::ToneCurve::kSrgb;
   ctx.guided.enabled = guided_on;
   std::vector<bool> guided;
-  const io::ImageDetections det = DetectImage(c.photo, &ctx, nullptr, &guided);
+  const ImageObservations det = DetectImage(c.photo, &ctx, nullptr, &guided);
   std::array<RingScore, 2> s;
   for (const auto& t : c.truth) {
     for (int m = 0; m < 2; ++m) s[m].visible += t.pixel[m].has_value();
   }
   for (size_t k = 0; k < det.corners.size(); ++k) {
-    const io::CornerObservation& o = det.corners[k];
-    RingScore& r = s[o.mirror - 1];
+    const CornerObservation& o = det.corners[k];
+    RingScore& r = s[MirrorIndex(o.mirror) - 1];
     double d = 0;
     const synthetic::CornerTruth* near = omni::testing::NearestTruth(c.truth, o.mirror, o.pixel, &d);
     if (!near || d > 3 || near->id != o.id || near->target != o.target) {

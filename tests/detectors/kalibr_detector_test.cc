@@ -164,15 +164,15 @@ TEST(KalibrDetector, GridsAtHalfToTwoMetresInBothRingsMatchTheTruth) {
   }
   for (const TagCornerDetection& d : found) {
     const auto& o = d.observation;
-    Stats& s = stats[o.mirror - 1];
-    const auto it = truth.find({o.target, o.id, o.mirror});
+    Stats& s = stats[MirrorIndex(o.mirror) - 1];
+    const auto it = truth.find({o.target, o.id, MirrorIndex(o.mirror)});
     if (it == truth.end() || (it->second - o.pixel).norm() > 2.0) {
       ++s.wrong;
       continue;
     }
     const double e = (it->second - o.pixel).norm(), e_mapped = (it->second - d.mapped).norm();
     ++s.found;
-    ++per_target[{o.target, o.mirror}].first;
+    ++per_target[{o.target, MirrorIndex(o.mirror)}].first;
     s.sum += e;
     s.max = std::max(s.max, e);
     s.mapped_sum += e_mapped;
@@ -271,7 +271,7 @@ TEST(KalibrDetector, TagsCutByTheRingRimKeepTheirWholeCorners) {
       Score s;
       for (const TagCornerDetection& d : DetectTagCorners(raw, views, model, scene.targets, options)) {
         const auto& o = d.observation;
-        if (o.mirror != kMirror) continue;
+        if (MirrorIndex(o.mirror) != kMirror) continue;
         const auto it = truth_by_id.find(o.id);
         const double e = it == truth_by_id.end() || o.target != kKalibrTarget
                              ? 1e9 : (it->second - o.pixel).norm();

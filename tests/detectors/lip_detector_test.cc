@@ -42,7 +42,7 @@ void ExpectEdgesOnTheTrueCircleImages(const cv::Mat& image, const RigParams& tru
   for (const LipEdgeFit& fit : DetectLipEdges(image, prior)) {
     std::vector<double> d;
     for (const Eigen::Vector2d& p : fit.edge.points) {
-      d.push_back(DistanceToLipCircleImage(truth, fit.path, fit.circle, p));
+      d.push_back(DistanceToLipCircleImage(truth, *fit.edge.path, *fit.edge.circle, p));
     }
     ASSERT_FALSE(d.empty());
     std::sort(d.begin(), d.end());
@@ -51,15 +51,16 @@ void ExpectEdgesOnTheTrueCircleImages(const cv::Mat& image, const RigParams& tru
     mean /= d.size();
     std::printf("prior %s: lip %d %s edge = %s %s: %zu points (of %d found, %d profiles), "
                 "vs truth mean %.3f px, p95 %.3f px, max %.3f px; band %.1f, contrast %.1f, "
-                "noise %.2f levels\n", prior_name, fit.edge.mirror, fit.edge.edge.c_str(),
-                fit.edge.circle.c_str(), fit.edge.path.c_str(), d.size(), fit.n_found,
+                "noise %.2f levels\n", prior_name, MirrorIndex(fit.edge.mirror),
+                BandEdgeName(fit.edge.edge), LipCircleName(*fit.edge.circle),
+                LipPathName(*fit.edge.path), d.size(), fit.n_found,
                 fit.n_profiles, mean, d[d.size() * 95 / 100], d.back(), fit.band, fit.contrast,
                 fit.noise);
     EXPECT_LT(mean, mean_px);
     EXPECT_LT(d[d.size() * 95 / 100], p95_px);
     EXPECT_GE(d.size(), 60u);
-    EXPECT_EQ(fit.circle, LipCircle::kOuter);
-    found_kinds |= 1 << static_cast<int>(fit.path);
+    EXPECT_EQ(*fit.edge.circle, LipCircle::kOuter);
+    found_kinds |= 1 << static_cast<int>(*fit.edge.path);
   }
   EXPECT_EQ(found_kinds, (1 << static_cast<int>(LipPath::kDirect)) |
                              (1 << static_cast<int>(LipPath::kViaMirror1)) |
@@ -131,15 +132,15 @@ TEST_F(LipDetectorOnRender, LipOnlyPrincipalPointIsWhereTheMirrorBodyPutsTheLip)
   ASSERT_FALSE(image_->empty());
   const RigModel truth(*truth_);
   const RigModel prior(ReadSample("big_rig_ideal.yaml"));
-  const std::vector<io::LipEdge> edges = DetectLips(*image_, truth);
+  const std::vector<LipEdgeObservation> edges = DetectLips(*image_, truth);
   const LipReferencePoints ref = LipReferencePointsOf(*truth_);
   const Eigen::Vector2d pp(truth_->camera[2], truth_->camera[3]);
   const double f_true = 0.5 * (truth_->camera[0] + truth_->camera[1]);
   std::optional<LipIntrinsics> fits[3];
   for (int mirror = 0; mirror <= 2; ++mirror) {
-    std::vector<io::LipEdge> used;
-    for (const io::LipEdge& e : edges) {
-      if (mirror == 0 || e.mirror == mirror) used.push_back(e);
+    std::vector<LipEdgeObservation> used;
+    for (const LipEdgeObservation& e : edges) {
+      if (mirror == 0 || MirrorIndex(e.mirror) == mirror) used.push_back(e);
     }
     fits[mirror] = InitialIntrinsicsFromLips(used, prior);
     ASSERT_TRUE(fits[mirror]) << "mirror " << mirror;
@@ -274,10 +275,10 @@ std::map<LipPath, double> SignedOffsets(const cv::Mat& image, const RigParams& t
     double sum = 0;
     for (const Eigen::Vector2d& p : fit.edge.points) {
       Eigen::Vector2d q;
-      const double d = DistanceToLipCircleImage(truth, fit.path, fit.circle, p, &q);
+      const double d = DistanceToLipCircleImage(truth, *fit.edge.path, *fit.edge.circle, p, &q);
       sum += (p - pp).norm() > (q - pp).norm() ? d : -d;
     }
-    offsets[fit.path] = sum / std::max<size_t>(1, fit.edge.points.size());
+    offsets[*fit.edge.path] = sum / std::max<size_t>(1, fit.edge.points.size());
   }
   return offsets;
 }

@@ -10,16 +10,17 @@
 
 namespace omni::testing {
 
-// The true corner seen via `mirror` (1 or 2) nearest to `pixel`, and its distance; nullptr if
-// none is seen in that ring.
+// The true corner seen via `mirror` nearest to `pixel`, and its distance; nullptr if none is
+// seen in that ring.
 inline const synthetic::CornerTruth* NearestTruth(const std::vector<synthetic::CornerTruth>& truth,
-                                                  int mirror, const Eigen::Vector2d& pixel,
+                                                  Mirror mirror, const Eigen::Vector2d& pixel,
                                                   double* distance) {
+  const int m = MirrorIndex(mirror) - 1;
   const synthetic::CornerTruth* nearest = nullptr;
   *distance = 1e9;
   for (const auto& t : truth) {
-    if (!t.pixel[mirror - 1]) continue;
-    const double d = (pixel - *t.pixel[mirror - 1]).norm();
+    if (!t.pixel[m]) continue;
+    const double d = (pixel - *t.pixel[m]).norm();
     if (d < *distance) {
       *distance = d;
       nearest = &t;

@@ -106,7 +106,7 @@ Score ScoreRing(const std::vector<TagCornerDetection>& found,
   score.visible = static_cast<int>(truth_by_id.size());
   for (const TagCornerDetection& d : found) {
     const auto& o = d.observation;
-    if (o.target != kKalibrTarget || o.mirror != kMirror) continue;
+    if (o.target != kKalibrTarget || MirrorIndex(o.mirror) != kMirror) continue;
     const auto it = truth_by_id.find(o.id);
     const double e = it == truth_by_id.end() ? 1e9 : (it->second - o.pixel).norm();
     if (e > 3.0) {

@@ -103,7 +103,7 @@ std::map<std::pair<int, int>, GridResult> RenderAndDetect(const RigParams& rig,
   cv::imwrite(dir + "/" + image.name + ".png", raw);  // to look at when the test fails
 
   DetectorContext ctx(rig, scene.targets, /*use_lips=*/false);
-  const io::ImageDetections det = DetectImage(raw, &ctx);
+  const ImageObservations det = DetectImage(raw, &ctx);
   std::map<std::pair<int, int>, GridResult> results;
   std::map<std::tuple<int, int, int>, Eigen::Vector2d> by_key;
   for (const auto& c : truth) {
@@ -117,10 +117,10 @@ std::map<std::pair<int, int>, GridResult> RenderAndDetect(const RigParams& rig,
     // Wrong: the nearest true corner in the ring is another one.
     double e = 0;
     const synthetic::CornerTruth* nearest = testing::NearestTruth(truth, o.mirror, o.pixel, &e);
-    GridResult& r = results[{o.target, o.mirror}];
+    GridResult& r = results[{o.target, MirrorIndex(o.mirror)}];
     if (!nearest || nearest->target != o.target || nearest->id != o.id || e > 1.0) {
       ++r.wrong;
-      ADD_FAILURE() << "target " << o.target << " id " << o.id << " ring " << o.mirror
+      ADD_FAILURE() << "target " << o.target << " id " << o.id << " ring " << MirrorIndex(o.mirror)
                     << ": the nearest truth is target " << (nearest ? nearest->target : -1)
                     << " id " << (nearest ? nearest->id : -1) << " at " << e << " px";
       continue;

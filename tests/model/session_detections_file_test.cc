@@ -163,28 +163,28 @@ TEST_F(SessionFileTest, MalformedInputNamesTheKey) {
 }
 
 TEST(DetectionsFileTest, RoundTripsExactly) {
-  Detections d;
+  Observations d;
   d.session = "session.yaml";
-  ImageDetections image;
+  ImageObservations image;
   image.file = "images/0001.png";
   image.width = 1280;
   image.height = 960;
-  image.corners.push_back({0, 12, 1, Eigen::Vector2d(523.1123456789, 301.887)});
-  image.corners.push_back({2, 4 * 7 + 3, 2, Eigen::Vector2d(611.405, 1.0 / 3.0)});
-  LipEdge lip;
-  lip.mirror = 1;
-  lip.edge = "outer";
-  lip.circle = "r_outer";
-  lip.path = "direct";
+  image.corners.push_back({0, 12, Mirror::kOne, Eigen::Vector2d(523.1123456789, 301.887)});
+  image.corners.push_back({2, 4 * 7 + 3, Mirror::kTwo, Eigen::Vector2d(611.405, 1.0 / 3.0)});
+  LipEdgeObservation lip;
+  lip.mirror = Mirror::kOne;
+  lip.edge = BandEdge::kOuter;
+  lip.circle = LipCircle::kOuter;
+  lip.path = LipPath::kDirect;
   lip.points = {Eigen::Vector2d(233.1, 480.2), Eigen::Vector2d(233.4, 470.9)};
   image.lips.push_back(lip);
   d.images.push_back(image);
-  d.images.push_back(ImageDetections{"images/0002.png", 1280, 960, {}, {}});
+  d.images.push_back(ImageObservations{"images/0002.png", 1280, 960, {}, {}});
 
   const std::string path =
       (fs::temp_directory_path() / "omni_detections_roundtrip.yaml").string();
   WriteDetectionsFile(path, d);
-  const Detections r = ReadDetectionsFile(path);
+  const Observations r = ReadDetectionsFile(path);
   fs::remove(path);
   EXPECT_EQ(r.session, d.session);
   ASSERT_EQ(r.images.size(), 2u);
@@ -196,7 +196,9 @@ TEST(DetectionsFileTest, RoundTripsExactly) {
     EXPECT_EQ(r.images[0].corners[i].pixel, d.images[0].corners[i].pixel);  // bit for bit
   }
   ASSERT_EQ(r.images[0].lips.size(), 1u);
-  EXPECT_EQ(r.images[0].lips[0].path, "direct");
+  EXPECT_TRUE(r.images[0].lips[0].path == LipPath::kDirect);
+  EXPECT_TRUE(r.images[0].lips[0].circle == LipCircle::kOuter);
+  EXPECT_TRUE(r.images[0].lips[0].edge == BandEdge::kOuter);
   EXPECT_EQ(r.images[0].lips[0].points, lip.points);
   EXPECT_TRUE(r.images[1].corners.empty());
 }
@@ -226,6 +228,44 @@ TEST(DetectionsFileTest, BadRowsNameTheKey) {
           << e.what();
     }
   }
+  fs::remove(path);
+}
+
+// A lip edge's labels are checked when read: names as the format has them, and a path that
+// images the edge's own mirror's lip. Unlabelled edges (the format example's) are read as such.
+TEST(DetectionsFileTest, LipLabelsAreCheckedWhenRead) {
+  const std::string path = (fs::temp_directory_path() / "omni_detections_lips.yaml").string();
+  const auto file = [&](const std::string& lip) {
+    std::ofstream(path) << "format: omnistereo-detections/1\nimages:\n  - file: a.png\n"
+                           "    width: 10\n    height: 10\n    lips:\n      - "
+                        << lip << "\n";
+  };
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"{mirror: 1, edge: middle, points: [[1, 2]]}", "images[0].lips[0].edge"},
+      {"{mirror: 1, edge: inner, circle: r_middle, points: [[1, 2]]}", "images[0].lips[0].circle"},
+      {"{mirror: 1, edge: inner, path: via_mirror3, points: [[1, 2]]}", "images[0].lips[0].path"},
+      {"{mirror: 1, edge: inner, path: via_mirror2, points: [[1, 2]]}", "images[0].lips[0].path"},
+      {"{mirror: 3, edge: inner, points: [[1, 2]]}", "images[0].lips[0].mirror"},
+  };
+  for (const auto& [lip, key] : cases) {
+    file(lip);
+    try {
+      ReadDetectionsFile(path);
+      ADD_FAILURE() << "accepted " << lip;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(path + ": " + key + ":"), std::string::npos)
+          << e.what();
+      EXPECT_EQ(std::string(e.what()).find('\n'), std::string::npos) << e.what();
+    }
+  }
+  file("{mirror: 2, edge: outer, points: [[1, 2], [3, 4]]}");
+  const Observations unlabelled = ReadDetectionsFile(path);
+  ASSERT_EQ(unlabelled.images.at(0).lips.size(), 1u);
+  const LipEdgeObservation& edge = unlabelled.images[0].lips[0];
+  EXPECT_TRUE(edge.mirror == Mirror::kTwo && edge.edge == BandEdge::kOuter);
+  EXPECT_FALSE(edge.path.has_value());
+  EXPECT_FALSE(edge.circle.has_value());
+  EXPECT_EQ(edge.points.size(), 2u);
   fs::remove(path);
 }
 

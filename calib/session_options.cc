@@ -1,0 +1,15 @@
+#include "calib/session_options.h"
+
+namespace omni::calib {
+
+CalibrationOptions OptionsFromSession(const io::Session& session) {
+  CalibrationOptions options;
+  options.estimate = session.estimate;
+  options.priors = session.priors;
+  options.solver = session.solver;
+  options.use_lips = session.use_lips;
+  if (session.consider) options.considered_sigma = *session.consider;
+  return options;
+}
+
+}  // namespace omni::calib
