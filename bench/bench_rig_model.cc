@@ -72,11 +72,8 @@ void BM_RigProjectFromBlocksDouble(benchmark::State& state) {
     for (const auto& s : samples) {
       const bool ok =
           s.mirror == Mirror::kOne
-              ? ProjectViaMirror1(rig.camera.data(), rig.distortion.data(), rig.mirror1_shape.data(),
-                                  rig.mirror1_pose.data(), rig.reflex.data(), fixed, s.point, &px)
-              : ProjectViaMirror2(rig.camera.data(), rig.distortion.data(), rig.mirror1_pose.data(),
-                                  rig.reflex.data(), rig.mirror2_shape.data(),
-                                  rig.mirror2_pose.data(), fixed, s.point, &px);
+              ? ProjectViaMirror1(RigBlocksOf(rig), fixed, s.point, &px)
+              : ProjectViaMirror2(RigBlocksOf(rig), fixed, s.point, &px);
       benchmark::DoNotOptimize(ok);
       benchmark::DoNotOptimize(px);
     }
@@ -107,14 +104,14 @@ void BM_RigProjectJet(benchmark::State& state) {
   fill(rig.mirror1_pose);   // x[14..18]
   fill(rig.mirror2_pose);   // x[19..23]
   fill(rig.reflex);         // x[24..26]
+  const RigBlocks<J> blocks{&x[0], &x[5], &x[10], &x[14], &x[24], &x[12], &x[19]};
   Vec2<J> px;
   for (auto _ : state) {
     for (const auto& s : samples) {
       const Vec3<J> p(J(s.point.x(), 0), J(s.point.y(), 1), J(s.point.z(), 2));
       const bool ok = s.mirror == Mirror::kOne
-                          ? ProjectViaMirror1(&x[0], &x[5], &x[10], &x[14], &x[24], fixed, p, &px)
-                          : ProjectViaMirror2(&x[0], &x[5], &x[14], &x[24], &x[12], &x[19], fixed,
-                                              p, &px);
+                          ? ProjectViaMirror1(blocks, fixed, p, &px)
+                          : ProjectViaMirror2(blocks, fixed, p, &px);
       benchmark::DoNotOptimize(ok);
       benchmark::DoNotOptimize(px);
     }
@@ -170,7 +167,8 @@ struct Mirror1Residual {
   bool operator()(const T* camera, const T* distortion, const T* shape, const T* pose,
                   const T* reflex, const T* point, T* residual) const {
     Vec2<T> px;
-    if (!ProjectViaMirror1(camera, distortion, shape, pose, reflex, fixed,
+    if (!ProjectViaMirror1(RigBlocks<T>{camera, distortion, shape, pose, reflex, nullptr, nullptr},
+                           fixed,
                            Vec3<T>(point[0], point[1], point[2]), &px)) {
       return false;
     }
@@ -186,7 +184,8 @@ struct Mirror2Residual {
   bool operator()(const T* camera, const T* distortion, const T* pose1, const T* reflex,
                   const T* shape, const T* pose2, const T* point, T* residual) const {
     Vec2<T> px;
-    if (!ProjectViaMirror2(camera, distortion, pose1, reflex, shape, pose2, fixed,
+    if (!ProjectViaMirror2(RigBlocks<T>{camera, distortion, nullptr, pose1, reflex, shape, pose2},
+                           fixed,
                            Vec3<T>(point[0], point[1], point[2]), &px)) {
       return false;
     }

@@ -108,7 +108,7 @@ void Calibrator::InitialiseLipAzimuths() {
   if (lips_.empty()) return;
   constexpr int kSamples = 1440;
   std::map<std::pair<int, double>, std::vector<std::pair<double, Eigen::Vector2d>>> curves;
-  const LipBlocks<double> blocks = LipBlocksOf(rig_);
+  const RigBlocks<double> blocks = RigBlocksOf(rig_);
   const Eigen::Vector2d centre(rig_.camera[2], rig_.camera[3]);
   for (LipObservation& l : lips_) {
     auto key = std::make_pair(static_cast<int>(l.path), l.radius);
@@ -259,7 +259,7 @@ void Calibrator::SelectRobustStageCorners() {
 
 bool Calibrator::ReprojectLip(const LipObservation& lip, Eigen::Vector2d* pixel) const {
   // The band edge with the occlusion by the disc's rim followed (model/lip.h ProjectLipEdge).
-  return ProjectLipEdge(LipBlocksOf(rig_), LipFixed(lip.path), lip.path, lip.radius, lip.z,
+  return ProjectLipEdge(RigBlocksOf(rig_), LipFixed(lip.path), lip.path, lip.radius, lip.z,
                         lip.phi[0], fixed_.r_ref, pixel) &&
          pixel->allFinite();
 }
@@ -281,14 +281,9 @@ double Calibrator::LipRms(int* count) const {
 bool Calibrator::Reproject(const Observation& obs, Eigen::Vector2d* pixel) const {
   const Eigen::Vector3d point =
       CornerInCam(placements_[obs.placement].cam_from_target.data(), obs.corner_in_target);
-  if (obs.mirror == 1) {
-    return ProjectViaMirror1(rig_.camera.data(), rig_.distortion.data(), rig_.mirror1_shape.data(),
-                             rig_.mirror1_pose.data(), rig_.reflex.data(), cost_fixed_[0], point,
-                             pixel);
-  }
-  return ProjectViaMirror2(rig_.camera.data(), rig_.distortion.data(), rig_.mirror1_pose.data(),
-                           rig_.reflex.data(), rig_.mirror2_shape.data(),
-                           rig_.mirror2_pose.data(), cost_fixed_[1], point, pixel);
+  const RigBlocks<double> blocks = RigBlocksOf(rig_);
+  return obs.mirror == 1 ? ProjectViaMirror1(blocks, cost_fixed_[0], point, pixel)
+                         : ProjectViaMirror2(blocks, cost_fixed_[1], point, pixel);
 }
 
 ceres::CostFunction* Calibrator::CostOf(size_t i) {

@@ -42,7 +42,9 @@ struct Mirror1PointResidual {
                   const T* mirror1_pose, const T* reflex, const T* point_in_cam,
                   T* residual) const {
     Vec2<T> pixel;
-    if (!ProjectViaMirror1(camera, distortion, mirror1_shape, mirror1_pose, reflex, fixed,
+    const RigBlocks<T> blocks{camera, distortion, mirror1_shape, mirror1_pose, reflex,
+                              nullptr, nullptr};
+    if (!ProjectViaMirror1(blocks, fixed,
                            Vec3<T>(point_in_cam[0], point_in_cam[1], point_in_cam[2]), &pixel)) {
       return false;
     }
@@ -65,9 +67,10 @@ struct Mirror2PointResidual {
                   const T* mirror2_shape, const T* mirror2_pose, const T* point_in_cam,
                   T* residual) const {
     Vec2<T> pixel;
-    if (!ProjectViaMirror2(camera, distortion, mirror1_pose, reflex, mirror2_shape, mirror2_pose,
-                           fixed, Vec3<T>(point_in_cam[0], point_in_cam[1], point_in_cam[2]),
-                           &pixel)) {
+    const RigBlocks<T> blocks{camera,        distortion,  nullptr, mirror1_pose, reflex,
+                              mirror2_shape, mirror2_pose};
+    if (!ProjectViaMirror2(blocks, fixed,
+                           Vec3<T>(point_in_cam[0], point_in_cam[1], point_in_cam[2]), &pixel)) {
       return false;
     }
     residual[0] = pixel.x() - T(observed.x());

@@ -41,7 +41,7 @@ struct LipPointCost {
   bool operator()(const T* camera, const T* distortion, const T* mirror1_shape,
                   const T* mirror1_pose, const T* reflex, const T* mirror2_shape,
                   const T* mirror2_pose, const T* phi, T* residual) const {
-    const LipBlocks<T> blocks{camera, distortion, mirror1_shape, mirror1_pose,
+    const RigBlocks<T> blocks{camera, distortion, mirror1_shape, mirror1_pose,
                               reflex, mirror2_shape, mirror2_pose};
     return LipEdgeResidual(blocks, fixed, path, T(radius), T(lip_z), phi[0], disc_radius_mm,
                            observed, residual);

@@ -146,7 +146,7 @@ class LipPrediction {
   LipPrediction(const RigModel& model, const LipDetectorOptions& options) : params_(model.params()) {
     const RigParams& rig = model.params();
     const Eigen::Vector2d centre(rig.camera[2], rig.camera[3]);
-    const LipBlocks<double> blocks = LipBlocksOf(rig);
+    const RigBlocks<double> blocks = RigBlocksOf(rig);
     for (Mirror owner : {Mirror::kOne, Mirror::kTwo}) {
       const std::array<LipPath, 2> paths =
           owner == Mirror::kOne ? std::array<LipPath, 2>{LipPath::kDirect, LipPath::kViaMirror1}

@@ -31,7 +31,7 @@ struct LipPointResidual {
       shape2[i] = T(rig.mirror2_shape[i]);
     }
     for (int i = 0; i < 3; ++i) reflex[i] = T(rig.reflex[i]);
-    const LipBlocks<T> blocks{camera, distortion, shape1, pose1, reflex, shape2, pose2};
+    const RigBlocks<T> blocks{camera, distortion, shape1, pose1, reflex, shape2, pose2};
     return LipEdgeResidual(blocks, model->fixed(), path, T(radius), T(LipOf(rig, path).z), phi[0],
                            model->fixed().r_ref, pixel, residual);
   }
@@ -103,7 +103,7 @@ std::optional<LipIntrinsics> InitialIntrinsicsFromLips(const std::vector<LipEdge
     for (int k = -kScanHalf; k <= kScanHalf; ++k) {
       Eigen::Vector2d q;
       const double a = phi0 + k * kScanStep;
-      if (!ProjectLipEdge(LipBlocksOf(rig), nominal.fixed(), p.path, p.radius,
+      if (!ProjectLipEdge(RigBlocksOf(rig), nominal.fixed(), p.path, p.radius,
                           LipOf(rig, p.path).z, a, nominal.fixed().r_ref, &q)) {
         continue;
       }

@@ -56,4 +56,22 @@ struct RadTan {
 bool Undistort(const RadTan<double>& dist, const Eigen::Vector2d& distorted,
                Eigen::Vector2d* undistorted);
 
+// The camera block [fx, fy, cx, cy, skew] and the distortion block [dist_k1, dist_k2, dist_p1,
+// dist_p2, dist_k3] of rig_params.h as the models above.
+template <typename T>
+Pinhole<T> PinholeFromBlock(const T* camera) {
+  return Pinhole<T>{camera[0], camera[1], camera[2], camera[3], camera[4]};
+}
+template <typename T>
+RadTan<T> RadTanFromBlock(const T* distortion) {
+  return RadTan<T>{distortion[0], distortion[1], distortion[2], distortion[3], distortion[4]};
+}
+
+// The pixel of a point (or direction) in C in front of the camera (z > 0): its normalised
+// coordinates distorted, then K [camera_intrinsic_matrix].
+template <typename T>
+Vec2<T> PixelOfPointInCam(const Pinhole<T>& cam, const RadTan<T>& dist, const Vec3<T>& p) {
+  return cam.PixelFromNormalized(dist.Distort(Vec2<T>(p.x() / p.z(), p.y() / p.z())));
+}
+
 }  // namespace omni

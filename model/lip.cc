@@ -57,12 +57,6 @@ std::string LipPaintChoices() {
   return out + "or \"#rrggbb\" (sRGB)";
 }
 
-LipBlocks<double> LipBlocksOf(const RigParams& rig) {
-  return LipBlocks<double>{rig.camera.data(),       rig.distortion.data(), rig.mirror1_shape.data(),
-                           rig.mirror1_pose.data(), rig.reflex.data(),     rig.mirror2_shape.data(),
-                           rig.mirror2_pose.data()};
-}
-
 const Lip& LipOf(const RigParams& rig, LipPath path) {
   return LipOwner(path) == Mirror::kOne ? rig.lip1 : rig.lip2;
 }
@@ -74,7 +68,7 @@ std::optional<Eigen::Vector2d> ProjectLipPoint(const RigModel& model, LipPath pa
   const Lip& lip = LipOf(rig, path);
   const double radius = circle == LipCircle::kInner ? lip.r_inner : lip.r_outer;
   Eigen::Vector2d pixel;
-  if (!ProjectLipPoint(LipBlocksOf(rig), model.fixed(), path, radius, lip.z, phi, &pixel,
+  if (!ProjectLipPoint(RigBlocksOf(rig), model.fixed(), path, radius, lip.z, phi, &pixel,
                        disc_margin_mm) ||
       !pixel.allFinite()) {
     return std::nullopt;
@@ -127,7 +121,7 @@ double DistanceToLipEdgeImage(const RigModel& model, LipPath path, LipCircle cir
   const RigParams& rig = model.params();
   const Lip& lip = LipOf(rig, path);
   const double radius = circle == LipCircle::kInner ? lip.r_inner : lip.r_outer;
-  const LipBlocks<double> blocks = LipBlocksOf(rig);
+  const RigBlocks<double> blocks = RigBlocksOf(rig);
   auto curve = [&](double phi, Eigen::Vector2d* q) {
     return ProjectLipEdge(blocks, model.fixed(), path, radius, lip.z, phi, model.fixed().r_ref, q);
   };

@@ -58,13 +58,13 @@ Vec3<T> LipPointInCam(const T* mirror_pose, const T& radius, const T& lip_z, con
 // front of the camera and the camera ray does not pass through the reflex disc (the disc's back
 // hides what lies beyond it).
 template <typename T>
-bool ProjectLipDirect(const T* camera, const T* distortion, const T* mirror1_pose, const T* reflex,
-                      const RigFixed& fixed, const Vec3<T>& point_in_cam, Vec2<T>* pixel) {
+bool ProjectLipDirect(const RigBlocks<T>& b, const RigFixed& fixed, const Vec3<T>& point_in_cam,
+                      Vec2<T>* pixel) {
   if (!(ScalarPart(point_in_cam.z()) > 0)) return false;
   // The reflex plane in C in double: validity only.
   double pose_d[5], reflex_d[3];
-  for (int i = 0; i < 5; ++i) pose_d[i] = ScalarPart(mirror1_pose[i]);
-  for (int i = 0; i < 3; ++i) reflex_d[i] = ScalarPart(reflex[i]);
+  for (int i = 0; i < 5; ++i) pose_d[i] = ScalarPart(b.mirror1_pose[i]);
+  for (int i = 0; i < 3; ++i) reflex_d[i] = ScalarPart(b.reflex[i]);
   const Plane<double> plane_in_cam = ReflexPlaneInCam(pose_d, reflex_d, fixed.d);
   const Eigen::Vector3d plane_point = plane_in_cam.point;
   const Eigen::Vector3d plane_normal = plane_in_cam.normal;
@@ -75,10 +75,8 @@ bool ProjectLipDirect(const T* camera, const T* distortion, const T* mirror1_pos
     const Eigen::Vector3d crossing = camera_side / (camera_side - point_side) * p;
     if ((crossing - plane_point).squaredNorm() <= fixed.r_ref * fixed.r_ref) return false;
   }
-  const Pinhole<T> cam{camera[0], camera[1], camera[2], camera[3], camera[4]};
-  const RadTan<T> dist{distortion[0], distortion[1], distortion[2], distortion[3], distortion[4]};
-  *pixel = cam.PixelFromNormalized(dist.Distort(
-      Vec2<T>(point_in_cam.x() / point_in_cam.z(), point_in_cam.y() / point_in_cam.z())));
+  *pixel = PixelOfPointInCam(PinholeFromBlock(b.camera), RadTanFromBlock(b.distortion),
+                             point_in_cam);
   return true;
 }
 
@@ -89,10 +87,9 @@ bool ProjectLipDirect(const T* camera, const T* distortion, const T* mirror1_pos
 // crossing's distance from the disc centre: how far inside the disc's rim the path runs (negative
 // where the rim hides the point; then the function returns false).
 template <typename T>
-bool ProjectLipViaReflex(const T* camera, const T* distortion, const T* mirror1_pose,
-                         const T* reflex, const RigFixed& fixed, const Vec3<T>& point_in_cam,
+bool ProjectLipViaReflex(const RigBlocks<T>& b, const RigFixed& fixed, const Vec3<T>& point_in_cam,
                          Vec2<T>* pixel, double* disc_margin_mm = nullptr) {
-  const Plane<T> plane = ReflexPlaneInCam(mirror1_pose, reflex, T(fixed.d));
+  const Plane<T> plane = ReflexPlaneInCam(b.mirror1_pose, b.reflex, T(fixed.d));
   const T camera_side = -plane.point.dot(plane.normal);
   const T point_side = (point_in_cam - plane.point).dot(plane.normal);
   if (!(ScalarPart(camera_side) > 0) || !(ScalarPart(point_side) > 0)) return false;
@@ -105,47 +102,29 @@ bool ProjectLipViaReflex(const T* camera, const T* distortion, const T* mirror1_
   const double margin = fixed.r_ref - (crossing - ScalarPart(plane.point)).norm();
   if (disc_margin_mm) *disc_margin_mm = margin;
   if (!(margin >= 0)) return false;
-  const Pinhole<T> cam{camera[0], camera[1], camera[2], camera[3], camera[4]};
-  const RadTan<T> dist{distortion[0], distortion[1], distortion[2], distortion[3], distortion[4]};
-  *pixel = cam.PixelFromNormalized(dist.Distort(
-      Vec2<T>(image_in_cam.x() / image_in_cam.z(), image_in_cam.y() / image_in_cam.z())));
+  *pixel = PixelOfPointInCam(PinholeFromBlock(b.camera), RadTanFromBlock(b.distortion),
+                             image_in_cam);
   return true;
 }
-
-// The raw parameter blocks one lip projection needs (pointers into RigParams-like storage).
-template <typename T>
-struct LipBlocks {
-  const T* camera;
-  const T* distortion;
-  const T* mirror1_shape;
-  const T* mirror1_pose;
-  const T* reflex;
-  const T* mirror2_shape;
-  const T* mirror2_pose;
-};
 
 // Pixel of the point at azimuth phi on a lip circle along a path; the lip is the path's owner's
 // (LipOwner) with the given radius and height in its mirror frame. False where the path is
 // invalid (see each path above and rig_model.h for the via_mirror paths).
 template <typename T>
-bool ProjectLipPoint(const LipBlocks<T>& b, const RigFixed& fixed, LipPath path, const T& radius,
+bool ProjectLipPoint(const RigBlocks<T>& b, const RigFixed& fixed, LipPath path, const T& radius,
                      const T& lip_z, const T& phi, Vec2<T>* pixel,
                      double* disc_margin_mm = nullptr) {
   const T* owner_pose = LipOwner(path) == Mirror::kOne ? b.mirror1_pose : b.mirror2_pose;
   const Vec3<T> point_in_cam = LipPointInCam(owner_pose, radius, lip_z, phi);
   switch (path) {
     case LipPath::kDirect:
-      return ProjectLipDirect(b.camera, b.distortion, b.mirror1_pose, b.reflex, fixed,
-                              point_in_cam, pixel);
+      return ProjectLipDirect(b, fixed, point_in_cam, pixel);
     case LipPath::kViaMirror1:
-      return ProjectViaMirror1(b.camera, b.distortion, b.mirror1_shape, b.mirror1_pose, b.reflex,
-                               fixed, point_in_cam, pixel);
+      return ProjectViaMirror1(b, fixed, point_in_cam, pixel);
     case LipPath::kViaReflex:
-      return ProjectLipViaReflex(b.camera, b.distortion, b.mirror1_pose, b.reflex, fixed,
-                                 point_in_cam, pixel, disc_margin_mm);
+      return ProjectLipViaReflex(b, fixed, point_in_cam, pixel, disc_margin_mm);
     case LipPath::kViaMirror2:
-      return ProjectViaMirror2(b.camera, b.distortion, b.mirror1_pose, b.reflex, b.mirror2_shape,
-                               b.mirror2_pose, fixed, point_in_cam, pixel);
+      return ProjectViaMirror2(b, fixed, point_in_cam, pixel);
   }
   return false;
 }
@@ -166,7 +145,7 @@ enum class LipBound { kCircle, kReflexRim };
 // path crosses the disc's plane ~14 mm outside it, the via_mirror paths' lip images lie well
 // inside their rings). disc_radius_mm <= 0: no clipping. *bound (optional) says which curve.
 template <typename T>
-bool ProjectLipEdge(const LipBlocks<T>& b, const RigFixed& fixed, LipPath path, const T& radius,
+bool ProjectLipEdge(const RigBlocks<T>& b, const RigFixed& fixed, LipPath path, const T& radius,
                     const T& lip_z, const T& phi, double disc_radius_mm, Vec2<T>* pixel,
                     LipBound* bound = nullptr) {
   if (bound) *bound = LipBound::kCircle;
@@ -190,11 +169,7 @@ bool ProjectLipEdge(const LipBlocks<T>& b, const RigFixed& fixed, LipPath path, 
     if (bound) *bound = LipBound::kReflexRim;
   }
   if (!(ScalarPart(crossing.z()) > 0)) return false;
-  const Pinhole<T> cam{b.camera[0], b.camera[1], b.camera[2], b.camera[3], b.camera[4]};
-  const RadTan<T> dist{b.distortion[0], b.distortion[1], b.distortion[2], b.distortion[3],
-                       b.distortion[4]};
-  *pixel = cam.PixelFromNormalized(
-      dist.Distort(Vec2<T>(crossing.x() / crossing.z(), crossing.y() / crossing.z())));
+  *pixel = PixelOfPointInCam(PinholeFromBlock(b.camera), RadTanFromBlock(b.distortion), crossing);
   return true;
 }
 
@@ -203,7 +178,7 @@ bool ProjectLipEdge(const LipBlocks<T>& b, const RigFixed& fixed, LipPath path, 
 // point. The one lip residual: the calibration's (calib/lip_cost.h, every block free) and the
 // lip-only intrinsics' (detectors/lip_intrinsics.cc, f and the principal point free).
 template <typename T>
-bool LipEdgeResidual(const LipBlocks<T>& b, const RigFixed& fixed, LipPath path, const T& radius,
+bool LipEdgeResidual(const RigBlocks<T>& b, const RigFixed& fixed, LipPath path, const T& radius,
                      const T& lip_z, const T& phi, double disc_radius_mm,
                      const Eigen::Vector2d& observed, T* residual) {
   Vec2<T> pixel;
@@ -212,9 +187,6 @@ bool LipEdgeResidual(const LipBlocks<T>& b, const RigFixed& fixed, LipPath path,
   residual[1] = pixel.y() - T(observed.y());
   return true;
 }
-
-// The blocks of a RigParams (double).
-LipBlocks<double> LipBlocksOf(const RigParams& rig);
 
 // The lip (RigParams::lip1 or lip2) a path images.
 const Lip& LipOf(const RigParams& rig, LipPath path);

@@ -17,14 +17,8 @@ RigFixed FixedOf(const RigParams& rig) {
 RigModel::RigModel(const RigParams& params)
     : params_(params),
       fixed_(FixedOf(params)),
-      path1_(Mirror1Path<double>::FromBlocks(params.camera.data(), params.distortion.data(),
-                                             params.mirror1_shape.data(),
-                                             params.mirror1_pose.data(), params.reflex.data(),
-                                             fixed_)),
-      path2_(Mirror2Path<double>::FromBlocks(params.camera.data(), params.distortion.data(),
-                                             params.mirror1_pose.data(), params.reflex.data(),
-                                             params.mirror2_shape.data(),
-                                             params.mirror2_pose.data(), fixed_)) {}
+      path1_(Mirror1Path<double>::FromBlocks(RigBlocksOf(params), fixed_)),
+      path2_(Mirror2Path<double>::FromBlocks(RigBlocksOf(params), fixed_)) {}
 
 std::optional<Eigen::Vector2d> RigModel::Project(const Eigen::Vector3d& point_in_cam,
                                                  Mirror mirror, ProjectionInfo* info) const {

@@ -85,6 +85,23 @@ inline bool FacesReflectiveSide(const HyperboloidSheet<double>& sheet, const Eig
   return (eye - s).dot(normal) < 0 && (point - s).dot(normal) < 0;
 }
 
+// The reflection point S on a mirror's sheet for an eye and a point (both in the mirror's body
+// frame) [reflection law], in T and in double (*s_d, for the validity checks that need no
+// derivatives). False if the solve fails, S lies outside r_min <= |S_xy| <= r_max (the mirror's
+// hole and rim), or the eye and the point are not in front of the mirror at S.
+template <typename T>
+bool ReflectOnSheet(const HyperboloidSheet<T>& sheet, const Vec3<T>& eye, const Vec3<T>& point,
+                    const ReflectionSolverOptions& solver, double r_min, double r_max,
+                    ProjectionInfo* info, Vec3<T>* s, Eigen::Vector3d* s_d) {
+  if (!SolveReflectionPoint(sheet, eye, point, solver, s, info ? &info->solver : nullptr)) {
+    return false;
+  }
+  *s_d = ScalarPart(*s);
+  const double r2 = s_d->head<2>().squaredNorm();
+  if (!(r2 >= r_min * r_min) || !(r2 <= r_max * r_max)) return false;
+  return FacesReflectiveSide(ScalarPart(sheet), *s_d, ScalarPart(eye), ScalarPart(point));
+}
+
 // The geometry of the mirror-1 path built from the parameter blocks.
 template <typename T>
 struct Mirror1Path {
@@ -95,17 +112,16 @@ struct Mirror1Path {
   Pose<T> cam_from_mirror;
   Plane<double> reflex_in_mirror;  // only decides validity (occlusion): no derivatives
 
-  static Mirror1Path FromBlocks(const T* camera, const T* distortion, const T* mirror1_shape,
-                                const T* mirror1_pose, const T* reflex, const RigFixed& fixed) {
-    Mirror1Path p{Pinhole<T>{camera[0], camera[1], camera[2], camera[3], camera[4]},
-                  RadTan<T>{distortion[0], distortion[1], distortion[2], distortion[3],
-                            distortion[4]},
-                  HyperboloidSheet<T>::Mirror1(mirror1_shape[0], mirror1_shape[1]),
+  // Reads camera, distortion, mirror1_shape, mirror1_pose, reflex.
+  static Mirror1Path FromBlocks(const RigBlocks<T>& b, const RigFixed& fixed) {
+    Mirror1Path p{PinholeFromBlock(b.camera),
+                  RadTanFromBlock(b.distortion),
+                  HyperboloidSheet<T>::Mirror1(b.mirror1_shape[0], b.mirror1_shape[1]),
                   Pose<T>{},
-                  PoseFromBlock(mirror1_pose),
+                  PoseFromBlock(b.mirror1_pose),
                   Plane<double>{}};
-    const double reflex_d[3] = {ScalarPart(reflex[0]), ScalarPart(reflex[1]),
-                                ScalarPart(reflex[2])};
+    const double reflex_d[3] = {ScalarPart(b.reflex[0]), ScalarPart(b.reflex[1]),
+                                ScalarPart(b.reflex[2])};
     p.reflex_in_mirror = ReflexPlaneInMirror1(reflex_d, fixed.d);
     p.mirror_from_cam = p.cam_from_mirror.Inverse();
     return p;
@@ -114,16 +130,13 @@ struct Mirror1Path {
   bool Project(const RigFixed& fixed, const Vec3<T>& point_in_cam, Vec2<T>* pixel,
                ProjectionInfo* info = nullptr) const {
     const Vec3<T> eye = mirror_from_cam.translation;  // the camera centre in M1
-    const Vec3<T> point = mirror_from_cam * point_in_cam;
     Vec3<T> s;
-    if (!SolveReflectionPoint(sheet, eye, point, fixed.solver, &s,
-                              info ? &info->solver : nullptr)) {
+    Eigen::Vector3d s_d;
+    if (!ReflectOnSheet(sheet, eye, mirror_from_cam * point_in_cam, fixed.solver, 0.0,
+                        fixed.r_sys, info, &s, &s_d)) {
       return false;
     }
-    // Validity in double (no derivatives needed).
-    const Eigen::Vector3d s_d = ScalarPart(s), eye_d = ScalarPart(eye), point_d = ScalarPart(point);
-    if (!(s_d.head<2>().squaredNorm() <= fixed.r_sys * fixed.r_sys)) return false;
-    if (!FacesReflectiveSide(ScalarPart(sheet), s_d, eye_d, point_d)) return false;
+    const Eigen::Vector3d eye_d = ScalarPart(eye);
     const Plane<double>& reflex_d = reflex_in_mirror;
     const double eye_side = (eye_d - reflex_d.point).dot(reflex_d.normal);
     const double s_side = (s_d - reflex_d.point).dot(reflex_d.normal);
@@ -138,8 +151,7 @@ struct Mirror1Path {
     }
     const Vec3<T> s_in_cam = cam_from_mirror * s;
     if (!(s_in_cam.z() > T(0))) return false;
-    *pixel = cam.PixelFromNormalized(
-        dist.Distort(Vec2<T>(s_in_cam.x() / s_in_cam.z(), s_in_cam.y() / s_in_cam.z())));
+    *pixel = PixelOfPointInCam(cam, dist, s_in_cam);
     if (info) {
       info->point_on_mirror = ScalarPart(s);
       info->point_on_mirror_in_cam = ScalarPart(s_in_cam);
@@ -161,16 +173,14 @@ struct Mirror2Path {
   Plane<T> reflex_in_cam;
   Vec3<T> virtual_camera_in_cam;  // O mirrored in the reflex plane
 
-  static Mirror2Path FromBlocks(const T* camera, const T* distortion, const T* mirror1_pose,
-                                const T* reflex, const T* mirror2_shape, const T* mirror2_pose,
-                                const RigFixed& fixed) {
-    const Plane<T> reflex_in_cam = ReflexPlaneInCam(mirror1_pose, reflex, T(fixed.d));
-    Mirror2Path p{Pinhole<T>{camera[0], camera[1], camera[2], camera[3], camera[4]},
-                  RadTan<T>{distortion[0], distortion[1], distortion[2], distortion[3],
-                            distortion[4]},
-                  HyperboloidSheet<T>::Mirror2(mirror2_shape[0], mirror2_shape[1], T(fixed.d)),
+  // Reads camera, distortion, mirror1_pose, reflex, mirror2_shape, mirror2_pose.
+  static Mirror2Path FromBlocks(const RigBlocks<T>& b, const RigFixed& fixed) {
+    const Plane<T> reflex_in_cam = ReflexPlaneInCam(b.mirror1_pose, b.reflex, T(fixed.d));
+    Mirror2Path p{PinholeFromBlock(b.camera),
+                  RadTanFromBlock(b.distortion),
+                  HyperboloidSheet<T>::Mirror2(b.mirror2_shape[0], b.mirror2_shape[1], T(fixed.d)),
                   Pose<T>{},
-                  PoseFromBlock(mirror2_pose),
+                  PoseFromBlock(b.mirror2_pose),
                   reflex_in_cam,
                   MirrorPoint(reflex_in_cam, Vec3<T>(T(0), T(0), T(0)))};
     p.mirror_from_cam = p.cam_from_mirror.Inverse();
@@ -180,17 +190,12 @@ struct Mirror2Path {
   bool Project(const RigFixed& fixed, const Vec3<T>& point_in_cam, Vec2<T>* pixel,
                ProjectionInfo* info = nullptr) const {
     const Vec3<T> eye = mirror_from_cam * virtual_camera_in_cam;
-    const Vec3<T> point = mirror_from_cam * point_in_cam;
     Vec3<T> s;
-    if (!SolveReflectionPoint(sheet, eye, point, fixed.solver, &s,
-                              info ? &info->solver : nullptr)) {
+    Eigen::Vector3d s_d;
+    if (!ReflectOnSheet(sheet, eye, mirror_from_cam * point_in_cam, fixed.solver, fixed.r_cam,
+                        fixed.r_sys, info, &s, &s_d)) {
       return false;
     }
-    // Validity in double (no derivatives needed).
-    const Eigen::Vector3d s_d = ScalarPart(s), eye_d = ScalarPart(eye), point_d = ScalarPart(point);
-    const double r2 = s_d.head<2>().squaredNorm();
-    if (!(r2 >= fixed.r_cam * fixed.r_cam) || !(r2 <= fixed.r_sys * fixed.r_sys)) return false;
-    if (!FacesReflectiveSide(ScalarPart(sheet), s_d, eye_d, point_d)) return false;
     const Vec3<T> s_in_cam = cam_from_mirror * s;
     const Plane<double> reflex_d = ScalarPart(reflex_in_cam);
     const Eigen::Vector3d virtual_camera_d = ScalarPart(virtual_camera_in_cam);
@@ -207,8 +212,7 @@ struct Mirror2Path {
       return false;  // the path misses the reflex disc
     }
     if (!(ScalarPart(crossing.z()) > 0)) return false;
-    *pixel = cam.PixelFromNormalized(
-        dist.Distort(Vec2<T>(crossing.x() / crossing.z(), crossing.y() / crossing.z())));
+    *pixel = PixelOfPointInCam(cam, dist, crossing);
     if (info) {
       info->point_on_mirror = ScalarPart(s);
       info->point_on_mirror_in_cam = ScalarPart(s_in_cam);
@@ -221,23 +225,18 @@ struct Mirror2Path {
 
 // Pixel of point_in_cam via mirror 1 (outer ring); false if invalid (see the file comment).
 template <typename T>
-bool ProjectViaMirror1(const T* camera, const T* distortion, const T* mirror1_shape,
-                       const T* mirror1_pose, const T* reflex, const RigFixed& fixed,
+bool ProjectViaMirror1(const RigBlocks<T>& blocks, const RigFixed& fixed,
                        const Vec3<T>& point_in_cam, Vec2<T>* pixel,
                        ProjectionInfo* info = nullptr) {
-  return Mirror1Path<T>::FromBlocks(camera, distortion, mirror1_shape, mirror1_pose, reflex, fixed)
-      .Project(fixed, point_in_cam, pixel, info);
+  return Mirror1Path<T>::FromBlocks(blocks, fixed).Project(fixed, point_in_cam, pixel, info);
 }
 
 // Pixel of point_in_cam via mirror 2 and the reflex disc (inner ring); false if invalid.
 template <typename T>
-bool ProjectViaMirror2(const T* camera, const T* distortion, const T* mirror1_pose,
-                       const T* reflex, const T* mirror2_shape, const T* mirror2_pose,
-                       const RigFixed& fixed, const Vec3<T>& point_in_cam, Vec2<T>* pixel,
+bool ProjectViaMirror2(const RigBlocks<T>& blocks, const RigFixed& fixed,
+                       const Vec3<T>& point_in_cam, Vec2<T>* pixel,
                        ProjectionInfo* info = nullptr) {
-  return Mirror2Path<T>::FromBlocks(camera, distortion, mirror1_pose, reflex, mirror2_shape,
-                                    mirror2_pose, fixed)
-      .Project(fixed, point_in_cam, pixel, info);
+  return Mirror2Path<T>::FromBlocks(blocks, fixed).Project(fixed, point_in_cam, pixel, info);
 }
 
 // A back-projected ray and the mirror (ring) it came from.

@@ -24,4 +24,10 @@ RigParams MakeIdealRig(const DesignParams& theta, double r_cam, const Pinhole<do
   return rig;
 }
 
+RigBlocks<double> RigBlocksOf(const RigParams& rig) {
+  return RigBlocks<double>{rig.camera.data(),       rig.distortion.data(), rig.mirror1_shape.data(),
+                           rig.mirror1_pose.data(), rig.reflex.data(),     rig.mirror2_shape.data(),
+                           rig.mirror2_pose.data()};
+}
+
 }  // namespace omni

@@ -64,13 +64,8 @@ struct RigParams {
 
   std::optional<CalibrationInfo> calibration;
 
-  Pinhole<double> Intrinsics() const {
-    return Pinhole<double>{camera[0], camera[1], camera[2], camera[3], camera[4]};
-  }
-  RadTan<double> Distortion() const {
-    return RadTan<double>{distortion[0], distortion[1], distortion[2], distortion[3],
-                          distortion[4]};
-  }
+  Pinhole<double> Intrinsics() const { return PinholeFromBlock(camera.data()); }
+  RadTan<double> Distortion() const { return RadTanFromBlock(distortion.data()); }
   DesignParams Design() const {
     return DesignParams{mirror1_shape[0], mirror2_shape[0], mirror1_shape[1], mirror2_shape[1], d,
                         r_sys};
@@ -81,6 +76,23 @@ struct RigParams {
                       r_sys,            r_ref,            r_cam,            Intrinsics()};
   }
 };
+
+// The raw parameter blocks one projection reads (pointers into RigParams-like storage, double
+// or Ceres jets): every optical path (rig_model.h, lip.h) takes this one bundle. A path leaves
+// the blocks it does not use unread, so a caller may pass nullptr for them (the mirror-1 path
+// reads neither mirror2 block).
+template <typename T>
+struct RigBlocks {
+  const T* camera;
+  const T* distortion;
+  const T* mirror1_shape;
+  const T* mirror1_pose;
+  const T* reflex;
+  const T* mirror2_shape;
+  const T* mirror2_pose;
+};
+// The blocks of a RigParams.
+RigBlocks<double> RigBlocksOf(const RigParams& rig);
 
 // An ideal rig from a design: r_ref from the design, lips at each mirror's rim (3 mm wide,
 // blue on mirror 1, red on mirror 2).

@@ -49,15 +49,19 @@ std::array<J, kNumModelParameters> JetParameters(const RigParams& p, bool seed) 
 }
 
 template <typename J>
+RigBlocks<J> BlocksOf(const std::array<J, kNumModelParameters>& x) {
+  return RigBlocks<J>{&x[kCamera], &x[kDistortion], &x[kShape1], &x[kPose1],
+                      &x[kReflex], &x[kShape2],     &x[kPose2]};
+}
+
+template <typename J>
 Mirror1Path<J> Path1(const std::array<J, kNumModelParameters>& x, const RigFixed& fixed) {
-  return Mirror1Path<J>::FromBlocks(&x[kCamera], &x[kDistortion], &x[kShape1], &x[kPose1],
-                                    &x[kReflex], fixed);
+  return Mirror1Path<J>::FromBlocks(BlocksOf(x), fixed);
 }
 
 template <typename J>
 Mirror2Path<J> Path2(const std::array<J, kNumModelParameters>& x, const RigFixed& fixed) {
-  return Mirror2Path<J>::FromBlocks(&x[kCamera], &x[kDistortion], &x[kPose1], &x[kReflex],
-                                    &x[kShape2], &x[kPose2], fixed);
+  return Mirror2Path<J>::FromBlocks(BlocksOf(x), fixed);
 }
 
 }  // namespace

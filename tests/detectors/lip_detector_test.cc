@@ -214,7 +214,7 @@ TEST_F(LipDetectorOnPaintedRealisticRender, LipsArePaintLitByTheRoom) {
       const double phi = 2 * M_PI * k / 3600;
       Eigen::Vector2d inner, outer, mid;
       const auto at = [&](double r, Eigen::Vector2d* px) {
-        return ProjectLipPoint(LipBlocksOf(pinhole_rig), model.fixed(), path, r, lip.z, phi, px);
+        return ProjectLipPoint(RigBlocksOf(pinhole_rig), model.fixed(), path, r, lip.z, phi, px);
       };
       // The band's middle, at least 1.5 px from both its edges (via mirror 2 the lip is 3.5 px
       // wide; its inner circle, on the mirror's rim, is just out of the mirror's reach).

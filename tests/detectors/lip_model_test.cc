@@ -151,7 +151,7 @@ TEST(LipModel, ViaReflexEdgeFollowsTheDiscRimWhereItHidesTheLip) {
                                           "/sample_configs/big_rig_large_reflex.yaml");
   const RigModel model(rig);
   const Eigen::Vector2d pp(rig.camera[2], rig.camera[3]);
-  const LipBlocks<double> blocks = LipBlocksOf(rig);
+  const RigBlocks<double> blocks = RigBlocksOf(rig);
   int on_rim = 0;
   double worst = 0, circle_miss = 0;
   for (int k = 0; k < 180; ++k) {
@@ -201,7 +201,7 @@ TEST(LipModel, ViaReflexRimEdgeJetDerivativeMatchesFiniteDifferences) {
   for (int i = 0; i < 3; ++i) reflex[i] = Jet(rig.reflex[i]);
   reflex[0] = Jet(rig.reflex[0], 0);
   p1[2] = Jet(rig.mirror1_pose[2], 1);
-  const LipBlocks<Jet> blocks{camera, dist, s1, p1, reflex, s2, p2};
+  const RigBlocks<Jet> blocks{camera, dist, s1, p1, reflex, s2, p2};
   Vec2<Jet> pixel;
   LipBound bound;
   ASSERT_TRUE(ProjectLipEdge(blocks, model.fixed(), LipPath::kViaReflex, Jet(rig.lip2.r_outer),
@@ -215,9 +215,9 @@ TEST(LipModel, ViaReflexRimEdgeJetDerivativeMatchesFiniteDifferences) {
     if (k == 1) { plus.mirror1_pose[2] += h[k]; minus.mirror1_pose[2] -= h[k]; }
     if (k == 2) { phi_p += h[k]; phi_m -= h[k]; }
     Eigen::Vector2d a, b;
-    ASSERT_TRUE(ProjectLipEdge(LipBlocksOf(plus), model.fixed(), LipPath::kViaReflex,
+    ASSERT_TRUE(ProjectLipEdge(RigBlocksOf(plus), model.fixed(), LipPath::kViaReflex,
                                rig.lip2.r_outer, rig.lip2.z, phi_p, rig.r_ref, &a));
-    ASSERT_TRUE(ProjectLipEdge(LipBlocksOf(minus), model.fixed(), LipPath::kViaReflex,
+    ASSERT_TRUE(ProjectLipEdge(RigBlocksOf(minus), model.fixed(), LipPath::kViaReflex,
                                rig.lip2.r_outer, rig.lip2.z, phi_m, rig.r_ref, &b));
     const Eigen::Vector2d fd = (a - b) / (2 * h[k]);
     EXPECT_NEAR(pixel.x().v[k], fd.x(), 1e-5 * (1 + std::abs(fd.x()))) << k;
@@ -248,7 +248,7 @@ TEST(LipModel, JetDerivativeMatchesFiniteDifferences) {
     camera[0] = Jet(rig.camera[0], 0);
     camera[2] = Jet(rig.camera[2], 1);
     const Jet phi_jet(phi, 2);
-    const LipBlocks<Jet> blocks{camera, dist, s1, p1, reflex, s2, p2};
+    const RigBlocks<Jet> blocks{camera, dist, s1, p1, reflex, s2, p2};
     Vec2<Jet> pixel;
     ASSERT_TRUE(ProjectLipPoint(blocks, model.fixed(), path, Jet(lip.r_outer), Jet(lip.z), phi_jet, &pixel));
     // Finite differences in double.

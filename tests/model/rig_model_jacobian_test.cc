@@ -31,10 +31,9 @@ constexpr Block kBlocks[] = {
 template <typename T>
 bool Evaluate(Mirror mirror, const T* x, const RigFixed& fixed, Vec2<T>* pixel) {
   const Vec3<T> point(x[0], x[1], x[2]);
-  if (mirror == Mirror::kOne) {
-    return ProjectViaMirror1(x + 3, x + 8, x + 13, x + 17, x + 27, fixed, point, pixel);
-  }
-  return ProjectViaMirror2(x + 3, x + 8, x + 17, x + 27, x + 15, x + 22, fixed, point, pixel);
+  const RigBlocks<T> blocks{x + 3, x + 8, x + 13, x + 17, x + 27, x + 15, x + 22};
+  return mirror == Mirror::kOne ? ProjectViaMirror1(blocks, fixed, point, pixel)
+                                : ProjectViaMirror2(blocks, fixed, point, pixel);
 }
 
 std::array<double, kNumInputs> Flatten(const RigParams& rig, const Eigen::Vector3d& p) {
