@@ -126,6 +126,32 @@ void PrintTruthProjection(const RigParams& truth, const RigParams& calibrated) {
               in_cam.rms_px[0], in_cam.max_px[0], in_cam.rms_px[1], in_cam.max_px[1]);
 }
 
+// Every observation the solve left out, one line each, with why.
+void PrintLeftOut(const calib::CalibrationResult& result, const Observations& detections) {
+  for (const auto& r : result.rejected) {
+    std::printf("left out: image %d (%s) target %d corner %d mirror %d at (%.2f, %.2f): %s",
+                r.image, detections.images[r.image].file.c_str(), r.target, r.id, r.mirror,
+                r.pixel.x(), r.pixel.y(), r.reason.c_str());
+    if (r.residual_px > 0) std::printf(" (%.2f px)", r.residual_px);
+    std::printf("\n");
+  }
+}
+
+// With the true rig known (synthetic sessions): the projection difference at 1 m, each group's
+// share of it, and the parameter error against the covariance.
+void PrintTruthShare(const calib::CalibrationResult& result, const RigParams& truth) {
+  PrintTruthProjection(truth, result.rig);
+  const calib::ProjectionErrorShare share = calib::ShareOfProjectionError(result, truth, 1000);
+  std::printf("  linearised, points in mirror 1's body: ring 1 %.3f px, ring 2 %.3f px; with "
+              "one group's error alone:", share.total_px[0], share.total_px[1]);
+  for (size_t g = 0; g < share.groups.size(); ++g) {
+    std::printf(" %s %.3f / %.3f", share.groups[g].c_str(), share.group_px[g][0],
+                share.group_px[g][1]);
+  }
+  std::printf("\n  parameter error against the covariance: chi^2 %.1f for %d parameters\n",
+              share.chi2, share.dof);
+}
+
 }  // namespace
 
 int RunCalibrate() {
@@ -158,13 +184,7 @@ int RunCalibrate() {
   std::optional<RigParams> truth;
   if (!FLAGS_truth_model.empty()) truth = io::ReadModelFile(FLAGS_truth_model);
   std::printf("%s", calib::ResultTable(result, truth ? &*truth : nullptr).c_str());
-  for (const auto& r : result.rejected) {
-    std::printf("left out: image %d (%s) target %d corner %d mirror %d at (%.2f, %.2f): %s",
-                r.image, detections.images[r.image].file.c_str(), r.target, r.id, r.mirror,
-                r.pixel.x(), r.pixel.y(), r.reason.c_str());
-    if (r.residual_px > 0) std::printf(" (%.2f px)", r.residual_px);
-    std::printf("\n");
-  }
+  PrintLeftOut(result, detections);
   if (!FLAGS_truth.empty()) PrintCornerNoiseCheck(result, detections, FLAGS_truth);
   std::printf("solved in %.2f s (%s); %zu target placements in %zu images\n", seconds,
               result.converged ? "converged" : "NOT converged", result.placements.size(),
@@ -176,18 +196,7 @@ int RunCalibrate() {
               "ring 1 %.3f px, ring 2 %.3f px\n",
               predicted.in_mirror1_px[0], predicted.in_mirror1_px[1], predicted.in_cam_px[0],
               predicted.in_cam_px[1]);
-  if (truth) {
-    PrintTruthProjection(*truth, result.rig);
-    const calib::ProjectionErrorShare share = calib::ShareOfProjectionError(result, *truth, 1000);
-    std::printf("  linearised, points in mirror 1's body: ring 1 %.3f px, ring 2 %.3f px; with "
-                "one group's error alone:", share.total_px[0], share.total_px[1]);
-    for (size_t g = 0; g < share.groups.size(); ++g) {
-      std::printf(" %s %.3f / %.3f", share.groups[g].c_str(), share.group_px[g][0],
-                  share.group_px[g][1]);
-    }
-    std::printf("\n  parameter error against the covariance: chi^2 %.1f for %d parameters\n",
-                share.chi2, share.dof);
-  }
+  if (truth) PrintTruthShare(result, *truth);
   io::WriteModelFile(FLAGS_out, result.rig);
   std::printf("calibrated model written to %s\n", FLAGS_out.c_str());
   return 0;

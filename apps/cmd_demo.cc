@@ -39,6 +39,34 @@ void PrintDifference(const char* label, const ProjectionDifference& d) {
               d.lost ? "   (some points not projected)" : "");
 }
 
+// The projection difference from the rendered rig before and after calibration, in mirror 1's
+// body, in C, and in C up to the best rotation.
+void PrintWhatCalibrationGained(const RigParams& truth, const RigParams& nominal,
+                                const RigParams& calibrated) {
+  Banner("what calibration gained");
+  const RigModel true_model(truth);
+  std::printf("projection difference from the true rig over the stereo band at 1 m, points fixed "
+              "in mirror 1's body\n(the rig's own frame, `triangulate --frame mirror1`):\n");
+  PrintDifference("ideal model:", CompareProjectionsInMirror1(true_model, RigModel(nominal), 1000));
+  PrintDifference("calibrated model:",
+                  CompareProjectionsInMirror1(true_model, RigModel(calibrated), 1000));
+  std::printf("points fixed in the camera frame C (adds C's pointing against the mirrors, which "
+              "the lens's held\ndecentring distortion dist_p1, dist_p2 leaves open):\n");
+  PrintDifference("ideal model:", CompareProjections(true_model, RigModel(nominal), 1000));
+  PrintDifference("calibrated model:", CompareProjections(true_model, RigModel(calibrated), 1000));
+  std::printf("the same after removing the best rotation of the camera frame (it turns every "
+              "measured point rigidly\nand changes no distance):\n");
+  Eigen::Vector3d rotation;
+  const ProjectionDifference ideal_aligned =
+      CompareProjectionsUpToRotation(true_model, RigModel(nominal), 1000, &rotation);
+  PrintDifference("ideal model:", ideal_aligned);
+  const ProjectionDifference calibrated_aligned =
+      CompareProjectionsUpToRotation(true_model, RigModel(calibrated), 1000, &rotation);
+  PrintDifference("calibrated model:", calibrated_aligned);
+  std::printf("  (the calibrated camera frame is turned %.3f deg from the true one)\n",
+              rotation.norm() * 180 / M_PI);
+}
+
 }  // namespace
 
 int RunDemo() {
@@ -79,29 +107,7 @@ int RunDemo() {
   FLAGS_truth = dir + "/truth.yaml";
   if (const int rc = RunCalibrate(); rc != 0) return rc;
 
-  Banner("what calibration gained");
-  const RigModel true_model(truth);
-  const RigParams calibrated = io::ReadModelFile(dir + "/calibrated.yaml");
-  std::printf("projection difference from the true rig over the stereo band at 1 m, points fixed "
-              "in mirror 1's body\n(the rig's own frame, `triangulate --frame mirror1`):\n");
-  PrintDifference("ideal model:", CompareProjectionsInMirror1(true_model, RigModel(nominal), 1000));
-  PrintDifference("calibrated model:",
-                  CompareProjectionsInMirror1(true_model, RigModel(calibrated), 1000));
-  std::printf("points fixed in the camera frame C (adds C's pointing against the mirrors, which "
-              "the lens's held\ndecentring distortion dist_p1, dist_p2 leaves open):\n");
-  PrintDifference("ideal model:", CompareProjections(true_model, RigModel(nominal), 1000));
-  PrintDifference("calibrated model:", CompareProjections(true_model, RigModel(calibrated), 1000));
-  std::printf("the same after removing the best rotation of the camera frame (it turns every "
-              "measured point rigidly\nand changes no distance):\n");
-  Eigen::Vector3d rotation;
-  const ProjectionDifference ideal_aligned =
-      CompareProjectionsUpToRotation(true_model, RigModel(nominal), 1000, &rotation);
-  PrintDifference("ideal model:", ideal_aligned);
-  const ProjectionDifference calibrated_aligned =
-      CompareProjectionsUpToRotation(true_model, RigModel(calibrated), 1000, &rotation);
-  PrintDifference("calibrated model:", calibrated_aligned);
-  std::printf("  (the calibrated camera frame is turned %.3f deg from the true one)\n",
-              rotation.norm() * 180 / M_PI);
+  PrintWhatCalibrationGained(truth, nominal, io::ReadModelFile(dir + "/calibrated.yaml"));
   std::printf("\noutputs in %s: images, truth.yaml, session.yaml, detections.yaml, overlay/, "
               "calibrated.yaml\n",
               fs::absolute(dir).string().c_str());
