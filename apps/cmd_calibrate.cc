@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstdio>
 #include <ctime>
+#include <filesystem>
 #include <set>
 #include <string>
 #include <tuple>
@@ -30,8 +31,11 @@
 #include "model/io/truth_file.h"
 #include "model/model_compare.h"
 #include "model/stereo/sparse_triangulation.h"
+#include "report/report.h"
 
 DEFINE_string(truth_model, "", "calibrate: the true model file, to add a truth column to the table");
+DEFINE_string(report, "", "calibrate: write an HTML report (index.html and its images) into this folder");
+DEFINE_double(report_range_mm, 2000, "calibrate --report: the range of the second projection-uncertainty map (mm)");
 DECLARE_string(truth);
 
 namespace omni::apps {
@@ -126,6 +130,40 @@ void PrintTruthProjection(const RigParams& truth, const RigParams& calibrated) {
               in_cam.rms_px[0], in_cam.max_px[0], in_cam.rms_px[1], in_cam.max_px[1]);
 }
 
+// Each detections image's frame: its file as written (absolute, or relative to the working
+// folder or to the detections file's folder), else the session's image of that index.
+std::vector<std::string> FramePaths(const Observations& detections, const io::Session& session) {
+  namespace fs = std::filesystem;
+  std::vector<std::string> out;
+  const fs::path base = fs::path(FLAGS_detections).parent_path();
+  for (size_t i = 0; i < detections.images.size(); ++i) {
+    const std::string& file = detections.images[i].file;
+    std::string path = i < session.images.size() ? session.images[i] : file;
+    for (const fs::path& candidate : {fs::path(file), base / file}) {
+      if (fs::is_regular_file(candidate)) {
+        path = candidate.string();
+        break;
+      }
+    }
+    out.push_back(path);
+  }
+  return out;
+}
+
+// The HTML report of --report; prints where it is.
+void WriteReport(const calib::CalibrationResult& result, const Observations& detections,
+                 const io::Session& session, double seconds) {
+  report::ReportInput in;
+  in.result = &result;
+  in.observations = &detections;
+  in.targets = session.targets;
+  in.image_paths = FramePaths(detections, session);
+  in.session = FLAGS_session;
+  in.solve_seconds = seconds;
+  in.range_mm = FLAGS_report_range_mm;
+  std::printf("report written to %s\n", report::WriteReport(FLAGS_report, in).c_str());
+}
+
 // Every observation the solve left out, one line each, with why.
 void PrintLeftOut(const calib::CalibrationResult& result, const Observations& detections) {
   for (const auto& r : result.rejected) {
@@ -199,6 +237,7 @@ int RunCalibrate() {
   if (truth) PrintTruthShare(result, *truth);
   io::WriteModelFile(FLAGS_out, result.rig);
   std::printf("calibrated model written to %s\n", FLAGS_out.c_str());
+  if (!FLAGS_report.empty()) WriteReport(result, detections, session, seconds);
   return 0;
 }
 

@@ -27,6 +27,7 @@
 DECLARE_string(overlay);
 DECLARE_string(truth_model);
 DECLARE_string(truth);
+DECLARE_string(report);
 
 namespace omni::apps {
 namespace {
@@ -105,11 +106,12 @@ int RunDemo() {
   FLAGS_out = dir + "/calibrated.yaml";
   FLAGS_truth_model = truth_path;
   FLAGS_truth = dir + "/truth.yaml";
+  FLAGS_report = dir + "/report";
   if (const int rc = RunCalibrate(); rc != 0) return rc;
 
   PrintWhatCalibrationGained(truth, nominal, io::ReadModelFile(dir + "/calibrated.yaml"));
   std::printf("\noutputs in %s: images, truth.yaml, session.yaml, detections.yaml, overlay/, "
-              "calibrated.yaml\n",
+              "calibrated.yaml, report/index.html\n",
               fs::absolute(dir).string().c_str());
   return 0;
 }

@@ -190,6 +190,11 @@ CalibrationResult Calibrator::Run() {
     result.placements.push_back(e);
   }
   for (const auto& o : obs_) {
+    Eigen::Vector2d projected;
+    if (o.rejected || !Reproject(o, &projected)) continue;
+    result.residuals.push_back({o.image, o.target, o.id, o.mirror, o.pixel, projected - o.pixel});
+  }
+  for (const auto& o : obs_) {
     if (o.rejected || !o.projectable) continue;
     for (auto& e : result.placements) {
       if (e.image == o.image && e.target == o.target) ++e.observations[o.mirror - 1];

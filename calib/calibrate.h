@@ -99,6 +99,16 @@ struct RejectedObservation {
   std::string reason;      // "outlier" | "not projectable" | "placement failed"
 };
 
+// A corner used in the final solve and its reprojection residual there.
+struct CornerResidual {
+  int image = 0;   // index into the detections' images
+  int target = 0;  // session target index
+  int id = 0;      // corner id
+  int mirror = 1;
+  Eigen::Vector2d pixel = Eigen::Vector2d::Zero();     // as detected
+  Eigen::Vector2d residual = Eigen::Vector2d::Zero();  // projected - detected, px
+};
+
 struct StageReport {
   std::string name;
   int iterations = 0;
@@ -173,6 +183,7 @@ struct CalibrationResult {
   double lip_rms_px = 0;   // of the used detected points' distances across the edge
   int n_parameters = 0;    // rig + pose parameters of the final solve
   std::vector<RejectedObservation> rejected;
+  std::vector<CornerResidual> residuals;  // every corner of the final solve
   std::vector<StageReport> stages;
   std::vector<TargetPlacementEstimate> placements;
   bool converged = false;

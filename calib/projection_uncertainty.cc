@@ -21,6 +21,7 @@ constexpr int kPointStride = 4;
 // point. A point counts where every perturbed model projects it in both rings.
 struct BandJacobian {
   Eigen::MatrixXd in_mirror1[2], in_cam[2];
+  std::vector<BandPoint> points;  // the usable points, in row order
 };
 
 BandJacobian Jacobians(const RigParams& rig, const std::vector<std::string>& names,
@@ -67,7 +68,11 @@ BandJacobian Jacobians(const RigParams& rig, const std::vector<std::string>& nam
   }
   BandJacobian out;
   int kept = 0;
-  for (int p = 0; p < n_points; ++p) kept += ok[p];
+  for (int p = 0; p < n_points; ++p) {
+    if (!ok[p]) continue;
+    ++kept;
+    out.points.push_back(band[p * kPointStride]);
+  }
   for (int f = 0; f < 2; ++f) {
     for (int m = 0; m < 2; ++m) {
       Eigen::MatrixXd& target = f == 0 ? out.in_mirror1[m] : out.in_cam[m];
@@ -92,9 +97,9 @@ double Step(const std::string& name, double sigma) {
 
 }  // namespace
 
-ProjectionUncertainty PredictProjectionUncertainty(const CalibrationResult& result,
-                                                   double range_mm) {
-  ProjectionUncertainty out;
+std::vector<PointUncertainty> ProjectionUncertaintyMap(const CalibrationResult& result,
+                                                       double range_mm) {
+  std::vector<PointUncertainty> out;
   const int n = static_cast<int>(result.names.size());
   if (n == 0) return out;
   // Columns: the refined parameters, then the named considered ones (their direct effect).
@@ -106,40 +111,60 @@ ProjectionUncertainty PredictProjectionUncertainty(const CalibrationResult& resu
     steps.push_back(Step(c.name, c.sigma));
   }
   const BandJacobian jac = Jacobians(result.rig, names, steps, range_mm);
+  out.resize(jac.points.size());
+  for (size_t p = 0; p < jac.points.size(); ++p) {
+    out[p].point_in_cam = jac.points[p].point_in_cam;
+    out[p].pixel[0] = jac.points[p].pixel[0];
+    out[p].pixel[1] = jac.points[p].pixel[1];
+  }
   const int n_named = static_cast<int>(result.considered.size());
   const int n_columns = static_cast<int>(result.considered_column_sigma.size());
+  const bool considered = result.considered_sensitivity.cols() == n_columns && n_columns > 0;
+  // Covariance without the considered share, rebuilt from the sensitivity.
+  Eigen::MatrixXd noise = result.covariance;
+  for (int c = 0; considered && c < n_columns; ++c) {
+    const Eigen::VectorXd s = result.considered_sensitivity.col(c);
+    noise -= result.considered_column_sigma(c) * result.considered_column_sigma(c) * s *
+             s.transpose();
+  }
   for (int f = 0; f < 2; ++f) {
     for (int m = 0; m < 2; ++m) {
       const Eigen::MatrixXd& j_all = f == 0 ? jac.in_mirror1[m] : jac.in_cam[m];
       if (j_all.rows() == 0) continue;
       const Eigen::MatrixXd j = j_all.leftCols(n);
-      // Pixel noise: trace(J C J^T); each considered column: its direct effect plus the
+      // Pixel noise: J C J^T per row; each considered column: its direct effect plus the
       // estimate's response to it, times its sigma.
-      double sum = 0;
-      if (result.considered_sensitivity.cols() == n_columns && n_columns > 0) {
-        // Covariance without the considered share, rebuilt from the sensitivity.
-        Eigen::MatrixXd share = Eigen::MatrixXd::Zero(n, n);
-        for (int c = 0; c < n_columns; ++c) {
-          const Eigen::VectorXd s = result.considered_sensitivity.col(c);
-          share += result.considered_column_sigma(c) * result.considered_column_sigma(c) * s *
-                   s.transpose();
-        }
-        const Eigen::MatrixXd noise = result.covariance - share;
-        sum += (j * noise * j.transpose()).trace();
-        for (int c = 0; c < n_columns; ++c) {
-          Eigen::VectorXd effect = j * result.considered_sensitivity.col(c);
-          if (c < n_named) effect += j_all.col(n + c);
-          sum += result.considered_column_sigma(c) * result.considered_column_sigma(c) *
-                 effect.squaredNorm();
-        }
-      } else {
-        sum = (j * result.covariance * j.transpose()).trace();
+      Eigen::VectorXd variance = (j * noise).cwiseProduct(j).rowwise().sum();
+      for (int c = 0; considered && c < n_columns; ++c) {
+        Eigen::VectorXd effect = j * result.considered_sensitivity.col(c);
+        if (c < n_named) effect += j_all.col(n + c);
+        variance += result.considered_column_sigma(c) * result.considered_column_sigma(c) *
+                    effect.cwiseAbs2();
       }
-      const double rms = std::sqrt(std::max(sum, 0.0) / (j.rows() / 2));
-      (f == 0 ? out.in_mirror1_px : out.in_cam_px)[m] = rms;
-      out.points = static_cast<int>(j.rows() / 2);
+      for (size_t p = 0; p < out.size(); ++p) {
+        const double v = std::max(variance(2 * p) + variance(2 * p + 1), 0.0);
+        (f == 0 ? out[p].in_mirror1_px : out[p].in_cam_px)[m] = std::sqrt(v);
+      }
     }
   }
+  return out;
+}
+
+ProjectionUncertainty PredictProjectionUncertainty(const CalibrationResult& result,
+                                                   double range_mm) {
+  ProjectionUncertainty out;
+  const std::vector<PointUncertainty> map = ProjectionUncertaintyMap(result, range_mm);
+  if (map.empty()) return out;
+  for (int m = 0; m < 2; ++m) {
+    double sum_mirror1 = 0, sum_cam = 0;
+    for (const PointUncertainty& p : map) {
+      sum_mirror1 += p.in_mirror1_px[m] * p.in_mirror1_px[m];
+      sum_cam += p.in_cam_px[m] * p.in_cam_px[m];
+    }
+    out.in_mirror1_px[m] = std::sqrt(sum_mirror1 / map.size());
+    out.in_cam_px[m] = std::sqrt(sum_cam / map.size());
+  }
+  out.points = static_cast<int>(map.size());
   return out;
 }
 

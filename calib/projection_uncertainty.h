@@ -38,6 +38,19 @@ struct ProjectionErrorShare {
 ProjectionUncertainty PredictProjectionUncertainty(const CalibrationResult& result,
                                                    double range_mm);
 
+// The same per point of the stereo band at range_mm (every 4th of model_compare.h's points that
+// every perturbed model projects): the predicted sigma of its pixel, sqrt(trace(J C J^T)) (the
+// RMS distance from the true pixel over draws of the calibration), per ring, the point held in
+// M1 or in C. PredictProjectionUncertainty is the RMS of these over the points.
+struct PointUncertainty {
+  Eigen::Vector3d point_in_cam = Eigen::Vector3d::Zero();
+  Eigen::Vector2d pixel[2];  // via mirror 1, mirror 2 (at the calibrated model)
+  double in_mirror1_px[2] = {0, 0};
+  double in_cam_px[2] = {0, 0};
+};
+std::vector<PointUncertainty> ProjectionUncertaintyMap(const CalibrationResult& result,
+                                                       double range_mm);
+
 ProjectionErrorShare ShareOfProjectionError(const CalibrationResult& result,
                                             const RigParams& truth, double range_mm);
 

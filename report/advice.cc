@@ -1,0 +1,147 @@
+// The report's advice (report.h Advice): what the data says a user should change, each rule a
+// measured gap, never a generic tip, so that a good session gets none.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <optional>
+
+#include "model/model_compare.h"
+#include "model/rig_model.h"
+#include "report/report.h"
+
+namespace omni::report {
+namespace {
+
+constexpr int kMinCornersPerRing = 100;   // fewer: the ring's parameters rest on little data
+constexpr int kMinOutliersToName = 10;    // outliers of one target in one image worth a look
+constexpr double kPrintErrorPx = 0.5;     // ... when their median residual is this large
+constexpr int kAzimuthSectors = 6;        // 60 deg each
+constexpr double kEmptyBandShare = 0.02;  // a third of the band with fewer corners is empty
+
+const char* RingName(int mirror) {
+  return mirror == 1 ? "the outer ring (mirror 1)" : "the inner ring (mirror 2)";
+}
+
+// The elevation (deg above C's xy plane, the axis up) of a pixel's ray towards the world.
+std::optional<double> RayElevation(const RigModel& model, const Eigen::Vector2d& pixel) {
+  const auto ray = model.Unproject(pixel);
+  if (!ray) return std::nullopt;
+  const Eigen::Vector3d& d = ray->ray.direction;
+  return std::atan2(d.z(), d.head<2>().norm()) * 180 / M_PI;
+}
+
+void CoverageAdvice(const ReportInput& in, std::vector<std::string>* out) {
+  const RigModel model(in.result->rig);
+  const std::vector<BandPoint> band = StereoBandPoints(model, 1000);
+  for (int m = 1; m <= 2; ++m) {
+    double lo = 1e9, hi = -1e9;
+    for (const BandPoint& p : band) {
+      if (const auto e = RayElevation(model, p.pixel[m - 1])) {
+        lo = std::min(lo, *e);
+        hi = std::max(hi, *e);
+      }
+    }
+    std::vector<double> elevation, azimuth;
+    for (const auto& r : in.result->residuals) {
+      if (r.mirror != m) continue;
+      const auto ray = model.Unproject(r.pixel);
+      if (!ray) continue;
+      const Eigen::Vector3d& d = ray->ray.direction;
+      elevation.push_back(std::atan2(d.z(), d.head<2>().norm()) * 180 / M_PI);
+      azimuth.push_back(std::atan2(d.y(), d.x()) * 180 / M_PI);
+    }
+    const int n = static_cast<int>(elevation.size());
+    char line[400];
+    if (n < kMinCornersPerRing) {
+      std::snprintf(line, sizeof(line),
+                    "%s has only %d corners in the solve: add images with targets in it (near "
+                    "targets fill the inner ring; tags need 3 px per bit there)",
+                    RingName(m), n);
+      out->push_back(line);
+      if (n == 0) continue;
+    }
+    if (hi > lo) {
+      const double third = (hi - lo) / 3;
+      int upper = 0, lower = 0;
+      for (double e : elevation) {
+        upper += e > hi - third;
+        lower += e < lo + third;
+      }
+      if (upper < kEmptyBandShare * n) {
+        std::snprintf(line, sizeof(line),
+                      "%s has %d corners above %.0f deg elevation (the upper third of its stereo "
+                      "band, up to %.0f deg): add targets higher",
+                      RingName(m), upper, hi - third, hi);
+        out->push_back(line);
+      }
+      if (lower < kEmptyBandShare * n) {
+        std::snprintf(line, sizeof(line),
+                      "%s has %d corners below %.0f deg elevation (the lower third of its stereo "
+                      "band, down to %.0f deg): add targets lower",
+                      RingName(m), lower, lo + third, lo);
+        out->push_back(line);
+      }
+    }
+    std::vector<int> sector(kAzimuthSectors, 0);
+    for (double a : azimuth) {
+      const int s = static_cast<int>(std::floor((a + 180) / (360.0 / kAzimuthSectors)));
+      ++sector[std::clamp(s, 0, kAzimuthSectors - 1)];
+    }
+    for (int s = 0; s < kAzimuthSectors; ++s) {
+      if (sector[s] > 0) continue;
+      const double from = -180 + s * 360.0 / kAzimuthSectors;
+      std::snprintf(line, sizeof(line),
+                    "%s has no corners between %.0f and %.0f deg azimuth (about C's z axis from "
+                    "its x axis): place targets there",
+                    RingName(m), from, from + 360.0 / kAzimuthSectors);
+      out->push_back(line);
+    }
+  }
+}
+
+// A target whose corners in one image are left out in numbers and far beyond the detector's
+// noise: a print that is not flat or not the session's size, or a wrong id, puts corners tenths
+// of a pixel to pixels off; a detector's less precise corners (outliers at a few of its sigmas,
+// 0.1-0.4 px for plain tags in the inner ring) are not named here.
+void OutlierAdvice(const ReportInput& in, std::vector<std::string>* out) {
+  std::map<std::pair<int, int>, std::vector<double>> outliers;  // (image, target) -> px
+  for (const auto& r : in.result->rejected) {
+    if (r.reason == "outlier") outliers[{r.image, r.target}].push_back(r.residual_px);
+  }
+  for (auto& [key, residuals] : outliers) {
+    if (static_cast<int>(residuals.size()) < kMinOutliersToName) continue;
+    std::sort(residuals.begin(), residuals.end());
+    const double median = residuals[residuals.size() / 2];
+    if (median < kPrintErrorPx) continue;
+    const auto& images = in.observations->images;
+    const std::string file =
+        key.first >= 0 && key.first < static_cast<int>(images.size()) ? images[key.first].file
+                                                                      : "?";
+    char line[400];
+    std::snprintf(line, sizeof(line),
+                  "image %s target %d: %zu corners left out as outliers (median %.2f px off); "
+                  "check the print (flat, the session's square or tag size) and the detections "
+                  "overlay",
+                  file.c_str(), key.second, residuals.size(), median);
+    out->push_back(line);
+  }
+}
+
+}  // namespace
+
+std::vector<std::string> Advice(const ReportInput& in) {
+  std::vector<std::string> out;
+  if (!in.result->converged) {
+    out.push_back("the final stage did not converge: raise solver.max_iterations in the session "
+                  "or start from a model nearer the rig");
+  }
+  CoverageAdvice(in, &out);
+  OutlierAdvice(in, &out);
+  for (const auto& u : in.result->unobservable) {
+    out.push_back(u.name + " is not determined by this session: " + u.hint);
+  }
+  return out;
+}
+
+}  // namespace omni::report

@@ -1,0 +1,24 @@
+// The report's figures, each written into the report's folder; each returns the file name (in
+// that folder) or, where it could not be made, an empty name and *note saying why.
+#pragma once
+
+#include <string>
+
+#include "report/report.h"
+
+namespace omni::report {
+
+// Residual vectors of the final solve per ring over the first frame (scaled, coloured by size).
+std::string ResidualVectors(const std::string& dir, const ReportInput& in, std::string* note);
+// Where corners were seen (both rings, every image) and the left-out ones, over the first frame.
+std::string CoverageImage(const std::string& dir, const ReportInput& in, std::string* note);
+// Histograms of the residuals' coordinates per ring against the Gaussian of their RMS.
+std::string ResidualHistograms(const std::string& dir, const ReportInput& in, std::string* note);
+// Residual RMS per image and ring.
+std::string PerImageRms(const std::string& dir, const ReportInput& in, std::string* note);
+// The predicted sigma of projection over each ring's stereo band (azimuth x elevation) for
+// points at range_mm held in mirror 1's body (calib/projection_uncertainty.h).
+std::string UncertaintyMap(const std::string& dir, const ReportInput& in, double range_mm,
+                           std::string* note);
+
+}  // namespace omni::report

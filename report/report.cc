@@ -1,0 +1,222 @@
+#include "report/report.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <map>
+#include <sstream>
+
+#include "calib/projection_uncertainty.h"
+#include "model/input_error.h"
+#include "model/io/file_util.h"
+#include "model/rig_parameters.h"
+#include "report/figures.h"
+
+namespace omni::report {
+namespace {
+
+std::string Escape(const std::string& text) {
+  std::string out;
+  for (char c : text) {
+    switch (c) {
+      case '&': out += "&amp;"; break;
+      case '<': out += "&lt;"; break;
+      case '>': out += "&gt;"; break;
+      case '"': out += "&quot;"; break;
+      default: out += c;
+    }
+  }
+  return out;
+}
+
+std::string Format(const char* format, double value) {
+  char buf[64];
+  std::snprintf(buf, sizeof(buf), format, value);
+  return buf;
+}
+
+// A figure, or the note saying why it is missing.
+std::string Figure(const std::string& file, const std::string& note, const std::string& caption) {
+  if (file.empty()) return "<p class=\"missing\">(" + Escape(caption) + ": " + Escape(note) + ")</p>\n";
+  return "<figure><img src=\"" + Escape(file) + "\" alt=\"" + Escape(caption) +
+         "\"><figcaption>" + Escape(caption) + "</figcaption></figure>\n";
+}
+
+std::string Summary(const ReportInput& in) {
+  const calib::CalibrationResult& r = *in.result;
+  std::ostringstream out;
+  int used[2] = {0, 0};
+  for (const auto& c : r.residuals) ++used[c.mirror - 1];
+  int left_out[2] = {0, 0};
+  for (const auto& c : r.rejected) ++left_out[std::clamp(c.mirror, 1, 2) - 1];
+  const double worst = std::max(r.per_mirror_rms_px[0], r.per_mirror_rms_px[1]);
+  out << "<p class=\"verdict\">" << (r.converged ? "Converged" : "NOT converged")
+      << ": " << r.n_observations << " corners in " << in.observations->images.size()
+      << " images, reprojection RMS " << Format("%.3f", r.rms_px) << " px (worst ring "
+      << Format("%.3f", worst) << " px), " << r.names.size() << " parameters refined, "
+      << r.unobservable.size() << " not determined; solved in " << Format("%.2f", in.solve_seconds)
+      << " s.</p>\n";
+  out << "<table><tr><th>residual group</th><th>used</th><th>left out</th><th>RMS (px)</th>"
+         "<th>noise sigma per axis (px)</th></tr>\n";
+  for (const auto& v : r.variance_components) {
+    int ring = v.group == "corners ring 1" ? 1 : v.group == "corners ring 2" ? 2 : 0;
+    out << "<tr><td>" << Escape(v.group) << "</td><td>" << v.count << "</td><td>"
+        << (ring ? std::to_string(left_out[ring - 1]) : std::to_string(r.n_lip_rejected))
+        << "</td><td>"
+        << Format("%.3f", ring ? r.per_mirror_rms_px[ring - 1] : r.lip_rms_px) << "</td><td>"
+        << Format("%.3f", v.sigma_px) << "</td></tr>\n";
+  }
+  out << "</table>\n";
+  return out.str();
+}
+
+std::string ParameterTable(const calib::CalibrationResult& r) {
+  std::ostringstream out;
+  out << "<table><tr><th>parameter</th><th>value</th><th>sigma</th><th>unit</th></tr>\n";
+  for (size_t i = 0; i < r.names.size(); ++i) {
+    const RigParameter* p = FindRigParameter(r.names[i]);
+    const double value = p ? DisplayValue(*p, r.values(i)) : r.values(i);
+    const double sigma = p ? std::abs(DisplayValue(*p, r.sigma(i))) : r.sigma(i);
+    out << "<tr><td>" << Escape(r.names[i]) << "</td><td>" << Format("%.6g", value) << "</td><td>"
+        << Format("%.3g", sigma) << "</td><td>" << (p ? DisplayUnit(*p) : "") << "</td></tr>\n";
+  }
+  out << "</table>\n";
+  if (!r.considered.empty()) {
+    out << "<p>Held but not known exactly (their sigma is carried into the table's):";
+    for (const auto& c : r.considered) {
+      out << " " << Escape(c.name) << " = " << Format("%.3g", c.value) << " &plusmn; "
+          << Format("%.3g", c.sigma) << ";";
+    }
+    out << "</p>\n";
+  }
+  if (!r.unobservable.empty()) {
+    out << "<p>Not determined (held, no number given):</p><ul>\n";
+    for (const auto& u : r.unobservable) {
+      out << "<li>" << Escape(u.name) << ": " << Escape(u.hint) << "</li>\n";
+    }
+    out << "</ul>\n";
+  }
+  if (!r.notes.empty()) {
+    out << "<ul>\n";
+    for (const auto& n : r.notes) out << "<li>" << Escape(n) << "</li>\n";
+    out << "</ul>\n";
+  }
+  return out.str();
+}
+
+// True for a tilt (rx, ry of a mirror or the reflex plane) or what a rotation of the camera
+// against the bodies moves with one (the principal point, the decentres).
+bool InRotationValley(const std::string& name) {
+  for (const char* s : {"mirror1.rx", "mirror1.ry", "mirror2.rx", "mirror2.ry", "reflex.rx",
+                        "reflex.ry", "cx", "cy", "mirror1.tx", "mirror1.ty", "mirror2.tx",
+                        "mirror2.ty"}) {
+    if (name == s) return true;
+  }
+  return false;
+}
+
+std::string Correlations(const calib::CalibrationResult& r) {
+  struct Pair {
+    double value;
+    size_t i, j;
+  };
+  std::vector<Pair> pairs;
+  const size_t n = r.names.size();
+  if (static_cast<size_t>(r.correlation.rows()) != n) return "";
+  for (size_t i = 0; i < n; ++i) {
+    for (size_t j = i + 1; j < n; ++j) pairs.push_back({r.correlation(i, j), i, j});
+  }
+  std::sort(pairs.begin(), pairs.end(),
+            [](const Pair& a, const Pair& b) { return std::abs(a.value) > std::abs(b.value); });
+  std::ostringstream out;
+  out << "<table><tr><th>parameters</th><th>correlation</th><th></th></tr>\n";
+  for (size_t k = 0; k < std::min<size_t>(10, pairs.size()); ++k) {
+    const Pair& p = pairs[k];
+    const bool valley = InRotationValley(r.names[p.i]) && InRotationValley(r.names[p.j]);
+    out << "<tr><td>" << Escape(r.names[p.i]) << " ~ " << Escape(r.names[p.j]) << "</td><td>"
+        << Format("%+.3f", p.value) << "</td><td>"
+        << (valley ? "the camera-rotation valley: turning C against the mirror bodies moves "
+                     "these together"
+                   : "")
+        << "</td></tr>\n";
+  }
+  out << "</table>\n";
+  return out.str();
+}
+
+std::string LeftOut(const ReportInput& in) {
+  std::map<std::pair<int, std::string>, int> count;  // (image, reason)
+  for (const auto& r : in.result->rejected) ++count[{r.image, r.reason}];
+  if (count.empty()) return "<p>No corner was left out.</p>\n";
+  std::ostringstream out;
+  out << "<table><tr><th>image</th><th>reason</th><th>corners</th></tr>\n";
+  const auto& images = in.observations->images;
+  for (const auto& [key, n] : count) {
+    const std::string file = key.first >= 0 && key.first < static_cast<int>(images.size())
+                                 ? images[key.first].file
+                                 : "?";
+    out << "<tr><td>" << Escape(file) << "</td><td>" << Escape(key.second) << "</td><td>" << n
+        << "</td></tr>\n";
+  }
+  out << "</table>\n";
+  return out.str();
+}
+
+const char kStyle[] =
+    "body{font-family:sans-serif;max-width:1000px;margin:1em auto;padding:0 1em;color:#222}"
+    "table{border-collapse:collapse;margin:0.5em 0}td,th{border:1px solid #bbb;padding:2px 8px;"
+    "text-align:left}img{max-width:100%}.verdict{font-size:1.15em;font-weight:bold}"
+    ".missing{color:#a00}figure{margin:1em 0}figcaption{color:#555}";
+
+}  // namespace
+
+std::string WriteReport(const std::string& dir, const ReportInput& in) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec || !fs::is_directory(dir)) {
+    throw InputError(dir + ": cannot create the report folder (" + ec.message() + ")");
+  }
+  std::string note[6];
+  const std::string vectors = ResidualVectors(dir, in, &note[0]);
+  const std::string coverage = CoverageImage(dir, in, &note[1]);
+  const std::string histograms = ResidualHistograms(dir, in, &note[2]);
+  const std::string per_image = PerImageRms(dir, in, &note[3]);
+  const std::string near = UncertaintyMap(dir, in, 1000, &note[4]);
+  const std::string far = UncertaintyMap(dir, in, in.range_mm, &note[5]);
+  const calib::ProjectionUncertainty at_1m = calib::PredictProjectionUncertainty(*in.result, 1000);
+
+  std::ostringstream html;
+  html << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
+       << "<title>omnistereo calibration report</title><style>" << kStyle
+       << "</style></head><body>\n<h1>Calibration report</h1>\n<p>session "
+       << Escape(in.session) << "</p>\n"
+       << Summary(in) << "<h2>Advice</h2>\n";
+  const std::vector<std::string> advice = Advice(in);
+  if (advice.empty()) html << "<p>Nothing stands out: the session covers both rings.</p>\n";
+  html << "<ul>\n";
+  for (const auto& a : advice) html << "<li>" << Escape(a) << "</li>\n";
+  html << "</ul>\n<h2>Parameters</h2>\n" << ParameterTable(*in.result)
+       << "<h2>Residuals</h2>\n"
+       << Figure(histograms, note[2], "residual coordinates per ring against a Gaussian")
+       << Figure(vectors, note[0], "residual vectors over the image")
+       << Figure(per_image, note[3], "residual RMS per image")
+       << "<h2>Coverage</h2>\n"
+       << Figure(coverage, note[1], "where corners were seen (every image)")
+       << "<h2>Projection uncertainty</h2>\n<p>From the covariance: the RMS over the stereo band "
+       << "at 1 m of the predicted sigma of projection, points held in mirror 1's body, is "
+       << Format("%.3f", at_1m.in_mirror1_px[0]) << " px in ring 1 and "
+       << Format("%.3f", at_1m.in_mirror1_px[1]) << " px in ring 2 (points held in C: "
+       << Format("%.3f", at_1m.in_cam_px[0]) << " / " << Format("%.3f", at_1m.in_cam_px[1])
+       << " px).</p>\n"
+       << Figure(near, note[4], "sigma of projection at 1 m")
+       << Figure(far, note[5], "sigma of projection at " + Format("%.2f", in.range_mm / 1000) + " m")
+       << "<h2>Strongest correlations</h2>\n" << Correlations(*in.result)
+       << "<h2>Left out</h2>\n" << LeftOut(in) << "</body></html>\n";
+  const std::string index = dir + "/index.html";
+  io::WriteFileAtomically(index, html.str());
+  return index;
+}
+
+}  // namespace omni::report

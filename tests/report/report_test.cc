@@ -1,0 +1,136 @@
+// The calibration report (report/report.h) on a synthetic session through the fast path
+// (small_clean_scene's placements, the misaligned rig, exact corners plus 0.1 px noise):
+// - the page is self-contained: every <img> names a PNG file written beside it, no external
+//   URL, no script;
+// - the advice is computed from the data: the whole session gets no coverage advice about
+//   heights, the same session with every corner above the middle of ring 1's stereo band
+//   removed is told to add targets higher in ring 1.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <regex>
+#include <sstream>
+
+#include "calib/calibrate.h"
+#include "model/model_compare.h"
+#include "model/rig_model.h"
+#include "report/report.h"
+#include "tests/calib/calib_test_util.h"
+
+namespace omni::report {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct Solved {
+  testing::SyntheticSession session;
+  RigParams truth;
+  Observations detections;
+  calib::CalibrationResult result;
+};
+
+Solved Solve(const std::function<bool(const RigModel&, const CornerObservation&)>& keep) {
+  Solved s;
+  s.truth = testing::MakeSceneSession(
+      testing::MisalignedRig(), std::string(OMNI_SOURCE_DIR) + "/sample_configs/small_clean_scene.yaml",
+      &s.session);
+  s.detections = testing::NoisyDetections(s.session, 0.1, 5);
+  const RigModel model(s.truth);
+  for (auto& image : s.detections.images) {
+    std::vector<CornerObservation> kept;
+    for (const auto& c : image.corners) {
+      if (keep(model, c)) kept.push_back(c);
+    }
+    image.corners = kept;
+  }
+  calib::CalibrationOptions options;
+  s.result = calib::Calibrate(s.truth, s.session.targets, s.detections, options);
+  return s;
+}
+
+ReportInput InputOf(const Solved& s) {
+  ReportInput in;
+  in.result = &s.result;
+  in.observations = &s.detections;
+  in.targets = s.session.targets;
+  in.session = "synthetic";
+  return in;
+}
+
+std::string Read(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  std::stringstream ss;
+  ss << f.rdbuf();
+  return ss.str();
+}
+
+// The ray elevation (deg) of a pixel through `model`.
+double Elevation(const RigModel& model, const Eigen::Vector2d& pixel) {
+  const auto ray = model.Unproject(pixel);
+  if (!ray) return NAN;
+  const Eigen::Vector3d& d = ray->ray.direction;
+  return std::atan2(d.z(), d.head<2>().norm()) * 180 / M_PI;
+}
+
+TEST(Report, PageIsSelfContainedAndEveryImageIsWritten) {
+  const Solved s = Solve([](const RigModel&, const CornerObservation&) { return true; });
+  const std::string dir = (fs::temp_directory_path() / "omni_report_test").string();
+  fs::remove_all(dir);
+  const std::string index = WriteReport(dir, InputOf(s));
+  const std::string html = Read(index);
+  ASSERT_FALSE(html.empty());
+  EXPECT_EQ(html.find("<script"), std::string::npos);
+  EXPECT_EQ(html.find("http://"), std::string::npos);
+  EXPECT_EQ(html.find("https://"), std::string::npos);
+  const std::regex img("<img src=\"([^\"]+)\"");
+  int images = 0;
+  for (auto it = std::sregex_iterator(html.begin(), html.end(), img); it != std::sregex_iterator();
+       ++it) {
+    const std::string file = (*it)[1];
+    EXPECT_EQ(file.find('/'), std::string::npos) << file;  // beside index.html
+    const std::string bytes = Read(dir + "/" + file);
+    ASSERT_GT(bytes.size(), 1000u) << file;
+    EXPECT_EQ(bytes.substr(1, 3), "PNG") << file;
+    ++images;
+  }
+  // Residual vectors, coverage, histograms, per-image RMS, two uncertainty maps.
+  EXPECT_EQ(images, 6) << "plots missing (is gnuplot installed?)";
+  EXPECT_EQ(html.find("class=\"missing\""), std::string::npos);
+  for (const char* section : {"Advice", "Parameters", "Residuals", "Coverage",
+                              "Projection uncertainty", "Strongest correlations", "Left out"}) {
+    EXPECT_NE(html.find(std::string("<h2>") + section + "</h2>"), std::string::npos) << section;
+  }
+  for (const std::string& a : Advice(InputOf(s))) {
+    std::fprintf(stderr, "advice (whole session): %s\n", a.c_str());
+    EXPECT_EQ(a.find("add targets higher"), std::string::npos) << a;
+    EXPECT_EQ(a.find("add targets lower"), std::string::npos) << a;
+  }
+  fs::remove_all(dir);
+}
+
+TEST(Report, AdviceAsksForHigherTargetsWhereTheSessionHasNone) {
+  // The middle of ring 1's stereo band at 1 m, through the true rig.
+  const RigModel truth_model(testing::MisalignedRig());
+  double lo = 1e9, hi = -1e9;
+  for (const BandPoint& p : StereoBandPoints(truth_model, 1000)) {
+    const double e = Elevation(truth_model, p.pixel[0]);
+    if (std::isfinite(e)) lo = std::min(lo, e), hi = std::max(hi, e);
+  }
+  const double middle = 0.5 * (lo + hi);
+  const Solved s = Solve([middle](const RigModel& model, const CornerObservation& c) {
+    return c.mirror == Mirror::kTwo || Elevation(model, c.pixel) < middle;
+  });
+  bool asked = false;
+  for (const std::string& a : Advice(InputOf(s))) {
+    std::fprintf(stderr, "advice (no high corners in ring 1): %s\n", a.c_str());
+    asked |= a.find("outer ring (mirror 1)") != std::string::npos &&
+             a.find("add targets higher") != std::string::npos;
+  }
+  EXPECT_TRUE(asked);
+}
+
+}  // namespace
+}  // namespace omni::report
