@@ -135,6 +135,10 @@ std::vector<PointUncertainty> ProjectionUncertaintyMap(const CalibrationResult& 
       // Pixel noise: J C J^T per row; each considered column: its direct effect plus the
       // estimate's response to it, times its sigma.
       Eigen::VectorXd variance = (j * noise).cwiseProduct(j).rowwise().sum();
+      for (size_t p = 0; p < out.size(); ++p) {
+        const double v = std::max(variance(2 * p) + variance(2 * p + 1), 0.0);
+        (f == 0 ? out[p].noise_in_mirror1_px : out[p].noise_in_cam_px)[m] = std::sqrt(v);
+      }
       for (int c = 0; considered && c < n_columns; ++c) {
         Eigen::VectorXd effect = j * result.considered_sensitivity.col(c);
         if (c < n_named) effect += j_all.col(n + c);

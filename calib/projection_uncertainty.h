@@ -47,6 +47,10 @@ struct PointUncertainty {
   Eigen::Vector2d pixel[2];  // via mirror 1, mirror 2 (at the calibrated model)
   double in_mirror1_px[2] = {0, 0};
   double in_cam_px[2] = {0, 0};
+  // From the pixel noise alone (CalibrationResult::noise_sigma's share, without the considered
+  // parameters'): what repeating the session with fresh noise would scatter.
+  double noise_in_mirror1_px[2] = {0, 0};
+  double noise_in_cam_px[2] = {0, 0};
 };
 std::vector<PointUncertainty> ProjectionUncertaintyMap(const CalibrationResult& result,
                                                        double range_mm);
