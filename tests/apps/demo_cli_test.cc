@@ -23,6 +23,7 @@
 #include "model/model_compare.h"
 #include "tests/calib/calib_test_util.h"
 #include "tests/cli_test_util.h"
+#include "tests/report/browser_check.h"
 
 namespace omni {
 namespace {
@@ -79,6 +80,8 @@ TEST(DemoCli, CalibratesTheRenderedRigWithinItsSigma) {
     EXPECT_GT(ideal.rms_px[m], 3.0);
     EXPECT_LE(gained.rms_px[m], 0.1);
   }
+  // The demo's report (calibrate --report) in a browser: 6 images, all loading.
+  testing::CheckReportInBrowser((dir / "report").string(), 6);
   fs::remove_all(dir);
   fs::remove(dir.string() + ".err");
   fs::remove(dir.string() + ".out");

@@ -1,7 +1,8 @@
 // The calibration report (report/report.h) on a synthetic session through the fast path
 // (small_clean_scene's placements, the misaligned rig, exact corners plus 0.1 px noise):
 // - the page is self-contained: every <img> names a PNG file written beside it, no external
-//   URL, no script;
+//   URL, no script; headless Chromium loads every image, logs nothing to the console and
+//   shows a page that is not blank (browser_check.h);
 // - the advice is computed from the data: the whole session gets no coverage advice about
 //   heights, the same session with every corner above the middle of ring 1's stereo band
 //   removed is told to add targets higher in ring 1.
@@ -19,6 +20,7 @@
 #include "model/rig_model.h"
 #include "report/report.h"
 #include "tests/calib/calib_test_util.h"
+#include "tests/report/browser_check.h"
 
 namespace omni::report {
 namespace {
@@ -103,6 +105,7 @@ TEST(Report, PageIsSelfContainedAndEveryImageIsWritten) {
                               "Projection uncertainty", "Strongest correlations", "Left out"}) {
     EXPECT_NE(html.find(std::string("<h2>") + section + "</h2>"), std::string::npos) << section;
   }
+  testing::CheckReportInBrowser(dir, 6);
   for (const std::string& a : Advice(InputOf(s))) {
     std::fprintf(stderr, "advice (whole session): %s\n", a.c_str());
     EXPECT_EQ(a.find("add targets higher"), std::string::npos) << a;
