@@ -22,6 +22,7 @@
 
 #include "apps/command.h"
 #include "apps/common_flags.h"
+#include "apps/progress.h"
 #include "detectors/detect_image.h"
 #include "detectors/detect_session.h"
 #include "detectors/lip_intrinsics.h"
@@ -134,24 +135,29 @@ int RunDetect() {
   const fs::path out_dir = fs::absolute(FLAGS_out).parent_path();
   int bad = 0, corners = 0;
   const size_t n = session.images.size();
+  ProgressLine progress("detect", static_cast<int>(n));
   Observations detections = detectors::DetectSession(
       session, &ctx,
       [&](const detectors::ImageReport& r, const cv::Mat& image, ImageObservations* det) {
         const char* file = r.file.c_str();
         if (r.skipped) {
-          std::fprintf(stderr, "warning: %s: %s; skipped\n", file, r.warnings.front().c_str());
+          progress.Done(std::string("warning: ") + file + ": " + r.warnings.front() + "; skipped");
           ++bad;
           return;
         }
-        for (const auto& w : r.warnings) std::fprintf(stderr, "warning: %s: %s\n", file, w.c_str());
+        for (const auto& w : r.warnings) progress.Print(std::string("warning: ") + file + ": " + w);
         corners += r.corners[0] + r.corners[1];
         if (!FLAGS_overlay.empty()) {
           WriteOverlay((fs::path(FLAGS_overlay) / (fs::path(r.file).stem().string() + ".png")).string(),
                        image, ctx.layout, *det);
         }
         det->file = RelativeTo(r.file, out_dir);
-        std::fprintf(stderr, "[%zu/%zu] %s: %d corners in ring 1, %d in ring 2, %zu lip edges (%.0f ms)\n",
-                     r.index + 1, r.total, file, r.corners[0], r.corners[1], det->lips.size(), r.ms);
+        char line[512];
+        std::snprintf(line, sizeof(line),
+                      "[%zu/%zu] %s: %d corners in ring 1, %d in ring 2, %zu lip edges (%.0f ms)",
+                      r.index + 1, r.total, file, r.corners[0], r.corners[1], det->lips.size(),
+                      r.ms);
+        progress.Done(line);
       });
   detections.session = RelativeTo(session.path, out_dir);
   if (detections.images.empty()) {

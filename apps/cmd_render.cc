@@ -11,6 +11,7 @@
 
 #include "apps/command.h"
 #include "apps/common_flags.h"
+#include "apps/progress.h"
 #include "synthetic/render_session.h"
 #include "synthetic/scene_file.h"
 #include "model/io/model_file.h"
@@ -33,12 +34,16 @@ int RunRender() {
   options.render = !FLAGS_no_render;
   options.jobs = FLAGS_jobs;
   options.keep_pinhole = FLAGS_keep_pinhole;
-  options.progress = [](int done, int total, const std::string& file, double seconds) {
-    std::fprintf(stderr, "[%d/%d] %s rendered in %.1f s\n", done, total, file.c_str(), seconds);
-  };
   options.Check();
   const RigParams rig = io::ReadModelFile(FLAGS_model);
   const synthetic::Scene scene = synthetic::ReadSceneFile(FLAGS_scene, RigModel(rig));
+  ProgressLine progress("render", static_cast<int>(scene.images.size()));
+  options.progress = [&](int done, int total, const std::string& file, double seconds) {
+    char line[512];
+    std::snprintf(line, sizeof(line), "[%d/%d] %s rendered in %.1f s", done, total, file.c_str(),
+                  seconds);
+    progress.Done(line);
+  };
   if (!scene.camera.IsClean()) std::fprintf(stderr, "camera: %s\n", scene.camera.Summary().c_str());
 
   const synthetic::RenderSessionStats stats = synthetic::RenderSession(scene, rig, options);
