@@ -4,11 +4,14 @@
 #include <cmath>
 #include <cstdio>
 #include <map>
+#include <optional>
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "calib/projection_uncertainty.h"
+#include "model/model_compare.h"
+#include "model/rig_model.h"
 #include "report/gnuplot.h"
 
 namespace omni::report {
@@ -154,6 +157,110 @@ std::string PerImageRms(const std::string& dir, const ReportInput& in, std::stri
                            "plot $rms using 2:xtic(int($1) % 5 == 0 ? sprintf('%d', $1) : '') "
                            "title 'ring 1', '' using 3 title 'ring 2'\n";
   return Plot(dir, "per_image_rms.png", body, note);
+}
+
+std::string PerTargetRms(const std::string& dir, const ReportInput& in, std::string* note) {
+  const int n_targets = static_cast<int>(in.targets.size());
+  if (n_targets == 0) {
+    *note = "no targets";
+    return "";
+  }
+  std::vector<double> sum2[2], count[2];
+  for (int m = 0; m < 2; ++m) {
+    sum2[m].assign(n_targets, 0);
+    count[m].assign(n_targets, 0);
+  }
+  for (const auto& r : in.result->residuals) {
+    if (r.target < 0 || r.target >= n_targets) continue;
+    sum2[r.mirror - 1][r.target] += r.residual.squaredNorm();
+    count[r.mirror - 1][r.target] += 1;
+  }
+  std::vector<std::vector<double>> rows;
+  for (int t = 0; t < n_targets; ++t) {
+    rows.push_back({static_cast<double>(t),
+                    count[0][t] ? std::sqrt(sum2[0][t] / count[0][t]) : 0.0,
+                    count[1][t] ? std::sqrt(sum2[1][t] / count[1][t]) : 0.0});
+  }
+  const std::string body = Datablock("rms", rows) +
+                           "set style data histograms\nset style histogram clustered\n"
+                           "set style fill solid 0.7\nset xlabel 'session target'\n"
+                           "set ylabel 'residual RMS (px)'\nset key top right\n"
+                           "set title 'residual RMS per target'\n"
+                           "plot $rms using 2:xtic(sprintf('%d', $1)) title 'ring 1', '' using 3 "
+                           "title 'ring 2'\n";
+  return Plot(dir, "per_target_rms.png", body, note);
+}
+
+std::string CoverageAngles(const std::string& dir, const ReportInput& in, std::string* note) {
+  const RigModel model(in.result->rig);
+  std::vector<std::vector<double>> corners[2], band[2];
+  auto angles = [&](const Eigen::Vector2d& pixel) -> std::optional<std::vector<double>> {
+    const auto ray = model.Unproject(pixel);
+    if (!ray) return std::nullopt;
+    const Eigen::Vector3d& d = ray->ray.direction;
+    return std::vector<double>{std::atan2(d.y(), d.x()) * 180 / M_PI,
+                               std::atan2(d.z(), d.head<2>().norm()) * 180 / M_PI};
+  };
+  for (const auto& r : in.result->residuals) {
+    if (const auto a = angles(r.pixel)) corners[r.mirror - 1].push_back(*a);
+  }
+  for (const BandPoint& p : StereoBandPoints(model, 1000)) {
+    for (int m = 0; m < 2; ++m) {
+      if (const auto a = angles(p.pixel[m])) band[m].push_back(*a);
+    }
+  }
+  if (corners[0].empty() && corners[1].empty()) {
+    *note = "no corner's ray could be traced";
+    return "";
+  }
+  std::string body = "set multiplot layout 1,2 title 'where the used corners were seen (dots) "
+                     "over the stereo band at 1 m (grey)'\nset xlabel 'azimuth (deg)'\n"
+                     "set ylabel 'ray elevation (deg)'\nset xrange [-180:180]\nunset key\n";
+  for (int m = 0; m < 2; ++m) {
+    const std::string c = "c" + std::to_string(m + 1), b = "b" + std::to_string(m + 1);
+    body += Datablock(c, corners[m].empty() ? std::vector<std::vector<double>>{{0, 0}} : corners[m]) +
+            Datablock(b, band[m].empty() ? std::vector<std::vector<double>>{{0, 0}} : band[m]) +
+            "set title 'ring " + std::to_string(m + 1) + "'\nplot $" + b +
+            " using 1:2 with points pt 5 ps 0.5 lc rgb '#dddddd', $" + c +
+            " using 1:2 with points pt 7 ps 0.3 lc rgb '" + (m == 0 ? "#1a9850" : "#c51b7d") +
+            "'\n";
+  }
+  body += "unset multiplot\n";
+  return Plot(dir, "coverage_angles.png", body, note);
+}
+
+std::vector<std::string> OutlierThumbnails(const std::string& dir, const ReportInput& in,
+                                           int count) {
+  std::map<int, std::vector<Eigen::Vector2d>> by_image;
+  for (const auto& r : in.result->rejected) by_image[r.image].push_back(r.pixel);
+  std::vector<std::pair<int, int>> order;  // (count, image)
+  for (const auto& [image, pixels] : by_image) {
+    order.push_back({static_cast<int>(pixels.size()), image});
+  }
+  std::sort(order.rbegin(), order.rend());
+  std::vector<std::string> out;
+  for (const auto& [n, image] : order) {
+    if (static_cast<int>(out.size()) >= count) break;
+    if (image < 0 || image >= static_cast<int>(in.image_paths.size())) continue;
+    cv::Mat frame = cv::imread(in.image_paths[image], cv::IMREAD_COLOR);
+    if (frame.empty()) continue;
+    cv::Rect box;
+    for (const Eigen::Vector2d& p : by_image[image]) {
+      const cv::Rect one(static_cast<int>(p.x()) - 40, static_cast<int>(p.y()) - 40, 81, 81);
+      box = box.empty() ? one : (box | one);
+    }
+    box &= cv::Rect(0, 0, frame.cols, frame.rows);
+    if (box.empty()) continue;
+    for (const Eigen::Vector2d& p : by_image[image]) {
+      cv::drawMarker(frame, {static_cast<int>(std::lround(p.x())), static_cast<int>(std::lround(p.y()))},
+                     {0, 0, 255}, cv::MARKER_TILTED_CROSS, 9, 1);
+    }
+    cv::Mat crop = frame(box).clone();
+    if (crop.cols > 480) cv::resize(crop, crop, {}, 480.0 / crop.cols, 480.0 / crop.cols, cv::INTER_AREA);
+    const std::string name = "outliers_" + std::to_string(image) + ".png";
+    if (cv::imwrite(dir + "/" + name, crop)) out.push_back(name);
+  }
+  return out;
 }
 
 std::string UncertaintyMap(const std::string& dir, const ReportInput& in, double range_mm,

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include "report/report.h"
 
@@ -16,6 +17,15 @@ std::string CoverageImage(const std::string& dir, const ReportInput& in, std::st
 std::string ResidualHistograms(const std::string& dir, const ReportInput& in, std::string* note);
 // Residual RMS per image and ring.
 std::string PerImageRms(const std::string& dir, const ReportInput& in, std::string* note);
+// Residual RMS per session target and ring.
+std::string PerTargetRms(const std::string& dir, const ReportInput& in, std::string* note);
+// Where the used corners' rays point, per ring: azimuth x elevation (deg) through the
+// calibrated model, over the stereo band's outline at 1 m.
+std::string CoverageAngles(const std::string& dir, const ReportInput& in, std::string* note);
+// Up to `count` crops of frames around their left-out corners (marked), the images with the
+// most first; the file names written.
+std::vector<std::string> OutlierThumbnails(const std::string& dir, const ReportInput& in,
+                                           int count);
 // The predicted sigma of projection over each ring's stereo band (azimuth x elevation) for
 // points at range_mm held in mirror 1's body (calib/projection_uncertainty.h).
 std::string UncertaintyMap(const std::string& dir, const ReportInput& in, double range_mm,

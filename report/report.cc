@@ -178,11 +178,14 @@ std::string WriteReport(const std::string& dir, const ReportInput& in) {
   if (ec || !fs::is_directory(dir)) {
     throw InputError(dir + ": cannot create the report folder (" + ec.message() + ")");
   }
-  std::string note[6];
+  std::string note[8];
   const std::string vectors = ResidualVectors(dir, in, &note[0]);
   const std::string coverage = CoverageImage(dir, in, &note[1]);
   const std::string histograms = ResidualHistograms(dir, in, &note[2]);
   const std::string per_image = PerImageRms(dir, in, &note[3]);
+  const std::string per_target = PerTargetRms(dir, in, &note[6]);
+  const std::string angles = CoverageAngles(dir, in, &note[7]);
+  const std::vector<std::string> thumbnails = OutlierThumbnails(dir, in, 6);
   const std::string near = UncertaintyMap(dir, in, 1000, &note[4]);
   const std::string far = UncertaintyMap(dir, in, in.range_mm, &note[5]);
   const calib::ProjectionUncertainty at_1m = calib::PredictProjectionUncertainty(*in.result, 1000);
@@ -202,7 +205,9 @@ std::string WriteReport(const std::string& dir, const ReportInput& in) {
        << Figure(histograms, note[2], "residual coordinates per ring against a Gaussian")
        << Figure(vectors, note[0], "residual vectors over the image")
        << Figure(per_image, note[3], "residual RMS per image")
+       << Figure(per_target, note[6], "residual RMS per target")
        << "<h2>Coverage</h2>\n"
+       << Figure(angles, note[7], "where the corners' rays point, per ring")
        << Figure(coverage, note[1], "where corners were seen (every image)")
        << "<h2>Projection uncertainty</h2>\n<p>From the covariance: the RMS over the stereo band "
        << "at 1 m of the predicted sigma of projection, points held in mirror 1's body, is "
@@ -213,7 +218,12 @@ std::string WriteReport(const std::string& dir, const ReportInput& in) {
        << Figure(near, note[4], "sigma of projection at 1 m")
        << Figure(far, note[5], "sigma of projection at " + Format("%.2f", in.range_mm / 1000) + " m")
        << "<h2>Strongest correlations</h2>\n" << Correlations(*in.result)
-       << "<h2>Left out</h2>\n" << LeftOut(in) << "</body></html>\n";
+       << "<h2>Left out</h2>\n" << LeftOut(in);
+  for (const std::string& t : thumbnails) {
+    html << Figure(t, "", "left-out corners (red crosses) in image " +
+                              t.substr(9, t.size() - 13));
+  }
+  html << "</body></html>\n";
   const std::string index = dir + "/index.html";
   io::WriteFileAtomically(index, html.str());
   return index;

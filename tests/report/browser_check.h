@@ -30,7 +30,8 @@ inline std::string RunAndRead(const std::string& command) {
   return out;
 }
 
-inline void CheckReportInBrowser(const std::string& dir, int expected_images) {
+// At least min_images <img> in the page, every one of them loading.
+inline void CheckReportInBrowser(const std::string& dir, int min_images) {
   namespace fs = std::filesystem;
   ASSERT_EQ(std::system("command -v chromium > /dev/null 2>&1"), 0)
       << "chromium is not installed (scripts/install_deps.sh installs it)";
@@ -39,6 +40,11 @@ inline void CheckReportInBrowser(const std::string& dir, int expected_images) {
   std::stringstream page;
   page << in.rdbuf();
   std::string probe = page.str();
+  int expected_images = 0;
+  for (size_t at = probe.find("<img "); at != std::string::npos; at = probe.find("<img ", at + 1)) {
+    ++expected_images;
+  }
+  EXPECT_GE(expected_images, min_images);
   const std::string script =
       "<script>window.addEventListener('load', () => { const bad = [...document.images]"
       ".filter(i => !(i.complete && i.naturalWidth > 0)).map(i => i.getAttribute('src'));"

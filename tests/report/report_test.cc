@@ -98,14 +98,15 @@ TEST(Report, PageIsSelfContainedAndEveryImageIsWritten) {
     EXPECT_EQ(bytes.substr(1, 3), "PNG") << file;
     ++images;
   }
-  // Residual vectors, coverage, histograms, per-image RMS, two uncertainty maps.
-  EXPECT_EQ(images, 6) << "plots missing (is gnuplot installed?)";
+  // Residual vectors, coverage over the image and in angles, histograms, RMS per image and per
+  // target, two uncertainty maps (no frames given: no outlier thumbnails).
+  EXPECT_EQ(images, 8) << "plots missing (is gnuplot installed?)";
   EXPECT_EQ(html.find("class=\"missing\""), std::string::npos);
   for (const char* section : {"Advice", "Parameters", "Residuals", "Coverage",
                               "Projection uncertainty", "Strongest correlations", "Left out"}) {
     EXPECT_NE(html.find(std::string("<h2>") + section + "</h2>"), std::string::npos) << section;
   }
-  testing::CheckReportInBrowser(dir, 6);
+  testing::CheckReportInBrowser(dir, 8);
   for (const std::string& a : Advice(InputOf(s))) {
     std::fprintf(stderr, "advice (whole session): %s\n", a.c_str());
     EXPECT_EQ(a.find("add targets higher"), std::string::npos) << a;
