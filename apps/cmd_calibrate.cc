@@ -25,6 +25,8 @@
 #include "calib/session_options.h"
 #include "detectors/detect_image.h"
 #include "detectors/detect_session.h"
+#include "model/design/tolerance.h"
+#include "model/design/tolerance_file.h"
 #include "model/io/detections_file.h"
 #include "model/io/model_file.h"
 #include "model/io/session_file.h"
@@ -36,6 +38,7 @@
 DEFINE_string(truth_model, "", "calibrate: the true model file, to add a truth column to the table");
 DEFINE_string(report, "", "calibrate: write an HTML report (index.html and its images) into this folder");
 DEFINE_double(report_range_mm, 2000, "calibrate --report: the range of the second projection-uncertainty map (mm)");
+DEFINE_string(tolerances, "", "calibrate --report: an omnistereo-tolerances/1 file; the report gives the calibrated rig's verdicts");
 DECLARE_string(truth);
 
 namespace omni::apps {
@@ -161,6 +164,10 @@ void WriteReport(const calib::CalibrationResult& result, const Observations& det
   in.session = FLAGS_session;
   in.solve_seconds = seconds;
   in.range_mm = FLAGS_report_range_mm;
+  if (!FLAGS_tolerances.empty()) {
+    in.tolerances =
+        design::CheckTolerances(result.rig, design::ReadToleranceFile(FLAGS_tolerances).spec);
+  }
   std::printf("report written to %s\n", report::WriteReport(FLAGS_report, in).c_str());
 }
 

@@ -163,6 +163,24 @@ std::string LeftOut(const ReportInput& in) {
   return out.str();
 }
 
+std::string Tolerances(const std::vector<design::ToleranceCheck>& checks) {
+  std::ostringstream out;
+  out << "<table><tr><th>check</th><th>value</th><th>sigma</th><th>limit</th><th>verdict</th>"
+         "</tr>\n";
+  for (const auto& c : checks) {
+    const bool rad = c.unit == "rad";
+    const double scale = rad ? 180 / M_PI : 1;
+    const char* unit = rad ? " deg" : " mm";
+    out << "<tr><td>" << Escape(c.name) << "</td><td>" << Format("%.4g", c.value * scale) << unit
+        << "</td><td>" << (c.sigma ? Format("%.2g", *c.sigma * scale) + unit : "-") << "</td><td>"
+        << Format("%.4g", c.limit * scale) << unit << "</td><td>" << design::VerdictName(c.verdict)
+        << "</td></tr>\n";
+  }
+  out << "</table>\n<p>PASS: within the limit even at the value plus its confidence sigmas; "
+         "FAIL: beyond it even at the value minus them; UNDECIDED: more data would decide.</p>\n";
+  return out.str();
+}
+
 const char kStyle[] =
     "body{font-family:sans-serif;max-width:1000px;margin:1em auto;padding:0 1em;color:#222}"
     "table{border-collapse:collapse;margin:0.5em 0}td,th{border:1px solid #bbb;padding:2px 8px;"
@@ -217,6 +235,7 @@ std::string WriteReport(const std::string& dir, const ReportInput& in) {
        << " px).</p>\n"
        << Figure(near, note[4], "sigma of projection at 1 m")
        << Figure(far, note[5], "sigma of projection at " + Format("%.2f", in.range_mm / 1000) + " m")
+       << (in.tolerances.empty() ? "" : "<h2>Assembly tolerances</h2>\n" + Tolerances(in.tolerances))
        << "<h2>Strongest correlations</h2>\n" << Correlations(*in.result)
        << "<h2>Left out</h2>\n" << LeftOut(in);
   for (const std::string& t : thumbnails) {

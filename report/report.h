@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "calib/calibrate.h"
+#include "model/design/tolerance.h"
 #include "model/observations.h"
 #include "model/target.h"
 
@@ -26,6 +27,9 @@ struct ReportInput {
   std::string session;        // shown in the title
   double solve_seconds = 0;
   double range_mm = 2000;     // the second range of the uncertainty maps (1 m is always shown)
+  // Assembly tolerance verdicts of the calibrated rig (calibrate --tolerances FILE); shown when
+  // not empty.
+  std::vector<design::ToleranceCheck> tolerances;
 };
 
 // Writes DIR/index.html and its images (DIR is created if missing) and returns the index's

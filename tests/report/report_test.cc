@@ -1,7 +1,7 @@
 // The calibration report (report/report.h) on a synthetic session through the fast path
 // (small_clean_scene's placements, the misaligned rig, exact corners plus 0.1 px noise):
 // - the page is self-contained: every <img> names a PNG file written beside it, no external
-//   URL, no script; headless Chromium loads every image, logs nothing to the console and
+//   URL, no script, every section there (the tolerance verdicts when given); headless Chromium loads every image, logs nothing to the console and
 //   shows a page that is not blank (browser_check.h);
 // - the advice is computed from the data: the whole session gets no coverage advice about
 //   heights, the same session with every corner above the middle of ring 1's stereo band
@@ -16,6 +16,7 @@
 #include <sstream>
 
 #include "calib/calibrate.h"
+#include "model/design/tolerance_file.h"
 #include "model/model_compare.h"
 #include "model/rig_model.h"
 #include "report/report.h"
@@ -81,7 +82,11 @@ TEST(Report, PageIsSelfContainedAndEveryImageIsWritten) {
   const Solved s = Solve([](const RigModel&, const CornerObservation&) { return true; });
   const std::string dir = (fs::temp_directory_path() / "omni_report_test").string();
   fs::remove_all(dir);
-  const std::string index = WriteReport(dir, InputOf(s));
+  ReportInput in = InputOf(s);
+  in.tolerances = design::CheckTolerances(
+      s.result.rig,
+      design::ReadToleranceFile(std::string(OMNI_SOURCE_DIR) + "/sample_configs/tolerances.yaml").spec);
+  const std::string index = WriteReport(dir, in);
   const std::string html = Read(index);
   ASSERT_FALSE(html.empty());
   EXPECT_EQ(html.find("<script"), std::string::npos);
@@ -103,7 +108,8 @@ TEST(Report, PageIsSelfContainedAndEveryImageIsWritten) {
   EXPECT_EQ(images, 8) << "plots missing (is gnuplot installed?)";
   EXPECT_EQ(html.find("class=\"missing\""), std::string::npos);
   for (const char* section : {"Advice", "Parameters", "Residuals", "Coverage",
-                              "Projection uncertainty", "Strongest correlations", "Left out"}) {
+                              "Projection uncertainty", "Assembly tolerances",
+                              "Strongest correlations", "Left out"}) {
     EXPECT_NE(html.find(std::string("<h2>") + section + "</h2>"), std::string::npos) << section;
   }
   testing::CheckReportInBrowser(dir, 8);
