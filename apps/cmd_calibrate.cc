@@ -135,10 +135,11 @@ void PrintTruthProjection(const RigParams& truth, const RigParams& calibrated) {
 
 // Each detections image's frame: its file as written (absolute, or relative to the working
 // folder or to the detections file's folder), else the session's image of that index.
-std::vector<std::string> FramePaths(const Observations& detections, const io::Session& session) {
+std::vector<std::string> FramePaths(const Observations& detections, const io::Session& session,
+                                    const std::string& detections_path) {
   namespace fs = std::filesystem;
   std::vector<std::string> out;
-  const fs::path base = fs::path(FLAGS_detections).parent_path();
+  const fs::path base = fs::path(detections_path).parent_path();
   for (size_t i = 0; i < detections.images.size(); ++i) {
     const std::string& file = detections.images[i].file;
     std::string path = i < session.images.size() ? session.images[i] : file;
@@ -153,22 +154,23 @@ std::vector<std::string> FramePaths(const Observations& detections, const io::Se
   return out;
 }
 
-// The HTML report of --report; prints where it is.
+// The HTML report into `dir` (--report, or report's --out); prints where it is.
 void WriteReport(const calib::CalibrationResult& result, const Observations& detections,
-                 const io::Session& session, double seconds) {
+                 const io::Session& session, const std::string& detections_path,
+                 const std::string& dir, double seconds) {
   report::ReportInput in;
   in.result = &result;
   in.observations = &detections;
   in.targets = session.targets;
-  in.image_paths = FramePaths(detections, session);
-  in.session = FLAGS_session;
+  in.image_paths = FramePaths(detections, session, detections_path);
+  in.session = session.path;
   in.solve_seconds = seconds;
   in.range_mm = FLAGS_report_range_mm;
   if (!FLAGS_tolerances.empty()) {
     in.tolerances =
         design::CheckTolerances(result.rig, design::ReadToleranceFile(FLAGS_tolerances).spec);
   }
-  std::printf("report written to %s\n", report::WriteReport(FLAGS_report, in).c_str());
+  std::printf("report written to %s\n", report::WriteReport(dir, in).c_str());
 }
 
 // Every observation the solve left out, one line each, with why.
@@ -244,7 +246,47 @@ int RunCalibrate() {
   if (truth) PrintTruthShare(result, *truth);
   io::WriteModelFile(FLAGS_out, result.rig);
   std::printf("calibrated model written to %s\n", FLAGS_out.c_str());
-  if (!FLAGS_report.empty()) WriteReport(result, detections, session, seconds);
+  if (!FLAGS_report.empty()) {
+    WriteReport(result, detections, session, FLAGS_detections, FLAGS_report, seconds);
+  }
+  return 0;
+}
+
+// `report`: the report of an existing calibration. Its statistics are computed by solving again
+// from the calibrated model with the session's settings: on the same detections the solve starts
+// at its optimum and stays there, so the residuals, left-out corners and covariance are those of
+// the calibration that wrote the model. The session is the detections file's `session:` (relative
+// to the detections file) unless --session names one.
+int RunReport() {
+  namespace fs = std::filesystem;
+  if (FLAGS_model.empty() || FLAGS_detections.empty() || FLAGS_out.empty()) {
+    throw io::InputError("--model, --detections and --out (the report's folder) are required");
+  }
+  const Observations detections = io::ReadDetectionsFile(FLAGS_detections);
+  std::string session_path = FLAGS_session;
+  if (session_path.empty()) {
+    if (detections.session.empty()) {
+      throw io::InputError(FLAGS_detections + ": session: missing; name the session with --session");
+    }
+    const fs::path named(detections.session);
+    session_path = named.is_absolute()
+                       ? named.string()
+                       : (fs::path(FLAGS_detections).parent_path() / named).string();
+  }
+  const io::Session session = io::ReadSessionFile(session_path);
+  const RigParams model = io::ReadModelFile(FLAGS_model);
+  if (!model.calibration) {
+    throw io::InputError(FLAGS_model + ": calibration: missing; report needs a calibrated model "
+                         "(`omnistereo calibrate` writes one)");
+  }
+  calib::CalibrationOptions options = calib::OptionsFromSession(session);
+  options.progress = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
+  const auto t0 = std::chrono::steady_clock::now();
+  const calib::CalibrationResult result =
+      calib::Calibrate(model, session.targets, detections, options);
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  WriteReport(result, detections, session, FLAGS_detections, FLAGS_out, seconds);
   return 0;
 }
 

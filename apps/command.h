@@ -21,6 +21,7 @@ int RunDesign();
 int RunRender();
 int RunDetect();
 int RunCalibrate();
+int RunReport();
 int RunProject();
 int RunUnproject();
 int RunTriangulate();

@@ -16,6 +16,8 @@ const std::vector<Command>& Commands() {
        {"session", "out", "detections", "truth_model", "truth", "report", "report_range_mm",
         "tolerances"},
        RunCalibrate},
+      {"report", "the HTML report of a calibrated model from its detections (as calibrate --report)",
+       {"model", "detections", "out", "session", "report_range_mm", "tolerances"}, RunReport},
       {"project", "project 3D points (CSV x_mm,y_mm,z_mm) to pixels via both mirrors",
        {"model", "points", "out"}, RunProject},
       {"unproject", "back-project pixels (CSV u,v) to rays", {"model", "pixels", "out"},

@@ -138,6 +138,38 @@ TEST_F(CalibrateCli, WritesTheLibrarysCalibration) {
   EXPECT_NE(out.find("calibrated model written to"), std::string::npos) << out;
 }
 
+// `report` on a calibrated model and its detections: the page of the calibration that wrote it
+// (the same corners used); an uncalibrated model is refused with one line and no folder.
+TEST_F(CalibrateCli, ReportOfACalibratedModel) {
+  const io::Session session = SessionWith(session_->targets);
+  std::string err, out;
+  ASSERT_EQ(Run(Files(session, *detections_), &err, &out), 0) << err;
+  const RigParams written = io::ReadModelFile((dir_ / "out.yaml").string());
+  // The fixture's detections name no session file of their own: --session.
+  ASSERT_EQ(Run("report --model='" + (dir_ / "out.yaml").string() + "' --detections='" +
+                    (dir_ / "detections.yaml").string() + "' --session='" +
+                    (dir_ / "session.yaml").string() + "' --out='" +
+                    (dir_ / "report").string() + "'",
+                &err, &out),
+            0)
+      << err;
+  const std::string html = testing::ReadText(dir_ / "report" / "index.html");
+  EXPECT_NE(html.find("Converged: " + std::to_string(written.calibration->n_observations) +
+                      " corners"),
+            std::string::npos)
+      << html.substr(0, 2000);
+  EXPECT_NE(out.find("report written to"), std::string::npos) << out;
+
+  EXPECT_EQ(Run("report --model='" + (dir_ / "start.yaml").string() + "' --detections='" +
+                    (dir_ / "detections.yaml").string() + "' --session='" +
+                    (dir_ / "session.yaml").string() + "' --out='" +
+                    (dir_ / "report2").string() + "'",
+                &err),
+            2);
+  EXPECT_NE(err.find("start.yaml: calibration: missing"), std::string::npos) << err;
+  EXPECT_FALSE(fs::exists(dir_ / "report2"));
+}
+
 TEST_F(CalibrateCli, TooFewObservations) {
   Observations one = *detections_;
   one.images.resize(1);
