@@ -10,7 +10,10 @@
 #include "calib/projection_uncertainty.h"
 #include "model/input_error.h"
 #include "model/io/file_util.h"
+#include "model/model_compare.h"
+#include "model/rig_model.h"
 #include "model/rig_parameters.h"
+#include "model/triangulation.h"
 #include "report/figures.h"
 
 namespace omni::report {
@@ -163,6 +166,47 @@ std::string LeftOut(const ReportInput& in) {
   return out.str();
 }
 
+// Triangulation sigma (mm) of points of the stereo band at 1, 2 and 4 m held in mirror 1's body
+// (model/triangulation.h with the calibration's covariance), at the corners' estimated noise:
+// the RMS over the band of sqrt(trace Sigma), in total and the model's part alone.
+std::string TriangulationTable(const calib::CalibrationResult& r) {
+  const RigModel model(r.rig);
+  const Triangulator triangulator(model);
+  TriangulationOptions options;
+  options.reference = ReferenceBody::kMirror1;
+  options.model_covariance = true;
+  for (const auto& v : r.variance_components) {
+    if (v.group == "corners ring 1") options.sigma_px = v.sigma_px;
+    if (v.group == "corners ring 2") options.sigma_px_ring2 = v.sigma_px;
+  }
+  std::ostringstream out;
+  out << "<p>Points triangulated from both rings (midpoint), held in mirror 1's body, with pixel "
+         "noise of "
+      << Format("%.3f", options.sigma_px) << " px in ring 1 and "
+      << Format("%.3f", options.sigma_px_ring2)
+      << " px in ring 2 (the corners' estimated noise) and the calibration's covariance; RMS over "
+         "the stereo band of sqrt(trace Sigma):</p>\n<table><tr><th>range</th><th>points</th>"
+         "<th>sigma (mm)</th><th>from the model alone (mm)</th></tr>\n";
+  constexpr int kStride = 4;  // every 4th band point: an RMS over a smooth field
+  for (double range : {1000.0, 2000.0, 4000.0}) {
+    const std::vector<BandPoint> band = StereoBandPoints(model, range);
+    double total2 = 0, model2 = 0;
+    int n = 0;
+    for (size_t i = 0; i < band.size(); i += kStride) {
+      const auto p = triangulator.Triangulate(band[i].pixel[0], band[i].pixel[1], options);
+      if (!p) continue;
+      total2 += p->covariance.trace();
+      model2 += p->model_covariance.trace();
+      ++n;
+    }
+    out << "<tr><td>" << Format("%.0f", range / 1000) << " m</td><td>" << n << "</td><td>"
+        << (n ? Format("%.2f", std::sqrt(total2 / n)) : "-") << "</td><td>"
+        << (n ? Format("%.2f", std::sqrt(model2 / n)) : "-") << "</td></tr>\n";
+  }
+  out << "</table>\n";
+  return out.str();
+}
+
 std::string Tolerances(const std::vector<design::ToleranceCheck>& checks) {
   std::ostringstream out;
   out << "<table><tr><th>check</th><th>value</th><th>sigma</th><th>limit</th><th>verdict</th>"
@@ -235,6 +279,7 @@ std::string WriteReport(const std::string& dir, const ReportInput& in) {
        << " px).</p>\n"
        << Figure(near, note[4], "sigma of projection at 1 m")
        << Figure(far, note[5], "sigma of projection at " + Format("%.2f", in.range_mm / 1000) + " m")
+       << "<h2>Triangulation uncertainty</h2>\n" << TriangulationTable(*in.result)
        << (in.tolerances.empty() ? "" : "<h2>Assembly tolerances</h2>\n" + Tolerances(in.tolerances))
        << "<h2>Strongest correlations</h2>\n" << Correlations(*in.result)
        << "<h2>Left out</h2>\n" << LeftOut(in);

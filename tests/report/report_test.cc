@@ -108,7 +108,8 @@ TEST(Report, PageIsSelfContainedAndEveryImageIsWritten) {
   EXPECT_EQ(images, 8) << "plots missing (is gnuplot installed?)";
   EXPECT_EQ(html.find("class=\"missing\""), std::string::npos);
   for (const char* section : {"Advice", "Parameters", "Residuals", "Coverage",
-                              "Projection uncertainty", "Assembly tolerances",
+                              "Projection uncertainty", "Triangulation uncertainty",
+                              "Assembly tolerances",
                               "Strongest correlations", "Left out"}) {
     EXPECT_NE(html.find(std::string("<h2>") + section + "</h2>"), std::string::npos) << section;
   }
