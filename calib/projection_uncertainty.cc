@@ -154,10 +154,8 @@ std::vector<PointUncertainty> ProjectionUncertaintyMap(const CalibrationResult& 
   return out;
 }
 
-ProjectionUncertainty PredictProjectionUncertainty(const CalibrationResult& result,
-                                                   double range_mm) {
+ProjectionUncertainty RmsOf(const std::vector<PointUncertainty>& map) {
   ProjectionUncertainty out;
-  const std::vector<PointUncertainty> map = ProjectionUncertaintyMap(result, range_mm);
   if (map.empty()) return out;
   for (int m = 0; m < 2; ++m) {
     double sum_mirror1 = 0, sum_cam = 0;
@@ -170,6 +168,11 @@ ProjectionUncertainty PredictProjectionUncertainty(const CalibrationResult& resu
   }
   out.points = static_cast<int>(map.size());
   return out;
+}
+
+ProjectionUncertainty PredictProjectionUncertainty(const CalibrationResult& result,
+                                                   double range_mm) {
+  return RmsOf(ProjectionUncertaintyMap(result, range_mm));
 }
 
 ProjectionErrorShare ShareOfProjectionError(const CalibrationResult& result,

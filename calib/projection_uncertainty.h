@@ -54,6 +54,8 @@ struct PointUncertainty {
 };
 std::vector<PointUncertainty> ProjectionUncertaintyMap(const CalibrationResult& result,
                                                        double range_mm);
+// The RMS over a map's points (PredictProjectionUncertainty of the map's result and range).
+ProjectionUncertainty RmsOf(const std::vector<PointUncertainty>& map);
 
 ProjectionErrorShare ShareOfProjectionError(const CalibrationResult& result,
                                             const RigParams& truth, double range_mm);

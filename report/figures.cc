@@ -131,64 +131,62 @@ std::string ResidualHistograms(const std::string& dir, const ReportInput& in, st
   return Plot(dir, "residual_histograms.png", body, note);
 }
 
-std::string PerImageRms(const std::string& dir, const ReportInput& in, std::string* note) {
-  const int n_images = static_cast<int>(in.observations->images.size());
+namespace {
+
+// Residual RMS per ring of the residuals grouped by `group_of` (0..n-1; others left out), as
+// clustered bars: rows (index, ring 1 RMS, ring 2 RMS).
+template <typename GroupOf>
+std::vector<std::vector<double>> RmsByGroup(const ReportInput& in, int n, GroupOf group_of) {
   std::vector<double> sum2[2], count[2];
   for (int m = 0; m < 2; ++m) {
-    sum2[m].assign(n_images, 0);
-    count[m].assign(n_images, 0);
+    sum2[m].assign(n, 0);
+    count[m].assign(n, 0);
   }
   for (const auto& r : in.result->residuals) {
-    if (r.image < 0 || r.image >= n_images) continue;
-    sum2[r.mirror - 1][r.image] += r.residual.squaredNorm();
-    count[r.mirror - 1][r.image] += 1;
+    const int g = group_of(r);
+    if (g < 0 || g >= n) continue;
+    sum2[r.mirror - 1][g] += r.residual.squaredNorm();
+    count[r.mirror - 1][g] += 1;
   }
   std::vector<std::vector<double>> rows;
-  for (int i = 0; i < n_images; ++i) {
-    rows.push_back({static_cast<double>(i),
-                    count[0][i] ? std::sqrt(sum2[0][i] / count[0][i]) : 0.0,
-                    count[1][i] ? std::sqrt(sum2[1][i] / count[1][i]) : 0.0});
+  for (int g = 0; g < n; ++g) {
+    rows.push_back({static_cast<double>(g),
+                    count[0][g] ? std::sqrt(sum2[0][g] / count[0][g]) : 0.0,
+                    count[1][g] ? std::sqrt(sum2[1][g] / count[1][g]) : 0.0});
   }
+  return rows;
+}
+
+std::string RmsBars(const std::string& dir, const std::string& name, const std::string& what,
+                     const std::string& xtic, const std::vector<std::vector<double>>& rows,
+                     std::string* note) {
   const std::string body = Datablock("rms", rows) +
                            "set style data histograms\nset style histogram clustered\n"
-                           "set style fill solid 0.7\nset xlabel 'image index'\n"
+                           "set style fill solid 0.7\nset xlabel '" + what + "'\n"
                            "set ylabel 'residual RMS (px)'\nset key top right\n"
-                           "set title 'residual RMS per image'\n"
-                           "plot $rms using 2:xtic(int($1) % 5 == 0 ? sprintf('%d', $1) : '') "
-                           "title 'ring 1', '' using 3 title 'ring 2'\n";
-  return Plot(dir, "per_image_rms.png", body, note);
+                           "set title 'residual RMS per " + what + "'\n"
+                           "plot $rms using 2:xtic(" + xtic + ") title 'ring 1', '' using 3 "
+                           "title 'ring 2'\n";
+  return Plot(dir, name, body, note);
+}
+
+}  // namespace
+
+std::string PerImageRms(const std::string& dir, const ReportInput& in, std::string* note) {
+  const auto rows = RmsByGroup(in, static_cast<int>(in.observations->images.size()),
+                               [](const calib::CornerResidual& r) { return r.image; });
+  return RmsBars(dir, "per_image_rms.png", "image", "int($1) % 5 == 0 ? sprintf('%d', $1) : ''",
+                 rows, note);
 }
 
 std::string PerTargetRms(const std::string& dir, const ReportInput& in, std::string* note) {
-  const int n_targets = static_cast<int>(in.targets.size());
-  if (n_targets == 0) {
+  if (in.targets.empty()) {
     *note = "no targets";
     return "";
   }
-  std::vector<double> sum2[2], count[2];
-  for (int m = 0; m < 2; ++m) {
-    sum2[m].assign(n_targets, 0);
-    count[m].assign(n_targets, 0);
-  }
-  for (const auto& r : in.result->residuals) {
-    if (r.target < 0 || r.target >= n_targets) continue;
-    sum2[r.mirror - 1][r.target] += r.residual.squaredNorm();
-    count[r.mirror - 1][r.target] += 1;
-  }
-  std::vector<std::vector<double>> rows;
-  for (int t = 0; t < n_targets; ++t) {
-    rows.push_back({static_cast<double>(t),
-                    count[0][t] ? std::sqrt(sum2[0][t] / count[0][t]) : 0.0,
-                    count[1][t] ? std::sqrt(sum2[1][t] / count[1][t]) : 0.0});
-  }
-  const std::string body = Datablock("rms", rows) +
-                           "set style data histograms\nset style histogram clustered\n"
-                           "set style fill solid 0.7\nset xlabel 'session target'\n"
-                           "set ylabel 'residual RMS (px)'\nset key top right\n"
-                           "set title 'residual RMS per target'\n"
-                           "plot $rms using 2:xtic(sprintf('%d', $1)) title 'ring 1', '' using 3 "
-                           "title 'ring 2'\n";
-  return Plot(dir, "per_target_rms.png", body, note);
+  const auto rows = RmsByGroup(in, static_cast<int>(in.targets.size()),
+                               [](const calib::CornerResidual& r) { return r.target; });
+  return RmsBars(dir, "per_target_rms.png", "target", "sprintf('%d', $1)", rows, note);
 }
 
 std::string CoverageAngles(const std::string& dir, const ReportInput& in, std::string* note) {
@@ -263,10 +261,9 @@ std::vector<std::string> OutlierThumbnails(const std::string& dir, const ReportI
   return out;
 }
 
-std::string UncertaintyMap(const std::string& dir, const ReportInput& in, double range_mm,
+std::string UncertaintyMap(const std::string& dir,
+                           const std::vector<calib::PointUncertainty>& map, double range_mm,
                            std::string* note) {
-  const std::vector<calib::PointUncertainty> map =
-      calib::ProjectionUncertaintyMap(*in.result, range_mm);
   if (map.empty()) {
     *note = "no stereo-band point is seen in both rings at this range";
     return "";

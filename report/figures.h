@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "calib/projection_uncertainty.h"
 #include "report/report.h"
 
 namespace omni::report {
@@ -27,8 +28,9 @@ std::string CoverageAngles(const std::string& dir, const ReportInput& in, std::s
 std::vector<std::string> OutlierThumbnails(const std::string& dir, const ReportInput& in,
                                            int count);
 // The predicted sigma of projection over each ring's stereo band (azimuth x elevation) for
-// points at range_mm held in mirror 1's body (calib/projection_uncertainty.h).
-std::string UncertaintyMap(const std::string& dir, const ReportInput& in, double range_mm,
+// points at range_mm held in mirror 1's body (`map`: calib::ProjectionUncertaintyMap).
+std::string UncertaintyMap(const std::string& dir,
+                           const std::vector<calib::PointUncertainty>& map, double range_mm,
                            std::string* note);
 
 }  // namespace omni::report

@@ -248,9 +248,12 @@ std::string WriteReport(const std::string& dir, const ReportInput& in) {
   const std::string per_target = PerTargetRms(dir, in, &note[6]);
   const std::string angles = CoverageAngles(dir, in, &note[7]);
   const std::vector<std::string> thumbnails = OutlierThumbnails(dir, in, 6);
-  const std::string near = UncertaintyMap(dir, in, 1000, &note[4]);
-  const std::string far = UncertaintyMap(dir, in, in.range_mm, &note[5]);
-  const calib::ProjectionUncertainty at_1m = calib::PredictProjectionUncertainty(*in.result, 1000);
+  const std::vector<calib::PointUncertainty> map_1m =
+      calib::ProjectionUncertaintyMap(*in.result, 1000);
+  const std::string near = UncertaintyMap(dir, map_1m, 1000, &note[4]);
+  const std::string far = UncertaintyMap(
+      dir, calib::ProjectionUncertaintyMap(*in.result, in.range_mm), in.range_mm, &note[5]);
+  const calib::ProjectionUncertainty at_1m = calib::RmsOf(map_1m);
 
   std::ostringstream html;
   html << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
