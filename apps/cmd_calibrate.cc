@@ -20,6 +20,7 @@
 
 #include "apps/command.h"
 #include "apps/common_flags.h"
+#include "apps/progress.h"
 #include "calib/calibrate.h"
 #include "calib/projection_uncertainty.h"
 #include "calib/session_options.h"
@@ -55,16 +56,39 @@ std::string UtcNow() {
 
 Observations DetectSession(const io::Session& session, const RigParams& start) {
   detectors::DetectorContext ctx(start, session.targets, session.use_lips);
+  ProgressLine progress("detect", static_cast<int>(session.images.size()));
   return detectors::DetectSession(
-      session, &ctx, [](const detectors::ImageReport& r, const cv::Mat&, ImageObservations*) {
-        for (const auto& w : r.warnings) {
-          std::fprintf(stderr, "warning: %s: %s%s\n", r.file.c_str(), w.c_str(), r.skipped ? "; skipped" : "");
+      session, &ctx, [&](const detectors::ImageReport& r, const cv::Mat&, ImageObservations*) {
+        for (size_t k = 0; k < r.warnings.size(); ++k) {
+          const std::string line = "warning: " + r.file + ": " + r.warnings[k] +
+                                   (r.skipped ? "; skipped" : "");
+          if (r.skipped && k + 1 == r.warnings.size()) {
+            progress.Done(line);
+          } else {
+            progress.Print(line);
+          }
         }
         if (!r.skipped) {
-          std::fprintf(stderr, "[%zu/%zu] %s: %d corners in ring 1, %d in ring 2 (%.0f ms)\n",
-                       r.index + 1, r.total, r.file.c_str(), r.corners[0], r.corners[1], r.ms);
+          char line[512];
+          std::snprintf(line, sizeof(line), "[%zu/%zu] %s: %d corners in ring 1, %d in ring 2 (%.0f ms)",
+                        r.index + 1, r.total, r.file.c_str(), r.corners[0], r.corners[1], r.ms);
+          progress.Done(line);
         }
       });
+}
+
+// The calibration with its stages' lines on stderr and, on a terminal, a status line (stage,
+// iteration, elapsed) below them; returns the solve's wall time in *seconds.
+calib::CalibrationResult CalibrateWithProgress(const RigParams& start, const io::Session& session,
+                                               const Observations& detections, double* seconds) {
+  calib::CalibrationOptions options = calib::OptionsFromSession(session);
+  ProgressLine progress("calibrate", 0);
+  options.progress = [&](const std::string& line) { progress.Print(line); };
+  options.status = [&](const std::string& now) { progress.Status(now); };
+  const auto t0 = std::chrono::steady_clock::now();
+  calib::CalibrationResult result = calib::Calibrate(start, session.targets, detections, options);
+  *seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return result;
 }
 
 // The acceptance check "reprojection RMS within 20% of the corner noise" on a synthetic session:
@@ -170,7 +194,13 @@ void WriteReport(const calib::CalibrationResult& result, const Observations& det
     in.tolerances =
         design::CheckTolerances(result.rig, design::ReadToleranceFile(FLAGS_tolerances).spec);
   }
-  std::printf("report written to %s\n", report::WriteReport(dir, in).c_str());
+  std::string index;
+  {
+    ProgressLine progress("report", 0);
+    in.status = [&](const std::string& now) { progress.Status(now); };
+    index = report::WriteReport(dir, in);
+  }
+  std::printf("report written to %s\n", index.c_str());
 }
 
 // Every observation the solve left out, one line each, with why.
@@ -216,12 +246,8 @@ int RunCalibrate() {
                                         ? DetectSession(session, start)
                                         : io::ReadDetectionsFile(FLAGS_detections);
 
-  calib::CalibrationOptions options = calib::OptionsFromSession(session);
-  options.progress = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
-  const auto t0 = std::chrono::steady_clock::now();
-  calib::CalibrationResult result = calib::Calibrate(start, session.targets, detections, options);
-  const double seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  double seconds = 0;
+  calib::CalibrationResult result = CalibrateWithProgress(start, session, detections, &seconds);
 
   CalibrationInfo& info = *result.rig.calibration;
   info.session = FLAGS_session;
@@ -279,13 +305,9 @@ int RunReport() {
     throw io::InputError(FLAGS_model + ": calibration: missing; report needs a calibrated model "
                          "(`omnistereo calibrate` writes one)");
   }
-  calib::CalibrationOptions options = calib::OptionsFromSession(session);
-  options.progress = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
-  const auto t0 = std::chrono::steady_clock::now();
+  double seconds = 0;
   const calib::CalibrationResult result =
-      calib::Calibrate(model, session.targets, detections, options);
-  const double seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      CalibrateWithProgress(model, session, detections, &seconds);
   WriteReport(result, detections, session, FLAGS_detections, FLAGS_out, seconds);
   return 0;
 }

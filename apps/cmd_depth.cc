@@ -15,6 +15,7 @@
 
 #include "apps/command.h"
 #include "apps/common_flags.h"
+#include "apps/progress.h"
 #include "apps/stereo_cli.h"
 #include "model/io/model_file.h"
 #include "model/io/ply.h"
@@ -95,12 +96,17 @@ int RunDepth() {
   const std::string dir = RequireOutputFolder();
   const stereo::DepthOptions options = OptionsFromFlags();
 
+  ProgressLine progress("depth", 0);
   auto t0 = std::chrono::steady_clock::now();
+  progress.Status("panorama maps and ray tables");
   const stereo::DenseStereo dense(model, PanoramaOptionsFromFlags(), options);
   const double setup_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  progress.Status("matching and triangulation");
   const stereo::DepthFrame frame = dense.Compute(image);
+  progress.Status("writing " + dir);
   const double median_sigma = WriteDepthFrame(frame, options, dir);
+  progress.Finish();
 
   const int band_pixels =
       (frame.band_row_end - frame.band_row_begin) * frame.disparity.cols;

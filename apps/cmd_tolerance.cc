@@ -6,6 +6,7 @@
 
 #include "apps/command.h"
 #include "apps/common_flags.h"
+#include "apps/progress.h"
 #include "model/design/tolerance.h"
 #include "model/io/model_file.h"
 #include "model/design/tolerance_file.h"
@@ -41,8 +42,13 @@ int RunTolerance() {
                           "images at more ranges and azimuths would decide)"
                         : "");
   if (tol.simulate_samples > 0) {
-    const auto effect = design::SimulateImageEffect(rig, tol.spec, tol.simulate_samples,
-                                                    tol.simulate_range_mm, tol.simulate_seed);
+    design::ImageEffect effect;
+    {
+      ProgressLine progress("tolerance Monte Carlo, rig", tol.simulate_samples);
+      effect = design::SimulateImageEffect(rig, tol.spec, tol.simulate_samples,
+                                           tol.simulate_range_mm, tol.simulate_seed,
+                                           [&](int, int) { progress.Done(""); });
+    }
     std::printf("Image effect of parts within these tolerances (%d rigs, %d points at %.0f mm seen "
                 "in both rings):\n",
                 effect.samples, effect.points, tol.simulate_range_mm);

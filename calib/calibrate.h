@@ -86,6 +86,9 @@ struct CalibrationOptions {
   bool use_lips = true;
   // Progress, one line per stage (the CLI prints it to stderr); may be empty.
   std::function<void(const std::string&)> progress;
+  // What the solve is doing now ("stage alignment, iteration 12, rms 0.412 px"), called per
+  // solver iteration for a terminal's status line (apps/progress.h); may be empty.
+  std::function<void(const std::string&)> status;
 };
 
 // One observation that was left out of the final solve, and why.

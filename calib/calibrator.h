@@ -122,6 +122,9 @@ class Calibrator {
     if (!refine_k3_) hold("dist_k3");
     return held;
   }
+  void Status(const std::string& now) const {
+    if (options_.status) options_.status(now);
+  }
   void Progress(const std::string& line) const {
     if (options_.progress) options_.progress(line);
   }

@@ -42,6 +42,7 @@ double NearlyUnobservableSigma(const std::string& name, double f, double outer_r
 }  // namespace
 
 void Calibrator::Covariance(CalibrationResult* result) {
+  Status("covariance");
   ceres::Problem::Options po;
   po.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   po.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;

@@ -300,6 +300,7 @@ ceres::CostFunction* Calibrator::CostOf(size_t i) {
 }
 
 void Calibrator::InitialisePoses() {
+  Status("initial poses of " + std::to_string(placements_.size()) + " target placements");
   const RigModel start(rig_);
   SelectRobustStageCorners();
   for (size_t i = 0; i < obs_.size(); ++i) CostOf(i);  // created here, read by the threads

@@ -108,6 +108,25 @@ double Calibrator::Rms(int mirror, int* count) const {
   return n ? std::sqrt(ssr / n) : 0.0;
 }
 
+namespace {
+
+// The solve's status per iteration for a terminal's status line (CalibrationOptions::status).
+class StatusCallback : public ceres::IterationCallback {
+ public:
+  StatusCallback(const std::function<void(const std::string&)>& status, const std::string& stage)
+      : status_(status), stage_(stage) {}
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary& summary) override {
+    if (status_) status_("stage " + stage_ + ", iteration " + std::to_string(summary.iteration));
+    return ceres::SOLVER_CONTINUE;
+  }
+
+ private:
+  const std::function<void(const std::string&)>& status_;
+  std::string stage_;
+};
+
+}  // namespace
+
 StageReport Calibrator::Solve(const std::string& name, const std::set<std::string>& groups,
                               bool robust) {
   const auto t0 = std::chrono::steady_clock::now();
@@ -189,6 +208,11 @@ StageReport Calibrator::Solve(const std::string& name, const std::set<std::strin
   };
   held_camera_ = mask("camera");
   held_distortion_ = mask("distortion");
+  StatusCallback status(options_.status, name);
+  if (options_.status) {
+    so.callbacks.push_back(&status);
+    Status("stage " + name + ", starting");
+  }
   ceres::Solve(so, &problem, &summary);
   held_camera_ = held_distortion_ = 0;
   report.iterations = static_cast<int>(summary.iterations.size()) - 1;

@@ -241,18 +241,28 @@ std::string WriteReport(const std::string& dir, const ReportInput& in) {
     throw InputError(dir + ": cannot create the report folder (" + ec.message() + ")");
   }
   std::string note[8];
+  auto status = [&](const char* now) {
+    if (in.status) in.status(now);
+  };
+  status("residual vectors");
   const std::string vectors = ResidualVectors(dir, in, &note[0]);
+  status("coverage");
   const std::string coverage = CoverageImage(dir, in, &note[1]);
+  status("residual histograms");
   const std::string histograms = ResidualHistograms(dir, in, &note[2]);
+  status("residuals per image and target");
   const std::string per_image = PerImageRms(dir, in, &note[3]);
   const std::string per_target = PerTargetRms(dir, in, &note[6]);
   const std::string angles = CoverageAngles(dir, in, &note[7]);
+  status("left-out corners");
   const std::vector<std::string> thumbnails = OutlierThumbnails(dir, in, 6);
+  status("projection uncertainty");
   const std::vector<calib::PointUncertainty> map_1m =
       calib::ProjectionUncertaintyMap(*in.result, 1000);
   const std::string near = UncertaintyMap(dir, map_1m, 1000, &note[4]);
   const std::string far = UncertaintyMap(
       dir, calib::ProjectionUncertaintyMap(*in.result, in.range_mm), in.range_mm, &note[5]);
+  status("triangulation uncertainty");
   const calib::ProjectionUncertainty at_1m = calib::RmsOf(map_1m);
 
   std::ostringstream html;

@@ -7,6 +7,7 @@
 // draws its own), images over the frames OpenCV's.
 #pragma once
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -30,6 +31,8 @@ struct ReportInput {
   // Assembly tolerance verdicts of the calibrated rig (calibrate --tolerances FILE); shown when
   // not empty.
   std::vector<design::ToleranceCheck> tolerances;
+  // What the report is drawing now, for a terminal's status line; may be empty.
+  std::function<void(const std::string&)> status;
 };
 
 // Writes DIR/index.html and its images (DIR is created if missing) and returns the index's

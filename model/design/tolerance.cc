@@ -139,7 +139,8 @@ std::vector<ToleranceCheck> CheckTolerances(const RigParams& rig, const Toleranc
 }
 
 ImageEffect SimulateImageEffect(const RigParams& nominal, const ToleranceSpec& spec, int samples,
-                                double range_mm, unsigned seed) {
+                                double range_mm, unsigned seed,
+                                const std::function<void(int, int)>& progress) {
   // Points at the given range that the nominal rig sees in both rings.
   const std::vector<BandPoint> seen = StereoBandPoints(RigModel(nominal), range_mm);
   ImageEffect effect;
@@ -179,6 +180,7 @@ ImageEffect SimulateImageEffect(const RigParams& nominal, const ToleranceSpec& s
         shifts[m].push_back((*px - p.pixel[m]).norm());
       }
     }
+    if (progress) progress(s + 1, samples);
   }
   for (int m = 0; m < 2; ++m) {
     effect.p50_px[m] = Percentile(shifts[m], 0.5);

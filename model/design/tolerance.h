@@ -7,6 +7,7 @@
 // and for the reflex plane in mirror 1's body: tilt = |(rx, ry)| rad, offset = |dz| mm.
 #pragma once
 
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -52,7 +53,9 @@ struct ImageEffect {
   double p50_px[2] = {0, 0}, p95_px[2] = {0, 0}, max_px[2] = {0, 0};  // [ring of mirror 1, 2]
   double lost_fraction = 0;  // points no longer valid in a drawn rig
 };
+// `progress` (may be empty) is called after each drawn rig with (done, samples).
 ImageEffect SimulateImageEffect(const RigParams& nominal, const ToleranceSpec& spec, int samples,
-                                double range_mm, unsigned seed);
+                                double range_mm, unsigned seed,
+                                const std::function<void(int, int)>& progress = {});
 
 }  // namespace omni::design

@@ -138,6 +138,29 @@ TEST_F(CalibrateCli, WritesTheLibrarysCalibration) {
   EXPECT_NE(out.find("calibrated model written to"), std::string::npos) << out;
 }
 
+// Progress (issue 19): off a terminal (the other tests' stderr is a file) plain lines, no control
+// codes; on a terminal (a pseudo-terminal from util-linux's `script`) a status line naming the
+// stage and its iteration, erased in place.
+TEST_F(CalibrateCli, StatusLineOnATerminalOnly) {
+  const io::Session session = SessionWith(session_->targets);
+  std::string err;
+  const std::string args = Files(session, *detections_);
+  ASSERT_EQ(Run(args, &err), 0) << err;
+  EXPECT_EQ(err.find('\r'), std::string::npos) << err;
+  EXPECT_EQ(err.find('\033'), std::string::npos) << err;
+  EXPECT_NE(err.find("stage final"), std::string::npos) << err;
+
+  const fs::path transcript = dir_ / "terminal.txt";
+  const std::string cmd = "script -qec \"'" + std::string(OMNISTEREO_EXE) + "' " + args +
+                          "\" /dev/null < /dev/null > '" + transcript.string() + "' 2>&1";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << testing::ReadText(transcript);
+  const std::string tty = testing::ReadText(transcript);
+  EXPECT_NE(tty.find("calibrate: stage "), std::string::npos) << tty;
+  EXPECT_NE(tty.find(", iteration "), std::string::npos) << tty;
+  EXPECT_NE(tty.find("\r\033[K"), std::string::npos) << tty;
+  EXPECT_NE(tty.find("calibrated model written to"), std::string::npos) << tty;
+}
+
 // `report` on a calibrated model and its detections: the page of the calibration that wrote it
 // (the same corners used); an uncalibrated model is refused with one line and no folder.
 TEST_F(CalibrateCli, ReportOfACalibratedModel) {
