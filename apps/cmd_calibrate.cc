@@ -203,6 +203,41 @@ void WriteReport(const calib::CalibrationResult& result, const Observations& det
   std::printf("report written to %s\n", index.c_str());
 }
 
+// `report`'s detections must be those the model was calibrated from: the model's dataset (image
+// count, targets) must match them and the session.
+void CheckSameDataset(const CalibrationInfo& info, const Observations& detections,
+                      const io::Session& session) {
+  const std::string targets = calib::TargetsDescription(session.targets);
+  const int images = static_cast<int>(detections.images.size());
+  if ((info.images > 0 && info.images != images) ||
+      (!info.targets.empty() && info.targets != targets)) {
+    throw io::InputError(
+        FLAGS_detections + ": not the detections " + FLAGS_model + " was calibrated from (its " +
+        "calibration: dataset: has " + std::to_string(info.images) + " images of " +
+        info.targets + "; these have " + std::to_string(images) + " images of " + targets +
+        "); give the detections file and session that calibrate was given");
+  }
+}
+
+// Solved again from the calibrated model on the same detections, the solve starts at its optimum
+// and stays there; a parameter that moves by more than one of its sigmas means other data.
+void CheckSolveStayed(const CalibrationInfo& info, const calib::CalibrationResult& result) {
+  for (size_t i = 0; i < info.parameters.size() && i < info.sigma.size(); ++i) {
+    for (size_t j = 0; j < result.names.size(); ++j) {
+      if (result.names[j] != info.parameters[i] || !(info.sigma[i] > 0)) continue;
+      const double moved = std::abs(result.values(j) - info.values[i]) / info.sigma[i];
+      if (moved > 1.0) {
+        char buf[160];
+        std::snprintf(buf, sizeof buf, "%s moved %.1f sigma when solved again", 
+                      info.parameters[i].c_str(), moved);
+        throw io::InputError(FLAGS_detections + ": not the detections " + FLAGS_model +
+                             " was calibrated from (" + buf + "); give the detections file "
+                             "that calibrate was given");
+      }
+    }
+  }
+}
+
 // Every observation the solve left out, one line each, with why.
 void PrintLeftOut(const calib::CalibrationResult& result, const Observations& detections) {
   for (const auto& r : result.rejected) {
@@ -305,9 +340,11 @@ int RunReport() {
     throw io::InputError(FLAGS_model + ": calibration: missing; report needs a calibrated model "
                          "(`omnistereo calibrate` writes one)");
   }
+  CheckSameDataset(*model.calibration, detections, session);
   double seconds = 0;
   const calib::CalibrationResult result =
       CalibrateWithProgress(model, session, detections, &seconds);
+  CheckSolveStayed(*model.calibration, result);
   WriteReport(result, detections, session, FLAGS_detections, FLAGS_out, seconds);
   return 0;
 }

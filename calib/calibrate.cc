@@ -221,13 +221,7 @@ CalibrationResult Calibrator::Run() {
     info.unobservable.push_back(u.name);
     info.unobservable_hints.push_back(u.hint);
   }
-  std::string targets;
-  for (size_t t = 0; t < targets_.size(); ++t) {
-    const TargetSpec& s = targets_[t];
-    targets += (t ? ", " : "") + std::string(TargetTypeName(s.type)) + " " +
-               std::to_string(s.rows) + "x" + std::to_string(s.cols);
-  }
-  info.targets = targets;
+  info.targets = TargetsDescription(targets_);
   result.rig = rig_;
   result.rig.calibration = info;
   return result;
@@ -242,6 +236,16 @@ CalibrationResult Calibrate(const RigParams& start, const std::vector<TargetSpec
   }
   Calibrator calibrator(start, targets, detections, options);
   return calibrator.Run();
+}
+
+std::string TargetsDescription(const std::vector<TargetSpec>& targets) {
+  std::string text;
+  for (size_t t = 0; t < targets.size(); ++t) {
+    const TargetSpec& s = targets[t];
+    text += (t ? ", " : "") + std::string(TargetTypeName(s.type)) + " " +
+            std::to_string(s.rows) + "x" + std::to_string(s.cols);
+  }
+  return text;
 }
 
 }  // namespace omni::calib

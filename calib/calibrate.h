@@ -199,6 +199,10 @@ struct CalibrationResult {
 CalibrationResult Calibrate(const RigParams& start, const std::vector<TargetSpec>& targets,
                             const Observations& detections, const CalibrationOptions& options);
 
+// The session's targets in words ("chessboard 4x7, kalibr_aprilgrid 2x3"), as the calibrated
+// model's dataset: records them.
+std::string TargetsDescription(const std::vector<TargetSpec>& targets);
+
 // The rig parameters' names, blocks and units: model/rig_parameters.h (BlockParameterNames,
 // ParameterOf).
 

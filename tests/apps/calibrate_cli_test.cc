@@ -191,6 +191,33 @@ TEST_F(CalibrateCli, ReportOfACalibratedModel) {
             2);
   EXPECT_NE(err.find("start.yaml: calibration: missing"), std::string::npos) << err;
   EXPECT_FALSE(fs::exists(dir_ / "report2"));
+
+  // Detections from another session: fewer images (the dataset differs), or the same images with
+  // ring 2's corners 1 px to the right (the re-solve moves away from the model).
+  auto report_of = [&](const Observations& other, const std::string& folder) {
+    io::WriteDetectionsFile((dir_ / "other.yaml").string(), other);
+    return Run("report --model='" + (dir_ / "out.yaml").string() + "' --detections='" +
+                   (dir_ / "other.yaml").string() + "' --session='" +
+                   (dir_ / "session.yaml").string() + "' --out='" + (dir_ / folder).string() +
+                   "'",
+               &err);
+  };
+  Observations fewer = *detections_;
+  fewer.images.pop_back();
+  EXPECT_EQ(report_of(fewer, "report3"), 2);
+  EXPECT_NE(err.find("other.yaml: not the detections"), std::string::npos) << err;
+  EXPECT_NE(err.find(std::to_string(detections_->images.size()) + " images"), std::string::npos)
+      << err;
+  EXPECT_FALSE(fs::exists(dir_ / "report3"));
+  Observations shifted = *detections_;
+  for (auto& image : shifted.images) {
+    for (auto& c : image.corners) {
+      if (c.mirror == Mirror::kTwo) c.pixel.x() += 1.0;
+    }
+  }
+  EXPECT_EQ(report_of(shifted, "report4"), 2);
+  EXPECT_NE(err.find("sigma when solved again"), std::string::npos) << err;
+  EXPECT_FALSE(fs::exists(dir_ / "report4"));
 }
 
 TEST_F(CalibrateCli, TooFewObservations) {
