@@ -42,8 +42,6 @@ DEFINE_double(sigma_px_ring2, 0.0, "inner ring's (mirror 2's) pixel sigma if > 0
                                    "them by 1/sigma^2)");
 DEFINE_bool(model_covariance, false, "add the calibrated model's parameter covariance to each "
                                      "point's covariance");
-DEFINE_string(frame, "cam", "frame of the output points and covariances: cam (C) | mirror1 (M1, "
-                            "mirror 1's body; with --truth compared in the true rig's M1)");
 
 namespace omni::apps {
 namespace {

@@ -28,6 +28,7 @@ int RunTriangulate();
 int RunTolerance();
 int RunPanorama();
 int RunDepth();
+int RunExport();
 int RunDemo();
 
 // For commands that later issues will fill in: prints one line and returns 2.

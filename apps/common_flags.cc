@@ -13,3 +13,5 @@ DEFINE_string(image, "", "raw omnidirectional image (PNG, JPEG, ...) of the mode
 DEFINE_double(sigma_px, 1.0, "pixel noise sigma for the covariance [uncertainty_propagation]");
 DEFINE_int32(panorama_width, 1280, "panorama width in pixels (height from [panorama_pixel_size])");
 DEFINE_double(cylinder_radius_mm, 2000.0, "radius of the panorama projection cylinder (mm)");
+DEFINE_string(frame, "cam", "frame of output points, covariances and rays: cam (C) | mirror1 "
+                            "(M1, mirror 1's body; triangulate --truth compares in the true rig's M1)");

@@ -16,3 +16,5 @@ DECLARE_string(image);
 DECLARE_double(sigma_px);
 DECLARE_int32(panorama_width);
 DECLARE_double(cylinder_radius_mm);
+// Output frame (triangulate, export).
+DECLARE_string(frame);
