@@ -4,23 +4,32 @@
 //                  --dtype float32|float64
 //   panorama_maps  PATH.npz: both rings' cv::remap maps with the row -> elevation and column ->
 //                  azimuth tables (exports/panorama_maps.h), --panorama_width, --cylinder_radius_mm
+//   kalibr         PATH.yaml: Kalibr camchain of the rings' unified-model approximations
+//   basalt         PATH.json: basalt calibration of the rings' double-sphere approximations
+//                  (both exports/central_fit.h, --frame cam|mirror1; the fit's residual per ring
+//                  at 0.25, 1 and 8 m printed and written into the file, and a map of it at 1 m
+//                  as PATH-without-extension_residual.png)
 // An uncalibrated model (no calibration: section) is refused unless --allow_uncalibrated: an
 // export of the design is not the user's rig. Files are written whole or not at all.
 #include <cstdio>
 #include <string>
+
+#include <opencv2/imgproc.hpp>
 
 #include <gflags/gflags.h>
 
 #include "apps/command.h"
 #include "apps/common_flags.h"
 #include "apps/stereo_cli.h"
+#include "exports/camchain.h"
+#include "exports/central_fit.h"
 #include "exports/npy.h"
 #include "exports/panorama_maps.h"
 #include "exports/ray_table.h"
 #include "model/io/file_util.h"
 #include "model/io/model_file.h"
 
-DEFINE_string(format, "", "export format: rays | panorama_maps");
+DEFINE_string(format, "", "export format: rays | panorama_maps | kalibr | basalt");
 DEFINE_string(dtype, "float32", "rays: element type of the table: float32 | float64");
 DEFINE_bool(allow_uncalibrated, false, "export a model without a calibration: section (a design "
                                        "or a synthetic rig)");
@@ -39,16 +48,20 @@ void RequireSuffix(const std::string& suffix) {
   }
 }
 
+ReferenceBody FrameFromFlag() {
+  if (FLAGS_frame != "cam" && FLAGS_frame != "mirror1") {
+    throw io::InputError("--frame: expected cam or mirror1, got '" + FLAGS_frame + "'");
+  }
+  return FLAGS_frame == "mirror1" ? ReferenceBody::kMirror1 : ReferenceBody::kCam;
+}
+
 int ExportRays(const RigModel& model) {
   RequireSuffix(".npy");
   if (FLAGS_dtype != "float32" && FLAGS_dtype != "float64") {
     throw io::InputError("--dtype: expected float32 or float64, got '" + FLAGS_dtype + "'");
   }
-  if (FLAGS_frame != "cam" && FLAGS_frame != "mirror1") {
-    throw io::InputError("--frame: expected cam or mirror1, got '" + FLAGS_frame + "'");
-  }
   const exports::NpyArray table = exports::RayTable(
-      model, FLAGS_frame == "mirror1" ? ReferenceBody::kMirror1 : ReferenceBody::kCam,
+      model, FrameFromFlag(),
       FLAGS_dtype == "float32" ? exports::DType::kFloat32 : exports::DType::kFloat64);
   io::WriteFileAtomically(FLAGS_out, exports::NpyBytes(table));
   std::printf("ray table %s: shape (2, %lld, %lld, 6) %s, [ring][v][u][ox, oy, oz (mm), dx, dy, "
@@ -72,14 +85,62 @@ int ExportPanoramaMaps(const RigModel& model) {
   return 0;
 }
 
+// Both rings' residual maps side by side in one colour image over the frame: blue 0 px, red at
+// the larger ring maximum; the scale is printed.
+void WriteResidualMap(const std::array<exports::CentralRing, 2>& rings, const std::string& path,
+                      double* scale_px) {
+  cv::Mat both = rings[0].residual_map.clone();
+  rings[1].residual_map.copyTo(both, rings[1].residual_map == rings[1].residual_map);
+  double lo = 0, hi = 0;
+  cv::minMaxIdx(both, &lo, &hi, nullptr, nullptr, both == both);
+  *scale_px = hi > 0 ? hi : 1;
+  cv::Mat scaled, colour;
+  both.convertTo(scaled, CV_8U, 255.0 / *scale_px);
+  cv::applyColorMap(scaled, colour, cv::COLORMAP_JET);
+  colour.setTo(cv::Scalar(0, 0, 0), both != both);
+  WriteImageAtomically(path, colour);
+}
+
+int ExportCentral(const RigModel& model, exports::CentralModel kind) {
+  const bool kalibr = kind == exports::CentralModel::kUnified;
+  RequireSuffix(kalibr ? ".yaml" : ".json");
+  exports::CentralFitOptions options;
+  options.frame = FrameFromFlag();
+  const auto rings = exports::FitCentral(model, kind, options);
+  const int w = model.params().image_width, h = model.params().image_height;
+  const std::string text =
+      kalibr ? exports::KalibrCamchainYaml(rings, w, h, FLAGS_model, options.frame)
+             : exports::BasaltCalibrationJson(rings, w, h, FLAGS_model, options.frame);
+  const std::string map_path = FLAGS_out.substr(0, FLAGS_out.rfind('.')) + "_residual.png";
+  double scale = 0;
+  WriteResidualMap(rings, map_path, &scale);
+  io::WriteFileAtomically(FLAGS_out, text);
+  std::printf("%s approximation of each ring (central, fitted to the non-central model):\n",
+              exports::CentralModelName(kind));
+  for (const auto& ring : rings) {
+    const int m = ring.mirror == Mirror::kOne ? 1 : 2;
+    for (const auto& r : ring.residuals) {
+      std::printf("  ring %d at %.2f m: RMS %.4f px, max %.4f px over %d pixels%s\n", m,
+                  r.distance_mm / 1000, r.rms_px, r.max_px, r.pixels,
+                  r.not_projected ? " (some not projectable)" : "");
+    }
+  }
+  std::printf("written to %s; residual map at %.0f m (blue 0 .. red %.3f px) %s\n",
+              FLAGS_out.c_str(), options.map_distance_mm / 1000, scale, map_path.c_str());
+  return 0;
+}
+
 }  // namespace
 
 int RunExport() {
   if (FLAGS_model.empty() || FLAGS_format.empty() || FLAGS_out.empty()) {
-    throw io::InputError("--model, --format (rays | panorama_maps) and --out are required");
+    throw io::InputError(
+        "--model, --format (rays | panorama_maps | kalibr | basalt) and --out are required");
   }
-  if (FLAGS_format != "rays" && FLAGS_format != "panorama_maps") {
-    throw io::InputError("--format: expected rays or panorama_maps, got '" + FLAGS_format + "'");
+  if (FLAGS_format != "rays" && FLAGS_format != "panorama_maps" && FLAGS_format != "kalibr" &&
+      FLAGS_format != "basalt") {
+    throw io::InputError("--format: expected rays, panorama_maps, kalibr or basalt, got '" +
+                         FLAGS_format + "'");
   }
   const RigParams rig = io::ReadModelFile(FLAGS_model);
   if (!rig.calibration && !FLAGS_allow_uncalibrated) {
@@ -89,7 +150,9 @@ int RunExport() {
   }
   const RigModel model(rig);
   if (FLAGS_format == "rays") return ExportRays(model);
-  return ExportPanoramaMaps(model);
+  if (FLAGS_format == "panorama_maps") return ExportPanoramaMaps(model);
+  return ExportCentral(model, FLAGS_format == "kalibr" ? exports::CentralModel::kUnified
+                                                       : exports::CentralModel::kDoubleSphere);
 }
 
 }  // namespace omni::apps

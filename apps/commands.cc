@@ -34,7 +34,8 @@ const std::vector<Command>& Commands() {
        {"model", "image", "out", "panorama_width", "cylinder_radius_mm", "sigma_px",
         "num_disparities", "block_size", "max_sigma_mm", "ply_ascii"},
        RunDepth},
-      {"export", "model data for other programs: ray table (.npy), panorama maps (.npz)",
+      {"export", "model data for other programs: ray table (.npy), panorama maps (.npz), central "
+                 "approximations (Kalibr camchain .yaml, basalt .json)",
        {"model", "format", "out", "frame", "dtype", "panorama_width", "cylinder_radius_mm",
         "allow_uncalibrated"},
        RunExport},
