@@ -11,6 +11,7 @@
 //                  as PATH-without-extension_residual.png)
 // An uncalibrated model (no calibration: section) is refused unless --allow_uncalibrated: an
 // export of the design is not the user's rig. Files are written whole or not at all.
+#include <cmath>
 #include <cstdio>
 #include <string>
 
@@ -89,15 +90,26 @@ int ExportPanoramaMaps(const RigModel& model) {
 // the larger ring maximum; the scale is printed.
 void WriteResidualMap(const std::array<exports::CentralRing, 2>& rings, const std::string& path,
                       double* scale_px) {
-  cv::Mat both = rings[0].residual_map.clone();
-  rings[1].residual_map.copyTo(both, rings[1].residual_map == rings[1].residual_map);
+  // The maps are NaN off their ring (OpenCV's comparisons do not single NaN out: by hand).
+  cv::Mat both(rings[0].residual_map.size(), CV_32F, cv::Scalar(0));
+  cv::Mat seen(both.size(), CV_8U, cv::Scalar(0));
+  for (const auto& ring : rings) {
+    for (int v = 0; v < both.rows; ++v) {
+      for (int u = 0; u < both.cols; ++u) {
+        const float e = ring.residual_map.at<float>(v, u);
+        if (std::isnan(e)) continue;
+        both.at<float>(v, u) = e;
+        seen.at<uchar>(v, u) = 255;
+      }
+    }
+  }
   double lo = 0, hi = 0;
-  cv::minMaxIdx(both, &lo, &hi, nullptr, nullptr, both == both);
+  cv::minMaxIdx(both, &lo, &hi, nullptr, nullptr, seen);
   *scale_px = hi > 0 ? hi : 1;
   cv::Mat scaled, colour;
   both.convertTo(scaled, CV_8U, 255.0 / *scale_px);
   cv::applyColorMap(scaled, colour, cv::COLORMAP_JET);
-  colour.setTo(cv::Scalar(0, 0, 0), both != both);
+  colour.setTo(cv::Scalar(0, 0, 0), ~seen);
   WriteImageAtomically(path, colour);
 }
 
