@@ -29,6 +29,8 @@ int RunTolerance();
 int RunPanorama();
 int RunDepth();
 int RunExport();
+int RunTarget();
+int RunInit();
 int RunDemo();
 
 // For commands that later issues will fill in: prints one line and returns 2.

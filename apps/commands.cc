@@ -39,6 +39,10 @@ const std::vector<Command>& Commands() {
        {"model", "format", "out", "frame", "dtype", "panorama_width", "cylinder_radius_mm",
         "allow_uncalibrated"},
        RunExport},
+      {"init", "write a session for a built rig's photos (starting model from the design and the lips)",
+       {"images", "design", "targets", "out"}, RunInit},
+      {"target", "a printable target at exact size (PDF, SVG, PNG) and its session entry",
+       {"type", "rows", "cols", "size", "spacing", "first_id", "out", "paper", "dpi"}, RunTarget},
       {"demo", "run the main job on the bundled default", {"out"}, RunDemo},
   };
   return commands;

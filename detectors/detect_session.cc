@@ -9,6 +9,10 @@ namespace omni::detectors {
 
 Observations DetectSession(const io::Session& session, DetectorContext* ctx,
                              const ImageCallback& on_image) {
+  if (session.images.empty()) {
+    throw io::InputError(session.path + ": images: expected the photos (paths or globs); a "
+                         "session without them only serves calibrate and report with --detections");
+  }
   const RigParams& rig = ctx->model.params();
   ctx->tone = session.tone;
   Observations detections;

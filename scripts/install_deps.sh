@@ -5,7 +5,8 @@ set -euo pipefail
 packages=(cmake g++ make pkg-config libeigen3-dev libceres-dev libopencv-dev libopencv-contrib-dev
   libapriltag-dev libgflags-dev libgoogle-glog-dev libnlopt-cxx-dev libyaml-cpp-dev povray
   googletest libgtest-dev libbenchmark-dev gnuplot-nox chromium pybind11-dev python3-dev
-  python3-numpy python3-yaml "$@")
+  python3-numpy python3-yaml libcairo2-dev
+  poppler-utils "$@")
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -134,6 +134,24 @@ TagTexture MakeTagTexture(const TargetSpec& spec, int min_pixels_per_bit) {
   return texture;
 }
 
+TagTexture SheetTexture(const TargetSpec& spec) {
+  if (spec.type != TargetType::kChessboard) return MakeTagTexture(spec);
+  if (spec.rows < 1 || spec.cols < 1 || !(spec.square_mm > 0)) {
+    throw std::invalid_argument("SheetTexture: expected rows, cols >= 1 and square > 0");
+  }
+  TagTexture texture;
+  texture.mm_per_pixel = spec.square_mm;
+  texture.pixels_per_bit = 1;
+  // SheetBounds: x from -2 squares to cols + 1 squares; pixel column k covers cell i = k - 2.
+  texture.image = cv::Mat(spec.rows + 3, spec.cols + 3, CV_8UC1, cv::Scalar(255));
+  for (int j = -1; j < spec.rows; ++j) {
+    for (int i = -1; i < spec.cols; ++i) {
+      if ((i + j) % 2 != 0) texture.image.at<uint8_t>(j + 2, i + 2) = 0;
+    }
+  }
+  return texture;
+}
+
 std::string TextureFileName(int index, const TargetSpec& spec) {
   return "target" + std::to_string(index) + "_" + TargetTypeName(spec.type) + ".png";
 }

@@ -44,6 +44,13 @@ struct TagTexture {
 // The sheet image of a tag grid (CheckTagGrid must hold).
 TagTexture MakeTagTexture(const TargetSpec& spec, int min_pixels_per_bit = 4);
 
+// The printed face of ANY target over SheetBounds(spec): tag grids as MakeTagTexture; a
+// chessboard as one pixel per square (mm_per_pixel = square), its (cols + 1) x (rows + 1) squares
+// in a one-square white margin, cell (i, j) (x from i * square, y from j * square, i, j >= -1)
+// black where i + j is odd, as the renderer's POV-Ray checker paints it (pov_scene.cc). What
+// `omnistereo target` prints.
+TagTexture SheetTexture(const TargetSpec& spec);
+
 // The texture's file name for target `index` of a scene ("target<index>_<type>.png").
 std::string TextureFileName(int index, const TargetSpec& spec);
 

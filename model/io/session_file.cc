@@ -23,27 +23,19 @@ std::string Resolve(const std::string& base_dir, const std::string& path) {
   return (fs::path(base_dir) / path).lexically_normal().string();
 }
 
+// `images:` may be left out where the detections are given (calibrate, report with
+// --detections); detect then says it needs them (detectors/detect_session.h).
 std::vector<std::string> ExpandImages(const Reader& in, const YAML::Node& root,
                                       const std::string& base_dir) {
+  if (!root["images"].IsDefined()) return {};
   const std::vector<std::string> patterns = in.Strings(root, "", "images");
   if (patterns.empty()) in.Fail("images", "expected at least one image path or glob", "an empty list");
   std::vector<std::string> images;
   for (std::size_t i = 0; i < patterns.size(); ++i) {
     const std::string key = "images[" + std::to_string(i) + "]";
     const std::string pattern = Resolve(base_dir, patterns[i]);
-    if (pattern.find_first_of("*?[") == std::string::npos) {
-      images.push_back(pattern);
-      continue;
-    }
-    glob_t matches{};
-    const int rc = ::glob(pattern.c_str(), 0, nullptr, &matches);
-    std::vector<std::string> found;
-    if (rc == 0) {
-      for (std::size_t k = 0; k < matches.gl_pathc; ++k) found.push_back(matches.gl_pathv[k]);
-    }
-    globfree(&matches);
+    const std::vector<std::string> found = ExpandImagePattern(pattern);
     if (found.empty()) in.Fail(key, "expected files matching '" + pattern + "'", "none");
-    std::sort(found.begin(), found.end());
     images.insert(images.end(), found.begin(), found.end());
   }
   return images;
@@ -122,6 +114,40 @@ const std::vector<std::string>& EstimableGroups() {
     return out;
   }();
   return groups;
+}
+
+std::vector<std::string> ExpandImagePattern(const std::string& pattern) {
+  if (pattern.find_first_of("*?[") == std::string::npos) return {pattern};
+  glob_t matches{};
+  const int rc = ::glob(pattern.c_str(), 0, nullptr, &matches);
+  std::vector<std::string> found;
+  if (rc == 0) {
+    for (std::size_t k = 0; k < matches.gl_pathc; ++k) found.push_back(matches.gl_pathv[k]);
+  }
+  globfree(&matches);
+  std::sort(found.begin(), found.end());
+  return found;
+}
+
+std::vector<TargetSpec> ParseTargetList(const std::string& text, const std::string& what) {
+  const Reader in(what);
+  YAML::Node node;
+  try {
+    node = YAML::Load(text);
+  } catch (const YAML::Exception& e) {
+    throw InputError(what + ": expected a YAML list of targets, got '" + text + "' (" + e.msg + ")");
+  }
+  std::vector<TargetSpec> targets;
+  if (IsMap(node)) {
+    targets.push_back(ReadTarget(in, node, "[0]"));
+  } else if (IsSequence(node)) {
+    for (std::size_t i = 0; i < node.size(); ++i) {
+      targets.push_back(ReadTarget(in, node[i], "[" + std::to_string(i) + "]"));
+    }
+  } else if (node.IsDefined() && !node.IsNull()) {
+    throw InputError(what + ": expected a YAML list of targets, got " + Describe(node));
+  }
+  return targets;
 }
 
 Session ReadSessionFile(const std::string& path) {
@@ -220,6 +246,20 @@ Session ReadSessionFile(const std::string& path) {
   return session;
 }
 
+std::string TargetEntryText(const TargetSpec& t) {
+  std::ostringstream out;
+  out << "{type: " << TargetTypeName(t.type) << ", rows: " << t.rows << ", cols: " << t.cols;
+  if (t.type == TargetType::kChessboard) {
+    out << ", square: " << FormatDouble(t.square_mm) << "}";
+  } else {
+    out << ", tag_size: " << FormatDouble(t.tag_size_mm) << ", spacing: "
+        << FormatDouble(t.spacing) << ", first_id: " << t.first_id;
+    if (t.type == TargetType::kAprilTagGrid) out << ", family: " << t.family;
+    out << "}";
+  }
+  return out.str();
+}
+
 std::string SessionText(const Session& session, const std::string& base_dir) {
   std::ostringstream out;
   out << "format: omnistereo-session/1\n";
@@ -227,17 +267,7 @@ std::string SessionText(const Session& session, const std::string& base_dir) {
   out << "images:\n";
   for (const auto& image : session.images) out << "  - " << Quote(Relative(image, base_dir)) << "\n";
   out << "targets:" << (session.targets.empty() ? " []" : "") << "\n";
-  for (const TargetSpec& t : session.targets) {
-    out << "  - {type: " << TargetTypeName(t.type) << ", rows: " << t.rows << ", cols: " << t.cols;
-    if (t.type == TargetType::kChessboard) {
-      out << ", square: " << FormatDouble(t.square_mm) << "}\n";
-    } else {
-      out << ", tag_size: " << FormatDouble(t.tag_size_mm) << ", spacing: "
-          << FormatDouble(t.spacing) << ", first_id: " << t.first_id;
-      if (t.type == TargetType::kAprilTagGrid) out << ", family: " << t.family;
-      out << "}\n";
-    }
-  }
+  for (const TargetSpec& t : session.targets) out << "  - " << TargetEntryText(t) << "\n";
   out << "lips: " << (session.use_lips ? "true" : "false") << "\n";
   out << "tone: " << ToneCurveName(session.tone) << "   # how the images encode light: srgb or linear\n";
   if (session.bayer != BayerPattern::kNone) {

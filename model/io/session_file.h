@@ -55,6 +55,18 @@ const std::vector<std::string>& EstimableGroups();
 // nothing are an error; image files are not opened here.
 Session ReadSessionFile(const std::string& path);
 
+// The files a session's `images:` entry names: a plain path as it is, a glob's matches sorted
+// (none: empty).
+std::vector<std::string> ExpandImagePattern(const std::string& pattern);
+
+// Targets written as session entries (a YAML list of maps, or one map), as `init --targets`
+// takes them; errors name `what` and the entry.
+std::vector<TargetSpec> ParseTargetList(const std::string& text, const std::string& what);
+
+// One target as a session file's `targets:` entry: "{type: chessboard, rows: 6, cols: 8,
+// square: 40}" (what `omnistereo target` prints for the sheet it draws).
+std::string TargetEntryText(const TargetSpec& target);
+
 // The YAML text of a session; paths are written relative to `base_dir` (the folder the session
 // file will be written to) when they lie below it.
 std::string SessionText(const Session& session, const std::string& base_dir);

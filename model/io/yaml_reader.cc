@@ -68,4 +68,10 @@ YAML::Node LoadYamlFile(const std::string& path, const std::string& what) {
   }
 }
 
+std::string ReadFormatKey(const std::string& path) {
+  const YAML::Node root = LoadYamlFile(path, "file");
+  if (!IsMap(root) || !IsScalar(root["format"])) return "";
+  return root["format"].Scalar();
+}
+
 }  // namespace omni::io

@@ -196,4 +196,8 @@ std::string ReadWholeFile(const std::string& path, const std::string& what);
 // The file parsed as YAML; InputError with the line and column of a syntax error.
 YAML::Node LoadYamlFile(const std::string& path, const std::string& what);
 
+// The value of a YAML file's top-level `format:` key ("" if it has none); throws InputError for
+// an unreadable file or invalid YAML.
+std::string ReadFormatKey(const std::string& path);
+
 }  // namespace omni::io

@@ -1,0 +1,160 @@
+// `omnistereo init --images 'DIR/*.jpg' --design big_rig|small_rig|FILE --targets '[...]'
+// --out session.yaml` (issue 23): a session for a built rig's photos. Reads the images' size
+// (all must agree), picks the starting model (the design at that size; its intrinsics from the
+// lips when the first images show them, else from the image size), lists the images and writes
+// the session with comments, and the starting model beside it (start_model.yaml). Nothing is
+// written when an input is wrong.
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <gflags/gflags.h>
+
+#include "apps/command.h"
+#include "apps/common_flags.h"
+#include "detectors/detect_session.h"
+#include "detectors/lip_intrinsics.h"
+#include "model/design/design_config.h"
+#include "model/design/optimizer.h"
+#include "model/io/file_util.h"
+#include "model/io/image_file.h"
+#include "model/io/model_file.h"
+#include "model/io/session_file.h"
+#include "model/io/yaml_reader.h"
+
+DEFINE_string(images, "", "init: the photos, a path or glob (quote it: 'photos/*.jpg'); several "
+                          "separated by commas");
+DEFINE_string(design, "big_rig", "init: the rig as designed: big_rig | small_rig (the paper's) | a "
+                                 "model file (omnistereo-model/1) | a design config "
+                                 "(omnistereo-design/1)");
+DEFINE_string(targets, "", "init: the printed targets as a YAML list of session entries, e.g. "
+                           "'[{type: chessboard, rows: 6, cols: 8, square: 40}]' (what "
+                           "`omnistereo target` prints)");
+
+namespace omni::apps {
+namespace {
+
+namespace fs = std::filesystem;
+
+// The starting model of --design, at its own image size.
+RigParams DesignedRig() {
+  std::string path = FLAGS_design;
+  if (path == "big_rig") return io::ReadModelFile(std::string(OMNISTEREO_SOURCE_DIR) + "/sample_configs/big_rig_ideal.yaml");
+  if (path == "small_rig") path = std::string(OMNISTEREO_SOURCE_DIR) + "/sample_configs/small_rig_design.yaml";
+  if (!fs::exists(path)) {
+    throw io::InputError("--design: expected big_rig, small_rig or an existing file, got '" + path + "'");
+  }
+  if (io::ReadFormatKey(path).rfind("omnistereo-design/", 0) != 0) return io::ReadModelFile(path);
+  const design::DesignConfig config = design::ReadDesignConfig(path);
+  const design::OptimizerResult result = design::OptimizeBaseline(config.options);
+  if (result.status != design::OptimizerStatus::kConverged &&
+      result.status != design::OptimizerStatus::kMaxEvaluations) {
+    throw io::InputError(path + ": the design could not be solved: " + result.message);
+  }
+  return MakeIdealRig(result.best.theta, config.options.r_cam, config.camera, config.image_width,
+                      config.image_height);
+}
+
+// The images of --images (globs expanded, sorted per pattern) and their common size.
+std::vector<std::string> Images(int* width, int* height) {
+  std::vector<std::string> images;
+  size_t start = 0;
+  while (start <= FLAGS_images.size()) {
+    const size_t comma = FLAGS_images.find(',', start);
+    const std::string pattern = FLAGS_images.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
+    start = comma == std::string::npos ? FLAGS_images.size() + 1 : comma + 1;
+    if (pattern.empty()) continue;
+    const std::vector<std::string> found = io::ExpandImagePattern(pattern);
+    if (found.empty()) throw io::InputError("--images: no file matches '" + pattern + "'");
+    images.insert(images.end(), found.begin(), found.end());
+  }
+  if (images.empty()) throw io::InputError("--images: expected a path or glob of the photos");
+  *width = *height = 0;
+  for (const std::string& path : images) {
+    const cv::Mat image = io::ReadImage(path);
+    if (*width == 0) {
+      *width = image.cols;
+      *height = image.rows;
+    } else if (image.cols != *width || image.rows != *height) {
+      throw io::InputError(path + ": expected " + std::to_string(*width) + "x" +
+                           std::to_string(*height) + " like " + images.front() + ", got " +
+                           std::to_string(image.cols) + "x" + std::to_string(image.rows) +
+                           " (all photos of a session come from one camera at one setting)");
+    }
+  }
+  return images;
+}
+
+// The design's camera at the photos' size: focal length scaled with the width, the principal
+// point at the centre; then, where the first photos show the lips, f and the principal point
+// from them.
+void StartingIntrinsics(const std::vector<std::string>& images, RigParams* rig, int width,
+                        int height) {
+  const double scale = static_cast<double>(width) / rig->image_width;
+  rig->camera[0] *= scale;
+  rig->camera[1] *= scale;
+  rig->camera[2] = 0.5 * (width - 1);
+  rig->camera[3] = 0.5 * (height - 1);
+  rig->image_width = width;
+  rig->image_height = height;
+  io::Session lips_only;
+  lips_only.images.assign(images.begin(), images.begin() + std::min<size_t>(3, images.size()));
+  detectors::DetectorContext ctx(*rig, {}, true);
+  const Observations found = detectors::DetectSession(lips_only, &ctx);
+  std::vector<LipEdgeObservation> edges;
+  for (const auto& image : found.images) edges.insert(edges.end(), image.lips.begin(), image.lips.end());
+  const auto lips = detectors::InitialIntrinsicsFromLips(edges, ctx.model);
+  if (!lips) {
+    std::printf("intrinsics from the image size (f %.1f px, principal point at the centre): no "
+                "lips found in the first photos (check `color:` of the lips in %s)\n",
+                rig->camera[0], FLAGS_design.c_str());
+    return;
+  }
+  rig->camera[0] = rig->camera[1] = lips->f;
+  rig->camera[2] = lips->cx;
+  rig->camera[3] = lips->cy;
+  std::printf("intrinsics from the lips in the first %zu photos: f %.1f px (sigma %.1f), "
+              "principal point (%.1f, %.1f) px, %d edge points\n",
+              lips_only.images.size(), lips->f, lips->sigma_f, lips->cx, lips->cy, lips->n_points);
+}
+
+}  // namespace
+
+int RunInit() {
+  if (FLAGS_images.empty() || FLAGS_out.empty()) {
+    throw io::InputError("--images (a glob of the photos) and --out (the session file) are required");
+  }
+  io::Session session;
+  session.targets = io::ParseTargetList(FLAGS_targets, "--targets");
+  if (session.targets.empty()) {
+    throw io::InputError("--targets: expected the printed targets, e.g. '[{type: chessboard, "
+                         "rows: 6, cols: 8, square: 40}]' (`omnistereo target` prints the entry)");
+  }
+  int width = 0, height = 0;
+  session.images = Images(&width, &height);
+  RigParams rig = DesignedRig();
+  StartingIntrinsics(session.images, &rig, width, height);
+
+  const fs::path out = fs::absolute(FLAGS_out);
+  const std::string model_path = (out.parent_path() / "start_model.yaml").string();
+  session.model_path = model_path;
+  const std::string text =
+      "# omnistereo-session/1 written by `omnistereo init` from " + FLAGS_images + ".\n"
+      "# model: the starting model (the design " + FLAGS_design + " at the photos' " +
+      std::to_string(width) + "x" + std::to_string(height) + "; calibrate refines it).\n"
+      "# images: the photos (globs allowed); targets: what was printed, exactly (mm).\n"
+      "# lips: use the coloured lips at the mirror rims; tone: srgb for colour cameras and JPEG,\n"
+      "# linear for machine-vision cameras with gamma off; bayer: RGGB|... for raw frames.\n"
+      "# Next: omnistereo detect --session " + FLAGS_out + " --out detections.yaml --overlay overlays/\n" +
+      io::SessionText(session, out.parent_path().string());
+  io::WriteModelFile(model_path, rig);
+  io::WriteFileAtomically(out.string(), text);
+  std::printf("%zu photos of %dx%d, %zu target(s); session %s, starting model %s\n",
+              session.images.size(), width, height, session.targets.size(), FLAGS_out.c_str(),
+              model_path.c_str());
+  return 0;
+}
+
+}  // namespace omni::apps
