@@ -23,6 +23,7 @@
 #include "model/io/model_file.h"
 #include "model/io/session_file.h"
 #include "model/io/yaml_reader.h"
+#include "model/rig_parameters.h"
 
 DEFINE_string(images, "", "init: the photos, a path or glob (quote it: 'photos/*.jpg'); several "
                           "separated by commas");
@@ -127,6 +128,7 @@ int RunInit() {
     throw io::InputError("--images (a glob of the photos) and --out (the session file) are required");
   }
   io::Session session;
+  session.estimate = DefaultEstimateBlocks();
   session.targets = io::ParseTargetList(FLAGS_targets, "--targets");
   if (session.targets.empty()) {
     throw io::InputError("--targets: expected the printed targets, e.g. '[{type: chessboard, "

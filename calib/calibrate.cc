@@ -234,6 +234,11 @@ CalibrationResult Calibrate(const RigParams& start, const std::vector<TargetSpec
       throw InputError("estimate: unknown parameter group '" + g + "'");
     }
   }
+  if (options.estimate.empty()) {
+    throw CalibrationError("nothing to estimate: the session's estimate: names no parameter "
+                           "group (usually [camera, distortion, mirror1_pose, mirror2_pose, "
+                           "reflex])");
+  }
   Calibrator calibrator(start, targets, detections, options);
   return calibrator.Run();
 }

@@ -188,6 +188,10 @@ Session ReadSessionFile(const std::string& path) {
 
   if (root["estimate"].IsDefined()) {
     session.estimate = in.Strings(root, "", "estimate");
+    if (session.estimate.empty()) {
+      in.Fail("estimate", "expected at least one parameter group (usually [camera, distortion, "
+              "mirror1_pose, mirror2_pose, reflex])", "an empty list");
+    }
     std::set<std::string> seen;
     for (std::size_t i = 0; i < session.estimate.size(); ++i) {
       const std::string& g = session.estimate[i];

@@ -125,6 +125,35 @@ TEST_F(SessionFileTest, LipsOnlySessionHasNoTargets) {
   }
 }
 
+// A session for calibrate / report with --detections needs no image list (what `init` and
+// hand-written sessions may leave out); detect then says it needs the images.
+TEST_F(SessionFileTest, ImagesMayBeLeftOut) {
+  std::string text = kGood;
+  text.replace(text.find("images: [images/*.png]\n"), 23, "");
+  const Session s = ReadSessionFile(Write(text));
+  EXPECT_TRUE(s.images.empty());
+  EXPECT_EQ(s.targets.size(), 3u);
+}
+
+// Targets as `init --targets` takes them: a list or one entry; errors name the entry's key.
+TEST(TargetListTest, ParsesSessionEntries) {
+  const auto list = ParseTargetList(
+      "[{type: chessboard, rows: 5, cols: 6, square: 35}, {type: kalibr_aprilgrid, rows: 2, "
+      "cols: 3, tag_size: 65, spacing: 0.3, first_id: 50}]",
+      "--targets");
+  ASSERT_EQ(list.size(), 2u);
+  EXPECT_EQ(list[1].type, TargetType::kKalibrAprilGrid);
+  EXPECT_EQ(list[1].first_id, 50);
+  EXPECT_EQ(TargetEntryText(list[0]), "{type: chessboard, rows: 5, cols: 6, square: 35}");
+  EXPECT_EQ(ParseTargetList("{type: chessboard, rows: 5, cols: 6, square: 35}", "x").size(), 1u);
+  try {
+    ParseTargetList("[{type: chessboard, rows: 5, cols: 6}]", "--targets");
+    ADD_FAILURE() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("--targets: [0].square"), std::string::npos) << e.what();
+  }
+}
+
 TEST_F(SessionFileTest, MalformedInputNamesTheKey) {
   struct Case {
     std::string from, to, key;
@@ -141,6 +170,7 @@ TEST_F(SessionFileTest, MalformedInputNamesTheKey) {
       {"first_id: 30", "first_id: 585", "targets[2]"},
       {"[camera, mirror1_pose]", "[camera, lens]", "estimate[1]"},
       {"[camera, mirror1_pose]", "[camera, camera]", "estimate[1]"},
+      {"[camera, mirror1_pose]", "[]", "estimate"},
       {"sigma_k: 0.01", "sigma_k: 0", "priors.mirror1_shape.sigma_k"},
       {"loss: cauchy", "loss: l1", "solver.loss"},
       {"dist_p2: 0}", "dist_p2: -1e-4}", "consider.dist_p2"},
