@@ -102,6 +102,24 @@ def main():
     rms1, rms2 = float(m[1]), float(m[3])
     print(f"calibrated vs true rig at 1 m in mirror 1's body: ring 1 {rms1} px, ring 2 {rms2} px")
     assert rms1 <= 0.1 and rms2 <= 0.1, (rms1, rms2)
+
+    # init on bad input: one line, nothing written.
+    os.makedirs(os.path.join(TMP, "mixed"))
+    shutil.copy(os.path.join(TMP, "photos", "0001.jpg"), os.path.join(TMP, "mixed"))
+    subprocess.run([EXE, "target", "--type=chessboard", "--rows=5", "--cols=6", "--size=35",
+                    "--dpi=50", "--paper=A3", "--out=" + os.path.join(TMP, "mixed", "0002.png")], check=True,
+                   capture_output=True)
+    good_targets = "--targets=[{type: chessboard, rows: 5, cols: 6, square: 35}]"
+    os.makedirs(os.path.join(TMP, "bad"))
+    for images, targets, needle in (
+            ("mixed/*", good_targets, "0002.png: expected 1280x960 like"),
+            ("photos/*.jpg", "--targets=[{type: chessboard, rows: 5}]", "--targets: [0].cols"),
+            ("nothing/*.jpg", good_targets, "--images: no file matches")):
+        p = subprocess.run([EXE, "init", "--images=" + images, targets, "--out=bad/session.yaml"],
+                           cwd=TMP, capture_output=True, text=True)
+        assert p.returncode == 2 and needle in p.stderr and p.stderr.count("\n") == 1, p.stderr
+        assert not os.listdir(os.path.join(TMP, "bad")), "init wrote something"
+        print(f"init refused: {p.stderr.strip()}")
     print("ok")
 
 
