@@ -27,7 +27,7 @@ std::string Resolve(const std::string& base_dir, const std::string& path) {
 // --detections); detect then says it needs them (detectors/detect_session.h).
 std::vector<std::string> ExpandImages(const Reader& in, const YAML::Node& root,
                                       const std::string& base_dir) {
-  if (!root["images"].IsDefined()) return {};
+  if (!root["images"].IsDefined() || root["images"].IsNull()) return {};
   const std::vector<std::string> patterns = in.Strings(root, "", "images");
   if (patterns.empty()) in.Fail("images", "expected at least one image path or glob", "an empty list");
   std::vector<std::string> images;
@@ -268,7 +268,7 @@ std::string SessionText(const Session& session, const std::string& base_dir) {
   std::ostringstream out;
   out << "format: omnistereo-session/1\n";
   out << "model: " << Quote(Relative(session.model_path, base_dir)) << "\n";
-  out << "images:\n";
+  if (!session.images.empty()) out << "images:\n";
   for (const auto& image : session.images) out << "  - " << Quote(Relative(image, base_dir)) << "\n";
   out << "targets:" << (session.targets.empty() ? " []" : "") << "\n";
   for (const TargetSpec& t : session.targets) out << "  - " << TargetEntryText(t) << "\n";

@@ -161,6 +161,16 @@ TEST_F(CalibrateCli, StatusLineOnATerminalOnly) {
   EXPECT_NE(tty.find("calibrated model written to"), std::string::npos) << tty;
 }
 
+// With --detections the session needs no image list (issue 23).
+TEST_F(CalibrateCli, SessionWithoutImagesCalibratesFromDetections) {
+  io::Session session = SessionWith(session_->targets);
+  session.images.clear();
+  std::string err, out;
+  ASSERT_EQ(Run(Files(session, *detections_), &err, &out), 0) << err;
+  EXPECT_EQ(testing::ReadText(dir_ / "session.yaml").find("images:"), std::string::npos);
+  EXPECT_NE(out.find("calibrated model written to"), std::string::npos) << out;
+}
+
 // `report` on a calibrated model and its detections: the page of the calibration that wrote it
 // (the same corners used); an uncalibrated model is refused with one line and no folder.
 TEST_F(CalibrateCli, ReportOfACalibratedModel) {

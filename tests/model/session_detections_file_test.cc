@@ -133,6 +133,13 @@ TEST_F(SessionFileTest, ImagesMayBeLeftOut) {
   const Session s = ReadSessionFile(Write(text));
   EXPECT_TRUE(s.images.empty());
   EXPECT_EQ(s.targets.size(), 3u);
+  // Written without images, read back without them.
+  const std::string written = SessionText(s, dir_.string());
+  EXPECT_EQ(written.find("images:"), std::string::npos) << written;
+  EXPECT_TRUE(ReadSessionFile(Write(written)).images.empty());
+  text = kGood;
+  text.replace(text.find("images: [images/*.png]\n"), 23, "images:\n");
+  EXPECT_TRUE(ReadSessionFile(Write(text)).images.empty());
 }
 
 // Targets as `init --targets` takes them: a list or one entry; errors name the entry's key.
