@@ -20,19 +20,15 @@ import subprocess
 import sys
 
 import numpy as np
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+import omni_cli  # noqa: E402  (tests/omni_cli.py)
 import yaml
 
 EXE, IDEAL, MISALIGNED, TMP = sys.argv[1:5]
+run = omni_cli.runner(EXE)
 DISTANCES_MM = [250.0, 1000.0, 8000.0]
 STEP = 4
-
-
-def run(*args, expect=0):
-    p = subprocess.run([EXE, *args], capture_output=True, text=True)
-    if p.returncode != expect:
-        sys.exit(f"omnistereo {' '.join(args)}: exit {p.returncode}, expected {expect}\n"
-                 f"{p.stdout}{p.stderr}")
-    return p
 
 
 def project_omni_radtan(q, dist, p):

@@ -18,15 +18,11 @@ import zlib
 
 import numpy as np
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+import omni_cli  # noqa: E402  (tests/omni_cli.py)
+
 EXE, MODEL, TMP = sys.argv[1:4]
-
-
-def run(*args, expect=0):
-    p = subprocess.run([EXE, *args], capture_output=True, text=True)
-    if p.returncode != expect:
-        sys.exit(f"omnistereo {' '.join(args)}: exit {p.returncode}, expected {expect}\n"
-                 f"{p.stdout}{p.stderr}")
-    return p
+run = omni_cli.runner(EXE)
 
 
 def write_png(path, grey):

@@ -20,16 +20,12 @@ import sys
 
 import numpy as np
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+import omni_cli  # noqa: E402  (tests/omni_cli.py)
+
 EXE, MODEL, TMP = sys.argv[1], sys.argv[2], sys.argv[3]
+run = omni_cli.runner(EXE)
 RANGES_MM = [250, 500, 1000, 2000, 4000, 8000]
-
-
-def run(*args, expect=0):
-    p = subprocess.run([EXE, *args], capture_output=True, text=True)
-    if p.returncode != expect:
-        sys.exit(f"omnistereo {' '.join(args)}: exit {p.returncode}, expected {expect}\n"
-                 f"{p.stdout}{p.stderr}")
-    return p
 
 
 def midpoint(o1, d1, o2, d2):

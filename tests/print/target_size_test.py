@@ -16,7 +16,11 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+import omni_cli  # noqa: E402  (tests/omni_cli.py)
+
 EXE, TMP = sys.argv[1:3]
+run = omni_cli.runner(EXE)
 PAPERS = {"A4": (210.0, 297.0), "A2": (420.0, 594.0), "letter": (215.9, 279.4)}
 FOOTER_MM = 22.0
 
@@ -27,14 +31,6 @@ CASES = [  # flags, paper, expected pattern width x height (mm)
     (["--type=kalibr_aprilgrid", "--rows=6", "--cols=6", "--size=40", "--spacing=0.3"], "A2",
      (6 * 40 + 7 * 12.0, 6 * 40 + 7 * 12.0)),
 ]
-
-
-def run(*args, expect=0):
-    p = subprocess.run([EXE, *args], capture_output=True, text=True)
-    if p.returncode != expect:
-        sys.exit(f"omnistereo {' '.join(args)}: exit {p.returncode}, expected {expect}\n"
-                 f"{p.stdout}{p.stderr}")
-    return p
 
 
 def extent(mask, mm_per_px):
