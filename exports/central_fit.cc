@@ -10,6 +10,7 @@
 
 #include "exports/central_models.h"
 #include "model/stereo/panorama.h"
+#include "model/stereo/sparse_triangulation.h"
 
 namespace omni::exports {
 namespace {
@@ -216,10 +217,9 @@ const char* CentralModelName(CentralModel model) {
 
 std::array<CentralRing, 2> FitCentral(const RigModel& model, CentralModel kind,
                                       const CentralFitOptions& options) {
+  // The output frame from C (C itself, or mirror 1's body), as triangulate's.
   const Pose<double> rig_from_cam =
-      options.frame == ReferenceBody::kMirror1
-          ? PoseFromBlock(model.params().mirror1_pose.data()).Inverse()
-          : Pose<double>{Eigen::Matrix3d::Identity(), Eigen::Vector3d::Zero()};
+      stereo::FramesOf(model.params(), options.frame, nullptr).out_from_cam;
   const stereo::PanoramaGeometry geometry = stereo::MakePanoramaGeometry(model, {});
   const Eigen::Vector3d axis = rig_from_cam.rotation * geometry.cam_from_cylinder.col(2);
   const Eigen::Vector2d principal(model.params().camera[2], model.params().camera[3]);

@@ -1,8 +1,9 @@
 #include "exports/npy.h"
 
-#include <array>
 #include <cstring>
 #include <stdexcept>
+
+#include <zlib.h>
 
 namespace omni::exports {
 namespace {
@@ -53,18 +54,8 @@ std::string NpyBytes(const NpyArray& a) {
 }
 
 uint32_t Crc32(const std::string& bytes) {
-  static const std::array<uint32_t, 256> table = [] {
-    std::array<uint32_t, 256> t{};
-    for (uint32_t i = 0; i < 256; ++i) {
-      uint32_t c = i;
-      for (int k = 0; k < 8; ++k) c = (c & 1) ? 0xEDB88320u ^ (c >> 1) : c >> 1;
-      t[i] = c;
-    }
-    return t;
-  }();
-  uint32_t crc = 0xFFFFFFFFu;
-  for (unsigned char b : bytes) crc = table[(crc ^ b) & 0xff] ^ (crc >> 8);
-  return crc ^ 0xFFFFFFFFu;
+  return static_cast<uint32_t>(
+      crc32(0, reinterpret_cast<const Bytef*>(bytes.data()), static_cast<uInt>(bytes.size())));
 }
 
 // ZIP (APPNOTE 6.3): per member a local header and the stored bytes, then the central directory

@@ -34,7 +34,7 @@ std::string NpyBytes(const NpyArray& array);
 // CRC-32, as numpy.savez writes them.
 std::string NpzBytes(const std::vector<NpyArray>& arrays);
 
-// CRC-32 (ISO-HDLC, ZIP's) of `bytes`.
+// CRC-32 (ISO-HDLC, ZIP's) of `bytes` (zlib's).
 uint32_t Crc32(const std::string& bytes);
 
 }  // namespace omni::exports

@@ -4,16 +4,16 @@
 
 #include <opencv2/core.hpp>
 
-#include "model/rig_frames.h"
+#include "model/stereo/sparse_triangulation.h"
+
 
 namespace omni::exports {
 
 NpyArray RayTable(const RigModel& model, ReferenceBody frame, DType dtype) {
   const int w = model.params().image_width, h = model.params().image_height;
+  // The output frame from C (C itself, or mirror 1's body), as triangulate's.
   const Pose<double> out_from_cam =
-      frame == ReferenceBody::kMirror1
-          ? PoseFromBlock(model.params().mirror1_pose.data()).Inverse()
-          : Pose<double>{Eigen::Matrix3d::Identity(), Eigen::Vector3d::Zero()};
+      stereo::FramesOf(model.params(), frame, nullptr).out_from_cam;
   NpyArray table;
   table.name = "rays";
   table.dtype = dtype;
