@@ -25,8 +25,6 @@
 #include "model/io/yaml_reader.h"
 #include "model/rig_parameters.h"
 
-DEFINE_string(images, "", "init: the photos, a path or glob (quote it: 'photos/*.jpg'); several "
-                          "separated by commas");
 DEFINE_string(design, "big_rig", "init: the rig as designed: big_rig | small_rig (the paper's) | a "
                                  "model file (omnistereo-model/1) | a design config "
                                  "(omnistereo-design/1)");
@@ -60,18 +58,7 @@ RigParams DesignedRig() {
 
 // The images of --images (globs expanded, sorted per pattern) and their common size.
 std::vector<std::string> Images(int* width, int* height) {
-  std::vector<std::string> images;
-  size_t start = 0;
-  while (start <= FLAGS_images.size()) {
-    const size_t comma = FLAGS_images.find(',', start);
-    const std::string pattern = FLAGS_images.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
-    start = comma == std::string::npos ? FLAGS_images.size() + 1 : comma + 1;
-    if (pattern.empty()) continue;
-    const std::vector<std::string> found = io::ExpandImagePattern(pattern);
-    if (found.empty()) throw io::InputError("--images: no file matches '" + pattern + "'");
-    images.insert(images.end(), found.begin(), found.end());
-  }
-  if (images.empty()) throw io::InputError("--images: expected a path or glob of the photos");
+  const std::vector<std::string> images = ImagesFromFlags();
   *width = *height = 0;
   for (const std::string& path : images) {
     const cv::Mat image = io::ReadImage(path);

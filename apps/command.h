@@ -31,6 +31,8 @@ int RunDepth();
 int RunExport();
 int RunTarget();
 int RunInit();
+int RunCheck();
+int RunRefine();
 int RunDemo();
 
 // For commands that later issues will fill in: prints one line and returns 2.

@@ -43,6 +43,9 @@ const std::vector<Command>& Commands() {
        {"images", "design", "targets", "out"}, RunInit},
       {"target", "a printable target at exact size (PDF, SVG, PNG) and its session entry",
        {"type", "rows", "cols", "size", "spacing", "first_id", "out", "paper", "dpi"}, RunTarget},
+      {"check", "does the stored calibration still hold? natural-scene photos, no target "
+                "(exit 0 OK, 3 DRIFTED, 4 CANNOT TELL)",
+       {"model", "image", "images", "tone", "bayer", "out"}, RunCheck},
       {"demo", "run the main job on the bundled default", {"out"}, RunDemo},
   };
   return commands;

@@ -117,7 +117,7 @@ double DistanceToLipCircleImage(const RigModel& model, LipPath path, LipCircle c
 
 double DistanceToLipEdgeImage(const RigModel& model, LipPath path, LipCircle circle,
                               const Eigen::Vector2d& pixel, Eigen::Vector2d* nearest,
-                              LipBound* bound) {
+                              LipBound* bound, double* phi_out) {
   const RigParams& rig = model.params();
   const Lip& lip = LipOf(rig, path);
   const double radius = circle == LipCircle::kInner ? lip.r_inner : lip.r_outer;
@@ -127,6 +127,7 @@ double DistanceToLipEdgeImage(const RigModel& model, LipPath path, LipCircle cir
   };
   double phi = 0;
   const double d = DistanceToCurve(rig, curve, pixel, nearest, &phi);
+  if (phi_out) *phi_out = phi;
   if (bound && d < 1e8) {
     Eigen::Vector2d q;
     ProjectLipEdge(blocks, model.fixed(), path, radius, lip.z, phi, model.fixed().r_ref, &q,

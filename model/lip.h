@@ -205,9 +205,10 @@ double DistanceToLipCircleImage(const RigModel& model, LipPath path, LipCircle c
                                 const Eigen::Vector2d& pixel, Eigen::Vector2d* nearest = nullptr);
 
 // The same for the band edge of ProjectLipEdge with the model's own disc radius (the occlusion
-// followed). *bound (optional) says which curve bounds the band at the nearest point.
+// followed). *bound (optional) says which curve bounds the band at the nearest point, *phi the
+// circle's azimuth there.
 double DistanceToLipEdgeImage(const RigModel& model, LipPath path, LipCircle circle,
                               const Eigen::Vector2d& pixel, Eigen::Vector2d* nearest = nullptr,
-                              LipBound* bound = nullptr);
+                              LipBound* bound = nullptr, double* phi = nullptr);
 
 }  // namespace omni

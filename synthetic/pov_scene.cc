@@ -195,15 +195,23 @@ std::string PovSceneText(const RigParams& rig, const SceneContent& content) {
       << "    " << pose << "\n  }\n";
   }
 
-  if (content.room) {
+  if (content.room && content.room_plain) {
     const double L = content.room_half_size_mm;
     s << "  box { " << Vec(-L, -L, content.room_floor_mm) << ", "
       << Vec(L, L, content.room_ceiling_mm) << " hollow\n"
+      << "    texture { pigment { rgb 0.45 } finish { SelfLit } } }\n";
+  } else if (content.room) {
+    const double L = content.room_half_size_mm;
+    const Eigen::Vector3d& o = content.room_texture_offset_mm;
+    s << "  box { " << Vec(-L, -L, content.room_floor_mm) << ", "
+      << Vec(L, L, content.room_ceiling_mm) << " hollow\n"
       << "    texture { pigment { granite color_map { [0 rgb 0.05] [0.3 rgb <0.8, 0.5, 0.2>] "
-         "[0.6 rgb <0.2, 0.6, 0.9>] [1 rgb 0.95] } scale 400 }\n"
+         "[0.6 rgb <0.2, 0.6, 0.9>] [1 rgb 0.95] } scale 400 translate "
+      << Vec(o.x(), o.y(), o.z()) << " }\n"
       << "      finish { SelfLit } }\n"
       << "    texture { pigment { bozo color_map { [0 rgbt 1] [0.5 rgbt 1] [0.5 rgb 0.1] "
-         "[1 rgb 0.9] } scale 60 } finish { SelfLit } } }\n";
+         "[1 rgb 0.9] } scale 60 translate " << Vec(o.x(), o.y(), o.z())
+      << " } finish { SelfLit } } }\n";
   }
 
   s << "  scale <1, -1, 1>  // C -> POV-Ray\n}\n";

@@ -47,6 +47,11 @@ struct SceneContent {
   double room_half_size_mm = 3000.0;
   double room_floor_mm = -1200.0;
   double room_ceiling_mm = 1800.0;
+  // The walls' texture: granite with speckles (what stereo and the health check match on), or
+  // plain grey (a textureless room); shifted by room_texture_offset_mm so that images can see
+  // different rooms.
+  bool room_plain = false;
+  Eigen::Vector3d room_texture_offset_mm = Eigen::Vector3d::Zero();
   bool draw_mirrors = true;   // false: markers seen directly (a pinhole-only check)
 };
 

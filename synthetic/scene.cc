@@ -252,6 +252,14 @@ SceneContent ContentOf(const Scene& scene, const SceneImage& image) {
   c.room_half_size_mm = scene.room_half_size_mm;
   c.room_floor_mm = scene.room_floor_mm;
   c.room_ceiling_mm = scene.room_ceiling_mm;
+  c.room_plain = scene.room_plain;
+  if (scene.room_texture_seed > 0) {
+    // The image's own room: the texture shifted by a few metres, from the seed and the image.
+    std::mt19937 rng(scene.room_texture_seed * 7919u + static_cast<unsigned>(
+                                                            std::hash<std::string>{}(image.name)));
+    std::uniform_real_distribution<double> shift(-5000, 5000);
+    c.room_texture_offset_mm = Eigen::Vector3d(shift(rng), shift(rng), shift(rng));
+  }
   return c;
 }
 

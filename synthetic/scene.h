@@ -60,6 +60,8 @@ struct Scene {
   CameraEffects camera;       // what the camera adds after POV-Ray (`camera_effects:`)
   bool room = false;
   double room_half_size_mm = 3000, room_floor_mm = -1200, room_ceiling_mm = 1800;
+  bool room_plain = false;     // `room.texture: plain` (a textureless room)
+  unsigned room_texture_seed = 0;  // > 0: each image sees the texture shifted by its own offset
   std::vector<TargetSpec> targets;  // as in the session file's `targets:`
   std::vector<SceneImage> images;
   std::vector<Marker> markers;  // drawn in every image

@@ -268,6 +268,12 @@ Scene ParseScene(const YAML::Node& root, const std::string& path, const RigModel
     s.room_half_size_mm = NumberOr(room["half_size"], path, "room.half_size", s.room_half_size_mm);
     s.room_floor_mm = NumberOr(room["floor"], path, "room.floor", s.room_floor_mm);
     s.room_ceiling_mm = NumberOr(room["ceiling"], path, "room.ceiling", s.room_ceiling_mm);
+    if (const auto texture = room["texture"]) {
+      const std::string t = texture.Scalar();
+      if (t != "granite" && t != "plain") Fail(path, "room.texture", "expected granite or plain");
+      s.room_plain = t == "plain";
+    }
+    s.room_texture_seed = SeedOr(room["texture_seed"], path, "room.texture_seed", 0);
   }
   if (const auto targets = root["targets"]) {
     if (!targets.IsSequence()) Fail(path, "targets", "expected a list of target definitions");

@@ -179,7 +179,8 @@ DenseStereo::DenseStereo(const RigModel& model, const PanoramaOptions& panorama_
   rays_[1]->Build(model_, Mirror::kTwo, luts_.map_x[1], luts_.map_y[1], crop_begin_, band_end_);
 }
 
-DepthFrame DenseStereo::Compute(const cv::Mat& image) const {
+void DenseStereo::MatchBand(const cv::Mat& image, DepthFrame* frame, cv::Mat grey[2],
+                            cv::Mat* disparity16) const {
   const RigParams& rig = model_.params();
   if (image.cols != rig.image_width || image.rows != rig.image_height) {
     throw std::invalid_argument("image size " + std::to_string(image.cols) + "x" +
@@ -190,18 +191,17 @@ DepthFrame DenseStereo::Compute(const cv::Mat& image) const {
   if (image.depth() != CV_8U || (image.channels() != 1 && image.channels() != 3)) {
     throw std::invalid_argument("image: expected 8-bit grey or BGR");
   }
-  DepthFrame frame;
   auto t0 = std::chrono::steady_clock::now();
-  Unwarp(image, luts_, Mirror::kOne, &frame.panorama[0]);
-  Unwarp(image, luts_, Mirror::kTwo, &frame.panorama[1]);
-  frame.seconds_remap = Seconds(t0);
+  Unwarp(image, luts_, Mirror::kOne, &frame->panorama[0]);
+  Unwarp(image, luts_, Mirror::kTwo, &frame->panorama[1]);
+  frame->seconds_remap = Seconds(t0);
 
   // SGBM on the transposed band (see the header on the disparity convention).
   t0 = std::chrono::steady_clock::now();
   const cv::Range rows(crop_begin_, band_end_);
-  cv::Mat grey[2], left, right, disparity16;
+  cv::Mat left, right;
   for (int i = 0; i < 2; ++i) {
-    const cv::Mat band = frame.panorama[i].rowRange(rows);
+    const cv::Mat band = frame->panorama[i].rowRange(rows);
     if (band.channels() == 3) cv::cvtColor(band, grey[i], cv::COLOR_BGR2GRAY);
     else grey[i] = band;
   }
@@ -214,8 +214,33 @@ DepthFrame DenseStereo::Compute(const cv::Mat& image) const {
                                      options_.speckle_range,
                                      options_.three_way ? cv::StereoSGBM::MODE_SGBM_3WAY
                                                         : cv::StereoSGBM::MODE_SGBM);
-  sgbm->compute(left, right, disparity16);  // CV_16S, x16, transposed
-  frame.seconds_sgbm = Seconds(t0);
+  sgbm->compute(left, right, *disparity16);  // CV_16S, x16, transposed
+  frame->seconds_sgbm = Seconds(t0);
+  frame->band_row_begin = band_begin_;
+  frame->band_row_end = band_end_;
+}
+
+DepthFrame DenseStereo::Disparity(const cv::Mat& image) const {
+  DepthFrame frame;
+  cv::Mat grey[2], disparity16;
+  MatchBand(image, &frame, grey, &disparity16);
+  const PanoramaGeometry& g = luts_.geometry;
+  frame.disparity = cv::Mat(g.height, g.width, CV_32FC1,
+                            cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+  for (int u = 0; u < g.width; ++u) {
+    const std::int16_t* d_row = disparity16.ptr<std::int16_t>(u);  // transposed: row = column u
+    for (int v = band_begin_; v < band_end_; ++v) {
+      const int x = v - crop_begin_;
+      if (d_row[x] > 0) frame.disparity.at<float>(v, u) = static_cast<float>(d_row[x] / 16.0);
+    }
+  }
+  return frame;
+}
+
+DepthFrame DenseStereo::Compute(const cv::Mat& image) const {
+  DepthFrame frame;
+  cv::Mat grey[2], disparity16;
+  MatchBand(image, &frame, grey, &disparity16);
   // Float panoramas of the band for the sub-pixel refinement (rows relative to crop_begin_).
   cv::Mat band_f[2];
   if (options_.refine_subpixel) {
@@ -223,12 +248,10 @@ DepthFrame DenseStereo::Compute(const cv::Mat& image) const {
   }
 
   // Triangulate every valid match of the band.
-  t0 = std::chrono::steady_clock::now();
+  auto t0 = std::chrono::steady_clock::now();
   const PanoramaGeometry& g = luts_.geometry;
   frame.disparity = cv::Mat(g.height, g.width, CV_32FC1,
                             cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
-  frame.band_row_begin = band_begin_;
-  frame.band_row_end = band_end_;
   const double sigma2 = options_.sigma_px * options_.sigma_px;
   const cv::Mat& colour = frame.panorama[0];
   std::vector<std::vector<DensePoint>> per_column(g.width);

@@ -90,12 +90,19 @@ class DenseStereo {
 
   // Raw 8-bit image (grey or BGR) of the model's size -> panoramas, disparity, points.
   DepthFrame Compute(const cv::Mat& image) const;
+  // The panoramas and SGBM's disparity alone (CV_32FC1 over Xi_1, NaN where none; SGBM's 1/16 px
+  // steps, not refined; no points): where a caller's own matcher starts (health/ring_matches.h).
+  DepthFrame Disparity(const cv::Mat& image) const;
 
   const PanoramaLuts& luts() const { return luts_; }
   const DepthOptions& options() const { return options_; }
 
  private:
   struct RayTable;
+  // Panoramas into *frame, the band's grey panoramas (rows from crop_begin_) and SGBM's CV_16S
+  // disparity of the transposed band.
+  void MatchBand(const cv::Mat& image, DepthFrame* frame, cv::Mat grey[2],
+                 cv::Mat* disparity16) const;
   RigModel model_;
   PanoramaLuts luts_;
   DepthOptions options_;

@@ -1,0 +1,136 @@
+// `omnistereo check --model M --images I[,I...] [--out check.yaml]`: does the stored calibration
+// still describe the rig? (issue 22; health/check.h). Prints the evidence, the statistic with
+// its expected distribution, and the verdict; exit code 0 OK, 3 DRIFTED, 4 CANNOT TELL (2: bad
+// input). --out writes the same as YAML (omnistereo-check/1).
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+#include <string>
+
+#include <gflags/gflags.h>
+
+#include "apps/command.h"
+#include "apps/common_flags.h"
+#include "apps/health_cli.h"
+#include "health/check.h"
+#include "health/drift.h"
+#include "model/io/file_util.h"
+#include "model/rig_parameters.h"
+
+namespace omni::apps {
+namespace {
+
+// A drift coordinate's amount in assembly units: (value, unit).
+std::pair<double, const char*> Display(const std::string& name, double value) {
+  if (const RigParameter* p = FindRigParameter(name)) {
+    return {DisplayValue(*p, value), DisplayUnit(*p)};
+  }
+  // camera.rx / ry / rz (rad) and camera.tx / ty / tz (mm): the camera's move in its mount.
+  if (name.size() > 7 && name[7] == 'r') return {value * 180 / M_PI, "deg"};
+  return {value, "mm"};
+}
+
+std::string GroupLine(const health::GroupFit& fit) {
+  std::ostringstream s;
+  char head[160];
+  std::snprintf(head, sizeof(head), "  %-8s chi^2 %.1f for %d (p %.2g):", fit.group.c_str(),
+                fit.chi2, fit.dof, fit.p_value);
+  s << head;
+  for (size_t k = 0; k < fit.names.size(); ++k) {
+    const auto [v, unit] = Display(fit.names[k], fit.amounts[static_cast<int>(k)]);
+    const auto [sd, unit2] = Display(fit.names[k], fit.sigma[static_cast<int>(k)]);
+    (void)unit2;
+    char item[128];
+    std::snprintf(item, sizeof(item), " %s %+.3g +- %.2g %s", fit.names[k].c_str(), v, sd, unit);
+    s << (k ? "," : "") << item;
+  }
+  return s.str();
+}
+
+std::string ResultYaml(const health::CheckResult& r, const std::string& model) {
+  std::ostringstream y;
+  y << "format: omnistereo-check/1\n"
+    << "model: " << model << "\n"
+    << "verdict: " << health::VerdictName(r.verdict) << "\n"
+    << "reason: \"" << r.reason << "\"\n"
+    << "named_group: " << (r.named_group.empty() ? "null" : r.named_group) << "\n"
+    << "runner_up: " << (r.runner_up.empty() ? "null" : r.runner_up) << "\n"
+    << "images: " << r.n_images << "\n"
+    << "matches: " << r.n_matches << "\n"
+    << "lip_points: " << r.n_lip_points << "\n"
+    << "gap_rms_px: " << io::FormatDouble(r.gap_rms_px) << "\n"
+    << "lip_rms_px: " << io::FormatDouble(r.lip_rms_px) << "\n"
+    << "covered_azimuth_sectors: " << r.covered_azimuth_bins << "\n"
+    << "chi2: " << io::FormatDouble(r.chi2) << "\n"
+    << "dof: " << r.dof << "\n"
+    << "p_value: " << io::FormatDouble(r.p_value) << "\n"
+    << "model_covariance: " << (r.model_covariance ? "true" : "false") << "\n"
+    << "groups:\n";
+  for (const health::GroupFit& g : r.groups) {
+    y << "  - {group: " << g.group << ", chi2: " << io::FormatDouble(g.chi2) << ", dof: " << g.dof
+      << ", p_value: " << io::FormatDouble(g.p_value) << ", amounts: {";
+    for (size_t k = 0; k < g.names.size(); ++k) {
+      y << (k ? ", " : "") << g.names[k] << ": [" << io::FormatDouble(g.amounts[k]) << ", "
+        << io::FormatDouble(g.sigma[k]) << "]";
+    }
+    y << "}}\n";
+  }
+  y << "bins:  # kind, azimuth_deg, count, mean_px, standard_error_px\n";
+  for (const health::ResidualBin& b : r.bins) {
+    y << "  - [\"" << b.kind << "\", " << b.azimuth_deg << ", " << b.count << ", "
+      << io::FormatDouble(b.mean) << ", " << io::FormatDouble(b.standard_error) << "]\n";
+  }
+  return y.str();
+}
+
+}  // namespace
+
+int RunCheck() {
+  const RigParams stored = ReadStoredModel("check");
+  const auto t0 = std::chrono::steady_clock::now();
+  const std::vector<health::ImageEvidence> evidence = CollectEvidenceFromFlags(stored, "check");
+  const health::CheckResult r = health::CheckRig(stored, evidence);
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+
+  std::printf("check: %d image%s, %d ring-to-ring matches (ray gap rms %.3f px), %d lip points "
+              "(rms %.3f px), %.1f s\n",
+              r.n_images, r.n_images == 1 ? "" : "s", r.n_matches, r.gap_rms_px, r.n_lip_points,
+              r.lip_rms_px, seconds);
+  std::printf("  bins: %d of matches over %d of 24 azimuth sectors, %d of lip edges\n",
+              r.match_bins, r.covered_azimuth_bins, r.lip_bins);
+  if (r.dof > 0) {
+    std::printf("  chi^2 %.1f for %d bins (expected %d +- %.0f if the model still holds%s); "
+                "p-value %.3g\n",
+                r.chi2, r.dof, r.dof, std::sqrt(2.0 * r.dof),
+                r.model_covariance ? ", its covariance allowed for" : "", r.p_value);
+  }
+  std::printf("verdict: %s: %s\n", health::VerdictName(r.verdict), r.reason.c_str());
+  if (r.verdict == health::Verdict::kDrifted) {
+    std::printf("groups fitted to the residuals, best first (internal coordinates: drift.h):\n");
+    for (const health::GroupFit& g : r.groups) std::printf("%s\n", GroupLine(g).c_str());
+    if (!r.runner_up.empty()) {
+      std::printf("  %s explains it nearly as well: the photos cannot tell the two apart\n",
+                  r.runner_up.c_str());
+    }
+    std::printf("next: re-estimate what moved from these photos with `omnistereo refine --model "
+                "%s --images ...`, or recalibrate with targets\n",
+                FLAGS_model.c_str());
+  } else if (r.verdict == health::Verdict::kCannotTell) {
+    std::printf("next: photograph a textured scene (shelves, posters, a patterned floor) that "
+                "fills most of the view around the rig\n");
+  }
+  if (!FLAGS_out.empty()) {
+    io::WriteFileAtomically(FLAGS_out, ResultYaml(r, FLAGS_model));
+    std::printf("wrote %s\n", FLAGS_out.c_str());
+  }
+  switch (r.verdict) {
+    case health::Verdict::kOk: return 0;
+    case health::Verdict::kDrifted: return 3;
+    case health::Verdict::kCannotTell: return 4;
+  }
+  return 0;
+}
+
+}  // namespace omni::apps

@@ -1,0 +1,77 @@
+#include "apps/health_cli.h"
+
+#include <cstdio>
+
+#include <gflags/gflags.h>
+
+#include "apps/common_flags.h"
+#include "apps/progress.h"
+#include "health/evidence.h"
+#include "health/ring_matches.h"
+#include "model/io/model_file.h"
+
+DEFINE_string(tone, "srgb", "check, refine: how the photos encode light: srgb (cameras, JPEGs) | "
+                            "linear (raw frames)");
+DEFINE_string(bayer, "none", "check, refine: the photos are raw one-channel frames of this mosaic "
+                             "(RGGB | BGGR | GRBG | GBRG) | none");
+
+namespace omni::apps {
+
+RigParams ReadStoredModel(const char* command) {
+  if (FLAGS_model.empty()) {
+    throw io::InputError("--model: expected the calibrated model file to " + std::string(command));
+  }
+  RigParams rig = io::ReadModelFile(FLAGS_model);
+  if (!rig.calibration) {
+    std::fprintf(stderr,
+                 "%s: warning: %s has no calibration: section, so its own uncertainty is not "
+                 "allowed for\n",
+                 command, FLAGS_model.c_str());
+  }
+  return rig;
+}
+
+std::vector<health::ImageEvidence> CollectEvidenceFromFlags(const RigParams& stored,
+                                                            const char* command) {
+  const auto tone = io::ParseToneCurve(FLAGS_tone);
+  if (!tone) throw io::InputError("--tone: expected srgb or linear, got '" + FLAGS_tone + "'");
+  const auto bayer = io::ParseBayerPattern(FLAGS_bayer);
+  if (!bayer) {
+    throw io::InputError("--bayer: expected RGGB, BGGR, GRBG, GBRG or none, got '" + FLAGS_bayer +
+                         "'");
+  }
+  const std::vector<std::string> paths = ImagesFromFlags();
+  // Every photo is read (and its size checked) before the slow part starts.
+  std::vector<cv::Mat> images;
+  for (const std::string& path : paths) {
+    cv::Mat image = io::ReadImage(path, *bayer);
+    if (image.cols != stored.image_width || image.rows != stored.image_height) {
+      throw io::InputError(path + ": expected the model's size " +
+                           std::to_string(stored.image_width) + "x" +
+                           std::to_string(stored.image_height) + ", got " +
+                           std::to_string(image.cols) + "x" + std::to_string(image.rows));
+    }
+    images.push_back(image);
+  }
+  const RigModel model(stored);
+  ProgressLine progress(command, static_cast<int>(paths.size()));
+  progress.Status("panorama maps of the stored model");
+  const health::RingMatcher matcher(model);
+  std::vector<health::ImageEvidence> evidence;
+  for (size_t i = 0; i < paths.size(); ++i) {
+    progress.Status("matching the rings and finding the lips in " + paths[i]);
+    evidence.push_back(health::CollectEvidence(images[i], paths[i], matcher, model, *tone,
+                                               io::HasHalvedChroma(paths[i])));
+    int lip_points = 0;
+    for (const auto& edge : evidence.back().lips) lip_points += static_cast<int>(edge.points.size());
+    char line[512];
+    std::snprintf(line, sizeof(line), "%s: %zu ring-to-ring matches, %zu lip edges (%d points)",
+                  paths[i].c_str(), evidence.back().matches.size(), evidence.back().lips.size(),
+                  lip_points);
+    progress.Done(line);
+  }
+  progress.Finish();
+  return evidence;
+}
+
+}  // namespace omni::apps

@@ -1,0 +1,22 @@
+// What `check` and `refine` share (issue 22): the stored model, the photos of --image/--images
+// read as the camera wrote them (--bayer, --tone), and their evidence (health/evidence.h).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "health/check.h"
+#include "model/rig_params.h"
+
+namespace omni::apps {
+
+// --model read; InputError if missing. A model without `calibration:` is accepted with a warning
+// on stderr (the check then has no model uncertainty to allow for).
+RigParams ReadStoredModel(const char* command);
+
+// Every photo's matches and lips under `stored`, with a progress line; InputError naming the file
+// for a photo that cannot be read or is not the model's size.
+std::vector<health::ImageEvidence> CollectEvidenceFromFlags(const RigParams& stored,
+                                                            const char* command);
+
+}  // namespace omni::apps

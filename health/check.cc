@@ -1,0 +1,417 @@
+#include "health/check.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <mutex>
+
+#include <Eigen/Cholesky>
+#include <Eigen/SVD>
+#include <opencv2/core.hpp>
+
+#include "health/consistency.h"
+#include "health/drift.h"
+#include "model/rig_model.h"
+#include "model/rig_parameters.h"
+
+namespace omni::health {
+namespace {
+
+constexpr double kTwoPi = 2 * M_PI;
+
+// Regularised lower incomplete gamma P(a, x) by its series (x < a + 1) and the upper Q by its
+// continued fraction (otherwise; modified Lentz).
+double GammaQ(double a, double x) {
+  if (x <= 0) return 1;
+  const double log_prefix = -x + a * std::log(x) - std::lgamma(a);
+  if (x < a + 1) {
+    double term = 1 / a, sum = term;
+    for (int n = 1; n < 1000; ++n) {
+      term *= x / (a + n);
+      sum += term;
+      if (std::abs(term) < std::abs(sum) * 1e-15) break;
+    }
+    return std::max(0.0, 1 - sum * std::exp(log_prefix));
+  }
+  constexpr double kTiny = 1e-300;
+  double b = x + 1 - a, c = 1 / kTiny, d = 1 / b, h = d;
+  for (int i = 1; i < 1000; ++i) {
+    const double an = -i * (i - a);
+    b += 2;
+    d = an * d + b;
+    if (std::abs(d) < kTiny) d = kTiny;
+    c = b + an / c;
+    if (std::abs(c) < kTiny) c = kTiny;
+    d = 1 / d;
+    const double delta = d * c;
+    h *= delta;
+    if (std::abs(delta - 1) < 1e-15) break;
+  }
+  return std::exp(log_prefix) * h;
+}
+
+double Wrap(double angle) {
+  angle = std::fmod(angle, kTwoPi);
+  return angle < 0 ? angle + kTwoPi : angle;
+}
+
+int AzimuthBin(double angle, int bins) {
+  return std::min(bins - 1, static_cast<int>(Wrap(angle) / kTwoPi * bins));
+}
+
+// One residual sample: a match's ray gap or a lip point's distance across its edge.
+struct Sample {
+  int bin = 0;    // key into the bins map
+  double value = 0;
+  bool is_match = true;
+  Eigen::Vector2d pixel1 = Eigen::Vector2d::Zero(), pixel2 = Eigen::Vector2d::Zero();  // match
+  double w = 0;                    // match: converged inverse range
+  LipPointResidual lip;            // lip point
+  bool kept = false;               // inside its bin's clipping
+};
+
+struct Bin {
+  std::string kind;
+  double azimuth_deg = 0;
+  std::vector<int> members;  // indices into the samples
+};
+
+// The mean of a bin's samples within 3 robust sigmas of their median, and its standard error;
+// *members keeps those samples, which are marked kept.
+double RobustMean(std::vector<Sample>* samples, std::vector<int>* members, double* se) {
+  std::vector<double> v;
+  for (int i : *members) v.push_back((*samples)[i].value);
+  std::vector<double> sorted = v;
+  std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+  const double median = sorted[sorted.size() / 2];
+  std::vector<double> dev;
+  for (double x : v) dev.push_back(std::abs(x - median));
+  std::nth_element(dev.begin(), dev.begin() + dev.size() / 2, dev.end());
+  const double spread = std::max(1.4826 * dev[dev.size() / 2], 1e-3);
+  std::vector<int> kept;
+  double sum = 0, sum2 = 0;
+  for (size_t k = 0; k < v.size(); ++k) {
+    if (std::abs(v[k] - median) > 3 * spread) continue;
+    kept.push_back((*members)[k]);
+    sum += v[k];
+    sum2 += v[k] * v[k];
+  }
+  const double n = static_cast<double>(kept.size());
+  const double mean = sum / n;
+  const double var = n > 1 ? std::max(0.0, (sum2 - n * mean * mean) / (n - 1)) : 0;
+  *se = std::sqrt(var / n);
+  for (int i : kept) (*samples)[i].kept = true;
+  *members = kept;
+  return mean;
+}
+
+}  // namespace
+
+const char* VerdictName(Verdict verdict) {
+  switch (verdict) {
+    case Verdict::kOk: return "OK";
+    case Verdict::kDrifted: return "DRIFTED";
+    case Verdict::kCannotTell: return "CANNOT TELL";
+  }
+  return "?";
+}
+
+double ChiSquareSurvival(double x, int dof) {
+  if (dof <= 0) return 1;
+  return GammaQ(0.5 * dof, 0.5 * x);
+}
+
+CheckResult CheckRig(const RigParams& stored, const std::vector<ImageEvidence>& images,
+                     const CheckOptions& options) {
+  CheckResult result;
+  result.n_images = static_cast<int>(images.size());
+  const RigModel model(stored);
+  const int nb = options.azimuth_bins;
+
+  // Samples: every match, a spread subsample of each lip edge's points.
+  std::vector<Sample> samples;
+  double elevation_split = 0;
+  {
+    std::vector<double> elevations;
+    for (const ImageEvidence& image : images) {
+      for (const RingMatch& m : image.matches) {
+        Sample s;
+        s.pixel1 = m.pixel1;
+        s.pixel2 = m.pixel2;
+        s.bin = AzimuthBin(m.azimuth, nb) * 2;
+        s.value = m.elevation;  // for the split below
+        samples.push_back(s);
+        elevations.push_back(m.elevation);
+      }
+    }
+    if (!elevations.empty()) {
+      std::nth_element(elevations.begin(), elevations.begin() + elevations.size() / 2,
+                       elevations.end());
+      elevation_split = elevations[elevations.size() / 2];
+    }
+    for (Sample& s : samples) s.bin += s.value < elevation_split ? 0 : 1;
+  }
+  std::map<std::pair<LipPath, LipCircle>, int> edge_ids;
+  for (const ImageEvidence& image : images) {
+    for (const LipEdgeObservation& edge : image.lips) {
+      if (!edge.path || !edge.circle || edge.points.empty()) continue;
+      const auto key = std::make_pair(*edge.path, *edge.circle);
+      const int id = edge_ids.emplace(key, static_cast<int>(edge_ids.size())).first->second;
+      const size_t stride =
+          std::max<size_t>(1, edge.points.size() / options.max_lip_points_per_edge);
+      for (size_t k = 0; k < edge.points.size(); k += stride) {
+        Sample s;
+        s.is_match = false;
+        s.lip.path = key.first;
+        s.lip.circle = key.second;
+        s.lip.pixel = edge.points[k];
+        s.bin = 1000 + id;  // the azimuth bin is added once phi is known
+        samples.push_back(s);
+      }
+    }
+  }
+  // Residuals under the stored model (parallel: a lip point's nearest edge point takes ~0.3 ms).
+  std::vector<bool> valid(samples.size(), false);
+  cv::parallel_for_(cv::Range(0, static_cast<int>(samples.size())), [&](const cv::Range& range) {
+    for (int i = range.start; i < range.end; ++i) {
+      Sample& s = samples[i];
+      if (s.is_match) {
+        const auto gap = EpipolarGap(model, s.pixel1, s.pixel2, &s.w);
+        if (gap) s.value = *gap, valid[i] = true;
+      } else {
+        const auto lip = LipResidual(model, s.lip.path, s.lip.circle, s.lip.pixel);
+        if (lip) s.lip = *lip, s.value = lip->value, valid[i] = true;
+      }
+    }
+  });
+  std::map<int, Bin> bins;
+  for (size_t i = 0; i < samples.size(); ++i) {
+    if (!valid[i]) continue;
+    Sample& s = samples[i];
+    if (s.is_match) {
+      ++result.n_matches;
+      Bin& b = bins[s.bin];
+      b.kind = "matches";
+      b.azimuth_deg = (s.bin / 2 + 0.5) * 360.0 / nb;
+      b.members.push_back(static_cast<int>(i));
+    } else {
+      ++result.n_lip_points;
+      const int id = s.bin - 1000;
+      s.bin = 1000 + id * nb + AzimuthBin(s.lip.phi, nb);
+      Bin& b = bins[s.bin];
+      b.kind = std::string(LipPathName(s.lip.path)) + " " + LipCircleName(s.lip.circle);
+      b.azimuth_deg = (AzimuthBin(s.lip.phi, nb) + 0.5) * 360.0 / nb;
+      b.members.push_back(static_cast<int>(i));
+    }
+  }
+
+  // Robust bin means; bins too thin to estimate are dropped. Each bin's standard error comes
+  // from the scatter about the bin means pooled over its kind (a bin of 15 lip points would
+  // otherwise estimate its own spread badly: t-distributed, chi^2 17% high).
+  std::vector<Bin*> used;
+  std::vector<double> means;
+  std::map<std::string, std::pair<double, int>> pooled;  // kind: sum of squares, dof
+  for (auto& [key, bin] : bins) {
+    if (static_cast<int>(bin.members.size()) < options.min_bin_count) continue;
+    double se = 0;
+    const double mean = RobustMean(&samples, &bin.members, &se);
+    if (static_cast<int>(bin.members.size()) < options.min_bin_count) continue;
+    used.push_back(&bin);
+    means.push_back(mean);
+    auto& [ss, dof] = pooled[bin.kind];
+    for (int i : bin.members) ss += (samples[i].value - mean) * (samples[i].value - mean);
+    dof += static_cast<int>(bin.members.size()) - 1;
+  }
+  std::vector<bool> azimuth_covered(nb, false);
+  for (size_t b = 0; b < used.size(); ++b) {
+    const Bin& bin = *used[b];
+    const bool is_match = bin.kind == "matches";
+    const auto& [ss, dof] = pooled[bin.kind];
+    const double sd = std::sqrt(ss / std::max(dof, 1));
+    const double floor = is_match ? options.match_floor_px : options.lip_floor_px;
+    ResidualBin r;
+    r.kind = bin.kind;
+    r.azimuth_deg = bin.azimuth_deg;
+    r.count = static_cast<int>(bin.members.size());
+    r.mean = means[b];
+    r.standard_error = std::hypot(sd / std::sqrt(r.count), floor);
+    result.bins.push_back(r);
+    if (is_match) {
+      ++result.match_bins;
+      azimuth_covered[AzimuthBin(bin.azimuth_deg * M_PI / 180, nb)] = true;
+    } else {
+      ++result.lip_bins;
+    }
+  }
+  result.covered_azimuth_bins = static_cast<int>(std::count(azimuth_covered.begin(),
+                                                            azimuth_covered.end(), true));
+  double ss_gap = 0, ss_lip = 0;
+  int n_gap = 0, n_lip = 0;
+  for (const Sample& s : samples) {
+    if (!s.kept) continue;
+    (s.is_match ? ss_gap : ss_lip) += s.value * s.value;
+    ++(s.is_match ? n_gap : n_lip);
+  }
+  result.gap_rms_px = n_gap ? std::sqrt(ss_gap / n_gap) : 0;
+  result.lip_rms_px = n_lip ? std::sqrt(ss_lip / n_lip) : 0;
+
+  const int m = static_cast<int>(used.size());
+  const auto& coordinates = DriftCoordinates();
+  const int nc = static_cast<int>(coordinates.size());
+  result.dof = m;
+  const bool enough = result.n_matches >= options.min_matches &&
+                      result.covered_azimuth_bins >= options.min_match_coverage * nb;
+  if (m == 0) {
+    result.verdict = Verdict::kCannotTell;
+    result.reason = "no ring-to-ring matches and no lip edges were found";
+    return result;
+  }
+
+  // The bins' derivatives by every drift coordinate, at a subsample of each bin's points.
+  std::vector<RigModel> moved;
+  for (int c = 0; c < nc; ++c) {
+    Eigen::VectorXd step(1);
+    step[0] = coordinates[c].step;
+    moved.emplace_back(ApplyDrift(stored, {c}, step));
+  }
+  result.jacobian = Eigen::MatrixXd::Zero(m, nc);
+  result.residual.resize(m);
+  cv::parallel_for_(cv::Range(0, m), [&](const cv::Range& range) {
+    for (int b = range.start; b < range.end; ++b) {
+      const std::vector<int>& members = used[b]->members;
+      const int take = std::min<int>(options.jacobian_samples, static_cast<int>(members.size()));
+      Eigen::VectorXd sum = Eigen::VectorXd::Zero(nc);
+      int n = 0;
+      for (int k = 0; k < take; ++k) {
+        const Sample& s = samples[members[k * members.size() / take]];
+        Eigen::VectorXd row(nc);
+        bool ok = true;
+        double base = s.value;
+        if (!s.is_match) {
+          const auto b0 = LipResidualUnder(model, s.lip);
+          ok = b0.has_value();
+          if (ok) base = *b0;
+        }
+        for (int c = 0; c < nc && ok; ++c) {
+          std::optional<double> v;
+          if (s.is_match) {
+            double w = s.w;
+            v = EpipolarGap(moved[c], s.pixel1, s.pixel2, &w);
+          } else {
+            v = LipResidualUnder(moved[c], s.lip);
+          }
+          ok = v.has_value();
+          if (ok) row[c] = (*v - base) / coordinates[c].step;
+        }
+        if (!ok) continue;
+        sum += row;
+        ++n;
+      }
+      if (n) result.jacobian.row(b) = (sum / n).transpose();
+    }
+  });
+  Eigen::VectorXd se2(m);
+  for (int b = 0; b < m; ++b) {
+    result.residual[b] = result.bins[b].mean;
+    se2[b] = result.bins[b].standard_error * result.bins[b].standard_error;
+  }
+
+  // C = diag(se^2) + J Sigma J^T over the coordinates the stored covariance has.
+  result.bin_covariance = se2.asDiagonal();
+  if (stored.calibration && !stored.calibration->covariance.empty()) {
+    const CalibrationInfo& info = *stored.calibration;
+    const int np = static_cast<int>(info.parameters.size());
+    std::vector<int> column(np, -1);  // drift coordinate of each covariance parameter
+    for (int p = 0; p < np; ++p) {
+      const RigParameter* parameter = FindRigParameter(info.parameters[p]);
+      for (int c = 0; c < nc && parameter; ++c) {
+        if (coordinates[c].rig_parameter && coordinates[c].name == parameter->name) column[p] = c;
+      }
+    }
+    Eigen::MatrixXd J_stored = Eigen::MatrixXd::Zero(m, np);
+    for (int p = 0; p < np; ++p) {
+      if (column[p] >= 0) J_stored.col(p) = result.jacobian.col(column[p]);
+    }
+    const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>
+        sigma(info.covariance.data(), np, np);
+    result.bin_covariance += J_stored * sigma * J_stored.transpose();
+    result.model_covariance = true;
+  }
+  const Eigen::LLT<Eigen::MatrixXd> llt(result.bin_covariance);
+  const Eigen::MatrixXd L = llt.matrixL();
+  const Eigen::VectorXd r_white = L.triangularView<Eigen::Lower>().solve(result.residual);
+  result.chi2 = r_white.squaredNorm();
+  result.p_value = ChiSquareSurvival(result.chi2, m);
+
+  if (!enough) {
+    result.verdict = Verdict::kCannotTell;
+    result.reason = "too little texture seen by both rings: " + std::to_string(result.n_matches) +
+                    " matches over " + std::to_string(result.covered_azimuth_bins) + " of " +
+                    std::to_string(nb) + " azimuth sectors (needs " +
+                    std::to_string(options.min_matches) + " over " +
+                    std::to_string(static_cast<int>(std::ceil(options.min_match_coverage * nb))) +
+                    "); the lips alone cannot tell a moved rig from their own bias";
+    return result;
+  }
+  if (result.p_value >= options.significance) {
+    result.verdict = Verdict::kOk;
+    result.reason = "the matches and lips agree with the stored model within its uncertainty";
+    return result;
+  }
+  result.verdict = Verdict::kDrifted;
+
+  // Which group explains the residuals: generalised least squares per group.
+  const Eigen::MatrixXd J_white = L.triangularView<Eigen::Lower>().solve(result.jacobian);
+  for (const std::string& group : DriftGroups()) {
+    const std::vector<int> cols = CoordinatesOf(group);
+    Eigen::MatrixXd A(m, cols.size());
+    Eigen::VectorXd scale(cols.size());
+    for (size_t k = 0; k < cols.size(); ++k) {
+      scale[k] = std::max(J_white.col(cols[k]).norm(), 1e-300);
+      A.col(k) = J_white.col(cols[k]) / scale[k];  // unit columns: rank by relative size
+    }
+    Eigen::JacobiSVD<Eigen::MatrixXd> svd(A, Eigen::ComputeThinU | Eigen::ComputeThinV);
+    svd.setThreshold(1e-6);
+    GroupFit fit;
+    fit.group = group;
+    fit.rank = static_cast<int>(svd.rank());
+    const Eigen::VectorXd x = svd.solve(r_white);
+    fit.chi2 = (r_white - A * x).squaredNorm();
+    fit.dof = m - fit.rank;
+    fit.p_value = ChiSquareSurvival(fit.chi2, fit.dof);
+    // Covariance of x: V S^-2 V^T over the kept singular values.
+    const Eigen::VectorXd s = svd.singularValues();
+    Eigen::MatrixXd cov = Eigen::MatrixXd::Zero(cols.size(), cols.size());
+    for (int k = 0; k < fit.rank; ++k) {
+      cov += svd.matrixV().col(k) * svd.matrixV().col(k).transpose() / (s[k] * s[k]);
+    }
+    fit.amounts.resize(cols.size());
+    fit.sigma.resize(cols.size());
+    for (size_t k = 0; k < cols.size(); ++k) {
+      fit.names.push_back(coordinates[cols[k]].name);
+      // r = observed - predicted by the stored model, so the rig moved by -x (r + J x = 0).
+      fit.amounts[k] = -x[k] / scale[k];
+      fit.sigma[k] = std::sqrt(cov(k, k)) / scale[k];
+    }
+    result.groups.push_back(fit);
+  }
+  // Ranked by Akaike's criterion, chi^2 + 2 rank: a group with more coordinates (the camera's
+  // ten) fits any pattern a little better, and must fit it better by more than its extra
+  // freedom to be named.
+  std::sort(result.groups.begin(), result.groups.end(), [](const GroupFit& a, const GroupFit& b) {
+    return a.Score() < b.Score();
+  });
+  result.named_group = result.groups[0].group;
+  // A group within 4 of the best score has considerable support too (Burnham and Anderson's
+  // rule for Akaike differences): the data cannot tell the two apart.
+  if (result.groups.size() > 1 && result.groups[1].Score() - result.groups[0].Score() < 4) {
+    result.runner_up = result.groups[1].group;
+  }
+  result.reason = result.groups[0].p_value >= options.significance
+                      ? "a move of " + result.named_group + " explains the residuals"
+                      : "no single group explains the residuals; " + result.named_group +
+                            " comes closest";
+  return result;
+}
+
+}  // namespace omni::health

@@ -1,0 +1,101 @@
+// The in-field health check (issue 22): does a stored calibration still describe the rig, and if
+// not, which group moved? From images of whatever scene the rig sees, no target needed.
+//
+// Evidence per image (collected by the caller, apps/cmd_check.cc): ring-to-ring matches of
+// natural features (ring_matches.h) and the lip edges detected under the stored model. Each
+// match gives the signed gap of its two rays in ring-2 pixels (consistency.h EpipolarGap), each
+// lip point its signed distance across its edge. A rig that moved shows as a pattern of these
+// over the azimuth; noise and the scene's own texture do not. So the statistic is built on bins:
+//   matches: 24 azimuth bins x 2 elevation halves; lips: 24 azimuth bins per edge (path, circle);
+//   per bin a robust mean (3-sigma clipped about the median) and its standard error, widened by a
+//   floor (what stays correlated inside a bin: the lips' texture-dependent bias along an arc,
+//   docs/experiments.md; the tracker's bias); bins with fewer than min_bin_count are dropped.
+// Under the stored model the bin means are zero up to their errors and the model's own
+// uncertainty: r ~ N(0, C), C = diag(se^2) + J Sigma J^T, with Sigma the stored covariance over
+// the drift coordinates that are rig parameters and J the bins' derivatives by the drift
+// coordinates (drift.h; forward differences at a subsample of each bin's points). chi^2 = r^T
+// C^-1 r has the chi-square distribution with one degree of freedom per bin.
+// Verdict: CANNOT TELL when the matches are too few or cover too little of the azimuth (a
+// textureless scene: the lips alone cannot tell a knocked rig from the lips' own bias); OK when
+// chi^2's p-value is at least `significance`; otherwise DRIFTED, and each group's coordinates
+// are fitted to r by generalised least squares (pseudo-inverse: degenerate directions inside a
+// group cost nothing); the group with the lowest chi^2 + 2 rank (Akaike's criterion: the camera's
+// ten coordinates must earn their freedom) is named, with the fitted amounts, and a second group
+// within 4 of it is named as one the data cannot tell apart.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "health/ring_matches.h"
+#include "model/observations.h"
+#include "model/rig_params.h"
+
+namespace omni::health {
+
+struct ImageEvidence {
+  std::string file;
+  std::vector<RingMatch> matches;
+  std::vector<LipEdgeObservation> lips;  // detected under the stored model, labelled
+};
+
+struct CheckOptions {
+  int azimuth_bins = 24;
+  int min_bin_count = 6;
+  double match_floor_px = 0.02;  // per match bin, added in quadrature to its standard error
+  double lip_floor_px = 0.08;    // per lip bin
+  int jacobian_samples = 6;      // per bin
+  int max_lip_points_per_edge = 360;  // per image (a subsample spread along the edge)
+  double significance = 1e-3;    // p-value below which the rig has drifted
+  int min_matches = 150;         // fewer: CANNOT TELL
+  double min_match_coverage = 0.5;  // share of azimuth bins with a usable match bin
+};
+
+enum class Verdict { kOk, kDrifted, kCannotTell };
+const char* VerdictName(Verdict verdict);  // "OK", "DRIFTED", "CANNOT TELL"
+
+struct GroupFit {
+  std::string group;
+  double chi2 = 0;
+  int dof = 0, rank = 0;
+  double p_value = 0;
+  std::vector<std::string> names;  // its coordinates
+  Eigen::VectorXd amounts, sigma;  // internal units (px, rad, mm); sigma 0 where degenerate
+  double Score() const { return chi2 + 2 * rank; }  // Akaike's criterion (see CheckRig)
+};
+
+// The residual bins (for tests, plots and the refinement's covariance).
+struct ResidualBin {
+  std::string kind;  // "matches" or the lip edge ("via_mirror2 r_outer")
+  double azimuth_deg = 0;
+  int count = 0;
+  double mean = 0, standard_error = 0;
+};
+
+struct CheckResult {
+  Verdict verdict = Verdict::kCannotTell;
+  std::string reason;  // one sentence: why this verdict
+  int n_images = 0, n_matches = 0, n_lip_points = 0;
+  int match_bins = 0, lip_bins = 0, covered_azimuth_bins = 0;
+  double gap_rms_px = 0, lip_rms_px = 0;  // of the (clipped) samples
+  double chi2 = 0, p_value = 1;
+  int dof = 0;
+  bool model_covariance = false;  // the stored model's covariance entered C
+  std::vector<GroupFit> groups;   // best explanation first (GroupFit::Score; when DRIFTED)
+  std::string named_group;        // DRIFTED: the group named ("" otherwise)
+  std::string runner_up;          // a group that explains it nearly as well, if any
+  std::vector<ResidualBin> bins;
+  // The bins' Jacobian by DriftCoordinates() and C (rows: bins).
+  Eigen::MatrixXd jacobian, bin_covariance;
+  Eigen::VectorXd residual;
+};
+
+CheckResult CheckRig(const RigParams& stored, const std::vector<ImageEvidence>& images,
+                     const CheckOptions& options = {});
+
+// Upper tail of the chi-square distribution with `dof` degrees of freedom: P(X >= x).
+double ChiSquareSurvival(double x, int dof);
+
+}  // namespace omni::health

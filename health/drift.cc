@@ -1,0 +1,115 @@
+#include "health/drift.h"
+
+#include <cmath>
+
+#include <Eigen/Geometry>
+
+#include "model/rig_frames.h"
+#include "model/rig_parameters.h"
+
+namespace omni::health {
+namespace {
+
+constexpr double kRad = 1.0;
+constexpr double kTiltStep = 2e-5 * kRad;  // ~0.001 deg
+constexpr double kShiftStep = 2e-3;        // mm
+constexpr double kPixelStep = 0.02;        // px
+
+// The tilt (rx, ry) whose rotation takes +z to `axis` (rig_frames.h: R(rx, ry, 0) e_z =
+// (ry s, -rx s, cos theta) / theta scaled: rotation about (rx, ry, 0) / theta by theta).
+Eigen::Vector2d TiltOfAxis(const Eigen::Vector3d& axis) {
+  const Eigen::Vector3d a = axis.normalized();
+  const double theta = std::acos(std::clamp(a.z(), -1.0, 1.0));
+  const double s = std::sin(theta);
+  if (s < 1e-15) return Eigen::Vector2d::Zero();
+  return Eigen::Vector2d(-a.y() / s * theta, a.x() / s * theta);
+}
+
+// Applies the camera's rigid motion in its mount (point_in_cam' = dR point_in_cam + dt) to one
+// mirror's pose block [rx, ry, tx, ty, tz]; returns the spin about the body's axis that the
+// block cannot hold (rad), for the reflex tilt of mirror 1.
+double MoveMirrorPose(const Eigen::Matrix3d& dR, const Eigen::Vector3d& dt, double* pose) {
+  const Eigen::Matrix3d R = RotationFromTilt(pose[0], pose[1]);
+  const Eigen::Matrix3d moved = dR * R;
+  const Eigen::Vector2d tilt = TiltOfAxis(moved.col(2));
+  const Eigen::Vector3d t = dR * Eigen::Vector3d(pose[2], pose[3], pose[4]) + dt;
+  pose[0] = tilt.x(), pose[1] = tilt.y();
+  pose[2] = t.x(), pose[3] = t.y(), pose[4] = t.z();
+  // moved = R(tilt) * Rz(spin): the body's old axes seen in its new spin-free frame.
+  const Eigen::Matrix3d spin = RotationFromTilt(tilt.x(), tilt.y()).transpose() * moved;
+  return std::atan2(spin(1, 0), spin(0, 0));
+}
+
+}  // namespace
+
+const std::vector<DriftCoordinate>& DriftCoordinates() {
+  static const std::vector<DriftCoordinate> coordinates = [] {
+    std::vector<DriftCoordinate> c;
+    for (const char* name : {"fx", "fy", "cx", "cy"}) c.push_back({name, "camera", kPixelStep});
+    for (const char* name : {"camera.rx", "camera.ry", "camera.rz"}) {
+      c.push_back({name, "camera", kTiltStep, false});
+    }
+    for (const char* name : {"camera.tx", "camera.ty", "camera.tz"}) {
+      c.push_back({name, "camera", kShiftStep, false});
+    }
+    for (const std::string mirror : {"mirror1", "mirror2"}) {
+      for (const char* key : {".rx", ".ry"}) c.push_back({mirror + key, mirror, kTiltStep});
+      for (const char* key : {".tx", ".ty", ".tz"}) c.push_back({mirror + key, mirror, kShiftStep});
+    }
+    c.push_back({"reflex.rx", "reflex", kTiltStep});
+    c.push_back({"reflex.ry", "reflex", kTiltStep});
+    c.push_back({"reflex.dz", "reflex", kShiftStep});
+    return c;
+  }();
+  return coordinates;
+}
+
+const std::vector<std::string>& DriftGroups() {
+  static const std::vector<std::string> groups = {"camera", "mirror1", "mirror2", "reflex"};
+  return groups;
+}
+
+std::vector<int> CoordinatesOf(const std::string& group) {
+  std::vector<int> indices;
+  const auto& all = DriftCoordinates();
+  for (int i = 0; i < static_cast<int>(all.size()); ++i) {
+    if (group.empty() || all[i].group == group) indices.push_back(i);
+  }
+  return indices;
+}
+
+RigParams ApplyDrift(const RigParams& rig, const std::vector<int>& coordinates,
+                     const Eigen::VectorXd& amounts) {
+  RigParams moved = rig;
+  Eigen::Vector3d rotation = Eigen::Vector3d::Zero(), translation = Eigen::Vector3d::Zero();
+  bool mount = false;
+  const auto& all = DriftCoordinates();
+  for (size_t k = 0; k < coordinates.size(); ++k) {
+    const DriftCoordinate& c = all[coordinates[k]];
+    const double a = amounts[static_cast<int>(k)];
+    if (c.rig_parameter) {
+      *ParameterOf(&moved, c.name) += a;
+      continue;
+    }
+    mount = true;
+    const int axis = c.name.back() - 'x';  // camera.rx / camera.tx -> 0
+    (c.name[7] == 'r' ? rotation : translation)[axis] += a;
+  }
+  if (mount) {
+    const double angle = rotation.norm();
+    const Eigen::Matrix3d dR =
+        angle > 0 ? Eigen::AngleAxisd(angle, rotation / angle).toRotationMatrix()
+                  : Eigen::Matrix3d::Identity();
+    const double spin1 = MoveMirrorPose(dR, translation, moved.mirror1_pose.data());
+    MoveMirrorPose(dR, translation, moved.mirror2_pose.data());
+    // The reflex normal is given in mirror 1's body; the body's new frame is its old one turned
+    // by -spin about the axis, so the normal's coordinates turn by +spin.
+    const Eigen::Vector3d normal = RotationFromTilt(moved.reflex[0], moved.reflex[1]) *
+                                   Eigen::Vector3d(0, 0, 1);
+    const Eigen::Vector2d tilt = TiltOfAxis(Eigen::AngleAxisd(spin1, Eigen::Vector3d::UnitZ()) * normal);
+    moved.reflex[0] = tilt.x(), moved.reflex[1] = tilt.y();
+  }
+  return moved;
+}
+
+}  // namespace omni::health

@@ -1,0 +1,22 @@
+// The evidence of one image for the health check and the refinement (check.h, refine.h): its
+// ring-to-ring matches and its lip edges, both found under the stored model.
+#pragma once
+
+#include <string>
+
+#include <opencv2/core.hpp>
+
+#include "health/check.h"
+#include "health/ring_matches.h"
+#include "model/io/image_file.h"
+
+namespace omni::health {
+
+// `image` as io::ReadImage gives it (8/16-bit grey or BGR, the model's size); `tone` how it
+// encodes light; `chroma_halved` whether it is a JPEG with subsampled chroma (lip placement,
+// detectors/lip_detector.h). Grey images give matches but no lips.
+ImageEvidence CollectEvidence(const cv::Mat& image, const std::string& file,
+                              const RingMatcher& matcher, const RigModel& model,
+                              io::ToneCurve tone, bool chroma_halved);
+
+}  // namespace omni::health

@@ -1,0 +1,141 @@
+// The check's statistic and verdict (health/check.h) on evidence simulated from a known rig:
+// matches of points on a room's walls projected by the rig as it is now, with pixel noise, and
+// its lip edges with noise; the stored model is the rig as it was calibrated. (The same on
+// POV-Ray renders runs through the CLI: check_cli_test.cc.)
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "health/check.h"
+#include "health/drift.h"
+#include "model/io/model_file.h"
+#include "model/lip.h"
+
+namespace omni::health {
+namespace {
+
+const std::string kSampleDir = std::string(OMNI_SOURCE_DIR) + "/sample_configs/";
+
+int IndexOf(const std::string& name) {
+  const auto& all = DriftCoordinates();
+  for (size_t i = 0; i < all.size(); ++i) {
+    if (all[i].name == name) return static_cast<int>(i);
+  }
+  return -1;
+}
+
+RigParams Moved(const RigParams& rig, const std::string& coordinate, double amount) {
+  Eigen::VectorXd a(1);
+  a[0] = amount;
+  return ApplyDrift(rig, {IndexOf(coordinate)}, a);
+}
+
+// One image's evidence from `now`: `n_points` wall points (a 6 x 6 m room, floor -1.2 m,
+// ceiling 1.8 m) seen in both rings, pixel noise `match_sigma` per coordinate; the three lip
+// edges the detector finds on these rigs with `lip_sigma` across them.
+ImageEvidence Simulate(const RigParams& now, int n_points, double match_sigma, double lip_sigma,
+                       unsigned seed) {
+  const RigModel model(now);
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> uniform(-1, 1);
+  std::normal_distribution<double> noise(0, 1);
+  ImageEvidence e;
+  while (static_cast<int>(e.matches.size()) < n_points) {
+    const double a = M_PI * uniform(rng);
+    const Eigen::Vector2d dir(std::cos(a), std::sin(a));
+    const double r = 3000 / std::max(std::abs(dir.x()), std::abs(dir.y()));
+    const Eigen::Vector3d point(r * dir.x(), r * dir.y(), 300 + 1500 * uniform(rng));
+    const auto p1 = model.Project(point, Mirror::kOne), p2 = model.Project(point, Mirror::kTwo);
+    if (!p1 || !p2) continue;
+    RingMatch m;
+    m.pixel1 = *p1 + match_sigma * Eigen::Vector2d(noise(rng), noise(rng));
+    m.pixel2 = *p2 + match_sigma * Eigen::Vector2d(noise(rng), noise(rng));
+    m.azimuth = a;
+    m.elevation = std::atan2(point.z(), r);
+    e.matches.push_back(m);
+  }
+  const Eigen::Vector2d centre(now.camera[2], now.camera[3]);
+  for (LipPath path : {LipPath::kDirect, LipPath::kViaMirror1, LipPath::kViaMirror2}) {
+    LipEdgeObservation edge;
+    edge.mirror = LipOwner(path);
+    edge.path = path;
+    edge.circle = LipCircle::kOuter;
+    for (int k = 0; k < 360; ++k) {
+      const auto p = ProjectLipPoint(model, path, LipCircle::kOuter, k * M_PI / 180);
+      if (!p) continue;
+      edge.points.push_back(*p + lip_sigma * noise(rng) * (*p - centre).normalized());
+    }
+    e.lips.push_back(edge);
+  }
+  return e;
+}
+
+class CheckTest : public ::testing::Test {
+ protected:
+  RigParams stored_ = io::ReadModelFile(kSampleDir + "big_rig_misaligned.yaml");
+};
+
+TEST_F(CheckTest, UnchangedRigIsOkAndItsChiSquareIsItsDegreesOfFreedom) {
+  // With the bins' floors off, chi^2 of pure noise follows its distribution: over 12 sessions
+  // its mean is dof within 4 standard errors; with the default floors every one is OK.
+  CheckOptions no_floor;
+  no_floor.match_floor_px = no_floor.lip_floor_px = 0;
+  double sum_ratio = 0;
+  const int trials = 12;
+  int dof = 0;
+  for (int t = 0; t < trials; ++t) {
+    const std::vector<ImageEvidence> images = {Simulate(stored_, 3000, 0.1, 0.15, 100 + t)};
+    const CheckResult r = CheckRig(stored_, images, no_floor);
+    sum_ratio += r.chi2;
+    dof = r.dof;
+    EXPECT_EQ(CheckRig(stored_, images).verdict, Verdict::kOk) << "trial " << t;
+  }
+  const double mean = sum_ratio / trials;
+  EXPECT_NEAR(mean, dof, 4 * std::sqrt(2.0 * dof / trials)) << "dof " << dof;
+}
+
+TEST_F(CheckTest, MovedGroupIsDriftedAndNamed) {
+  struct Case {
+    const char* coordinate;
+    double amount;
+    const char* group;
+  };
+  const double deg = M_PI / 180;
+  const Case cases[] = {{"mirror2.rx", 0.2 * deg, "mirror2"}, {"mirror2.ty", 0.2, "mirror2"},
+                        {"mirror1.ry", 0.2 * deg, "mirror1"}, {"reflex.rx", 0.2 * deg, "reflex"},
+                        {"cx", 1.0, "camera"}, {"camera.tx", 0.3, "camera"}, {"camera.rx", 0.2 * deg, "camera"}};
+  for (const Case& c : cases) {
+    const RigParams now = Moved(stored_, c.coordinate, c.amount);
+    const CheckResult r = CheckRig(stored_, {Simulate(now, 1500, 0.1, 0.15, 7)});
+    EXPECT_EQ(r.verdict, Verdict::kDrifted) << c.coordinate;
+    if (std::string(c.group) == "camera") {
+      // A shifted principal point is also nearly a move of mirror 1 with the reflex disc in it
+      // (every image shifts): the camera must at least be the runner-up.
+      EXPECT_TRUE(r.named_group == c.group || r.runner_up == c.group)
+          << c.coordinate << ": " << r.named_group << " / " << r.runner_up;
+      continue;
+    }
+    EXPECT_EQ(r.named_group, c.group) << c.coordinate;
+    EXPECT_EQ(r.runner_up, "") << c.coordinate;
+    // The named group's fit recovers the move along that coordinate (within 4 sigma and 30%).
+    ASSERT_FALSE(r.groups.empty());
+    const GroupFit& fit = r.groups[0];
+    for (size_t k = 0; k < fit.names.size(); ++k) {
+      if (fit.names[k] != c.coordinate) continue;
+      EXPECT_NEAR(fit.amounts[k], c.amount,
+                  std::max(4 * fit.sigma[k], 0.3 * std::abs(c.amount)))
+          << c.coordinate;
+    }
+  }
+}
+
+TEST_F(CheckTest, TooFewMatchesCannotTell) {
+  const RigParams now = Moved(stored_, "mirror2.rx", 0.2 * M_PI / 180);
+  const CheckResult r = CheckRig(stored_, {Simulate(now, 60, 0.1, 0.15, 3)});
+  EXPECT_EQ(r.verdict, Verdict::kCannotTell);
+  EXPECT_NE(r.reason.find("too little texture"), std::string::npos) << r.reason;
+}
+
+}  // namespace
+}  // namespace omni::health

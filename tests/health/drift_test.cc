@@ -1,0 +1,70 @@
+// The drift coordinates (health/drift.h): a mirror's coordinates are its parameters; the
+// camera's move in its mount is one rigid motion of everything the rig puts in C.
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+
+#include "health/drift.h"
+#include "model/io/model_file.h"
+#include "model/model_derived.h"
+#include "model/rig_parameters.h"
+
+namespace omni::health {
+namespace {
+
+const std::string kSampleDir = std::string(OMNI_SOURCE_DIR) + "/sample_configs/";
+
+int IndexOf(const std::string& name) {
+  const auto& all = DriftCoordinates();
+  for (size_t i = 0; i < all.size(); ++i) {
+    if (all[i].name == name) return static_cast<int>(i);
+  }
+  return -1;
+}
+
+TEST(Drift, GroupsCoverEveryCoordinateOnce) {
+  int total = 0;
+  for (const std::string& g : DriftGroups()) total += static_cast<int>(CoordinatesOf(g).size());
+  EXPECT_EQ(total, static_cast<int>(DriftCoordinates().size()));
+  EXPECT_EQ(CoordinatesOf("mirror2").size(), 5u);
+  EXPECT_EQ(CoordinatesOf("reflex").size(), 3u);
+}
+
+TEST(Drift, RigParameterCoordinatesAddToTheParameter) {
+  const RigParams rig = io::ReadModelFile(kSampleDir + "big_rig_misaligned.yaml");
+  for (const auto& c : DriftCoordinates()) {
+    if (!c.rig_parameter) continue;
+    Eigen::VectorXd amount(1);
+    amount[0] = 0.01;
+    const RigParams moved = ApplyDrift(rig, {IndexOf(c.name)}, amount);
+    EXPECT_NEAR(*ParameterOf(moved, c.name) - *ParameterOf(rig, c.name), 0.01, 1e-12) << c.name;
+  }
+}
+
+// Moving the camera by (dR, dt) in its mount must move every mirror focus, axis and the reflex
+// plane by the same rigid motion in C, whatever spin about the mirrors' axes it implies.
+TEST(Drift, CameraMoveIsOneRigidMotionOfTheBodies) {
+  const RigParams rig = io::ReadModelFile(kSampleDir + "big_rig_misaligned.yaml");
+  const std::vector<int> coords = {IndexOf("camera.rx"), IndexOf("camera.ry"),
+                                   IndexOf("camera.rz"), IndexOf("camera.tx"),
+                                   IndexOf("camera.ty"), IndexOf("camera.tz")};
+  Eigen::VectorXd amount(6);
+  amount << 0.01, -0.02, 0.4, 1.5, -2.0, 0.7;  // a large spin (0.4 rad) on purpose
+  const RigParams moved = ApplyDrift(rig, coords, amount);
+  const Eigen::Vector3d w = amount.head<3>();
+  const Eigen::Matrix3d dR = Eigen::AngleAxisd(w.norm(), w.normalized()).toRotationMatrix();
+  const Eigen::Vector3d dt = amount.tail<3>();
+  const ModelDerived before = ComputeModelDerived(rig), after = ComputeModelDerived(moved);
+  EXPECT_LT((after.focus1_in_cam - (dR * before.focus1_in_cam + dt)).norm(), 1e-9);
+  EXPECT_LT((after.focus2_in_cam - (dR * before.focus2_in_cam + dt)).norm(), 1e-9);
+  EXPECT_LT((after.axis1_in_cam - dR * before.axis1_in_cam).norm(), 1e-12);
+  EXPECT_LT((after.axis2_in_cam - dR * before.axis2_in_cam).norm(), 1e-12);
+  EXPECT_LT((after.reflex_point_in_cam - (dR * before.reflex_point_in_cam + dt)).norm(), 1e-9);
+  EXPECT_LT((after.reflex_normal_in_cam - dR * before.reflex_normal_in_cam).norm(), 1e-12);
+  // The intrinsics and the mirrors' shapes are untouched.
+  EXPECT_EQ(moved.camera, rig.camera);
+  EXPECT_EQ(moved.mirror1_shape, rig.mirror1_shape);
+}
+
+}  // namespace
+}  // namespace omni::health
