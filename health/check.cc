@@ -11,13 +11,12 @@
 
 #include "health/consistency.h"
 #include "health/drift.h"
+#include "health/residuals.h"
 #include "model/rig_model.h"
 #include "model/rig_parameters.h"
 
 namespace omni::health {
 namespace {
-
-constexpr double kTwoPi = 2 * M_PI;
 
 // Regularised lower incomplete gamma P(a, x) by its series (x < a + 1) and the upper Q by its
 // continued fraction (otherwise; modified Lentz).
@@ -50,61 +49,6 @@ double GammaQ(double a, double x) {
   return std::exp(log_prefix) * h;
 }
 
-double Wrap(double angle) {
-  angle = std::fmod(angle, kTwoPi);
-  return angle < 0 ? angle + kTwoPi : angle;
-}
-
-int AzimuthBin(double angle, int bins) {
-  return std::min(bins - 1, static_cast<int>(Wrap(angle) / kTwoPi * bins));
-}
-
-// One residual sample: a match's ray gap or a lip point's distance across its edge.
-struct Sample {
-  int bin = 0;    // key into the bins map
-  double value = 0;
-  bool is_match = true;
-  Eigen::Vector2d pixel1 = Eigen::Vector2d::Zero(), pixel2 = Eigen::Vector2d::Zero();  // match
-  double w = 0;                    // match: converged inverse range
-  LipPointResidual lip;            // lip point
-  bool kept = false;               // inside its bin's clipping
-};
-
-struct Bin {
-  std::string kind;
-  double azimuth_deg = 0;
-  std::vector<int> members;  // indices into the samples
-};
-
-// The mean of a bin's samples within 3 robust sigmas of their median, and its standard error;
-// *members keeps those samples, which are marked kept.
-double RobustMean(std::vector<Sample>* samples, std::vector<int>* members, double* se) {
-  std::vector<double> v;
-  for (int i : *members) v.push_back((*samples)[i].value);
-  std::vector<double> sorted = v;
-  std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
-  const double median = sorted[sorted.size() / 2];
-  std::vector<double> dev;
-  for (double x : v) dev.push_back(std::abs(x - median));
-  std::nth_element(dev.begin(), dev.begin() + dev.size() / 2, dev.end());
-  const double spread = std::max(1.4826 * dev[dev.size() / 2], 1e-3);
-  std::vector<int> kept;
-  double sum = 0, sum2 = 0;
-  for (size_t k = 0; k < v.size(); ++k) {
-    if (std::abs(v[k] - median) > 3 * spread) continue;
-    kept.push_back((*members)[k]);
-    sum += v[k];
-    sum2 += v[k] * v[k];
-  }
-  const double n = static_cast<double>(kept.size());
-  const double mean = sum / n;
-  const double var = n > 1 ? std::max(0.0, (sum2 - n * mean * mean) / (n - 1)) : 0;
-  *se = std::sqrt(var / n);
-  for (int i : kept) (*samples)[i].kept = true;
-  *members = kept;
-  return mean;
-}
-
 }  // namespace
 
 const char* VerdictName(Verdict verdict) {
@@ -128,117 +72,25 @@ CheckResult CheckRig(const RigParams& stored, const std::vector<ImageEvidence>& 
   const RigModel model(stored);
   const int nb = options.azimuth_bins;
 
-  // Samples: every match, a spread subsample of each lip edge's points.
-  std::vector<Sample> samples;
-  double elevation_split = 0;
-  {
-    std::vector<double> elevations;
-    for (const ImageEvidence& image : images) {
-      for (const RingMatch& m : image.matches) {
-        Sample s;
-        s.pixel1 = m.pixel1;
-        s.pixel2 = m.pixel2;
-        s.bin = AzimuthBin(m.azimuth, nb) * 2;
-        s.value = m.elevation;  // for the split below
-        samples.push_back(s);
-        elevations.push_back(m.elevation);
-      }
-    }
-    if (!elevations.empty()) {
-      std::nth_element(elevations.begin(), elevations.begin() + elevations.size() / 2,
-                       elevations.end());
-      elevation_split = elevations[elevations.size() / 2];
-    }
-    for (Sample& s : samples) s.bin += s.value < elevation_split ? 0 : 1;
-  }
-  std::map<std::pair<LipPath, LipCircle>, int> edge_ids;
-  for (const ImageEvidence& image : images) {
-    for (const LipEdgeObservation& edge : image.lips) {
-      if (!edge.path || !edge.circle || edge.points.empty()) continue;
-      const auto key = std::make_pair(*edge.path, *edge.circle);
-      const int id = edge_ids.emplace(key, static_cast<int>(edge_ids.size())).first->second;
-      const size_t stride =
-          std::max<size_t>(1, edge.points.size() / options.max_lip_points_per_edge);
-      for (size_t k = 0; k < edge.points.size(); k += stride) {
-        Sample s;
-        s.is_match = false;
-        s.lip.path = key.first;
-        s.lip.circle = key.second;
-        s.lip.pixel = edge.points[k];
-        s.bin = 1000 + id;  // the azimuth bin is added once phi is known
-        samples.push_back(s);
-      }
-    }
-  }
-  // Residuals under the stored model (parallel: a lip point's nearest edge point takes ~0.3 ms).
-  std::vector<bool> valid(samples.size(), false);
-  cv::parallel_for_(cv::Range(0, static_cast<int>(samples.size())), [&](const cv::Range& range) {
-    for (int i = range.start; i < range.end; ++i) {
-      Sample& s = samples[i];
-      if (s.is_match) {
-        const auto gap = EpipolarGap(model, s.pixel1, s.pixel2, &s.w);
-        if (gap) s.value = *gap, valid[i] = true;
-      } else {
-        const auto lip = LipResidual(model, s.lip.path, s.lip.circle, s.lip.pixel);
-        if (lip) s.lip = *lip, s.value = lip->value, valid[i] = true;
-      }
-    }
-  });
-  std::map<int, Bin> bins;
-  for (size_t i = 0; i < samples.size(); ++i) {
-    if (!valid[i]) continue;
-    Sample& s = samples[i];
-    if (s.is_match) {
-      ++result.n_matches;
-      Bin& b = bins[s.bin];
-      b.kind = "matches";
-      b.azimuth_deg = (s.bin / 2 + 0.5) * 360.0 / nb;
-      b.members.push_back(static_cast<int>(i));
-    } else {
-      ++result.n_lip_points;
-      const int id = s.bin - 1000;
-      s.bin = 1000 + id * nb + AzimuthBin(s.lip.phi, nb);
-      Bin& b = bins[s.bin];
-      b.kind = std::string(LipPathName(s.lip.path)) + " " + LipCircleName(s.lip.circle);
-      b.azimuth_deg = (AzimuthBin(s.lip.phi, nb) + 0.5) * 360.0 / nb;
-      b.members.push_back(static_cast<int>(i));
-    }
-  }
-
-  // Robust bin means; bins too thin to estimate are dropped. Each bin's standard error comes
-  // from the scatter about the bin means pooled over its kind (a bin of 15 lip points would
-  // otherwise estimate its own spread badly: t-distributed, chi^2 17% high).
-  std::vector<Bin*> used;
-  std::vector<double> means;
-  std::map<std::string, std::pair<double, int>> pooled;  // kind: sum of squares, dof
-  for (auto& [key, bin] : bins) {
-    if (static_cast<int>(bin.members.size()) < options.min_bin_count) continue;
-    double se = 0;
-    const double mean = RobustMean(&samples, &bin.members, &se);
-    if (static_cast<int>(bin.members.size()) < options.min_bin_count) continue;
-    used.push_back(&bin);
-    means.push_back(mean);
-    auto& [ss, dof] = pooled[bin.kind];
-    for (int i : bin.members) ss += (samples[i].value - mean) * (samples[i].value - mean);
-    dof += static_cast<int>(bin.members.size()) - 1;
-  }
+  const SampleSet set = CollectSamples(model, images, options);
+  const std::vector<Sample>& samples = set.samples;
+  result.n_matches = set.n_matches;
+  result.n_lip_points = set.n_lip_points;
+  std::vector<const SampleBin*> used;
+  for (const SampleBin& bin : set.bins) used.push_back(&bin);
   std::vector<bool> azimuth_covered(nb, false);
-  for (size_t b = 0; b < used.size(); ++b) {
-    const Bin& bin = *used[b];
-    const bool is_match = bin.kind == "matches";
-    const auto& [ss, dof] = pooled[bin.kind];
-    const double sd = std::sqrt(ss / std::max(dof, 1));
-    const double floor = is_match ? options.match_floor_px : options.lip_floor_px;
+  for (const SampleBin* bin : used) {
+    const bool is_match = bin->kind == "matches";
     ResidualBin r;
-    r.kind = bin.kind;
-    r.azimuth_deg = bin.azimuth_deg;
-    r.count = static_cast<int>(bin.members.size());
-    r.mean = means[b];
-    r.standard_error = std::hypot(sd / std::sqrt(r.count), floor);
+    r.kind = bin->kind;
+    r.azimuth_deg = bin->azimuth_deg;
+    r.count = static_cast<int>(bin->members.size());
+    r.mean = bin->mean;
+    r.standard_error = bin->standard_error;
     result.bins.push_back(r);
     if (is_match) {
       ++result.match_bins;
-      azimuth_covered[AzimuthBin(bin.azimuth_deg * M_PI / 180, nb)] = true;
+      azimuth_covered[AzimuthBin(bin->azimuth_deg * M_PI / 180, nb)] = true;
     } else {
       ++result.lip_bins;
     }
@@ -285,23 +137,12 @@ CheckResult CheckRig(const RigParams& stored, const std::vector<ImageEvidence>& 
       for (int k = 0; k < take; ++k) {
         const Sample& s = samples[members[k * members.size() / take]];
         Eigen::VectorXd row(nc);
-        bool ok = true;
-        double base = s.value;
-        if (!s.is_match) {
-          const auto b0 = LipResidualUnder(model, s.lip);
-          ok = b0.has_value();
-          if (ok) base = *b0;
-        }
+        const auto base = ResidualUnder(model, s);
+        bool ok = base.has_value();
         for (int c = 0; c < nc && ok; ++c) {
-          std::optional<double> v;
-          if (s.is_match) {
-            double w = s.w;
-            v = EpipolarGap(moved[c], s.pixel1, s.pixel2, &w);
-          } else {
-            v = LipResidualUnder(moved[c], s.lip);
-          }
+          const auto v = ResidualUnder(moved[c], s);
           ok = v.has_value();
-          if (ok) row[c] = (*v - base) / coordinates[c].step;
+          if (ok) row[c] = (*v - *base) / coordinates[c].step;
         }
         if (!ok) continue;
         sum += row;

@@ -1,0 +1,58 @@
+// The residual samples of a session's evidence under a model, and their bins (what check.h's
+// statistic and refine.h's solve are built on): every ring-to-ring match's ray gap and a spread
+// subsample of each lip edge's points (consistency.h), binned by azimuth (matches: also by the
+// upper / lower half of their elevations; lips: per edge), with a robust mean per bin (3-sigma
+// clipped about its median) and a standard error from the scatter pooled over the bin's kind,
+// widened by the kind's floor (CheckOptions).
+#pragma once
+
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "health/check.h"
+#include "health/consistency.h"
+#include "model/rig_model.h"
+
+namespace omni::health {
+
+// One residual sample: a match's ray gap or a lip point's distance across its edge.
+struct Sample {
+  bool is_match = true;
+  Eigen::Vector2d pixel1 = Eigen::Vector2d::Zero(), pixel2 = Eigen::Vector2d::Zero();  // match
+  double w = 0;          // match: the converged inverse range of its point on ray 1
+  LipPointResidual lip;  // lip point: its edge, pixel, and (once valid) phi and normal
+  double value = 0;      // px, under the model the set was collected with
+  bool valid = false;    // the model images it
+  bool kept = false;     // inside its bin's clipping, in a bin that is used
+  int bin = 0;           // key of its bin
+};
+
+struct SampleBin {
+  std::string kind;  // "matches" or the lip edge ("via_mirror2 r_outer")
+  double azimuth_deg = 0;  // of the bin's centre
+  std::vector<int> members;  // kept samples
+  double mean = 0, standard_error = 0;  // px; the error includes the kind's floor
+};
+
+struct SampleSet {
+  std::vector<Sample> samples;
+  std::vector<SampleBin> bins;  // those with at least min_bin_count kept samples
+  std::map<std::string, double> kind_sd;  // the pooled scatter per kind about the bin means (px)
+  int n_matches = 0, n_lip_points = 0;  // valid samples
+};
+
+SampleSet CollectSamples(const RigModel& model, const std::vector<ImageEvidence>& images,
+                         const CheckOptions& options);
+
+// A sample's residual under another model: a match's exact ray gap (started from its w), a lip
+// point's distance at its phi and normal (first order: LipResidualUnder).
+std::optional<double> ResidualUnder(const RigModel& model, const Sample& sample);
+
+// The bin of an azimuth (rad) among `bins` equal sectors.
+int AzimuthBin(double angle, int bins);
+
+}  // namespace omni::health
