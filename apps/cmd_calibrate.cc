@@ -36,7 +36,8 @@
 #include "model/stereo/sparse_triangulation.h"
 #include "report/report.h"
 
-DEFINE_string(truth_model, "", "calibrate: the true model file, to add a truth column to the table");
+DEFINE_string(truth_model, "", "calibrate, refine: the true model file (synthetic sessions), to add a "
+                                "truth column to the table");
 DEFINE_string(report, "", "calibrate: write an HTML report (index.html and its images) into this folder");
 DEFINE_double(report_range_mm, 2000, "calibrate --report: the range of the second projection-uncertainty map (mm)");
 DEFINE_string(tolerances, "", "calibrate --report: an omnistereo-tolerances/1 file; the report gives the calibrated rig's verdicts");

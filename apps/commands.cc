@@ -46,6 +46,9 @@ const std::vector<Command>& Commands() {
       {"check", "does the stored calibration still hold? natural-scene photos, no target "
                 "(exit 0 OK, 3 DRIFTED, 4 CANNOT TELL)",
        {"model", "image", "images", "tone", "bayer", "out"}, RunCheck},
+      {"refine", "re-estimate what moved since the calibration from natural-scene photos, with "
+                 "covariance",
+       {"model", "image", "images", "tone", "bayer", "estimate", "out", "truth_model"}, RunRefine},
       {"demo", "run the main job on the bundled default", {"out"}, RunDemo},
   };
   return commands;

@@ -1,0 +1,286 @@
+#include "health/refine.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+
+#include <ceres/ceres.h>
+#include <opencv2/core.hpp>
+
+#include "calib/covariance.h"
+#include "health/drift.h"
+#include "health/residuals.h"
+#include "model/rig_model.h"
+#include "model/rig_parameters.h"
+
+namespace omni::health {
+namespace {
+
+// Every sample's weighted residual under the stored model moved along `coordinates`, and their
+// derivatives by forward differences (one model per coordinate; the samples in parallel).
+class SessionCost : public ceres::CostFunction {
+ public:
+  SessionCost(const RigParams& stored, std::vector<int> coordinates,
+              const std::vector<Sample>* samples, std::vector<double> weights)
+      : stored_(stored), coordinates_(std::move(coordinates)), samples_(samples),
+        weights_(std::move(weights)) {
+    set_num_residuals(static_cast<int>(samples_->size()));
+    mutable_parameter_block_sizes()->push_back(static_cast<int>(coordinates_.size()));
+  }
+
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override {
+    const int n = static_cast<int>(coordinates_.size());
+    const Eigen::Map<const Eigen::VectorXd> x(parameters[0], n);
+    if (!Residuals(x, residuals)) return false;
+    if (!jacobians || !jacobians[0]) return true;
+    const auto& all = DriftCoordinates();
+    const int m = num_residuals();
+    std::vector<double> moved(m);
+    for (int c = 0; c < n; ++c) {
+      Eigen::VectorXd xc = x;
+      const double step = all[coordinates_[c]].step;
+      xc[c] += step;
+      if (!Residuals(xc, moved.data())) return false;
+      for (int i = 0; i < m; ++i) jacobians[0][i * n + c] = (moved[i] - residuals[i]) / step;
+    }
+    return true;
+  }
+
+ private:
+  bool Residuals(const Eigen::VectorXd& x, double* out) const {
+    const RigModel model(ApplyDrift(stored_, coordinates_, x));
+    bool ok = true;
+    cv::parallel_for_(cv::Range(0, num_residuals()), [&](const cv::Range& range) {
+      for (int i = range.start; i < range.end; ++i) {
+        const auto r = ResidualUnder(model, (*samples_)[i]);
+        // A sample the trial model no longer images (a step far off) fails the step.
+        if (!r) {
+          ok = false;
+          out[i] = 0;
+          continue;
+        }
+        out[i] = weights_[i] * *r;
+      }
+    });
+    return ok;
+  }
+
+  RigParams stored_;
+  std::vector<int> coordinates_;
+  const std::vector<Sample>* samples_;
+  std::vector<double> weights_;
+};
+
+// Every k-th of the kept samples of one kind (match or lip) so that at most `limit` remain.
+void TakeSpread(const std::vector<Sample>& samples, bool matches, int limit,
+                std::vector<Sample>* out) {
+  std::vector<int> kept;
+  for (size_t i = 0; i < samples.size(); ++i) {
+    if (samples[i].kept && samples[i].is_match == matches) kept.push_back(static_cast<int>(i));
+  }
+  const double stride = std::max(1.0, static_cast<double>(kept.size()) / limit);
+  for (double k = 0; k < kept.size(); k += stride) out->push_back(samples[kept[static_cast<int>(k)]]);
+}
+
+std::string KindOf(const Sample& s) {
+  return s.is_match ? "matches"
+                    : std::string(LipPathName(s.lip.path)) + " " + LipCircleName(s.lip.circle);
+}
+
+// The bins' whitened Jacobian by `coordinates` (columns of result.jacobian), data errors only.
+Eigen::MatrixXd WhitenedBinJacobian(const CheckResult& check, const std::vector<int>& coordinates) {
+  const int m = static_cast<int>(check.bins.size());
+  Eigen::MatrixXd J(m, coordinates.size());
+  for (int b = 0; b < m; ++b) {
+    for (size_t k = 0; k < coordinates.size(); ++k) {
+      J(b, k) = check.jacobian(b, coordinates[k]) / check.bins[b].standard_error;
+    }
+  }
+  return J;
+}
+
+}  // namespace
+
+RefineResult RefineRig(const RigParams& stored, const std::vector<ImageEvidence>& images,
+                       const RefineOptions& options) {
+  const auto t0 = std::chrono::steady_clock::now();
+  auto status = [&](const std::string& now) {
+    if (options.status) options.status(now);
+  };
+  RefineResult result;
+  status("the check under the stored model");
+  result.before = CheckRig(stored, images, options.check);
+  if (result.before.verdict == Verdict::kCannotTell) {
+    throw RefineError("refine: " + result.before.reason +
+                      "; photograph a textured scene that fills most of the view around the rig");
+  }
+
+  // Candidates: the rig parameters of the chosen groups.
+  result.groups = options.groups;
+  if (result.groups.empty()) {
+    if (result.before.verdict == Verdict::kOk) {
+      result.rig = stored;
+      result.after = result.before;
+      result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      return result;  // nothing moved: nothing refined
+    }
+    result.groups.push_back(result.before.named_group);
+    if (!result.before.runner_up.empty()) result.groups.push_back(result.before.runner_up);
+  }
+  const auto& all = DriftCoordinates();
+  std::vector<int> candidates;
+  for (const std::string& group : result.groups) {
+    for (int c : CoordinatesOf(group)) {
+      if (all[c].rig_parameter) candidates.push_back(c);
+    }
+  }
+  if (candidates.empty()) throw RefineError("refine: no parameter group to refine");
+
+  // What the photos determine (calib/covariance.h on the bins' whitened Jacobian).
+  const Eigen::MatrixXd J_candidates = WhitenedBinJacobian(result.before, candidates);
+  calib::RigCovarianceOptions cov_options;
+  for (int c : candidates) {
+    cov_options.nearly_unobservable_sigma.push_back(FindRigParameter(all[c].name)->unobservable_sigma);
+  }
+  const calib::RigCovariance observability = calib::RigCovarianceFromSchur(
+      J_candidates.transpose() * J_candidates, static_cast<int>(candidates.size()), cov_options);
+  std::vector<int> free;
+  for (int i : observability.observable) free.push_back(candidates[i]);
+  for (size_t i = 0; i < candidates.size(); ++i) {
+    if (std::find(observability.observable.begin(), observability.observable.end(),
+                  static_cast<int>(i)) == observability.observable.end()) {
+      const RigParameter* p = FindRigParameter(all[candidates[i]].name);
+      result.held.push_back({p->name, p->hint});
+    }
+  }
+  if (free.empty()) {
+    throw RefineError("refine: these photos determine none of the parameters of " +
+                      std::to_string(candidates.size()) + " candidates");
+  }
+
+  // The solve on the samples, the lips re-linearised between rounds.
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(static_cast<int>(free.size()));
+  RigParams current = stored;
+  for (int round = 0; round < options.rounds; ++round) {
+    const SampleSet set = CollectSamples(RigModel(current), images, options.check);
+    std::vector<Sample> samples;
+    TakeSpread(set.samples, true, options.max_match_samples, &samples);
+    TakeSpread(set.samples, false, options.max_lip_samples, &samples);
+    std::vector<double> weights;
+    for (const Sample& s : samples) {
+      const auto sd = set.kind_sd.find(KindOf(s));
+      weights.push_back(sd != set.kind_sd.end() && sd->second > 0 ? 1 / sd->second : 1.0);
+    }
+    // The samples were linearised at `current`; the solve moves from the stored model, so its
+    // lips' phi and normals are current's (the first-order distance holds for the small moves).
+    Eigen::VectorXd x_round = x;
+    ceres::Problem problem;
+    problem.AddResidualBlock(new SessionCost(stored, free, &samples, weights), nullptr,
+                             x_round.data());
+    ceres::Solver::Options solver;
+    solver.linear_solver_type = ceres::DENSE_QR;
+    solver.max_num_iterations = options.max_iterations;
+    solver.function_tolerance = 1e-10;
+    solver.parameter_tolerance = 1e-10;
+    solver.num_threads = 1;  // the cost is parallel inside
+    solver.logging_type = ceres::SILENT;
+    struct Status : ceres::IterationCallback {
+      std::function<void(const std::string&)> f;
+      int round = 0;
+      ceres::CallbackReturnType operator()(const ceres::IterationSummary& s) override {
+        char line[128];
+        std::snprintf(line, sizeof(line), "solve %d, iteration %d, cost %.4g", round + 1,
+                      s.iteration, s.cost);
+        if (f) f(line);
+        return ceres::SOLVER_CONTINUE;
+      }
+    } callback;
+    callback.f = options.status;
+    callback.round = round;
+    solver.callbacks.push_back(&callback);
+    ceres::Solver::Summary summary;
+    ceres::Solve(solver, &problem, &summary);
+    result.iterations += static_cast<int>(summary.iterations.size());
+    x = x_round;
+    current = ApplyDrift(stored, free, x);
+  }
+
+  // The covariance from the bins at the solution, data errors only.
+  status("the check under the refined model");
+  result.after = CheckRig(current, images, options.check);
+  const Eigen::MatrixXd J_free = WhitenedBinJacobian(result.after, free);
+  calib::RigCovarianceOptions free_options;
+  const double chi2_per_dof =
+      result.after.dof > static_cast<int>(free.size())
+          ? [&] {
+              double chi2 = 0;
+              for (const ResidualBin& b : result.after.bins) {
+                chi2 += b.mean * b.mean / (b.standard_error * b.standard_error);
+              }
+              return chi2 / (result.after.dof - static_cast<int>(free.size()));
+            }()
+          : 1.0;
+  result.variance_factor = chi2_per_dof;
+  free_options.variance_factor = std::max(1.0, chi2_per_dof);
+  const calib::RigCovariance cov = calib::RigCovarianceFromSchur(
+      J_free.transpose() * J_free, static_cast<int>(free.size()), free_options);
+  result.covariance = Eigen::MatrixXd::Zero(free.size(), free.size());
+  for (size_t a = 0; a < cov.observable.size(); ++a) {
+    for (size_t b = 0; b < cov.observable.size(); ++b) {
+      result.covariance(cov.observable[a], cov.observable[b]) = cov.covariance(a, b);
+    }
+  }
+  for (size_t k = 0; k < free.size(); ++k) {
+    const std::string& name = all[free[k]].name;
+    result.refined.push_back({name, *ParameterOf(stored, name), *ParameterOf(current, name),
+                              std::sqrt(std::max(0.0, result.covariance(k, k)))});
+  }
+
+  // The model: the refined values; its calibration's covariance keeps the stored entries of
+  // every other parameter and takes the refinement's block for the refined ones (their
+  // correlations with the others dropped: the photos measured them anew).
+  result.rig = current;
+  CalibrationInfo info = stored.calibration ? *stored.calibration : CalibrationInfo{};
+  std::vector<std::string> names = info.parameters;
+  for (const RefinedParameter& p : result.refined) {
+    bool present = false;
+    for (const std::string& n : names) present = present || FindRigParameter(n) == FindRigParameter(p.name);
+    if (!present) names.push_back(p.name);
+  }
+  const int np = static_cast<int>(names.size());
+  const int old_np = static_cast<int>(info.parameters.size());
+  Eigen::MatrixXd covariance = Eigen::MatrixXd::Zero(np, np);
+  if (static_cast<int>(info.covariance.size()) == old_np * old_np) {
+    for (int a = 0; a < old_np; ++a) {
+      for (int b = 0; b < old_np; ++b) covariance(a, b) = info.covariance[a * old_np + b];
+    }
+  }
+  std::vector<int> index(free.size());
+  for (size_t k = 0; k < free.size(); ++k) {
+    for (int a = 0; a < np; ++a) {
+      if (FindRigParameter(names[a]) == FindRigParameter(result.refined[k].name)) index[k] = a;
+    }
+    for (int a = 0; a < np; ++a) covariance(index[k], a) = covariance(a, index[k]) = 0;
+  }
+  for (size_t k = 0; k < free.size(); ++k) {
+    for (size_t l = 0; l < free.size(); ++l) covariance(index[k], index[l]) = result.covariance(k, l);
+  }
+  info.parameters = names;
+  info.values.assign(np, 0);
+  info.sigma.assign(np, 0);
+  info.covariance.assign(static_cast<size_t>(np) * np, 0);
+  for (int a = 0; a < np; ++a) {
+    info.values[a] = *ParameterOf(current, names[a]);
+    info.sigma[a] = std::sqrt(std::max(0.0, covariance(a, a)));
+    for (int b = 0; b < np; ++b) info.covariance[a * np + b] = covariance(a, b);
+  }
+  info.session = "refine from " + std::to_string(images.size()) + " natural image(s)" +
+                 (info.session.empty() ? "" : " of the calibration from " + info.session);
+  result.rig.calibration = info;
+  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return result;
+}
+
+}  // namespace omni::health
