@@ -84,7 +84,7 @@ int RunRefine() {
   std::printf("refined %zu parameters from %zu image(s) in %.1f s (%d iterations):\n",
               r.refined.size(), evidence.size(), r.seconds, r.iterations);
   std::printf("  %-12s %12s %12s %10s %9s%s\n", "parameter", "stored", "refined", "change",
-              "sigma", truth ? "   truth  (change-true)/sigma" : "");
+              "sigma", truth ? "   truth (refined-truth)/sigma" : "");
   for (const health::RefinedParameter& p : r.refined) {
     const RigParameter* rp = FindRigParameter(p.name);
     const double before = DisplayValue(*rp, p.before), after = DisplayValue(*rp, p.after);

@@ -5,7 +5,9 @@
 // textureless room cannot tell; bad input is refused in one line.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 
@@ -141,7 +143,64 @@ void BadInputIsOneLineAndNothingWritten(const CheckCli& t) {
   EXPECT_FALSE(fs::exists(yaml));
 }
 
-TEST(CheckCli, OkDriftedCannotTellAndBadInputOnRenders) {
+// `refine` from the same photo: the stored model from before mirror 2 tilted by 0.2 deg comes back
+// to the rig as it is now, within 3 sigma, and projects within 0.15 px of it at 1 m in M1.
+void RefineRecoversTheMove(const CheckCli& t) {
+  std::string out, err;
+  const fs::path refined = t.Path("refined.yaml");
+  const fs::path truth = t.Path("room/model.yaml");
+  EXPECT_EQ(RunOmnistereo("refine --model " + t.StoredBefore("mirror2.rx", 0.2 * kDeg).string() +
+                              " --images " + t.Path("room/room.jpg").string() + " --out " +
+                              refined.string() + " --truth_model " + truth.string(),
+                          t.Path("refine.err"), &err, t.Path("refine.out"), &out),
+            0)
+      << out << err;
+  EXPECT_NE(out.find("refining mirror2 (named by the check)"), std::string::npos) << out;
+  EXPECT_NE(out.find("check after: OK"), std::string::npos) << out;
+  const RigParams now = io::ReadModelFile(truth.string());
+  const RigParams r = io::ReadModelFile(refined.string());
+  ASSERT_TRUE(r.calibration.has_value());
+  const auto& names = r.calibration->parameters;
+  for (const char* name : {"mirror2.rx", "mirror2.ry"}) {
+    const auto it = std::find_if(names.begin(), names.end(), [&](const std::string& n) {
+      return FindRigParameter(n) == FindRigParameter(name);
+    });
+    ASSERT_NE(it, names.end()) << name;
+    const double sigma = r.calibration->sigma[it - names.begin()];
+    EXPECT_GT(sigma, 0) << name;
+    EXPECT_LT(std::abs(*ParameterOf(r, name) - *ParameterOf(now, name)), 3 * sigma) << name;
+  }
+  double ring1 = 0, ring1_after = 0, ring2 = 0, ring2_after = 0;
+  const auto at = out.find("projection vs the true rig at 1 m in mirror 1's body:");
+  ASSERT_NE(at, std::string::npos) << out;
+  ASSERT_EQ(std::sscanf(out.c_str() + at,
+                        "projection vs the true rig at 1 m in mirror 1's body: ring 1 %lf -> %lf "
+                        "px, ring 2 %lf -> %lf",
+                        &ring1, &ring1_after, &ring2, &ring2_after),
+            4)
+      << out;
+  EXPECT_GT(ring2, 0.5);  // the knock moved ring 2 by about a pixel
+  EXPECT_LT(ring1_after, 0.15);
+  EXPECT_LT(ring2_after, 0.15);
+
+  // Nothing moved: nothing refined, the model written unchanged.
+  EXPECT_EQ(RunOmnistereo("refine --model " + truth.string() + " --images " +
+                              t.Path("room/room.jpg").string() + " --out " + refined.string(),
+                          t.Path("refine.err"), &err, t.Path("refine.out"), &out),
+            0)
+      << out << err;
+  EXPECT_NE(out.find("nothing to refine"), std::string::npos) << out;
+  // A textureless room: refused in one line, nothing written.
+  const fs::path none = t.Path("none.yaml");
+  EXPECT_EQ(RunOmnistereo("refine --model " + t.Path("plain/model.yaml").string() + " --images " +
+                              t.Path("plain/plain.jpg").string() + " --out " + none.string(),
+                          t.Path("refine.err"), &err),
+            2);
+  EXPECT_NE(err.find("too little texture"), std::string::npos) << err;
+  EXPECT_FALSE(fs::exists(none));
+}
+
+TEST(CheckCli, OkDriftedCannotTellRefineAndBadInputOnRenders) {
   const CheckCli t;
   ASSERT_TRUE(t.rendered()) << t.render_error();
   {
@@ -159,6 +218,10 @@ TEST(CheckCli, OkDriftedCannotTellAndBadInputOnRenders) {
   {
     SCOPED_TRACE("bad input");
     BadInputIsOneLineAndNothingWritten(t);
+  }
+  {
+    SCOPED_TRACE("refine");
+    RefineRecoversTheMove(t);
   }
 }
 
