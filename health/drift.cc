@@ -69,6 +69,14 @@ const std::vector<std::string>& DriftGroups() {
   return groups;
 }
 
+int DriftCoordinateIndex(const std::string& name) {
+  const auto& all = DriftCoordinates();
+  for (size_t i = 0; i < all.size(); ++i) {
+    if (all[i].name == name) return static_cast<int>(i);
+  }
+  return -1;
+}
+
 std::vector<int> CoordinatesOf(const std::string& group) {
   std::vector<int> indices;
   const auto& all = DriftCoordinates();

@@ -35,6 +35,8 @@ struct DriftCoordinate {
 const std::vector<DriftCoordinate>& DriftCoordinates();
 // The group names in order.
 const std::vector<std::string>& DriftGroups();
+// The index into DriftCoordinates() of the coordinate of that name; -1 if there is none.
+int DriftCoordinateIndex(const std::string& name);
 // Indices into DriftCoordinates() of a group's coordinates (all for "").
 std::vector<int> CoordinatesOf(const std::string& group);
 

@@ -17,18 +17,11 @@ namespace {
 
 const std::string kSampleDir = std::string(OMNI_SOURCE_DIR) + "/sample_configs/";
 
-int IndexOf(const std::string& name) {
-  const auto& all = DriftCoordinates();
-  for (size_t i = 0; i < all.size(); ++i) {
-    if (all[i].name == name) return static_cast<int>(i);
-  }
-  return -1;
-}
 
 RigParams Moved(const RigParams& rig, const std::string& coordinate, double amount) {
   Eigen::VectorXd a(1);
   a[0] = amount;
-  return ApplyDrift(rig, {IndexOf(coordinate)}, a);
+  return ApplyDrift(rig, {DriftCoordinateIndex(coordinate)}, a);
 }
 
 // One image's evidence from `now`: `n_points` wall points (a 6 x 6 m room, floor -1.2 m,
