@@ -19,11 +19,13 @@
 // textureless scene: the lips alone cannot tell a knocked rig from the lips' own bias); OK when
 // chi^2's p-value is at least `significance`; otherwise DRIFTED, and each group's coordinates
 // are fitted to r by generalised least squares (pseudo-inverse: degenerate directions inside a
-// group cost nothing); the group with the lowest chi^2 + 2 rank (Akaike's criterion: the camera's
-// ten coordinates must earn their freedom) is named, with the fitted amounts, and a second group
-// within 4 of it is named as one the data cannot tell apart.
+// group cost nothing); the group with the lowest chi^2 + rank ln(bins) (Schwarz's Bayesian
+// criterion: the camera's ten coordinates must earn their freedom) is named, with the fitted
+// amounts, and a second group within 4 of it is named as one the data cannot tell apart.
 #pragma once
 
+#include <algorithm>
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -63,7 +65,9 @@ struct GroupFit {
   double p_value = 0;
   std::vector<std::string> names;  // its coordinates
   Eigen::VectorXd amounts, sigma;  // internal units (px, rad, mm); sigma 0 where degenerate
-  double Score() const { return chi2 + 2 * rank; }  // Akaike's criterion (see CheckRig)
+  int bins = 0;  // the bins it was fitted to
+  // Schwarz's Bayesian criterion, chi^2 + rank ln(bins) (see CheckRig).
+  double Score() const { return chi2 + rank * std::log(static_cast<double>(std::max(bins, 1))); }
 };
 
 // The residual bins (for tests, plots and the refinement's covariance).

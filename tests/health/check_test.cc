@@ -103,9 +103,13 @@ TEST_F(CheckTest, MovedGroupIsDriftedAndNamed) {
     const CheckResult r = CheckRig(stored_, {Simulate(now, 1500, 0.1, 0.15, 7)});
     EXPECT_EQ(r.verdict, Verdict::kDrifted) << c.coordinate;
     if (std::string(c.group) == "camera") {
-      // A shifted principal point is also nearly a move of mirror 1 with the reflex disc in it
-      // (every image shifts): the camera must at least be the runner-up.
-      EXPECT_TRUE(r.named_group == c.group || r.runner_up == c.group)
+      // The camera's move in its mount, or a shifted principal point, is nearly a move of mirror
+      // 1 with the reflex disc in it (every image shifts alike); mirror 1 has fewer directions,
+      // so it may be named first: the camera must then be the runner-up (for the principal
+      // point, a pure shift of every image, mirror 1 alone may explain it).
+      const bool cx = std::string(c.coordinate) == "cx";
+      EXPECT_TRUE(r.named_group == "camera" || r.runner_up == "camera" ||
+                  (cx && r.named_group == "mirror1"))
           << c.coordinate << ": " << r.named_group << " / " << r.runner_up;
       continue;
     }
