@@ -2,8 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <map>
-#include <mutex>
 
 #include <Eigen/Cholesky>
 #include <Eigen/SVD>

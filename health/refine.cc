@@ -1,6 +1,7 @@
 #include "health/refine.h"
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -51,7 +52,7 @@ class SessionCost : public ceres::CostFunction {
  private:
   bool Residuals(const Eigen::VectorXd& x, double* out) const {
     const RigModel model(ApplyDrift(stored_, coordinates_, x));
-    bool ok = true;
+    std::atomic<bool> ok{true};
     cv::parallel_for_(cv::Range(0, num_residuals()), [&](const cv::Range& range) {
       for (int i = range.start; i < range.end; ++i) {
         const auto r = ResidualUnder(model, (*samples_)[i]);
