@@ -79,6 +79,46 @@ std::string UnknownFlagMessage(const Command& command, int argc, char** argv) {
   return "";
 }
 
+// For a command that takes several photos (--images): every --image and --images given, in
+// order, as one --images=a,b,c (gflags keeps only the last of a repeated flag, and the issue's
+// `check --image I --image J` is the natural way to name two photos).
+std::vector<std::string> MergePhotoFlags(const Command& command, int argc, char** argv) {
+  std::vector<std::string> args(argv, argv + argc);
+  if (std::find(command.flags.begin(), command.flags.end(), "images") == command.flags.end()) {
+    return args;
+  }
+  std::vector<std::string> kept(args.begin(), args.begin() + 2), photos;
+  for (size_t i = 2; i < args.size(); ++i) {
+    const std::string& a = args[i];
+    if (a == "--") {
+      kept.insert(kept.end(), args.begin() + i, args.end());
+      break;
+    }
+    bool matched = false;
+    for (const char* name : {"image", "images"}) {
+      for (const std::string dashes : {"-", "--"}) {
+        const std::string flag = dashes + name;
+        if (a == flag && i + 1 < args.size()) {
+          photos.push_back(args[++i]);
+          matched = true;
+        } else if (a.rfind(flag + "=", 0) == 0) {
+          photos.push_back(a.substr(flag.size() + 1));
+          matched = true;
+        }
+        if (matched) break;
+      }
+      if (matched) break;
+    }
+    if (!matched) kept.push_back(a);
+  }
+  std::string joined;
+  for (const std::string& p : photos) {
+    if (!p.empty()) joined += (joined.empty() ? "" : ",") + p;
+  }
+  if (!photos.empty()) kept.push_back("--images=" + joined);
+  return kept;
+}
+
 }  // namespace
 }  // namespace omni::apps
 
@@ -110,10 +150,13 @@ int main(int argc, char** argv) {
     return 2;
   }
   // Shift so that gflags sees "omnistereo-<command> --flags".
-  std::string program = std::string("omnistereo ") + command->name;
-  argv[1] = program.data();
-  int sub_argc = argc - 1;
-  char** sub_argv = argv + 1;
+  std::vector<std::string> args = MergePhotoFlags(*command, argc, argv);
+  args[1] = std::string("omnistereo ") + command->name;
+  std::vector<char*> arg_pointers;
+  for (std::string& a : args) arg_pointers.push_back(a.data());
+  arg_pointers.push_back(nullptr);
+  int sub_argc = static_cast<int>(args.size()) - 1;
+  char** sub_argv = arg_pointers.data() + 1;
   gflags::SetUsageMessage(command->summary);
   gflags::AllowCommandLineReparsing();
   gflags::ParseCommandLineFlags(&sub_argc, &sub_argv, true);

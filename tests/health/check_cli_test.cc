@@ -88,6 +88,14 @@ void UnchangedRigIsOk(const CheckCli& t) {
   const YAML::Node r = YAML::LoadFile(yaml.string());
   EXPECT_GE(r["matches"].as<int>(), 500);
   EXPECT_LT(r["gap_rms_px"].as<double>(), 0.2);
+  // Photos named by repeating --image (and mixed with --images) are all checked.
+  const std::string photo = t.Path("room/room.jpg").string();
+  EXPECT_EQ(RunOmnistereo("check --model " + t.Path("room/model.yaml").string() + " --image " +
+                              photo + " --image=" + photo + " --images " + photo,
+                          t.Path("check.err"), &err, t.Path("check.out"), &out),
+            0)
+      << out << err;
+  EXPECT_NE(out.find("check: 3 images"), std::string::npos) << out;
 }
 
 void MovedMirror2IsDriftedNamedAndMeasured(const CheckCli& t) {
