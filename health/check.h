@@ -1,15 +1,16 @@
 // The in-field health check (issue 22): does a stored calibration still describe the rig, and if
 // not, which group moved? From images of whatever scene the rig sees, no target needed.
 //
-// Evidence per image (collected by the caller, apps/cmd_check.cc): ring-to-ring matches of
+// Evidence per image (health/evidence.h, collected by apps/health_cli.cc): ring-to-ring matches of
 // natural features (ring_matches.h) and the lip edges detected under the stored model. Each
 // match gives the signed gap of its two rays in ring-2 pixels (consistency.h EpipolarGap), each
 // lip point its signed distance across its edge. A rig that moved shows as a pattern of these
 // over the azimuth; noise and the scene's own texture do not. So the statistic is built on bins:
 //   matches: 24 azimuth bins x 2 elevation halves; lips: 24 azimuth bins per edge (path, circle);
-//   per bin a robust mean (3-sigma clipped about the median) and its standard error, widened by a
-//   floor (what stays correlated inside a bin: the lips' texture-dependent bias along an arc,
-//   docs/experiments.md; the tracker's bias); bins with fewer than min_bin_count are dropped.
+//   per bin a robust mean (3-sigma clipped about the median) and its standard error from the
+//   scatter pooled over the bin's kind (residuals.h), widened by a floor (what stays correlated
+//   inside a bin: the lips' texture-dependent bias along an arc, docs/experiments.md; the
+//   tracker's bias); bins with fewer than min_bin_count are dropped.
 // Under the stored model the bin means are zero up to their errors and the model's own
 // uncertainty: r ~ N(0, C), C = diag(se^2) + J Sigma J^T, with Sigma the stored covariance over
 // the drift coordinates that are rig parameters and J the bins' derivatives by the drift
