@@ -27,7 +27,10 @@ std::pair<double, const char*> Display(const std::string& name, double value) {
     return {DisplayValue(*p, value), DisplayUnit(*p)};
   }
   // camera.rx / ry / rz (rad) and camera.tx / ty / tz (mm): the camera's move in its mount.
-  if (name.size() > 7 && name[7] == 'r') return {value * 180 / M_PI, "deg"};
+  const int index = health::DriftCoordinateIndex(name);
+  if (index >= 0 && health::DriftCoordinates()[index].mount_rotation) {
+    return {value * 180 / M_PI, "deg"};
+  }
   return {value, "mm"};
 }
 

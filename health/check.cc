@@ -65,12 +65,16 @@ double ChiSquareSurvival(double x, int dof) {
 
 CheckResult CheckRig(const RigParams& stored, const std::vector<ImageEvidence>& images,
                      const CheckOptions& options) {
+  return CheckSamples(stored, CollectSamples(RigModel(stored), images, options),
+                      static_cast<int>(images.size()), options);
+}
+
+CheckResult CheckSamples(const RigParams& stored, const SampleSet& set, int n_images,
+                         const CheckOptions& options) {
   CheckResult result;
-  result.n_images = static_cast<int>(images.size());
+  result.n_images = n_images;
   const RigModel model(stored);
   const int nb = options.azimuth_bins;
-
-  const SampleSet set = CollectSamples(model, images, options);
   const std::vector<Sample>& samples = set.samples;
   result.n_matches = set.n_matches;
   result.n_lip_points = set.n_lip_points;

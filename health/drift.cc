@@ -46,11 +46,12 @@ const std::vector<DriftCoordinate>& DriftCoordinates() {
   static const std::vector<DriftCoordinate> coordinates = [] {
     std::vector<DriftCoordinate> c;
     for (const char* name : {"fx", "fy", "cx", "cy"}) c.push_back({name, "camera", kPixelStep});
-    for (const char* name : {"camera.rx", "camera.ry", "camera.rz"}) {
-      c.push_back({name, "camera", kTiltStep, false});
+    const char* axes = "xyz";
+    for (int axis = 0; axis < 3; ++axis) {
+      c.push_back({std::string("camera.r") + axes[axis], "camera", kTiltStep, false, true, axis});
     }
-    for (const char* name : {"camera.tx", "camera.ty", "camera.tz"}) {
-      c.push_back({name, "camera", kShiftStep, false});
+    for (int axis = 0; axis < 3; ++axis) {
+      c.push_back({std::string("camera.t") + axes[axis], "camera", kShiftStep, false, false, axis});
     }
     for (const std::string mirror : {"mirror1", "mirror2"}) {
       for (const char* key : {".rx", ".ry"}) c.push_back({mirror + key, mirror, kTiltStep});
@@ -100,8 +101,7 @@ RigParams ApplyDrift(const RigParams& rig, const std::vector<int>& coordinates,
       continue;
     }
     mount = true;
-    const int axis = c.name.back() - 'x';  // camera.rx / camera.tx -> 0
-    (c.name[7] == 'r' ? rotation : translation)[axis] += a;
+    (c.mount_rotation ? rotation : translation)[c.mount_axis] += a;
   }
   if (mount) {
     const double angle = rotation.norm();

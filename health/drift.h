@@ -29,6 +29,10 @@ struct DriftCoordinate {
   std::string group;  // camera | mirror1 | mirror2 | reflex
   double step = 0;
   bool rig_parameter = true;  // a parameter of the model file (false: camera.* mount motion)
+  // The camera's move in its mount (rig_parameter false): a rotation (rad) or a translation (mm)
+  // about / along this axis of C (0 x, 1 y, 2 z).
+  bool mount_rotation = false;
+  int mount_axis = 0;
 };
 
 // Every coordinate, grouped in the order above.

@@ -102,6 +102,18 @@ Eigen::MatrixXd WhitenedBinJacobian(const CheckResult& check, const std::vector<
   return J;
 }
 
+// chi^2 per degree of freedom of the bins against their data errors alone (the check's own chi^2
+// also allows for the stored model's covariance); 1 where there are no spare bins.
+double DataChi2PerDof(const CheckResult& check, int n_parameters) {
+  const int dof = static_cast<int>(check.bins.size()) - n_parameters;
+  if (dof <= 0) return 1.0;
+  double chi2 = 0;
+  for (const ResidualBin& b : check.bins) {
+    chi2 += b.mean * b.mean / (b.standard_error * b.standard_error);
+  }
+  return chi2 / dof;
+}
+
 }  // namespace
 
 RefineResult RefineRig(const RigParams& stored, const std::vector<ImageEvidence>& images,
@@ -112,7 +124,9 @@ RefineResult RefineRig(const RigParams& stored, const std::vector<ImageEvidence>
   };
   RefineResult result;
   status("the check under the stored model");
-  result.before = CheckRig(stored, images, options.check);
+  // The samples under the stored model serve the check and the first solve.
+  SampleSet set = CollectSamples(RigModel(stored), images, options.check);
+  result.before = CheckSamples(stored, set, static_cast<int>(images.size()), options.check);
   if (result.before.verdict == Verdict::kCannotTell) {
     throw RefineError("refine: " + result.before.reason +
                       "; photograph a textured scene that fills most of the view around the rig");
@@ -165,7 +179,7 @@ RefineResult RefineRig(const RigParams& stored, const std::vector<ImageEvidence>
   Eigen::VectorXd x = Eigen::VectorXd::Zero(static_cast<int>(free.size()));
   RigParams current = stored;
   for (int round = 0; round < options.rounds; ++round) {
-    const SampleSet set = CollectSamples(RigModel(current), images, options.check);
+    if (round > 0) set = CollectSamples(RigModel(current), images, options.check);
     std::vector<Sample> samples;
     TakeSpread(set.samples, true, options.max_match_samples, &samples);
     TakeSpread(set.samples, false, options.max_lip_samples, &samples);
@@ -213,18 +227,8 @@ RefineResult RefineRig(const RigParams& stored, const std::vector<ImageEvidence>
   result.after = CheckRig(current, images, options.check);
   const Eigen::MatrixXd J_free = WhitenedBinJacobian(result.after, free);
   calib::RigCovarianceOptions free_options;
-  const double chi2_per_dof =
-      result.after.dof > static_cast<int>(free.size())
-          ? [&] {
-              double chi2 = 0;
-              for (const ResidualBin& b : result.after.bins) {
-                chi2 += b.mean * b.mean / (b.standard_error * b.standard_error);
-              }
-              return chi2 / (result.after.dof - static_cast<int>(free.size()));
-            }()
-          : 1.0;
-  result.variance_factor = chi2_per_dof;
-  free_options.variance_factor = std::max(1.0, chi2_per_dof);
+  result.variance_factor = DataChi2PerDof(result.after, static_cast<int>(free.size()));
+  free_options.variance_factor = std::max(1.0, result.variance_factor);
   const calib::RigCovariance cov = calib::RigCovarianceFromSchur(
       J_free.transpose() * J_free, static_cast<int>(free.size()), free_options);
   result.covariance = Eigen::MatrixXd::Zero(free.size(), free.size());

@@ -48,6 +48,10 @@ struct SampleSet {
 SampleSet CollectSamples(const RigModel& model, const std::vector<ImageEvidence>& images,
                          const CheckOptions& options);
 
+// The check (check.h CheckRig) on samples already collected under `stored`.
+CheckResult CheckSamples(const RigParams& stored, const SampleSet& set, int n_images,
+                         const CheckOptions& options);
+
 // A sample's residual under another model: a match's exact ray gap (started from its w), a lip
 // point's distance at its phi and normal (first order: LipResidualUnder).
 std::optional<double> ResidualUnder(const RigModel& model, const Sample& sample);
