@@ -3,7 +3,8 @@
 //   eval_lips MODEL RENDER_DIR [TONE [NOMINAL]]
 // Images are RENDER_DIR/NNNN.png or .jpg (not the kept *.pinhole.png); TONE (srgb | linear;
 // default srgb for JPEG, linear for PNG) says how they encode light: they are decoded to 16-bit
-// linear before detection, as DetectImage does (EVAL_LIPS_BITS=8: then scaled to 8 bit). The
+// linear before detection, as DetectImage does (EVAL_LIPS_BITS=8: then scaled to 8 bit); JPEGs
+// come with their own luma plane (EVAL_LIPS_NO_LUMA=1: without). The
 // detector's prior is NOMINAL (default MODEL). EVAL_CAMERA=PRESET (or a camera_effects map in
 // YAML): the camera applied to the kept linear renders RENDER_DIR/NNNN.pinhole.png (render
 // --keep_pinhole) instead, as eval_detectors does; EVAL_LIPS_POINTS=1 prints every point.
@@ -110,16 +111,19 @@ int main(int argc, char** argv) {
                           : std::filesystem::path(file).extension() == ".jpg";
     detectors::LipDetectorOptions options;
     options.chroma_halved = io::HasHalvedChroma(file);
+    options.luma = io::ReadStoredLuma(file);
     if (camera) {  // the camera on the linear render, and its file as the camera writes it
       image = synthetic::ApplyCamera(image, truth_params, *camera, 1 + (&file - &files[0]));
       std::vector<uchar> bytes;
       synthetic::EncodeCameraImage(image, *camera, &bytes);
       options.chroma_halved = io::HasHalvedChroma(bytes);
+      options.luma = io::ReadStoredLuma(bytes);
       image = cv::imdecode(bytes, cv::IMREAD_COLOR | cv::IMREAD_ANYDEPTH);
       srgb = camera->tone == synthetic::ToneCurve::kSrgb;
     }
     cv::Mat linear = io::LinearImage(image, srgb ? io::ToneCurve::kSrgb : io::ToneCurve::kLinear);
     if (eight_bit) linear.convertTo(linear, CV_8U, 1.0 / 257.0);
+    if (std::getenv("EVAL_LIPS_NO_LUMA")) options.luma = cv::Mat();
     const std::clock_t c0 = std::clock();
     const std::vector<detectors::LipEdgeFit> fits = detectors::DetectLipEdges(linear, nominal, options);
     cpu_ms.push_back(1000.0 * (std::clock() - c0) / CLOCKS_PER_SEC);

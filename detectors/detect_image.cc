@@ -12,15 +12,16 @@
 namespace omni::detectors {
 namespace {
 
-// The lip detector's input: 8-bit BGR (alpha dropped, 16 bit scaled down).
-cv::Mat ToBgr8(const cv::Mat& image) {
-  cv::Mat bgr = image;
+}  // namespace
+
+cv::Mat LipInput(const cv::Mat& linear) {
+  cv::Mat bgr = linear;
   if (bgr.channels() == 4) cv::cvtColor(bgr, bgr, cv::COLOR_BGRA2BGR);
-  if (bgr.depth() != CV_8U) bgr.convertTo(bgr, CV_8U, bgr.depth() == CV_16U ? 1.0 / 257.0 : 1.0);
+  if (bgr.depth() != CV_8U && bgr.depth() != CV_16U) {
+    bgr.convertTo(bgr, CV_16U, bgr.depth() == CV_32F || bgr.depth() == CV_64F ? 65535.0 : 1.0);
+  }
   return bgr;
 }
-
-}  // namespace
 
 DetectorContext::DetectorContext(const RigParams& rig, std::vector<TargetSpec> target_specs,
                                  bool lips, const ViewOptions& view_options)
@@ -67,7 +68,8 @@ ImageObservations DetectImage(const cv::Mat& image, DetectorContext* ctx,
     if (image.channels() >= 3) {
       LipDetectorOptions lip_options;
       lip_options.chroma_halved = ctx->chroma_halved;
-      out.lips = DetectLips(ToBgr8(linear), ctx->model, lip_options);
+      if (ctx->chroma_halved && ctx->luma.size() == image.size()) lip_options.luma = ctx->luma;
+      out.lips = DetectLips(LipInput(linear), ctx->model, lip_options);
     } else if (warnings) {
       warnings->push_back("grey image: the coloured lips cannot be detected");
     }

@@ -36,6 +36,9 @@ struct DetectorContext {
   // Whether the CURRENT image's chroma was stored at half its luma's resolution (a JPEG:
   // io::HasHalvedChroma; DetectSession sets it per image): lip edges are then placed on the luma.
   bool chroma_halved = false;
+  // The CURRENT image's own luma plane when chroma_halved (io::ReadStoredLuma; DetectSession
+  // reads it per image), else empty: the lip edges are placed on it.
+  cv::Mat luma;
   ChessboardOptions chessboard;
   GuidedOptions guided;  // corners of targets found in one ring looked for in the other
 };
@@ -46,6 +49,10 @@ struct DetectorContext {
 // appends a line to *warnings for what was skipped (e.g. lips on a grey image). `file`, `width`
 // and `height` of the result are for the caller to fill in. With `guided`: one flag per corner,
 // true where guided detection across rings found it (guided_detection.h; those come last).
+// The lip detector's input from a linear image (io::LinearImage): BGR, alpha dropped, 8 or 16 bit
+// as given (16 bit keeps a dark band's levels: detectors/lip_detector.h).
+cv::Mat LipInput(const cv::Mat& linear);
+
 ImageObservations DetectImage(const cv::Mat& image, DetectorContext* ctx,
                                 std::vector<std::string>* warnings = nullptr,
                                 std::vector<bool>* guided = nullptr);

@@ -40,6 +40,7 @@ Observations DetectSession(const io::Session& session, DetectorContext* ctx,
                            std::to_string(image.rows) + "; nothing written");
     }
     ctx->chroma_halved = io::HasHalvedChroma(report.file);
+    ctx->luma = ctx->chroma_halved ? io::ReadStoredLuma(report.file) : cv::Mat();
     ImageObservations det = DetectImage(image, ctx, &report.warnings);
     det.file = report.file;
     det.width = image.cols;

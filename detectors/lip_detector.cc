@@ -9,7 +9,7 @@
 
 #include <Eigen/Dense>
 
-#include "model/io/image_file.h"
+#include "detectors/luma_edge.h"
 
 namespace omni::detectors {
 namespace {
@@ -64,15 +64,6 @@ Eigen::Vector3d ColourOf(const cv::Mat& bgr, const Eigen::Vector2d& p, double sc
                     fy * ((1 - fx) * row1[0][k] + fx * row1[1][k]));
   }
   return c;
-}
-
-// The sRGB encoding of a linear level, both on the 8-bit scale.
-double SrgbLevel(double linear_level) { return 255.0 * io::SrgbFromLinear(linear_level / 255.0); }
-
-// The luma Y' of a linear BGR colour (8-bit levels): Rec. 601 weights on the sRGB-encoded
-// values, what JPEG keeps at full resolution.
-double LumaOf(const Eigen::Vector3d& bgr) {
-  return 0.114 * SrgbLevel(bgr[0]) + 0.587 * SrgbLevel(bgr[1]) + 0.299 * SrgbLevel(bgr[2]);
 }
 
 Eigen::Vector3d Colour(const cv::Mat& bgr, const Eigen::Vector2d& p) {
@@ -241,54 +232,11 @@ struct EdgeCandidate {
   double band = 0;      // paint likeness of the band's colour
   double contrast = 0;  // |band colour - outside colour| (8-bit levels)
   double noise = 0;     // spread of the band side's samples along that difference (levels)
+  // The arc the profile's samples followed: its centre, the point's radius and direction.
+  Eigen::Vector2d centre, outward;
+  double rho = 0;
+  double sign = 1;  // +1: the band lies outward
 };
-
-// Where the profile's luma Y' (fine samples) reaches the Y' of the half-and-half linear mix of
-// the outside's and the band's colours (level[0], level[1]), nearest to the colour crossing t
-// and within 1 px of it; t itself if Y' is not luma_min_snr times above its noise there (a dark
-// or blue band against black). The side means of Y' are measured 1.5-3 px either side, and the
-// mix's Y' is placed between them as it lies between the sides' colours' Y': noise raises the
-// mean Y' of dark levels (sRGB is concave there), the same on both sides of the edge.
-double LumaCrossing(const std::vector<double>& luma, const Eigen::Vector3d level[2], double sign,
-                    double t, double luma_min_snr) {
-  constexpr double kStep = 0.25;
-  const int n = static_cast<int>(luma.size());
-  const int near = static_cast<int>(1.5 / kStep), far = static_cast<int>(3.0 / kStep);
-  const int at = static_cast<int>(std::lround(t));
-  double mean[2] = {0, 0}, spread[2] = {0, 0};
-  int count = 0;
-  for (int off = near; off <= far; ++off) {
-    const int band_i = at + static_cast<int>(sign) * off, out_i = at - static_cast<int>(sign) * off;
-    if (band_i < 0 || band_i >= n || out_i < 0 || out_i >= n) return t;
-    mean[0] += luma[out_i];
-    mean[1] += luma[band_i];
-    spread[0] += luma[out_i] * luma[out_i];
-    spread[1] += luma[band_i] * luma[band_i];
-    ++count;
-  }
-  for (int s = 0; s < 2; ++s) {
-    mean[s] /= count;
-    spread[s] = std::sqrt(std::max(0.0, spread[s] / count - mean[s] * mean[s]));
-  }
-  const double y0 = LumaOf(level[0]), y1 = LumaOf(level[1]);
-  const double y_half = LumaOf(0.5 * (level[0] + level[1]));
-  // Noise floor of half a level: 8-bit JPEG's own rounding.
-  const double noise = std::max({spread[0], spread[1], 0.5});
-  if (!(std::abs(y1 - y0) > 0) || std::abs(mean[1] - mean[0]) < luma_min_snr * noise) return t;
-  const double target = mean[0] + (y_half - y0) / (y1 - y0) * (mean[1] - mean[0]);
-  double best = t, best_distance = 1.0 / kStep;  // within 1 px
-  for (int i = std::max(0, at - far); i + 1 < n && i <= at + far; ++i) {
-    const double a = luma[i] - target, b = luma[i + 1] - target;
-    if ((a <= 0 && b > 0) || (a >= 0 && b < 0)) {
-      const double ti = i + a / (a - b);
-      if (std::abs(ti - t) < best_distance) {
-        best_distance = std::abs(ti - t);
-        best = ti;
-      }
-    }
-  }
-  return best;
-}
 
 // The sub-pixel edge along one profile. The steepest rise of the paint likeness towards the band
 // within the search window is found on single samples. Around it the colour profile is sampled
@@ -340,14 +288,11 @@ bool FindEdge(const cv::Mat& bgr, const PaintLikeness& likeness, bool outer,
   const Eigen::Vector2d centre = pred.pixel - pred.rho * pred.outward;
   const Eigen::Vector2d tangent(-pred.outward.y(), pred.outward.x());
   std::vector<Eigen::Vector3d> colour(n, Eigen::Vector3d::Zero());
-  std::vector<double> luma(options.chroma_halved ? n : 0, 0.0);
   for (int k = 0; k < kTangential; ++k) {
     const double angle = options.tangential_px * (2.0 * k / (kTangential - 1) - 1) / pred.rho;
     const Eigen::Vector2d dir = std::cos(angle) * pred.outward + std::sin(angle) * tangent;
     for (int i = 0; i < n; ++i) {
-      const Eigen::Vector3d c = Colour(bgr, centre + (pred.rho + tc + i * kStep) * dir);
-      colour[i] += c / kTangential;
-      if (!luma.empty()) luma[i] += LumaOf(c) / kTangential;
+      colour[i] += Colour(bgr, centre + (pred.rho + tc + i * kStep) * dir) / kTangential;
     }
   }
   // Mean colours 1.5-3 px on the band side (1) and the outside (0) of sample `at`.
@@ -421,8 +366,11 @@ bool FindEdge(const cv::Mat& bgr, const PaintLikeness& likeness, bool outer,
           const int k = static_cast<int>(std::lround(t + sign * width / kStep));
           if (k < 0 || k >= n || score[k] < 0.5) return false;
         }
-        if (!luma.empty()) t = LumaCrossing(luma, level, sign, t, options.luma_min_snr);
         out->pixel = pred.pixel + (tc + kStep * t) * pred.outward;
+        out->centre = centre;
+        out->outward = pred.outward;
+        out->rho = pred.rho + tc + kStep * t;
+        out->sign = sign;
         return true;
       }
     }
@@ -463,6 +411,35 @@ std::vector<int> ScreenCandidates(const std::vector<EdgeCandidate>& c,
     kept.push_back(i);
   }
   return kept;
+}
+
+// The candidates moved onto the image's luma (detectors/luma_edge.h): the sensor noise's variance
+// estimated from every band side of the image, then each point placed where the pixels' band
+// share crosses 1/2; a point whose Y' contrast is too low for it keeps its colour crossing.
+void PlaceOnLuma(const cv::Mat& bgr, const LipDetectorOptions& options,
+                 std::vector<std::vector<EdgeCandidate>>* candidates) {
+  auto gather = [&](const EdgeCandidate& c, double side_from_px, double side_to_px) {
+    return GatherLumaProfile(bgr, options.luma, c.centre, c.outward, c.rho, c.sign,
+                             options.luma_tangential_px, side_from_px, side_to_px);
+  };
+  // The noise from the bands' sides 2.5-3.5 px in (nearer, a bright room's chroma smeared by the
+  // JPEG into a saturated band's near-black channels read as 10 times the variance), every 4th
+  // point: one variance per image.
+  std::vector<std::pair<Eigen::Vector3d, double>> band_sides;
+  for (const auto& on_track : *candidates) {
+    for (size_t i = 0; i < on_track.size(); i += 4) {
+      const LumaProfile p = gather(on_track[i], 2.5, 3.5);
+      if (p.side_count[1] >= 3) band_sides.emplace_back(p.side_colour[1], p.side_luma[1]);
+    }
+  }
+  const NoisyLevels noise(EstimateEncodingNoise(band_sides));
+  for (auto& on_track : *candidates) {
+    for (EdgeCandidate& c : on_track) {
+      const std::optional<double> offset =
+          LumaEdgeOffset(gather(c, 1.5, 3.0), noise, options.luma_min_snr);
+      if (offset) c.pixel += c.sign * *offset * c.outward;
+    }
+  }
 }
 
 // Conic through points (least squares on Hartley-normalised coordinates, smallest singular
@@ -580,20 +557,27 @@ std::vector<LipEdgeFit> DetectLipEdges(const cv::Mat& raw_bgr, const RigModel& m
     return out;
   }
   const std::shared_ptr<const LipPrediction> prediction = PredictionFor(model, options);
-  for (const EdgeTrack& track : prediction->tracks()) {
+  const std::vector<EdgeTrack>& tracks = prediction->tracks();
+  std::vector<std::vector<EdgeCandidate>> found_on(tracks.size());
+  for (size_t k = 0; k < tracks.size(); ++k) {
+    const EdgeTrack& track = tracks[k];
+    const PaintLikeness likeness(
+        LipPaintOf(track.owner == Mirror::kOne ? rig.lip1.color : rig.lip2.color, track.owner));
+    for (const EdgePrediction& pred : track.predictions) {
+      EdgeCandidate c;
+      if (FindEdge(raw_bgr, likeness, track.outer, pred, options, &c)) found_on[k].push_back(c);
+    }
+  }
+  if (options.chroma_halved) PlaceOnLuma(raw_bgr, options, &found_on);
+  for (size_t k = 0; k < tracks.size(); ++k) {
+    const EdgeTrack& track = tracks[k];
     LipEdgeFit fit;
     fit.edge.mirror = track.owner;
     fit.edge.edge = track.outer ? BandEdge::kOuter : BandEdge::kInner;
     fit.edge.circle = track.circle;
     fit.edge.path = track.path;
     fit.n_profiles = static_cast<int>(track.predictions.size());
-    const PaintLikeness likeness(
-        LipPaintOf(track.owner == Mirror::kOne ? rig.lip1.color : rig.lip2.color, track.owner));
-    std::vector<EdgeCandidate> candidates;
-    for (const EdgePrediction& pred : track.predictions) {
-      EdgeCandidate c;
-      if (FindEdge(raw_bgr, likeness, track.outer, pred, options, &c)) candidates.push_back(c);
-    }
+    const std::vector<EdgeCandidate>& candidates = found_on[k];
     const std::vector<int> kept = ScreenCandidates(candidates, options);
     std::vector<Eigen::Vector2d> found;
     for (int i : kept) found.push_back(candidates[i].pixel);

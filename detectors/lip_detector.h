@@ -23,9 +23,11 @@
 //
 // JPEG (4:2:0 or 4:2:2, what cameras write) keeps the sRGB luma Y' at full resolution but the
 // chroma at half: a colour edge's mix is then not the linear half-and-half one (saturated blue /
-// red bands read 0.15-0.23 px wider or narrower a side). With `chroma_halved` the point is placed
-// where Y' reaches the Y' of the linear half-and-half mix of the two sides' colours, wherever Y'
-// stands luma_min_snr times above its noise (else on the colour, as without).
+// red bands read 0.15-0.23 px wider or narrower a side). With `chroma_halved` each point is then
+// placed on Y' (detectors/luma_edge.h: the pixels' band share from their Y', under the sensor
+// noise estimated from the image), wherever Y' stands luma_min_snr times above its noise (else on
+// the colour, as without). Give the file's own Y' plane as `luma` (io::ReadStoredLuma) and the
+// linear image in 16 bit: 8-bit linear levels are too coarse for a dark band's Y'.
 #pragma once
 
 #include <vector>
@@ -54,7 +56,10 @@ struct LipDetectorOptions {
   int ransac_iterations = 300;
   int min_points = 30;           // fewer inliers: the edge is dropped
   bool chroma_halved = false;    // the image's chroma had half the luma's resolution (JPEG)
+  cv::Mat luma;                  // with chroma_halved: the file's Y' plane (8-bit) if known
   double luma_min_snr = 4;       // luma contrast over its noise to place a point on the luma
+  double luma_tangential_px = 6; // the luma placement's pixels span +-this along the edge (a
+                                 // dark band's Y' is noisy: +-3 px left 0.12 px per point)
 };
 
 // An ellipse as the conic a u^2 + b uv + c v^2 + d u + e v + f = 0 (unit norm) with its centre,

@@ -2,6 +2,7 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "detectors/detect_image.h"
 #include "detectors/lip_detector.h"
 
 namespace omni::health {
@@ -19,12 +20,14 @@ ImageEvidence CollectEvidence(const cv::Mat& image, const std::string& file,
   evidence.matches = matcher.Match(image8);
   // Lips on the linear image, as detection does (detectors/detect_image.cc).
   if (image.channels() >= 3) {
-    cv::Mat linear = io::LinearImage(image, tone), linear8;
-    if (linear.channels() == 4) cv::cvtColor(linear, linear, cv::COLOR_BGRA2BGR);
-    linear.convertTo(linear8, CV_8U, 1.0 / 257);
     detectors::LipDetectorOptions lip_options;
     lip_options.chroma_halved = chroma_halved;
-    evidence.lips = detectors::DetectLips(linear8, model, lip_options);
+    if (chroma_halved) {
+      lip_options.luma = io::ReadStoredLuma(file);
+      if (lip_options.luma.size() != image.size()) lip_options.luma = cv::Mat();
+    }
+    evidence.lips = detectors::DetectLips(detectors::LipInput(io::LinearImage(image, tone)), model,
+                                          lip_options);
   }
   return evidence;
 }

@@ -13,8 +13,9 @@
 namespace omni::health {
 
 // `image` as io::ReadImage gives it (8/16-bit grey or BGR, the model's size); `tone` how it
-// encodes light; `chroma_halved` whether it is a JPEG with subsampled chroma (lip placement,
-// detectors/lip_detector.h). Grey images give matches but no lips.
+// encodes light; `chroma_halved` whether `file` is a JPEG with subsampled chroma (the lips are
+// then placed on its own luma plane, detectors/lip_detector.h). Grey images give matches but no
+// lips.
 ImageEvidence CollectEvidence(const cv::Mat& image, const std::string& file,
                               const RingMatcher& matcher, const RigModel& model,
                               io::ToneCurve tone, bool chroma_halved);

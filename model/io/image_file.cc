@@ -117,6 +117,16 @@ bool HasHalvedChroma(const std::string& path) {
   return HasHalvedChroma(head);
 }
 
+cv::Mat ReadStoredLuma(const std::string& path) {
+  if (!HasHalvedChroma(path)) return cv::Mat();
+  return cv::imread(path, cv::IMREAD_GRAYSCALE | cv::IMREAD_IGNORE_ORIENTATION);
+}
+
+cv::Mat ReadStoredLuma(const std::vector<unsigned char>& bytes) {
+  if (!HasHalvedChroma(bytes)) return cv::Mat();
+  return cv::imdecode(bytes, cv::IMREAD_GRAYSCALE | cv::IMREAD_IGNORE_ORIENTATION);
+}
+
 namespace {
 
 std::string Lower(std::string s) {

@@ -59,6 +59,11 @@ cv::Mat DemosaicImage(const cv::Mat& mosaic, BayerPattern pattern, Demosaic demo
 bool HasHalvedChroma(const std::string& path);
 // The same for a file's bytes (its start: the headers before the first scan).
 bool HasHalvedChroma(const std::vector<unsigned char>& bytes);
+// Such a file's own luma plane Y' (8-bit, decoded without colour conversion: libjpeg hands out its
+// Y component), the values a colour decode clips where the halved chroma overshoots; empty for
+// any other file.
+cv::Mat ReadStoredLuma(const std::string& path);
+cv::Mat ReadStoredLuma(const std::vector<unsigned char>& bytes);
 
 // Reads an image for detection. Accepted: 8- or 16-bit grey, BGR or BGRA (PNG, TIFF, JPEG, ...);
 // with `bayer` set, a one-channel 8- or 16-bit raw frame, demosaiced edge-aware. Throws
