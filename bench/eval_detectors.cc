@@ -179,6 +179,7 @@ int main(int argc, char** argv) {
         std::vector<uchar> bytes;
         synthetic::EncodeCameraImage(raw, *camera, &bytes);
         ctx.chroma_halved = io::HasHalvedChroma(bytes);
+        ctx.luma = io::ReadStoredLuma(bytes);
         raw = cv::imdecode(bytes, cv::IMREAD_UNCHANGED);
         if (camera->raw_mosaic) raw = io::DemosaicImage(raw, camera->bayer, io::Demosaic::kEdgeAware);
       }
@@ -186,6 +187,7 @@ int main(int argc, char** argv) {
       if (!std::filesystem::exists(path)) path = std::string(argv[3]) + "/" + image.name + ".jpg";
       raw = cv::imread(path, cv::IMREAD_UNCHANGED);
       ctx.chroma_halved = io::HasHalvedChroma(path);
+      ctx.luma = io::ReadStoredLuma(path);
     }
     if (raw.empty()) {
       std::fprintf(stderr, "skipping %s (cannot read)\n", path.c_str());

@@ -16,18 +16,17 @@ const Eigen::Vector3d kLumaWeights(0.114, 0.587, 0.299);
 // The sRGB encoding of a linear level, both on the 8-bit scale, clipped to the sensor's range.
 double SrgbExact(double x) { return 255.0 * io::SrgbFromLinear(std::clamp(x, 0.0, 255.0) / 255.0); }
 
-// The same, tabulated at 1/64 level below 96 levels where the tables need it many times (the
-// noise estimate builds a dozen NoisyLevels per image); linear interpolation there is within
-// 1e-4 of a level.
+// The same, tabulated at 1/32 level (within 1e-3 of a level interpolated linearly): the tables
+// below and every profile's expected Y' need it thousands of times per image.
 double Srgb(double x) {
-  constexpr double kFine = 64, kTop = 96;
+  constexpr double kFine = 32;
   static const std::vector<double> table = [] {
-    std::vector<double> t(static_cast<size_t>(kTop * kFine) + 2);
+    std::vector<double> t(static_cast<size_t>(255 * kFine) + 2);
     for (size_t i = 0; i < t.size(); ++i) t[i] = SrgbExact(i / kFine);
     return t;
   }();
   if (x <= 0) return 0;
-  if (x >= kTop) return SrgbExact(x);
+  if (x >= 255) return 255;
   const double f = x * kFine;
   const int i = static_cast<int>(f);
   return table[i] + (f - i) * (table[i + 1] - table[i]);
