@@ -5,9 +5,11 @@
 // right. Y' is not linear in the light, though: across a blurred edge where alpha is the band's
 // linear share, Y'(alpha) = sum_c w_c s(x_c(alpha)) with s the sRGB curve. Three things then bias
 // a crossing found on Y' (docs/experiments.md, 2026-11-26):
-//  - interpolating Y' between pixels (concave in alpha): here each pixel's Y' is turned into
-//    alpha and a line alpha(d) is fitted across the edge. A symmetric blur makes alpha(d)
-//    antisymmetric about the edge, so the line's 1/2 crossing is the edge whatever the blur;
+//  - interpolating Y' between pixels (concave in alpha): here the pixels themselves are fitted
+//    with alpha(d) a line across the edge. A symmetric blur makes alpha(d) antisymmetric about
+//    the edge, so the line's 1/2 crossing is the edge whatever the blur. The fit is on Y' itself
+//    (Gauss-Newton, from a line through the pixels' alpha read off their Y'): alpha read off a
+//    noisy Y' is biased where the curve bends;
 //  - the side colours measured elsewhere than the side Y': the blur's tail is a large share of
 //    Y' on the dark side of an edge (red against black: 30% of the contrast 1.5 px out), so the
 //    alpha mapping is built from the mean colours of the very pixels whose mean Y' anchors it;
@@ -75,9 +77,11 @@ LumaProfile GatherLumaProfile(const cv::Mat& linear_bgr, const cv::Mat& luma,
 // sides: flat paint, no texture).
 double EstimateEncodingNoise(const std::vector<std::pair<Eigen::Vector3d, double>>& sides);
 
-// The edge's offset along d from the profile's point (px): where the line fitted to the pixels'
-// band share alpha within 1.25 px of the edge crosses 1/2. nullopt if the sides' Y' contrast is
-// not min_snr times their spread (at least half a level: JPEG's rounding) or the fit fails.
+// The edge's offset along d from the profile's point (px): where alpha = 1/2 on the line alpha(d)
+// whose expected Y' best fits the pixels within 1.25 px of the edge (each weighted by its Y'
+// variance under `noise`). nullopt if the sides' Y' contrast is not min_snr times their per-pixel
+// spread (at least half a level: JPEG's rounding), Y' does not rise monotonically from the
+// outside's colour to the band's, or the fit fails or leaves the point more than 1 px away.
 std::optional<double> LumaEdgeOffset(const LumaProfile& profile, const NoisyLevels& noise,
                                      double min_snr);
 
