@@ -15,11 +15,9 @@ namespace {
 }  // namespace
 
 cv::Mat LipInput(const cv::Mat& linear) {
-  cv::Mat bgr = linear;
-  if (bgr.channels() == 4) cv::cvtColor(bgr, bgr, cv::COLOR_BGRA2BGR);
-  if (bgr.depth() != CV_8U && bgr.depth() != CV_16U) {
-    bgr.convertTo(bgr, CV_16U, bgr.depth() == CV_32F || bgr.depth() == CV_64F ? 65535.0 : 1.0);
-  }
+  if (linear.channels() != 4) return linear;
+  cv::Mat bgr;
+  cv::cvtColor(linear, bgr, cv::COLOR_BGRA2BGR);
   return bgr;
 }
 

@@ -49,8 +49,8 @@ struct DetectorContext {
 // appends a line to *warnings for what was skipped (e.g. lips on a grey image). `file`, `width`
 // and `height` of the result are for the caller to fill in. With `guided`: one flag per corner,
 // true where guided detection across rings found it (guided_detection.h; those come last).
-// The lip detector's input from a linear image (io::LinearImage): BGR, alpha dropped, 8 or 16 bit
-// as given (16 bit keeps a dark band's levels: detectors/lip_detector.h).
+// The lip detector's input from a linear image (io::LinearImage, 16 bit): BGR, alpha dropped, the
+// 16 bits kept (8-bit linear levels are too coarse for a dark band's Y': lip_detector.h).
 cv::Mat LipInput(const cv::Mat& linear);
 
 ImageObservations DetectImage(const cv::Mat& image, DetectorContext* ctx,

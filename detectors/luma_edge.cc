@@ -42,8 +42,6 @@ Eigen::Vector3d PixelColour(const cv::Mat& bgr, int u, int v) {
   return Eigen::Vector3d(p[0], p[1], p[2]) / 257.0;
 }
 
-}  // namespace
-
 // Gauss-Legendre nodes and weights on [-1, 1] (Newton on the Legendre polynomial's roots).
 struct GaussLegendre {
   static constexpr int kN = 20;
@@ -68,6 +66,8 @@ struct GaussLegendre {
     }
   }
 };
+
+}  // namespace
 
 NoisyLevels::NoisyLevels(double sigma2) : sigma2_(std::clamp(sigma2, 0.0, kMaxSigma2)) {
   if (sigma2_ <= 0) return;
@@ -115,9 +115,9 @@ double NoisyLevels::Linear(double x) const {
 double NoisyLevels::Encoded(double x) const {
   if (sigma2_ <= 0) return Srgb(x);
   if (x < kMax) return Table(encoded_, x);
-  // Far from black: s(x) + s''(x) sigma^2 / 2.
-  const double h = 1.0;
-  return Srgb(x) + 0.5 * sigma2_ * (Srgb(x + h) - 2 * Srgb(x) + Srgb(x - h)) / (h * h);
+  // Far from black: s(x) + s''(x) sigma^2 / 2 (s'' over +-1 level).
+  const double s = Srgb(x);
+  return s + 0.5 * sigma2_ * (Srgb(x + 1) - 2 * s + Srgb(x - 1));
 }
 
 double NoisyLevels::NoiseFree(double mean_linear) const {
