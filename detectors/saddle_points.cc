@@ -28,17 +28,27 @@ std::vector<cv::Point2f> SaddlePoints(const RingView& view, const SaddleOptions&
   cv::Sobel(f, iyy, CV_32F, 0, 2, 3);
   cv::Sobel(f, ixy, CV_32F, 1, 1, 3);
   // -det(H), kept only where the saddle is balanced (|trace| small against sqrt(-det)): an
-  // X-junction's Hessian is [[a, b], [b, -a]]; blobs and edges of texture are not.
-  cv::Mat response = ixy.mul(ixy) - ixx.mul(iyy);
-  cv::Mat trace = ixx + iyy;
-  cv::Mat unbalanced = trace.mul(trace) > options.balance * options.balance * response;
-  response.setTo(0, unbalanced);
-  // Not next to the view's invalid area (its edge is a strong false feature).
+  // X-junction's Hessian is [[a, b], [b, -a]]; blobs and edges of texture are not. Not next to
+  // the view's invalid area (its edge is a strong false feature). One pass, no temporaries: this
+  // runs on every view several times per image.
   // (A view cut to a crop keeps its whole view's mask: made afresh then.)
   const cv::Mat valid_inner = view.valid_for_saddles.size() == view.map_x.size()
                                   ? view.valid_for_saddles
                                   : SaddleValidMask(view.map_x);
-  response.setTo(0, ~valid_inner);
+  const float balance2 = static_cast<float>(options.balance * options.balance);
+  cv::Mat response(f.size(), CV_32F);
+  for (int y = 0; y < f.rows; ++y) {
+    const float* xx = ixx.ptr<float>(y);
+    const float* yy = iyy.ptr<float>(y);
+    const float* xy = ixy.ptr<float>(y);
+    const uchar* valid = valid_inner.ptr<uchar>(y);
+    float* r = response.ptr<float>(y);
+    for (int x = 0; x < f.cols; ++x) {
+      const float det = xy[x] * xy[x] - xx[x] * yy[x];
+      const float trace = xx[x] + yy[x];
+      r[x] = valid[x] && !(trace * trace > balance2 * det) ? det : 0.0f;
+    }
+  }
   cv::Mat dilated;
   cv::dilate(response, dilated, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(5, 5)));
   // An ideal saddle of contrast C blurred by sigma has Ixy = C / (pi sigma^2); the 3x3 Sobel
