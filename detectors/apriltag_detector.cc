@@ -13,6 +13,7 @@
 
 #include "detectors/corner_refine.h"
 #include "detectors/kalibr_detector.h"
+#include "detectors/tag_pattern_fit.h"
 #include "detectors/saddle_points.h"
 
 extern "C" {
@@ -797,8 +798,9 @@ std::vector<TagCornerDetection> DetectTagCorners(const cv::Mat& raw_bgr,
         continue;
       }
     }
-    // Plain tags: the four edges fitted in the raw image, the corners where they meet. A tag
-    // whose edges cannot all be measured keeps libapriltag's corners mapped from the view.
+    // Plain tags: the whole tag's printed pattern fitted to its raw pixels (tag_pattern_fit.h),
+    // else its four edges fitted in the raw image, the corners where they meet. A tag neither
+    // can measure keeps libapriltag's corners mapped from the view.
     if (ok && t.layout == TargetType::kAprilTagGrid && options.refine_in_raw) {
       Eigen::Vector2d fitted[4];
       const Eigen::Vector2d centre = 0.25 * (mapped[0] + mapped[1] + mapped[2] + mapped[3]);
@@ -812,8 +814,14 @@ std::vector<TagCornerDetection> DetectTagCorners(const cv::Mat& raw_bgr,
       if (!(view.blur_sigma && *view.blur_sigma >= options.blurred_view_sigma)) {
         tag_options.edge_fit_reach_in_blurred = options.edge_fit_reach_in;
       }
-      if (RefineTagCorners(grey, mapped, curvature, BorderFraction(t.layout),
-                           targets[target].spacing, tag_options, fitted, t.tag_id)) {
+      const bool blurred = view.blur_sigma && *view.blur_sigma >= options.blurred_view_sigma;
+      const std::optional<TagPatternFit> pattern_fit =
+          options.fit_tag_pattern && blurred ? FitTagPattern(grey, view, targets[target], t.tag_id, t.corners)
+                                             : std::nullopt;
+      if (pattern_fit) {
+        std::copy(pattern_fit->corners, pattern_fit->corners + 4, refined);
+      } else if (RefineTagCorners(grey, mapped, curvature, BorderFraction(t.layout),
+                                  targets[target].spacing, tag_options, fitted, t.tag_id)) {
         std::copy(fitted, fitted + 4, refined);
       }
     }

@@ -15,6 +15,7 @@
 #include "detectors/corner_refine.h"
 #include "detectors/kalibr_detector.h"
 #include "detectors/saddle_points.h"
+#include "detectors/tag_pattern_fit.h"
 
 namespace omni::detectors {
 namespace {
@@ -629,8 +630,17 @@ std::vector<CornerObservation> GuideTarget(
         curvature[k] = std::nan("");  // fitted
       }
       if (!ok || wanted == 0 || matched_here < 3) continue;
-      if (!RefineTagCorners(grey32, corners, curvature, 1.0 / PlainTagLayout().bits, target.spacing,
-                            tag_options, fitted, tag)) {
+      // The whole tag's pattern (tag_pattern_fit.h), else its edges.
+      Eigen::Vector2d in_view[4];
+      for (int k = 0; k < 4; ++k) in_view[k] = Apply(h, lattice.corners[index_of[4 * tag + k]].plane);
+      const bool blurred = view.blur_sigma && *view.blur_sigma >= tag_options.blurred_view_sigma;
+      const auto pattern_fit = tag_options.fit_tag_pattern && blurred
+                                   ? FitTagPattern(grey32, view, target, tag, in_view)
+                                   : std::nullopt;
+      if (pattern_fit) {
+        std::copy(pattern_fit->corners, pattern_fit->corners + 4, fitted);
+      } else if (!RefineTagCorners(grey32, corners, curvature, 1.0 / PlainTagLayout().bits, target.spacing,
+                                   tag_options, fitted, tag)) {
         continue;
       }
       for (int k = 0; k < 4; ++k) {

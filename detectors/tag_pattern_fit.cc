@@ -1,0 +1,403 @@
+#include "detectors/tag_pattern_fit.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <vector>
+
+#include <Eigen/Dense>
+#include <opencv2/imgproc.hpp>
+
+#include "detectors/kalibr_detector.h"
+
+namespace omni::detectors {
+namespace {
+
+// Plane -> view homography (3x3, h22 = 1) taking the four points `from` to `to`.
+Eigen::Matrix3d HomographyFrom(const Eigen::Vector2d (&from)[4], const Eigen::Vector2d (&to)[4]) {
+  Eigen::Matrix<double, 8, 8> a;
+  Eigen::Matrix<double, 8, 1> b;
+  for (int i = 0; i < 4; ++i) {
+    const double x = from[i].x(), y = from[i].y(), u = to[i].x(), v = to[i].y();
+    a.row(2 * i) << x, y, 1, 0, 0, 0, -u * x, -u * y;
+    a.row(2 * i + 1) << 0, 0, 0, x, y, 1, -v * x, -v * y;
+    b(2 * i) = u;
+    b(2 * i + 1) = v;
+  }
+  const Eigen::Matrix<double, 8, 1> h = a.fullPivLu().solve(b);
+  Eigen::Matrix3d m;
+  m << h(0), h(1), h(2), h(3), h(4), h(5), h(6), h(7), 1;
+  return m;
+}
+
+Eigen::Vector2d Apply(const Eigen::Matrix3d& h, const Eigen::Vector2d& p) {
+  const Eigen::Vector3d q = h * p.homogeneous();
+  return q.head<2>() / q.z();
+}
+
+// The view's map inverted near the tag, roughly: view pixel = quadratic in the raw pixel, fitted
+// to the map's own samples (ViewToRaw) over the fitted region (0.05-0.25 view px off: the start
+// of ViewOfRaw, and the blur's Jacobian). Raw coordinates are taken about `origin` and scaled by
+// 1/16 for the fit's conditioning.
+struct RawToViewMap {
+  Eigen::Vector2d origin = Eigen::Vector2d::Zero();
+  Eigen::Matrix<double, 6, 2> c = Eigen::Matrix<double, 6, 2>::Zero();
+
+  static Eigen::Matrix<double, 6, 1> Basis(const Eigen::Vector2d& d) {
+    Eigen::Matrix<double, 6, 1> f;
+    f << 1, d.x(), d.y(), d.x() * d.x(), d.x() * d.y(), d.y() * d.y();
+    return f;
+  }
+  Eigen::Vector2d operator()(const Eigen::Vector2d& raw) const {
+    return c.transpose() * Basis((raw - origin) / 16.0);
+  }
+  Eigen::Matrix2d Jacobian(const Eigen::Vector2d& raw) const {  // d view / d raw
+    const Eigen::Vector2d d = (raw - origin) / 16.0;
+    Eigen::Matrix<double, 6, 2> df;
+    df << 0, 0, 1, 0, 0, 1, 2 * d.x(), 0, d.y(), d.x(), 0, 2 * d.y();
+    return (c.transpose() * df) / 16.0;
+  }
+};
+
+// The printed pattern around one tag, in the tag's bit units (x right, y down from its top-left
+// outer corner): 1 white, 0 black. The tag and its eight neighbours' cells are looked up once.
+class Pattern {
+ public:
+  Pattern(const TargetSpec& target, int row, int col) : pitch_bits_((1 + target.spacing) * kBits) {
+    const TagLayout layout = PlainTagLayout();
+    for (int dr = -1; dr <= 1; ++dr) {
+      for (int dc = -1; dc <= 1; ++dc) {
+        auto& cells = cells_[(dr + 1) * 3 + dc + 1];
+        const int r = row + dr, c = col + dc;
+        present_[(dr + 1) * 3 + dc + 1] = r >= 0 && c >= 0 && r < target.rows && c < target.cols;
+        if (!present_[(dr + 1) * 3 + dc + 1]) continue;
+        const int id = TagIdAt(target, r, c);
+        for (int y = 0; y < kBits; ++y) {
+          for (int x = 0; x < kBits; ++x) cells[y * kBits + x] = static_cast<float>(TagCellValue(id, layout, x, y));
+        }
+      }
+    }
+  }
+  float At(double x, double y) const {
+    const int dc = static_cast<int>(std::floor(x / pitch_bits_)), dr = static_cast<int>(std::floor(y / pitch_bits_));
+    if (dc < -1 || dc > 1 || dr < -1 || dr > 1) return 1;
+    const int k = (dr + 1) * 3 + dc + 1;
+    if (!present_[k]) return 1;  // beyond the grid: the sheet's white margin
+    const double lx = x - dc * pitch_bits_, ly = y - dr * pitch_bits_;
+    if (lx >= kBits || ly >= kBits) return 1;  // the gap
+    return cells_[k][static_cast<int>(ly) * kBits + static_cast<int>(lx)];
+  }
+  double gap_bits() const { return pitch_bits_ - kBits; }
+  // The interval [a, b] (bits, shorter than a bit) split where the pattern may change along one
+  // axis (a cell's edge: whole bits from a tag's origin, the tags' origins a pitch apart): up to
+  // two parts as (middle, share of b - a).
+  int Split(double a, double b, double (&middle)[2], double (&share)[2]) const {
+    const double mid = 0.5 * (a + b);
+    for (int d = -1; d <= 1; ++d) {
+      const double edge = d * pitch_bits_ + std::clamp(std::round(mid - d * pitch_bits_), 0.0, double(kBits));
+      if (edge > a && edge < b) {
+        middle[0] = 0.5 * (a + edge), share[0] = (edge - a) / (b - a);
+        middle[1] = 0.5 * (edge + b), share[1] = (b - edge) / (b - a);
+        return 2;
+      }
+    }
+    middle[0] = mid, share[0] = 1;
+    return 1;
+  }
+  static constexpr int kBits = 8;  // tag36h11: 6 data bits in a 1-bit black border
+
+ private:
+  double pitch_bits_;
+  std::array<std::array<float, kBits * kBits>, 9> cells_{};
+  std::array<bool, 9> present_{};
+};
+
+// The pattern blurred by a Gaussian of covariance `cov` (bits^2), sampled every 1/spb bit over
+// [lo, hi]^2 (bits) with sample i's centre at lo + (i + 0.5) / spb; looked up bilinearly.
+struct BlurredPattern {
+  double lo = 0;
+  int spb = 8;
+  cv::Mat image;  // CV_32F
+
+  BlurredPattern(const Pattern& pattern, double lo_bits, double hi_bits, int samples_per_bit,
+                 const Eigen::Matrix2d& cov)
+      : lo(lo_bits), spb(samples_per_bit) {
+    const int n = static_cast<int>(std::ceil((hi_bits - lo_bits) * spb));
+    cv::Mat sharp(n, n, CV_32F);
+    for (int j = 0; j < n; ++j) {
+      float* row = sharp.ptr<float>(j);
+      double ym[2], yw[2];
+      const int ny = pattern.Split(lo + double(j) / spb, lo + double(j + 1) / spb, ym, yw);
+      for (int i = 0; i < n; ++i) {
+        // The sample's area: exact where a cell's edge crosses it (the gaps need not be a whole
+        // number of samples: spacing 0.3 is 2.4 bits).
+        double xm[2], xw[2];
+        const int nx = pattern.Split(lo + double(i) / spb, lo + double(i + 1) / spb, xm, xw);
+        double value = 0;
+        for (int v = 0; v < ny; ++v) {
+          for (int u = 0; u < nx; ++u) value += xw[u] * yw[v] * pattern.At(xm[u], ym[v]);
+        }
+        row[i] = static_cast<float>(value);
+      }
+    }
+    const Eigen::Matrix2d cov_samples = cov * spb * spb;
+    const Eigen::Matrix2d info = cov_samples.inverse();
+    const int half = static_cast<int>(std::ceil(3.5 * std::sqrt(std::max(cov_samples(0, 0), cov_samples(1, 1)))));
+    cv::Mat kernel(2 * half + 1, 2 * half + 1, CV_32F);
+    double sum = 0;
+    for (int v = -half; v <= half; ++v) {
+      for (int u = -half; u <= half; ++u) {
+        const Eigen::Vector2d d(u, v);
+        const double w = std::exp(-0.5 * d.dot(info * d));
+        kernel.at<float>(v + half, u + half) = static_cast<float>(w);
+        sum += w;
+      }
+    }
+    kernel /= sum;
+    cv::filter2D(sharp, image, CV_32F, kernel, cv::Point(-1, -1), 0, cv::BORDER_REPLICATE);
+  }
+
+  double At(const Eigen::Vector2d& bits) const {
+    const double u = std::clamp((bits.x() - lo) * spb - 0.5, 0.0, image.cols - 1.001);
+    const double v = std::clamp((bits.y() - lo) * spb - 0.5, 0.0, image.rows - 1.001);
+    const int i = static_cast<int>(u), j = static_cast<int>(v);
+    const double a = u - i, b = v - j;
+    const float* r0 = image.ptr<float>(j);
+    const float* r1 = image.ptr<float>(j + 1);
+    return (1 - b) * ((1 - a) * r0[i] + a * r0[i + 1]) + b * ((1 - a) * r1[i] + a * r1[i + 1]);
+  }
+};
+
+// The view pixel that the view's map (ViewToRaw, bilinear between its exact projections) takes
+// to `raw`: Newton from the local quadratic's guess (which is 0.05-0.25 view px off over a tag).
+std::optional<Eigen::Vector2d> ViewOfRaw(const RingView& view, const RawToViewMap& guess,
+                                         const Eigen::Vector2d& raw) {
+  Eigen::Vector2d q = guess(raw);
+  for (int it = 0; it < 6; ++it) {
+    const auto at = view.ViewToRaw(q);
+    const auto dx = view.ViewToRaw(q + Eigen::Vector2d(0.25, 0));
+    const auto dy = view.ViewToRaw(q + Eigen::Vector2d(0, 0.25));
+    if (!at || !dx || !dy) return std::nullopt;
+    Eigen::Matrix2d j;
+    j.col(0) = (*dx - *at) / 0.25;
+    j.col(1) = (*dy - *at) / 0.25;
+    const Eigen::Vector2d step = j.inverse() * (raw - *at);
+    if (!step.allFinite()) return std::nullopt;
+    q += step;
+    if (step.norm() < 1e-5) return q;
+  }
+  return q;
+}
+
+}  // namespace
+
+std::optional<TagPatternFit> FitTagPattern(const cv::Mat& grey, const RingView& view,
+                                           const TargetSpec& target, int tag_id,
+                                           const Eigen::Vector2d (&corners_in_view)[4],
+                                           const TagPatternFitOptions& options) {
+  int row = 0, col = 0;
+  if (target.type != TargetType::kAprilTagGrid || !TagCell(target, tag_id, &row, &col)) return std::nullopt;
+  const Pattern pattern(target, row, col);
+  constexpr int kBits = Pattern::kBits;
+  // The tag's corners in bits (CornerInTarget's k order: bottom-left, bottom-right, top-right,
+  // top-left; y down).
+  const Eigen::Vector2d plane[4] = {{0, kBits}, {kBits, kBits}, {kBits, 0}, {0, 0}};
+  Eigen::Vector2d view_corners[4];
+  std::copy(corners_in_view, corners_in_view + 4, view_corners);
+  const double reach = options.reach_into_gap * pattern.gap_bits();
+
+  // The view's map about the tag's fitted region (and the blur's reach beyond it), inverted.
+  const Eigen::Matrix3d view_from_plane0 = HomographyFrom(plane, view_corners);
+  std::vector<Eigen::Vector2d> raw_samples, view_samples;
+  Eigen::Vector2d raw_lo(1e9, 1e9), raw_hi(-1e9, -1e9);
+  constexpr int kGrid = 8;
+  for (int j = 0; j <= kGrid; ++j) {
+    for (int i = 0; i <= kGrid; ++i) {
+      const Eigen::Vector2d bits(-reach - 1 + (kBits + 2 * reach + 2) * i / kGrid,
+                                 -reach - 1 + (kBits + 2 * reach + 2) * j / kGrid);
+      const Eigen::Vector2d at_view = Apply(view_from_plane0, bits);
+      const auto raw = view.ViewToRaw(at_view);
+      if (!raw) return std::nullopt;  // the region leaves the ring's map (its rim)
+      raw_samples.push_back(*raw);
+      view_samples.push_back(at_view);
+      raw_lo = raw_lo.cwiseMin(*raw);
+      raw_hi = raw_hi.cwiseMax(*raw);
+    }
+  }
+  RawToViewMap map;
+  map.origin = 0.5 * (raw_lo + raw_hi);
+  {
+    Eigen::MatrixXd a(raw_samples.size(), 6), b(raw_samples.size(), 2);
+    for (size_t k = 0; k < raw_samples.size(); ++k) {
+      a.row(k) = RawToViewMap::Basis((raw_samples[k] - map.origin) / 16.0).transpose();
+      b.row(k) = view_samples[k].transpose();
+    }
+    map.c = a.colPivHouseholderQr().solve(b);
+  }
+  Eigen::Vector2d start_raw[4];
+  for (int k = 0; k < 4; ++k) {
+    const auto raw = view.ViewToRaw(view_corners[k]);
+    if (!raw) return std::nullopt;
+    start_raw[k] = *raw;
+  }
+
+  // The raw pixels (centres at integer coordinates) whose plane point lies within the tag and
+  // `reach` of the gap around it.
+  struct Pixel {
+    Eigen::Vector2d view;
+    double value;
+  };
+  std::vector<Pixel> pixels;
+  const int x0 = static_cast<int>(std::floor(raw_lo.x())), x1 = static_cast<int>(std::ceil(raw_hi.x()));
+  const int y0 = static_cast<int>(std::floor(raw_lo.y())), y1 = static_cast<int>(std::ceil(raw_hi.y()));
+  if (x0 < 0 || y0 < 0 || x1 >= grey.cols || y1 >= grey.rows) return std::nullopt;
+  const Eigen::Matrix3d plane_from_view0 = view_from_plane0.inverse();
+  for (int y = y0; y <= y1; ++y) {
+    for (int x = x0; x <= x1; ++x) {
+      const auto at_view = ViewOfRaw(view, map, Eigen::Vector2d(x, y));
+      if (!at_view) continue;
+      const Eigen::Vector2d bits = Apply(plane_from_view0, *at_view);
+      if (bits.minCoeff() < -reach || bits.maxCoeff() > kBits + reach) continue;
+      pixels.push_back({*at_view, grey.at<float>(y, x)});
+    }
+  }
+  const int n = static_cast<int>(pixels.size());
+  if (n < 40) return std::nullopt;
+
+  // Levels from the pixels' spread; the blur from a camera's typical defocus, then fitted.
+  std::vector<double> values;
+  for (const Pixel& p : pixels) values.push_back(p.value);
+  std::sort(values.begin(), values.end());
+  double black = values[n / 20], white = values[n - 1 - n / 20];
+  double sigma = 0.8;
+  constexpr double kSigmaStep = 0.2;
+
+  // Parameters: the 4 view corners' offsets (8), black, contrast, and tau: the blur between
+  // the two renders at sigma and sigma + kSigmaStep, linearly.
+  using Vector13 = Eigen::Matrix<double, 13, 1>;
+  Vector13 p = Vector13::Zero();
+  double misfit = 0;
+  for (int round = 0; round < 5; ++round) {
+    // d raw / d plane at the tag's centre: the pixel's blur (Gaussian sigma plus the pixel's box)
+    // in bits.
+    Eigen::Vector2d corners_now[4];
+    for (int k = 0; k < 4; ++k) corners_now[k] = view_corners[k] + p.segment<2>(2 * k);
+    const Eigen::Matrix3d view_from_plane = HomographyFrom(plane, corners_now);
+    const Eigen::Vector2d centre_bits(kBits / 2.0, kBits / 2.0);
+    Eigen::Matrix2d view_from_plane_j;
+    for (int a = 0; a < 2; ++a) {
+      Eigen::Vector2d d = Eigen::Vector2d::Zero();
+      d(a) = 0.01;
+      view_from_plane_j.col(a) = (Apply(view_from_plane, centre_bits + d) - Apply(view_from_plane, centre_bits - d)) / 0.02;
+    }
+    const Eigen::Vector2d centre_view = Apply(view_from_plane, centre_bits);
+    const auto centre_raw = view.ViewToRaw(centre_view);
+    if (!centre_raw) return std::nullopt;
+    const Eigen::Matrix2d raw_from_plane = map.Jacobian(*centre_raw).inverse() * view_from_plane_j;
+    if (!raw_from_plane.allFinite() || std::abs(raw_from_plane.determinant()) < 1e-6) return std::nullopt;
+    const Eigen::Matrix2d plane_from_raw = raw_from_plane.inverse();
+    const auto cov_bits = [&](double s) {
+      return Eigen::Matrix2d(plane_from_raw * ((s * s + 1.0 / 12) * Eigen::Matrix2d::Identity()) *
+                             plane_from_raw.transpose());
+    };
+    // Samples per bit: the blur at least 2.5 samples wide (bilinear look-ups stay smooth).
+    const double bits_per_px = std::sqrt(std::abs(plane_from_raw.determinant()));
+    const int spb = std::clamp(static_cast<int>(std::ceil(2.5 / (bits_per_px * std::sqrt(sigma * sigma + 1.0 / 12)))),
+                               options.samples_per_bit / 2, 4 * options.samples_per_bit);
+    const double max_sigma_bits =
+        std::sqrt(cov_bits(sigma + kSigmaStep).selfadjointView<Eigen::Upper>().eigenvalues().maxCoeff());
+    // Whole samples from the tag's origin: its cells' edges fall between samples.
+    const double lo = std::floor((-reach - 3.5 * max_sigma_bits - 1) * spb) / spb;
+    const double hi = kBits + reach + 3.5 * max_sigma_bits + 1;
+    const BlurredPattern at_sigma(pattern, lo, hi, spb, cov_bits(sigma));
+    const BlurredPattern at_wider(pattern, lo, hi, spb, cov_bits(sigma + kSigmaStep));
+
+    p(8) = black;
+    p(9) = white - black;
+    p(10) = 0;
+    // Residuals and the model's pattern values for parameters q.
+    const auto evaluate = [&](const Vector13& q, Eigen::VectorXd* r, Eigen::VectorXd* b_sigma,
+                              Eigen::VectorXd* b_diff) {
+      Eigen::Vector2d c[4];
+      for (int k = 0; k < 4; ++k) c[k] = view_corners[k] + q.segment<2>(2 * k);
+      const Eigen::Matrix3d plane_from_view = HomographyFrom(c, plane);
+      for (int i = 0; i < n; ++i) {
+        const Eigen::Vector2d bits = Apply(plane_from_view, pixels[i].view);
+        const double b0 = at_sigma.At(bits), b1 = at_wider.At(bits);
+        if (b_sigma) (*b_sigma)(i) = b0;
+        if (b_diff) (*b_diff)(i) = b1 - b0;
+        const double b = b0 + q(10) * (b1 - b0);
+        (*r)(i) = q(8) + q(9) * b + q(11) * b * (1 - b) + q(12) * b * (1 - b) * (1 - 2 * b) - pixels[i].value;
+      }
+    };
+    Eigen::VectorXd r(n), b0(n), bd(n), r_try(n), r_step(n);
+    evaluate(p, &r, &b0, &bd);
+    double cost = r.squaredNorm(), lambda = 1e-3;
+    for (int it = 0; it < options.max_iterations; ++it) {
+      Eigen::MatrixXd jacobian(n, 13);
+      constexpr double kStep = 0.01;  // view px
+      for (int k = 0; k < 8; ++k) {
+        Vector13 q = p;
+        q(k) += kStep;
+        evaluate(q, &r_step, nullptr, nullptr);
+        jacobian.col(k) = (r_step - r) / kStep;
+      }
+      const Eigen::ArrayXd b = (b0 + p(10) * bd).array();
+      jacobian.col(8).setOnes();
+      jacobian.col(9) = b.matrix();
+      const Eigen::ArrayXd dtone = p(9) + p(11) * (1 - 2 * b) + p(12) * (1 - 6 * b + 6 * b * b);
+      jacobian.col(10) = (dtone * bd.array()).matrix();
+      jacobian.col(11) = (b * (1 - b)).matrix();
+      jacobian.col(12) = (b * (1 - b) * (1 - 2 * b)).matrix();
+      if (!options.tone_terms) jacobian.rightCols<2>().setZero();
+      const Eigen::Matrix<double, 13, 13> h = jacobian.transpose() * jacobian;
+      const Vector13 g = jacobian.transpose() * r;
+      bool improved = false;
+      Vector13 step = Vector13::Zero();
+      for (int attempt = 0; attempt < 8 && !improved; ++attempt) {
+        Eigen::Matrix<double, 13, 13> damped = h;
+        damped.diagonal() += lambda * h.diagonal();
+        if (!options.tone_terms) damped.diagonal().tail<2>().setOnes();
+        step = damped.ldlt().solve(-g);
+        if (!step.allFinite()) return std::nullopt;
+        Vector13 q = p + step;
+        q(10) = std::clamp(q(10), -2.0, 3.0);
+        evaluate(q, &r_try, nullptr, nullptr);
+        if (r_try.squaredNorm() < cost) {
+          p = q;
+          evaluate(p, &r, &b0, &bd);
+          cost = r.squaredNorm();
+          lambda = std::max(1e-6, lambda / 4);
+          improved = true;
+        } else {
+          lambda *= 8;
+        }
+      }
+      if (!improved || step.head<8>().cwiseAbs().maxCoeff() < 1e-4) break;
+    }
+    black = p(8);
+    white = p(8) + p(9);
+    misfit = std::sqrt(cost / n) / std::max(1e-9, p(9));
+    const double new_sigma = std::clamp(sigma + p(10) * kSigmaStep, 0.1, 3.0);
+    const bool settled = std::abs(new_sigma - sigma) < 0.02;
+    sigma = new_sigma;
+    if (settled) break;
+  }
+  if (!(white - black >= options.min_contrast) || !(misfit <= options.max_misfit)) return std::nullopt;
+
+  TagPatternFit fit;
+  fit.sigma_px = sigma;
+  fit.misfit = misfit;
+  fit.pixels = n;
+  for (int k = 0; k < 4; ++k) {
+    const auto raw = view.ViewToRaw(view_corners[k] + p.segment<2>(2 * k));
+    if (!raw) return std::nullopt;
+    fit.corners[k] = *raw;
+    if (!fit.corners[k].allFinite() || (fit.corners[k] - start_raw[k]).norm() > options.max_shift_px) {
+      return std::nullopt;
+    }
+  }
+  return fit;
+}
+
+}  // namespace omni::detectors
