@@ -213,17 +213,18 @@ std::optional<TagPatternFit> FitTagPattern(const cv::Mat& grey, const RingView& 
   constexpr int kGrid = 8;
   for (int j = 0; j <= kGrid; ++j) {
     for (int i = 0; i <= kGrid; ++i) {
-      const Eigen::Vector2d bits(-reach - 1 + (kBits + 2 * reach + 2) * i / kGrid,
-                                 -reach - 1 + (kBits + 2 * reach + 2) * j / kGrid);
+      const Eigen::Vector2d bits(-reach - 0.5 + (kBits + 2 * reach + 1) * i / kGrid,
+                                 -reach - 0.5 + (kBits + 2 * reach + 1) * j / kGrid);
       const Eigen::Vector2d at_view = Apply(view_from_plane0, bits);
       const auto raw = view.ViewToRaw(at_view);
-      if (!raw) return std::nullopt;  // the region leaves the ring's map (its rim)
+      if (!raw) continue;  // beyond the ring's map (a tag at its rim): those pixels are left out
       raw_samples.push_back(*raw);
       view_samples.push_back(at_view);
       raw_lo = raw_lo.cwiseMin(*raw);
       raw_hi = raw_hi.cwiseMax(*raw);
     }
   }
+  if (raw_samples.size() < 30) return std::nullopt;
   RawToViewMap map;
   map.origin = 0.5 * (raw_lo + raw_hi);
   {
