@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <vector>
 
 #include <Eigen/Dense>
@@ -158,6 +159,8 @@ struct BlurredPattern {
   }
 
   double At(const Eigen::Vector2d& bits) const {
+    // A trial step's degenerate homography: NaN, which the fit's step test refuses.
+    if (!bits.allFinite()) return std::numeric_limits<double>::quiet_NaN();
     const double u = std::clamp((bits.x() - lo) * spb - 0.5, 0.0, image.cols - 1.001);
     const double v = std::clamp((bits.y() - lo) * spb - 0.5, 0.0, image.rows - 1.001);
     const int i = static_cast<int>(u), j = static_cast<int>(v);
@@ -206,7 +209,7 @@ std::optional<TagPatternFit> FitTagPattern(const cv::Mat& grey, const RingView& 
   std::copy(corners_in_view, corners_in_view + 4, view_corners);
   const double reach = options.reach_into_gap * pattern.gap_bits();
 
-  // The view's map about the tag's fitted region (and the blur's reach beyond it), inverted.
+  // The view's map sampled over the tag's fitted region (where it has one) and inverted roughly.
   const Eigen::Matrix3d view_from_plane0 = HomographyFrom(plane, view_corners);
   std::vector<Eigen::Vector2d> raw_samples, view_samples;
   Eigen::Vector2d raw_lo(1e9, 1e9), raw_hi(-1e9, -1e9);
