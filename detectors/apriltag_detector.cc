@@ -802,27 +802,27 @@ std::vector<TagCornerDetection> DetectTagCorners(const cv::Mat& raw_bgr,
     // else its four edges fitted in the raw image, the corners where they meet. A tag neither
     // can measure keeps libapriltag's corners mapped from the view.
     if (ok && t.layout == TargetType::kAprilTagGrid && options.refine_in_raw) {
-      Eigen::Vector2d fitted[4];
-      const Eigen::Vector2d centre = 0.25 * (mapped[0] + mapped[1] + mapped[2] + mapped[3]);
-      double curvature[4];
-      for (int j = 0; j < 4; ++j) {
-        curvature[j] = options.curvature_from_view
-                           ? EdgeCurvatureFromView(view, t.corners[j], t.corners[(j + 1) % 4], centre)
-                           : std::nan("");
-      }
-      TagDetectorOptions tag_options = options;
-      if (!(view.blur_sigma && *view.blur_sigma >= options.blurred_view_sigma)) {
-        tag_options.edge_fit_reach_in_blurred = options.edge_fit_reach_in;
-      }
       const bool blurred = view.blur_sigma && *view.blur_sigma >= options.blurred_view_sigma;
       const std::optional<TagPatternFit> pattern_fit =
           options.fit_tag_pattern && blurred ? FitTagPattern(grey, view, targets[target], t.tag_id, t.corners)
                                              : std::nullopt;
       if (pattern_fit) {
         std::copy(pattern_fit->corners, pattern_fit->corners + 4, refined);
-      } else if (RefineTagCorners(grey, mapped, curvature, BorderFraction(t.layout),
-                                  targets[target].spacing, tag_options, fitted, t.tag_id)) {
-        std::copy(fitted, fitted + 4, refined);
+      } else {
+        const Eigen::Vector2d centre = 0.25 * (mapped[0] + mapped[1] + mapped[2] + mapped[3]);
+        double curvature[4];
+        for (int j = 0; j < 4; ++j) {
+          curvature[j] = options.curvature_from_view
+                             ? EdgeCurvatureFromView(view, t.corners[j], t.corners[(j + 1) % 4], centre)
+                             : std::nan("");
+        }
+        TagDetectorOptions tag_options = options;
+        if (!blurred) tag_options.edge_fit_reach_in_blurred = options.edge_fit_reach_in;
+        Eigen::Vector2d fitted[4];
+        if (RefineTagCorners(grey, mapped, curvature, BorderFraction(t.layout), targets[target].spacing,
+                             tag_options, fitted, t.tag_id)) {
+          std::copy(fitted, fitted + 4, refined);
+        }
       }
     }
     // Plain tags: the whole tag or nothing (a half-refined tag is suspect). Kalibr tags: at least

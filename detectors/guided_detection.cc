@@ -605,15 +605,15 @@ std::vector<CornerObservation> GuideTarget(
       if (corners[id] && !have.count(id)) refined[id] = *corners[id];
     }
   } else if (l_corners) {
-    // Plain tags: the four edges fitted in the raw image (RefineTagCorners, as the tag detector
-    // refines them; the data bits behind the border from the code of the tag's place), from the
-    // corners the alignment puts there; a tag whole or not at all.
+    // Plain tags measured as the tag detector measures them: in blurred views the whole pattern
+    // (FitTagPattern), else the four edges (RefineTagCorners; the data bits behind the border
+    // from the code of the tag's place), from the corners the alignment puts there; a tag whole
+    // or not at all.
     cv::Mat grey32;
     raw_grey.convertTo(grey32, CV_32F, 1.0 / 255);
     TagDetectorOptions tag_options;
-    if (!(view.blur_sigma && *view.blur_sigma >= tag_options.blurred_view_sigma)) {
-      tag_options.edge_fit_reach_in_blurred = tag_options.edge_fit_reach_in;
-    }
+    const bool blurred = view.blur_sigma && *view.blur_sigma >= tag_options.blurred_view_sigma;
+    if (!blurred) tag_options.edge_fit_reach_in_blurred = tag_options.edge_fit_reach_in;
     std::set<int> tags;
     for (const Junction& j : lattice.corners) tags.insert(j.id / 4);
     for (const int tag : tags) {
@@ -630,10 +630,8 @@ std::vector<CornerObservation> GuideTarget(
         curvature[k] = std::nan("");  // fitted
       }
       if (!ok || wanted == 0 || matched_here < 3) continue;
-      // The whole tag's pattern (tag_pattern_fit.h), else its edges.
       Eigen::Vector2d in_view[4];
       for (int k = 0; k < 4; ++k) in_view[k] = Apply(h, lattice.corners[index_of[4 * tag + k]].plane);
-      const bool blurred = view.blur_sigma && *view.blur_sigma >= tag_options.blurred_view_sigma;
       const auto pattern_fit = tag_options.fit_tag_pattern && blurred
                                    ? FitTagPattern(grey32, view, target, tag, in_view)
                                    : std::nullopt;

@@ -272,7 +272,7 @@ std::optional<TagPatternFit> FitTagPattern(const cv::Mat& grey, const RingView& 
   std::vector<double> values;
   for (const Pixel& p : pixels) values.push_back(p.value);
   std::sort(values.begin(), values.end());
-  double black = values[n / 20], white = values[n - 1 - n / 20];
+  const double black = values[n / 20], white = values[n - 1 - n / 20];
   double sigma = 0.8;
   constexpr double kSigmaStep = 0.2;
 
@@ -280,6 +280,8 @@ std::optional<TagPatternFit> FitTagPattern(const cv::Mat& grey, const RingView& 
   // the two renders at sigma and sigma + kSigmaStep, linearly.
   using Vector13 = Eigen::Matrix<double, 13, 1>;
   Vector13 p = Vector13::Zero();
+  p(8) = black;
+  p(9) = white - black;
   double misfit = 0;
   for (int round = 0; round < 5; ++round) {
     // d raw / d plane at the tag's centre: the pixel's blur (Gaussian sigma plus the pixel's box)
@@ -316,8 +318,6 @@ std::optional<TagPatternFit> FitTagPattern(const cv::Mat& grey, const RingView& 
     const BlurredPattern at_sigma(pattern, lo, hi, spb, cov_bits(sigma));
     const BlurredPattern at_wider(pattern, lo, hi, spb, cov_bits(sigma + kSigmaStep));
 
-    p(8) = black;
-    p(9) = white - black;
     p(10) = 0;
     // Residuals and the model's pattern values for parameters q.
     const auto evaluate = [&](const Vector13& q, Eigen::VectorXd* r, Eigen::VectorXd* b_sigma,
@@ -379,15 +379,13 @@ std::optional<TagPatternFit> FitTagPattern(const cv::Mat& grey, const RingView& 
       }
       if (!improved || step.head<8>().cwiseAbs().maxCoeff() < 1e-4) break;
     }
-    black = p(8);
-    white = p(8) + p(9);
     misfit = std::sqrt(cost / n) / std::max(1e-9, p(9));
     const double new_sigma = std::clamp(sigma + p(10) * kSigmaStep, 0.1, 3.0);
     const bool settled = std::abs(new_sigma - sigma) < 0.02;
     sigma = new_sigma;
     if (settled) break;
   }
-  if (!(white - black >= options.min_contrast) || !(misfit <= options.max_misfit)) return std::nullopt;
+  if (!(p(9) >= options.min_contrast) || !(misfit <= options.max_misfit)) return std::nullopt;
 
   TagPatternFit fit;
   fit.sigma_px = sigma;
