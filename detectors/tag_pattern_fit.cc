@@ -60,42 +60,55 @@ struct RawToViewMap {
   }
 };
 
-// The printed pattern around one tag, in the tag's bit units (x right, y down from its top-left
-// outer corner): 1 white, 0 black. The tag and its eight neighbours' cells are looked up once.
-class Pattern {
+// A tag grid's printed pattern in bits (x right, y down from tag (0, 0)'s top-left outer corner;
+// tags a pitch apart): 1 white, 0 black. Plain tag36h11: 8 bits with a 1-bit border, white gaps;
+// Kalibr: 10 bits with a 2-bit border and a black square at every gap crossing
+// (synthetic/tag_texture.cc prints the same). White beyond the grid (the sheet's margin).
+class TargetPattern {
  public:
-  Pattern(const TargetSpec& target, int row, int col) : pitch_bits_((1 + target.spacing) * kBits) {
-    const TagLayout layout = PlainTagLayout();
-    for (int dr = -1; dr <= 1; ++dr) {
-      for (int dc = -1; dc <= 1; ++dc) {
-        auto& cells = cells_[(dr + 1) * 3 + dc + 1];
-        const int r = row + dr, c = col + dc;
-        present_[(dr + 1) * 3 + dc + 1] = r >= 0 && c >= 0 && r < target.rows && c < target.cols;
-        if (!present_[(dr + 1) * 3 + dc + 1]) continue;
+  explicit TargetPattern(const TargetSpec& target)
+      : kalibr_(target.type == TargetType::kKalibrAprilGrid),
+        bits_(kalibr_ ? 10 : 8),
+        rows_(target.rows),
+        cols_(target.cols),
+        pitch_bits_((1 + target.spacing) * bits_) {
+    const TagLayout layout = kalibr_ ? KalibrTagLayout() : PlainTagLayout();
+    cells_.resize(static_cast<size_t>(rows_) * cols_ * bits_ * bits_);
+    for (int r = 0; r < rows_; ++r) {
+      for (int c = 0; c < cols_; ++c) {
         const int id = TagIdAt(target, r, c);
-        for (int y = 0; y < kBits; ++y) {
-          for (int x = 0; x < kBits; ++x) cells[y * kBits + x] = static_cast<float>(TagCellValue(id, layout, x, y));
+        float* cells = &cells_[(static_cast<size_t>(r) * cols_ + c) * bits_ * bits_];
+        for (int y = 0; y < bits_; ++y) {
+          for (int x = 0; x < bits_; ++x) cells[y * bits_ + x] = static_cast<float>(TagCellValue(id, layout, x, y));
         }
       }
     }
   }
   float At(double x, double y) const {
-    const int dc = static_cast<int>(std::floor(x / pitch_bits_)), dr = static_cast<int>(std::floor(y / pitch_bits_));
-    if (dc < -1 || dc > 1 || dr < -1 || dr > 1) return 1;
-    const int k = (dr + 1) * 3 + dc + 1;
-    if (!present_[k]) return 1;  // beyond the grid: the sheet's white margin
-    const double lx = x - dc * pitch_bits_, ly = y - dr * pitch_bits_;
-    if (lx >= kBits || ly >= kBits) return 1;  // the gap
-    return cells_[k][static_cast<int>(ly) * kBits + static_cast<int>(lx)];
+    const int c = static_cast<int>(std::floor(x / pitch_bits_)), r = static_cast<int>(std::floor(y / pitch_bits_));
+    const double lx = x - c * pitch_bits_, ly = y - r * pitch_bits_;
+    if (lx >= bits_ && ly >= bits_) {  // a gap crossing
+      return kalibr_ && r >= -1 && c >= -1 && r < rows_ && c < cols_ ? 0 : 1;
+    }
+    if (r < 0 || c < 0 || r >= rows_ || c >= cols_ || lx >= bits_ || ly >= bits_) return 1;
+    return cells_[(static_cast<size_t>(r) * cols_ + c) * bits_ * bits_ + static_cast<int>(ly) * bits_ +
+                  static_cast<int>(lx)];
   }
-  double gap_bits() const { return pitch_bits_ - kBits; }
+  int bits() const { return bits_; }
+  double pitch_bits() const { return pitch_bits_; }
+  double gap_bits() const { return pitch_bits_ - bits_; }
+  // The outer corners of all tags: (0, 0) - extent().
+  Eigen::Vector2d extent() const {
+    return Eigen::Vector2d((cols_ - 1) * pitch_bits_ + bits_, (rows_ - 1) * pitch_bits_ + bits_);
+  }
   // The interval [a, b] (bits, shorter than a bit) split where the pattern may change along one
-  // axis (a cell's edge: whole bits from a tag's origin, the tags' origins a pitch apart): up to
-  // two parts as (middle, share of b - a).
+  // axis (a cell's edge: whole bits from a tag's origin, the tags' origins a pitch apart; a gap's
+  // far edge is the next origin): up to two parts as (middle, share of b - a).
   int Split(double a, double b, double (&middle)[2], double (&share)[2]) const {
     const double mid = 0.5 * (a + b);
-    for (int d = -1; d <= 1; ++d) {
-      const double edge = d * pitch_bits_ + std::clamp(std::round(mid - d * pitch_bits_), 0.0, double(kBits));
+    const int d0 = static_cast<int>(std::floor(mid / pitch_bits_));
+    for (int d = d0 - 1; d <= d0 + 1; ++d) {
+      const double edge = d * pitch_bits_ + std::clamp(std::round(mid - d * pitch_bits_), 0.0, double(bits_));
       if (edge > a && edge < b) {
         middle[0] = 0.5 * (a + edge), share[0] = (edge - a) / (b - a);
         middle[1] = 0.5 * (edge + b), share[1] = (b - edge) / (b - a);
@@ -105,38 +118,45 @@ class Pattern {
     middle[0] = mid, share[0] = 1;
     return 1;
   }
-  static constexpr int kBits = 8;  // tag36h11: 6 data bits in a 1-bit black border
 
  private:
+  bool kalibr_;
+  int bits_, rows_, cols_;
   double pitch_bits_;
-  std::array<std::array<float, kBits * kBits>, 9> cells_{};
-  std::array<bool, 9> present_{};
+  std::vector<float> cells_;
 };
 
 // The pattern blurred by a Gaussian of covariance `cov` (bits^2), sampled every 1/spb bit over
-// [lo, hi]^2 (bits) with sample i's centre at lo + (i + 0.5) / spb; looked up bilinearly.
+// [lo, hi] (bits, per axis) with sample i's centre at lo + (i + 0.5) / spb; looked up bilinearly.
 struct BlurredPattern {
-  double lo = 0;
+  Eigen::Vector2d lo = Eigen::Vector2d::Zero();
   int spb = 8;
   cv::Mat image;  // CV_32F
 
-  BlurredPattern(const Pattern& pattern, double lo_bits, double hi_bits, int samples_per_bit,
-                 const Eigen::Matrix2d& cov)
+  BlurredPattern(const TargetPattern& pattern, const Eigen::Vector2d& lo_bits, const Eigen::Vector2d& hi_bits,
+                 int samples_per_bit, const Eigen::Matrix2d& cov)
       : lo(lo_bits), spb(samples_per_bit) {
-    const int n = static_cast<int>(std::ceil((hi_bits - lo_bits) * spb));
-    cv::Mat sharp(n, n, CV_32F);
-    for (int j = 0; j < n; ++j) {
+    const int nx = static_cast<int>(std::ceil((hi_bits.x() - lo_bits.x()) * spb));
+    const int ny = static_cast<int>(std::ceil((hi_bits.y() - lo_bits.y()) * spb));
+    cv::Mat sharp(ny, nx, CV_32F);
+    std::vector<std::array<double, 4>> x_parts(nx);  // middles and shares along x, once per column
+    std::vector<int> x_count(nx);
+    for (int i = 0; i < nx; ++i) {
+      double xm[2] = {0, 0}, xw[2] = {0, 0};
+      x_count[i] = pattern.Split(lo.x() + double(i) / spb, lo.x() + double(i + 1) / spb, xm, xw);
+      x_parts[i] = {xm[0], xw[0], xm[1], xw[1]};
+    }
+    for (int j = 0; j < ny; ++j) {
       float* row = sharp.ptr<float>(j);
       double ym[2], yw[2];
-      const int ny = pattern.Split(lo + double(j) / spb, lo + double(j + 1) / spb, ym, yw);
-      for (int i = 0; i < n; ++i) {
+      const int nyp = pattern.Split(lo.y() + double(j) / spb, lo.y() + double(j + 1) / spb, ym, yw);
+      for (int i = 0; i < nx; ++i) {
         // The sample's area: exact where a cell's edge crosses it (the gaps need not be a whole
         // number of samples: spacing 0.3 is 2.4 bits).
-        double xm[2], xw[2];
-        const int nx = pattern.Split(lo + double(i) / spb, lo + double(i + 1) / spb, xm, xw);
+        const auto& xp = x_parts[i];
         double value = 0;
-        for (int v = 0; v < ny; ++v) {
-          for (int u = 0; u < nx; ++u) value += xw[u] * yw[v] * pattern.At(xm[u], ym[v]);
+        for (int v = 0; v < nyp; ++v) {
+          for (int u = 0; u < x_count[i]; ++u) value += xp[2 * u + 1] * yw[v] * pattern.At(xp[2 * u], ym[v]);
         }
         row[i] = static_cast<float>(value);
       }
@@ -161,8 +181,8 @@ struct BlurredPattern {
   double At(const Eigen::Vector2d& bits) const {
     // A trial step's degenerate homography: NaN, which the fit's step test refuses.
     if (!bits.allFinite()) return std::numeric_limits<double>::quiet_NaN();
-    const double u = std::clamp((bits.x() - lo) * spb - 0.5, 0.0, image.cols - 1.001);
-    const double v = std::clamp((bits.y() - lo) * spb - 0.5, 0.0, image.rows - 1.001);
+    const double u = std::clamp((bits.x() - lo.x()) * spb - 0.5, 0.0, image.cols - 1.001);
+    const double v = std::clamp((bits.y() - lo.y()) * spb - 0.5, 0.0, image.rows - 1.001);
     const int i = static_cast<int>(u), j = static_cast<int>(v);
     const double a = u - i, b = v - j;
     const float* r0 = image.ptr<float>(j);
@@ -192,32 +212,32 @@ std::optional<Eigen::Vector2d> ViewOfRaw(const RingView& view, const RawToViewMa
   return q;
 }
 
-}  // namespace
+// The pattern's region [lo, hi] (bits) fitted to the raw pixels it covers, through the
+// plane -> view homography of the control points `plane` (bits) seen near `corners_in_view`.
+struct RegionFit {
+  Eigen::Vector2d view_corners[4];  // the control points' fitted view pixels
+  double sigma_px = 0, misfit = 0, contrast = 0;
+  int pixels = 0;
+};
 
-std::optional<TagPatternFit> FitTagPattern(const cv::Mat& grey, const RingView& view,
-                                           const TargetSpec& target, int tag_id,
-                                           const Eigen::Vector2d (&corners_in_view)[4],
-                                           const TagPatternFitOptions& options) {
-  int row = 0, col = 0;
-  if (target.type != TargetType::kAprilTagGrid || !TagCell(target, tag_id, &row, &col)) return std::nullopt;
-  const Pattern pattern(target, row, col);
-  constexpr int kBits = Pattern::kBits;
-  // The tag's corners in bits (CornerInTarget's k order: bottom-left, bottom-right, top-right,
-  // top-left; y down).
-  const Eigen::Vector2d plane[4] = {{0, kBits}, {kBits, kBits}, {kBits, 0}, {0, 0}};
+std::optional<RegionFit> FitPatternRegion(const cv::Mat& grey, const RingView& view, const TargetPattern& pattern,
+                                          const Eigen::Vector2d (&plane)[4], const Eigen::Vector2d& region_lo,
+                                          const Eigen::Vector2d& region_hi,
+                                          const Eigen::Vector2d (&corners_in_view)[4],
+                                          const TagPatternFitOptions& options) {
   Eigen::Vector2d view_corners[4];
   std::copy(corners_in_view, corners_in_view + 4, view_corners);
-  const double reach = options.reach_into_gap * pattern.gap_bits();
+  const Eigen::Vector2d centre_bits = 0.25 * (plane[0] + plane[1] + plane[2] + plane[3]);
 
-  // The view's map sampled over the tag's fitted region (where it has one) and inverted roughly.
+  // The view's map sampled over the fitted region (where it has one) and inverted roughly.
   const Eigen::Matrix3d view_from_plane0 = HomographyFrom(plane, view_corners);
   std::vector<Eigen::Vector2d> raw_samples, view_samples;
   Eigen::Vector2d raw_lo(1e9, 1e9), raw_hi(-1e9, -1e9);
   constexpr int kGrid = 8;
+  const Eigen::Vector2d span = region_hi - region_lo + Eigen::Vector2d(1, 1);
   for (int j = 0; j <= kGrid; ++j) {
     for (int i = 0; i <= kGrid; ++i) {
-      const Eigen::Vector2d bits(-reach - 0.5 + (kBits + 2 * reach + 1) * i / kGrid,
-                                 -reach - 0.5 + (kBits + 2 * reach + 1) * j / kGrid);
+      const Eigen::Vector2d bits(region_lo.x() - 0.5 + span.x() * i / kGrid, region_lo.y() - 0.5 + span.y() * j / kGrid);
       const Eigen::Vector2d at_view = Apply(view_from_plane0, bits);
       const auto raw = view.ViewToRaw(at_view);
       if (!raw) continue;  // beyond the ring's map (a tag at its rim): those pixels are left out
@@ -238,15 +258,8 @@ std::optional<TagPatternFit> FitTagPattern(const cv::Mat& grey, const RingView& 
     }
     map.c = a.colPivHouseholderQr().solve(b);
   }
-  Eigen::Vector2d start_raw[4];
-  for (int k = 0; k < 4; ++k) {
-    const auto raw = view.ViewToRaw(view_corners[k]);
-    if (!raw) return std::nullopt;
-    start_raw[k] = *raw;
-  }
 
-  // The raw pixels (centres at integer coordinates) whose plane point lies within the tag and
-  // `reach` of the gap around it.
+  // The raw pixels (centres at integer coordinates) whose plane point lies in the region.
   struct Pixel {
     Eigen::Vector2d view;
     double value;
@@ -261,13 +274,12 @@ std::optional<TagPatternFit> FitTagPattern(const cv::Mat& grey, const RingView& 
       const auto at_view = ViewOfRaw(view, map, Eigen::Vector2d(x, y));
       if (!at_view) continue;
       const Eigen::Vector2d bits = Apply(plane_from_view0, *at_view);
-      if (bits.minCoeff() < -reach || bits.maxCoeff() > kBits + reach) continue;
+      if ((bits - region_lo).minCoeff() < 0 || (region_hi - bits).minCoeff() < 0) continue;
       pixels.push_back({*at_view, grey.at<float>(y, x)});
     }
   }
   const int n = static_cast<int>(pixels.size());
   if (n < 40) return std::nullopt;
-
   // Levels from the pixels' spread; the blur from a camera's typical defocus, then fitted.
   std::vector<double> values;
   for (const Pixel& p : pixels) values.push_back(p.value);
@@ -289,7 +301,6 @@ std::optional<TagPatternFit> FitTagPattern(const cv::Mat& grey, const RingView& 
     Eigen::Vector2d corners_now[4];
     for (int k = 0; k < 4; ++k) corners_now[k] = view_corners[k] + p.segment<2>(2 * k);
     const Eigen::Matrix3d view_from_plane = HomographyFrom(plane, corners_now);
-    const Eigen::Vector2d centre_bits(kBits / 2.0, kBits / 2.0);
     Eigen::Matrix2d view_from_plane_j;
     for (int a = 0; a < 2; ++a) {
       Eigen::Vector2d d = Eigen::Vector2d::Zero();
@@ -312,9 +323,11 @@ std::optional<TagPatternFit> FitTagPattern(const cv::Mat& grey, const RingView& 
                                options.samples_per_bit / 2, 4 * options.samples_per_bit);
     const double max_sigma_bits =
         std::sqrt(cov_bits(sigma + kSigmaStep).selfadjointView<Eigen::Upper>().eigenvalues().maxCoeff());
-    // Whole samples from the tag's origin: its cells' edges fall between samples.
-    const double lo = std::floor((-reach - 3.5 * max_sigma_bits - 1) * spb) / spb;
-    const double hi = kBits + reach + 3.5 * max_sigma_bits + 1;
+    // Whole samples from the top-left control point (a tag's origin): its cells' edges fall
+    // between samples.
+    const double margin = 3.5 * max_sigma_bits + 1;
+    const Eigen::Vector2d lo = plane[3] + ((region_lo - plane[3]).array() - margin).cwiseProduct(Eigen::Array2d::Constant(spb)).floor().matrix() / spb;
+    const Eigen::Vector2d hi = region_hi.array() + margin;
     const BlurredPattern at_sigma(pattern, lo, hi, spb, cov_bits(sigma));
     const BlurredPattern at_wider(pattern, lo, hi, spb, cov_bits(sigma + kSigmaStep));
 
@@ -386,16 +399,44 @@ std::optional<TagPatternFit> FitTagPattern(const cv::Mat& grey, const RingView& 
     if (settled) break;
   }
   if (!(p(9) >= options.min_contrast) || !(misfit <= options.max_misfit)) return std::nullopt;
-
-  TagPatternFit fit;
+  RegionFit fit;
   fit.sigma_px = sigma;
   fit.misfit = misfit;
+  fit.contrast = p(9);
   fit.pixels = n;
+  for (int k = 0; k < 4; ++k) fit.view_corners[k] = view_corners[k] + p.segment<2>(2 * k);
+  return fit;
+}
+
+}  // namespace
+
+std::optional<TagPatternFit> FitTagPattern(const cv::Mat& grey, const RingView& view,
+                                           const TargetSpec& target, int tag_id,
+                                           const Eigen::Vector2d (&corners_in_view)[4],
+                                           const TagPatternFitOptions& options) {
+  int row = 0, col = 0;
+  if (target.type == TargetType::kChessboard || !TagCell(target, tag_id, &row, &col)) return std::nullopt;
+  const TargetPattern pattern(target);
+  const double b = pattern.bits();
+  const Eigen::Vector2d origin(col * pattern.pitch_bits(), row * pattern.pitch_bits());
+  // The tag's corners in bits (CornerInTarget's k order: bottom-left, bottom-right, top-right,
+  // top-left; y down).
+  const Eigen::Vector2d plane[4] = {origin + Eigen::Vector2d(0, b), origin + Eigen::Vector2d(b, b),
+                                    origin + Eigen::Vector2d(b, 0), origin};
+  const double reach = options.reach_into_gap * pattern.gap_bits();
+  const auto region = FitPatternRegion(grey, view, pattern, plane, origin.array() - reach,
+                                       origin.array() + b + reach, corners_in_view, options);
+  if (!region) return std::nullopt;
+  TagPatternFit fit;
+  fit.sigma_px = region->sigma_px;
+  fit.misfit = region->misfit;
+  fit.pixels = region->pixels;
   for (int k = 0; k < 4; ++k) {
-    const auto raw = view.ViewToRaw(view_corners[k] + p.segment<2>(2 * k));
-    if (!raw) return std::nullopt;
+    const auto start = view.ViewToRaw(corners_in_view[k]);
+    const auto raw = view.ViewToRaw(region->view_corners[k]);
+    if (!start || !raw) return std::nullopt;
     fit.corners[k] = *raw;
-    if (!fit.corners[k].allFinite() || (fit.corners[k] - start_raw[k]).norm() > options.max_shift_px) {
+    if (!fit.corners[k].allFinite() || (fit.corners[k] - *start).norm() > options.max_shift_px) {
       return std::nullopt;
     }
   }
