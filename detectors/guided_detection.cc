@@ -380,354 +380,409 @@ std::vector<CornerObservation> GuideTarget(
   const RingView& view = views[v];
   const cv::Mat& grey = view.image;
 
-  // Which diagonal is dark at parity-0 junctions in the source ring (its view, its corners'
-  // homography there): a one-square shift of a chessboard (Kalibr: a gap's) flips it.
-  const bool l_corners = lattice.corners.front().quadrant >= 0;
-  int source_sign = 0;
-  if (!l_corners) {
-    std::vector<std::optional<Eigen::Vector2d>> source_view;
-    const int sv = BestView(views, model, source_mirror, source.raw, &source_view);
-    if (sv < 0) return out;
-    std::vector<Eigen::Vector2d> p, q;
-    std::vector<int> ids;
-    for (size_t i = 0; i < source.raw.size(); ++i) {
-      if (!source_view[i]) continue;
-      p.push_back(source.plane[i].head<2>());
-      q.push_back(*source_view[i]);
-      ids.push_back(source.ids[i]);
-    }
-    const cv::Mat hs = FitHomography(p, q, 0, 0);
-    if (hs.empty()) return out;
-    std::map<int, const Junction*> by_id;
-    for (const Junction& j : lattice.corners) by_id[j.id] = &j;
-    int sum = 0, counted = 0;
-    for (int id : ids) {
-      const auto it = by_id.find(id);
-      if (it == by_id.end()) continue;
-      const int sign = Polarity(views[sv].image, hs, *it->second, lattice.polarity_offset_mm);
-      sum += sign;
-      counted += sign != 0;
-    }
-    if (counted == 0 || std::abs(sum) < options.min_polarity_agreement * counted) return out;
-    source_sign = sum > 0 ? 1 : -1;
-  }
-
-  // 2. The lattice in the view and the saddle points around it.
-  std::vector<Eigen::Vector2d> predicted, extension;
-  for (const Junction& j : lattice.corners) predicted.push_back(Apply(h0, j.plane));
-  for (const Junction& j : lattice.extension) extension.push_back(Apply(h0, j.plane));
-  std::vector<double> nearest;
-  for (size_t i = 0; i < predicted.size(); ++i) {
-    double d = 1e18;
-    for (size_t k = 0; k < predicted.size(); ++k) {
-      if (k != i) d = std::min(d, (predicted[k] - predicted[i]).norm());
-    }
-    nearest.push_back(d);
-  }
-  std::nth_element(nearest.begin(), nearest.begin() + nearest.size() / 2, nearest.end());
-  const double spacing = nearest[nearest.size() / 2];
-  const double tolerance = options.match_fraction * spacing;
-  if (!(tolerance >= 1.0)) return out;  // junctions under ~3 view px apart: not searched
-  if (radius == 0) radius = 1.5 * tolerance;
-  double x0 = 1e18, y0 = 1e18, x1 = -1e18, y1 = -1e18;
-  for (const auto& p : extension) {
-    x0 = std::min(x0, p.x()), y0 = std::min(y0, p.y()), x1 = std::max(x1, p.x()), y1 = std::max(y1, p.y());
-  }
-  const double pad = radius + spacing;
-  const cv::Rect roi = cv::Rect(cv::Point(static_cast<int>(x0 - pad), static_cast<int>(y0 - pad)),
-                                cv::Point(static_cast<int>(x1 + pad) + 1, static_cast<int>(y1 + pad) + 1)) &
-                       cv::Rect(0, 0, view.width, view.height);
-  if (roi.width < 8 || roi.height < 8) return out;
-  RingView crop = view;  // shallow: headers on the view's own data
-  crop.image = grey(roi);
-  crop.map_x = view.map_x(roi);
-  SaddleOptions saddle_options;
-  saddle_options.min_contrast = options.saddle_min_contrast;
-  // Saddle points that read as X-junctions (an L-corner at a board's outer square passes the
-  // Hessian test), each with its polarity for both diagonals.
-  // The X test reads along the target's diagonals as the prediction orients them.
-  // A lattice junction matches only saddles of its own polarity (as the source ring shows it).
-  // Plain tags' L-corners (the Hessian test passes at their tips too) by their dark quadrant.
-  std::vector<Eigen::Vector2d> saddles, by_class[4];  // X: dark diagonal (1,1), (1,-1); L: quadrant
-  const cv::Mat h0_inverse = h0.inv();
-  for (const cv::Point2f& s : SaddlePoints(crop, saddle_options)) {
-    const Eigen::Vector2d at(s.x + roi.x, s.y + roi.y);
-    const Junction probe{-1, Apply(h0_inverse, at), 0};
-    int class_index = -1;
-    if (l_corners) {
-      class_index = Quadrant(grey, h0, probe.plane, lattice.polarity_offset_mm);
-    } else if (const int sign = Polarity(grey, h0, probe, lattice.polarity_offset_mm)) {
-      class_index = sign > 0 ? 0 : 1;
-    }
-    if (class_index < 0) continue;
-    saddles.push_back(at);
-    by_class[class_index].push_back(at);
-  }
-  if (static_cast<int>(saddles.size()) < options.min_matched) return out;
-  const double cell = std::max(tolerance, 1.0);
-  const SaddleIndex any(saddles, cell);
-  const SaddleIndex classes[4] = {{by_class[0], cell}, {by_class[1], cell}, {by_class[2], cell}, {by_class[3], cell}};
-  // The saddle matching junction j at view pixel p; nullopt if none.
-  const auto match_of = [&](const Junction& j, const Eigen::Vector2d& p) -> std::optional<Eigen::Vector2d> {
-    const SaddleIndex& index =
-        l_corners ? classes[j.quadrant] : classes[source_sign * (j.parity ? -1 : 1) > 0 ? 0 : 1];
-    const int m = index.Nearest(p, tolerance);
-    if (m < 0) return std::nullopt;
-    return index.points()[m];
-  };
-
-  // The translation most junctions agree on, against every other.
-  std::set<std::pair<long, long>> tried;
-  std::vector<std::pair<int, Eigen::Vector2d>> scored;  // (in - ext, shift)
-  for (const auto& p : predicted) {
-    for (const auto& s : saddles) {
-      const Eigen::Vector2d shift = s - p;
-      if (shift.norm() > radius) continue;
-      const std::pair<long, long> key{std::lround(2 * shift.x() / tolerance),
-                                      std::lround(2 * shift.y() / tolerance)};
-      if (!tried.insert(key).second) continue;
-      int in = 0, ext = 0;
-      for (size_t i = 0; i < predicted.size(); ++i) in += match_of(lattice.corners[i], predicted[i] + shift).has_value();
-      for (const auto& e : extension) ext += any.Nearest(e + shift, tolerance) >= 0;
-      scored.emplace_back(in - ext, shift);
-    }
-  }
-  if (scored.empty()) return out;
-  // 3. The best translations (distinct by 2 tolerances), each refined to the homography of its
-  // matched saddles (RANSAC, then least squares on the tight matches: the prediction's scale
-  // and turn are off too) and scored again; the best must beat every other alignment.
-  std::sort(scored.begin(), scored.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
-  struct Alignment {
-    cv::Mat h;
-    int score = 0, matched = 0, ext = 0;
-  };
-  const auto refine = [&](const Eigen::Vector2d& shift) {
-    Alignment a;
-    cv::Mat h = h0.clone();
-    h.row(0) += shift.x() * h.row(2);
-    h.row(1) += shift.y() * h.row(2);
-    for (int round = 0; round < 3; ++round) {
-      std::vector<Eigen::Vector2d> p, q;
-      for (const Junction& j : lattice.corners) {
-        const auto m = match_of(j, Apply(h, j.plane));
-        if (!m) continue;
-        p.push_back(j.plane);
-        q.push_back(*m);
-      }
-      const cv::Mat refit = FitHomography(p, q, round == 0 ? cv::RANSAC : 0, tolerance);
-      if (refit.empty()) break;
-      h = refit;
-    }
-    a.h = h;
-    for (const Junction& j : lattice.corners) a.matched += match_of(j, Apply(h, j.plane)).has_value();
-    for (const Junction& j : lattice.extension) a.ext += any.Nearest(Apply(h, j.plane), tolerance) >= 0;
-    a.score = a.matched - a.ext;
-    return a;
-  };
-  std::vector<Eigen::Vector2d> starts;
-  for (const auto& [score, shift] : scored) {
-    if (static_cast<int>(starts.size()) >= options.alignments_refined) break;
-    bool distinct = true;
-    for (const auto& s0 : starts) distinct &= (shift - s0).norm() > 2 * tolerance;
-    if (distinct) starts.push_back(shift);
-  }
-  std::vector<Alignment> alignments;
-  for (const auto& shift : starts) alignments.push_back(refine(shift));
-  std::sort(alignments.begin(), alignments.end(), [](const auto& a, const auto& b) { return a.score > b.score; });
-  Eigen::Vector2d centre = Eigen::Vector2d::Zero();
-  for (const Junction& j : lattice.corners) centre += j.plane / lattice.corners.size();
-  const Alignment& best = alignments.front();
-  int second = 0;
-  for (size_t k = 1; k < alignments.size(); ++k) {
-    if ((Apply(alignments[k].h, centre) - Apply(best.h, centre)).norm() > tolerance) {
-      second = std::max(second, alignments[k].score);
-    }
-  }
-  if (best.matched < options.min_matched ||
-      best.score - second < std::max<double>(options.min_margin, options.min_margin_fraction * best.score)) {
-    return out;
-  }
-  const cv::Mat h = best.h;
-  const int matched = best.matched;
-  if (best.ext > options.max_extension_fraction * matched) return out;
-  std::vector<int> match(lattice.corners.size(), -1);
-  for (size_t i = 0; i < lattice.corners.size(); ++i) {
-    match[i] = match_of(lattice.corners[i], Apply(h, lattice.corners[i].plane)) ? 1 : -1;
-  }
-
-  // 4. Refinement of the matched junctions the ring does not have yet.
-  const bool chessboard = target.type == TargetType::kChessboard;
+  // 2-4: the target aligned in the view (h: plane -> view) and its corners refined there.
+  cv::Mat h;
   std::map<int, Eigen::Vector2d> refined;  // id -> raw pixel
-  std::map<int, size_t> index_of;
-  for (size_t i = 0; i < lattice.corners.size(); ++i) index_of[lattice.corners[i].id] = i;
-  const auto raw_of = [&](int id) -> std::optional<Eigen::Vector2d> {
-    const auto it = index_of.find(id);
-    if (it == index_of.end()) return std::nullopt;
-    return view.ViewToRaw(Apply(h, lattice.corners[it->second].plane));
-  };
-  if (chessboard) {
-    const int n = target.rows * target.cols;
-    std::vector<std::optional<Eigen::Vector2d>> corners(n);
-    std::vector<int> halves(n, 1);
-    std::vector<double> sides(n, 0);
-    // The ring's own corners take part as the guided ones' neighbours (their lines, their
-    // windows' check), as in the per-ring detector's board; only the guided ones are reported.
-    std::map<int, Eigen::Vector2d> own_raw;
-    for (size_t i = 0; i < own.ids.size(); ++i) own_raw[own.ids[i]] = own.raw[i];
-    for (int id = 0; id < n; ++id) {
-      const size_t i = index_of[id];
-      const bool is_own = own_raw.count(id) > 0;
-      if (match[i] < 0 && !is_own) continue;
-      const auto start = is_own ? std::optional<Eigen::Vector2d>(own_raw[id]) : raw_of(id);
-      if (!start) continue;
-      const int r = id / target.cols, c = id % target.cols;
-      double side = 1e9;
-      for (auto [dr, dc] : {std::pair{0, 1}, {0, -1}, {1, 0}, {-1, 0}}) {
-        const int rr = r + dr, cc = c + dc;
-        if (rr < 0 || cc < 0 || rr >= target.rows || cc >= target.cols) continue;
-        if (const auto q = raw_of(rr * target.cols + cc)) side = std::min(side, (*q - *start).norm());
+  const double predicted_radius = radius;  // 0: h0 from the ring's own corners
+  const auto by_saddles = [&]() -> bool {
+    // Which diagonal is dark at parity-0 junctions in the source ring (its view, its corners'
+    // homography there): a one-square shift of a chessboard (Kalibr: a gap's) flips it.
+    const bool l_corners = lattice.corners.front().quadrant >= 0;
+    int source_sign = 0;
+    if (!l_corners) {
+      std::vector<std::optional<Eigen::Vector2d>> source_view;
+      const int sv = BestView(views, model, source_mirror, source.raw, &source_view);
+      if (sv < 0) return false;
+      std::vector<Eigen::Vector2d> p, q;
+      std::vector<int> ids;
+      for (size_t i = 0; i < source.raw.size(); ++i) {
+        if (!source_view[i]) continue;
+        p.push_back(source.plane[i].head<2>());
+        q.push_back(*source_view[i]);
+        ids.push_back(source.ids[i]);
       }
-      if (side > 1e8) continue;
-      // The per-ring detector's window (chessboard_detector.cc MakeBoard): 0.55 squares.
-      const int half = side < 3.0 ? 1 : std::clamp(static_cast<int>(std::lround(0.55 * side)), 2, 8);
-      Eigen::Vector2d pixel = *start;
-      if (!is_own && !RefineCornerInRaw(raw_grey, half, &pixel)) continue;
-      if ((pixel - *start).norm() > std::max(1.5, 0.3 * side)) continue;
-      corners[id] = pixel;
-      halves[id] = half;
-      sides[id] = side;
+      const cv::Mat hs = FitHomography(p, q, 0, 0);
+      if (hs.empty()) return false;
+      std::map<int, const Junction*> by_id;
+      for (const Junction& j : lattice.corners) by_id[j.id] = &j;
+      int sum = 0, counted = 0;
+      for (int id : ids) {
+        const auto it = by_id.find(id);
+        if (it == by_id.end()) continue;
+        const int sign = Polarity(views[sv].image, hs, *it->second, lattice.polarity_offset_mm);
+        sum += sign;
+        counted += sign != 0;
+      }
+      if (counted == 0 || std::abs(sum) < options.min_polarity_agreement * counted) return false;
+      source_sign = sum > 0 ? 1 : -1;
     }
-    KeepWindowsOnTheirSquares(raw_grey, target.rows, target.cols, sides, 2, &halves, &corners);
-    // The junction fit the chessboard detector runs (the curvature correction where it cannot).
-    FitBoardJunctions(raw_grey, target.rows, target.cols, sides, halves, ChessboardOptions().junction_window_squares,
-                      &corners);
-    for (int id = 0; id < n; ++id) {
-      if (corners[id] && !have.count(id)) refined[id] = *corners[id];
+
+    // 2. The lattice in the view and the saddle points around it.
+    std::vector<Eigen::Vector2d> predicted, extension;
+    for (const Junction& j : lattice.corners) predicted.push_back(Apply(h0, j.plane));
+    for (const Junction& j : lattice.extension) extension.push_back(Apply(h0, j.plane));
+    std::vector<double> nearest;
+    for (size_t i = 0; i < predicted.size(); ++i) {
+      double d = 1e18;
+      for (size_t k = 0; k < predicted.size(); ++k) {
+        if (k != i) d = std::min(d, (predicted[k] - predicted[i]).norm());
+      }
+      nearest.push_back(d);
     }
-  } else if (l_corners) {
-    // Plain tags measured as the tag detector measures them: in blurred views the whole pattern
-    // (FitTagPattern), else the four edges (RefineTagCorners; the data bits behind the border
-    // from the code of the tag's place), from the corners the alignment puts there; a tag whole
-    // or not at all.
+    std::nth_element(nearest.begin(), nearest.begin() + nearest.size() / 2, nearest.end());
+    const double spacing = nearest[nearest.size() / 2];
+    const double tolerance = options.match_fraction * spacing;
+    if (!(tolerance >= 1.0)) return false;  // junctions under ~3 view px apart: not searched
+    if (radius == 0) radius = 1.5 * tolerance;
+    double x0 = 1e18, y0 = 1e18, x1 = -1e18, y1 = -1e18;
+    for (const auto& p : extension) {
+      x0 = std::min(x0, p.x()), y0 = std::min(y0, p.y()), x1 = std::max(x1, p.x()), y1 = std::max(y1, p.y());
+    }
+    const double pad = radius + spacing;
+    const cv::Rect roi = cv::Rect(cv::Point(static_cast<int>(x0 - pad), static_cast<int>(y0 - pad)),
+                                  cv::Point(static_cast<int>(x1 + pad) + 1, static_cast<int>(y1 + pad) + 1)) &
+                         cv::Rect(0, 0, view.width, view.height);
+    if (roi.width < 8 || roi.height < 8) return false;
+    RingView crop = view;  // shallow: headers on the view's own data
+    crop.image = grey(roi);
+    crop.map_x = view.map_x(roi);
+    SaddleOptions saddle_options;
+    saddle_options.min_contrast = options.saddle_min_contrast;
+    // Saddle points that read as X-junctions (an L-corner at a board's outer square passes the
+    // Hessian test), each with its polarity for both diagonals.
+    // The X test reads along the target's diagonals as the prediction orients them.
+    // A lattice junction matches only saddles of its own polarity (as the source ring shows it).
+    // Plain tags' L-corners (the Hessian test passes at their tips too) by their dark quadrant.
+    std::vector<Eigen::Vector2d> saddles, by_class[4];  // X: dark diagonal (1,1), (1,-1); L: quadrant
+    const cv::Mat h0_inverse = h0.inv();
+    for (const cv::Point2f& s : SaddlePoints(crop, saddle_options)) {
+      const Eigen::Vector2d at(s.x + roi.x, s.y + roi.y);
+      const Junction probe{-1, Apply(h0_inverse, at), 0};
+      int class_index = -1;
+      if (l_corners) {
+        class_index = Quadrant(grey, h0, probe.plane, lattice.polarity_offset_mm);
+      } else if (const int sign = Polarity(grey, h0, probe, lattice.polarity_offset_mm)) {
+        class_index = sign > 0 ? 0 : 1;
+      }
+      if (class_index < 0) continue;
+      saddles.push_back(at);
+      by_class[class_index].push_back(at);
+    }
+    if (static_cast<int>(saddles.size()) < options.min_matched) return false;
+    const double cell = std::max(tolerance, 1.0);
+    const SaddleIndex any(saddles, cell);
+    const SaddleIndex classes[4] = {{by_class[0], cell}, {by_class[1], cell}, {by_class[2], cell}, {by_class[3], cell}};
+    // The saddle matching junction j at view pixel p; nullopt if none.
+    const auto match_of = [&](const Junction& j, const Eigen::Vector2d& p) -> std::optional<Eigen::Vector2d> {
+      const SaddleIndex& index =
+          l_corners ? classes[j.quadrant] : classes[source_sign * (j.parity ? -1 : 1) > 0 ? 0 : 1];
+      const int m = index.Nearest(p, tolerance);
+      if (m < 0) return std::nullopt;
+      return index.points()[m];
+    };
+
+    // The translation most junctions agree on, against every other.
+    std::set<std::pair<long, long>> tried;
+    std::vector<std::pair<int, Eigen::Vector2d>> scored;  // (in - ext, shift)
+    for (const auto& p : predicted) {
+      for (const auto& s : saddles) {
+        const Eigen::Vector2d shift = s - p;
+        if (shift.norm() > radius) continue;
+        const std::pair<long, long> key{std::lround(2 * shift.x() / tolerance),
+                                        std::lround(2 * shift.y() / tolerance)};
+        if (!tried.insert(key).second) continue;
+        int in = 0, ext = 0;
+        for (size_t i = 0; i < predicted.size(); ++i) in += match_of(lattice.corners[i], predicted[i] + shift).has_value();
+        for (const auto& e : extension) ext += any.Nearest(e + shift, tolerance) >= 0;
+        scored.emplace_back(in - ext, shift);
+      }
+    }
+    if (scored.empty()) return false;
+    // 3. The best translations (distinct by 2 tolerances), each refined to the homography of its
+    // matched saddles (RANSAC, then least squares on the tight matches: the prediction's scale
+    // and turn are off too) and scored again; the best must beat every other alignment.
+    std::sort(scored.begin(), scored.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+    struct Alignment {
+      cv::Mat h;
+      int score = 0, matched = 0, ext = 0;
+    };
+    const auto refine = [&](const Eigen::Vector2d& shift) {
+      Alignment a;
+      cv::Mat h = h0.clone();
+      h.row(0) += shift.x() * h.row(2);
+      h.row(1) += shift.y() * h.row(2);
+      for (int round = 0; round < 3; ++round) {
+        std::vector<Eigen::Vector2d> p, q;
+        for (const Junction& j : lattice.corners) {
+          const auto m = match_of(j, Apply(h, j.plane));
+          if (!m) continue;
+          p.push_back(j.plane);
+          q.push_back(*m);
+        }
+        const cv::Mat refit = FitHomography(p, q, round == 0 ? cv::RANSAC : 0, tolerance);
+        if (refit.empty()) break;
+        h = refit;
+      }
+      a.h = h;
+      for (const Junction& j : lattice.corners) a.matched += match_of(j, Apply(h, j.plane)).has_value();
+      for (const Junction& j : lattice.extension) a.ext += any.Nearest(Apply(h, j.plane), tolerance) >= 0;
+      a.score = a.matched - a.ext;
+      return a;
+    };
+    std::vector<Eigen::Vector2d> starts;
+    for (const auto& [score, shift] : scored) {
+      if (static_cast<int>(starts.size()) >= options.alignments_refined) break;
+      bool distinct = true;
+      for (const auto& s0 : starts) distinct &= (shift - s0).norm() > 2 * tolerance;
+      if (distinct) starts.push_back(shift);
+    }
+    std::vector<Alignment> alignments;
+    for (const auto& shift : starts) alignments.push_back(refine(shift));
+    std::sort(alignments.begin(), alignments.end(), [](const auto& a, const auto& b) { return a.score > b.score; });
+    Eigen::Vector2d centre = Eigen::Vector2d::Zero();
+    for (const Junction& j : lattice.corners) centre += j.plane / lattice.corners.size();
+    const Alignment& best = alignments.front();
+    int second = 0;
+    for (size_t k = 1; k < alignments.size(); ++k) {
+      if ((Apply(alignments[k].h, centre) - Apply(best.h, centre)).norm() > tolerance) {
+        second = std::max(second, alignments[k].score);
+      }
+    }
+    if (best.matched < options.min_matched ||
+        best.score - second < std::max<double>(options.min_margin, options.min_margin_fraction * best.score)) {
+      return false;
+    }
+    h = best.h;
+    const int matched = best.matched;
+    if (best.ext > options.max_extension_fraction * matched) return false;
+    std::vector<int> match(lattice.corners.size(), -1);
+    for (size_t i = 0; i < lattice.corners.size(); ++i) {
+      match[i] = match_of(lattice.corners[i], Apply(h, lattice.corners[i].plane)) ? 1 : -1;
+    }
+
+    // 4. Refinement of the matched junctions the ring does not have yet.
+    const bool chessboard = target.type == TargetType::kChessboard;
+    std::map<int, size_t> index_of;
+    for (size_t i = 0; i < lattice.corners.size(); ++i) index_of[lattice.corners[i].id] = i;
+    const auto raw_of = [&](int id) -> std::optional<Eigen::Vector2d> {
+      const auto it = index_of.find(id);
+      if (it == index_of.end()) return std::nullopt;
+      return view.ViewToRaw(Apply(h, lattice.corners[it->second].plane));
+    };
+    if (chessboard) {
+      const int n = target.rows * target.cols;
+      std::vector<std::optional<Eigen::Vector2d>> corners(n);
+      std::vector<int> halves(n, 1);
+      std::vector<double> sides(n, 0);
+      // The ring's own corners take part as the guided ones' neighbours (their lines, their
+      // windows' check), as in the per-ring detector's board; only the guided ones are reported.
+      std::map<int, Eigen::Vector2d> own_raw;
+      for (size_t i = 0; i < own.ids.size(); ++i) own_raw[own.ids[i]] = own.raw[i];
+      for (int id = 0; id < n; ++id) {
+        const size_t i = index_of[id];
+        const bool is_own = own_raw.count(id) > 0;
+        if (match[i] < 0 && !is_own) continue;
+        const auto start = is_own ? std::optional<Eigen::Vector2d>(own_raw[id]) : raw_of(id);
+        if (!start) continue;
+        const int r = id / target.cols, c = id % target.cols;
+        double side = 1e9;
+        for (auto [dr, dc] : {std::pair{0, 1}, {0, -1}, {1, 0}, {-1, 0}}) {
+          const int rr = r + dr, cc = c + dc;
+          if (rr < 0 || cc < 0 || rr >= target.rows || cc >= target.cols) continue;
+          if (const auto q = raw_of(rr * target.cols + cc)) side = std::min(side, (*q - *start).norm());
+        }
+        if (side > 1e8) continue;
+        // The per-ring detector's window (chessboard_detector.cc MakeBoard): 0.55 squares.
+        const int half = side < 3.0 ? 1 : std::clamp(static_cast<int>(std::lround(0.55 * side)), 2, 8);
+        Eigen::Vector2d pixel = *start;
+        if (!is_own && !RefineCornerInRaw(raw_grey, half, &pixel)) continue;
+        if ((pixel - *start).norm() > std::max(1.5, 0.3 * side)) continue;
+        corners[id] = pixel;
+        halves[id] = half;
+        sides[id] = side;
+      }
+      KeepWindowsOnTheirSquares(raw_grey, target.rows, target.cols, sides, 2, &halves, &corners);
+      // The junction fit the chessboard detector runs (the curvature correction where it cannot).
+      FitBoardJunctions(raw_grey, target.rows, target.cols, sides, halves, ChessboardOptions().junction_window_squares,
+                        &corners);
+      for (int id = 0; id < n; ++id) {
+        if (corners[id] && !have.count(id)) refined[id] = *corners[id];
+      }
+    } else if (l_corners) {
+      // Plain tags measured as the tag detector measures them: in blurred views the whole pattern
+      // (FitTagPattern), else the four edges (RefineTagCorners; the data bits behind the border
+      // from the code of the tag's place), from the corners the alignment puts there; a tag whole
+      // or not at all.
+      cv::Mat grey32;
+      raw_grey.convertTo(grey32, CV_32F, 1.0 / 255);
+      TagDetectorOptions tag_options;
+      const bool blurred = view.blur_sigma && *view.blur_sigma >= tag_options.blurred_view_sigma;
+      if (!blurred) tag_options.edge_fit_reach_in_blurred = tag_options.edge_fit_reach_in;
+      std::set<int> tags;
+      for (const Junction& j : lattice.corners) tags.insert(j.id / 4);
+      for (const int tag : tags) {
+        Eigen::Vector2d corners[4], fitted[4];
+        double curvature[4];
+        int matched_here = 0, wanted = 0;
+        bool ok = true;
+        for (int k = 0; k < 4 && ok; ++k) {
+          matched_here += match[index_of[4 * tag + k]] >= 0;
+          wanted += !have.count(4 * tag + k);
+          const auto raw = raw_of(4 * tag + k);
+          ok = raw.has_value();
+          if (ok) corners[k] = *raw;
+          curvature[k] = std::nan("");  // fitted
+        }
+        if (!ok || wanted == 0 || matched_here < 3) continue;
+        Eigen::Vector2d in_view[4];
+        for (int k = 0; k < 4; ++k) in_view[k] = Apply(h, lattice.corners[index_of[4 * tag + k]].plane);
+        const auto pattern_fit = tag_options.fit_tag_pattern && blurred
+                                     ? FitTagPattern(grey32, view, target, tag, in_view)
+                                     : std::nullopt;
+        if (pattern_fit) {
+          std::copy(pattern_fit->corners, pattern_fit->corners + 4, fitted);
+        } else if (!RefineTagCorners(grey32, corners, curvature, 1.0 / PlainTagLayout().bits, target.spacing,
+                                     tag_options, fitted, tag)) {
+          continue;
+        }
+        for (int k = 0; k < 4; ++k) {
+          if (!have.count(4 * tag + k)) refined[4 * tag + k] = fitted[k];
+        }
+      }
+    } else {
+      const TagDetectorOptions tag_options;  // the Kalibr detector's junction window
+      const KalibrDetectorOptions& kalibr = tag_options.kalibr;
+      for (size_t i = 0; i < lattice.corners.size(); ++i) {
+        const int id = lattice.corners[i].id;
+        if (match[i] < 0 || have.count(id)) continue;
+        const int tag = id / 4, k = id % 4;
+        const Eigen::Vector2d at_view = Apply(h, lattice.corners[i].plane);
+        const auto view_of = [&](int other) { return Apply(h, lattice.corners[index_of[4 * tag + other]].plane); };
+        // The tag's edges' directions and length in raw: its neighbouring corners may lie beyond
+        // the view's map (a tag at the ring's edge seen through the ideal design) while this one
+        // does not: from inside the view (near_scene 0002, 200 mm tags at 2 m: 37 -> 43 of 48).
+        const auto raw = raw_of(id);
+        const auto next = RawTowards(view, at_view, view_of((k + 1) % 4) - at_view);
+        const auto previous = RawTowards(view, at_view, view_of((k + 3) % 4) - at_view);
+        if (!raw || !next || !previous) continue;
+        double side_view = 0;
+        for (int m = 0; m < 4; ++m) {
+          side_view += 0.25 * (Apply(h, lattice.corners[index_of[4 * tag + (m + 1) % 4]].plane) -
+                               Apply(h, lattice.corners[index_of[4 * tag + m]].plane)).norm();
+        }
+        Eigen::Vector2d in_view;
+        if (!RefineSaddleCorner(grey, Apply(h, lattice.corners[i].plane),
+                                static_cast<int>(std::lround(0.15 * side_view)), 0.1 * side_view, &in_view)) {
+          continue;
+        }
+        const auto pixel = view.ViewToRaw(in_view);
+        if (!pixel) continue;
+        const double side_raw = std::min((*next - *raw).norm(), (*previous - *raw).norm());
+        if (!IsKalibrXJunction(raw_grey, *pixel, (*next - *raw).normalized(), (*previous - *raw).normalized(),
+                               std::max(1.5, 0.12 * side_raw), kalibr.min_contrast)) {
+          continue;
+        }
+        const Eigen::Vector2d corner = *pixel;
+        // The junction fitted as the Kalibr detector fits it (corner_refine.h FitBlurredJunction):
+        // its lines the tag's edges through the corner, as the view's map bends them.
+        const auto line = [&](int other) -> std::optional<LocalLine> {
+          const Eigen::Vector2d step = 0.5 * (view_of(other) - at_view);
+          std::vector<std::optional<Eigen::Vector2d>> points = {RawTowards(view, at_view, -step), *raw,
+                                                                RawTowards(view, at_view, step)};
+          if (!points[0] || !points[2]) return std::nullopt;
+          return LineThroughCorner(points, 1, 3, 1, true);
+        };
+        // Over the same fraction of the tag side (the 2-bit border): at 0.15 the inner ring's
+        // 9-12 px tags left a window of under 16 pixels, the fit refused, and the view's
+        // cornerSubPix corner (0.3-0.9 px off there) was kept. A corner the fit cannot measure is
+        // left out: guided corners have no decoded quad to vouch for them.
+        const auto row = line((k + 1) % 4), col = line((k + 3) % 4);
+        if (!row || !col) continue;
+        const auto fit = FitBlurredJunction(raw_grey, corner, *row, *col, tag_options.kalibr_junction_window * side_raw);
+        if (!fit) continue;
+        refined[id] = fit->corner;
+      }
+    }
+    return true;
+  };
+  // Tag grids whose junctions the saddle points cannot align (too close, or too blurred to be
+  // saddles: the inner ring's smallest tags): the whole printed pattern (AlignTargetPattern),
+  // then each tag by its pattern (FitTagPattern); a tag whole or not at all.
+  const auto by_pattern = [&]() -> bool {
+    if (target.type == TargetType::kChessboard || !options.pattern_alignment) return false;
+    Eigen::Matrix3d h0e;
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 3; ++c) h0e(r, c) = h0.at<double>(r, c);
+    }
     cv::Mat grey32;
     raw_grey.convertTo(grey32, CV_32F, 1.0 / 255);
-    TagDetectorOptions tag_options;
-    const bool blurred = view.blur_sigma && *view.blur_sigma >= tag_options.blurred_view_sigma;
-    if (!blurred) tag_options.edge_fit_reach_in_blurred = tag_options.edge_fit_reach_in;
+    const double search = predicted_radius > 0 ? predicted_radius : options.pattern_search_px;
+    const auto aligned = AlignTargetPattern(grey32, view, target, h0e, search);
+    if (!aligned) return false;
+    h = cv::Mat(3, 3, CV_64F);
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 3; ++c) h.at<double>(r, c) = aligned->view_from_plane(r, c);
+    }
     std::set<int> tags;
     for (const Junction& j : lattice.corners) tags.insert(j.id / 4);
     for (const int tag : tags) {
-      Eigen::Vector2d corners[4], fitted[4];
-      double curvature[4];
-      int matched_here = 0, wanted = 0;
-      bool ok = true;
-      for (int k = 0; k < 4 && ok; ++k) {
-        matched_here += match[index_of[4 * tag + k]] >= 0;
-        wanted += !have.count(4 * tag + k);
-        const auto raw = raw_of(4 * tag + k);
-        ok = raw.has_value();
-        if (ok) corners[k] = *raw;
-        curvature[k] = std::nan("");  // fitted
-      }
-      if (!ok || wanted == 0 || matched_here < 3) continue;
+      bool wanted = false;
       Eigen::Vector2d in_view[4];
-      for (int k = 0; k < 4; ++k) in_view[k] = Apply(h, lattice.corners[index_of[4 * tag + k]].plane);
-      const auto pattern_fit = tag_options.fit_tag_pattern && blurred
-                                   ? FitTagPattern(grey32, view, target, tag, in_view)
-                                   : std::nullopt;
-      if (pattern_fit) {
-        std::copy(pattern_fit->corners, pattern_fit->corners + 4, fitted);
-      } else if (!RefineTagCorners(grey32, corners, curvature, 1.0 / PlainTagLayout().bits, target.spacing,
-                                   tag_options, fitted, tag)) {
-        continue;
-      }
       for (int k = 0; k < 4; ++k) {
-        if (!have.count(4 * tag + k)) refined[4 * tag + k] = fitted[k];
+        wanted |= !have.count(4 * tag + k);
+        in_view[k] = Apply(h, CornerInTarget(target, 4 * tag + k).head<2>());
       }
-    }
-  } else {
-    const TagDetectorOptions tag_options;  // the Kalibr detector's junction window
-    const KalibrDetectorOptions& kalibr = tag_options.kalibr;
-    for (size_t i = 0; i < lattice.corners.size(); ++i) {
-      const int id = lattice.corners[i].id;
-      if (match[i] < 0 || have.count(id)) continue;
-      const int tag = id / 4, k = id % 4;
-      const Eigen::Vector2d at_view = Apply(h, lattice.corners[i].plane);
-      const auto view_of = [&](int other) { return Apply(h, lattice.corners[index_of[4 * tag + other]].plane); };
-      // The tag's edges' directions and length in raw: its neighbouring corners may lie beyond
-      // the view's map (a tag at the ring's edge seen through the ideal design) while this one
-      // does not: from inside the view (near_scene 0002, 200 mm tags at 2 m: 37 -> 43 of 48).
-      const auto raw = raw_of(id);
-      const auto next = RawTowards(view, at_view, view_of((k + 1) % 4) - at_view);
-      const auto previous = RawTowards(view, at_view, view_of((k + 3) % 4) - at_view);
-      if (!raw || !next || !previous) continue;
-      double side_view = 0;
-      for (int m = 0; m < 4; ++m) {
-        side_view += 0.25 * (Apply(h, lattice.corners[index_of[4 * tag + (m + 1) % 4]].plane) -
-                             Apply(h, lattice.corners[index_of[4 * tag + m]].plane)).norm();
-      }
-      Eigen::Vector2d in_view;
-      if (!RefineSaddleCorner(grey, Apply(h, lattice.corners[i].plane),
-                              static_cast<int>(std::lround(0.15 * side_view)), 0.1 * side_view, &in_view)) {
-        continue;
-      }
-      const auto pixel = view.ViewToRaw(in_view);
-      if (!pixel) continue;
-      const double side_raw = std::min((*next - *raw).norm(), (*previous - *raw).norm());
-      if (!IsKalibrXJunction(raw_grey, *pixel, (*next - *raw).normalized(), (*previous - *raw).normalized(),
-                             std::max(1.5, 0.12 * side_raw), kalibr.min_contrast)) {
-        continue;
-      }
-      const Eigen::Vector2d corner = *pixel;
-      // The junction fitted as the Kalibr detector fits it (corner_refine.h FitBlurredJunction):
-      // its lines the tag's edges through the corner, as the view's map bends them.
-      const auto line = [&](int other) -> std::optional<LocalLine> {
-        const Eigen::Vector2d step = 0.5 * (view_of(other) - at_view);
-        std::vector<std::optional<Eigen::Vector2d>> points = {RawTowards(view, at_view, -step), *raw,
-                                                              RawTowards(view, at_view, step)};
-        if (!points[0] || !points[2]) return std::nullopt;
-        return LineThroughCorner(points, 1, 3, 1, true);
-      };
-      // Over the same fraction of the tag side (the 2-bit border): at 0.15 the inner ring's
-      // 9-12 px tags left a window of under 16 pixels, the fit refused, and the view's
-      // cornerSubPix corner (0.3-0.9 px off there) was kept. A corner the fit cannot measure is
-      // left out: guided corners have no decoded quad to vouch for them.
-      const auto row = line((k + 1) % 4), col = line((k + 3) % 4);
-      if (!row || !col) continue;
-      const auto fit = FitBlurredJunction(raw_grey, corner, *row, *col, tag_options.kalibr_junction_window * side_raw);
+      if (!wanted) continue;
+      const auto fit = FitTagPattern(grey32, view, target, tag, in_view);
       if (!fit) continue;
-      refined[id] = fit->corner;
+      for (int k = 0; k < 4; ++k) {
+        if (!have.count(4 * tag + k)) refined[4 * tag + k] = fit->corners[k];
+      }
     }
-  }
-  if (refined.empty() || (own.ids.empty() && static_cast<int>(refined.size()) < options.min_kept)) return out;
-
+    return !refined.empty();
+  };
   // 5. The grid check with the ring's own corners of the target.
-  std::vector<GridCorner> grid;
-  for (size_t i = 0; i < own.ids.size(); ++i) grid.push_back({own.plane[i].head<2>(), own.raw[i], v});
-  std::vector<int> guided_ids;
-  for (const auto& [id, pixel] : refined) {
-    grid.push_back({CornerInTarget(target, id).head<2>(), pixel, v});
-    guided_ids.push_back(id);
-  }
-  const std::vector<GridFit> fits = CornersFittingTargetHomography(views, model, grid, options.grid_check);
-  std::vector<CornerObservation> kept;
-  for (size_t g = 0; g < guided_ids.size(); ++g) {
-    const GridFit& fit = fits[own.ids.size() + g];
-    if (!fit.keep || fit.residual_px < 0) continue;
-    CornerObservation o;
-    o.target = ti;
-    o.id = guided_ids[g];
-    o.mirror = dest;
-    o.pixel = refined[guided_ids[g]];
-    kept.push_back(o);
-  }
-  // Ids anchored by the ring's own corners need no quorum; ids from the other ring do.
-  if (own.ids.empty() && static_cast<int>(kept.size()) < options.min_kept) return out;
-  if (target.type == TargetType::kKalibrAprilGrid) {
-    for (CornerObservation o : KalibrBeyondTheView(raw_grey, view, target, lattice, h, own, kept, options)) {
+  const auto checked = [&]() {
+    std::vector<CornerObservation> kept;
+    if (refined.empty() || (own.ids.empty() && static_cast<int>(refined.size()) < options.min_kept)) return kept;
+    std::vector<GridCorner> grid;
+    for (size_t i = 0; i < own.ids.size(); ++i) grid.push_back({own.plane[i].head<2>(), own.raw[i], v});
+    std::vector<int> guided_ids;
+    for (const auto& [id, pixel] : refined) {
+      grid.push_back({CornerInTarget(target, id).head<2>(), pixel, v});
+      guided_ids.push_back(id);
+    }
+    const std::vector<GridFit> fits = CornersFittingTargetHomography(views, model, grid, options.grid_check);
+    for (size_t g = 0; g < guided_ids.size(); ++g) {
+      const GridFit& fit = fits[own.ids.size() + g];
+      if (!fit.keep || fit.residual_px < 0) continue;
+      CornerObservation o;
       o.target = ti;
+      o.id = guided_ids[g];
       o.mirror = dest;
+      o.pixel = refined[guided_ids[g]];
       kept.push_back(o);
+    }
+    // Ids anchored by the ring's own corners need no quorum; ids from the other ring do.
+    if (own.ids.empty() && static_cast<int>(kept.size()) < options.min_kept) kept.clear();
+    if (!kept.empty() && target.type == TargetType::kKalibrAprilGrid) {
+      for (CornerObservation o : KalibrBeyondTheView(raw_grey, view, target, lattice, h, own, kept, options)) {
+        o.target = ti;
+        o.mirror = dest;
+        kept.push_back(o);
+      }
+    }
+    return kept;
+  };
+  std::vector<CornerObservation> kept;
+  if (by_saddles()) kept = checked();
+  // The pattern where the saddles left most of the target's missing corners out.
+  const int missing = CornerCount(target) - static_cast<int>(own.ids.size());
+  if (static_cast<int>(kept.size()) < options.pattern_when_found_below * missing) {
+    refined.clear();
+    if (by_pattern()) {
+      std::vector<CornerObservation> by_pattern_kept = checked();
+      if (by_pattern_kept.size() > kept.size()) kept = std::move(by_pattern_kept);
     }
   }
   return kept;

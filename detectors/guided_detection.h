@@ -73,6 +73,14 @@ struct GuidedOptions {
   // X-junctions: this fraction of ring s's corners must show one polarity (step 2).
   double min_polarity_agreement = 0.8;
   int alignments_refined = 6;  // best distinct translations refined to homographies
+  // Tag grids the saddle points cannot align: their whole printed pattern (tag_pattern_fit.h
+  // AlignTargetPattern), searched within this many view px where the ring's own corners give
+  // the prediction (else within the pose's max_prediction_error_px).
+  bool pattern_alignment = true;
+  double pattern_search_px = 4;
+  // ... tried where the saddles' guided corners are fewer than this fraction of the ring's
+  // missing corners of the target (the better of the two kept).
+  double pattern_when_found_below = 0.75;
   int min_kept = 4;  // fewer guided corners of a target in a ring after the checks: none kept
   TagGridCheckOptions grid_check;
 };

@@ -269,8 +269,13 @@ std::optional<RegionFit> FitPatternRegion(const cv::Mat& grey, const RingView& v
   const int y0 = static_cast<int>(std::floor(raw_lo.y())), y1 = static_cast<int>(std::ceil(raw_hi.y()));
   if (x0 < 0 || y0 < 0 || x1 >= grey.cols || y1 >= grey.rows) return std::nullopt;
   const Eigen::Matrix3d plane_from_view0 = view_from_plane0.inverse();
-  for (int y = y0; y <= y1; ++y) {
-    for (int x = x0; x <= x1; ++x) {
+  // A large region: every stride-th pixel each way (the geometry is over-determined anyway).
+  const int stride = options.max_pixels > 0
+                         ? std::max(1, static_cast<int>(std::ceil(std::sqrt(double(x1 - x0 + 1) * (y1 - y0 + 1) /
+                                                                        options.max_pixels))))
+                         : 1;
+  for (int y = y0; y <= y1; y += stride) {
+    for (int x = x0; x <= x1; x += stride) {
       const auto at_view = ViewOfRaw(view, map, Eigen::Vector2d(x, y));
       if (!at_view) continue;
       const Eigen::Vector2d bits = Apply(plane_from_view0, *at_view);
@@ -441,6 +446,149 @@ std::optional<TagPatternFit> FitTagPattern(const cv::Mat& grey, const RingView& 
     }
   }
   return fit;
+}
+
+std::optional<TargetAlignment> AlignTargetPattern(const cv::Mat& grey, const RingView& view,
+                                                  const TargetSpec& target,
+                                                  const Eigen::Matrix3d& view_from_plane_mm,
+                                                  double radius_view_px, const TargetAlignOptions& options) {
+  if (target.type == TargetType::kChessboard || view.image.empty()) return std::nullopt;
+  const TargetPattern pattern(target);
+  const double mm_per_bit = target.tag_size_mm / pattern.bits();
+  Eigen::Matrix3d plane_mm_from_bits = Eigen::Matrix3d::Identity();
+  plane_mm_from_bits(0, 0) = plane_mm_from_bits(1, 1) = mm_per_bit;
+  const Eigen::Matrix3d view_from_bits = view_from_plane_mm * plane_mm_from_bits;
+  const Eigen::Vector2d extent = pattern.extent();
+  const double reach = 0.75 * pattern.gap_bits();
+  const Eigen::Vector2d lo = Eigen::Vector2d::Constant(-reach), hi = extent.array() + reach;
+
+  // The pitch in the view (px, mean of both axes).
+  const Eigen::Vector2d origin_view = Apply(view_from_bits, Eigen::Vector2d::Zero());
+  const double pitch_view =
+      0.5 * ((Apply(view_from_bits, Eigen::Vector2d(pattern.pitch_bits(), 0)) - origin_view).norm() +
+             (Apply(view_from_bits, Eigen::Vector2d(0, pattern.pitch_bits())) - origin_view).norm());
+  const double blur = view.blur_sigma ? *view.blur_sigma : 1.0;
+
+  // One correlation: the template is the pattern over the region as `h` (bits -> view) puts it
+  // in the view (3 x 3 samples per view pixel), blurred as the view is, pixels outside the
+  // region masked; every translation within the radius (clipped to the view). The best
+  // translation (view px, sub-pixel) and the best half a pitch or more from it.
+  struct Peak {
+    double best = -2, second = -2;
+    Eigen::Vector2d shift = Eigen::Vector2d::Zero();
+  };
+  const auto correlate = [&](const Eigen::Matrix3d& h) -> std::optional<Peak> {
+    const Eigen::Matrix3d h_inverse = h.inverse();
+    Eigen::Vector2d v_lo(1e9, 1e9), v_hi(-1e9, -1e9);
+    for (const Eigen::Vector2d& c : {lo, hi, Eigen::Vector2d(lo.x(), hi.y()), Eigen::Vector2d(hi.x(), lo.y())}) {
+      const Eigen::Vector2d at = Apply(h, c);
+      if (!at.allFinite() || !view.ViewToRaw(at)) return std::nullopt;  // the whole target in the view's map
+      v_lo = v_lo.cwiseMin(at);
+      v_hi = v_hi.cwiseMax(at);
+    }
+    const int pad = 2;
+    const int tx0 = static_cast<int>(std::floor(v_lo.x())) - pad, ty0 = static_cast<int>(std::floor(v_lo.y())) - pad;
+    const int tw = static_cast<int>(std::ceil(v_hi.x())) + pad + 1 - tx0;
+    const int th = static_cast<int>(std::ceil(v_hi.y())) + pad + 1 - ty0;
+    if (tw < 8 || th < 8 || tw > 400 || th > 400) return std::nullopt;
+    cv::Mat templ(th, tw, CV_32F), mask(th, tw, CV_32F);
+    for (int y = 0; y < th; ++y) {
+      for (int x = 0; x < tw; ++x) {
+        double sum = 0;
+        for (int j = 0; j < 3; ++j) {
+          for (int i = 0; i < 3; ++i) {
+            const Eigen::Vector2d b = Apply(h_inverse, Eigen::Vector2d(tx0 + x + (i - 1) / 3.0, ty0 + y + (j - 1) / 3.0));
+            sum += pattern.At(b.x(), b.y());
+          }
+        }
+        templ.at<float>(y, x) = static_cast<float>(sum / 9);
+        const Eigen::Vector2d b = Apply(h_inverse, Eigen::Vector2d(tx0 + x, ty0 + y));
+        mask.at<float>(y, x) = (b - lo).minCoeff() >= 0 && (hi - b).minCoeff() >= 0 ? 1.0f : 0.0f;
+      }
+    }
+    cv::GaussianBlur(templ, templ, cv::Size(0, 0), std::max(0.3, blur));
+    const int r = static_cast<int>(std::ceil(radius_view_px));
+    const cv::Rect search =
+        cv::Rect(tx0 - r, ty0 - r, tw + 2 * r, th + 2 * r) & cv::Rect(0, 0, view.image.cols, view.image.rows);
+    if (search.width < tw + 2 || search.height < th + 2) return std::nullopt;
+    cv::Mat image, score;
+    view.image(search).convertTo(image, CV_32F, 1.0 / 255);
+    cv::matchTemplate(image, templ, score, cv::TM_CCOEFF_NORMED, mask);
+    Peak peak;
+    cv::Point at;
+    for (int y = 0; y < score.rows; ++y) {
+      for (int x = 0; x < score.cols; ++x) {
+        const float s = score.at<float>(y, x);
+        if (std::isfinite(s) && s > peak.best) peak.best = s, at = cv::Point(x, y);
+      }
+    }
+    for (int y = 0; y < score.rows; ++y) {
+      for (int x = 0; x < score.cols; ++x) {
+        const float s = score.at<float>(y, x);
+        if (std::isfinite(s) && std::hypot(x - at.x, y - at.y) >= 0.5 * pitch_view) peak.second = std::max<double>(peak.second, s);
+      }
+    }
+    // Sub-pixel: a parabola per axis.
+    const auto vertex = [&](int dx, int dy) {
+      if (at.x - dx < 0 || at.y - dy < 0 || at.x + dx >= score.cols || at.y + dy >= score.rows) return 0.0;
+      const double a = score.at<float>(at.y - dy, at.x - dx), b = score.at<float>(at.y, at.x),
+                   c = score.at<float>(at.y + dy, at.x + dx);
+      const double d = a - 2 * b + c;
+      return d < 0 ? std::clamp(0.5 * (a - c) / d, -0.5, 0.5) : 0.0;
+    };
+    peak.shift = Eigen::Vector2d(search.x + at.x + vertex(1, 0) - tx0, search.y + at.y + vertex(0, 1) - ty0);
+    return peak;
+  };
+  // The prediction's scale and turn are off too (a few percent, a few degrees): each of a few
+  // similarities about the target's centre is correlated, the best kept.
+  const Eigen::Vector2d centre_view = Apply(view_from_bits, 0.5 * extent);
+  std::optional<Peak> found;
+  Eigen::Matrix3d view_from_bits_found = view_from_bits;
+  const auto try_similarity = [&](double scale, double turn_deg) {
+    const double t = turn_deg * M_PI / 180;
+    Eigen::Matrix3d similarity = Eigen::Matrix3d::Identity();
+    similarity.topLeftCorner<2, 2>() << scale * std::cos(t), -scale * std::sin(t), scale * std::sin(t),
+        scale * std::cos(t);
+    similarity.topRightCorner<2, 1>() = centre_view - similarity.topLeftCorner<2, 2>() * centre_view;
+    const Eigen::Matrix3d h = similarity * view_from_bits;
+    const auto peak = correlate(h);
+    if (peak && (!found || peak->best > found->best)) {
+      found = peak;
+      view_from_bits_found = h;
+      return true;
+    }
+    return false;
+  };
+  // Scales first, then turns at the best scale.
+  double best_scale = 1;
+  for (const double scale : {1.0, 0.96, 1.04, 0.92, 1.08}) {
+    if (try_similarity(scale, 0)) best_scale = scale;
+  }
+  for (const double turn_deg : {-4.0, 4.0}) try_similarity(best_scale, turn_deg);
+  if (!found || !(found->best >= options.min_score) || found->best - found->second < options.min_margin) {
+    return std::nullopt;
+  }
+  const double best = found->best, second = found->second;
+  const Eigen::Vector2d shift = found->shift;
+
+  // The whole pattern fitted to the raw pixels, its outer tag corners free.
+  const Eigen::Vector2d plane[4] = {{0, extent.y()}, {extent.x(), extent.y()}, {extent.x(), 0}, {0, 0}};
+  Eigen::Vector2d start[4];
+  for (int k = 0; k < 4; ++k) start[k] = Apply(view_from_bits_found, plane[k]) + shift;
+  TagPatternFitOptions fit_options;
+  fit_options.max_misfit = options.max_misfit;
+  fit_options.max_pixels = options.max_fit_pixels;
+  const auto fit = FitPatternRegion(grey, view, pattern, plane, lo, hi, start, fit_options);
+  if (!fit) return std::nullopt;
+  for (int k = 0; k < 4; ++k) {
+    if (!((fit->view_corners[k] - start[k]).norm() <= options.max_shift_pitches * pitch_view)) return std::nullopt;
+  }
+  TargetAlignment out;
+  out.view_from_plane = HomographyFrom(plane, fit->view_corners) * plane_mm_from_bits.inverse();
+  out.score = best;
+  out.second = second;
+  out.misfit = fit->misfit;
+  return out;
 }
 
 }  // namespace omni::detectors

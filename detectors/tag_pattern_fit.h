@@ -35,6 +35,7 @@ struct TagPatternFitOptions {
   // with these terms; the mechanism is not pinned down: a sharpened, black-clipped synthetic
   // tag is not helped by them).
   bool tone_terms = true;
+  int max_pixels = 0;  // > 0: a larger region fitted on a regular subset of its pixels
 };
 
 struct TagPatternFit {
@@ -44,7 +45,34 @@ struct TagPatternFit {
   int pixels = 0;              // raw pixels fitted
 };
 
-// Plain tag `tag_id` (absolute id) of `target` in `view` of a grey CV_32F raw image, its corners
+// A tag grid's whole printed pattern located in a view from a rough plane -> view homography
+// (guided detection's prediction from the other ring: 10-25 raw px off through the ideal design of
+// a misaligned rig, more than a pitch of the inner ring's smallest tags, whose junctions are too
+// close for saddle points). The pattern over its tags and most of the gaps round them, rendered
+// through the prediction at the view's blur, is correlated with the view (TM_CCOEFF_NORMED) over
+// translations within `radius_view_px`; the best must beat every translation half a pitch or more
+// from it by `min_margin`. Then the whole pattern is fitted to the raw pixels (as FitTagPattern
+// fits one tag) with the homography of its outer tag corners free.
+struct TargetAlignOptions {
+  double min_score = 0.5;    // the best translation's correlation
+  double min_margin = 0.1;   // best - best half a pitch or more away
+  double max_misfit = 0.15;  // the whole pattern's fit (rms / contrast)
+  // The fitted outer corners from the correlation's (the prediction's scale and turn are off
+  // too: 4-7 view px in hid1's inner ring), in tag pitches.
+  double max_shift_pitches = 0.25;
+  int max_fit_pixels = 2500;
+};
+struct TargetAlignment {
+  Eigen::Matrix3d view_from_plane = Eigen::Matrix3d::Identity();  // plane mm (CornerInTarget) -> view
+  double score = 0, second = 0, misfit = 0;
+};
+std::optional<TargetAlignment> AlignTargetPattern(const cv::Mat& grey, const RingView& view,
+                                                  const TargetSpec& target,
+                                                  const Eigen::Matrix3d& view_from_plane_mm,
+                                                  double radius_view_px,
+                                                  const TargetAlignOptions& options = {});
+
+// Tag `tag_id` (absolute id; plain or Kalibr) of `target` in `view` of a grey CV_32F raw image, its corners
 // approximately at `corners_in_view` (view pixels, k order). nullopt where the tag's pixels leave
 // the image or the view's map, or the fit fails its checks (options).
 std::optional<TagPatternFit> FitTagPattern(const cv::Mat& grey, const RingView& view,
