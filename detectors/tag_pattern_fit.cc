@@ -178,16 +178,26 @@ struct BlurredPattern {
     cv::filter2D(sharp, image, CV_32F, kernel, cv::Point(-1, -1), 0, cv::BORDER_REPLICATE);
   }
 
-  double At(const Eigen::Vector2d& bits) const {
+  // The value at `bits`, and its gradient (per bit) where `gradient` is given.
+  double At(const Eigen::Vector2d& bits, Eigen::Vector2d* gradient = nullptr) const {
     // A trial step's degenerate homography: NaN, which the fit's step test refuses.
-    if (!bits.allFinite()) return std::numeric_limits<double>::quiet_NaN();
-    const double u = std::clamp((bits.x() - lo.x()) * spb - 0.5, 0.0, image.cols - 1.001);
-    const double v = std::clamp((bits.y() - lo.y()) * spb - 0.5, 0.0, image.rows - 1.001);
+    if (!bits.allFinite()) {
+      if (gradient) gradient->setZero();
+      return std::numeric_limits<double>::quiet_NaN();
+    }
+    const double u_free = (bits.x() - lo.x()) * spb - 0.5, v_free = (bits.y() - lo.y()) * spb - 0.5;
+    const double u = std::clamp(u_free, 0.0, image.cols - 1.001);
+    const double v = std::clamp(v_free, 0.0, image.rows - 1.001);
     const int i = static_cast<int>(u), j = static_cast<int>(v);
     const double a = u - i, b = v - j;
     const float* r0 = image.ptr<float>(j);
     const float* r1 = image.ptr<float>(j + 1);
-    return (1 - b) * ((1 - a) * r0[i] + a * r0[i + 1]) + b * ((1 - a) * r1[i] + a * r1[i + 1]);
+    const double top = (1 - a) * r0[i] + a * r0[i + 1], bottom = (1 - a) * r1[i] + a * r1[i + 1];
+    if (gradient) {
+      const double du = (1 - b) * (r0[i + 1] - r0[i]) + b * (r1[i + 1] - r1[i]);
+      *gradient = Eigen::Vector2d(u == u_free ? du * spb : 0, v == v_free ? (bottom - top) * spb : 0);
+    }
+    return (1 - b) * top + b * bottom;
   }
 };
 
@@ -300,7 +310,7 @@ std::optional<RegionFit> FitPatternRegion(const cv::Mat& grey, const RingView& v
   p(8) = black;
   p(9) = white - black;
   double misfit = 0;
-  for (int round = 0; round < 5; ++round) {
+  for (int round = 0; round < options.max_rounds; ++round) {
     // d raw / d plane at the tag's centre: the pixel's blur (Gaussian sigma plus the pixel's box)
     // in bits.
     Eigen::Vector2d corners_now[4];
@@ -352,17 +362,34 @@ std::optional<RegionFit> FitPatternRegion(const cv::Mat& grey, const RingView& v
         (*r)(i) = q(8) + q(9) * b + q(11) * b * (1 - b) + q(12) * b * (1 - b) * (1 - 2 * b) - pixels[i].value;
       }
     };
-    Eigen::VectorXd r(n), b0(n), bd(n), r_try(n), r_step(n);
+    Eigen::VectorXd r(n), b0(n), bd(n), r_try(n);
     evaluate(p, &r, &b0, &bd);
     double cost = r.squaredNorm(), lambda = 1e-3;
     for (int it = 0; it < options.max_iterations; ++it) {
+      // The corners' columns by the chain rule: the pattern's gradient at each pixel's plane
+      // point times how that point moves with each corner (the homography redone per corner).
       Eigen::MatrixXd jacobian(n, 13);
-      constexpr double kStep = 0.01;  // view px
-      for (int k = 0; k < 8; ++k) {
-        Vector13 q = p;
-        q(k) += kStep;
-        evaluate(q, &r_step, nullptr, nullptr);
-        jacobian.col(k) = (r_step - r) / kStep;
+      {
+        constexpr double kStep = 0.01;  // view px
+        Eigen::Vector2d c[4];
+        for (int k = 0; k < 4; ++k) c[k] = view_corners[k] + p.segment<2>(2 * k);
+        const Eigen::Matrix3d plane_from_view = HomographyFrom(c, plane);
+        Eigen::Matrix3d moved[8];
+        for (int k = 0; k < 8; ++k) {
+          Eigen::Vector2d ck[4];
+          std::copy(c, c + 4, ck);
+          ck[k / 2](k % 2) += kStep;
+          moved[k] = HomographyFrom(ck, plane);
+        }
+        for (int i = 0; i < n; ++i) {
+          const Eigen::Vector2d bits = Apply(plane_from_view, pixels[i].view);
+          Eigen::Vector2d g0, g1;
+          const double v0 = at_sigma.At(bits, &g0), v1 = at_wider.At(bits, &g1);
+          const double b = v0 + p(10) * (v1 - v0);
+          const double dtone = p(9) + p(11) * (1 - 2 * b) + p(12) * (1 - 6 * b + 6 * b * b);
+          const Eigen::Vector2d g = dtone * (g0 + p(10) * (g1 - g0));
+          for (int k = 0; k < 8; ++k) jacobian(i, k) = g.dot(Apply(moved[k], pixels[i].view) - bits) / kStep;
+        }
       }
       const Eigen::ArrayXd b = (b0 + p(10) * bd).array();
       jacobian.col(8).setOnes();
@@ -470,14 +497,14 @@ std::optional<TargetAlignment> AlignTargetPattern(const cv::Mat& grey, const Rin
   const double blur = view.blur_sigma ? *view.blur_sigma : 1.0;
 
   // One correlation: the template is the pattern over the region as `h` (bits -> view) puts it
-  // in the view (3 x 3 samples per view pixel), blurred as the view is, pixels outside the
+  // in the view (2 x 2 samples per view pixel), blurred as the view is, pixels outside the
   // region masked; every translation within the radius (clipped to the view). The best
   // translation (view px, sub-pixel) and the best half a pitch or more from it.
   struct Peak {
     double best = -2, second = -2;
     Eigen::Vector2d shift = Eigen::Vector2d::Zero();
   };
-  const auto correlate = [&](const Eigen::Matrix3d& h) -> std::optional<Peak> {
+  const auto correlate = [&](const Eigen::Matrix3d& h, int f) -> std::optional<Peak> {
     const Eigen::Matrix3d h_inverse = h.inverse();
     Eigen::Vector2d v_lo(1e9, 1e9), v_hi(-1e9, -1e9);
     for (const Eigen::Vector2d& c : {lo, hi, Eigen::Vector2d(lo.x(), hi.y()), Eigen::Vector2d(hi.x(), lo.y())}) {
@@ -495,13 +522,13 @@ std::optional<TargetAlignment> AlignTargetPattern(const cv::Mat& grey, const Rin
     for (int y = 0; y < th; ++y) {
       for (int x = 0; x < tw; ++x) {
         double sum = 0;
-        for (int j = 0; j < 3; ++j) {
-          for (int i = 0; i < 3; ++i) {
-            const Eigen::Vector2d b = Apply(h_inverse, Eigen::Vector2d(tx0 + x + (i - 1) / 3.0, ty0 + y + (j - 1) / 3.0));
+        for (int j = 0; j < 2; ++j) {
+          for (int i = 0; i < 2; ++i) {
+            const Eigen::Vector2d b = Apply(h_inverse, Eigen::Vector2d(tx0 + x + (i - 0.5) / 2, ty0 + y + (j - 0.5) / 2));
             sum += pattern.At(b.x(), b.y());
           }
         }
-        templ.at<float>(y, x) = static_cast<float>(sum / 9);
+        templ.at<float>(y, x) = static_cast<float>(sum / 4);
         const Eigen::Vector2d b = Apply(h_inverse, Eigen::Vector2d(tx0 + x, ty0 + y));
         mask.at<float>(y, x) = (b - lo).minCoeff() >= 0 && (hi - b).minCoeff() >= 0 ? 1.0f : 0.0f;
       }
@@ -513,6 +540,13 @@ std::optional<TargetAlignment> AlignTargetPattern(const cv::Mat& grey, const Rin
     if (search.width < tw + 2 || search.height < th + 2) return std::nullopt;
     cv::Mat image, score;
     view.image(search).convertTo(image, CV_32F, 1.0 / 255);
+    if (f > 1) {  // at 1 / f of the resolution: the score only
+      cv::resize(image, image, cv::Size(), 1.0 / f, 1.0 / f, cv::INTER_AREA);
+      cv::resize(templ, templ, cv::Size(), 1.0 / f, 1.0 / f, cv::INTER_AREA);
+      cv::resize(mask, mask, cv::Size(), 1.0 / f, 1.0 / f, cv::INTER_AREA);
+      cv::threshold(mask, mask, 0.99, 1.0, cv::THRESH_BINARY);
+      if (image.cols < templ.cols || image.rows < templ.rows) return std::nullopt;
+    }
     cv::matchTemplate(image, templ, score, cv::TM_CCOEFF_NORMED, mask);
     Peak peak;
     cv::Point at;
@@ -525,7 +559,7 @@ std::optional<TargetAlignment> AlignTargetPattern(const cv::Mat& grey, const Rin
     for (int y = 0; y < score.rows; ++y) {
       for (int x = 0; x < score.cols; ++x) {
         const float s = score.at<float>(y, x);
-        if (std::isfinite(s) && std::hypot(x - at.x, y - at.y) >= 0.5 * pitch_view) peak.second = std::max<double>(peak.second, s);
+        if (std::isfinite(s) && f * std::hypot(x - at.x, y - at.y) >= 0.5 * pitch_view) peak.second = std::max<double>(peak.second, s);
       }
     }
     // Sub-pixel: a parabola per axis.
@@ -544,6 +578,8 @@ std::optional<TargetAlignment> AlignTargetPattern(const cv::Mat& grey, const Rin
   const Eigen::Vector2d centre_view = Apply(view_from_bits, 0.5 * extent);
   std::optional<Peak> found;
   Eigen::Matrix3d view_from_bits_found = view_from_bits;
+  const Eigen::Vector2d corner_view = Apply(view_from_bits, Eigen::Vector2d::Zero());
+  const int coarse = (Apply(view_from_bits, extent) - corner_view).norm() > 48 ? 2 : 1;
   const auto try_similarity = [&](double scale, double turn_deg) {
     const double t = turn_deg * M_PI / 180;
     Eigen::Matrix3d similarity = Eigen::Matrix3d::Identity();
@@ -551,7 +587,7 @@ std::optional<TargetAlignment> AlignTargetPattern(const cv::Mat& grey, const Rin
         scale * std::cos(t);
     similarity.topRightCorner<2, 1>() = centre_view - similarity.topLeftCorner<2, 2>() * centre_view;
     const Eigen::Matrix3d h = similarity * view_from_bits;
-    const auto peak = correlate(h);
+    const auto peak = correlate(h, coarse);
     if (peak && (!found || peak->best > found->best)) {
       found = peak;
       view_from_bits_found = h;
@@ -559,12 +595,14 @@ std::optional<TargetAlignment> AlignTargetPattern(const cv::Mat& grey, const Rin
     }
     return false;
   };
-  // Scales first, then turns at the best scale.
+  // Scales first, then turns at the best scale; at half the resolution where the target is
+  // large enough (the similarity is chosen there), then the chosen one at full resolution.
   double best_scale = 1;
   for (const double scale : {1.0, 0.96, 1.04, 0.92, 1.08}) {
     if (try_similarity(scale, 0)) best_scale = scale;
   }
   for (const double turn_deg : {-4.0, 4.0}) try_similarity(best_scale, turn_deg);
+  if (found && coarse > 1) found = correlate(view_from_bits_found, 1);
   if (!found || !(found->best >= options.min_score) || found->best - found->second < options.min_margin) {
     return std::nullopt;
   }
@@ -578,6 +616,10 @@ std::optional<TargetAlignment> AlignTargetPattern(const cv::Mat& grey, const Rin
   TagPatternFitOptions fit_options;
   fit_options.max_misfit = options.max_misfit;
   fit_options.max_pixels = options.max_fit_pixels;
+  // An alignment for the tags' own fits: the blur's first estimate and a coarser render do.
+  fit_options.max_rounds = 2;
+  fit_options.max_iterations = 12;
+  fit_options.samples_per_bit = 4;
   const auto fit = FitPatternRegion(grey, view, pattern, plane, lo, hi, start, fit_options);
   if (!fit) return std::nullopt;
   for (int k = 0; k < 4; ++k) {

@@ -27,7 +27,8 @@ struct TagPatternFitOptions {
   double max_shift_px = 1.5;        // a corner moved farther from its start: no fit
   double max_misfit = 0.12;         // rms misfit / fitted contrast above this: no fit
   double min_contrast = 0.05;       // fitted white - black (grey image's units)
-  int max_iterations = 25;
+  int max_iterations = 25;  // per round
+  int max_rounds = 5;        // of the blur's update (each round fits at the blur the last one found)
   // A cubic tone curve between the levels (value = black + contrast b + t1 b (1 - b) + t2 b (1 -
   // b) (1 - 2 b), b the blurred pattern): what a camera's demosaicing does to the levels near
   // edges, which linear levels alone read as the tag shrinking (OpenCV's edge-aware demosaic in
