@@ -714,6 +714,17 @@ std::vector<CornerObservation> GuideTarget(
     for (int r = 0; r < 3; ++r) {
       for (int c = 0; c < 3; ++c) h0e(r, c) = h0.at<double>(r, c);
     }
+    // Where the ring has the target already, only for a small one (the gap between tags in view
+    // px): a large one's missing corners are cut or unmeasurable, and its whole pattern costly.
+    if (static_cast<int>(own.ids.size()) >= options.min_seed_corners) {
+      const Eigen::Vector2d centre = 0.5 * SheetBounds(target).head<2>() + 0.5 * SheetBounds(target).tail<2>();
+      const double d = 0.01 * target.tag_size_mm;
+      const Eigen::Vector2d at = Apply(h0, centre);
+      const double px_per_mm = std::sqrt(std::abs(
+          (Apply(h0, centre + Eigen::Vector2d(d, 0)) - at).x() * (Apply(h0, centre + Eigen::Vector2d(0, d)) - at).y() -
+          (Apply(h0, centre + Eigen::Vector2d(d, 0)) - at).y() * (Apply(h0, centre + Eigen::Vector2d(0, d)) - at).x())) / d;
+      if (!(target.spacing * target.tag_size_mm * px_per_mm < options.pattern_below_gap_px)) return false;
+    }
     cv::Mat grey32;
     raw_grey.convertTo(grey32, CV_32F, 1.0 / 255);
     const double search = predicted_radius > 0 ? predicted_radius : options.pattern_search_px;
@@ -780,7 +791,8 @@ std::vector<CornerObservation> GuideTarget(
   const int missing = CornerCount(target) - static_cast<int>(own.ids.size());
   if (static_cast<int>(kept.size()) < options.pattern_when_found_below * missing) {
     refined.clear();
-    if (by_pattern()) {
+    const bool aligned = by_pattern();
+    if (aligned) {
       std::vector<CornerObservation> by_pattern_kept = checked();
       if (by_pattern_kept.size() > kept.size()) kept = std::move(by_pattern_kept);
     }

@@ -81,6 +81,10 @@ struct GuidedOptions {
   // ... tried where the saddles' guided corners are fewer than this fraction of the ring's
   // missing corners of the target (the better of the two kept).
   double pattern_when_found_below = 0.75;
+  // ... and where the ring has min_seed_corners of the target already, only if the gap between
+  // its tags is under this many view px (the inner ring's small tags; a large target's missing
+  // corners are cut or unmeasurable, and its whole pattern costs 0.1 s).
+  double pattern_below_gap_px = 10;
   int min_kept = 4;  // fewer guided corners of a target in a ring after the checks: none kept
   TagGridCheckOptions grid_check;
 };
