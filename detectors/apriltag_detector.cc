@@ -761,7 +761,18 @@ std::vector<TagCornerDetection> DetectTagCorners(const cv::Mat& raw_bgr,
     // Those corners cannot be measured and are dropped; the tag's whole X-junctions are kept
     // (the grid check below still judges each against the target's other corners).
     bool whole[4] = {true, true, true, true};
-    for (int k = 0; k < 4 && ok; ++k) {
+    bool kalibr_pattern = false;
+    if (t.layout == TargetType::kKalibrAprilGrid && options.fit_tag_pattern) {
+      double side = 1e9;
+      for (int k = 0; k < 4; ++k) side = std::min(side, (mapped[(k + 1) % 4] - mapped[k]).norm());
+      if (targets[target].spacing * side < options.kalibr_pattern_below_gap_px) {
+        if (const auto fit = FitTagPattern(grey, view, targets[target], t.tag_id, t.corners)) {
+          std::copy(fit->corners, fit->corners + 4, refined);
+          kalibr_pattern = true;
+        }
+      }
+    }
+    for (int k = 0; k < 4 && ok && !kalibr_pattern; ++k) {
       refined[k] = mapped[k];
       if (t.layout == TargetType::kKalibrAprilGrid) {
         // Kalibr's corners are X-junctions (kalibr_detector.h): saddle refinement in the raw

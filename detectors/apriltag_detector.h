@@ -88,6 +88,10 @@ struct TagDetectorOptions {
   // side 0.075 / 0.090 px, 0.2: 0.032 / 0.049, 0.25: 0.035 / 0.082, the blurred data bits in).
   bool kalibr_fit_junction = true;
   double kalibr_junction_window = 0.2;
+  // Kalibr tags whose gap (a corner square's side) is under this many raw px: the whole tag's
+  // pattern fitted instead (tag_pattern_fit.h; its junctions are too small for the junction
+  // window, and the corner squares carry the geometry); the junctions where it refuses.
+  double kalibr_pattern_below_gap_px = 4.5;
   // A Kalibr tag keeps the corners that are whole X-junctions in the raw image (the others are cut
   // by the ring's rim) if at least this many are.
   int kalibr_min_whole_corners = 2;
