@@ -24,6 +24,13 @@
 //  3. The best translations refined to homographies of their matched saddles (RANSAC, then
 //     least squares on the tight matches: the prediction's scale and turn are off too) and
 //     scored again; the best must beat every other alignment by the margin.
+//  2b. Tag grids the saddle points cannot align (junctions under ~3 view px apart, or too
+//     blurred to be saddles: the inner ring's 40-60 mm tags at 0.5-0.9 m, bits of ~1 raw px) are
+//     aligned by their whole printed pattern (tag_pattern_fit.h AlignTargetPattern: correlation
+//     over translations, scales and turns, then the pattern fitted to the raw pixels) and each
+//     tag measured by its own pattern fit (FitTagPattern), a tag whole or not at all. Tried where
+//     the saddles kept under pattern_when_found_below of the ring's missing corners; where the
+//     ring already has the target, only for a small one; the better of the two is kept.
 //  4. Each matched junction refined as the per-ring detector refines its kind: chessboards by
 //     cornerSubPix in the raw image (corner_refine.h, windows kept on their squares, curvature
 //     bias removed), Kalibr corners by cornerSubPix in the view mapped to raw, checked to be
