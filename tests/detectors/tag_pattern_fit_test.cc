@@ -5,7 +5,6 @@
 // there through the map's local Jacobian; it must find the corners the homography and map put.
 #include <algorithm>
 #include <cmath>
-#include <random>
 
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
@@ -13,31 +12,13 @@
 #include "detectors/kalibr_detector.h"
 #include "detectors/tag_pattern_fit.h"
 #include "model/target.h"
+#include "tests/detectors/bent_view.h"
 
 namespace omni::detectors {
 namespace {
 
-// view -> raw: a gentle quadratic bend about the image centre (a mirror's map is smooth on a
-// tag's scale), and its inverse by Newton.
-Eigen::Vector2d RawOfView(const Eigen::Vector2d& v) {
-  const Eigen::Vector2d d = v - Eigen::Vector2d(60, 60);
-  return v + Eigen::Vector2d(0.004 * d.x() * d.x() - 0.002 * d.x() * d.y(), 0.003 * d.y() * d.y() + 0.002 * d.x() * d.y());
-}
-
-Eigen::Vector2d ViewOfRawExact(const Eigen::Vector2d& raw) {
-  Eigen::Vector2d v = raw;
-  for (int it = 0; it < 30; ++it) {
-    const Eigen::Vector2d e = RawOfView(v) - raw;
-    Eigen::Matrix2d j;
-    for (int a = 0; a < 2; ++a) {
-      Eigen::Vector2d h = Eigen::Vector2d::Zero();
-      h(a) = 1e-5;
-      j.col(a) = (RawOfView(v + h) - RawOfView(v - h)) / 2e-5;
-    }
-    v -= j.inverse() * e;
-  }
-  return v;
-}
+// view -> raw: a gentle quadratic bend about the image centre.
+const testing::Bend kBend{Eigen::Vector2d(60, 60), 0.004, 0.002, 0.003};
 
 struct Scene {
   TargetSpec target;
@@ -63,49 +44,17 @@ Scene MakeScene(double bit_px, double sigma_px, double noise) {
       scale * std::cos(turn) * 0.9, 28.7, 0.0004, -0.0003, 1;
   s.view_from_plane = h;
   const int size = 120;
-  s.view.width = s.view.height = size;
-  s.view.map_x.create(size, size, CV_32F);
-  s.view.map_y.create(size, size, CV_32F);
-  for (int y = 0; y < size; ++y) {
-    for (int x = 0; x < size; ++x) {
-      const Eigen::Vector2d raw = RawOfView(Eigen::Vector2d(x, y));
-      s.view.map_x.at<float>(y, x) = static_cast<float>(raw.x());
-      s.view.map_y.at<float>(y, x) = static_cast<float>(raw.y());
-    }
-  }
+  s.view = kBend.MakeView(size);
   const TagLayout layout = PlainTagLayout();
-  const Eigen::Matrix3d plane_from_view = h.inverse();
   const double pitch = TagPitch(s.target), bit = s.target.tag_size_mm / 8;
-  cv::Mat sharp(size, size, CV_32F);
-  constexpr int kSub = 8;
-  for (int y = 0; y < size; ++y) {
-    for (int x = 0; x < size; ++x) {
-      double sum = 0;
-      for (int j = 0; j < kSub; ++j) {
-        for (int i = 0; i < kSub; ++i) {
-          const Eigen::Vector2d raw(x - 0.5 + (i + 0.5) / kSub, y - 0.5 + (j + 0.5) / kSub);
-          const Eigen::Vector3d q = plane_from_view * ViewOfRawExact(raw).homogeneous();
-          const Eigen::Vector2d mm = q.head<2>() / q.z();
-          const int c = static_cast<int>(std::floor(mm.x() / pitch)), r = static_cast<int>(std::floor(mm.y() / pitch));
-          double value = 1;
-          if (r >= 0 && c >= 0 && r < 2 && c < 2) {
-            const double lx = (mm.x() - c * pitch) / bit, ly = (mm.y() - r * pitch) / bit;
-            if (lx < 8 && ly < 8) {
-              value = TagCellValue(TagIdAt(s.target, r, c), layout, static_cast<int>(lx), static_cast<int>(ly));
-            }
-          }
-          sum += value;
-        }
-      }
-      sharp.at<float>(y, x) = static_cast<float>(0.1 + 0.8 * sum / (kSub * kSub));
-    }
-  }
-  cv::GaussianBlur(sharp, s.grey, cv::Size(0, 0), sigma_px);
-  std::mt19937 rng(7);
-  std::normal_distribution<float> gauss(0.0f, static_cast<float>(noise));
-  for (int y = 0; y < size; ++y) {
-    for (int x = 0; x < size; ++x) s.grey.at<float>(y, x) += gauss(rng);
-  }
+  const auto value_at = [&](const Eigen::Vector2d& mm) {
+    const int c = static_cast<int>(std::floor(mm.x() / pitch)), r = static_cast<int>(std::floor(mm.y() / pitch));
+    if (r < 0 || c < 0 || r >= 2 || c >= 2) return 1.0;
+    const double lx = (mm.x() - c * pitch) / bit, ly = (mm.y() - r * pitch) / bit;
+    if (lx >= 8 || ly >= 8) return 1.0;
+    return static_cast<double>(TagCellValue(TagIdAt(s.target, r, c), layout, static_cast<int>(lx), static_cast<int>(ly)));
+  };
+  s.grey = testing::RenderRaw(kBend, h.inverse(), size, value_at, sigma_px, noise, 7);
   return s;
 }
 
@@ -121,7 +70,7 @@ std::optional<TagPatternFit> Fit(const Scene& s, int tag_at, int tag_id, Eigen::
   const Eigen::Vector2d off[4] = {{0.6, -0.2}, {-0.3, 0.5}, {0.4, 0.4}, {-0.5, -0.3}};
   for (int k = 0; k < 4; ++k) {
     const Eigen::Vector2d v = Apply(s.view_from_plane, CornerInTarget(s.target, 4 * tag_at + k));
-    truth[k] = RawOfView(v);
+    truth[k] = kBend.RawOf(v);
     start[k] = v + off[k];
   }
   return FitTagPattern(s.grey, s.view, s.target, tag_id, start, options);

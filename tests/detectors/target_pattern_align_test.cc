@@ -8,7 +8,6 @@
 // junctions are too close for saddle points).
 #include <cmath>
 #include <cstdio>
-#include <random>
 
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
@@ -16,29 +15,12 @@
 #include "detectors/tag_pattern_fit.h"
 #include "model/target.h"
 #include "synthetic/tag_texture.h"
+#include "tests/detectors/bent_view.h"
 
 namespace omni::detectors {
 namespace {
 
-Eigen::Vector2d RawOfView(const Eigen::Vector2d& v) {
-  const Eigen::Vector2d d = v - Eigen::Vector2d(80, 80);
-  return v + Eigen::Vector2d(0.002 * d.x() * d.x() - 0.001 * d.x() * d.y(), 0.0015 * d.y() * d.y() + 0.001 * d.x() * d.y());
-}
-
-Eigen::Vector2d ViewOfRawExact(const Eigen::Vector2d& raw) {
-  Eigen::Vector2d v = raw;
-  for (int it = 0; it < 6; ++it) {  // Newton: converged to 1e-12 px in 4
-    const Eigen::Vector2d e = RawOfView(v) - raw;
-    Eigen::Matrix2d j;
-    for (int a = 0; a < 2; ++a) {
-      Eigen::Vector2d h = Eigen::Vector2d::Zero();
-      h(a) = 1e-5;
-      j.col(a) = (RawOfView(v + h) - RawOfView(v - h)) / 2e-5;
-    }
-    v -= j.inverse() * e;
-  }
-  return v;
-}
+const testing::Bend kBend{Eigen::Vector2d(80, 80), 0.002, 0.001, 0.0015};
 
 Eigen::Vector2d Apply(const Eigen::Matrix3d& h, const Eigen::Vector2d& p) {
   const Eigen::Vector3d q = h * p.homogeneous();
@@ -63,43 +45,16 @@ Scene MakeScene(const TargetSpec& target, double px_per_mm, double sigma_px, dou
       px_per_mm * std::cos(turn) * 0.95, 47.9, 0.0003, -0.0002, 1;
   s.view_from_plane = h;
   const int size = 160;
-  s.view.width = s.view.height = size;
-  s.view.map_x.create(size, size, CV_32F);
-  s.view.map_y.create(size, size, CV_32F);
-  for (int y = 0; y < size; ++y) {
-    for (int x = 0; x < size; ++x) {
-      const Eigen::Vector2d raw = RawOfView(Eigen::Vector2d(x, y));
-      s.view.map_x.at<float>(y, x) = static_cast<float>(raw.x());
-      s.view.map_y.at<float>(y, x) = static_cast<float>(raw.y());
-    }
-  }
+  s.view = kBend.MakeView(size);
   const synthetic::TagTexture sheet = synthetic::MakeTagTexture(target, 8);
   const Eigen::Vector4d bounds = SheetBounds(target);  // the texture's (0, 0) is (x0, y0)
-  const Eigen::Matrix3d plane_from_view = h.inverse();
-  cv::Mat sharp(size, size, CV_32F);
-  constexpr int kSub = 8;
-  for (int y = 0; y < size; ++y) {
-    for (int x = 0; x < size; ++x) {
-      double sum = 0;
-      for (int j = 0; j < kSub; ++j) {
-        for (int i = 0; i < kSub; ++i) {
-          const Eigen::Vector2d raw(x - 0.5 + (i + 0.5) / kSub, y - 0.5 + (j + 0.5) / kSub);
-          const Eigen::Vector2d mm = Apply(plane_from_view, ViewOfRawExact(raw));
-          const int u = static_cast<int>(std::floor((mm.x() - bounds(0)) / sheet.mm_per_pixel));
-          const int v = static_cast<int>(std::floor((mm.y() - bounds(1)) / sheet.mm_per_pixel));
-          const bool on_sheet = u >= 0 && v >= 0 && u < sheet.image.cols && v < sheet.image.rows;
-          sum += on_sheet ? sheet.image.at<uchar>(v, u) / 255.0 : 0.45;  // a grey room beyond the sheet
-        }
-      }
-      sharp.at<float>(y, x) = static_cast<float>(0.1 + 0.8 * sum / (kSub * kSub));
-    }
-  }
-  cv::GaussianBlur(sharp, s.grey, cv::Size(0, 0), sigma_px);
-  std::mt19937 rng(11);
-  std::normal_distribution<float> gauss(0.0f, static_cast<float>(noise));
-  for (int y = 0; y < size; ++y) {
-    for (int x = 0; x < size; ++x) s.grey.at<float>(y, x) += gauss(rng);
-  }
+  const auto value_at = [&](const Eigen::Vector2d& mm) {
+    const int u = static_cast<int>(std::floor((mm.x() - bounds(0)) / sheet.mm_per_pixel));
+    const int v = static_cast<int>(std::floor((mm.y() - bounds(1)) / sheet.mm_per_pixel));
+    const bool on_sheet = u >= 0 && v >= 0 && u < sheet.image.cols && v < sheet.image.rows;
+    return on_sheet ? sheet.image.at<uchar>(v, u) / 255.0 : 0.45;  // a grey room beyond the sheet
+  };
+  s.grey = testing::RenderRaw(kBend, h.inverse(), size, value_at, sigma_px, noise, 11);
   // The view image (the view's map is the raw image's here, ~1:1) and its blur.
   cv::Mat view32;
   cv::remap(s.grey, view32, s.view.map_x, s.view.map_y, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
@@ -130,7 +85,7 @@ void FitTags(const Scene& s, const TargetAlignment& aligned, double* rms, double
     for (int k = 0; k < 4; ++k) {
       const Eigen::Vector2d plane = CornerInTarget(s.target, 4 * tag + k).head<2>();
       in_view[k] = Apply(aligned.view_from_plane, plane);
-      truth[k] = RawOfView(Apply(s.view_from_plane, plane));
+      truth[k] = kBend.RawOf(Apply(s.view_from_plane, plane));
     }
     const auto fit = FitTagPattern(s.grey, s.view, s.target, tag, in_view);
     if (!fit) continue;
