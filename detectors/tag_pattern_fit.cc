@@ -503,6 +503,7 @@ std::optional<TargetAlignment> AlignTargetPattern(const cv::Mat& grey, const Rin
   struct Peak {
     double best = -2, second = -2;
     Eigen::Vector2d shift = Eigen::Vector2d::Zero();
+    Eigen::Vector2d second_shift = Eigen::Vector2d::Zero();  // to a view pixel
   };
   const auto correlate = [&](const Eigen::Matrix3d& h, int f) -> std::optional<Peak> {
     const Eigen::Matrix3d h_inverse = h.inverse();
@@ -559,7 +560,10 @@ std::optional<TargetAlignment> AlignTargetPattern(const cv::Mat& grey, const Rin
     for (int y = 0; y < score.rows; ++y) {
       for (int x = 0; x < score.cols; ++x) {
         const float s = score.at<float>(y, x);
-        if (std::isfinite(s) && f * std::hypot(x - at.x, y - at.y) >= 0.5 * pitch_view) peak.second = std::max<double>(peak.second, s);
+        if (std::isfinite(s) && f * std::hypot(x - at.x, y - at.y) >= 0.5 * pitch_view && s > peak.second) {
+          peak.second = s;
+          peak.second_shift = Eigen::Vector2d(search.x + f * x - tx0, search.y + f * y - ty0);
+        }
       }
     }
     // Sub-pixel: a parabola per axis.
@@ -603,7 +607,7 @@ std::optional<TargetAlignment> AlignTargetPattern(const cv::Mat& grey, const Rin
   }
   for (const double turn_deg : {-4.0, 4.0}) try_similarity(best_scale, turn_deg);
   if (found && coarse > 1) found = correlate(view_from_bits_found, 1);
-  if (!found || !(found->best >= options.min_score) || found->best - found->second < options.min_margin) {
+  if (!found || !(found->best >= options.min_score) || found->best - found->second < options.min_margin_to_fit) {
     return std::nullopt;
   }
   const double best = found->best, second = found->second;
@@ -611,8 +615,6 @@ std::optional<TargetAlignment> AlignTargetPattern(const cv::Mat& grey, const Rin
 
   // The whole pattern fitted to the raw pixels, its outer tag corners free.
   const Eigen::Vector2d plane[4] = {{0, extent.y()}, {extent.x(), extent.y()}, {extent.x(), 0}, {0, 0}};
-  Eigen::Vector2d start[4];
-  for (int k = 0; k < 4; ++k) start[k] = Apply(view_from_bits_found, plane[k]) + shift;
   TagPatternFitOptions fit_options;
   fit_options.max_misfit = options.max_misfit;
   fit_options.max_pixels = options.max_fit_pixels;
@@ -620,10 +622,25 @@ std::optional<TargetAlignment> AlignTargetPattern(const cv::Mat& grey, const Rin
   fit_options.max_rounds = 2;
   fit_options.max_iterations = 12;
   fit_options.samples_per_bit = 4;
-  const auto fit = FitPatternRegion(grey, view, pattern, plane, lo, hi, start, fit_options);
+  // The whole pattern fitted from `shift`; nullopt where it fails or moves too far.
+  const auto fit_from = [&](const Eigen::Vector2d& from) -> std::optional<RegionFit> {
+    Eigen::Vector2d at[4];
+    for (int k = 0; k < 4; ++k) at[k] = Apply(view_from_bits_found, plane[k]) + from;
+    auto fit = FitPatternRegion(grey, view, pattern, plane, lo, hi, at, fit_options);
+    for (int k = 0; k < 4 && fit; ++k) {
+      if (!((fit->view_corners[k] - at[k]).norm() <= options.max_shift_pitches * pitch_view)) fit.reset();
+    }
+    return fit;
+  };
+  const auto fit = fit_from(shift);
   if (!fit) return std::nullopt;
-  for (int k = 0; k < 4; ++k) {
-    if (!((fit->view_corners[k] - start[k]).norm() <= options.max_shift_pitches * pitch_view)) return std::nullopt;
+  // A close runner-up (an elongated grid shifted by a pitch along its length still overlaps
+  // most of itself): the pattern fitted there too must fit clearly worse, or land where the
+  // best did.
+  if (found->best - found->second < options.min_margin) {
+    const auto other = fit_from(found->second_shift);
+    const bool same = other && (other->view_corners[3] - fit->view_corners[3]).norm() < 0.25 * pitch_view;
+    if (other && !same && !(other->misfit >= options.min_misfit_ratio * fit->misfit)) return std::nullopt;
   }
   TargetAlignment out;
   out.view_from_plane = HomographyFrom(plane, fit->view_corners) * plane_mm_from_bits.inverse();

@@ -57,6 +57,10 @@ struct TagPatternFit {
 struct TargetAlignOptions {
   double min_score = 0.5;    // the best translation's correlation
   double min_margin = 0.1;   // best - best half a pitch or more away
+  // Under min_margin (but at least min_margin_to_fit) the pattern is fitted at both and the
+  // runner-up's misfit must be this many times the best's (or its fit fail, or land at the best).
+  double min_margin_to_fit = 0.03;
+  double min_misfit_ratio = 1.5;
   double max_misfit = 0.15;  // the whole pattern's fit (rms / contrast)
   // The fitted outer corners from the correlation's (the prediction's scale and turn are off
   // too: 4-7 view px in hid1's inner ring), in tag pitches.
