@@ -136,7 +136,7 @@ TEST(AlignTargetPattern, FindsAPlainGridOfSmallTags) {
   t.spacing = 0.25;
   t.first_id = 40;
   // 8-bit tags of ~1.5 px bits.
-  const Scene s = MakeScene(t, 0.22, 1.2, 0.03);
+  const Scene s = MakeScene(t, 0.2, 0.9, 0.01);
   const auto aligned = AlignTargetPattern(s.grey, s.view, s.target, Predicted(s, {-5.0, 7.0}, 0.97, -3.0), 15);
   ASSERT_TRUE(aligned.has_value());
   double rms = 0, worst = 0;
