@@ -654,7 +654,9 @@ std::vector<TagCornerDetection> DetectTagCorners(const cv::Mat& raw_bgr,
     std::vector<ViewTag> in_crop;
     const double blur = view.blur_sigma ? *view.blur_sigma : 0.0;
     if (want_plain) {
-      in_crop = DetectPlainTags(crop, static_cast<int>(v), options.quad_decimate, blur, options);
+      const float decimate =
+          view.mirror == Mirror::kTwo ? options.inner_ring_quad_decimate : options.quad_decimate;
+      in_crop = DetectPlainTags(crop, static_cast<int>(v), decimate, blur, options);
       // Blurred views: libapriltag's quad finder misses small blurred tags (realistic_scene's
       // 45 mm tags at 0.3-0.45 m in the inner ring, ~2 raw px per bit); outlines of our own,
       // read by their blurred pattern, for tags it did not read.
