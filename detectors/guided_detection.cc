@@ -8,6 +8,7 @@
 
 #include <Eigen/Geometry>
 #include <opencv2/calib3d.hpp>
+#include <opencv2/core/eigen.hpp>
 
 #include "model/pose/initial_pose.h"
 #include "detectors/apriltag_detector.h"
@@ -320,7 +321,7 @@ std::vector<CornerObservation> KalibrBeyondTheView(const cv::Mat& raw_grey, cons
 
 // Guided corners of target `ti` in ring `dest` from its corners in the other ring.
 std::vector<CornerObservation> GuideTarget(
-    const cv::Mat& raw_grey, const std::vector<RingView>& views, const RigModel& model,
+    const cv::Mat& raw_grey, const cv::Mat& raw_grey32, const std::vector<RingView>& views, const RigModel& model,
     const std::vector<TargetSpec>& targets, int ti, const Lattice& lattice, const Seeds& source,
     Mirror source_mirror, const Seeds& own, Mirror dest, const GuidedOptions& options) {
   std::vector<CornerObservation> out;
@@ -333,7 +334,7 @@ std::vector<CornerObservation> GuideTarget(
   // enough, else from the pose the source ring gives.
   cv::Mat h0;
   int v = -1;
-  double radius = 0;  // translation search radius (view px)
+  double radius = 0;  // translation search radius (view px); 0: h0 from the ring's own corners
   std::vector<std::optional<Eigen::Vector2d>> in_view;
   if (static_cast<int>(own.ids.size()) >= options.min_seed_corners) {
     v = BestView(views, model, dest, own.raw, &in_view);
@@ -383,7 +384,6 @@ std::vector<CornerObservation> GuideTarget(
   // 2-4: the target aligned in the view (h: plane -> view) and its corners refined there.
   cv::Mat h;
   std::map<int, Eigen::Vector2d> refined;  // id -> raw pixel
-  const double predicted_radius = radius;  // 0: h0 from the ring's own corners
   const auto by_saddles = [&]() -> bool {
     // Which diagonal is dark at parity-0 junctions in the source ring (its view, its corners'
     // homography there): a one-square shift of a chessboard (Kalibr: a gap's) flips it.
@@ -433,12 +433,12 @@ std::vector<CornerObservation> GuideTarget(
     const double spacing = nearest[nearest.size() / 2];
     const double tolerance = options.match_fraction * spacing;
     if (!(tolerance >= 1.0)) return false;  // junctions under ~3 view px apart: not searched
-    if (radius == 0) radius = 1.5 * tolerance;
+    const double search_radius = radius > 0 ? radius : 1.5 * tolerance;
     double x0 = 1e18, y0 = 1e18, x1 = -1e18, y1 = -1e18;
     for (const auto& p : extension) {
       x0 = std::min(x0, p.x()), y0 = std::min(y0, p.y()), x1 = std::max(x1, p.x()), y1 = std::max(y1, p.y());
     }
-    const double pad = radius + spacing;
+    const double pad = search_radius + spacing;
     const cv::Rect roi = cv::Rect(cv::Point(static_cast<int>(x0 - pad), static_cast<int>(y0 - pad)),
                                   cv::Point(static_cast<int>(x1 + pad) + 1, static_cast<int>(y1 + pad) + 1)) &
                          cv::Rect(0, 0, view.width, view.height);
@@ -487,7 +487,7 @@ std::vector<CornerObservation> GuideTarget(
     for (const auto& p : predicted) {
       for (const auto& s : saddles) {
         const Eigen::Vector2d shift = s - p;
-        if (shift.norm() > radius) continue;
+        if (shift.norm() > search_radius) continue;
         const std::pair<long, long> key{std::lround(2 * shift.x() / tolerance),
                                         std::lround(2 * shift.y() / tolerance)};
         if (!tried.insert(key).second) continue;
@@ -613,8 +613,6 @@ std::vector<CornerObservation> GuideTarget(
       // (FitTagPattern), else the four edges (RefineTagCorners; the data bits behind the border
       // from the code of the tag's place), from the corners the alignment puts there; a tag whole
       // or not at all.
-      cv::Mat grey32;
-      raw_grey.convertTo(grey32, CV_32F, 1.0 / 255);
       TagDetectorOptions tag_options;
       const bool blurred = view.blur_sigma && *view.blur_sigma >= tag_options.blurred_view_sigma;
       if (!blurred) tag_options.edge_fit_reach_in_blurred = tag_options.edge_fit_reach_in;
@@ -637,11 +635,11 @@ std::vector<CornerObservation> GuideTarget(
         Eigen::Vector2d in_view[4];
         for (int k = 0; k < 4; ++k) in_view[k] = Apply(h, lattice.corners[index_of[4 * tag + k]].plane);
         const auto pattern_fit = tag_options.fit_tag_pattern && blurred
-                                     ? FitTagPattern(grey32, view, target, tag, in_view)
+                                     ? FitTagPattern(raw_grey32, view, target, tag, in_view)
                                      : std::nullopt;
         if (pattern_fit) {
           std::copy(pattern_fit->corners, pattern_fit->corners + 4, fitted);
-        } else if (!RefineTagCorners(grey32, corners, curvature, 1.0 / PlainTagLayout().bits, target.spacing,
+        } else if (!RefineTagCorners(raw_grey32, corners, curvature, 1.0 / PlainTagLayout().bits, target.spacing,
                                      tag_options, fitted, tag)) {
           continue;
         }
@@ -711,29 +709,22 @@ std::vector<CornerObservation> GuideTarget(
   const auto by_pattern = [&]() -> bool {
     if (target.type == TargetType::kChessboard || !options.pattern_alignment) return false;
     Eigen::Matrix3d h0e;
-    for (int r = 0; r < 3; ++r) {
-      for (int c = 0; c < 3; ++c) h0e(r, c) = h0.at<double>(r, c);
-    }
+    cv::cv2eigen(h0, h0e);
     // Where the ring has the target already, only for a small one (the gap between tags in view
     // px): a large one's missing corners are cut or unmeasurable, and its whole pattern costly.
     if (static_cast<int>(own.ids.size()) >= options.min_seed_corners) {
       const Eigen::Vector2d centre = 0.5 * SheetBounds(target).head<2>() + 0.5 * SheetBounds(target).tail<2>();
       const double d = 0.01 * target.tag_size_mm;
       const Eigen::Vector2d at = Apply(h0, centre);
-      const double px_per_mm = std::sqrt(std::abs(
-          (Apply(h0, centre + Eigen::Vector2d(d, 0)) - at).x() * (Apply(h0, centre + Eigen::Vector2d(0, d)) - at).y() -
-          (Apply(h0, centre + Eigen::Vector2d(d, 0)) - at).y() * (Apply(h0, centre + Eigen::Vector2d(0, d)) - at).x())) / d;
+      Eigen::Matrix2d jacobian;  // view px per mm at the target's centre
+      jacobian << Apply(h0, centre + Eigen::Vector2d(d, 0)) - at, Apply(h0, centre + Eigen::Vector2d(0, d)) - at;
+      const double px_per_mm = std::sqrt(std::abs(jacobian.determinant())) / d;
       if (!(target.spacing * target.tag_size_mm * px_per_mm < options.pattern_below_gap_px)) return false;
     }
-    cv::Mat grey32;
-    raw_grey.convertTo(grey32, CV_32F, 1.0 / 255);
-    const double search = predicted_radius > 0 ? predicted_radius : options.pattern_search_px;
-    const auto aligned = AlignTargetPattern(grey32, view, target, h0e, search);
+    const double search = radius > 0 ? radius : options.pattern_search_px;
+    const auto aligned = AlignTargetPattern(raw_grey32, view, target, h0e, search);
     if (!aligned) return false;
-    h = cv::Mat(3, 3, CV_64F);
-    for (int r = 0; r < 3; ++r) {
-      for (int c = 0; c < 3; ++c) h.at<double>(r, c) = aligned->view_from_plane(r, c);
-    }
+    cv::eigen2cv(Eigen::Matrix3d(aligned->view_from_plane), h);
     std::set<int> tags;
     for (const Junction& j : lattice.corners) tags.insert(j.id / 4);
     for (const int tag : tags) {
@@ -744,7 +735,7 @@ std::vector<CornerObservation> GuideTarget(
         in_view[k] = Apply(h, CornerInTarget(target, 4 * tag + k).head<2>());
       }
       if (!wanted) continue;
-      const auto fit = FitTagPattern(grey32, view, target, tag, in_view);
+      const auto fit = FitTagPattern(raw_grey32, view, target, tag, in_view);
       if (!fit) continue;
       for (int k = 0; k < 4; ++k) {
         if (!have.count(4 * tag + k)) refined[4 * tag + k] = fit->corners[k];
@@ -810,6 +801,7 @@ std::vector<CornerObservation> GuidedCorners(const cv::Mat& raw_grey,
                                                  const GuidedOptions& options) {
   std::vector<CornerObservation> out;
   if (!options.enabled) return out;
+  cv::Mat raw_grey32;  // CV_32F, made once, when a target is first guided
   for (size_t ti = 0; ti < targets.size(); ++ti) {
     const TargetSpec& target = targets[ti];
     const std::optional<Lattice> lattice = LatticeOf(target);
@@ -839,7 +831,8 @@ std::vector<CornerObservation> GuidedCorners(const cv::Mat& raw_grey,
       if (static_cast<int>(ring[d].ids.size()) >= CornerCount(target)) continue;
       const Mirror dest = d == 0 ? Mirror::kOne : Mirror::kTwo;
       const Mirror from = d == 0 ? Mirror::kTwo : Mirror::kOne;
-      for (CornerObservation& o : GuideTarget(raw_grey, views, model, targets, static_cast<int>(ti),
+      if (raw_grey32.empty()) raw_grey.convertTo(raw_grey32, CV_32F, 1.0 / 255);
+      for (CornerObservation& o : GuideTarget(raw_grey, raw_grey32, views, model, targets, static_cast<int>(ti),
                                                   *lattice, source, from, ring[d], dest, options)) {
         // Not where the ring already has a corner of another target.
         bool taken = false;
