@@ -53,7 +53,7 @@ struct LipDetectorOptions {
   double min_relative = 0.4;     // contrast and paint likeness over their neighbours' median
   double min_contrast = 2;       // levels (0..255): below this a linear 8-bit edge is quantisation
   double ransac_inlier_px = 0.5; // ellipse fit: Sampson distance of an inlier
-  int ransac_iterations = 300;
+  int ransac_iterations = 300;  // at most: fewer once 5 inliers were surely drawn
   int min_points = 30;           // fewer inliers: the edge is dropped
   bool chroma_halved = false;    // the image's chroma had half the luma's resolution (JPEG)
   cv::Mat luma;                  // with chroma_halved: the file's Y' plane (8-bit) if known
