@@ -776,8 +776,33 @@ std::vector<CornerObservation> GuideTarget(
     }
     return kept;
   };
+  // A tag grid's saddle alignment read against the printed codes: the junctions of a grid of
+  // small tags repeat every pitch, so where the prediction is a pitch or more off (the ideal
+  // design's on a built rig) the translation most junctions agree on may be a pitch off, with
+  // every id wrong (hid3: a 4 x 4 Kalibr grid of 35 mm tags at 0.4 m in the inner ring, 17
+  // corners a tag or a row off). The whole pattern aligned from there, over 1.5 pitches, must
+  // succeed and stay where the saddles put it (there the pattern failed its fit or scored under
+  // 0.5: the ids cannot be told, and no corners beat wrong ones).
+  // Where the ring's own decoded corners placed the lattice (radius 0) its ids are anchored.
+  const auto saddles_read_as_the_code = [&]() {
+    if (target.type == TargetType::kChessboard || !options.pattern_alignment || radius <= 0) return true;
+    const Eigen::Vector2d centre = 0.5 * SheetBounds(target).head<2>() + 0.5 * SheetBounds(target).tail<2>();
+    const double d = 0.01 * target.tag_size_mm;
+    const Eigen::Vector2d at = Apply(h, centre);
+    Eigen::Matrix2d jacobian;  // view px per mm at the target's centre
+    jacobian << Apply(h, centre + Eigen::Vector2d(d, 0)) - at, Apply(h, centre + Eigen::Vector2d(0, d)) - at;
+    const double pitch_view = (1 + target.spacing) * target.tag_size_mm * std::sqrt(std::abs(jacobian.determinant())) / d;
+    if (!(target.spacing * pitch_view / (1 + target.spacing) < options.pattern_below_gap_px)) return true;
+    Eigen::Matrix3d he;
+    cv::cv2eigen(h, he);
+    const auto aligned = AlignTargetPattern(raw_grey32, view, target, he, 1.5 * pitch_view);
+    return aligned && ((aligned->view_from_plane * centre.homogeneous()).hnormalized() - at).norm() < 0.5 * pitch_view;
+  };
   std::vector<CornerObservation> kept;
-  if (by_saddles()) kept = checked();
+  if (by_saddles()) {
+    kept = checked();
+    if (!kept.empty() && !saddles_read_as_the_code()) kept.clear();
+  }
   // The pattern where the saddles left most of the target's missing corners out.
   const int missing = CornerCount(target) - static_cast<int>(own.ids.size());
   if (static_cast<int>(kept.size()) < options.pattern_when_found_below * missing) {
