@@ -158,8 +158,8 @@ void Calibrator::InitialiseLipAzimuths() {
   }
 }
 
-// Normal points: the lip edge points of all images binned by azimuth (kLipSpacingDeg) on each
-// edge (path and circle), each bin replaced by the mean of its points. The rig does not move, so
+// Normal points: the lip edge points of all images binned by azimuth (bins at most
+// kLipSpacingDeg wide, one per detector profile) on each edge (path and circle), each bin replaced by the mean of its points. The rig does not move, so
 // every image shows the same edges at the same pixels: a bin's points are repeated measurements
 // of one short piece of one curve (its sagitta over 0.25 deg is ~1e-6 px), and their mean keeps
 // what they say across the edge (white noise averages as over the points; a detector's bias,
@@ -179,15 +179,38 @@ void Calibrator::NormalLipPoints() {
   std::vector<LipObservation> normal;
   int members = 0;
   for (auto& [key, indices] : edges) {
-    std::map<long, std::vector<size_t>> bins;
+    // Bins: runs of the azimuth-sorted points at most `bin` wide, split wherever neighbours lie
+    // more than half of it apart. The detector measures every image on the same profiles, so
+    // one profile's points across the images (~0.001 deg apart) share a bin wherever the
+    // profiles fall; fixed bins split them when the profiles' azimuths sat on the bins' edges
+    // (detections made with the calibrated model: 1814 -> 3311 normal points, the lips'
+    // per-edge bias read 0.10 -> 0.21 px and the projection uncertainty 1.5x).
+    std::vector<std::pair<double, size_t>> by_azimuth;
     for (size_t i : indices) {
-      const double phi = lips_[i].phi[0] - 2 * M_PI * std::floor(lips_[i].phi[0] / (2 * M_PI));
-      bins[static_cast<long>(phi / bin)].push_back(i);
+      by_azimuth.emplace_back(lips_[i].phi[0] - 2 * M_PI * std::floor(lips_[i].phi[0] / (2 * M_PI)), i);
+    }
+    std::sort(by_azimuth.begin(), by_azimuth.end());
+    std::vector<std::vector<size_t>> bins;
+    double start = 0, previous = 0;
+    for (const auto& [phi, i] : by_azimuth) {
+      if (bins.empty() || phi - previous > 0.5 * bin || phi - start > bin) {
+        bins.emplace_back();
+        start = phi;
+      }
+      bins.back().push_back(i);
+      previous = phi;
+    }
+    // A profile at azimuth 0 gives points on both sides of the wrap.
+    if (bins.size() > 1 && by_azimuth.front().first + 2 * M_PI - by_azimuth.back().first <= 0.5 * bin &&
+        by_azimuth.front().first + 2 * M_PI - by_azimuth[by_azimuth.size() - bins.back().size()].first <= bin) {
+      bins.front().insert(bins.front().end(), bins.back().begin(), bins.back().end());
+      bins.pop_back();
     }
     // Each bin's median offset across the edge, and the edge's robust scatter about them.
-    std::map<long, double> bin_median;
+    std::vector<double> bin_median(bins.size());
     std::vector<double> deviations;
-    for (auto& [b, in_bin] : bins) {
+    for (size_t b = 0; b < bins.size(); ++b) {
+      const std::vector<size_t>& in_bin = bins[b];
       std::vector<double> offsets;
       for (size_t i : in_bin) offsets.push_back(lips_[i].across);
       std::sort(offsets.begin(), offsets.end());
@@ -201,7 +224,8 @@ void Calibrator::NormalLipPoints() {
     const double limit =
         deviations.empty() ? HUGE_VAL
                            : std::max(5 * 1.4826 * deviations[deviations.size() / 2], 1e-3);
-    for (auto& [b, in_bin] : bins) {
+    for (size_t b = 0; b < bins.size(); ++b) {
+      const std::vector<size_t>& in_bin = bins[b];
       const double median = bin_median[b];
       LipObservation mean = lips_[in_bin.front()];
       mean.pixel.setZero();
@@ -230,8 +254,8 @@ void Calibrator::NormalLipPoints() {
   lips_.insert(lips_.end(), normal.begin(), normal.end());
   char buf[256];
   std::snprintf(buf, sizeof(buf),
-                "lips: %zu normal points (means of %d edge points over the images, one per %.2f "
-                "deg of azimuth per edge)",
+                "lips: %zu normal points (means of %d edge points over the images, one per profile "
+                "and edge, at most %.2f deg wide)",
                 normal.size(), members, kLipSpacingDeg);
   Progress(buf);
 }
