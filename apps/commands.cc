@@ -10,7 +10,7 @@ const std::vector<Command>& Commands() {
        {"config", "out", "curves_out"}, RunDesign},
       {"render", "render a rig model and scene with POV-Ray, with ground truth",
        {"model", "scene", "out", "no_render", "jobs", "keep_pinhole"}, RunRender},
-      {"detect", "detect targets and lips in a session's images", {"session", "out", "overlay"},
+      {"detect", "detect targets and lips in a session's images", {"session", "out", "overlay", "model"},
        RunDetect},
       {"calibrate", "bundle-adjust the non-central model from a session",
        {"session", "out", "detections", "truth_model", "truth", "report", "report_range_mm",

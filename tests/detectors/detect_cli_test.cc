@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
@@ -144,6 +145,30 @@ TEST(DetectCliTest, UnusableImagesStopTheSessionWithOneLine) {
     EXPECT_EQ(Lines(err), 1) << err;
     EXPECT_FALSE(fs::exists(dir / "det.yaml"));
   }
+}
+
+// --model replaces the session's model (a second pass with the calibrated one): a photo of the
+// session's model's size is refused against a --model of another size, with the size it expected.
+TEST(DetectCliTest, TheModelFlagReplacesTheSessionsModel) {
+  const fs::path dir = MakeDir("model_flag");
+  cv::imwrite((dir / "colour.png").string(), cv::Mat(960, 1280, CV_8UC3, cv::Scalar(90, 90, 90)));
+  WriteSession(dir, "[colour.png]");
+  std::ifstream in(std::string(OMNISTEREO_SOURCE_DIR) + "/sample_configs/big_rig_misaligned.yaml");
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string size = "image: {width: 1280, height: 960}";
+  ASSERT_NE(text.find(size), std::string::npos);
+  text.replace(text.find(size), size.size(), "image: {width: 960, height: 720}");
+  std::ofstream(dir / "other.yaml") << text;
+  std::string err;
+  EXPECT_EQ(Detect(dir, &err), 0) << err;  // the session's own model: the photo's size
+  fs::remove(dir / "det.yaml");
+  EXPECT_EQ(testing::RunOmnistereo("detect --session=" + (dir / "session.yaml").string() +
+                                       " --model=" + (dir / "other.yaml").string() +
+                                       " --out=" + (dir / "det.yaml").string(),
+                                   dir / "err.txt", &err),
+            2);
+  EXPECT_NE(err.find("colour.png: expected a 960x720 image"), std::string::npos) << err;
+  EXPECT_FALSE(fs::exists(dir / "det.yaml"));
 }
 
 // What cameras write is read: 16-bit PNG and TIFF, JPEG, grey and colour, and a raw Bayer frame
