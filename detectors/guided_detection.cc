@@ -793,6 +793,11 @@ std::vector<CornerObservation> GuideTarget(
     jacobian << Apply(h, centre + Eigen::Vector2d(d, 0)) - at, Apply(h, centre + Eigen::Vector2d(0, d)) - at;
     const double pitch_view = (1 + target.spacing) * target.tag_size_mm * std::sqrt(std::abs(jacobian.determinant())) / d;
     if (!(target.spacing * pitch_view / (1 + target.spacing) < options.pattern_below_gap_px)) return true;
+    // The pattern is aligned only where the view's map holds the whole grid; a grid the map
+    // cuts (a ring's edge through the design) keeps the saddles' placement unchecked, as before.
+    for (int id = 0; id < CornerCount(target); ++id) {
+      if (!view.ViewToRaw(Apply(h, CornerInTarget(target, id).head<2>()))) return true;
+    }
     Eigen::Matrix3d he;
     cv::cv2eigen(h, he);
     const auto aligned = AlignTargetPattern(raw_grey32, view, target, he, 1.5 * pitch_view);
