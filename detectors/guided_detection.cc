@@ -800,7 +800,9 @@ std::vector<CornerObservation> GuideTarget(
     }
     Eigen::Matrix3d he;
     cv::cv2eigen(h, he);
-    const auto aligned = AlignTargetPattern(raw_grey32, view, target, he, 1.5 * pitch_view);
+    TargetAlignOptions align;
+    align.search_similarity = false;  // the saddles' homography has the scale and turn
+    const auto aligned = AlignTargetPattern(raw_grey32, view, target, he, 1.5 * pitch_view, align);
     return aligned && ((aligned->view_from_plane * centre.homogeneous()).hnormalized() - at).norm() < 0.5 * pitch_view;
   };
   std::vector<CornerObservation> kept;

@@ -640,8 +640,11 @@ std::optional<TargetAlignment> AlignTargetPattern(const cv::Mat& grey, const Rin
   double best_scale = 1;
   for (const double scale : {1.0, 0.96, 1.04, 0.92, 1.08}) {
     if (try_similarity(scale, 0)) best_scale = scale;
+    if (!options.search_similarity) break;
   }
-  for (const double turn_deg : {-4.0, 4.0}) try_similarity(best_scale, turn_deg);
+  if (options.search_similarity) {
+    for (const double turn_deg : {-4.0, 4.0}) try_similarity(best_scale, turn_deg);
+  }
   if (found && coarse > 1) found = correlate(view_from_bits_found, 1);
   if (!found || !(found->best >= options.min_score) || found->best - found->second < options.min_margin_to_fit) {
     return std::nullopt;

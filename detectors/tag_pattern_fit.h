@@ -66,6 +66,9 @@ struct TargetAlignOptions {
   // too: 4-7 view px in hid1's inner ring), in tag pitches.
   double max_shift_pitches = 0.25;
   int max_fit_pixels = 2500;
+  // Scales 0.92-1.08 and turns of +-4 deg of the prediction tried; false: translations alone (a
+  // prediction whose scale and turn are already right, e.g. fitted to the target's junctions).
+  bool search_similarity = true;
 };
 struct TargetAlignment {
   Eigen::Matrix3d view_from_plane = Eigen::Matrix3d::Identity();  // plane mm (CornerInTarget) -> view
