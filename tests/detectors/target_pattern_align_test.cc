@@ -159,6 +159,25 @@ TEST(AlignTargetPattern, APredictionOneTagOffIsPulledBackByTheOutline) {
   EXPECT_LT((origin - Apply(s.view_from_plane, Eigen::Vector2d(0, 0))).norm(), 0.5);
 }
 
+TEST(AlignTargetPattern, TranslationsAloneCheckASaddlePlacementAPitchOff) {
+  // Guided detection's check of a saddle placement (exact scale and turn, possibly a pitch off):
+  // translations alone over 1.5 pitches from a placement one pitch off along the rows, the
+  // columns or both must come back to the grid (which the guide then compares with the
+  // placement), never stay a pitch off.
+  const Scene s = MakeScene(KalibrGrid(), 0.26, 0.9, 0.01);
+  const Eigen::Vector2d origin = Apply(s.view_from_plane, Eigen::Vector2d(0, 0));
+  const Eigen::Vector2d along = Apply(s.view_from_plane, Eigen::Vector2d(52, 0)) - origin;
+  const Eigen::Vector2d across = Apply(s.view_from_plane, Eigen::Vector2d(0, 52)) - origin;
+  TargetAlignOptions translations;
+  translations.search_similarity = false;
+  for (const Eigen::Vector2d& off : {Eigen::Vector2d(along), Eigen::Vector2d(-across), Eigen::Vector2d(along + across)}) {
+    const auto aligned =
+        AlignTargetPattern(s.grey, s.view, s.target, Predicted(s, off, 1.0, 0.0), 1.5 * along.norm(), translations);
+    ASSERT_TRUE(aligned.has_value()) << off.transpose();
+    EXPECT_LT((Apply(aligned->view_from_plane, Eigen::Vector2d(0, 0)) - origin).norm(), 0.5) << off.transpose();
+  }
+}
+
 TEST(AlignTargetPattern, AnElongatedGridIsNotTakenAPitchAlongItself) {
   // A 2 x 4 grid shifted by a pitch along its length still overlaps three quarters of itself
   // (near_scene 0010: correlation 0.73 against 0.64 there): the pattern fitted at both decides.
