@@ -83,6 +83,26 @@ Eigen::Vector2d Apply(const cv::Mat& h, const Eigen::Vector2d& p) {
   return Eigen::Vector2d(x / w, y / w);
 }
 
+// The target's centre (its sheet's), the gap between its tags and their pitch in view pixels, as
+// the plane -> view homography `h` puts them.
+struct TargetInView {
+  Eigen::Vector2d centre_plane, centre_view;
+  double gap_px = 0, pitch_px = 0;
+};
+TargetInView TargetInViewOf(const cv::Mat& h, const TargetSpec& target) {
+  TargetInView out;
+  out.centre_plane = 0.5 * SheetBounds(target).head<2>() + 0.5 * SheetBounds(target).tail<2>();
+  out.centre_view = Apply(h, out.centre_plane);
+  const double d = 0.01 * target.tag_size_mm;
+  Eigen::Matrix2d jacobian;  // view px per mm at the target's centre, times d
+  jacobian << Apply(h, out.centre_plane + Eigen::Vector2d(d, 0)) - out.centre_view,
+      Apply(h, out.centre_plane + Eigen::Vector2d(0, d)) - out.centre_view;
+  const double px_per_mm = std::sqrt(std::abs(jacobian.determinant())) / d;
+  out.gap_px = target.spacing * target.tag_size_mm * px_per_mm;
+  out.pitch_px = (1 + target.spacing) * target.tag_size_mm * px_per_mm;
+  return out;
+}
+
 double Sample(const cv::Mat& grey, const Eigen::Vector2d& p) {
   const double u = std::clamp(p.x(), 0.0, grey.cols - 1.001);
   const double v = std::clamp(p.y(), 0.0, grey.rows - 1.001);
@@ -712,14 +732,9 @@ std::vector<CornerObservation> GuideTarget(
     cv::cv2eigen(h0, h0e);
     // Where the ring has the target already, only for a small one (the gap between tags in view
     // px): a large one's missing corners are cut or unmeasurable, and its whole pattern costly.
-    if (static_cast<int>(own.ids.size()) >= options.min_seed_corners) {
-      const Eigen::Vector2d centre = 0.5 * SheetBounds(target).head<2>() + 0.5 * SheetBounds(target).tail<2>();
-      const double d = 0.01 * target.tag_size_mm;
-      const Eigen::Vector2d at = Apply(h0, centre);
-      Eigen::Matrix2d jacobian;  // view px per mm at the target's centre
-      jacobian << Apply(h0, centre + Eigen::Vector2d(d, 0)) - at, Apply(h0, centre + Eigen::Vector2d(0, d)) - at;
-      const double px_per_mm = std::sqrt(std::abs(jacobian.determinant())) / d;
-      if (!(target.spacing * target.tag_size_mm * px_per_mm < options.pattern_below_gap_px)) return false;
+    if (static_cast<int>(own.ids.size()) >= options.min_seed_corners &&
+        !(TargetInViewOf(h0, target).gap_px < options.pattern_below_gap_px)) {
+      return false;
     }
     const double search = radius > 0 ? radius : options.pattern_search_px;
     const auto aligned = AlignTargetPattern(raw_grey32, view, target, h0e, search);
@@ -786,13 +801,9 @@ std::vector<CornerObservation> GuideTarget(
   // Where the ring's own decoded corners placed the lattice (radius 0) its ids are anchored.
   const auto saddles_read_as_the_code = [&]() {
     if (target.type == TargetType::kChessboard || !options.pattern_alignment || radius <= 0) return true;
-    const Eigen::Vector2d centre = 0.5 * SheetBounds(target).head<2>() + 0.5 * SheetBounds(target).tail<2>();
-    const double d = 0.01 * target.tag_size_mm;
-    const Eigen::Vector2d at = Apply(h, centre);
-    Eigen::Matrix2d jacobian;  // view px per mm at the target's centre
-    jacobian << Apply(h, centre + Eigen::Vector2d(d, 0)) - at, Apply(h, centre + Eigen::Vector2d(0, d)) - at;
-    const double pitch_view = (1 + target.spacing) * target.tag_size_mm * std::sqrt(std::abs(jacobian.determinant())) / d;
-    if (!(target.spacing * pitch_view / (1 + target.spacing) < options.pattern_below_gap_px)) return true;
+    const TargetInView placed = TargetInViewOf(h, target);
+    if (!(placed.gap_px < options.pattern_below_gap_px)) return true;
+    const double pitch_view = placed.pitch_px;
     // The pattern is aligned only where the view's map holds the whole grid; a grid the map
     // cuts (a ring's edge through the design) keeps the saddles' placement unchecked, as before.
     for (int id = 0; id < CornerCount(target); ++id) {
@@ -803,7 +814,8 @@ std::vector<CornerObservation> GuideTarget(
     TargetAlignOptions align;
     align.search_similarity = false;  // the saddles' homography has the scale and turn
     const auto aligned = AlignTargetPattern(raw_grey32, view, target, he, 1.5 * pitch_view, align);
-    return aligned && ((aligned->view_from_plane * centre.homogeneous()).hnormalized() - at).norm() < 0.5 * pitch_view;
+    return aligned && ((aligned->view_from_plane * placed.centre_plane.homogeneous()).hnormalized() - placed.centre_view).norm() <
+                          0.5 * pitch_view;
   };
   std::vector<CornerObservation> kept;
   if (by_saddles()) {
