@@ -159,14 +159,15 @@ void Calibrator::InitialiseLipAzimuths() {
 }
 
 // Normal points: the lip edge points of all images binned by azimuth (bins at most
-// kLipSpacingDeg wide, one per detector profile) on each edge (path and circle), each bin replaced by the mean of its points. The rig does not move, so
-// every image shows the same edges at the same pixels: a bin's points are repeated measurements
-// of one short piece of one curve (its sagitta over 0.25 deg is ~1e-6 px), and their mean keeps
-// what they say across the edge (white noise averages as over the points; a detector's bias,
-// the same in every image, stays what it is) while the solve carries one residual and one
-// azimuth instead of one per image: issue 17's near session 55924 points -> ~2500 normal points,
-// the lips were ~80% of the solve's time. A bin's mean is taken over the points within 5 robust
-// sigmas (the edge's MAD about its bins' medians) of its median offset across the edge, so a point on the wrong curve in a few
+// kLipSpacingDeg wide, one per detector profile) on each edge (path and circle), each bin
+// replaced by the mean of its points. The rig does not move, so every image shows the same edges
+// at the same pixels: a bin's points are repeated measurements of one short piece of one curve
+// (its sagitta over 0.25 deg is ~1e-6 px), and their mean keeps what they say across the edge
+// (white noise averages as over the points; a detector's bias, the same in every image, stays
+// what it is) while the solve carries one residual and one azimuth instead of one per image:
+// issue 17's near session 55924 points -> ~2500 normal points, the lips were ~80% of the solve's
+// time. A bin's mean is taken over the points within 5 robust sigmas (the edge's MAD about its
+// bins' medians) of its median offset across the edge, so a point on the wrong curve in a few
 // images does not drag it; each normal point's residual group weight then comes from the
 // variance components as before.
 void Calibrator::NormalLipPoints() {
@@ -190,21 +191,27 @@ void Calibrator::NormalLipPoints() {
       by_azimuth.emplace_back(lips_[i].phi[0] - 2 * M_PI * std::floor(lips_[i].phi[0] / (2 * M_PI)), i);
     }
     std::sort(by_azimuth.begin(), by_azimuth.end());
+    // The runs start after the widest gap round the circle, so no profile straddles the wrap.
+    const size_t n = by_azimuth.size();
+    size_t first = 0;
+    double widest = by_azimuth.front().first + 2 * M_PI - by_azimuth.back().first;
+    for (size_t k = 1; k < n; ++k) {
+      if (by_azimuth[k].first - by_azimuth[k - 1].first > widest) {
+        widest = by_azimuth[k].first - by_azimuth[k - 1].first;
+        first = k;
+      }
+    }
     std::vector<std::vector<size_t>> bins;
     double start = 0, previous = 0;
-    for (const auto& [phi, i] : by_azimuth) {
+    for (size_t k = 0; k < n; ++k) {
+      const auto& [azimuth, i] = by_azimuth[(first + k) % n];
+      const double phi = azimuth + (first + k >= n ? 2 * M_PI : 0);  // unwrapped along the runs
       if (bins.empty() || phi - previous > 0.5 * bin || phi - start > bin) {
         bins.emplace_back();
         start = phi;
       }
       bins.back().push_back(i);
       previous = phi;
-    }
-    // A profile at azimuth 0 gives points on both sides of the wrap.
-    if (bins.size() > 1 && by_azimuth.front().first + 2 * M_PI - by_azimuth.back().first <= 0.5 * bin &&
-        by_azimuth.front().first + 2 * M_PI - by_azimuth[by_azimuth.size() - bins.back().size()].first <= bin) {
-      bins.front().insert(bins.front().end(), bins.back().begin(), bins.back().end());
-      bins.pop_back();
     }
     // Each bin's median offset across the edge, and the edge's robust scatter about them.
     std::vector<double> bin_median(bins.size());

@@ -803,7 +803,6 @@ std::vector<CornerObservation> GuideTarget(
     if (target.type == TargetType::kChessboard || !options.pattern_alignment || radius <= 0) return true;
     const TargetInView placed = TargetInViewOf(h, target);
     if (!(placed.gap_px < options.pattern_below_gap_px)) return true;
-    const double pitch_view = placed.pitch_px;
     // The pattern is aligned only where the view's map holds the whole grid; a grid the map
     // cuts (a ring's edge through the design) keeps the saddles' placement unchecked, as before.
     for (int id = 0; id < CornerCount(target); ++id) {
@@ -813,9 +812,10 @@ std::vector<CornerObservation> GuideTarget(
     cv::cv2eigen(h, he);
     TargetAlignOptions align;
     align.search_similarity = false;  // the saddles' homography has the scale and turn
-    const auto aligned = AlignTargetPattern(raw_grey32, view, target, he, 1.5 * pitch_view, align);
-    return aligned && ((aligned->view_from_plane * placed.centre_plane.homogeneous()).hnormalized() - placed.centre_view).norm() <
-                          0.5 * pitch_view;
+    const auto aligned = AlignTargetPattern(raw_grey32, view, target, he, 1.5 * placed.pitch_px, align);
+    if (!aligned) return false;
+    const Eigen::Vector2d centre = (aligned->view_from_plane * placed.centre_plane.homogeneous()).hnormalized();
+    return (centre - placed.centre_view).norm() < 0.5 * placed.pitch_px;
   };
   std::vector<CornerObservation> kept;
   if (by_saddles()) {
@@ -826,8 +826,7 @@ std::vector<CornerObservation> GuideTarget(
   const int missing = CornerCount(target) - static_cast<int>(own.ids.size());
   if (static_cast<int>(kept.size()) < options.pattern_when_found_below * missing) {
     refined.clear();
-    const bool aligned = by_pattern();
-    if (aligned) {
+    if (by_pattern()) {
       std::vector<CornerObservation> by_pattern_kept = checked();
       if (by_pattern_kept.size() > kept.size()) kept = std::move(by_pattern_kept);
     }

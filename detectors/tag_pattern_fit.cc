@@ -138,8 +138,8 @@ std::vector<float> GaussianTaps(double var) {
 
 // `sharp` (CV_32F) blurred by a Gaussian of covariance [a b; b c] (samples^2), replicating its
 // border, in two 1D passes instead of one 2D kernel (5x faster at the fit's 2.5+ samples per
-// sigma; the 2D filter had been 60% of the pattern fit's time): along x with the conditional variance
-// a - b^2/c, then along the slanted line (b/c, 1) with variance c in y. A point (e + (b/c) t, t),
+// sigma; the 2D filter had been 60% of the pattern fit's time): along x with the conditional
+// variance a - b^2/c, then along the slanted line (b/c, 1) with variance c in y. A point (e + (b/c) t, t),
 // e ~ N(0, a - b^2/c), t ~ N(0, c), has exactly that covariance. The slanted pass interpolates
 // linearly along x, which widens the blur along x by at most 1/4 sample^2 (the fit's blur is
 // its own parameter) and moves nothing.
@@ -163,14 +163,14 @@ cv::Mat AnisotropicGaussianBlur(const cv::Mat& sharp, const Eigen::Matrix2d& cov
     for (int y = 0; y < rows; ++y) {
       const float* in = along_x.ptr<float>(std::clamp(y + k, 0, rows - 1));
       float* o = out.ptr<float>(y);
-      for (int x = 0; x < begin; ++x) {
+      // The border replicated at both ends; the inside without clamps (vectorised).
+      const auto clamped = [&](int x) {
         o[x] += w0 * in[std::clamp(x + whole, 0, cols - 1)] + w1 * in[std::clamp(x + whole + 1, 0, cols - 1)];
-      }
+      };
+      for (int x = 0; x < begin; ++x) clamped(x);
       const float* in0 = in + whole;
       for (int x = begin; x < end; ++x) o[x] += w0 * in0[x] + w1 * in0[x + 1];
-      for (int x = end; x < cols; ++x) {
-        o[x] += w0 * in[std::clamp(x + whole, 0, cols - 1)] + w1 * in[std::clamp(x + whole + 1, 0, cols - 1)];
-      }
+      for (int x = end; x < cols; ++x) clamped(x);
     }
   }
   return out;
@@ -637,14 +637,14 @@ std::optional<TargetAlignment> AlignTargetPattern(const cv::Mat& grey, const Rin
   };
   // Scales first, then turns at the best scale; at half the resolution where the target is
   // large enough (the similarity is chosen there), then the chosen one at full resolution.
+  const std::vector<double> scales =
+      options.search_similarity ? std::vector<double>{1.0, 0.96, 1.04, 0.92, 1.08} : std::vector<double>{1.0};
+  const std::vector<double> turns = options.search_similarity ? std::vector<double>{-4.0, 4.0} : std::vector<double>{};
   double best_scale = 1;
-  for (const double scale : {1.0, 0.96, 1.04, 0.92, 1.08}) {
+  for (const double scale : scales) {
     if (try_similarity(scale, 0)) best_scale = scale;
-    if (!options.search_similarity) break;
   }
-  if (options.search_similarity) {
-    for (const double turn_deg : {-4.0, 4.0}) try_similarity(best_scale, turn_deg);
-  }
+  for (const double turn_deg : turns) try_similarity(best_scale, turn_deg);
   if (found && coarse > 1) found = correlate(view_from_bits_found, 1);
   if (!found || !(found->best >= options.min_score) || found->best - found->second < options.min_margin_to_fit) {
     return std::nullopt;
