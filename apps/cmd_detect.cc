@@ -131,6 +131,7 @@ int RunDetect() {
   // hid3 from the ideal design 89% of the corners, from the calibrated model 95%).
   const RigParams rig = io::ReadModelFile(FLAGS_model.empty() ? session.model_path : FLAGS_model);
   detectors::DetectorContext ctx(rig, session.targets, session.use_lips);
+  if (session.use_lips) std::printf("%s\n", Describe(detectors::GuideSessionByLips(session, &ctx)).c_str());
   if (!FLAGS_overlay.empty()) {
     std::error_code ec;
     fs::create_directories(FLAGS_overlay, ec);
@@ -171,7 +172,7 @@ int RunDetect() {
   io::WriteDetectionsFile(FLAGS_out, detections);
   std::printf("%zu of %zu images used (%d skipped), %d corners, detections in %s\n",
               detections.images.size(), n, bad, corners, FLAGS_out.c_str());
-  if (session.targets.empty()) PrintLipCheck(detections, ctx.model);
+  if (session.targets.empty()) PrintLipCheck(detections, RigModel(rig));
   return 0;
 }
 

@@ -31,6 +31,7 @@
 #include "synthetic/scene.h"
 #include "synthetic/scene_file.h"
 #include "detectors/detect_image.h"
+#include "detectors/lip_guide.h"
 #include "detectors/lip_intrinsics.h"
 #include "model/lip.h"
 #include "model/io/model_file.h"
@@ -167,7 +168,10 @@ int main(int argc, char** argv) {
     csv = std::fopen(csv_path, "w");
     if (csv) std::fprintf(csv, "image,target,kind,id,mirror,range_mm,u,v,true_u,true_v,guided,found\n");
   }
-  for (const auto& image : scene.images) {
+  // One image as the detector gets it (the camera applied where EVAL_CAMERA says; ctx's JPEG luma
+  // set); empty if it cannot be read.
+  auto load = [&](size_t index) {
+    const auto& image = scene.images[index];
     std::string path = std::string(argv[3]) + "/" + image.name + ".png";
     cv::Mat raw;
     if (camera) {
@@ -175,7 +179,7 @@ int main(int argc, char** argv) {
       path = std::string(argv[3]) + "/" + image.name + ".pinhole.png";
       const cv::Mat pinhole = cv::imread(path, cv::IMREAD_UNCHANGED);
       if (!pinhole.empty()) {
-        raw = synthetic::ApplyCamera(pinhole, rig, *camera, scene.noise_seed + (&image - &scene.images[0]));
+        raw = synthetic::ApplyCamera(pinhole, rig, *camera, scene.noise_seed + index);
         std::vector<uchar> bytes;
         synthetic::EncodeCameraImage(raw, *camera, &bytes);
         ctx.chroma_halved = io::HasHalvedChroma(bytes);
@@ -189,10 +193,22 @@ int main(int argc, char** argv) {
       ctx.chroma_halved = io::HasHalvedChroma(path);
       ctx.luma = io::ReadStoredLuma(path);
     }
-    if (raw.empty()) {
-      std::fprintf(stderr, "skipping %s (cannot read)\n", path.c_str());
-      continue;
+    if (raw.empty()) std::fprintf(stderr, "skipping %s (cannot read)\n", path.c_str());
+    return raw;
+  };
+  // The lip guide, as detect and calibrate run it (EVAL_LIP_GUIDE=0: the model as it is).
+  const char* lip_guide = std::getenv("EVAL_LIP_GUIDE");
+  if (!lip_guide || std::string(lip_guide) != "0") {
+    std::vector<detectors::GuideImage> guide_images;
+    for (size_t i : detectors::LipGuideImages(scene.images.size())) {
+      const cv::Mat raw = load(i);
+      guide_images.push_back({raw, ctx.chroma_halved, ctx.luma.clone()});
     }
+    std::printf("%s\n", detectors::Describe(detectors::GuideByLips(guide_images, &ctx)).c_str());
+  }
+  for (const auto& image : scene.images) {
+    const cv::Mat raw = load(&image - &scene.images[0]);
+    if (raw.empty()) continue;
     const auto t0 = std::chrono::steady_clock::now();
     const std::clock_t c0 = std::clock();
     std::vector<bool> guided;

@@ -768,7 +768,24 @@ std::vector<BoardDetection> DetectChessboardBoards(const cv::Mat& raw_grey,
     }
     if (!duplicate) kept.push_back(std::move(b));
   }
-  return kept;
+  // A board is one sheet: a pattern is in one place per ring for each target printed with it.
+  // A second, smaller placement is a false board (a partial grid of junctions on a Kalibr grid's
+  // corner squares next to the true board: hid3 0003, 4 corners 60-100 px off): the placements
+  // with the most corners stay.
+  std::stable_sort(kept.begin(), kept.end(), [](const BoardDetection& a, const BoardDetection& b) {
+    return a.ids.size() > b.ids.size();
+  });
+  std::vector<BoardDetection> placed;
+  for (auto& b : kept) {
+    int sheets = 0, seen = 0;
+    for (const TargetSpec& t : targets) {
+      sheets += t.type == TargetType::kChessboard && t.rows == targets[b.target].rows &&
+                t.cols == targets[b.target].cols;
+    }
+    for (const auto& k : placed) seen += k.target == b.target && k.mirror == b.mirror;
+    if (seen < sheets) placed.push_back(std::move(b));
+  }
+  return placed;
 }
 
 std::vector<CornerObservation> DetectChessboards(const cv::Mat& raw_grey,

@@ -24,6 +24,13 @@ cv::Mat LipInput(const cv::Mat& linear) {
   return bgr;
 }
 
+LipDetectorOptions LipOptionsFor(const DetectorContext& ctx, const cv::Mat& image) {
+  LipDetectorOptions options;
+  options.chroma_halved = ctx.chroma_halved;
+  if (ctx.chroma_halved && ctx.luma.size() == image.size()) options.luma = ctx.luma;
+  return options;
+}
+
 namespace {
 
 // Detection makes and frees full-view buffers (views, derivatives, masks) dozens of times per
@@ -43,13 +50,20 @@ void KeepImageBuffersForReuse() {
 }  // namespace
 
 DetectorContext::DetectorContext(const RigParams& rig, std::vector<TargetSpec> target_specs,
-                                 bool lips, const ViewOptions& view_options)
-    : model(rig),
+                                 bool lips, const ViewOptions& views_wanted)
+    : view_options(views_wanted),
+      model(rig),
       layout(ComputeRingLayout(model)),
       views(MakeRingViews(model, view_options)),
       targets(std::move(target_specs)),
       use_lips(lips) {
   KeepImageBuffersForReuse();
+}
+
+void DetectorContext::SetModel(const RigParams& rig) {
+  model = RigModel(rig);
+  layout = ComputeRingLayout(model);
+  views = MakeRingViews(model, view_options);
 }
 
 ImageObservations DetectImage(const cv::Mat& image, DetectorContext* ctx,
@@ -87,10 +101,7 @@ ImageObservations DetectImage(const cv::Mat& image, DetectorContext* ctx,
   }
   if (ctx->use_lips) {
     if (image.channels() >= 3) {
-      LipDetectorOptions lip_options;
-      lip_options.chroma_halved = ctx->chroma_halved;
-      if (ctx->chroma_halved && ctx->luma.size() == image.size()) lip_options.luma = ctx->luma;
-      out.lips = DetectLips(LipInput(linear), ctx->model, lip_options);
+      out.lips = DetectLips(LipInput(linear), ctx->model, LipOptionsFor(*ctx, image));
     } else if (warnings) {
       warnings->push_back("grey image: the coloured lips cannot be detected");
     }

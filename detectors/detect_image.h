@@ -11,6 +11,7 @@
 
 #include "detectors/chessboard_detector.h"
 #include "detectors/guided_detection.h"
+#include "detectors/lip_detector.h"
 #include "detectors/ring_layout.h"
 #include "detectors/views.h"
 #include "model/observations.h"
@@ -26,6 +27,10 @@ struct DetectorContext {
   DetectorContext(const RigParams& rig, std::vector<TargetSpec> targets, bool use_lips = true,
                   const ViewOptions& view_options = {});
 
+  // Replaces the model, rebuilding the ring layout and the views' maps.
+  void SetModel(const RigParams& rig);
+
+  ViewOptions view_options;
   RigModel model;
   RingLayout layout;
   std::vector<RingView> views;  // each image is rendered into views[i].image (not thread-safe)
@@ -52,6 +57,10 @@ struct DetectorContext {
 // The lip detector's input from a linear image (io::LinearImage, 16 bit): BGR, alpha dropped, the
 // 16 bits kept (8-bit linear levels are too coarse for a dark band's Y': lip_detector.h).
 cv::Mat LipInput(const cv::Mat& linear);
+
+// The lip detector's options for `image` (as read) from the context's CURRENT image settings
+// (chroma_halved, luma).
+LipDetectorOptions LipOptionsFor(const DetectorContext& ctx, const cv::Mat& image);
 
 ImageObservations DetectImage(const cv::Mat& image, DetectorContext* ctx,
                                 std::vector<std::string>* warnings = nullptr,

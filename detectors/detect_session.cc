@@ -7,6 +7,29 @@
 
 namespace omni::detectors {
 
+LipGuide GuideSessionByLips(const io::Session& session, DetectorContext* ctx) {
+  ctx->tone = session.tone;
+  if (!session.use_lips) {
+    LipGuide none;
+    none.why_not = "the session does not use the lips (lips: false)";
+    return none;
+  }
+  std::vector<GuideImage> images;
+  for (size_t i : LipGuideImages(session.images.size())) {
+    const std::string& file = session.images[i];
+    try {
+      GuideImage one;
+      one.image = io::ReadImage(file, session.bayer);
+      one.chroma_halved = io::HasHalvedChroma(file);
+      if (one.chroma_halved) one.luma = io::ReadStoredLuma(file);
+      images.push_back(std::move(one));
+    } catch (const io::UnreadableImage&) {
+      // DetectSession reports it.
+    }
+  }
+  return GuideByLips(images, ctx);
+}
+
 Observations DetectSession(const io::Session& session, DetectorContext* ctx,
                              const ImageCallback& on_image) {
   if (session.images.empty()) {

@@ -10,6 +10,7 @@
 #include <opencv2/core.hpp>
 
 #include "detectors/detect_image.h"
+#include "detectors/lip_guide.h"
 #include "model/observations.h"
 #include "model/io/session_file.h"
 
@@ -33,6 +34,11 @@ using ImageCallback =
 // Detects every image of the session. Unreadable images are skipped (reported); an image of an
 // unsupported layout (io::ReadImage), or whose size is not the model's, ends the session: throws
 // io::InputError naming the file and what was expected, before anything is written.
+// The lip guide (lip_guide.h) on a few of the session's images (LipGuideImages; unreadable ones
+// passed over), before DetectSession: sets ctx->tone from the session. Skipped (why_not says so)
+// when the session does not use the lips.
+LipGuide GuideSessionByLips(const io::Session& session, DetectorContext* ctx);
+
 Observations DetectSession(const io::Session& session, DetectorContext* ctx,
                              const ImageCallback& on_image = nullptr);
 

@@ -11,13 +11,13 @@ namespace omni::detectors {
 namespace {
 
 // Residual of one edge point (model/lip.h LipEdgeResidual, as in the calibration) with camera =
-// (f, f, cx, cy, 0) and every other block at the nominal values.
+// (f, f, cx, cy, 0), the reflex plane's tilt (rx, ry) and every other block at the nominal values.
 struct LipPointResidual {
   LipPointResidual(const RigModel* model, LipPath path, double radius, const Eigen::Vector2d& pixel)
       : model(model), path(path), radius(radius), pixel(pixel) {}
 
   template <typename T>
-  bool operator()(const T* intrinsics, const T* phi, T* residual) const {
+  bool operator()(const T* intrinsics, const T* reflex_tilt, const T* phi, T* residual) const {
     const RigParams& rig = model->params();
     const T camera[5] = {intrinsics[0], intrinsics[0], intrinsics[1], intrinsics[2], T(0)};
     T distortion[5], shape1[2], shape2[2], pose1[5], pose2[5], reflex[3];
@@ -30,7 +30,9 @@ struct LipPointResidual {
       shape1[i] = T(rig.mirror1_shape[i]);
       shape2[i] = T(rig.mirror2_shape[i]);
     }
-    for (int i = 0; i < 3; ++i) reflex[i] = T(rig.reflex[i]);
+    reflex[0] = reflex_tilt[0];
+    reflex[1] = reflex_tilt[1];
+    reflex[2] = T(rig.reflex[2]);
     const RigBlocks<T> blocks{camera, distortion, shape1, pose1, reflex, shape2, pose2};
     return LipEdgeResidual(blocks, model->fixed(), path, T(radius), T(LipOf(rig, path).z), phi[0],
                            model->fixed().r_ref, pixel, residual);
@@ -70,9 +72,11 @@ LipReferencePoints LipReferencePointsOf(const RigParams& rig) {
 }
 
 std::optional<LipIntrinsics> InitialIntrinsicsFromLips(const std::vector<LipEdgeObservation>& edges,
-                                                       const RigModel& nominal) {
+                                                       const RigModel& nominal,
+                                                       bool fit_reflex_tilt) {
   const RigParams& rig = nominal.params();
   double intrinsics[3] = {0.5 * (rig.camera[0] + rig.camera[1]), rig.camera[2], rig.camera[3]};
+  double reflex_tilt[2] = {rig.reflex[0], rig.reflex[1]};
   struct Point {
     LipPath path;
     double radius;
@@ -120,12 +124,17 @@ std::optional<LipIntrinsics> InitialIntrinsicsFromLips(const std::vector<LipEdge
   }
   if (used.size() < 20) return std::nullopt;
   points.swap(used);
+  // The reflex tilt only moves the via_mirror2 edge: its centre against the mirror-1 edges'.
+  int via_mirror2 = 0;
+  for (const Point& p : points) via_mirror2 += p.path == LipPath::kViaMirror2;
+  fit_reflex_tilt = fit_reflex_tilt && via_mirror2 >= 20;
   ceres::Problem problem;
   for (std::size_t i = 0; i < points.size(); ++i) {
-    auto* cost = new ceres::AutoDiffCostFunction<LipPointResidual, 2, 3, 1>(
+    auto* cost = new ceres::AutoDiffCostFunction<LipPointResidual, 2, 3, 2, 1>(
         new LipPointResidual(&nominal, points[i].path, points[i].radius, points[i].pixel));
-    problem.AddResidualBlock(cost, new ceres::HuberLoss(1.0), intrinsics, &phi[i]);
+    problem.AddResidualBlock(cost, new ceres::HuberLoss(1.0), intrinsics, reflex_tilt, &phi[i]);
   }
+  if (!fit_reflex_tilt) problem.SetParameterBlockConstant(reflex_tilt);
   ceres::Solver::Options options;
   options.linear_solver_type = ceres::DENSE_SCHUR;
   options.max_num_iterations = 50;
@@ -138,6 +147,7 @@ std::optional<LipIntrinsics> InitialIntrinsicsFromLips(const std::vector<LipEdge
   out.f = intrinsics[0];
   out.cx = intrinsics[1];
   out.cy = intrinsics[2];
+  if (fit_reflex_tilt) out.reflex_tilt = Eigen::Vector2d(reflex_tilt[0], reflex_tilt[1]);
   out.n_points = static_cast<int>(points.size());
   // Residual spread and the intrinsics' standard deviations from the Gauss-Newton normal
   // equations, the per-azimuth unknowns eliminated (Ceres' covariance of the 3-block).
@@ -146,6 +156,7 @@ std::optional<LipIntrinsics> InitialIntrinsicsFromLips(const std::vector<LipEdge
   problem.Evaluate(ceres::Problem::EvaluateOptions(), nullptr, &residuals, nullptr, nullptr);
   for (double r : residuals) sum2 += r * r;
   const int dof = std::max<int>(1, static_cast<int>(residuals.size()) - 3 -
+                                        (fit_reflex_tilt ? 2 : 0) -
                                         static_cast<int>(points.size()));
   out.rms_px = std::sqrt(sum2 / points.size());
   ceres::Covariance::Options cov_options;

@@ -15,6 +15,8 @@
 #include <optional>
 #include <vector>
 
+#include <Eigen/Core>
+
 #include "model/observations.h"
 #include "model/rig_model.h"
 
@@ -24,13 +26,19 @@ struct LipIntrinsics {
   double f = 0, cx = 0, cy = 0;
   double sigma_f = 0, sigma_cx = 0, sigma_cy = 0;  // from the residual spread (px), 1 sigma
   double rms_px = 0;  // point-to-circle-image residual
+  // With fit_reflex_tilt: the reflex plane's rx, ry (rad, mirror 1's body frame). It stands for
+  // every tilt that moves the inner ring against the outer (mirror 2's, the reflex's).
+  std::optional<Eigen::Vector2d> reflex_tilt;
   int n_points = 0;
 };
 
 // nullopt if fewer than 20 usable labelled points or the solve fails. Edges without a known
 // circle/path label are ignored.
+// fit_reflex_tilt: also the reflex plane's tilt, where 20 or more via_mirror2 points were found
+// (the lip guide, lip_guide.h: the inner ring's images move with it).
 std::optional<LipIntrinsics> InitialIntrinsicsFromLips(const std::vector<LipEdgeObservation>& edges,
-                                                       const RigModel& nominal);
+                                                       const RigModel& nominal,
+                                                       bool fit_reflex_tilt = false);
 
 // Where a rig's mirror bodies put the points a lip-only fit can find instead of the principal
 // point (for evaluation against a true rig): the vanishing points K * R_cam_from_mirror_i *

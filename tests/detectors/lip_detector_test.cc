@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -16,6 +17,7 @@
 #include "synthetic/pov_scene.h"
 #include "synthetic/scene_file.h"
 #include "detectors/lip_detector.h"
+#include "detectors/lip_guide.h"
 #include "detectors/lip_intrinsics.h"
 #include "model/io/image_file.h"
 #include "model/io/model_file.h"
@@ -327,6 +329,66 @@ TEST_F(LipDetectorOnPaintedRealisticRender, IntrinsicsFromLips) {
     const bool ideal = std::string(prior_name) == "big_rig_ideal.yaml";
     EXPECT_NEAR(in->f / f_true, 1.0, ideal ? 0.007 : 0.001);
   }
+}
+
+// RMS pixel difference per ring between two models' images of points 1 m from the camera's axis,
+// every 10 deg of azimuth and 25 mm of height, where both models see them: where a guide model
+// would have the detectors look for a target.
+std::array<double, 2> ProjectionDifferenceAt1m(const RigModel& a, const RigModel& b) {
+  std::array<double, 2> rms{};
+  for (Mirror mirror : {Mirror::kOne, Mirror::kTwo}) {
+    double sum = 0;
+    int n = 0;
+    for (int az = 0; az < 360; az += 10) {
+      for (double z = -1500; z <= 1500; z += 25) {
+        const double t = az * M_PI / 180;
+        const Eigen::Vector3d point(1000 * std::cos(t), 1000 * std::sin(t), z);
+        const auto pa = a.Project(point, mirror), pb = b.Project(point, mirror);
+        if (!pa || !pb) continue;
+        sum += (*pa - *pb).squaredNorm();
+        ++n;
+      }
+    }
+    EXPECT_GT(n, 100) << "ring " << MirrorIndex(mirror);
+    rms[MirrorIndex(mirror) - 1] = std::sqrt(sum / std::max(1, n));
+  }
+  return rms;
+}
+
+// The lip guide (lip_guide.h) on the realistic camera's image: from the design, it moves f and the
+// principal point so that the model predicts the rings where the true rig has them (independent
+// oracle: the true model's projections); from the true model it changes nothing.
+TEST_F(LipDetectorOnPaintedRealisticRender, TheLipGuideCorrectsTheDesignAndLeavesTheTrueModel) {
+  ASSERT_FALSE(jpeg_->empty());
+  const RigModel truth(*truth_);
+  {
+    DetectorContext ctx(ReadSample("big_rig_ideal.yaml"), {});
+    const std::array<double, 2> before = ProjectionDifferenceAt1m(ctx.model, truth);
+    const LipGuide guide = GuideByLips({{*jpeg_, true, *jpeg_luma_}}, &ctx);
+    std::printf("%s\n", Describe(guide).c_str());
+    ASSERT_TRUE(guide.applied) << guide.why_not;
+    const std::array<double, 2> after = ProjectionDifferenceAt1m(ctx.model, truth);
+    std::printf("design against the true rig at 1 m: ring 1 %.2f -> %.2f px, ring 2 %.2f -> %.2f "
+                "px RMS\n", before[0], after[0], before[1], after[1]);
+    EXPECT_LT(after[0], 0.25 * before[0]);
+    EXPECT_LT(after[1], 0.1 * before[1]);
+    // The layout and the views follow the corrected model.
+    EXPECT_EQ(ctx.layout.centre, ComputeRingLayout(ctx.model).centre);
+    EXPECT_EQ(cv::norm(ctx.views.front().map_x,
+                       MakeRingViews(ctx.model, ctx.view_options).front().map_x, cv::NORM_INF), 0);
+  }
+  {
+    DetectorContext ctx(*truth_, {});
+    const LipGuide guide = GuideByLips({{*jpeg_, true, *jpeg_luma_}}, &ctx);
+    std::printf("%s\n", Describe(guide).c_str());
+    EXPECT_FALSE(guide.applied);
+    EXPECT_LT(std::abs(guide.f_after / guide.f_before - 1), 2e-4);
+    EXPECT_LT((guide.pp_after - guide.pp_before).norm(), 0.2);
+    EXPECT_EQ(ctx.model.params().camera, truth_->camera);
+  }
+  // A grey image has no lips: the model stays.
+  DetectorContext ctx(ReadSample("big_rig_ideal.yaml"), {});
+  EXPECT_FALSE(GuideByLips({{cv::Mat(960, 1280, CV_16UC1, cv::Scalar(0))}}, &ctx).applied);
 }
 
 TEST(LipDetector, GreyOrWrongSizeImagesGiveNoEdges) {

@@ -1,0 +1,112 @@
+#include "detectors/lip_guide.h"
+
+#include <cmath>
+#include <cstdio>
+
+#include "detectors/lip_detector.h"
+#include "detectors/lip_intrinsics.h"
+
+namespace omni::detectors {
+
+std::vector<size_t> LipGuideImages(size_t n) {
+  constexpr size_t kImages = 3;
+  std::vector<size_t> out;
+  if (n <= kImages) {
+    for (size_t i = 0; i < n; ++i) out.push_back(i);
+    return out;
+  }
+  // First, middle and last: the targets move, the lips do not, but an image may have a lip
+  // hidden by a target held close.
+  for (size_t k = 0; k < kImages; ++k) out.push_back(k * (n - 1) / (kImages - 1));
+  return out;
+}
+
+LipGuide GuideByLips(const std::vector<GuideImage>& images, DetectorContext* ctx,
+                     const LipGuideOptions& options) {
+  const RigParams& rig = ctx->model.params();
+  LipGuide guide;
+  guide.f_before = 0.5 * (rig.camera[0] + rig.camera[1]);
+  guide.pp_before = Eigen::Vector2d(rig.camera[2], rig.camera[3]);
+  guide.reflex_before = guide.reflex_after = Eigen::Vector2d(rig.reflex[0], rig.reflex[1]);
+  std::vector<LipEdgeObservation> edges;
+  for (const GuideImage& one : images) {
+    const cv::Mat& image = one.image;
+    if (image.channels() < 3 || image.cols != rig.image_width || image.rows != rig.image_height) {
+      continue;
+    }
+    ++guide.images;
+    ctx->chroma_halved = one.chroma_halved;
+    ctx->luma = one.luma;
+    const std::vector<LipEdgeObservation> found = DetectLips(
+        LipInput(io::LinearImage(image, ctx->tone)), ctx->model, LipOptionsFor(*ctx, image));
+    edges.insert(edges.end(), found.begin(), found.end());
+  }
+  ctx->chroma_halved = false;
+  ctx->luma = cv::Mat();
+  if (guide.images == 0) {
+    guide.why_not = "no colour image to find the lips in";
+    return guide;
+  }
+  const auto lips = InitialIntrinsicsFromLips(edges, ctx->model, /*fit_reflex_tilt=*/true);
+  if (!lips) {
+    guide.why_not = "too few lip edge points (" + std::to_string(edges.size()) +
+                    " edges) for the lip-only fit";
+    return guide;
+  }
+  guide.points = lips->n_points;
+  guide.rms_px = lips->rms_px;
+  guide.f_after = lips->f;
+  guide.pp_after = Eigen::Vector2d(lips->cx, lips->cy);
+  if (lips->reflex_tilt) guide.reflex_after = *lips->reflex_tilt;
+  const double f_change = std::abs(guide.f_after / guide.f_before - 1);
+  // The principal point's move, and the inner ring's by the reflex's tilt (mirrored rays turn by
+  // twice the plane's tilt).
+  const double pp_move_px = (guide.pp_after - guide.pp_before).norm();
+  const double inner_move_px = 2 * guide.f_after * (guide.reflex_after - guide.reflex_before).norm();
+  if (f_change < options.min_f_change && pp_move_px < options.min_pp_move_px &&
+      inner_move_px < options.min_inner_move_px) {
+    guide.why_not = "the model already agrees with the lips";
+    return guide;
+  }
+  const double move_px = pp_move_px + inner_move_px;
+  if (f_change > options.max_f_change || move_px > options.max_move_px ||
+      lips->rms_px > options.max_rms_px) {
+    char line[200];
+    std::snprintf(line, sizeof line,
+                  "the lip-only fit is not trusted (f %+.1f%%, the rings moved %.1f px, rms "
+                  "%.2f px)",
+                  100 * (guide.f_after / guide.f_before - 1), move_px, lips->rms_px);
+    guide.why_not = line;
+    return guide;
+  }
+  RigParams corrected = rig;
+  corrected.camera[0] = corrected.camera[1] = lips->f;
+  corrected.camera[2] = lips->cx;
+  corrected.camera[3] = lips->cy;
+  corrected.reflex[0] = guide.reflex_after.x();
+  corrected.reflex[1] = guide.reflex_after.y();
+  ctx->SetModel(corrected);
+  guide.applied = true;
+  return guide;
+}
+
+std::string Describe(const LipGuide& guide) {
+  char line[400];
+  if (guide.applied) {
+    std::snprintf(line, sizeof line,
+                  "detection guided by the lips in %d image(s): f %.1f -> %.1f px, principal "
+                  "point (%.1f, %.1f) -> (%.1f, %.1f) px, reflex tilt (%.2f, %.2f) -> (%.2f, "
+                  "%.2f) deg (rms %.2f px over %d edge points; the session's model is unchanged)",
+                  guide.images, guide.f_before, guide.f_after, guide.pp_before.x(),
+                  guide.pp_before.y(), guide.pp_after.x(), guide.pp_after.y(),
+                  guide.reflex_before.x() * 180 / M_PI, guide.reflex_before.y() * 180 / M_PI,
+                  guide.reflex_after.x() * 180 / M_PI, guide.reflex_after.y() * 180 / M_PI,
+                  guide.rms_px, guide.points);
+  } else {
+    std::snprintf(line, sizeof line, "detection guided by the model as it is: %s",
+                  guide.why_not.c_str());
+  }
+  return line;
+}
+
+}  // namespace omni::detectors
