@@ -76,8 +76,8 @@ std::vector<std::string> Images(int* width, int* height) {
 }
 
 // The design's camera at the photos' size: focal length scaled with the width, the principal
-// point at the centre; then, where the first photos show the lips, f, the principal point and
-// the reflex tilt (the inner ring against the outer) from them.
+// point at the centre; then, where the first photos show the lips, f and the principal point
+// from them.
 void StartingIntrinsics(const std::vector<std::string>& images, RigParams* rig, int width,
                         int height) {
   const double scale = static_cast<double>(width) / rig->image_width;
@@ -93,7 +93,7 @@ void StartingIntrinsics(const std::vector<std::string>& images, RigParams* rig, 
   const Observations found = detectors::DetectSession(lips_only, &ctx);
   std::vector<LipEdgeObservation> edges;
   for (const auto& image : found.images) edges.insert(edges.end(), image.lips.begin(), image.lips.end());
-  const auto lips = detectors::InitialIntrinsicsFromLips(edges, ctx.model, /*fit_reflex_tilt=*/true);
+  const auto lips = detectors::InitialIntrinsicsFromLips(edges, ctx.model);
   if (!lips) {
     std::printf("intrinsics from the image size (f %.1f px, principal point at the centre): no "
                 "lips found in the first photos (check `color:` of the lips in %s)\n",
@@ -103,14 +103,9 @@ void StartingIntrinsics(const std::vector<std::string>& images, RigParams* rig, 
   rig->camera[0] = rig->camera[1] = lips->f;
   rig->camera[2] = lips->cx;
   rig->camera[3] = lips->cy;
-  if (lips->reflex_tilt) {
-    rig->reflex[0] = lips->reflex_tilt->x();
-    rig->reflex[1] = lips->reflex_tilt->y();
-  }
   std::printf("intrinsics from the lips in the first %zu photos: f %.1f px (sigma %.1f), "
-              "principal point (%.1f, %.1f) px, reflex tilt (%.2f, %.2f) deg, %d edge points\n",
-              lips_only.images.size(), lips->f, lips->sigma_f, lips->cx, lips->cy,
-              rig->reflex[0] * 180 / M_PI, rig->reflex[1] * 180 / M_PI, lips->n_points);
+              "principal point (%.1f, %.1f) px, %d edge points\n",
+              lips_only.images.size(), lips->f, lips->sigma_f, lips->cx, lips->cy, lips->n_points);
 }
 
 }  // namespace
