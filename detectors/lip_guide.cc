@@ -50,7 +50,8 @@ LipGuide GuideByLips(const std::vector<GuideImage>& images, DetectorContext* ctx
   const auto lips = InitialIntrinsicsFromLips(edges, ctx->model, /*fit_reflex_tilt=*/true);
   if (!lips) {
     guide.why_not = "too few lip edge points (" + std::to_string(edges.size()) +
-                    " edges) for the lip-only fit";
+                    " edges) for the lip-only fit: check the lips' paints (color:) in the model file "
+                    "and the overlays";
     return guide;
   }
   guide.points = lips->n_points;
