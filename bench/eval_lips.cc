@@ -14,7 +14,9 @@
 // point, left out of the distances; `edge_mn` / `edge_p95`: the distance to the band edge with
 // the occlusion followed, ProjectLipEdge, over every point; `on_rim`: points whose edge there is
 // the reflex disc's rim; `curve_mn` / `curve_p95`: the edge as a curve, per point the mean
-// signed distance of the image's points within +-2.5 deg of its azimuth), the band's paint likeness, colour contrast and noise
+// signed distance of the image's points within +-2.5 deg of its azimuth; `fit_mn` / `fit_p95`: the
+// edge as the detector's ellipse fit of the image gives it, its distance from the truth at each
+// point's azimuth), the band's paint likeness, colour contrast and noise
 // (LipEdgeFit, 8-bit linear levels), the lip-only fit of f and the principal point
 // (InitialIntrinsicsFromLips from NOMINAL and from MODEL) and the CPU time of DetectLipEdges.
 #include <algorithm>
@@ -58,6 +60,7 @@ struct EdgeStats {
   // of its azimuth (about the principal point) in the same image, what a local fit of the edge
   // there would be off by (the points' own scatter averages out, their common offset stays).
   std::vector<double> curve_offsets;
+  std::vector<double> fit_distances;  // the fitted ellipse at each point, from the truth
   int on_rim = 0;                      // points whose band edge is the reflex disc's rim
   double signed_sum = 0;
   int images = 0;
@@ -140,6 +143,18 @@ int main(int argc, char** argv) {
         s.edge_distances.push_back(
             DistanceToLipEdgeImage(truth, *fit.edge.path, *fit.edge.circle, p, nullptr, &bound));
         if (bound == LipBound::kReflexRim) ++s.on_rim;
+        {
+          // The fitted ellipse at this point (one Newton step onto the conic from p), against
+          // the truth: the edge as the ellipse fit gives it.
+          const auto& c = fit.ellipse.conic;
+          const double value = c[0] * p.x() * p.x() + c[1] * p.x() * p.y() + c[2] * p.y() * p.y() +
+                               c[3] * p.x() + c[4] * p.y() + c[5];
+          const Eigen::Vector2d grad(2 * c[0] * p.x() + c[1] * p.y() + c[3],
+                                     c[1] * p.x() + 2 * c[2] * p.y() + c[4]);
+          const Eigen::Vector2d foot = p - value * grad / grad.squaredNorm();
+          const double d_fit = DistanceToLipCircleImage(truth, *fit.edge.path, *fit.edge.circle, foot);
+          if (d_fit < 1e8) s.fit_distances.push_back(d_fit);
+        }
         if (d > 1e8) {
           ++s.no_truth;
           continue;
@@ -172,10 +187,10 @@ int main(int argc, char** argv) {
       all_edges.push_back(fit.edge);
     }
   }
-  std::printf("%-6s %-6s %-8s %-12s %6s %7s %8s %8s %8s %8s %7s %8s %6s %8s %8s %8s %6s %8s %9s\n",
+  std::printf("%-6s %-6s %-8s %-12s %6s %7s %8s %8s %8s %8s %7s %8s %6s %8s %8s %8s %6s %8s %9s %7s %8s\n",
               "mirror", "edge", "circle", "path", "images", "points", "mean_px", "p95_px",
               "max_px", "outward", "band", "contrast", "noise", "no_truth", "edge_mn", "edge_p95",
-              "on_rim", "curve_mn", "curve_p95");
+              "on_rim", "curve_mn", "curve_p95", "fit_mn", "fit_p95");
   for (const auto& [key, s] : stats) {
     double mean = 0;
     for (double d : s.distances) mean += d / s.distances.size();
@@ -183,16 +198,18 @@ int main(int argc, char** argv) {
     for (double d : s.edge_distances) edge_mean += d / s.edge_distances.size();
     double curve_mean = 0;
     for (double d : s.curve_offsets) curve_mean += d / s.curve_offsets.size();
+    double fit_mean = 0;
+    for (double d : s.fit_distances) fit_mean += d / s.fit_distances.size();
     std::printf(
         "%-6d %-6s %-8s %-12s %6d %7zu %8.4f %8.4f %8.4f %+8.4f %7.1f %8.1f %6.2f %8d %8.4f %8.4f "
-        "%6d %8.4f %9.4f\n",
+        "%6d %8.4f %9.4f %7.4f %8.4f\n",
         std::get<0>(key), std::get<1>(key).c_str(), std::get<2>(key).c_str(),
         std::get<3>(key).c_str(), s.images, s.distances.size(), mean,
         Percentile(s.distances, 0.95), Percentile(s.distances, 1.0),
         s.signed_sum / std::max<size_t>(1, s.distances.size()), Percentile(s.band, 0.5),
         Percentile(s.contrast, 0.5), Percentile(s.noise, 0.5), s.no_truth, edge_mean,
         Percentile(s.edge_distances, 0.95), s.on_rim, curve_mean,
-        Percentile(s.curve_offsets, 0.95));
+        Percentile(s.curve_offsets, 0.95), fit_mean, Percentile(s.fit_distances, 0.95));
   }
   if (!cpu_ms.empty()) {
     double sum = 0;
