@@ -137,6 +137,15 @@ CalibrationResult Calibrator::Run() {
                   result.lip_edges_considered, sigmas.c_str(), options_.lip_edge_bias_sigma_px);
     result.notes.push_back(buf);
   }
+  if (result.corner_offsets_considered > 0) {
+    char buf[320];
+    std::snprintf(buf, sizeof(buf),
+                  "corners: a detector offset common to each ring's corners, the same in every "
+                  "image, is carried into the sigmas: sigma %.3g px per axis (many corners average "
+                  "their noise, not such an offset; the reflex tilt reads it most)",
+                  options_.corner_offset_sigma_px);
+    result.notes.push_back(buf);
+  }
 
   const int n_total = static_cast<int>(obs_.size());
   int n_outliers = 0;

@@ -76,6 +76,12 @@ struct CalibrationOptions {
   // Likewise each lip edge's detector bias across the edge (px), the same in every image (the
   // rig does not move): many images average the lips' noise but not their bias. 0: none.
   double lip_edge_bias_sigma_px = 0.03;
+  // Likewise a common detector offset of each ring's corners (px, per image axis): thousands of
+  // corners average their noise to ~0.001 px but not an offset the detector makes everywhere
+  // (measured on renders under the realistic camera's blur: tag corners 0.001-0.008 px per axis,
+  // chessboards under 0.003; docs/experiments.md 2026-11-27), and data-rich parameters read it
+  // (the reflex tilt ~0.1 deg per px of the inner ring's offset). 0: none.
+  double corner_offset_sigma_px = 0.005;
   // Degeneracy checks on the target placements (horizontal range and azimuth of each target's
   // centre about the camera axis).
   double min_range_ratio = 1.6;         // max range / min range must reach this (the initial
@@ -153,8 +159,12 @@ struct CalibrationResult {
   };
   std::vector<Considered> considered;
   int lip_edges_considered = 0;
+  // Rings x axes whose corners' common offset is considered: the last considered columns, ring 1
+  // u, v then ring 2 u, v (a ring without corners left out).
+  int corner_offsets_considered = 0;
   // d value / d held value (rows: names) of each considered column: `considered` in order, then
-  // the lip edges' biases (calib/projection_uncertainty.h), and the sigma assumed for each.
+  // the lip edges' biases, the rings' corner offsets (calib/projection_uncertainty.h), and the
+  // sigma assumed for each.
   Eigen::MatrixXd considered_sensitivity;
   Eigen::VectorXd considered_column_sigma;  // lip edges whose bias (lip_edge_bias_sigma_px) is considered
   std::vector<UnobservableParameter> unobservable;  // named, never given a number

@@ -197,13 +197,42 @@ void Calibrator::Covariance(CalibrationResult* result) {
     result->lip_edges_considered = static_cast<int>(edge_column.size());
   }
   const int n_edges = static_cast<int>(edge_column.size());
+  // Each ring's corners' common offset along u and along v as considered parameters (after the
+  // lip edges): the detector's bias where it is the same everywhere, which no number of corners
+  // averages out.
+  // Columns ring 1 u, v, then ring 2 u, v (rings without corners left out); each is the offset
+  // of the reported pixels (observed = true + offset: the residual, predicted - observed, moves
+  // by minus it).
+  int n_offsets = 0;
+  if (options_.corner_offset_sigma_px > 0) {
+    bool ring_seen[2] = {false, false};
+    for (const auto& o : obs_) ring_seen[o.mirror - 1] |= !o.rejected && o.projectable;
+    int first_column[2] = {-1, -1};
+    for (int ring = 0; ring < 2; ++ring) {
+      if (!ring_seen[ring]) continue;
+      first_column[ring] = n_rig + n_probe + n_considered + n_edges + n_offsets;
+      n_offsets += 2;
+      considered_sigma.push_back(options_.corner_offset_sigma_px);
+      considered_sigma.push_back(options_.corner_offset_sigma_px);
+    }
+    int row = 0;
+    for (const auto& o : obs_) {
+      if (o.rejected || !o.projectable) continue;
+      for (int axis = 0; axis < 2; ++axis) {
+        triplets.emplace_back(row + axis, first_column[o.mirror - 1] + axis, -row_weight[row + axis]);
+      }
+      row += 2;
+    }
+    result->corner_offsets_considered = n_offsets;
+  }
+  const int n_extra = n_edges + n_offsets;
   for (int r = 0; r < crs.num_rows; ++r) {
     for (int k = crs.rows[r]; k < crs.rows[r + 1]; ++k) {
-      const int c = crs.cols[k] < col ? column_of[crs.cols[k]] : crs.cols[k] + n_edges;
+      const int c = crs.cols[k] < col ? column_of[crs.cols[k]] : crs.cols[k] + n_extra;
       triplets.emplace_back(r, c, row_weight[r] * crs.values[k]);
     }
   }
-  Eigen::SparseMatrix<double, Eigen::RowMajor> jacobian(crs.num_rows, crs.num_cols + n_edges);
+  Eigen::SparseMatrix<double, Eigen::RowMajor> jacobian(crs.num_rows, crs.num_cols + n_extra);
   jacobian.setFromTriplets(triplets.begin(), triplets.end());
 
   RigCovarianceOptions co;
