@@ -95,28 +95,35 @@ std::optional<LipIntrinsics> InitialIntrinsicsFromLips(const std::vector<LipEdge
 
   // Azimuths: the image azimuth about the principal point is close to the lip point's azimuth
   // on a nearly coaxial rig (every path reflects in planes through the axis); a scan around it
-  // finds a valid start where the point's image is nearest, the solve then refines it. Points
-  // whose circle image is nowhere near (> 20 px) are left out.
-  constexpr double kScanStep = 0.002, kMaxStart = 20.0;
-  constexpr int kScanHalf = 60;
+  // (+-0.12 rad: every 0.01, then every 0.002 around the nearest; 36 projections instead of 121
+  // at 0.002 throughout, which were 3/4 of the fit's time) finds a valid start where the point's
+  // image is nearest, the solve then refines it. Points whose circle image is nowhere near
+  // (> 20 px) are left out.
+  constexpr double kCoarseStep = 0.01, kFineStep = 0.002, kMaxStart = 20.0;
+  constexpr int kCoarseHalf = 12, kFineHalf = 5;
   std::vector<double> phi;
   std::vector<Point> used;
   for (const Point& p : points) {
-    const double phi0 = std::atan2(p.pixel.y() - intrinsics[2], p.pixel.x() - intrinsics[1]);
-    double best = kMaxStart, best_phi = 0;
-    for (int k = -kScanHalf; k <= kScanHalf; ++k) {
-      Eigen::Vector2d q;
-      const double a = phi0 + k * kScanStep;
-      if (!ProjectLipEdge(RigBlocksOf(rig), nominal.fixed(), p.path, p.radius,
-                          LipOf(rig, p.path).z, a, nominal.fixed().r_ref, &q)) {
-        continue;
+    double best = HUGE_VAL, best_phi = 0;
+    const auto scan = [&](double from, double step, int half) {
+      for (int k = -half; k <= half; ++k) {
+        Eigen::Vector2d q;
+        const double a = from + k * step;
+        if (!ProjectLipEdge(RigBlocksOf(rig), nominal.fixed(), p.path, p.radius,
+                            LipOf(rig, p.path).z, a, nominal.fixed().r_ref, &q)) {
+          continue;
+        }
+        const double dist = (q - p.pixel).norm();
+        if (dist < best) {
+          best = dist;
+          best_phi = a;
+        }
       }
-      const double dist = (q - p.pixel).norm();
-      if (dist < best) {
-        best = dist;
-        best_phi = a;
-      }
-    }
+    };
+    scan(std::atan2(p.pixel.y() - intrinsics[2], p.pixel.x() - intrinsics[1]), kCoarseStep,
+         kCoarseHalf);
+    if (best == HUGE_VAL) continue;
+    scan(best_phi, kFineStep, kFineHalf);
     if (best < kMaxStart) {
       used.push_back(p);
       phi.push_back(best_phi);
