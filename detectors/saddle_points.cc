@@ -49,8 +49,6 @@ std::vector<cv::Point2f> SaddlePoints(const RingView& view, const SaddleOptions&
       r[x] = valid[x] && !(trace * trace > balance2 * det) ? det : 0.0f;
     }
   }
-  cv::Mat dilated;
-  cv::dilate(response, dilated, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(5, 5)));
   // An ideal saddle of contrast C blurred by sigma has Ixy = C / (pi sigma^2); the 3x3 Sobel
   // second derivatives carry a gain of 4 each. The view's own blur adds in quadrature (at least
   // 0.7 px: the sharpest a render's anti-aliasing and the view's resampling leave).
@@ -58,12 +56,24 @@ std::vector<cv::Point2f> SaddlePoints(const RingView& view, const SaddleOptions&
   const double s2 = options.sigma * options.sigma + std::max(0.5, blur2);
   const double ixy_min = 4.0 * options.min_contrast / (M_PI * s2);
   const float threshold = static_cast<float>(ixy_min * ixy_min);
+  // Local maxima over 5x5 (clipped at the view's border), tested only where the response passes
+  // the threshold: a 5x5 dilation of the whole response was a seventh of this function.
   std::vector<cv::Point2f> points;
   for (int y = 0; y < response.rows; ++y) {
     const float* r = response.ptr<float>(y);
-    const float* d = dilated.ptr<float>(y);
     for (int x = 0; x < response.cols; ++x) {
-      if (r[x] > threshold && r[x] >= d[x]) points.emplace_back(x, y);
+      if (!(r[x] > threshold)) continue;
+      bool peak = true;
+      for (int yy = std::max(0, y - 2); peak && yy <= std::min(response.rows - 1, y + 2); ++yy) {
+        const float* n = response.ptr<float>(yy);
+        for (int xx = std::max(0, x - 2); xx <= std::min(response.cols - 1, x + 2); ++xx) {
+          if (n[xx] > r[x]) {
+            peak = false;
+            break;
+          }
+        }
+      }
+      if (peak) points.emplace_back(x, y);
     }
   }
   if (!view.image.empty()) {
