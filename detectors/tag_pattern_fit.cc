@@ -183,9 +183,10 @@ struct BlurredPattern {
   int spb = 8;
   cv::Mat image;  // CV_32F
 
-  BlurredPattern(const TargetPattern& pattern, const Eigen::Vector2d& lo_bits, const Eigen::Vector2d& hi_bits,
-                 int samples_per_bit, const Eigen::Matrix2d& cov)
-      : lo(lo_bits), spb(samples_per_bit) {
+  // The pattern's area per sample, unblurred (Sharp), then blurred: a fit blurs one rendering at
+  // two widths.
+  static cv::Mat Sharp(const TargetPattern& pattern, const Eigen::Vector2d& lo_bits, const Eigen::Vector2d& hi_bits,
+                       int spb) {
     const int nx = static_cast<int>(std::ceil((hi_bits.x() - lo_bits.x()) * spb));
     const int ny = static_cast<int>(std::ceil((hi_bits.y() - lo_bits.y()) * spb));
     cv::Mat sharp(ny, nx, CV_32F);
@@ -193,13 +194,13 @@ struct BlurredPattern {
     std::vector<int> x_count(nx);
     for (int i = 0; i < nx; ++i) {
       double xm[2] = {0, 0}, xw[2] = {0, 0};
-      x_count[i] = pattern.Split(lo.x() + double(i) / spb, lo.x() + double(i + 1) / spb, xm, xw);
+      x_count[i] = pattern.Split(lo_bits.x() + double(i) / spb, lo_bits.x() + double(i + 1) / spb, xm, xw);
       x_parts[i] = {xm[0], xw[0], xm[1], xw[1]};
     }
     for (int j = 0; j < ny; ++j) {
       float* row = sharp.ptr<float>(j);
       double ym[2], yw[2];
-      const int nyp = pattern.Split(lo.y() + double(j) / spb, lo.y() + double(j + 1) / spb, ym, yw);
+      const int nyp = pattern.Split(lo_bits.y() + double(j) / spb, lo_bits.y() + double(j + 1) / spb, ym, yw);
       for (int i = 0; i < nx; ++i) {
         // The sample's area: exact where a cell's edge crosses it (the gaps need not be a whole
         // number of samples: spacing 0.3 is 2.4 bits).
@@ -211,8 +212,12 @@ struct BlurredPattern {
         row[i] = static_cast<float>(value);
       }
     }
-    image = AnisotropicGaussianBlur(sharp, cov * spb * spb);
+    return sharp;
   }
+
+  BlurredPattern(const cv::Mat& sharp, const Eigen::Vector2d& lo_bits, int samples_per_bit,
+                 const Eigen::Matrix2d& cov)
+      : lo(lo_bits), spb(samples_per_bit), image(AnisotropicGaussianBlur(sharp, cov * spb * spb)) {}
 
   // The value at `bits`, and its gradient (per bit) where `gradient` is given.
   double At(const Eigen::Vector2d& bits, Eigen::Vector2d* gradient = nullptr) const {
@@ -379,8 +384,9 @@ std::optional<RegionFit> FitPatternRegion(const cv::Mat& grey, const RingView& v
     const double margin = 3.5 * max_sigma_bits + 1;
     const Eigen::Vector2d lo = plane[3] + ((region_lo - plane[3]).array() - margin).cwiseProduct(Eigen::Array2d::Constant(spb)).floor().matrix() / spb;
     const Eigen::Vector2d hi = region_hi.array() + margin;
-    const BlurredPattern at_sigma(pattern, lo, hi, spb, cov_bits(sigma));
-    const BlurredPattern at_wider(pattern, lo, hi, spb, cov_bits(sigma + kSigmaStep));
+    const cv::Mat sharp = BlurredPattern::Sharp(pattern, lo, hi, spb);
+    const BlurredPattern at_sigma(sharp, lo, spb, cov_bits(sigma));
+    const BlurredPattern at_wider(sharp, lo, spb, cov_bits(sigma + kSigmaStep));
 
     p(10) = 0;
     // Residuals and the model's pattern values for parameters q.
