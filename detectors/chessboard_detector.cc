@@ -709,6 +709,34 @@ std::vector<BoardDetection> SearchRegion(const cv::Mat& raw_grey, const RingView
 
 }  // namespace
 
+std::vector<BoardDetection> DropRepeatedPlacements(std::vector<BoardDetection> kept,
+                                                   const std::vector<TargetSpec>& targets) {
+  // A sheet shows each of its corners once per ring: a smaller placement that repeats ids of a
+  // larger one, beyond the number of sheets printed with the pattern, is a false board (a partial
+  // grid of junctions on a Kalibr grid's corner squares next to the true board: hid3 0003, 4
+  // corners 60-100 px off). Parts of one board with no id in common (an occluder between them)
+  // both stay.
+  std::stable_sort(kept.begin(), kept.end(), [](const BoardDetection& a, const BoardDetection& b) {
+    return a.ids.size() > b.ids.size();
+  });
+  std::vector<BoardDetection> placed;
+  for (auto& b : kept) {
+    int sheets = 0, repeated = 0;
+    for (const TargetSpec& t : targets) {
+      sheets += t.type == TargetType::kChessboard && t.rows == targets[b.target].rows &&
+                t.cols == targets[b.target].cols;
+    }
+    for (const auto& k : placed) {
+      if (k.target != b.target || k.mirror != b.mirror) continue;
+      repeated += std::any_of(b.ids.begin(), b.ids.end(), [&](int id) {
+        return std::find(k.ids.begin(), k.ids.end(), id) != k.ids.end();
+      });
+    }
+    if (repeated < sheets) placed.push_back(std::move(b));
+  }
+  return placed;
+}
+
 std::vector<BoardDetection> DetectChessboardBoards(const cv::Mat& raw_grey,
                                                    const std::vector<RingView>& views,
                                                    const RigModel& model,
@@ -768,24 +796,7 @@ std::vector<BoardDetection> DetectChessboardBoards(const cv::Mat& raw_grey,
     }
     if (!duplicate) kept.push_back(std::move(b));
   }
-  // A board is one sheet: a pattern is in one place per ring for each target printed with it.
-  // A second, smaller placement is a false board (a partial grid of junctions on a Kalibr grid's
-  // corner squares next to the true board: hid3 0003, 4 corners 60-100 px off): the placements
-  // with the most corners stay.
-  std::stable_sort(kept.begin(), kept.end(), [](const BoardDetection& a, const BoardDetection& b) {
-    return a.ids.size() > b.ids.size();
-  });
-  std::vector<BoardDetection> placed;
-  for (auto& b : kept) {
-    int sheets = 0, seen = 0;
-    for (const TargetSpec& t : targets) {
-      sheets += t.type == TargetType::kChessboard && t.rows == targets[b.target].rows &&
-                t.cols == targets[b.target].cols;
-    }
-    for (const auto& k : placed) seen += k.target == b.target && k.mirror == b.mirror;
-    if (seen < sheets) placed.push_back(std::move(b));
-  }
-  return placed;
+  return DropRepeatedPlacements(std::move(kept), targets);
 }
 
 std::vector<CornerObservation> DetectChessboards(const cv::Mat& raw_grey,

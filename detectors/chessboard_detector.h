@@ -85,6 +85,13 @@ struct BoardDetection {
   double off_centre = 0;            // distance of the board's centre from the view's centre (px)
 };
 
+// Of boards found in one image, drops a placement (the smaller first) that
+// repeats ids of larger ones of its target in its ring beyond the number of sheets printed with
+// the pattern (a sheet shows each corner once per ring). Parts of one board with no id in common
+// stay.
+std::vector<BoardDetection> DropRepeatedPlacements(std::vector<BoardDetection> boards,
+                                                   const std::vector<TargetSpec>& targets);
+
 // Chessboards in one image. `views` must have been rendered from this image (RenderViews);
 // `raw_grey` is the raw image as CV_8U grey. Targets that are not chessboards are ignored; the
 // target index of an observation is its index in `targets`.

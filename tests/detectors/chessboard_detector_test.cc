@@ -282,5 +282,48 @@ TEST(ChessboardDetector, WindowsCutByTheRingsEdgeStayOnTheirSquares) {
   ExpectHardBoards("calibration_scene_tags.yaml", {{8, 1, 2, 33, 0.3}});
 }
 
+// One sheet shows each corner once per ring: a smaller placement repeating ids of a larger one is
+// dropped (hid3 0003: a 4-corner junction grid on a Kalibr grid beside the true 3x4 board, 4
+// wrong ids); parts of a board with no id in common, the other ring's placement and a second
+// printed sheet of the pattern stay.
+TEST(ChessboardDetector, RepeatedPlacementsOfOneSheetAreDropped) {
+  const auto board = [](int target, Mirror mirror, std::vector<int> ids) {
+    BoardDetection b;
+    b.target = target;
+    b.mirror = mirror;
+    b.ids = ids;
+    b.view_pixels.assign(ids.size(), Eigen::Vector2d::Zero());
+    b.raw_pixels.assign(ids.size(), Eigen::Vector2d::Zero());
+    return b;
+  };
+  std::vector<int> all(12);
+  for (int i = 0; i < 12; ++i) all[i] = i;
+  TargetSpec sheet;
+  sheet.type = TargetType::kChessboard;
+  sheet.rows = 3;
+  sheet.cols = 4;
+  const auto kept = [&](const std::vector<TargetSpec>& targets, std::vector<BoardDetection> boards) {
+    std::vector<size_t> sizes;
+    for (const auto& b : DropRepeatedPlacements(std::move(boards), targets)) {
+      sizes.push_back(b.ids.size() * 10 + MirrorIndex(b.mirror));
+    }
+    return sizes;
+  };
+  // The false 4-corner placement found before the true board: dropped whatever the order.
+  EXPECT_EQ(kept({sheet}, {board(0, Mirror::kOne, {0, 3, 4, 11}), board(0, Mirror::kOne, all)}),
+            (std::vector<size_t>{121}));
+  // The same in ring 2 is another placement; two parts with no id in common both stay.
+  EXPECT_EQ(kept({sheet}, {board(0, Mirror::kOne, all), board(0, Mirror::kTwo, {0, 3, 4, 11})}),
+            (std::vector<size_t>{121, 42}));
+  EXPECT_EQ(kept({sheet}, {board(0, Mirror::kOne, {0, 1, 4, 5, 8, 9}),
+                           board(0, Mirror::kOne, {2, 3, 6, 7, 10, 11})}),
+            (std::vector<size_t>{61, 61}));
+  // Two sheets printed with the pattern (detections carry the first target's index): two full
+  // placements stay, a third repeating ids of both does not.
+  EXPECT_EQ(kept({sheet, sheet}, {board(0, Mirror::kOne, all), board(0, Mirror::kOne, all),
+                                  board(0, Mirror::kOne, {0, 3, 4, 11})}),
+            (std::vector<size_t>{121, 121}));
+}
+
 }  // namespace
 }  // namespace omni::detectors
