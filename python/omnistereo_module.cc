@@ -250,12 +250,19 @@ class Detector {
       : session_(io::ReadSessionFile(session_path)),
         ctx_(io::ReadModelFile(session_.model_path), session_.targets, session_.use_lips) {}
 
+  // What the lip guide did (detectors/lip_guide.h), after the first detect; empty before.
+  const std::string& Guide() const { return guide_; }
+
   py::dict Detect(const std::optional<std::vector<std::string>>& images) {
     io::Session session = session_;
     if (images) session.images = *images;
     Observations obs;
     {
       py::gil_scoped_release release;
+      // The lip guide, as `detect` runs it, once: on the first images detected.
+      if (guide_.empty() && session_.use_lips) {
+        guide_ = detectors::Describe(detectors::GuideSessionByLips(session, &ctx_));
+      }
       obs = detectors::DetectSession(session, &ctx_);
     }
     obs.session = session_.path;
@@ -265,6 +272,7 @@ class Detector {
  private:
   io::Session session_;
   detectors::DetectorContext ctx_;
+  std::string guide_;
 };
 
 }  // namespace
@@ -322,7 +330,10 @@ PYBIND11_MODULE(omnistereo, m) {
       .def("detect", &Detector::Detect, py::arg("images") = py::none(),
            "Detects the session's images (or the given image paths): the same dict as "
            "read_detections. Unreadable images are skipped; an image of the wrong size raises "
-           "InputError.");
+           "InputError. The first call corrects the model detection is guided by from the "
+           "lips, as `omnistereo detect` does (see guide).")
+      .def_property_readonly("guide", &Detector::Guide,
+                             "What the lip guide did on the first detect (empty before it).");
 
   m.def("read_detections",
         [](const std::string& path) { return ObservationsDict(io::ReadDetectionsFile(path)); },

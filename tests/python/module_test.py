@@ -132,7 +132,10 @@ def main():
     session = os.path.join(TMP, "render", "session.yaml")
     run("detect", f"--session={session}", f"--out={TMP}/det.yaml")
     cli = om.read_detections(os.path.join(TMP, "det.yaml"))
-    mine = om.Detector(session).detect()
+    detector = om.Detector(session)
+    assert detector.guide == ""
+    mine = detector.detect()  # guided by the lips first, as the command is
+    assert detector.guide.startswith("detection guided by"), detector.guide
     assert len(mine["images"]) == len(cli["images"]) == 1
     a, b = mine["images"][0]["corners"], cli["images"][0]["corners"]
     assert len(a) > 50, len(a)
