@@ -14,11 +14,8 @@ namespace omni::calib {
 namespace {
 
 TEST(CalibConsidered, CornerOffsetSensitivityMatchesSolvingAgain) {
-  RigParams truth_rig = testing::MisalignedRig();
-  truth_rig.distortion[2] = truth_rig.distortion[3] = 0;
   testing::SyntheticSession session;
-  const RigParams truth = testing::MakeSceneSession(
-      truth_rig, std::string(OMNI_SOURCE_DIR) + "/sample_configs/small_clean_scene.yaml", &session);
+  const RigParams truth = testing::SmallCleanSessionWithoutTangential(&session);
   const Observations detections = testing::NoisyDetections(session, 0.01, 7);
   // Observed = true + offset in the inner ring, on 0.01 px noise: the reflex tilt moves by ~2 of
   // its noise sigmas, the others by less, in the linear range.

@@ -30,11 +30,8 @@ namespace {
 using testing::IsMisalignment;
 
 TEST(CalibMonteCarlo, PredictedSigmaMatchesSpread) {
-  RigParams truth_rig = testing::MisalignedRig();
-  truth_rig.distortion[2] = truth_rig.distortion[3] = 0;
   testing::SyntheticSession session;
-  const RigParams truth = testing::MakeSceneSession(
-      truth_rig, std::string(OMNI_SOURCE_DIR) + "/sample_configs/small_clean_scene.yaml", &session);
+  const RigParams truth = testing::SmallCleanSessionWithoutTangential(&session);
   const double corner_noise_px = 0.1, lip_noise_px = 0.03;
   const int solves = std::getenv("MC_SOLVES") ? std::atoi(std::getenv("MC_SOLVES")) : 100;
 

@@ -219,4 +219,14 @@ inline RigParams MakeSceneSession(const RigParams& truth_full, const std::string
   return truth;
 }
 
+// The misaligned big rig without tangential distortion (so that the held dist_p1 = dist_p2 = 0
+// are exact) through sample_configs/small_clean_scene.yaml's placements: the fast-path session
+// of the Monte Carlo and considered-parameter tests. Returns the truth at the scene's size.
+inline RigParams SmallCleanSessionWithoutTangential(SyntheticSession* s) {
+  RigParams truth_rig = MisalignedRig();
+  truth_rig.distortion[2] = truth_rig.distortion[3] = 0;
+  return MakeSceneSession(
+      truth_rig, std::string(OMNI_SOURCE_DIR) + "/sample_configs/small_clean_scene.yaml", s);
+}
+
 }  // namespace omni::testing
