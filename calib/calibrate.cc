@@ -132,9 +132,11 @@ CalibrationResult Calibrator::Run() {
     char buf[512];
     std::snprintf(buf, sizeof(buf),
                   "lips: a detector bias on each of the %d lip edges, the same in every image, is "
-                  "carried into the sigmas: sigma %s px (at least %.3g, or the RMS of the edge's "
-                  "residuals across it if larger)",
-                  result.lip_edges_considered, sigmas.c_str(), options_.lip_edge_bias_sigma_px);
+                  "carried into the sigmas: across the edge sigma %s px (at least %.3g, or the RMS "
+                  "of the edge's residuals across it if larger), the whole edge's move along u and "
+                  "v %.3g px",
+                  result.lip_edges_considered, sigmas.c_str(), options_.lip_edge_bias_sigma_px,
+                  options_.lip_edge_bias_sigma_px);
     result.notes.push_back(buf);
   }
   if (result.corner_offsets_considered > 0) {

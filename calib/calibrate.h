@@ -73,8 +73,10 @@ struct CalibrationOptions {
   // has |p| of a few 1e-4; 3e-4 turns the calibrated camera frame by ~0.09 deg and moves the
   // tilts along the camera-rotation valley by several noise sigmas).
   std::map<std::string, double> considered_sigma = {{"dist_p1", 5e-4}, {"dist_p2", 5e-4}};
-  // Likewise each lip edge's detector bias across the edge (px), the same in every image (the
-  // rig does not move): many images average the lips' noise but not their bias. 0: none.
+  // Likewise each lip edge's detector bias (px), the same in every image (the rig does not
+  // move): many images average the lips' noise but not their bias. Across the edge: the larger of
+  // this and the RMS of the edge's residuals across it; the whole edge moved along u and along v:
+  // this. 0: none.
   double lip_edge_bias_sigma_px = 0.03;
   // Likewise a common detector offset of each ring's corners (px, per image axis): thousands of
   // corners average their noise to ~0.001 px but not an offset the detector makes everywhere
@@ -167,6 +169,9 @@ struct CalibrationResult {
   // sigma assumed for each.
   Eigen::MatrixXd considered_sensitivity;
   Eigen::VectorXd considered_column_sigma;  // lip edges whose bias (lip_edge_bias_sigma_px) is considered
+  // One name per considered column: the held parameter's, "lip <path> r <radius> across|u|v",
+  // "corners ring <1|2> u|v".
+  std::vector<std::string> considered_column_names;
   std::vector<UnobservableParameter> unobservable;  // named, never given a number
   // What a user of the model should know about this calibration, one sentence each (printed
   // under the table): dist_k3 held or refined and why, the camera's pointing against the mirror

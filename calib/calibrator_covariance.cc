@@ -57,6 +57,7 @@ void Calibrator::Covariance(CalibrationResult* result) {
   // ones), so that the same Jacobian says what freeing it would give (DecideDistK3).
   result->values.resize(0);
   result->considered.clear();
+  result->considered_column_names.clear();
   result->unobservable.clear();
   k3_probe_ = {};
   ceres::Problem::EvaluateOptions eo;
@@ -83,6 +84,7 @@ void Calibrator::Covariance(CalibrationResult* result) {
         refined_cols.push_back(col++);
       } else if (consider != options_.considered_sigma.end() && consider->second > 0) {
         result->considered.push_back({all[k], block[k], consider->second});
+        result->considered_column_names.push_back(all[k]);
         considered_sigma.push_back(consider->second);
         considered_cols.push_back(col++);
       } else if (all[k] == "dist_k3" && !options_.refine_dist_k3) {
@@ -157,11 +159,14 @@ void Calibrator::Covariance(CalibrationResult* result) {
   result->n_parameters = n_params;
   result->variance_factor = dof > 0 ? ssr_weighted / dof : 1.0;
 
-  // Each lip edge's detector bias as a considered parameter: the rig does not move, so an edge
+  // Each lip edge's detector bias as considered parameters: the rig does not move, so an edge
   // is detected with the same bias (blur, anti-aliasing) in every image and it does not average
   // out over the images; the solve's rig parameters absorb most of it (the residuals do not show
-  // it: correlation factor 1.04 with a 0.03 px offset per edge). Its column (after the considered
-  // coordinates, before the nuisance blocks) moves each of the edge's points across the edge.
+  // it: correlation factor 1.04 with a 0.03 px offset per edge). Three columns per edge (after
+  // the considered coordinates, before the nuisance blocks): each of the edge's points moved
+  // across the edge, and the whole edge moved along u and along v (a bias that differs round the
+  // edge, from the light's side or the raster's order: the demo's reflex tilt read 2.6 / 2.8
+  // sigma off without them, 1.7 / 2.1 with them at lip_edge_bias_sigma_px).
   std::vector<Eigen::Triplet<double>> triplets;
   std::map<std::pair<int, double>, int> edge_column;  // (path, circle radius) -> column
   std::vector<std::pair<double, int>> edge_ssr;         // per column: across-edge SSR, count
@@ -171,15 +176,19 @@ void Calibrator::Covariance(CalibrationResult* result) {
     for (const auto& l : lips_) {
       if (!l.Used() || !l.projectable) continue;
       const auto key = std::make_pair(static_cast<int>(l.path), l.radius);
-      const int c = n_rig + n_probe + n_considered +
-                    edge_column.emplace(key, static_cast<int>(edge_column.size())).first->second;
+      const int e = edge_column.emplace(key, static_cast<int>(edge_column.size())).first->second;
+      const int c = n_rig + n_probe + n_considered + 3 * e;
       const Eigen::Vector2d across = (l.pixel - centre).normalized();
       triplets.emplace_back(row, c, row_weight[row] * across.x());
       triplets.emplace_back(row + 1, c, row_weight[row + 1] * across.y());
+      // The whole edge's move, as the detector reports it (observed = true + move: the residual,
+      // predicted - observed, moves by minus it).
+      triplets.emplace_back(row, c + 1, -row_weight[row]);
+      triplets.emplace_back(row + 1, c + 2, -row_weight[row + 1]);
       const double r = residuals[row] * across.x() + residuals[row + 1] * across.y();
       edge_ssr.resize(edge_column.size(), {0.0, 0});
-      edge_ssr[c - n_rig - n_probe - n_considered].first += r * r;
-      ++edge_ssr[c - n_rig - n_probe - n_considered].second;
+      edge_ssr[e].first += r * r;
+      ++edge_ssr[e].second;
       row += 2;
     }
     // Each edge's bias sigma: the option's, or the RMS of the edge's residuals across it if
@@ -188,15 +197,30 @@ void Calibrator::Covariance(CalibrationResult* result) {
     // wrong curve over part of the azimuths, a colour-dependent offset); its constant part is
     // absorbed by the rig parameters and cannot show, and is taken to be as large as the part
     // that shows.
+    // The whole edge's move: the option's sigma (the residuals' spread along the edge is mostly
+    // local, e.g. a room's texture beside the band, and averages down round the edge).
     lip_edge_sigma_.clear();
-    for (const auto& [ssr, count] : edge_ssr) {
+    std::vector<std::string> edge_names(edge_column.size());
+    for (const auto& [key, e] : edge_column) {
+      char name[64];
+      std::snprintf(name, sizeof(name), "lip %s r %g", LipPathName(static_cast<LipPath>(key.first)),
+                    key.second);
+      edge_names[e] = name;
+    }
+    for (size_t e = 0; e < edge_ssr.size(); ++e) {
+      const auto& [ssr, count] = edge_ssr[e];
       lip_edge_sigma_.push_back(
           std::max(options_.lip_edge_bias_sigma_px, count ? std::sqrt(ssr / count) : 0.0));
       considered_sigma.push_back(lip_edge_sigma_.back());
+      considered_sigma.push_back(options_.lip_edge_bias_sigma_px);
+      considered_sigma.push_back(options_.lip_edge_bias_sigma_px);
+      for (const char* what : {" across", " u", " v"}) {
+        result->considered_column_names.push_back(edge_names[e] + what);
+      }
     }
     result->lip_edges_considered = static_cast<int>(edge_column.size());
   }
-  const int n_edges = static_cast<int>(edge_column.size());
+  const int n_edges = 3 * static_cast<int>(edge_column.size());
   // Each ring's corners' common offset along u and along v as considered parameters (after the
   // lip edges): the detector's bias where it is the same everywhere, which no number of corners
   // averages out.
@@ -212,8 +236,10 @@ void Calibrator::Covariance(CalibrationResult* result) {
       if (!ring_seen[ring]) continue;
       first_column[ring] = n_rig + n_probe + n_considered + n_edges + n_offsets;
       n_offsets += 2;
-      considered_sigma.push_back(options_.corner_offset_sigma_px);
-      considered_sigma.push_back(options_.corner_offset_sigma_px);
+      for (const char* axis : {"u", "v"}) {
+        considered_sigma.push_back(options_.corner_offset_sigma_px);
+        result->considered_column_names.push_back("corners ring " + std::to_string(ring + 1) + " " + axis);
+      }
     }
     int row = 0;
     for (const auto& o : obs_) {

@@ -1,17 +1,55 @@
-// Considered parameters (calib/calibrate.h): a detector offset common to one ring's corners, the
-// same in every image. Its column of the covariance's sensitivity (d value / d offset, from the
-// Schur complement) against the finite difference of two solves on the same noisy detections,
-// one with the offset added to the inner ring's corners: the linear prediction must match.
+// Considered parameters (calib/calibrate.h): detector biases the same in every image, a common
+// offset of one ring's corners and a lip edge's move as a whole. Their columns of the covariance's
+// sensitivity (d value / d bias, from the Schur complement) against the finite difference of two
+// solves on the same noisy detections, one with the bias added: the linear prediction must match.
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstdio>
+#include <string>
 
 #include "calib/calibrate.h"
+#include "model/lip.h"
 #include "tests/calib/calib_test_util.h"
 
 namespace omni::calib {
 namespace {
+
+int Column(const CalibrationResult& r, const std::string& name) {
+  for (size_t c = 0; c < r.considered_column_names.size(); ++c) {
+    if (r.considered_column_names[c] == name) return static_cast<int>(c);
+  }
+  ADD_FAILURE() << "no considered column " << name;
+  return -1;
+}
+
+// Solves `detections` and `moved` (the same with a bias added) from the truth and expects the
+// parameters to move as columns c0, c0 + 1 of the sensitivity predict for `offset`, per parameter
+// within 10% of the move and 5% of the noise sigma; at least one moves by more than its noise.
+void ExpectMoveAsPredicted(const RigParams& truth, const std::vector<TargetSpec>& targets,
+                           const Observations& detections, const Observations& moved,
+                           const std::string& column, const Eigen::Vector2d& offset) {
+  CalibrationOptions options;
+  options.solver.threads = 2;
+  const CalibrationResult a = Calibrate(truth, targets, detections, options);
+  const CalibrationResult b = Calibrate(truth, targets, moved, options);
+  ASSERT_EQ(a.names, b.names);
+  ASSERT_EQ(a.considered_column_names.size(), static_cast<size_t>(a.considered_column_sigma.size()));
+  const int c0 = Column(a, column + " u");
+  ASSERT_EQ(Column(a, column + " v"), c0 + 1);
+  int moved_beyond_noise = 0;
+  for (size_t i = 0; i < a.names.size(); ++i) {
+    const double predicted = a.considered_sensitivity(i, c0) * offset.x() +
+                             a.considered_sensitivity(i, c0 + 1) * offset.y();
+    const double solved = b.values(i) - a.values(i);
+    std::printf("%s: %-12s solved %+.3e predicted %+.3e (noise sigma %.3e)\n", column.c_str(),
+                a.names[i].c_str(), solved, predicted, a.noise_sigma(i));
+    EXPECT_NEAR(solved, predicted, 0.1 * std::abs(predicted) + 0.05 * a.noise_sigma(i))
+        << column << " " << a.names[i];
+    moved_beyond_noise += std::abs(predicted) > a.noise_sigma(i);
+  }
+  EXPECT_GE(moved_beyond_noise, 1) << column;
+}
 
 TEST(CalibConsidered, CornerOffsetSensitivityMatchesSolvingAgain) {
   testing::SyntheticSession session;
@@ -26,39 +64,49 @@ TEST(CalibConsidered, CornerOffsetSensitivityMatchesSolvingAgain) {
       if (c.mirror == Mirror::kTwo) c.pixel += offset;
     }
   }
+  ExpectMoveAsPredicted(truth, session.targets, detections, shifted, "corners ring 2", offset);
+
+  // Each sigma carries the considered columns: total^2 = noise^2 + their shares.
   CalibrationOptions options;
   options.solver.threads = 2;
   const CalibrationResult a = Calibrate(truth, session.targets, detections, options);
-  const CalibrationResult b = Calibrate(truth, session.targets, shifted, options);
-  ASSERT_EQ(a.corner_offsets_considered, 4);
-  ASSERT_EQ(a.names, b.names);
-  const int n_columns = static_cast<int>(a.considered_column_sigma.size());
-  ASSERT_EQ(a.considered_sensitivity.cols(), n_columns);
-  const int ring2_u = n_columns - 2;  // ring 1 u, v, ring 2 u, v last
-  EXPECT_DOUBLE_EQ(a.considered_column_sigma(ring2_u), options.corner_offset_sigma_px);
-  int moved = 0;
-  for (size_t i = 0; i < a.names.size(); ++i) {
-    const double predicted = a.considered_sensitivity(i, ring2_u) * offset.x() +
-                             a.considered_sensitivity(i, ring2_u + 1) * offset.y();
-    const double solved = b.values(i) - a.values(i);
-    std::printf("%-12s solved %+.3e predicted %+.3e (noise sigma %.3e)\n", a.names[i].c_str(),
-                solved, predicted, a.noise_sigma(i));
-    // Within 10% of the move and 5% of the noise sigma (the two solves stop at their own
-    // tolerances).
-    EXPECT_NEAR(solved, predicted, 0.1 * std::abs(predicted) + 0.05 * a.noise_sigma(i)) << a.names[i];
-    moved += std::abs(predicted) > a.noise_sigma(i);
-  }
-  // The offset is felt: the reflex tilt at least moves by more than its noise.
-  EXPECT_GE(moved, 1);
-  // And its sigma carries it: total^2 = noise^2 + the considered columns' shares.
+  EXPECT_EQ(a.corner_offsets_considered, 4);
+  EXPECT_DOUBLE_EQ(a.considered_column_sigma(Column(a, "corners ring 2 u")),
+                   options.corner_offset_sigma_px);
   for (size_t i = 0; i < a.names.size(); ++i) {
     double share = 0;
-    for (int c = ring2_u; c < n_columns; ++c) {
+    for (int c = 0; c < a.considered_column_sigma.size(); ++c) {
       share += std::pow(a.considered_sensitivity(i, c) * a.considered_column_sigma(c), 2);
     }
-    EXPECT_GE(a.sigma(i) * a.sigma(i) + 1e-18, a.noise_sigma(i) * a.noise_sigma(i) + share * 0.999)
+    EXPECT_NEAR(a.sigma(i) * a.sigma(i), a.noise_sigma(i) * a.noise_sigma(i) + share,
+                1e-6 * a.sigma(i) * a.sigma(i))
         << a.names[i];
   }
+}
+
+// The same for a lip edge moved as a whole (mirror 1's lip seen in mirror 1, every image): its
+// u, v columns.
+TEST(CalibConsidered, LipEdgeMoveSensitivityMatchesSolvingAgain) {
+  testing::SyntheticSession session;
+  const RigParams truth = testing::SmallCleanSessionWithoutTangential(&session);
+  Observations detections = testing::NoisyDetections(session, 0.01, 7);
+  testing::AddLipDetections(truth, 0.05, 11, &detections, 90);
+  const Eigen::Vector2d offset(0.005, -0.0075);
+  Observations moved = detections;
+  std::string column;
+  for (auto& image : moved.images) {
+    for (auto& edge : image.lips) {
+      if (edge.path != LipPath::kViaMirror1) continue;
+      for (auto& p : edge.points) p += offset;
+      char name[64];
+      const Lip& lip = LipOf(truth, *edge.path);
+      std::snprintf(name, sizeof(name), "lip %s r %g", LipPathName(*edge.path),
+                    *edge.circle == LipCircle::kInner ? lip.r_inner : lip.r_outer);
+      column = name;
+    }
+  }
+  ASSERT_FALSE(column.empty());
+  ExpectMoveAsPredicted(truth, session.targets, detections, moved, column, offset);
 }
 
 }  // namespace
