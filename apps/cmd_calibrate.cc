@@ -57,10 +57,8 @@ std::string UtcNow() {
 
 Observations DetectSession(const io::Session& session, const RigParams& start) {
   detectors::DetectorContext ctx(start, session.targets, session.use_lips);
-  if (session.use_lips) {
-    std::printf("%s\n", Describe(detectors::GuideSessionByLips(session, &ctx)).c_str());
-    std::fflush(stdout);  // before the progress lines on stderr
-  }
+  std::printf("%s\n", Describe(detectors::GuideSessionByLips(session, &ctx)).c_str());
+  std::fflush(stdout);  // before the progress lines on stderr
   ProgressLine progress("detect", static_cast<int>(session.images.size()));
   return detectors::DetectSession(
       session, &ctx, [&](const detectors::ImageReport& r, const cv::Mat&, ImageObservations*) {

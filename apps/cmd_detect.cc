@@ -131,10 +131,8 @@ int RunDetect() {
   // hid3 from the ideal design 89% of the corners, from the calibrated model 95%).
   const RigParams rig = io::ReadModelFile(FLAGS_model.empty() ? session.model_path : FLAGS_model);
   detectors::DetectorContext ctx(rig, session.targets, session.use_lips);
-  if (session.use_lips) {
-    std::printf("%s\n", Describe(detectors::GuideSessionByLips(session, &ctx)).c_str());
-    std::fflush(stdout);  // before the progress lines on stderr
-  }
+  std::printf("%s\n", Describe(detectors::GuideSessionByLips(session, &ctx)).c_str());
+  std::fflush(stdout);  // before the progress lines on stderr
   if (!FLAGS_overlay.empty()) {
     std::error_code ec;
     fs::create_directories(FLAGS_overlay, ec);

@@ -223,10 +223,9 @@ void Calibrator::Covariance(CalibrationResult* result) {
   const int n_edges = 3 * static_cast<int>(edge_column.size());
   // Each ring's corners' common offset along u and along v as considered parameters (after the
   // lip edges): the detector's bias where it is the same everywhere, which no number of corners
-  // averages out.
-  // Columns ring 1 u, v, then ring 2 u, v (rings without corners left out); each is the offset
-  // of the reported pixels (observed = true + offset: the residual, predicted - observed, moves
-  // by minus it).
+  // averages out. Columns ring 1 u, v, then ring 2 u, v (rings without corners left out); each
+  // is the offset of the reported pixels (observed = true + offset: the residual, predicted -
+  // observed, moves by minus it).
   int n_offsets = 0;
   if (options_.corner_offset_sigma_px > 0) {
     bool ring_seen[2] = {false, false};

@@ -24,10 +24,10 @@ cv::Mat LipInput(const cv::Mat& linear) {
   return bgr;
 }
 
-LipDetectorOptions LipOptionsFor(const DetectorContext& ctx, const cv::Mat& image) {
+LipDetectorOptions LipOptionsFor(const cv::Mat& image, bool chroma_halved, const cv::Mat& luma) {
   LipDetectorOptions options;
-  options.chroma_halved = ctx.chroma_halved;
-  if (ctx.chroma_halved && ctx.luma.size() == image.size()) options.luma = ctx.luma;
+  options.chroma_halved = chroma_halved;
+  if (chroma_halved && luma.size() == image.size()) options.luma = luma;
   return options;
 }
 
@@ -101,7 +101,7 @@ ImageObservations DetectImage(const cv::Mat& image, DetectorContext* ctx,
   }
   if (ctx->use_lips) {
     if (image.channels() >= 3) {
-      out.lips = DetectLips(LipInput(linear), ctx->model, LipOptionsFor(*ctx, image));
+      out.lips = DetectLips(LipInput(linear), ctx->model, LipOptionsFor(image, ctx->chroma_halved, ctx->luma));
     } else if (warnings) {
       warnings->push_back("grey image: the coloured lips cannot be detected");
     }

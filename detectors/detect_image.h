@@ -58,9 +58,9 @@ struct DetectorContext {
 // 16 bits kept (8-bit linear levels are too coarse for a dark band's Y': lip_detector.h).
 cv::Mat LipInput(const cv::Mat& linear);
 
-// The lip detector's options for `image` (as read) from the context's CURRENT image settings
-// (chroma_halved, luma).
-LipDetectorOptions LipOptionsFor(const DetectorContext& ctx, const cv::Mat& image);
+// The lip detector's options for `image` (as read) from its file's chroma layout: whether the
+// chroma was halved (io::HasHalvedChroma) and the file's own luma plane (io::ReadStoredLuma).
+LipDetectorOptions LipOptionsFor(const cv::Mat& image, bool chroma_halved, const cv::Mat& luma);
 
 ImageObservations DetectImage(const cv::Mat& image, DetectorContext* ctx,
                                 std::vector<std::string>* warnings = nullptr,

@@ -35,14 +35,11 @@ LipGuide GuideByLips(const std::vector<GuideImage>& images, DetectorContext* ctx
       continue;
     }
     ++guide.images;
-    ctx->chroma_halved = one.chroma_halved;
-    ctx->luma = one.luma;
-    const std::vector<LipEdgeObservation> found = DetectLips(
-        LipInput(io::LinearImage(image, ctx->tone)), ctx->model, LipOptionsFor(*ctx, image));
+    const std::vector<LipEdgeObservation> found =
+        DetectLips(LipInput(io::LinearImage(image, ctx->tone)), ctx->model,
+                   LipOptionsFor(image, one.chroma_halved, one.luma));
     edges.insert(edges.end(), found.begin(), found.end());
   }
-  ctx->chroma_halved = false;
-  ctx->luma = cv::Mat();
   if (guide.images == 0) {
     guide.why_not = "no colour image to find the lips in";
     return guide;

@@ -42,7 +42,7 @@ struct LipGuideOptions {
   double max_f_change = 0.05, max_move_px = 60, max_rms_px = 3.0;
 };
 
-// One image for the guide: as read, and its file's chroma layout as DetectorContext holds it.
+// One image for the guide: as read, and its file's chroma layout (LipOptionsFor).
 struct GuideImage {
   cv::Mat image;
   bool chroma_halved = false;  // io::HasHalvedChroma

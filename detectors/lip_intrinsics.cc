@@ -134,14 +134,14 @@ std::optional<LipIntrinsics> InitialIntrinsicsFromLips(const std::vector<LipEdge
   // The reflex tilt only moves the via_mirror2 edge: its centre against the mirror-1 edges'.
   int via_mirror2 = 0;
   for (const Point& p : points) via_mirror2 += p.path == LipPath::kViaMirror2;
-  fit_reflex_tilt = fit_reflex_tilt && via_mirror2 >= 20;
+  const bool fit_tilt = fit_reflex_tilt && via_mirror2 >= 20;
   ceres::Problem problem;
   for (std::size_t i = 0; i < points.size(); ++i) {
     auto* cost = new ceres::AutoDiffCostFunction<LipPointResidual, 2, 3, 2, 1>(
         new LipPointResidual(&nominal, points[i].path, points[i].radius, points[i].pixel));
     problem.AddResidualBlock(cost, new ceres::HuberLoss(1.0), intrinsics, reflex_tilt, &phi[i]);
   }
-  if (!fit_reflex_tilt) problem.SetParameterBlockConstant(reflex_tilt);
+  if (!fit_tilt) problem.SetParameterBlockConstant(reflex_tilt);
   ceres::Solver::Options options;
   options.linear_solver_type = ceres::DENSE_SCHUR;
   options.max_num_iterations = 50;
@@ -154,7 +154,7 @@ std::optional<LipIntrinsics> InitialIntrinsicsFromLips(const std::vector<LipEdge
   out.f = intrinsics[0];
   out.cx = intrinsics[1];
   out.cy = intrinsics[2];
-  if (fit_reflex_tilt) out.reflex_tilt = Eigen::Vector2d(reflex_tilt[0], reflex_tilt[1]);
+  if (fit_tilt) out.reflex_tilt = Eigen::Vector2d(reflex_tilt[0], reflex_tilt[1]);
   out.n_points = static_cast<int>(points.size());
   // Residual spread and the intrinsics' standard deviations from the Gauss-Newton normal
   // equations, the per-azimuth unknowns eliminated (Ceres' covariance of the 3-block).
@@ -163,7 +163,7 @@ std::optional<LipIntrinsics> InitialIntrinsicsFromLips(const std::vector<LipEdge
   problem.Evaluate(ceres::Problem::EvaluateOptions(), nullptr, &residuals, nullptr, nullptr);
   for (double r : residuals) sum2 += r * r;
   const int dof = std::max<int>(1, static_cast<int>(residuals.size()) - 3 -
-                                        (fit_reflex_tilt ? 2 : 0) -
+                                        (fit_tilt ? 2 : 0) -
                                         static_cast<int>(points.size()));
   out.rms_px = std::sqrt(sum2 / points.size());
   ceres::Covariance::Options cov_options;

@@ -260,7 +260,7 @@ class Detector {
     {
       py::gil_scoped_release release;
       // The lip guide, as `detect` runs it, once: on the first images detected.
-      if (guide_.empty() && session_.use_lips) {
+      if (guide_.empty()) {
         guide_ = detectors::Describe(detectors::GuideSessionByLips(session, &ctx_));
       }
       obs = detectors::DetectSession(session, &ctx_);
