@@ -94,6 +94,9 @@ void Calibrator::Covariance(CalibrationResult* result) {
       }
     }
     if (still_held.size() != held_coords.size()) {
+      // A block held whole is constant in the problem (BuildProblem): its considered columns
+      // need it variable.
+      if (problem.IsParameterBlockConstant(block)) problem.SetParameterBlockVariable(block);
       problem.SetManifold(block, still_held.empty() ? nullptr
                                                     : new ceres::SubsetManifold(
                                                           static_cast<int>(all.size()), still_held));

@@ -37,11 +37,13 @@ int Calibrator::BuildProblem(ceres::Problem* problem, const std::set<std::string
     if (o.mirror == 1) {
       id = problem->AddResidualBlock(CostOf(i), group_loss[0], rig_.camera.data(),
                                      rig_.distortion.data(), rig_.mirror1_shape.data(),
-                                     rig_.mirror1_pose.data(), rig_.reflex.data(), pose);
+                                     rig_.mirror1_profile.data(), rig_.mirror1_pose.data(),
+                                     rig_.reflex.data(), pose);
     } else {
       id = problem->AddResidualBlock(CostOf(i), group_loss[1], rig_.camera.data(), rig_.distortion.data(),
                                      rig_.mirror1_pose.data(), rig_.reflex.data(),
-                                     rig_.mirror2_shape.data(), rig_.mirror2_pose.data(), pose);
+                                     rig_.mirror2_shape.data(), rig_.mirror2_profile.data(),
+                                     rig_.mirror2_pose.data(), pose);
     }
     if (corner_blocks) corner_blocks->push_back(id);
     ++n;
@@ -62,7 +64,8 @@ int Calibrator::BuildProblem(ceres::Problem* problem, const std::set<std::string
     const auto id = problem->AddResidualBlock(
         lip_costs_[i].get(), LipLoss(loss, l.members), rig_.camera.data(), rig_.distortion.data(),
         rig_.mirror1_shape.data(), rig_.mirror1_pose.data(), rig_.reflex.data(),
-        rig_.mirror2_shape.data(), rig_.mirror2_pose.data(), l.phi.data());
+        rig_.mirror2_shape.data(), rig_.mirror2_pose.data(), rig_.mirror1_profile.data(),
+        rig_.mirror2_profile.data(), l.phi.data());
     if (corner_blocks) corner_blocks->push_back(id);
     ++last_n_lips_;
   }
@@ -85,10 +88,11 @@ int Calibrator::BuildProblem(ceres::Problem* problem, const std::set<std::string
     const std::string g = b.name;
     double* block = BlockIn(&rig_, g);
     if (!problem->HasParameterBlock(block)) continue;
-    if (!groups.count(g)) {
+    const std::vector<int> held = HeldCoordinates(g);
+    if (!groups.count(g) || static_cast<int>(held.size()) == b.size) {
       problem->SetParameterBlockConstant(block);
-    } else if (!HeldCoordinates(g).empty()) {
-      problem->SetManifold(block, new ceres::SubsetManifold(5, HeldCoordinates(g)));
+    } else if (!held.empty()) {
+      problem->SetManifold(block, new ceres::SubsetManifold(b.size, held));
     }
   }
   return n;

@@ -30,20 +30,22 @@ Vec3<T> CornerInCam(const T* cam_from_target, const Eigen::Vector3d& corner_in_t
 }
 
 // The pixel residual of a point in C through mirror 1 (outer ring): blocks camera, distortion,
-// mirror1_shape, mirror1_pose, reflex, point_in_cam (3). The reflex block only decides validity
-// on this path (the disc's occlusion): no derivative.
+// mirror1_shape, mirror1_profile, mirror1_pose, reflex, point_in_cam (3). The reflex block only
+// decides validity on this path (the disc's occlusion): no derivative. The profile block is read
+// only where fixed.profile1 is present.
 struct Mirror1PointResidual {
   Eigen::Vector2d observed;
   RigFixed fixed;
-  static constexpr uint32_t kNoDerivative[6] = {0, 0, 0, 0, 0b111, 0};
+  static constexpr uint32_t kNoDerivative[7] = {0, 0, 0, 0, 0, 0b111, 0};
 
   template <typename T>
   bool operator()(const T* camera, const T* distortion, const T* mirror1_shape,
-                  const T* mirror1_pose, const T* reflex, const T* point_in_cam,
-                  T* residual) const {
+                  const T* mirror1_profile, const T* mirror1_pose, const T* reflex,
+                  const T* point_in_cam, T* residual) const {
     Vec2<T> pixel;
-    const RigBlocks<T> blocks{camera, distortion, mirror1_shape, mirror1_pose, reflex,
-                              nullptr, nullptr};
+    const RigBlocks<T> blocks{camera,  distortion, mirror1_shape,   mirror1_pose,
+                              reflex,  nullptr,    nullptr,         mirror1_profile,
+                              nullptr};
     if (!ProjectViaMirror1(blocks, fixed,
                            Vec3<T>(point_in_cam[0], point_in_cam[1], point_in_cam[2]), &pixel)) {
       return false;
@@ -55,20 +57,20 @@ struct Mirror1PointResidual {
 };
 
 // Through mirror 2 and the reflex disc (inner ring): blocks camera, distortion, mirror1_pose,
-// reflex, mirror2_shape, mirror2_pose, point_in_cam (3) (the reflex disc is part of mirror 1's
-// body, so mirror 1's pose moves it).
+// reflex, mirror2_shape, mirror2_profile, mirror2_pose, point_in_cam (3) (the reflex disc is part
+// of mirror 1's body, so mirror 1's pose moves it).
 struct Mirror2PointResidual {
   Eigen::Vector2d observed;
   RigFixed fixed;
-  static constexpr uint32_t kNoDerivative[7] = {0, 0, 0, 0, 0, 0, 0};
+  static constexpr uint32_t kNoDerivative[8] = {0, 0, 0, 0, 0, 0, 0, 0};
 
   template <typename T>
   bool operator()(const T* camera, const T* distortion, const T* mirror1_pose, const T* reflex,
-                  const T* mirror2_shape, const T* mirror2_pose, const T* point_in_cam,
-                  T* residual) const {
+                  const T* mirror2_shape, const T* mirror2_profile, const T* mirror2_pose,
+                  const T* point_in_cam, T* residual) const {
     Vec2<T> pixel;
-    const RigBlocks<T> blocks{camera,        distortion,  nullptr, mirror1_pose, reflex,
-                              mirror2_shape, mirror2_pose};
+    const RigBlocks<T> blocks{camera,        distortion,   nullptr, mirror1_pose,   reflex,
+                              mirror2_shape, mirror2_pose, nullptr, mirror2_profile};
     if (!ProjectViaMirror2(blocks, fixed,
                            Vec3<T>(point_in_cam[0], point_in_cam[1], point_in_cam[2]), &pixel)) {
       return false;
@@ -156,7 +158,8 @@ class CornerCostFunction final : public ceres::SizedCostFunction<2, kRigBlockSiz
 
 // The corner residuals over the target pose (the definition; Create gives the fast
 // CornerCostFunction of the same value and derivatives, tests/calib/slot_autodiff_test.cc).
-// Outer ring: blocks camera, distortion, mirror1_shape, mirror1_pose, reflex, cam_from_target.
+// Outer ring: blocks camera, distortion, mirror1_shape, mirror1_profile, mirror1_pose, reflex,
+// cam_from_target.
 struct Mirror1CornerCost {
   Eigen::Vector2d observed;
   Eigen::Vector3d corner_in_target;
@@ -164,11 +167,12 @@ struct Mirror1CornerCost {
 
   template <typename T>
   bool operator()(const T* camera, const T* distortion, const T* mirror1_shape,
-                  const T* mirror1_pose, const T* reflex, const T* cam_from_target,
-                  T* residual) const {
+                  const T* mirror1_profile, const T* mirror1_pose, const T* reflex,
+                  const T* cam_from_target, T* residual) const {
     const Vec3<T> point = CornerInCam(cam_from_target, corner_in_target);
-    return Mirror1PointResidual{observed, fixed}(camera, distortion, mirror1_shape, mirror1_pose,
-                                                 reflex, point.data(), residual);
+    return Mirror1PointResidual{observed, fixed}(camera, distortion, mirror1_shape,
+                                                 mirror1_profile, mirror1_pose, reflex,
+                                                 point.data(), residual);
   }
 
   static ceres::CostFunction* Create(const Eigen::Vector2d& observed,
@@ -176,13 +180,13 @@ struct Mirror1CornerCost {
                                      const RigFixed& fixed,
                                      const uint32_t* held_camera = nullptr,
                                      const uint32_t* held_distortion = nullptr) {
-    return new CornerCostFunction<Mirror1PointResidual, 5, 5, 2, 5, 3>(
+    return new CornerCostFunction<Mirror1PointResidual, 5, 5, 2, kProfileTerms, 5, 3>(
         Mirror1PointResidual{observed, fixed}, corner_in_target, held_camera, held_distortion);
   }
 };
 
-// Inner ring: blocks camera, distortion, mirror1_pose, reflex, mirror2_shape, mirror2_pose,
-// cam_from_target.
+// Inner ring: blocks camera, distortion, mirror1_pose, reflex, mirror2_shape, mirror2_profile,
+// mirror2_pose, cam_from_target.
 struct Mirror2CornerCost {
   Eigen::Vector2d observed;
   Eigen::Vector3d corner_in_target;
@@ -190,12 +194,12 @@ struct Mirror2CornerCost {
 
   template <typename T>
   bool operator()(const T* camera, const T* distortion, const T* mirror1_pose, const T* reflex,
-                  const T* mirror2_shape, const T* mirror2_pose, const T* cam_from_target,
-                  T* residual) const {
+                  const T* mirror2_shape, const T* mirror2_profile, const T* mirror2_pose,
+                  const T* cam_from_target, T* residual) const {
     const Vec3<T> point = CornerInCam(cam_from_target, corner_in_target);
     return Mirror2PointResidual{observed, fixed}(camera, distortion, mirror1_pose, reflex,
-                                                 mirror2_shape, mirror2_pose, point.data(),
-                                                 residual);
+                                                 mirror2_shape, mirror2_profile, mirror2_pose,
+                                                 point.data(), residual);
   }
 
   static ceres::CostFunction* Create(const Eigen::Vector2d& observed,
@@ -203,7 +207,7 @@ struct Mirror2CornerCost {
                                      const RigFixed& fixed,
                                      const uint32_t* held_camera = nullptr,
                                      const uint32_t* held_distortion = nullptr) {
-    return new CornerCostFunction<Mirror2PointResidual, 5, 5, 5, 3, 2, 5>(
+    return new CornerCostFunction<Mirror2PointResidual, 5, 5, 5, 3, 2, kProfileTerms, 5>(
         Mirror2PointResidual{observed, fixed}, corner_in_target, held_camera, held_distortion);
   }
 };

@@ -28,7 +28,7 @@
 namespace omni::calib {
 
 // Blocks: camera, distortion, mirror1_shape, mirror1_pose, reflex, mirror2_shape, mirror2_pose,
-// phi (1). Each path uses only some of them (NoDerivative); held_camera / held_distortion as in
+// mirror1_profile, mirror2_profile, phi (1). Each path uses only some of them (NoDerivative); held_camera / held_distortion as in
 // corner_cost.h.
 struct LipPointCost {
   Eigen::Vector2d observed;
@@ -40,28 +40,31 @@ struct LipPointCost {
   template <typename T>
   bool operator()(const T* camera, const T* distortion, const T* mirror1_shape,
                   const T* mirror1_pose, const T* reflex, const T* mirror2_shape,
-                  const T* mirror2_pose, const T* phi, T* residual) const {
-    const RigBlocks<T> blocks{camera, distortion, mirror1_shape, mirror1_pose,
-                              reflex, mirror2_shape, mirror2_pose};
+                  const T* mirror2_pose, const T* mirror1_profile, const T* mirror2_profile,
+                  const T* phi, T* residual) const {
+    const RigBlocks<T> blocks{camera,        distortion,   mirror1_shape,   mirror1_pose,
+                              reflex,        mirror2_shape, mirror2_pose,   mirror1_profile,
+                              mirror2_profile};
     return LipEdgeResidual(blocks, fixed, path, T(radius), T(lip_z), phi[0], disc_radius_mm,
                            observed, residual);
   }
 
-  using CostFunction = SlotAutoDiffCostFunction<LipPointCost, 2, 5, 5, 2, 5, 3, 2, 5, 1>;
+  using CostFunction = SlotAutoDiffCostFunction<LipPointCost, 2, 5, 5, 2, 5, 3, 2, 5,
+                                                kProfileTerms, kProfileTerms, 1>;
 
   // The blocks a path's pixel does not depend on differentiably: unused ones, and the reflex
   // plane where it only decides validity (direct: the disc's back; via_mirror1: its occlusion).
-  static std::array<uint32_t, 8> NoDerivative(LipPath path) {
-    constexpr uint32_t kAll = 0b11111;
+  static std::array<uint32_t, 10> NoDerivative(LipPath path) {
+    constexpr uint32_t kAll = 0b111111;
     switch (path) {
       case LipPath::kDirect:  // camera, distortion, mirror1_pose (the lip's place)
-        return {0, 0, kAll, 0, kAll, kAll, kAll, 0};
-      case LipPath::kViaMirror1:  // + mirror1_shape
-        return {0, 0, 0, 0, kAll, kAll, kAll, 0};
+        return {0, 0, kAll, 0, kAll, kAll, kAll, kAll, kAll, 0};
+      case LipPath::kViaMirror1:  // + mirror1_shape, mirror1_profile
+        return {0, 0, 0, 0, kAll, kAll, kAll, 0, kAll, 0};
       case LipPath::kViaReflex:  // camera, distortion, mirror1_pose + reflex (the plane), mirror2_pose
-        return {0, 0, kAll, 0, 0, kAll, 0, 0};
+        return {0, 0, kAll, 0, 0, kAll, 0, kAll, kAll, 0};
       case LipPath::kViaMirror2:
-        return {0, 0, kAll, 0, 0, 0, 0, 0};
+        return {0, 0, kAll, 0, 0, 0, 0, kAll, 0, 0};
     }
     return {};
   }
@@ -73,7 +76,8 @@ struct LipPointCost {
                                      double disc_radius_mm = 0) {
     return new CostFunction(
         LipPointCost{observed, path, radius, lip_z, fixed, disc_radius_mm}, NoDerivative(path),
-        {held_camera, held_distortion, nullptr, nullptr, nullptr, nullptr, nullptr, nullptr});
+        {held_camera, held_distortion, nullptr, nullptr, nullptr, nullptr, nullptr, nullptr,
+         nullptr, nullptr});
   }
 };
 

@@ -33,7 +33,13 @@ struct LipPointResidual {
     reflex[0] = reflex_tilt[0];
     reflex[1] = reflex_tilt[1];
     reflex[2] = T(rig.reflex[2]);
-    const RigBlocks<T> blocks{camera, distortion, shape1, pose1, reflex, shape2, pose2};
+    T profile1[kProfileTerms], profile2[kProfileTerms];
+    for (int i = 0; i < kProfileTerms; ++i) {
+      profile1[i] = T(rig.mirror1_profile[i]);
+      profile2[i] = T(rig.mirror2_profile[i]);
+    }
+    const RigBlocks<T> blocks{camera, distortion, shape1,   pose1,   reflex,
+                              shape2, pose2,      profile1, profile2};
     return LipEdgeResidual(blocks, model->fixed(), path, T(radius), T(LipOf(rig, path).z), phi[0],
                            model->fixed().r_ref, pixel, residual);
   }

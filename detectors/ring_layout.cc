@@ -73,8 +73,8 @@ RingLayout ComputeRingLayout(const RigModel& model) {
   const RigParams& rig = model.params();
   const Pose<double>& cam_from_mirror1 = model.path1().cam_from_mirror;
   const Pose<double>& cam_from_mirror2 = model.path2().cam_from_mirror;
-  const HyperboloidSheet<double>& sheet1 = model.path1().sheet;
-  const HyperboloidSheet<double>& sheet2 = model.path2().sheet;
+  const HyperboloidSheet<double>& sheet1 = model.path1().sheet.conic;
+  const HyperboloidSheet<double>& sheet2 = model.path2().sheet.conic;
   auto ring_in = [](const Pose<double>& cam_from_body, double r, double z, double t) {
     return Eigen::Vector3d(cam_from_body * Eigen::Vector3d(r * std::cos(t), r * std::sin(t), z));
   };

@@ -15,7 +15,7 @@ bool IdealReflectionSeed(const HyperboloidSheet<double>& sheet, const Eigen::Vec
   return std::isfinite(xy->x()) && std::isfinite(xy->y());
 }
 
-bool SolveReflectionPointDouble(const HyperboloidSheet<double>& sheet, const Eigen::Vector3d& a,
+bool SolveReflectionPointDouble(const MirrorSurface<double>& sheet, const Eigen::Vector3d& a,
                                 const Eigen::Vector3d& b, const ReflectionSolverOptions& options,
                                 Eigen::Vector2d* xy, ReflectionSolverInfo* info) {
   info->converged = false;

@@ -22,6 +22,7 @@
 #include <Eigen/Core>
 
 #include "model/hyperboloid.h"
+#include "model/mirror_surface.h"
 #include "model/types.h"
 
 namespace omni {
@@ -39,6 +40,14 @@ Eigen::Vector3d ScalarPart(const Vec3<T>& v) {
 template <typename T>
 HyperboloidSheet<double> ScalarPart(const HyperboloidSheet<T>& s) {
   return HyperboloidSheet<double>{ScalarPart(s.z0), ScalarPart(s.a), ScalarPart(s.b), s.sheet};
+}
+template <typename T>
+MirrorSurface<double> ScalarPart(const MirrorSurface<T>& s) {
+  MirrorSurface<double> out;
+  out.conic = ScalarPart(s.conic);
+  out.shape = s.shape;
+  for (int i = 0; i < kProfileTerms; ++i) out.coeffs[i] = ScalarPart(s.coeffs[i]);
+  return out;
 }
 
 struct ReflectionSolverOptions {
@@ -59,35 +68,25 @@ struct ReflectionSolverInfo {
   double gradient_norm = 0;   // |grad L| before the final Newton step (dimensionless)
 };
 
-// The point of the sheet at parameters (x, y): z = Z(r) without a square root of r^2, so that
-// Jets are smooth on the axis.
+// The point of the surface at parameters (x, y) (Jets smooth on the axis).
 template <typename T>
-Vec3<T> SheetPoint(const HyperboloidSheet<T>& sheet, const T& x, const T& y) {
-  using std::sqrt;
-  const T q = sqrt(sheet.b * sheet.b + x * x + y * y);
-  return Vec3<T>(x, y, sheet.z0 + T(sheet.sheet) * sheet.a / sheet.b * q);
+Vec3<T> SheetPoint(const MirrorSurface<T>& surface, const T& x, const T& y) {
+  return surface.Point(x, y);
 }
 
 // grad L at (x, y) and, if hessian != nullptr, its 2x2 Hessian. False if S coincides with A or B.
 template <typename T>
-bool PathLengthGradient(const HyperboloidSheet<T>& sheet, const Vec3<T>& a, const Vec3<T>& b,
+bool PathLengthGradient(const MirrorSurface<T>& surface, const Vec3<T>& a, const Vec3<T>& b,
                         const T& x, const T& y, Vec2<T>* grad,
                         Eigen::Matrix<T, 2, 2>* hessian = nullptr) {
-  using std::sqrt;
-  // Reciprocals once: a Jet division costs several multiplications.
-  const T q2 = sheet.b * sheet.b + x * x + y * y;
-  const T q = sqrt(q2);
-  const T inv_q = T(1) / q;
-  const T k = T(sheet.sheet) * sheet.a / sheet.b;
-  const Vec3<T> s(x, y, sheet.z0 + k * q);
-  const T k_inv_q = k * inv_q;
-  const T zx = k_inv_q * x;
-  const T zy = k_inv_q * y;
+  T zx, zy, zxx[3];
+  const Vec3<T> s(x, y, surface.Z(x, y, &zx, &zy, hessian ? zxx : nullptr));
   const Vec3<T> sa = s - a;
   const Vec3<T> sb = s - b;
   const T la = sa.norm();
   const T lb = sb.norm();
   if (!(la > T(0)) || !(lb > T(0))) return false;
+  // Reciprocals once: a Jet division costs several multiplications.
   const T inv_la = T(1) / la;
   const T inv_lb = T(1) / lb;
   const Vec3<T> ua = sa * inv_la;
@@ -102,37 +101,36 @@ bool PathLengthGradient(const HyperboloidSheet<T>& sheet, const Vec3<T>& a, cons
     jac << T(1), T(0), T(0), T(1), zx, zy;
     const Mat3<T> hs = (Mat3<T>::Identity() - ua * ua.transpose()) * inv_la +
                        (Mat3<T>::Identity() - ub * ub.transpose()) * inv_lb;
-    const T k_inv_q3 = k_inv_q * inv_q * inv_q;
-    Eigen::Matrix<T, 2, 2> zxx;
-    zxx << k_inv_q3 * (q2 - x * x), -k_inv_q3 * x * y, -k_inv_q3 * x * y, k_inv_q3 * (q2 - y * y);
-    *hessian = jac.transpose() * hs * jac + f.z() * zxx;
+    Eigen::Matrix<T, 2, 2> z2;
+    z2 << zxx[0], zxx[1], zxx[1], zxx[2];
+    *hessian = jac.transpose() * hs * jac + f.z() * z2;
   }
   return true;
 }
 
 // Newton iteration in double from the seed *xy; on success *xy is within step_tolerance of the
 // stationary point (the caller takes the final step).
-bool SolveReflectionPointDouble(const HyperboloidSheet<double>& sheet, const Eigen::Vector3d& a,
+bool SolveReflectionPointDouble(const MirrorSurface<double>& sheet, const Eigen::Vector3d& a,
                                 const Eigen::Vector3d& b, const ReflectionSolverOptions& options,
                                 Eigen::Vector2d* xy, ReflectionSolverInfo* info);
 
-// The ideal (SVP) seed: where the line from the sheet's primary focus to B meets the sheet
+// The ideal (SVP) seed: where the line from the conic's primary focus to B meets the conic
 // ([lambda_1], [lambda_2] written in the mirror's own frame). Exact when A is the secondary
-// focus. False if that line misses the sheet.
+// focus and the mirror has no profile. False if that line misses the sheet.
 bool IdealReflectionSeed(const HyperboloidSheet<double>& sheet, const Eigen::Vector3d& b,
                          Eigen::Vector2d* xy);
 
 // The reflection point S (mirror frame) of the path A -> S -> B on the sheet, for any scalar T;
 // false if the solver did not converge. See the file comment for the derivatives.
 template <typename T>
-bool SolveReflectionPoint(const HyperboloidSheet<T>& sheet, const Vec3<T>& a, const Vec3<T>& b,
+bool SolveReflectionPoint(const MirrorSurface<T>& sheet, const Vec3<T>& a, const Vec3<T>& b,
                           const ReflectionSolverOptions& options, Vec3<T>* point_on_mirror,
                           ReflectionSolverInfo* info = nullptr) {
-  const HyperboloidSheet<double> sheet_d = ScalarPart(sheet);
+  const MirrorSurface<double> sheet_d = ScalarPart(sheet);
   const Eigen::Vector3d a_d = ScalarPart(a);
   const Eigen::Vector3d b_d = ScalarPart(b);
   Eigen::Vector2d xy;
-  if (!IdealReflectionSeed(sheet_d, b_d, &xy)) return false;
+  if (!IdealReflectionSeed(sheet_d.conic, b_d, &xy)) return false;
   ReflectionSolverInfo local_info;
   if (!info) info = &local_info;
   if (!SolveReflectionPointDouble(sheet_d, a_d, b_d, options, &xy, info)) return false;

@@ -10,6 +10,8 @@ RigFixed FixedOf(const RigParams& rig) {
   fixed.r_sys = rig.r_sys;
   fixed.r_ref = rig.r_ref;
   fixed.r_cam = rig.r_cam;
+  fixed.profile1 = rig.profile1;
+  fixed.profile2 = rig.profile2;
   fixed.solver.max_radius = 5 * rig.r_sys;
   return fixed;
 }

@@ -11,7 +11,10 @@
 //   mirror1_shape[2] c1, k1            mirror2_shape[2] c2, k2
 //   mirror1_pose[5]  cam_from_mirror1: rx, ry, tx, ty, tz   (mirror2_pose[5] likewise)
 //   reflex[3]        the reflex plane in M1: rx, ry, dz
-// and RigFixed (d, r_sys, r_ref, r_cam: design data never refined, plus solver options).
+//   mirror1_profile[6], mirror2_profile[6]  each mirror's profile correction (mirror_profile.h),
+//                    read only where RigFixed's profile shape is present (nullptr: none)
+// and RigFixed (d, r_sys, r_ref, r_cam: design data never refined, the profiles' radii and
+// ripple, plus solver options). Each mirror is a MirrorSurface: its conic plus its profile.
 //
 // Mirror 1 path (outer ring): world point P -> reflection point S1 on mirror 1 -> camera centre O.
 //   S1 solves the law of reflection between P and O (reflection_solver.h) in M1's frame;
@@ -59,6 +62,8 @@ struct RigFixed {
   // lies within a hair of the plane, and a hard wall there stalls the trust region (every trial
   // step that moves S1 across it fails, however short).
   double reflex_side_slack = 0;
+  // Each mirror's profile shape (present false: the exact conic).
+  ProfileShape profile1, profile2;
   ReflectionSolverOptions solver;
 };
 RigFixed FixedOf(const RigParams& rig);
@@ -79,7 +84,7 @@ Plane<double> ScalarPart(const Plane<T>& plane) {
 
 // P in front of the mirror: the eye and the point on the reflective side of the tangent plane
 // at S (the sheet's normal points into the mirror's body).
-inline bool FacesReflectiveSide(const HyperboloidSheet<double>& sheet, const Eigen::Vector3d& s,
+inline bool FacesReflectiveSide(const MirrorSurface<double>& sheet, const Eigen::Vector3d& s,
                                 const Eigen::Vector3d& eye, const Eigen::Vector3d& point) {
   const Eigen::Vector3d normal = sheet.Normal(s);
   return (eye - s).dot(normal) < 0 && (point - s).dot(normal) < 0;
@@ -90,7 +95,7 @@ inline bool FacesReflectiveSide(const HyperboloidSheet<double>& sheet, const Eig
 // derivatives). False if the solve fails, S lies outside r_min <= |S_xy| <= r_max (the mirror's
 // hole and rim), or the eye and the point are not in front of the mirror at S.
 template <typename T>
-bool ReflectOnSheet(const HyperboloidSheet<T>& sheet, const Vec3<T>& eye, const Vec3<T>& point,
+bool ReflectOnSheet(const MirrorSurface<T>& sheet, const Vec3<T>& eye, const Vec3<T>& point,
                     const ReflectionSolverOptions& solver, double r_min, double r_max,
                     ProjectionInfo* info, Vec3<T>* s, Eigen::Vector3d* s_d) {
   if (!SolveReflectionPoint(sheet, eye, point, solver, s, info ? &info->solver : nullptr)) {
@@ -107,16 +112,17 @@ template <typename T>
 struct Mirror1Path {
   Pinhole<T> cam;
   RadTan<T> dist;
-  HyperboloidSheet<T> sheet;
+  MirrorSurface<T> sheet;
   Pose<T> mirror_from_cam;
   Pose<T> cam_from_mirror;
   Plane<double> reflex_in_mirror;  // only decides validity (occlusion): no derivatives
 
-  // Reads camera, distortion, mirror1_shape, mirror1_pose, reflex.
+  // Reads camera, distortion, mirror1_shape, mirror1_profile, mirror1_pose, reflex.
   static Mirror1Path FromBlocks(const RigBlocks<T>& b, const RigFixed& fixed) {
     Mirror1Path p{PinholeFromBlock(b.camera),
                   RadTanFromBlock(b.distortion),
-                  HyperboloidSheet<T>::Mirror1(b.mirror1_shape[0], b.mirror1_shape[1]),
+                  MirrorSurface<T>(HyperboloidSheet<T>::Mirror1(b.mirror1_shape[0], b.mirror1_shape[1]),
+                                   fixed.profile1, b.mirror1_profile),
                   Pose<T>{},
                   PoseFromBlock(b.mirror1_pose),
                   Plane<double>{}};
@@ -167,18 +173,20 @@ template <typename T>
 struct Mirror2Path {
   Pinhole<T> cam;
   RadTan<T> dist;
-  HyperboloidSheet<T> sheet;
+  MirrorSurface<T> sheet;
   Pose<T> mirror_from_cam;
   Pose<T> cam_from_mirror;
   Plane<T> reflex_in_cam;
   Vec3<T> virtual_camera_in_cam;  // O mirrored in the reflex plane
 
-  // Reads camera, distortion, mirror1_pose, reflex, mirror2_shape, mirror2_pose.
+  // Reads camera, distortion, mirror1_pose, reflex, mirror2_shape, mirror2_profile, mirror2_pose.
   static Mirror2Path FromBlocks(const RigBlocks<T>& b, const RigFixed& fixed) {
     const Plane<T> reflex_in_cam = ReflexPlaneInCam(b.mirror1_pose, b.reflex, T(fixed.d));
     Mirror2Path p{PinholeFromBlock(b.camera),
                   RadTanFromBlock(b.distortion),
-                  HyperboloidSheet<T>::Mirror2(b.mirror2_shape[0], b.mirror2_shape[1], T(fixed.d)),
+                  MirrorSurface<T>(
+                      HyperboloidSheet<T>::Mirror2(b.mirror2_shape[0], b.mirror2_shape[1], T(fixed.d)),
+                      fixed.profile2, b.mirror2_profile),
                   Pose<T>{},
                   PoseFromBlock(b.mirror2_pose),
                   reflex_in_cam,

@@ -19,6 +19,9 @@ constexpr const char* kAxialHint =
     "targets at several ranges including near ones (0.3-0.6 m): an axial shift shows only as "
     "parallax";
 constexpr const char* kReflexTiltHint = "inner-ring (mirror 2) observations all around the rig";
+constexpr const char* kProfileHint =
+    "corners over the ring's whole radial extent (targets low and high), near and far, all "
+    "around the rig";
 
 using U = ParameterUnit;
 
@@ -54,6 +57,20 @@ constexpr std::array<RigParameter, kRigParameterCount> kTable = {{
     {"reflex.rx",  "reflex",        0, 24, U::kRadian,     1.0 * kRad, 10 * kRad, false, kReflexTiltHint},
     {"reflex.ry",  "reflex",        1, 25, U::kRadian,     1.0 * kRad, 10 * kRad, false, kReflexTiltHint},
     {"reflex.dz",  "reflex",        2, 26, U::kMillimetre, 1.0,        20.0,      false, kAxialHint},
+    // Profile coefficients (model/mirror_profile.h): half a term's peak-to-valley in mm. Beyond
+    // 20 um of sigma a term is not told; beyond 0.5 mm the part is not the designed mirror.
+    {"mirror1.sag_p1",   "mirror1_profile", 0, 27, U::kMillimetre, 0.02, 0.5, true, kProfileHint},
+    {"mirror1.sag_p2",   "mirror1_profile", 1, 28, U::kMillimetre, 0.02, 0.5, true, kProfileHint},
+    {"mirror1.sag_p3",   "mirror1_profile", 2, 29, U::kMillimetre, 0.02, 0.5, true, kProfileHint},
+    {"mirror1.sag_p4",   "mirror1_profile", 3, 30, U::kMillimetre, 0.02, 0.5, true, kProfileHint},
+    {"mirror1.sag_cos2", "mirror1_profile", 4, 31, U::kMillimetre, 0.02, 0.5, true, kProfileHint},
+    {"mirror1.sag_sin2", "mirror1_profile", 5, 32, U::kMillimetre, 0.02, 0.5, true, kProfileHint},
+    {"mirror2.sag_p1",   "mirror2_profile", 0, 33, U::kMillimetre, 0.02, 0.5, true, kProfileHint},
+    {"mirror2.sag_p2",   "mirror2_profile", 1, 34, U::kMillimetre, 0.02, 0.5, true, kProfileHint},
+    {"mirror2.sag_p3",   "mirror2_profile", 2, 35, U::kMillimetre, 0.02, 0.5, true, kProfileHint},
+    {"mirror2.sag_p4",   "mirror2_profile", 3, 36, U::kMillimetre, 0.02, 0.5, true, kProfileHint},
+    {"mirror2.sag_cos2", "mirror2_profile", 4, 37, U::kMillimetre, 0.02, 0.5, true, kProfileHint},
+    {"mirror2.sag_sin2", "mirror2_profile", 5, 38, U::kMillimetre, 0.02, 0.5, true, kProfileHint},
 }};
 // clang-format on
 
@@ -99,6 +116,8 @@ const RigParameter* FindRigParameter(const std::string& name) {
       if (block == "mirror1_shape") m["mirror1." + std::string(p.name)] = &p;
       if (block == "mirror2_shape") m["mirror2." + std::string(p.name)] = &p;
       if (block == "reflex") m["mirror1.reflex." + p.Key()] = &p;
+      if (block == "mirror1_profile") m["mirror1.profile." + p.Key()] = &p;
+      if (block == "mirror2_profile") m["mirror2.profile." + p.Key()] = &p;
     }
     return m;
   }();
@@ -131,10 +150,10 @@ const std::vector<std::string>& DefaultEstimateBlocks() {
 }
 
 const double* BlockIn(const RigParams& rig, const std::string& block) {
-  const std::array<const double*, 7> arrays = {
+  const std::array<const double*, kRigBlocks.size()> arrays = {
       rig.camera.data(),       rig.distortion.data(),   rig.mirror1_shape.data(),
       rig.mirror2_shape.data(), rig.mirror1_pose.data(), rig.mirror2_pose.data(),
-      rig.reflex.data()};
+      rig.reflex.data(),       rig.mirror1_profile.data(), rig.mirror2_profile.data()};
   for (size_t i = 0; i < kRigBlocks.size(); ++i) {
     if (block == kRigBlocks[i].name) return arrays[i];
   }

@@ -1,4 +1,4 @@
-// The rig's 27 parameters in one table (issue 18): DESIGN.md §2's names, the block each lives in
+// The rig's 39 parameters in one table (issue 18; each mirror's profile, issue 40): DESIGN.md §2's names, the block each lives in
 // (RigParams' arrays, the groups a session's `estimate` names) and its index there, its place in
 // the flat 27-vector, its internal unit, the sigma beyond which calibration calls it nearly
 // unobservable, the value beyond any assembly error, whether a session may hold it with an
@@ -20,25 +20,28 @@ enum class ParameterUnit { kPixel, kNone, kMillimetre, kRadian };
 struct RigBlock {
   const char* name;  // "camera", "distortion", "mirror1_shape", ... (a session's `estimate`)
   int size;
-  int offset;        // of its first parameter in the flat 27-vector
+  int offset;        // of its first parameter in the flat vector
 };
-inline constexpr std::array<RigBlock, 7> kRigBlocks = {{{"camera", 5, 0},
+inline constexpr std::array<RigBlock, 9> kRigBlocks = {{{"camera", 5, 0},
                                                         {"distortion", 5, 5},
                                                         {"mirror1_shape", 2, 10},
                                                         {"mirror2_shape", 2, 12},
                                                         {"mirror1_pose", 5, 14},
                                                         {"mirror2_pose", 5, 19},
-                                                        {"reflex", 3, 24}}};
-inline constexpr int kRigParameterCount = 27;
-// Flat offsets by block (kRigBlocks' order), for code that indexes the 27-vector.
+                                                        {"reflex", 3, 24},
+                                                        {"mirror1_profile", 6, 27},
+                                                        {"mirror2_profile", 6, 33}}};
+inline constexpr int kRigParameterCount = 39;
+// Flat offsets by block (kRigBlocks' order), for code that indexes the flat vector.
 inline constexpr int kCameraOffset = 0, kDistortionOffset = 5, kShape1Offset = 10,
-                     kShape2Offset = 12, kPose1Offset = 14, kPose2Offset = 19, kReflexOffset = 24;
+                     kShape2Offset = 12, kPose1Offset = 14, kPose2Offset = 19, kReflexOffset = 24,
+                     kProfile1Offset = 27, kProfile2Offset = 33;
 
 struct RigParameter {
   const char* name;   // DESIGN.md §2: "fx", "dist_k1", "c1", "mirror1.rx", "reflex.dz"
   const char* block;  // kRigBlocks' name
   int index;          // within the block
-  int flat;           // within the 27
+  int flat;           // within the flat vector
   ParameterUnit unit; // internal (tilts in rad; tables show deg)
   // Calibration names it nearly unobservable when its sigma exceeds this (internal units): far
   // beyond any assembly tolerance. 0 for the radial coefficients, whose bound depends on the

@@ -27,7 +27,16 @@ RigParams MakeIdealRig(const DesignParams& theta, double r_cam, const Pinhole<do
 RigBlocks<double> RigBlocksOf(const RigParams& rig) {
   return RigBlocks<double>{rig.camera.data(),       rig.distortion.data(), rig.mirror1_shape.data(),
                            rig.mirror1_pose.data(), rig.reflex.data(),     rig.mirror2_shape.data(),
-                           rig.mirror2_pose.data()};
+                           rig.mirror2_pose.data(), rig.mirror1_profile.data(),
+                           rig.mirror2_profile.data()};
+}
+
+ProfileShape DefaultProfileShape(const RigParams& rig, Mirror mirror) {
+  ProfileShape shape;
+  shape.present = true;
+  shape.r_min = mirror == Mirror::kOne ? rig.r_ref : rig.r_cam;
+  shape.r_max = rig.r_sys;
+  return shape;
 }
 
 }  // namespace omni

@@ -10,6 +10,7 @@
 
 #include "model/camera.h"
 #include "model/ideal_model.h"
+#include "model/mirror_profile.h"
 
 namespace omni {
 
@@ -57,10 +58,16 @@ struct RigParams {
   std::array<double, 5> mirror1_pose{};  // cam_from_mirror1: rx, ry (tilt), tx, ty, tz (mm)
   std::array<double, 5> mirror2_pose{};  // cam_from_mirror2
   std::array<double, 3> reflex{};        // in mirror 1's body: rx, ry (tilt), dz (mm)
+  // Each mirror's profile correction (mirror_profile.h): sag_p1..sag_p4, sag_cos2, sag_sin2 (mm),
+  // read only where the shape below is present.
+  std::array<double, kProfileTerms> mirror1_profile{};
+  std::array<double, kProfileTerms> mirror2_profile{};
 
   // Fixed design data (mm).
   double d = 0, r_sys = 0, r_ref = 0, r_cam = 0;
   Lip lip1, lip2;
+  // The profiles' fixed part: radii, ripple; present false (the default) = exact quadrics.
+  ProfileShape profile1, profile2;
 
   std::optional<CalibrationInfo> calibration;
 
@@ -90,12 +97,19 @@ struct RigBlocks {
   const T* reflex;
   const T* mirror2_shape;
   const T* mirror2_pose;
+  // The profile blocks; nullptr (as a shorter initialiser list leaves them): the exact conic.
+  const T* mirror1_profile = nullptr;
+  const T* mirror2_profile = nullptr;
 };
 // The blocks of a RigParams.
 RigBlocks<double> RigBlocksOf(const RigParams& rig);
 
 // An ideal rig from a design: r_ref from the design, lips at each mirror's rim (3 mm wide,
 // blue on mirror 1, red on mirror 2).
+// A mirror's default profile radii: the annulus its ring sees (mirror 1: r_ref..r_sys, outside
+// the reflex disc; mirror 2: r_cam..r_sys, outside the hole).
+ProfileShape DefaultProfileShape(const RigParams& rig, Mirror mirror);
+
 RigParams MakeIdealRig(const DesignParams& theta, double r_cam, const Pinhole<double>& cam,
                        int image_width, int image_height);
 

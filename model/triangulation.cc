@@ -19,7 +19,7 @@ using JetP = ceres::Jet<double, kNumModelParameters>;
 // Offsets of the blocks in the flat parameter order (triangulation.h).
 constexpr int kCamera = kCameraOffset, kDistortion = kDistortionOffset, kShape1 = kShape1Offset,
               kShape2 = kShape2Offset, kPose1 = kPose1Offset, kPose2 = kPose2Offset,
-              kReflex = kReflexOffset;
+              kReflex = kReflexOffset, kProfile1 = kProfile1Offset, kProfile2 = kProfile2Offset;
 
 std::array<double, kNumModelParameters> FlatParameters(const RigParams& p) {
   std::array<double, kNumModelParameters> flat{};
@@ -33,6 +33,8 @@ std::array<double, kNumModelParameters> FlatParameters(const RigParams& p) {
   put(kPose1, p.mirror1_pose);
   put(kPose2, p.mirror2_pose);
   put(kReflex, p.reflex);
+  put(kProfile1, p.mirror1_profile);
+  put(kProfile2, p.mirror2_profile);
   return flat;
 }
 
@@ -50,8 +52,9 @@ std::array<J, kNumModelParameters> JetParameters(const RigParams& p, bool seed) 
 
 template <typename J>
 RigBlocks<J> BlocksOf(const std::array<J, kNumModelParameters>& x) {
-  return RigBlocks<J>{&x[kCamera], &x[kDistortion], &x[kShape1], &x[kPose1],
-                      &x[kReflex], &x[kShape2],     &x[kPose2]};
+  return RigBlocks<J>{&x[kCamera], &x[kDistortion], &x[kShape1],   &x[kPose1],
+                      &x[kReflex], &x[kShape2],     &x[kPose2],    &x[kProfile1],
+                      &x[kProfile2]};
 }
 
 template <typename J>

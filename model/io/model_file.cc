@@ -55,6 +55,67 @@ Lip ReadLip(const Reader& in, const YAML::Node& map, const std::string& path) {
   return lip;
 }
 
+// A profile moving the surface by more than this is not a machining error of the designed
+// mirror but another mirror (a new design); a slope beyond kMaxProfileSlope is no smooth
+// correction (mirror_profile.h).
+constexpr double kMaxProfileSagMm = 0.1;
+constexpr double kMaxProfileSlope = 0.02;
+// Finer ripples are surface roughness (they scatter, they do not bend a ray coherently).
+constexpr double kMinRipplePeriodMm = 0.5;
+
+// `mirrorN.profile`: the radii (default: the mirror's used annulus), the coefficients (default
+// 0) and an optional ripple; refused where it leaves the mirror's radii or is no small smooth
+// correction.
+void ReadProfile(const Reader& in, const YAML::Node& map, const std::string& path,
+                 const RigParams& rig, Mirror mirror, ProfileShape* shape, double* coeffs) {
+  *shape = DefaultProfileShape(rig, mirror);
+  auto optional = [&](const char* key, double* value) {
+    if (map[key].IsDefined()) *value = in.Number(map, path, key);
+  };
+  optional("r_min", &shape->r_min);
+  optional("r_max", &shape->r_max);
+  if (!(shape->r_min >= 0 && shape->r_min < rig.r_sys)) {
+    in.Fail(Join(path, "r_min"), "expected a radius in [0, r_sys) = [0, " + FormatDouble(rig.r_sys) + ")",
+            FormatDouble(shape->r_min));
+  }
+  if (!(shape->r_max > shape->r_min && shape->r_max <= rig.r_sys)) {
+    in.Fail(Join(path, "r_max"),
+            "expected a radius in (r_min, r_sys] = (" + FormatDouble(shape->r_min) + ", " +
+                FormatDouble(rig.r_sys) + "] (the mirror's radii)",
+            FormatDouble(shape->r_max));
+  }
+  const std::string block = mirror == Mirror::kOne ? "mirror1_profile" : "mirror2_profile";
+  for (const RigParameter& p : RigParameterTable()) {
+    if (block == p.block) {
+      coeffs[p.index] = 0;
+      optional(p.Key().c_str(), &coeffs[p.index]);
+    }
+  }
+  optional("ripple_amplitude", &shape->ripple_amplitude);
+  optional("ripple_period", &shape->ripple_period);
+  optional("ripple_phase", &shape->ripple_phase);
+  if (shape->ripple_amplitude != 0 && !(shape->ripple_period >= kMinRipplePeriodMm)) {
+    in.Fail(Join(path, "ripple_period"),
+            "expected a period >= " + FormatDouble(kMinRipplePeriodMm) +
+                " mm with a ripple_amplitude (finer marks are roughness, not a profile)",
+            map["ripple_period"].IsDefined() ? Describe(map["ripple_period"]) : "none");
+  }
+  std::array<double, kProfileTerms> c{};
+  std::copy(coeffs, coeffs + kProfileTerms, c.begin());
+  const ProfileExtent extent = MeasureProfile(c, *shape);
+  if (!(extent.max_sag_mm <= kMaxProfileSagMm)) {
+    in.Fail(path, "a sag of at most " + FormatDouble(kMaxProfileSagMm) +
+                      " mm over the profile's radii (a machining error; a larger one is another "
+                      "mirror: a new design)",
+            "a sag of " + FormatDouble(extent.max_sag_mm) + " mm");
+  }
+  if (!(extent.max_slope <= kMaxProfileSlope)) {
+    in.Fail(path, "a smooth correction: slopes of at most " + FormatDouble(kMaxProfileSlope) +
+                      " rad",
+            "a slope of " + FormatDouble(extent.max_slope) + " rad");
+  }
+}
+
 // The blocks an ideal model holds at 0, and the maps they are written in.
 const std::pair<const char*, const char*> kMisalignmentBlocks[] = {
     {"distortion", "camera.distortion"},
@@ -72,6 +133,8 @@ void CheckIdeal(const Reader& in, const RigParams& rig) {
       if (block == std::string(p.block)) check(*ParameterOf(rig, p.name), Join(path, p.Key()));
     }
   }
+  if (rig.profile1.present) in.Fail("mirror1.profile", "no profile because kind is ideal", "one");
+  if (rig.profile2.present) in.Fail("mirror2.profile", "no profile because kind is ideal", "one");
 }
 
 CalibrationInfo ReadCalibration(const Reader& in, const YAML::Node& root) {
@@ -250,6 +313,20 @@ std::string BlockMap(const std::string& block, const double* values, const std::
   return out + "}";
 }
 
+std::string ProfileMap(const ProfileShape& shape, const std::string& block,
+                       const double* coeffs) {
+  std::string out = "{r_min: " + Num(shape.r_min) + ", r_max: " + Num(shape.r_max);
+  for (const RigParameter& p : RigParameterTable()) {
+    if (block == p.block) out += ", " + p.Key() + ": " + Num(coeffs[p.index]);
+  }
+  if (shape.ripple_amplitude != 0) {
+    out += ", ripple_amplitude: " + Num(shape.ripple_amplitude) +
+           ", ripple_period: " + Num(shape.ripple_period) +
+           ", ripple_phase: " + Num(shape.ripple_phase);
+  }
+  return out + "}";
+}
+
 std::string LipMap(const Lip& lip) {
   return "{color: " + Text(lip.color) + ", r_inner: " + Num(lip.r_inner) +
          ", r_outer: " + Num(lip.r_outer) + ", z: " + Num(lip.z) + "}";
@@ -335,11 +412,19 @@ RigParams ParseModelText(const std::string& text, const std::string& file) {
   ReadBlock(in, in.Map(m1, "mirror1.reflex", "reflex"), "mirror1.reflex", "reflex",
             rig.reflex.data());
   rig.lip1 = ReadLip(in, in.Map(m1, "mirror1.lip", "lip"), "mirror1.lip");
+  if (m1["profile"].IsDefined()) {
+    ReadProfile(in, in.Map(m1, "mirror1.profile", "profile"), "mirror1.profile", rig, Mirror::kOne,
+                &rig.profile1, rig.mirror1_profile.data());
+  }
 
   const YAML::Node m2 = in.Map(root, "mirror2", "mirror2");
   ReadBlock(in, in.Map(m2, "mirror2.cam_from_mirror", "cam_from_mirror"),
             "mirror2.cam_from_mirror", "mirror2_pose", rig.mirror2_pose.data());
   rig.lip2 = ReadLip(in, in.Map(m2, "mirror2.lip", "lip"), "mirror2.lip");
+  if (m2["profile"].IsDefined()) {
+    ReadProfile(in, in.Map(m2, "mirror2.profile", "profile"), "mirror2.profile", rig, Mirror::kTwo,
+                &rig.profile2, rig.mirror2_profile.data());
+  }
 
   if (rig.kind == ModelKind::kIdeal) CheckIdeal(in, rig);
   // `derived:` is recomputed from the blocks above, never read back.
@@ -388,9 +473,17 @@ std::string ModelFileText(const RigParams& rig) {
   Line(&out, 2, "reflex: " + BlockMap("reflex", rig.reflex.data()),
        "mirror-1 frame: plane through (0,0,d/2+dz), normal exp([rx,ry,0])*(0,0,-1)");
   Line(&out, 2, "lip: " + LipMap(rig.lip1), "flat annulus, mirror-1 frame");
+  if (rig.profile1.present) {
+    Line(&out, 2, "profile: " + ProfileMap(rig.profile1, "mirror1_profile", rig.mirror1_profile.data()),
+         "sag over the conic along +z (mm): docs/formats/model.md");
+  }
   Line(&out, 0, "mirror2:");
   Line(&out, 2, "cam_from_mirror: " + BlockMap("mirror2_pose", rig.mirror2_pose.data()));
   Line(&out, 2, "lip: " + LipMap(rig.lip2), "flat annulus, mirror-2 frame");
+  if (rig.profile2.present) {
+    Line(&out, 2, "profile: " + ProfileMap(rig.profile2, "mirror2_profile", rig.mirror2_profile.data()),
+         "sag over the conic along +z (mm): docs/formats/model.md");
+  }
 
   const ModelDerived derived = ComputeModelDerived(rig);
   Line(&out, 0, "derived:", "written for people and other tools; ignored when read");

@@ -72,6 +72,11 @@ class SlotAutoDiffTest : public ::testing::Test {
  protected:
   void SetUp() override {
     rig_ = testing::MisalignedRig();
+    // Machined mirrors (issue 40): the profile blocks' columns are compared too.
+    rig_.profile1 = DefaultProfileShape(rig_, Mirror::kOne);
+    rig_.profile2 = DefaultProfileShape(rig_, Mirror::kTwo);
+    rig_.mirror1_profile = {0.004, -0.002, 0.001, 0.0005, 0.001, -0.0008};
+    rig_.mirror2_profile = {-0.003, 0.002, -0.001, 0.0004, -0.0006, 0.0009};
     fixed_ = FixedOf(rig_);
   }
   RigParams rig_;
@@ -99,29 +104,30 @@ TEST_F(SlotAutoDiffTest, CornerCostsMatchPlainAutoDiff) {
         std::vector<double*> blocks;
         int n_nonzero = 0;
         if (mirror == Mirror::kOne) {
-          plain.reset(new ceres::AutoDiffCostFunction<Mirror1CornerCost, 2, 5, 5, 2, 5, 3, 6>(
+          plain.reset(new ceres::AutoDiffCostFunction<Mirror1CornerCost, 2, 5, 5, 2, 6, 5, 3, 6>(
               new Mirror1CornerCost{observed, corner_in_target, fixed_}));
           slot.reset(Mirror1CornerCost::Create(observed, corner_in_target, fixed_, &held_camera,
                                                &held_distortion));
-          blocks = {rig_.camera.data(), rig_.distortion.data(), rig_.mirror1_shape.data(),
-                    rig_.mirror1_pose.data(), rig_.reflex.data(), pose};
+          blocks = {rig_.camera.data(),       rig_.distortion.data(),
+                    rig_.mirror1_shape.data(), rig_.mirror1_profile.data(),
+                    rig_.mirror1_pose.data(),  rig_.reflex.data(), pose};
           // Every block asked; then shapes constant and the camera/distortion held coordinates.
-          ExpectSame(*plain, *slot, blocks, std::vector<bool>(6, true),
-                     {0b10000, 0b11100, 0, 0, 0, 0}, &n_nonzero);
-          ExpectSame(*plain, *slot, blocks, {true, true, false, true, true, true},
-                     {0b10000, 0b11100, 0, 0, 0, 0}, &n_nonzero);
+          ExpectSame(*plain, *slot, blocks, std::vector<bool>(7, true),
+                     {0b10000, 0b11100, 0, 0, 0, 0, 0}, &n_nonzero);
+          ExpectSame(*plain, *slot, blocks, {true, true, false, false, true, true, true},
+                     {0b10000, 0b11100, 0, 0, 0, 0, 0}, &n_nonzero);
         } else {
-          plain.reset(new ceres::AutoDiffCostFunction<Mirror2CornerCost, 2, 5, 5, 5, 3, 2, 5, 6>(
+          plain.reset(new ceres::AutoDiffCostFunction<Mirror2CornerCost, 2, 5, 5, 5, 3, 2, 6, 5, 6>(
               new Mirror2CornerCost{observed, corner_in_target, fixed_}));
           slot.reset(Mirror2CornerCost::Create(observed, corner_in_target, fixed_, &held_camera,
                                                &held_distortion));
           blocks = {rig_.camera.data(),        rig_.distortion.data(), rig_.mirror1_pose.data(),
                     rig_.reflex.data(),        rig_.mirror2_shape.data(),
-                    rig_.mirror2_pose.data(), pose};
-          ExpectSame(*plain, *slot, blocks, std::vector<bool>(7, true),
-                     {0b10000, 0b11100, 0, 0, 0, 0, 0}, &n_nonzero);
-          ExpectSame(*plain, *slot, blocks, {true, true, true, true, false, true, true},
-                     {0b10000, 0b11100, 0, 0, 0, 0, 0}, &n_nonzero);
+                    rig_.mirror2_profile.data(), rig_.mirror2_pose.data(), pose};
+          ExpectSame(*plain, *slot, blocks, std::vector<bool>(8, true),
+                     {0b10000, 0b11100, 0, 0, 0, 0, 0, 0}, &n_nonzero);
+          ExpectSame(*plain, *slot, blocks, {true, true, true, true, false, false, true, true},
+                     {0b10000, 0b11100, 0, 0, 0, 0, 0, 0}, &n_nonzero);
         }
         // The held masks are read at evaluation time.
         held_camera = held_distortion = 0;
@@ -166,22 +172,24 @@ TEST_F(SlotAutoDiffTest, LipCostsMatchPlainAutoDiffOnEveryPath) {
         const Eigen::Vector2d observed = *pixel + Eigen::Vector2d(-0.2, 0.25);
         double phi[1] = {phi0};
         uint32_t held_camera = 0b10000, held_distortion = 0b11100;
-        ceres::AutoDiffCostFunction<LipPointCost, 2, 5, 5, 2, 5, 3, 2, 5, 1> plain(
+        ceres::AutoDiffCostFunction<LipPointCost, 2, 5, 5, 2, 5, 3, 2, 5, 6, 6, 1> plain(
             new LipPointCost{observed, path, radius, lip.z, lip_fixed});
         std::unique_ptr<ceres::CostFunction> slot(LipPointCost::Create(
             observed, path, radius, lip.z, lip_fixed, &held_camera, &held_distortion));
         const std::vector<double*> blocks = {
             rig_.camera.data(),        rig_.distortion.data(),   rig_.mirror1_shape.data(),
             rig_.mirror1_pose.data(),  rig_.reflex.data(),       rig_.mirror2_shape.data(),
-            rig_.mirror2_pose.data(), phi};
+            rig_.mirror2_pose.data(), rig_.mirror1_profile.data(), rig_.mirror2_profile.data(),
+            phi};
         int n_nonzero = 0;
-        ExpectSame(plain, *slot, blocks, std::vector<bool>(8, true),
-                   {0b10000, 0b11100, 0, 0, 0, 0, 0, 0}, &n_nonzero);
-        ExpectSame(plain, *slot, blocks, {true, true, false, true, true, false, true, true},
-                   {0b10000, 0b11100, 0, 0, 0, 0, 0, 0}, &n_nonzero);
+        ExpectSame(plain, *slot, blocks, std::vector<bool>(10, true),
+                   {0b10000, 0b11100, 0, 0, 0, 0, 0, 0, 0, 0}, &n_nonzero);
+        ExpectSame(plain, *slot, blocks,
+                   {true, true, false, true, true, false, true, false, false, true},
+                   {0b10000, 0b11100, 0, 0, 0, 0, 0, 0, 0, 0}, &n_nonzero);
         held_camera = held_distortion = 0;
-        ExpectSame(plain, *slot, blocks, std::vector<bool>(8, true), std::vector<uint32_t>(8, 0),
-                   &n_nonzero);
+        ExpectSame(plain, *slot, blocks, std::vector<bool>(10, true),
+                   std::vector<uint32_t>(10, 0), &n_nonzero);
         EXPECT_GT(n_nonzero, 20) << LipPathName(path);
         ++checked;
       }

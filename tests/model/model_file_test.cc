@@ -70,6 +70,19 @@ void ExpectSameRig(const RigParams& a, const RigParams& b) {
   EXPECT_BIT_EQ(a.r_cam, b.r_cam);
   ExpectSameLip(a.lip1, b.lip1);
   ExpectSameLip(a.lip2, b.lip2);
+  for (const auto& [pa, pb] : {std::pair{&a.profile1, &b.profile1}, std::pair{&a.profile2, &b.profile2}}) {
+    EXPECT_EQ(pa->present, pb->present);
+    if (!pa->present) continue;
+    EXPECT_BIT_EQ(pa->r_min, pb->r_min);
+    EXPECT_BIT_EQ(pa->r_max, pb->r_max);
+    EXPECT_BIT_EQ(pa->ripple_amplitude, pb->ripple_amplitude);
+    if (pa->ripple_amplitude != 0) {
+      EXPECT_BIT_EQ(pa->ripple_period, pb->ripple_period);
+      EXPECT_BIT_EQ(pa->ripple_phase, pb->ripple_phase);
+    }
+  }
+  if (a.profile1.present) ExpectBitEqual(a.mirror1_profile, b.mirror1_profile, "mirror1_profile");
+  if (a.profile2.present) ExpectBitEqual(a.mirror2_profile, b.mirror2_profile, "mirror2_profile");
   ASSERT_EQ(a.calibration.has_value(), b.calibration.has_value());
   if (!a.calibration) return;
   const CalibrationInfo& ca = *a.calibration;
@@ -116,6 +129,17 @@ RigParams RandomNoncentralRig(std::uint64_t seed) {
   rig.reflex = {uniform(-0.01, 0.01), uniform(-0.01, 0.01), uniform(-0.5, 0.5)};
   rig.lip1 = Lip{"blue", rig.r_sys, rig.r_sys + uniform(1, 5), uniform(120, 140)};
   rig.lip2 = Lip{"#8b1a1a", rig.r_sys, rig.r_sys + uniform(1, 5), uniform(-20, -10)};
+  // Machined mirrors on every other seed: a profile (mirror 1 with a ripple), microns.
+  if (seed % 2 == 0) {
+    rig.profile1 = DefaultProfileShape(rig, Mirror::kOne);
+    rig.profile2 = DefaultProfileShape(rig, Mirror::kTwo);
+    rig.profile2.r_max = uniform(0.8, 1.0) * rig.r_sys;
+    for (double& c : rig.mirror1_profile) c = uniform(-0.004, 0.004);
+    for (double& c : rig.mirror2_profile) c = uniform(-0.004, 0.004);
+    rig.profile1.ripple_amplitude = uniform(-0.002, 0.002);
+    rig.profile1.ripple_period = uniform(4, 8);
+    rig.profile1.ripple_phase = uniform(-3, 3);
+  }
 
   CalibrationInfo cal;
   cal.parameters = {"camera.fx",  "camera.fy",  "camera.cx",  "camera.cy",  "distortion.dist_k1",
@@ -362,6 +386,8 @@ TEST_P(MalformedModelTest, ThrowsOneLineNamingFileAndKey) {
 const std::string kIdeal = "kind: ideal";
 const std::pair<std::string, std::string> kMakeIdeal{"kind: noncentral", kIdeal};
 const std::string kM2Pose = "mirror2:\n  cam_from_mirror: {rx: 0.0, ry: 0.0, tx: 0.0, ty: 0.0, tz: 0.0}";
+const std::string kLip1 = "lip: {color: blue, r_inner: 37.0, r_outer: 40.0, z: 132.71}";
+const std::string kLip2 = "lip: {color: red, r_inner: 37.0, r_outer: 40.0, z: -17.29}";
 
 INSTANTIATE_TEST_SUITE_P(
     AllCases, MalformedModelTest,
@@ -430,7 +456,22 @@ INSTANTIATE_TEST_SUITE_P(
         Malformed{"calibration_missing_residuals", {{"", CalibrationWith("residuals:", "residual:")}},
                   "calibration.residuals", "key missing"},
         Malformed{"calibration_duplicate_name", {{"", CalibrationWith("mirror1.tx]", "camera.fx]")}},
-                  "calibration.parameters[2]", "unique"}),
+                  "calibration.parameters[2]", "unique"},
+        // Mirror profiles (issue 40).
+        Malformed{"profile_beyond_rim", {{kLip1, kLip1 + "\n  profile: {r_max: 40.0, sag_p1: 0.003}"}},
+                  "mirror1.profile.r_max", "(r_min, r_sys]"},
+        Malformed{"profile_negative_r_min", {{kLip2, kLip2 + "\n  profile: {r_min: -1.0}"}},
+                  "mirror2.profile.r_min", "[0, r_sys)"},
+        Malformed{"profile_too_deep", {{kLip1, kLip1 + "\n  profile: {sag_p2: 0.2}"}},
+                  "mirror1.profile", "at most 0.1 mm"},
+        Malformed{"profile_too_steep", {{kLip1, kLip1 + "\n  profile: {ripple_amplitude: 0.05, ripple_period: 2.0}"}},
+                  "mirror1.profile", "smooth"},
+        Malformed{"profile_ripple_without_period", {{kLip1, kLip1 + "\n  profile: {ripple_amplitude: 0.002}"}},
+                  "mirror1.profile.ripple_period", "period >= 0.5"},
+        Malformed{"profile_not_a_number", {{kLip1, kLip1 + "\n  profile: {sag_p1: 3um}"}},
+                  "mirror1.profile.sag_p1", "expected a number"},
+        Malformed{"ideal_with_profile", {kMakeIdeal, {kLip1, kLip1 + "\n  profile: {sag_p1: 0.001}"}},
+                  "mirror1.profile", "kind is ideal"}),
     [](const ::testing::TestParamInfo<Malformed>& info) { return std::string(info.param.name); });
 
 TEST(ModelFileTest, ValidCalibrationSectionIsRead) {

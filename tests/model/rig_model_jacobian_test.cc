@@ -15,8 +15,9 @@ namespace omni {
 namespace {
 
 // All inputs in one flat vector: point(3) camera(5) distortion(5) mirror1_shape(2)
-// mirror2_shape(2) mirror1_pose(5) mirror2_pose(5) reflex(3).
-constexpr int kNumInputs = 30;
+// mirror2_shape(2) mirror1_pose(5) mirror2_pose(5) reflex(3) mirror1_profile(6)
+// mirror2_profile(6).
+constexpr int kNumInputs = 42;
 struct Block {
   const char* name;
   int offset, size;
@@ -25,13 +26,15 @@ struct Block {
 constexpr Block kBlocks[] = {
     {"point", 0, 3, 1e-3},         {"camera", 3, 5, 1e-3},        {"distortion", 8, 5, 1e-6},
     {"mirror1_shape", 13, 2, 1e-5}, {"mirror2_shape", 15, 2, 1e-5}, {"mirror1_pose", 17, 5, 1e-5},
-    {"mirror2_pose", 22, 5, 1e-5}, {"reflex", 27, 3, 1e-5},
+    {"mirror2_pose", 22, 5, 1e-5}, {"reflex", 27, 3, 1e-5},   {"mirror1_profile", 30, 6, 1e-5},
+    {"mirror2_profile", 36, 6, 1e-5},
 };
+constexpr int kNumBlocks = sizeof(kBlocks) / sizeof(kBlocks[0]);
 
 template <typename T>
 bool Evaluate(Mirror mirror, const T* x, const RigFixed& fixed, Vec2<T>* pixel) {
   const Vec3<T> point(x[0], x[1], x[2]);
-  const RigBlocks<T> blocks{x + 3, x + 8, x + 13, x + 17, x + 27, x + 15, x + 22};
+  const RigBlocks<T> blocks{x + 3, x + 8, x + 13, x + 17, x + 27, x + 15, x + 22, x + 30, x + 36};
   return mirror == Mirror::kOne ? ProjectViaMirror1(blocks, fixed, point, pixel)
                                 : ProjectViaMirror2(blocks, fixed, point, pixel);
 }
@@ -47,11 +50,13 @@ std::array<double, kNumInputs> Flatten(const RigParams& rig, const Eigen::Vector
   for (double v : rig.mirror1_pose) x[i++] = v;
   for (double v : rig.mirror2_pose) x[i++] = v;
   for (double v : rig.reflex) x[i++] = v;
+  for (double v : rig.mirror1_profile) x[i++] = v;
+  for (double v : rig.mirror2_profile) x[i++] = v;
   return x;
 }
 
 struct JacobianStats {
-  double max_rel[8] = {0};
+  double max_rel[kNumBlocks] = {0};
   double max_value_diff = 0;
   int n = 0;
 };
@@ -70,7 +75,7 @@ void CheckPoint(const RigParams& rig, Mirror mirror, const Eigen::Vector3d& p,
   stats->max_value_diff =
       std::max(stats->max_value_diff, (Eigen::Vector2d(pixel_jet(0).a, pixel_jet(1).a) - pixel).norm());
 
-  for (int b = 0; b < 8; ++b) {
+  for (int b = 0; b < kNumBlocks; ++b) {
     const Block& block = kBlocks[b];
     Eigen::MatrixXd jet(2, block.size), fd(2, block.size);
     for (int k = 0; k < block.size; ++k) {
@@ -123,7 +128,7 @@ void RunJacobianCheck(const RigParams& rig, const char* label, int per_mirror) {
   }
   for (int m : {1, 2}) {
     std::string line;
-    for (int b = 0; b < 8; ++b) {
+    for (int b = 0; b < kNumBlocks; ++b) {
       char buf[64];
       std::snprintf(buf, sizeof(buf), " %s %.1e", kBlocks[b].name, stats[m].max_rel[b]);
       line += buf;
@@ -140,6 +145,20 @@ TEST(RigModelJacobian, JetsMatchFiniteDifferencesMisaligned) {
   for (int trial = 0; trial < 2; ++trial) {
     RunJacobianCheck(testing::MisalignedBigRig(&rng, 1.0, 1.0, true), "misaligned", 40);
   }
+}
+
+// Machined mirrors (issue 40): every profile term, a ripple, on a misaligned rig.
+TEST(RigModelJacobian, JetsMatchFiniteDifferencesWithProfiles) {
+  std::mt19937 rng(17);
+  RigParams rig = testing::MisalignedBigRig(&rng, 1.0, 1.0, true);
+  rig.profile1 = DefaultProfileShape(rig, Mirror::kOne);
+  rig.profile2 = DefaultProfileShape(rig, Mirror::kTwo);
+  rig.profile1.ripple_amplitude = 0.002;
+  rig.profile1.ripple_period = 6.0;
+  rig.profile1.ripple_phase = 0.3;
+  rig.mirror1_profile = {0.005, -0.003, 0.002, 0.001, 0.002, -0.0015};
+  rig.mirror2_profile = {-0.004, 0.002, 0.0015, -0.001, -0.001, 0.002};
+  RunJacobianCheck(rig, "profiled", 40);
 }
 
 TEST(RigModelJacobian, JetsMatchFiniteDifferencesAtZeroMisalignment) {

@@ -44,7 +44,7 @@ std::vector<Eigen::Vector3d> PointsAround(const Eigen::Vector3d& focus, double l
 }
 
 // The law-of-reflection residual at the solution, in the mirror's frame: |reflect(u_in) - u_out|.
-double ReflectionResidual(const HyperboloidSheet<double>& sheet, const ProjectionInfo& info,
+double ReflectionResidual(const MirrorSurface<double>& sheet, const ProjectionInfo& info,
                           const Eigen::Vector3d& point_in_mirror) {
   const Eigen::Vector3d& s = info.point_on_mirror;
   const Eigen::Vector3d u_in = (s - info.eye_in_mirror).normalized();
@@ -346,11 +346,11 @@ TEST(RigModel, AgreesWithBruteForceOracle) {
     ASSERT_TRUE(projected.has_value());
     Eigen::Vector2d expected;
     if (ray->mirror == Mirror::kOne) {
-      const Oracle oracle{p1.sheet, p1.mirror_from_cam.translation, p1.mirror_from_cam * p};
+      const Oracle oracle{p1.sheet.conic, p1.mirror_from_cam.translation, p1.mirror_from_cam * p};
       const Eigen::Vector3d s = p1.cam_from_mirror * OracleReflectionPoint(oracle, 1.2 * rig.r_sys);
       expected = p1.cam.PixelFromNormalized(p1.dist.Distort(s.head<2>() / s.z()));
     } else {
-      const Oracle oracle{p2.sheet, p2.mirror_from_cam * p2.virtual_camera_in_cam,
+      const Oracle oracle{p2.sheet.conic, p2.mirror_from_cam * p2.virtual_camera_in_cam,
                           p2.mirror_from_cam * p};
       const Eigen::Vector3d s = p2.cam_from_mirror * OracleReflectionPoint(oracle, 1.2 * rig.r_sys);
       // Where s -> virtual camera crosses the reflex plane.
@@ -370,6 +370,188 @@ TEST(RigModel, AgreesWithBruteForceOracle) {
   EXPECT_EQ(n[2], 150);
   EXPECT_LT(max_err[1], 1e-6);
   EXPECT_LT(max_err[2], 1e-6);
+}
+
+}  // namespace
+}  // namespace omni
+
+namespace omni {
+namespace {
+
+// (e) Machined mirrors (issue 40): the profiled surface through the same brute-force oracle, its
+// sag written independently (std::legendre for P_n, the derivative from Bonnet's recurrence
+// P_n' = n (w P_n - P_{n-1}) / (w^2 - 1), the ripple and astigmatism by hand), its normal from
+// those derivatives.
+struct ProfiledOracle {
+  HyperboloidSheet<double> conic;
+  ProfileShape shape;
+  std::array<double, kProfileTerms> c;
+  Eigen::Vector3d eye, point;
+
+  // z and its gradient at (x, y).
+  double Z(double x, double y, double* zx, double* zy) const {
+    const double r = std::hypot(x, y);
+    const double span = shape.r_max * shape.r_max - shape.r_min * shape.r_min;
+    const double w = 2 * (r * r - shape.r_min * shape.r_min) / span - 1;
+    double z = conic.Z(r), dz_dr = conic.Slope(r);
+    for (int n = 1; n <= 4; ++n) {
+      z += c[n - 1] * std::legendre(n, w);
+      const double dp = n * (w * std::legendre(n, w) - std::legendre(n - 1, w)) / (w * w - 1);
+      dz_dr += c[n - 1] * dp * 4 * r / span;
+    }
+    const double theta = std::atan2(y, x), rm2 = shape.r_max * shape.r_max;
+    const double k = 2 * M_PI / shape.ripple_period;
+    z += shape.ripple_amplitude * std::sin(k * r + shape.ripple_phase);
+    dz_dr += shape.ripple_amplitude * k * std::cos(k * r + shape.ripple_phase);
+    // Astigmatism r^2 (c4 cos 2 theta + c5 sin 2 theta) / r_max^2 in polar form.
+    const double ast = c[4] * std::cos(2 * theta) + c[5] * std::sin(2 * theta);
+    z += r * r * ast / rm2;
+    dz_dr += 2 * r * ast / rm2;
+    const double dz_dtheta = r * r * (-2 * c[4] * std::sin(2 * theta) + 2 * c[5] * std::cos(2 * theta)) / rm2;
+    *zx = dz_dr * x / r - dz_dtheta * y / (r * r);
+    *zy = dz_dr * y / r + dz_dtheta * x / (r * r);
+    return z;
+  }
+  Eigen::Vector3d Surface(double azimuth, double r) const {
+    double zx, zy;
+    const double x = r * std::cos(azimuth), y = r * std::sin(azimuth);
+    return Eigen::Vector3d(x, y, Z(x, y, &zx, &zy));
+  }
+  double Miss(const Eigen::Vector2d& ar) const {
+    const Eigen::Vector3d s = Surface(ar(0), ar(1));
+    double zx, zy;
+    Z(s.x(), s.y(), &zx, &zy);
+    const Eigen::Vector3d normal = Eigen::Vector3d(-zx, -zy, 1).normalized();
+    const Eigen::Vector3d out = Reflect(Eigen::Vector3d((s - eye).normalized()), normal);
+    const Eigen::Vector3d to_point = (point - s).normalized();
+    if (out.dot(to_point) <= 0) return 4.0;
+    return out.cross(to_point).squaredNorm();
+  }
+};
+
+Eigen::Vector3d ProfiledOraclePoint(const ProfiledOracle& oracle, double r_lo, double r_hi) {
+  Eigen::Vector2d best(0, 0);
+  double best_f = 1e300;
+  for (int ia = 0; ia < 360; ++ia) {
+    for (double r = r_lo + 0.25; r < r_hi; r += 0.5) {
+      const double f = oracle.Miss(Eigen::Vector2d(ia * kRigDeg, r));
+      if (f < best_f) best_f = f, best = Eigen::Vector2d(ia * kRigDeg, r);
+    }
+  }
+  // Nelder-Mead as for the conic (a local copy: the oracle type differs).
+  auto nm = [&](Eigen::Vector2d x0, double size) {
+    std::array<Eigen::Vector2d, 3> x = {x0, x0 + Eigen::Vector2d(size, 0), x0 + Eigen::Vector2d(0, size)};
+    std::array<double, 3> fx;
+    for (int i = 0; i < 3; ++i) fx[i] = oracle.Miss(x[i]);
+    for (int iter = 0; iter < 4000; ++iter) {
+      std::array<int, 3> idx = {0, 1, 2};
+      std::sort(idx.begin(), idx.end(), [&](int a, int b) { return fx[a] < fx[b]; });
+      const int b = idx[0], m = idx[1], w = idx[2];
+      if ((x[w] - x[b]).norm() < 1e-15 * (1 + x[b].norm())) break;
+      const Eigen::Vector2d centroid = 0.5 * (x[b] + x[m]);
+      const Eigen::Vector2d xr = centroid + (centroid - x[w]);
+      const double fr = oracle.Miss(xr);
+      if (fr < fx[b]) {
+        const Eigen::Vector2d xe = centroid + 2.0 * (centroid - x[w]);
+        const double fe = oracle.Miss(xe);
+        if (fe < fr) x[w] = xe, fx[w] = fe;
+        else x[w] = xr, fx[w] = fr;
+      } else if (fr < fx[m]) {
+        x[w] = xr, fx[w] = fr;
+      } else {
+        const Eigen::Vector2d xc = centroid + 0.5 * (x[w] - centroid);
+        const double fc = oracle.Miss(xc);
+        if (fc < fx[w]) {
+          x[w] = xc, fx[w] = fc;
+        } else {
+          for (int i : {m, w}) {
+            x[i] = x[b] + 0.5 * (x[i] - x[b]);
+            fx[i] = oracle.Miss(x[i]);
+          }
+        }
+      }
+    }
+    int b = 0;
+    for (int i = 1; i < 3; ++i) if (fx[i] < fx[b]) b = i;
+    return x[b];
+  };
+  Eigen::Vector2d x = best;
+  for (double size : {0.01, 1e-4, 1e-6}) x = nm(x, size);
+  return oracle.Surface(x(0), x(1));
+}
+
+TEST(RigModel, ProfiledMirrorsAgreeWithBruteForceOracle) {
+  std::mt19937 rng(7);
+  RigParams rig = testing::MisalignedBigRig(&rng, 1.0, 1.0, true);
+  rig.profile1 = DefaultProfileShape(rig, Mirror::kOne);
+  rig.profile2 = DefaultProfileShape(rig, Mirror::kTwo);
+  rig.profile1.ripple_amplitude = 0.002;  // 4 um PV, 6 mm period
+  rig.profile1.ripple_period = 6.0;
+  rig.profile2.ripple_amplitude = -0.0015;
+  rig.profile2.ripple_period = 4.5;
+  rig.profile2.ripple_phase = 1.0;
+  rig.mirror1_profile = {0.005, -0.003, 0.002, 0.001, 0.002, -0.0015};
+  rig.mirror2_profile = {-0.004, 0.002, 0.0015, -0.001, -0.001, 0.002};
+  const RigModel model(rig);
+  RigParams exact = rig;
+  exact.profile1.present = exact.profile2.present = false;
+  const RigModel exact_model(exact);
+  const auto& p1 = model.path1();
+  const auto& p2 = model.path2();
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  double max_err[3] = {0, 0, 0}, max_roundtrip = 0, sum_profile_px[3] = {0, 0, 0};
+  int n[3] = {0, 0, 0};
+  constexpr int kPerMirror = 40;
+  int attempts = 0;
+  while ((n[1] < kPerMirror || n[2] < kPerMirror) && ++attempts < 100000) {
+    const Eigen::Vector2d px(u(rng) * rig.image_width, u(rng) * rig.image_height);
+    const auto ray = model.Unproject(px);
+    if (!ray || n[MirrorIndex(ray->mirror)] >= kPerMirror) continue;
+    const Eigen::Vector3d p = ray->ray.origin + (150 + 5000 * u(rng)) * ray->ray.direction;
+    const auto projected = model.Project(p, ray->mirror);
+    ASSERT_TRUE(projected.has_value());
+    max_roundtrip = std::max(max_roundtrip, (*projected - px).norm());
+    Eigen::Vector2d expected;
+    const bool one = ray->mirror == Mirror::kOne;
+    const auto& conic = one ? p1.sheet.conic : p2.sheet.conic;
+    const ProfileShape& shape = one ? rig.profile1 : rig.profile2;
+    const auto& coeffs = one ? rig.mirror1_profile : rig.mirror2_profile;
+    if (one) {
+      const ProfiledOracle oracle{conic, shape, coeffs, p1.mirror_from_cam.translation,
+                                  p1.mirror_from_cam * p};
+      const Eigen::Vector3d s =
+          p1.cam_from_mirror * ProfiledOraclePoint(oracle, 0.0, 1.2 * rig.r_sys);
+      expected = p1.cam.PixelFromNormalized(p1.dist.Distort(s.head<2>() / s.z()));
+    } else {
+      const ProfiledOracle oracle{conic, shape, coeffs,
+                                  p2.mirror_from_cam * p2.virtual_camera_in_cam,
+                                  p2.mirror_from_cam * p};
+      const Eigen::Vector3d s =
+          p2.cam_from_mirror * ProfiledOraclePoint(oracle, rig.r_cam * 0.5, 1.2 * rig.r_sys);
+      const auto& plane = p2.reflex_in_cam;
+      const Eigen::Vector3d v = p2.virtual_camera_in_cam;
+      const double t = (plane.point - s).dot(plane.normal) / (v - s).dot(plane.normal);
+      const Eigen::Vector3d x = s + t * (v - s);
+      expected = p2.cam.PixelFromNormalized(p2.dist.Distort(x.head<2>() / x.z()));
+    }
+    const int m = MirrorIndex(ray->mirror);
+    max_err[m] = std::max(max_err[m], (*projected - expected).norm());
+    const auto unprofiled = exact_model.Project(p, ray->mirror);
+    if (unprofiled) sum_profile_px[m] += (*unprofiled - *projected).norm();
+    ++n[m];
+  }
+  std::printf("profiled oracle: %d + %d points, max |Project - oracle| = %.3g / %.3g px, "
+              "round trip %.3g px, the profile moves a pixel by %.2f / %.2f px on average\n",
+              n[1], n[2], max_err[1], max_err[2], max_roundtrip, sum_profile_px[1] / n[1],
+              sum_profile_px[2] / n[2]);
+  EXPECT_EQ(n[1], kPerMirror);
+  EXPECT_EQ(n[2], kPerMirror);
+  EXPECT_LT(max_err[1], 1e-5);
+  EXPECT_LT(max_err[2], 1e-5);
+  EXPECT_LT(max_roundtrip, 1e-6);
+  // The profile matters: the oracle would not tell it from the conic otherwise.
+  EXPECT_GT(sum_profile_px[1] / n[1], 0.3);
+  EXPECT_GT(sum_profile_px[2] / n[2], 0.1);
 }
 
 }  // namespace
