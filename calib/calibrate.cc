@@ -40,6 +40,8 @@ CalibrationResult Calibrator::Run() {
     done = groups;
   }
   robust_subset_only_ = false;
+  // Each mirror's profile: freed where the corners cover its radii (calibrator_profile.cc).
+  DecideProfiles(&result);
   // Then: estimate each group's noise from the residuals (variance components), reject what lies
   // beyond outlier_px or 5 robust sigmas of its group, re-weight, re-solve without the robust
   // loss (its covariance is then the weighted least-squares one), until the weights settle and
@@ -122,6 +124,7 @@ CalibrationResult Calibrator::Run() {
     Covariance(&result);
   }
   AddPointingNote(&result);
+  FinishProfiles(&result);
   if (result.lip_edges_considered > 0) {
     std::string sigmas;
     for (double s : lip_edge_sigma_) {

@@ -84,6 +84,16 @@ struct CalibrationOptions {
   // chessboards under 0.003; docs/experiments.md 2026-11-27), and data-rich parameters read it
   // (the reflex tilt ~0.1 deg per px of the inner ring's offset). 0: none.
   double corner_offset_sigma_px = 0.005;
+  // Each mirror's profile (model/mirror_profile.h: a machined mirror's smooth departure from the
+  // conic, sag_p1..sag_p4, sag_cos2, sag_sin2). "auto": freed, with a prior of profile_sigma_mm
+  // per term around the starting model's value, for a mirror whose corners cover the radii the
+  // profile acts on (ProfileCoverage); otherwise held and considered with that sigma. "free":
+  // always freed; "hold": always held and considered. A profile of microns bends rays by
+  // milliradians: held at the conic, it hides in the mirrors' heights and the focal length while
+  // the residuals stay at the noise (issue 40: 10 um moved both tz by 3 mm at 10 sigma).
+  std::string profile = "auto";
+  // A machined mirror's profile tolerance: the sigma of each term (half its peak-to-valley), mm.
+  double profile_sigma_mm = 0.005;
   // Degeneracy checks on the target placements (horizontal range and azimuth of each target's
   // centre about the camera axis).
   double min_range_ratio = 1.6;         // max range / min range must reach this (the initial
@@ -118,6 +128,24 @@ struct CornerResidual {
   int mirror = 1;
   Eigen::Vector2d pixel = Eigen::Vector2d::Zero();     // as detected
   Eigen::Vector2d residual = Eigen::Vector2d::Zero();  // projected - detected, px
+};
+
+// The corners' radial residuals along one mirror's radius: the mean residual along the image
+// radius (away from the principal point) of the corners whose reflection point lies in each band
+// of mirror radius. A profile error the model lacks shows as a smooth pattern here.
+struct RadialResidualBin {
+  double r_lo = 0, r_hi = 0;  // mirror radius band (mm, the mirror's body frame)
+  int count = 0;
+  double mean_px = 0, sem_px = 0;  // mean radial residual and its standard error
+};
+struct ProfileDecision {
+  bool freed = false;
+  int bins_covered = 0, bins = 0;  // radial bands of the profile's radii holding corners
+  double r_min = 0, r_max = 0;     // the profile's radii (mm)
+  // Before the profile was decided (held at the start) and at the end.
+  std::vector<RadialResidualBin> pattern_before, pattern_after;
+  // chi^2 of the band means against zero per band (~1 where no pattern is left), before / after.
+  double pattern_chi2_before = 0, pattern_chi2_after = 0;
 };
 
 struct StageReport {
@@ -204,6 +232,8 @@ struct CalibrationResult {
   std::vector<CornerResidual> residuals;  // every corner of the final solve
   std::vector<StageReport> stages;
   std::vector<TargetPlacementEstimate> placements;
+  // Each mirror's profile: freed or held, and the radial residual pattern (index 0: mirror 1).
+  ProfileDecision profile[2];
   bool converged = false;
 };
 

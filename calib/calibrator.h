@@ -84,6 +84,7 @@ class Calibrator {
       : rig_(start), targets_(targets), options_(options) {
     rig_.kind = ModelKind::kNoncentral;
     rig_.calibration.reset();
+    SetUpProfiles(start);
     fixed_ = FixedOf(rig_);
     // A detected corner IS seen, so the costs only need the validity bounds to keep the solver
     // on the right sheet and path: they use bounds relaxed by kBoundSlackMm (mirror 1: larger
@@ -120,8 +121,26 @@ class Calibrator {
     if (!options_.refine_skew) hold("skew");
     if (!options_.refine_tangential) hold("dist_p1"), hold("dist_p2");
     if (!refine_k3_) hold("dist_k3");
+    for (int m = 0; m < 2; ++m) {
+      if (group == kProfileGroups[m] && !profile_free_[m]) {
+        for (int k = 0; k < kProfileTerms; ++k) held.push_back(k);
+      }
+    }
     return held;
   }
+  static constexpr const char* kProfileGroups[2] = {"mirror1_profile", "mirror2_profile"};
+  // The profiles in the problem from the start (calibrator_profile.cc): a mirror without one
+  // gets the zero profile over its used radii, held and considered until DecideProfiles.
+  void SetUpProfiles(const RigParams& start);
+  // The radial residual pattern per mirror at the current parameters.
+  std::vector<RadialResidualBin> RadialPattern(int mirror, double* chi2) const;
+  // Frees each mirror's profile where options_.profile and the corners' radial coverage say so;
+  // true if one was freed.
+  bool DecideProfiles(CalibrationResult* result);
+  // A profile's radii set to those mirror m's corners reach (the costs rebuilt with them).
+  void FitProfileRadiiToCorners(int m);
+  // The freed profiles' priors and the result's notes, after the solve.
+  void FinishProfiles(CalibrationResult* result);
   void Status(const std::string& now) const {
     if (options_.status) options_.status(now);
   }
@@ -147,6 +166,8 @@ class Calibrator {
   double LipRms(int* count) const;
   double* PoseBlock(int placement) { return placements_[placement].cam_from_target.data(); }
   ceres::CostFunction* CostOf(size_t i);
+  // Corner i's residual over the rig blocks and its placement's pose.
+  ceres::ResidualBlockId AddCorner(ceres::Problem* problem, size_t i, ceres::LossFunction* loss);
   // Adds every usable observation (and the shape priors) to `problem`; returns the count.
   int BuildProblem(ceres::Problem* problem, const std::set<std::string>& groups,
                    ceres::LossFunction* loss, std::vector<ceres::ResidualBlockId>* corner_blocks,
@@ -175,6 +196,9 @@ class Calibrator {
   CalibrationOptions options_;
   std::set<std::string> estimate_;
   bool refine_k3_ = false;  // dist_k3 refined (options_.refine_dist_k3, or DecideDistK3)
+  bool profile_free_[2] = {false, false};  // each mirror's profile refined (DecideProfiles)
+  bool profile_given_[2] = {false, false};  // the starting model had a profile
+  std::array<double, kProfileTerms> profile_start_[2];  // its values: the priors' means
   // What the last Covariance() found for a held dist_k3 if it were freed: its sigma and the
   // largest factor by which dist_k1's and dist_k2's sigmas would grow.
   struct {

@@ -394,24 +394,14 @@ void Calibrator::InitialisePoses() {
       Eigen::Vector2d px;
       if (!obs_[i].in_robust_stages || !Reproject(obs_[i], &px)) continue;
       ++n;
-      double* pose = PoseBlock(static_cast<int>(p));
-      if (obs_[i].mirror == 1) {
-        problem.AddResidualBlock(CostOf(i), &loss, rig_.camera.data(), rig_.distortion.data(),
-                                 rig_.mirror1_shape.data(), rig_.mirror1_pose.data(),
-                                 rig_.reflex.data(), pose);
-      } else {
-        problem.AddResidualBlock(CostOf(i), &loss, rig_.camera.data(), rig_.distortion.data(),
-                                 rig_.mirror1_pose.data(), rig_.reflex.data(),
-                                 rig_.mirror2_shape.data(), rig_.mirror2_pose.data(), pose);
-      }
+      AddCorner(&problem, i, &loss);
     }
     if (n < 4) {
       placements_[p].failed = true;
       return;
     }
-    for (double* block : {rig_.camera.data(), rig_.distortion.data(), rig_.mirror1_shape.data(),
-                          rig_.mirror2_shape.data(), rig_.mirror1_pose.data(),
-                          rig_.mirror2_pose.data(), rig_.reflex.data()}) {
+    for (const RigBlock& b : kRigBlocks) {
+      double* block = BlockIn(&rig_, b.name);
       if (problem.HasParameterBlock(block)) problem.SetParameterBlockConstant(block);
     }
     ceres::Solver::Options so;

@@ -2,6 +2,21 @@
 
 namespace omni::calib {
 
+ceres::ResidualBlockId Calibrator::AddCorner(ceres::Problem* problem, size_t i,
+                                             ceres::LossFunction* loss) {
+  // The blocks in the order of calib/corner_cost.h's residuals.
+  double* pose = PoseBlock(obs_[i].placement);
+  if (obs_[i].mirror == 1) {
+    return problem->AddResidualBlock(CostOf(i), loss, rig_.camera.data(), rig_.distortion.data(),
+                                     rig_.mirror1_shape.data(), rig_.mirror1_profile.data(),
+                                     rig_.mirror1_pose.data(), rig_.reflex.data(), pose);
+  }
+  return problem->AddResidualBlock(CostOf(i), loss, rig_.camera.data(), rig_.distortion.data(),
+                                   rig_.mirror1_pose.data(), rig_.reflex.data(),
+                                   rig_.mirror2_shape.data(), rig_.mirror2_profile.data(),
+                                   rig_.mirror2_pose.data(), pose);
+}
+
 int Calibrator::BuildProblem(ceres::Problem* problem, const std::set<std::string>& groups,
                              ceres::LossFunction* loss,
                              std::vector<ceres::ResidualBlockId>* corner_blocks,
@@ -32,19 +47,7 @@ int Calibrator::BuildProblem(ceres::Problem* problem, const std::set<std::string
     Eigen::Vector2d px;
     o.projectable = Reproject(o, &px);
     if (!o.projectable) continue;
-    double* pose = PoseBlock(o.placement);
-    ceres::ResidualBlockId id;
-    if (o.mirror == 1) {
-      id = problem->AddResidualBlock(CostOf(i), group_loss[0], rig_.camera.data(),
-                                     rig_.distortion.data(), rig_.mirror1_shape.data(),
-                                     rig_.mirror1_profile.data(), rig_.mirror1_pose.data(),
-                                     rig_.reflex.data(), pose);
-    } else {
-      id = problem->AddResidualBlock(CostOf(i), group_loss[1], rig_.camera.data(), rig_.distortion.data(),
-                                     rig_.mirror1_pose.data(), rig_.reflex.data(),
-                                     rig_.mirror2_shape.data(), rig_.mirror2_profile.data(),
-                                     rig_.mirror2_pose.data(), pose);
-    }
+    const ceres::ResidualBlockId id = AddCorner(problem, i, group_loss[o.mirror - 1]);
     if (corner_blocks) corner_blocks->push_back(id);
     ++n;
   }
@@ -80,6 +83,17 @@ int Calibrator::BuildProblem(ceres::Problem* problem, const std::set<std::string
       if (!(sigmas[k] > 0)) continue;
       prior_costs_.emplace_back(new ceres::AutoDiffCostFunction<ScalarPriorCost, 1, 2>(
           new ScalarPriorCost{k, block[k], sigmas[k]}));
+      const auto id = problem->AddResidualBlock(prior_costs_.back().get(), nullptr, block);
+      if (prior_blocks) prior_blocks->push_back(id);
+    }
+  }
+  // Freed profiles: the machining tolerance as a prior around the starting model's profile.
+  for (int m = 0; m < 2; ++m) {
+    if (!groups.count(kProfileGroups[m]) || !profile_free_[m]) continue;
+    double* block = BlockIn(&rig_, kProfileGroups[m]);
+    for (int k = 0; k < kProfileTerms; ++k) {
+      prior_costs_.emplace_back(new ceres::AutoDiffCostFunction<ScalarPriorCost, 1, kProfileTerms>(
+          new ScalarPriorCost{k, profile_start_[m][k], options_.profile_sigma_mm}));
       const auto id = problem->AddResidualBlock(prior_costs_.back().get(), nullptr, block);
       if (prior_blocks) prior_blocks->push_back(id);
     }

@@ -9,6 +9,8 @@ CalibrationOptions OptionsFromSession(const io::Session& session) {
   options.solver = session.solver;
   options.use_lips = session.use_lips;
   if (session.consider) options.considered_sigma = *session.consider;
+  if (!session.profile.empty()) options.profile = session.profile;
+  if (session.profile_sigma_mm > 0) options.profile_sigma_mm = session.profile_sigma_mm;
   return options;
 }
 

@@ -172,6 +172,16 @@ Session ReadSessionFile(const std::string& path) {
     session.targets.push_back(ReadTarget(in, targets[i], "targets[" + std::to_string(i) + "]"));
   }
   if (root["lips"].IsDefined()) session.use_lips = in.Bool(root, "", "lips");
+  if (root["profile"].IsDefined()) {
+    session.profile = in.String(root, "", "profile");
+    if (session.profile != "auto" && session.profile != "free" && session.profile != "hold" &&
+        session.profile != "off") {
+      in.Fail("profile", "expected auto, free, hold or off", Describe(root["profile"]));
+    }
+  }
+  if (root["profile_sigma_mm"].IsDefined()) {
+    session.profile_sigma_mm = in.Positive(root, "", "profile_sigma_mm");
+  }
   if (root["bayer"].IsDefined()) {
     const YAML::Node bayer = root["bayer"];
     const auto pattern = ParseBayerPattern(bayer.IsScalar() ? bayer.Scalar() : "?");
@@ -282,6 +292,10 @@ std::string SessionText(const Session& session, const std::string& base_dir) {
     out << (i ? ", " : "") << session.estimate[i];
   }
   out << "]\n";
+  if (!session.profile.empty()) out << "profile: " << session.profile << "\n";
+  if (session.profile_sigma_mm > 0) {
+    out << "profile_sigma_mm: " << FormatDouble(session.profile_sigma_mm) << "\n";
+  }
   if (session.consider) {
     out << "consider: {";
     const char* sep = "";

@@ -13,6 +13,8 @@
 //   priors: {mirror1_shape: {sigma_c: 0.05, sigma_k: 0.01}, mirror2_shape: {...}}  # optional
 //   consider: {dist_p1: 5.0e-4, dist_p2: 5.0e-4}   # optional: held parameters' sigma, carried
 //                                                  # into the covariance ({} for none)
+//   profile: auto                     # optional: each mirror's profile: auto | free | hold | off
+//   profile_sigma_mm: 0.005           # optional: the machining tolerance per profile term (mm)
 //   solver: {max_iterations: 100, loss: huber, loss_scale_px: 1.0, outlier_px: 3.0, threads: 2}
 #pragma once
 
@@ -45,6 +47,10 @@ struct Session {
   // Held parameters (dist_p1, dist_p2, dist_k3, skew) whose uncertainty the covariance carries
   // (calib::CalibrationOptions::considered_sigma); absent: the calibration's default.
   std::optional<std::map<std::string, double>> consider;
+  // Each mirror's profile (calib::CalibrationOptions::profile, profile_sigma_mm); empty / 0: the
+  // calibration's default.
+  std::string profile;
+  double profile_sigma_mm = 0;
   SolverOptions solver;
 };
 

@@ -1,0 +1,194 @@
+// Each mirror's profile in the calibration (issue 40): held and considered, or freed with a
+// manufacturing-tolerance prior where the corners cover the radii it acts on; and the corners'
+// radial residual pattern along each mirror's radius, which shows a profile the model lacks.
+#include <algorithm>
+
+#include "calib/calibrator.h"
+
+namespace omni::calib {
+namespace {
+
+// The profile's radii are split into kProfileBands bands of equal width in r^2 (equal steps of
+// the Legendre variable w); a band with kMinCornersPerBand corners is covered. Four Legendre
+// terms need the range's both ends and its middle: kMinBandsToFree of the bands.
+constexpr int kProfileBands = 6;
+constexpr int kMinCornersPerBand = 10;
+constexpr int kMinBandsToFree = 5;
+// A pattern whose band means sit this many standard errors from zero (chi^2 per band) is a
+// smooth error the model lacks.
+constexpr double kPatternChi2 = 4.0;
+
+const ProfileShape& ShapeOf(const RigParams& rig, int m) { return m == 0 ? rig.profile1 : rig.profile2; }
+
+}  // namespace
+
+void Calibrator::SetUpProfiles(const RigParams& start) {
+  const std::string& mode = options_.profile;
+  if (mode != "auto" && mode != "free" && mode != "hold" && mode != "off") {
+    throw InputError("profile: expected auto, free, hold or off, got '" + mode + "'");
+  }
+  if (mode != "off" && !(options_.profile_sigma_mm > 0)) {
+    throw InputError("profile_sigma_mm: expected a tolerance > 0 mm, got " +
+                     std::to_string(options_.profile_sigma_mm));
+  }
+  for (int m = 0; m < 2; ++m) {
+    ProfileShape& shape = m == 0 ? rig_.profile1 : rig_.profile2;
+    auto& coeffs = m == 0 ? rig_.mirror1_profile : rig_.mirror2_profile;
+    profile_given_[m] = (m == 0 ? start.profile1 : start.profile2).present;
+    profile_start_[m] = coeffs;
+    // "off": the start's profile (if any) stays as it is, neither refined nor considered.
+    if (mode == "off") continue;
+    if (!shape.present) {
+      shape = DefaultProfileShape(rig_, m == 0 ? Mirror::kOne : Mirror::kTwo);
+      coeffs.fill(0);
+      profile_start_[m] = coeffs;
+    }
+    estimate_.insert(kProfileGroups[m]);
+    profile_free_[m] = mode == "free" || std::count(options_.estimate.begin(),
+                                                     options_.estimate.end(), kProfileGroups[m]);
+    for (const std::string& name : BlockParameterNames(kProfileGroups[m])) {
+      options_.considered_sigma.emplace(name, options_.profile_sigma_mm);
+    }
+  }
+}
+
+std::vector<RadialResidualBin> Calibrator::RadialPattern(int mirror, double* chi2) const {
+  const ProfileShape& shape = ShapeOf(rig_, mirror - 1);
+  const double r2_lo = shape.r_min * shape.r_min, r2_hi = shape.r_max * shape.r_max;
+  std::vector<RadialResidualBin> bins(kProfileBands);
+  std::vector<double> sum(kProfileBands, 0), sum2(kProfileBands, 0);
+  for (int b = 0; b < kProfileBands; ++b) {
+    bins[b].r_lo = std::sqrt(r2_lo + (r2_hi - r2_lo) * b / kProfileBands);
+    bins[b].r_hi = std::sqrt(r2_lo + (r2_hi - r2_lo) * (b + 1) / kProfileBands);
+  }
+  const RigBlocks<double> blocks = RigBlocksOf(rig_);
+  const Eigen::Vector2d centre(rig_.camera[2], rig_.camera[3]);
+  for (const auto& o : obs_) {
+    if (o.rejected || o.mirror != mirror) continue;
+    const Eigen::Vector3d point =
+        CornerInCam(placements_[o.placement].cam_from_target.data(), o.corner_in_target);
+    Eigen::Vector2d px;
+    ProjectionInfo info;
+    const bool ok = mirror == 1 ? ProjectViaMirror1(blocks, cost_fixed_[0], point, &px, &info)
+                                : ProjectViaMirror2(blocks, cost_fixed_[1], point, &px, &info);
+    if (!ok) continue;
+    const double r2 = info.point_on_mirror.head<2>().squaredNorm();
+    const int b = static_cast<int>(std::floor((r2 - r2_lo) / (r2_hi - r2_lo) * kProfileBands));
+    if (b < 0 || b >= kProfileBands) continue;
+    const double radial = (px - o.pixel).dot((px - centre).normalized());
+    sum[b] += radial;
+    sum2[b] += radial * radial;
+    ++bins[b].count;
+  }
+  *chi2 = 0;
+  int used = 0;
+  for (int b = 0; b < kProfileBands; ++b) {
+    const int n = bins[b].count;
+    if (n < 2) continue;
+    bins[b].mean_px = sum[b] / n;
+    const double var = std::max(0.0, (sum2[b] - n * bins[b].mean_px * bins[b].mean_px) / (n - 1));
+    bins[b].sem_px = std::sqrt(var / n);
+    if (n >= kMinCornersPerBand && bins[b].sem_px > 0) {
+      *chi2 += bins[b].mean_px * bins[b].mean_px / (bins[b].sem_px * bins[b].sem_px);
+      ++used;
+    }
+  }
+  if (used > 0) *chi2 /= used;
+  return bins;
+}
+
+void Calibrator::FitProfileRadiiToCorners(int m) {
+  const RigBlocks<double> blocks = RigBlocksOf(rig_);
+  double r_lo = HUGE_VAL, r_hi = 0;
+  for (const auto& o : obs_) {
+    if (o.rejected || o.mirror != m + 1) continue;
+    const Eigen::Vector3d point =
+        CornerInCam(placements_[o.placement].cam_from_target.data(), o.corner_in_target);
+    Eigen::Vector2d px;
+    ProjectionInfo info;
+    const bool ok = m == 0 ? ProjectViaMirror1(blocks, cost_fixed_[0], point, &px, &info)
+                           : ProjectViaMirror2(blocks, cost_fixed_[1], point, &px, &info);
+    if (!ok) continue;
+    const double r = info.point_on_mirror.head<2>().norm();
+    r_lo = std::min(r_lo, r);
+    r_hi = std::max(r_hi, r);
+  }
+  if (!(r_hi > r_lo + 1.0)) return;  // too few corners to say: the default radii stay
+  ProfileShape shape = ShapeOf(rig_, m);
+  shape.r_min = std::max(0.0, r_lo);
+  shape.r_max = std::min(rig_.r_sys, r_hi);
+  (m == 0 ? rig_.profile1 : rig_.profile2) = shape;
+  // The costs hold their own copy of the fixed data.
+  for (RigFixed* f : {&fixed_, &cost_fixed_[0], &cost_fixed_[1], &lip_fixed_[0], &lip_fixed_[1]}) {
+    (m == 0 ? f->profile1 : f->profile2) = shape;
+  }
+  costs_.clear();
+  lip_costs_.clear();
+}
+
+bool Calibrator::DecideProfiles(CalibrationResult* result) {
+  if (options_.profile == "off") return false;
+  bool freed = false;
+  for (int m = 0; m < 2; ++m) {
+    // A profile the start did not have is fitted over the radii the corners reach on the mirror
+    // (its Legendre variable spans them; beyond them it would only extrapolate). Its
+    // coefficients are zero, so the model is unchanged.
+    if (!profile_given_[m]) FitProfileRadiiToCorners(m);
+    ProfileDecision& d = result->profile[m];
+    d.r_min = ShapeOf(rig_, m).r_min;
+    d.r_max = ShapeOf(rig_, m).r_max;
+    d.pattern_before = RadialPattern(m + 1, &d.pattern_chi2_before);
+    d.bins = kProfileBands;
+    d.bins_covered = 0;
+    for (const auto& b : d.pattern_before) d.bins_covered += b.count >= kMinCornersPerBand;
+    if (!profile_free_[m] && options_.profile == "auto" && d.bins_covered >= kMinBandsToFree) {
+      profile_free_[m] = true;
+      freed = true;
+    }
+    d.freed = profile_free_[m];
+  }
+  if (freed) {
+    Progress(std::string("profiles freed where the corners cover the mirror's radii: mirror 1 ") +
+             (profile_free_[0] ? "yes" : "no") + ", mirror 2 " + (profile_free_[1] ? "yes" : "no"));
+  }
+  return freed;
+}
+
+void Calibrator::FinishProfiles(CalibrationResult* result) {
+  if (options_.profile == "off") return;
+  for (int m = 0; m < 2; ++m) {
+    ProfileDecision& d = result->profile[m];
+    d.pattern_after = RadialPattern(m + 1, &d.pattern_chi2_after);
+    char buf[640];
+    const double um = 1000 * options_.profile_sigma_mm;
+    if (d.freed) {
+      std::snprintf(buf, sizeof(buf),
+                    "mirror %d's profile refined (prior sigma %.3g um per term): the corners cover "
+                    "%d of %d bands of its radii %.1f-%.1f mm; their radial residual pattern along "
+                    "the mirror's radius, chi^2 per band %.2g before, %.2g after",
+                    m + 1, um, d.bins_covered, d.bins, d.r_min, d.r_max, d.pattern_chi2_before,
+                    d.pattern_chi2_after);
+    } else {
+      std::snprintf(buf, sizeof(buf),
+                    "mirror %d's profile held at the %s and considered (sigma %.3g um per term, "
+                    "the machining tolerance): the corners cover %d of %d bands of its radii "
+                    "%.1f-%.1f mm (%d needed to refine it: targets low and high in the ring); "
+                    "radial residual pattern chi^2 per band %.2g%s",
+                    m + 1, profile_given_[m] ? "starting model's profile" : "conic", um,
+                    d.bins_covered, d.bins, d.r_min, d.r_max, kMinBandsToFree,
+                    d.pattern_chi2_after,
+                    d.pattern_chi2_after > kPatternChi2
+                        ? ": a smooth error along the radius that the model lacks; refine the "
+                          "profile (session profile: free) with targets over the ring's whole "
+                          "radius"
+                        : "");
+    }
+    result->notes.push_back(buf);
+    // A held zero profile is no profile: the model file stays an exact-quadric one.
+    if (!d.freed && !profile_given_[m]) {
+      (m == 0 ? rig_.profile1 : rig_.profile2).present = false;
+    }
+  }
+}
+
+}  // namespace omni::calib
