@@ -43,9 +43,10 @@ void Calibrator::SetUpProfiles(const RigParams& start) {
       coeffs.fill(0);
       profile_start_[m] = coeffs;
     }
+    // Held through the robust stages in every mode (a fine correction, freed once the rig is
+    // aligned: DecideProfiles).
     estimate_.insert(kProfileGroups[m]);
-    profile_free_[m] = mode == "free" || std::count(options_.estimate.begin(),
-                                                     options_.estimate.end(), kProfileGroups[m]);
+    profile_free_[m] = false;
     for (const std::string& name : BlockParameterNames(kProfileGroups[m])) {
       options_.considered_sigma.emplace(name, options_.profile_sigma_mm);
     }
@@ -141,7 +142,11 @@ bool Calibrator::DecideProfiles(CalibrationResult* result) {
     d.bins = kProfileBands;
     d.bins_covered = 0;
     for (const auto& b : d.pattern_before) d.bins_covered += b.count >= kMinCornersPerBand;
-    if (!profile_free_[m] && options_.profile == "auto" && d.bins_covered >= kMinBandsToFree) {
+    const bool asked = options_.profile == "free" ||
+                       std::count(options_.estimate.begin(), options_.estimate.end(),
+                                  kProfileGroups[m]);
+    if (!profile_free_[m] &&
+        (asked || (options_.profile == "auto" && d.bins_covered >= kMinBandsToFree))) {
       profile_free_[m] = true;
       freed = true;
     }
@@ -156,6 +161,24 @@ bool Calibrator::DecideProfiles(CalibrationResult* result) {
 
 void Calibrator::FinishProfiles(CalibrationResult* result) {
   if (options_.profile == "off") return;
+  // What the profiles' tolerance leaves open, said where the table names it unobservable.
+  std::string traded;
+  for (const auto& u : result->unobservable) {
+    for (const char* name : {"fx", "fy", "mirror1.tz", "mirror2.tz", "reflex.dz"}) {
+      if (u.name == name) traded += (traded.empty() ? "" : ", ") + u.name;
+    }
+  }
+  if (!traded.empty()) {
+    char buf[512];
+    std::snprintf(buf, sizeof(buf),
+                  "%s: the mirrors' profiles trade with them (a profile's power term bends the "
+                  "rays as an axial shift or a focal length does, and targets and lips fit either "
+                  "at the noise), so the machining tolerance (profile_sigma_mm %.3g mm) leaves "
+                  "them open: projections stay determined; a measured mirror (its profile in the "
+                  "starting model, a smaller profile_sigma_mm) would narrow them",
+                  traded.c_str(), options_.profile_sigma_mm);
+    result->notes.push_back(buf);
+  }
   for (int m = 0; m < 2; ++m) {
     ProfileDecision& d = result->profile[m];
     d.pattern_after = RadialPattern(m + 1, &d.pattern_chi2_after);

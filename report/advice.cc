@@ -130,6 +130,33 @@ void OutlierAdvice(const ReportInput& in, std::vector<std::string>* out) {
 
 }  // namespace
 
+// A held profile whose corners show a radial pattern along the mirror's radius, or that the
+// corners' radii could not support (calib ProfileDecision).
+void ProfileAdvice(const calib::CalibrationResult& r, std::vector<std::string>* out) {
+  constexpr double kPatternChi2 = 4.0;  // as calib/calibrator_profile.cc
+  for (int m = 0; m < 2; ++m) {
+    const calib::ProfileDecision& d = r.profile[m];
+    if (d.pattern_before.empty() || d.freed) continue;
+    char buf[400];
+    if (d.pattern_chi2_after > kPatternChi2) {
+      std::snprintf(buf, sizeof(buf),
+                    "mirror %d: the corners' residuals form a pattern along the mirror's radius "
+                    "(chi^2 per band %.1f, see Mirror profiles): a machining error the model lacks; "
+                    "calibrate with profile: free",
+                    m + 1, d.pattern_chi2_after);
+      out->push_back(buf);
+    }
+    if (d.bins_covered < d.bins - 1) {
+      std::snprintf(buf, sizeof(buf),
+                    "mirror %d: the corners cover %d of %d bands of its radii, too few to refine "
+                    "its profile (held at its tolerance, which widens the sigmas): add photos with "
+                    "targets low and high in ring %d",
+                    m + 1, d.bins_covered, d.bins, m + 1);
+      out->push_back(buf);
+    }
+  }
+}
+
 std::vector<std::string> Advice(const ReportInput& in) {
   std::vector<std::string> out;
   if (!in.result->converged) {
@@ -141,6 +168,7 @@ std::vector<std::string> Advice(const ReportInput& in) {
   for (const auto& u : in.result->unobservable) {
     out.push_back(u.name + " is not determined by this session: " + u.hint);
   }
+  ProfileAdvice(*in.result, &out);
   return out;
 }
 

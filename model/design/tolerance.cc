@@ -7,6 +7,8 @@
 
 #include "model/model_compare.h"
 #include "model/rig_model.h"
+#include "model/rig_parameters.h"
+#include "model/triangulation.h"
 
 namespace omni::design {
 namespace {
@@ -68,6 +70,47 @@ ToleranceCheck Magnitude1(const NamedCovariance& cov, const std::string& name,
   return check;
 }
 
+// The sag of a profile (coefficients c) at (x, y) and its derivative by each coefficient.
+double SagAt(const std::array<double, kProfileTerms>& c, const ProfileShape& shape, double x,
+             double y) {
+  return ProfileSag(c.data(), shape, x, y, false).z;
+}
+
+// A mirror's profile peak-to-valley, with its first-order sigma from the refined coefficients'
+// covariance (the difference of the sag at the two extreme points is linear in them). A mirror
+// the model holds as the exact conic has no measured profile: value 0, no sigma, UNDECIDED.
+ToleranceCheck ProfileCheck(const NamedCovariance& cov, const RigParams& rig, int m, double limit) {
+  const std::string body = m == 0 ? "mirror1" : "mirror2";
+  ToleranceCheck check{body + ".profile", "mm", 0.0, std::nullopt, limit, Verdict::kUndecided};
+  const ProfileShape& shape = m == 0 ? rig.profile1 : rig.profile2;
+  const auto& c = m == 0 ? rig.mirror1_profile : rig.mirror2_profile;
+  if (!shape.present) return check;
+  double lo = HUGE_VAL, hi = -HUGE_VAL;
+  Eigen::Vector2d at_lo(0, 0), at_hi(0, 0);
+  for (int i = 0; i <= 200; ++i) {
+    const double r = shape.r_min + (shape.r_max - shape.r_min) * i / 200;
+    for (int deg = 0; deg < 360; deg += 2) {
+      const double x = r * std::cos(deg * M_PI / 180), y = r * std::sin(deg * M_PI / 180);
+      const double z = SagAt(c, shape, x, y);
+      if (z < lo) lo = z, at_lo = Eigen::Vector2d(x, y);
+      if (z > hi) hi = z, at_hi = Eigen::Vector2d(x, y);
+    }
+  }
+  check.value = hi - lo;
+  std::vector<std::string> names;
+  std::vector<double> gradient;
+  for (int k = 0; k < kProfileTerms; ++k) {
+    std::array<double, kProfileTerms> unit{};
+    unit[k] = 1;
+    ProfileShape smooth = shape;
+    smooth.ripple_amplitude = 0;
+    names.push_back(BlockParameterNames(body + "_profile")[k]);
+    gradient.push_back(SagAt(unit, smooth, at_hi.x(), at_hi.y()) - SagAt(unit, smooth, at_lo.x(), at_lo.y()));
+  }
+  if (cov.Has(names)) check.sigma = cov.Sigma(names, gradient);
+  return check;
+}
+
 void Decide(double k, ToleranceCheck* c) {
   const double s = c->sigma.value_or(0.0) * k;
   if (c->value + s <= c->limit) {
@@ -125,6 +168,7 @@ std::vector<ToleranceCheck> CheckTolerances(const RigParams& rig, const Toleranc
     if (tol.axial_mm >= 0) {
       checks.push_back(Magnitude1(cov, body + ".axial", "mm", body + ".tz", pose[4], tol.axial_mm));
     }
+    if (tol.profile_pv_mm >= 0) checks.push_back(ProfileCheck(cov, rig, m, tol.profile_pv_mm));
   }
   if (spec.reflex_tilt_rad >= 0) {
     checks.push_back(Magnitude2(cov, "reflex.tilt", "rad", "reflex.rx", "reflex.ry",
@@ -134,7 +178,13 @@ std::vector<ToleranceCheck> CheckTolerances(const RigParams& rig, const Toleranc
     checks.push_back(Magnitude1(cov, "reflex.dz", "mm", "reflex.dz", rig.reflex[2],
                                 spec.reflex_dz_mm));
   }
-  for (ToleranceCheck& c : checks) Decide(spec.confidence_sigmas, &c);
+  for (ToleranceCheck& c : checks) {
+    Decide(spec.confidence_sigmas, &c);
+    // A profile the model does not carry was never measured: no verdict.
+    const bool unmeasured_profile = (c.name == "mirror1.profile" && !rig.profile1.present) ||
+                                    (c.name == "mirror2.profile" && !rig.profile2.present);
+    if (unmeasured_profile) c.verdict = Verdict::kUndecided;
+  }
   return checks;
 }
 
@@ -167,6 +217,15 @@ ImageEffect SimulateImageEffect(const RigParams& nominal, const ToleranceSpec& s
     rig.reflex[0] += reflex_tilt.x();
     rig.reflex[1] += reflex_tilt.y();
     rig.reflex[2] += InRange(rng, limit(spec.reflex_dz_mm));
+    for (int m = 0; m < 2; ++m) {
+      const double pv = spec.mirror[m].profile_pv_mm;
+      if (!(pv > 0)) continue;
+      ProfileShape& shape = m == 0 ? rig.profile1 : rig.profile2;
+      auto& c = m == 0 ? rig.mirror1_profile : rig.mirror2_profile;
+      if (!shape.present) shape = DefaultProfileShape(rig, m == 0 ? Mirror::kOne : Mirror::kTwo);
+      const auto drawn = RandomProfile(shape, std::uniform_real_distribution<double>(0, pv)(rng), &rng);
+      for (int k = 0; k < kProfileTerms; ++k) c[k] += drawn[k];
+    }
     rig.kind = ModelKind::kNoncentral;
     const RigModel model(rig);
     for (const BandPoint& p : seen) {
@@ -189,6 +248,74 @@ ImageEffect SimulateImageEffect(const RigParams& nominal, const ToleranceSpec& s
   }
   effect.lost_fraction = total ? static_cast<double>(lost) / total : 0;
   return effect;
+}
+
+std::array<double, kProfileTerms> RandomProfile(const ProfileShape& shape, double pv_mm,
+                                                std::mt19937* rng) {
+  std::normal_distribution<double> normal(0.0, 1.0);
+  std::array<double, kProfileTerms> c{};
+  // Lower orders dominate a turned surface: P1 and P2 at full weight, P3, P4 and astigmatism
+  // at half.
+  const double weight[kProfileTerms] = {1, 1, 0.5, 0.5, 0.5, 0.5};
+  for (int k = 0; k < kProfileTerms; ++k) c[k] = weight[k] * normal(*rng);
+  ProfileShape smooth = shape;
+  smooth.present = true;
+  smooth.ripple_amplitude = 0;
+  double lo = HUGE_VAL, hi = -HUGE_VAL;
+  for (int i = 0; i <= 60; ++i) {
+    const double r = shape.r_min + (shape.r_max - shape.r_min) * i / 60;
+    for (int deg = 0; deg < 360; deg += 6) {
+      const double z = SagAt(c, smooth, r * std::cos(deg * M_PI / 180), r * std::sin(deg * M_PI / 180));
+      lo = std::min(lo, z);
+      hi = std::max(hi, z);
+    }
+  }
+  const double scale = hi > lo ? pv_mm / (hi - lo) : 0;
+  for (double& v : c) v *= scale;
+  return c;
+}
+
+ProfileSensitivity SimulateProfileSensitivity(const RigParams& nominal, double pv_mm, int samples,
+                                              unsigned seed) {
+  ProfileSensitivity out;
+  out.pv_mm = pv_mm;
+  out.samples = samples;
+  const RigModel nominal_model(nominal);
+  const Triangulator triangulator(nominal_model);
+  const std::vector<BandPoint> near = StereoBandPoints(nominal_model, 1000.0);
+  const std::vector<BandPoint> far = StereoBandPoints(nominal_model, 2000.0);
+  std::mt19937 rng(seed);
+  std::vector<double> shifts[2], range_errors;
+  for (int s = 0; s < samples; ++s) {
+    RigParams rig = nominal;
+    rig.kind = ModelKind::kNoncentral;
+    for (int m = 0; m < 2; ++m) {
+      ProfileShape& shape = m == 0 ? rig.profile1 : rig.profile2;
+      auto& c = m == 0 ? rig.mirror1_profile : rig.mirror2_profile;
+      if (!shape.present) shape = DefaultProfileShape(rig, m == 0 ? Mirror::kOne : Mirror::kTwo);
+      const auto drawn = RandomProfile(shape, pv_mm, &rng);
+      for (int k = 0; k < kProfileTerms; ++k) c[k] += drawn[k];
+    }
+    const RigModel machined(rig);
+    for (size_t i = 0; i < near.size(); i += 3) {
+      for (int m = 0; m < 2; ++m) {
+        const auto px = machined.Project(near[i].point_in_cam, m == 0 ? Mirror::kOne : Mirror::kTwo);
+        if (px) shifts[m].push_back((*px - near[i].pixel[m]).norm());
+      }
+    }
+    for (size_t i = 0; i < far.size(); i += 3) {
+      const auto p1 = machined.Project(far[i].point_in_cam, Mirror::kOne);
+      const auto p2 = machined.Project(far[i].point_in_cam, Mirror::kTwo);
+      if (!p1 || !p2) continue;
+      const auto point = triangulator.Midpoint(*p1, *p2);
+      if (!point) continue;
+      const double range = far[i].point_in_cam.head<2>().norm();
+      range_errors.push_back(std::abs(point->head<2>().norm() - range) / range);
+    }
+  }
+  for (int m = 0; m < 2; ++m) out.p95_shift_px_1m[m] = Percentile(shifts[m], 0.95);
+  out.p95_range_error_2m = Percentile(range_errors, 0.95);
+  return out;
 }
 
 }  // namespace omni::design

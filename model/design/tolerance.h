@@ -4,10 +4,15 @@
 //
 // Quantities checked, per mirror body (DESIGN.md §2 misalignment parameters):
 //   decentre  = |(tx, ty)|   mm      tilt = |(rx, ry)|   rad      axial = |tz|   mm
+//   profile   = the peak-to-valley of the mirror's profile (model/mirror_profile.h) over its
+//               radii, mm: how far the machined surface departs from the conic
 // and for the reflex plane in mirror 1's body: tilt = |(rx, ry)| rad, offset = |dz| mm.
 #pragma once
 
+#include <array>
+#include <cmath>
 #include <functional>
+#include <random>
 #include <optional>
 #include <string>
 #include <vector>
@@ -19,6 +24,7 @@ namespace omni::design {
 // Limits (>= 0; a negative value means "not toleranced").
 struct BodyTolerance {
   double decentre_mm = -1, tilt_rad = -1, axial_mm = -1;
+  double profile_pv_mm = -1;  // machining: the profile's peak-to-valley
 };
 struct ToleranceSpec {
   BodyTolerance mirror[2];
@@ -53,9 +59,32 @@ struct ImageEffect {
   double p50_px[2] = {0, 0}, p95_px[2] = {0, 0}, max_px[2] = {0, 0};  // [ring of mirror 1, 2]
   double lost_fraction = 0;  // points no longer valid in a drawn rig
 };
-// `progress` (may be empty) is called after each drawn rig with (done, samples).
+// `progress` (may be empty) is called after each drawn rig with (done, samples). A profile limit
+// draws each mirror's profile (random Legendre and astigmatism terms) scaled to a peak-to-valley
+// uniform in [0, limit].
 ImageEffect SimulateImageEffect(const RigParams& nominal, const ToleranceSpec& spec, int samples,
                                 double range_mm, unsigned seed,
                                 const std::function<void(int, int)>& progress = {});
+
+// What machining accuracy a rig needs (issue 40): `samples` random smooth profiles on both
+// mirrors, each of peak-to-valley `pv_mm`, and what they do to points the nominal rig sees in
+// both rings: the 95th percentile of the pixel shift at 1 m per ring, and of the relative range
+// error at 2 m of a point triangulated with the nominal model from the machined rig's pixels.
+// The effects are linear in the profile's size at these microns, so the peak-to-valley that
+// keeps each within a budget follows: pv_mm * budget / effect.
+struct ProfileSensitivity {
+  double pv_mm = 0;
+  int samples = 0;
+  double p95_shift_px_1m[2] = {0, 0};
+  double p95_range_error_2m = 0;  // relative (0.01 = 1%)
+  double PvFor(double budget, double effect) const { return effect > 0 ? pv_mm * budget / effect : HUGE_VAL; }
+};
+ProfileSensitivity SimulateProfileSensitivity(const RigParams& nominal, double pv_mm, int samples,
+                                              unsigned seed);
+
+// A random smooth profile (Legendre P1..P4 and astigmatism terms) over `shape`'s radii with the
+// given peak-to-valley.
+std::array<double, kProfileTerms> RandomProfile(const ProfileShape& shape, double pv_mm,
+                                                std::mt19937* rng);
 
 }  // namespace omni::design

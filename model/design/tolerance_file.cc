@@ -38,7 +38,9 @@ ToleranceFile ReadToleranceFile(const std::string& path) {
     tol.decentre_mm = Limit(in, map, body, "decentre", false);
     tol.tilt_rad = Limit(in, map, body, "tilt", true);
     tol.axial_mm = Limit(in, map, body, "axial", false);
-    any = any || tol.decentre_mm >= 0 || tol.tilt_rad >= 0 || tol.axial_mm >= 0;
+    tol.profile_pv_mm = Limit(in, map, body, "profile_pv", false);
+    any = any || tol.decentre_mm >= 0 || tol.tilt_rad >= 0 || tol.axial_mm >= 0 ||
+          tol.profile_pv_mm >= 0;
   }
   if (root["reflex"].IsDefined()) {
     const YAML::Node map = in.Map(root, "reflex", "reflex");
@@ -47,7 +49,7 @@ ToleranceFile ReadToleranceFile(const std::string& path) {
     any = any || file.spec.reflex_tilt_rad >= 0 || file.spec.reflex_dz_mm >= 0;
   }
   if (!any) {
-    in.Fail("mirror1", "expected at least one limit (mirror1/mirror2: decentre, tilt_deg, axial; "
+    in.Fail("mirror1", "expected at least one limit (mirror1/mirror2: decentre, tilt_deg, axial, profile_pv; "
             "reflex: tilt_deg, dz)", "none");
   }
   if (root["confidence_sigmas"].IsDefined()) {

@@ -9,6 +9,10 @@
 
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <map>
+#include <random>
+#include <thread>
 
 #include "calib/calibrate.h"
 #include "calib/projection_uncertainty.h"
@@ -112,6 +116,91 @@ TEST(CalibProfile, ExactQuadricsStayWithinTheirSigmas) {
   const Outcome out = RunCalibration(MisalignedRig(), "auto");
   EXPECT_LT(out.worst_sigmas, 3.0) << out.worst;
   for (int m = 0; m < 2; ++m) EXPECT_LT(out.m1_rms_px[m], 2.5 * out.predicted_px[m]) << m;
+}
+
+// Monte Carlo over pixel noise and the prior (issue 40's acceptance): the small clean session of
+// calib_montecarlo_test.cc with profiled mirrors (10 um PV power on both), the profile freed. The
+// prior's mean is the starting model's profile, drawn per solve from N(truth, profile_sigma_mm^2)
+// per term, as a machinist's tolerance describes the parts: then the errors' spread over the
+// solves is what the predicted sigma (noise_sigma: pixel noise and prior, without the considered
+// parameters) claims. With N solves a spread/predicted ratio has sd ~1/sqrt(2N) (11% at N = 40),
+// so each parameter is held to [0.65, 1.5] and the RMS of the ratios over the misalignments and
+// the camera to within 20% of 1. MC_SOLVES overrides N.
+TEST(CalibProfile, MonteCarloConfirmsTheSigmasWithTheProfileFreed) {
+  testing::SyntheticSession session;
+  RigParams truth_full = MisalignedRig();
+  truth_full.distortion[2] = truth_full.distortion[3] = 0;
+  const RigParams profiled = ProfiledTruth(0.010);
+  truth_full.profile1 = profiled.profile1;
+  truth_full.profile2 = profiled.profile2;
+  truth_full.mirror1_profile = profiled.mirror1_profile;
+  truth_full.mirror2_profile = profiled.mirror2_profile;
+  const RigParams truth = testing::MakeSceneSession(
+      truth_full, std::string(OMNI_SOURCE_DIR) + "/sample_configs/small_clean_scene.yaml", &session);
+  const int solves = std::getenv("MC_SOLVES") ? std::atoi(std::getenv("MC_SOLVES")) : 40;
+  // A 2 um tolerance per term: drawn at the default 5 um the starting profile is ~10 um off at
+  // the rim, where the lips' via-mirror images move by pixels, and the rounds reject the lips
+  // before the freed profile has fitted them (docs/experiments.md 2026-11-27, issue 40).
+  const double sigma_mm = 0.002;
+  std::vector<CalibrationResult> results(solves);
+  std::vector<std::string> failures(solves);
+  auto run = [&](int first, int step) {
+    for (int k = first; k < solves; k += step) {
+      Observations detections = testing::NoisyDetections(session, 0.1, 1000 + k);
+      testing::AddLipDetections(truth, 0.03, 5000 + k, &detections, 90);
+      RigParams start = truth;
+      std::mt19937 rng(9000 + k);
+      std::normal_distribution<double> draw(0.0, sigma_mm);
+      for (double& c : start.mirror1_profile) c += draw(rng);
+      for (double& c : start.mirror2_profile) c += draw(rng);
+      CalibrationOptions options;
+      options.profile = "free";
+      options.profile_sigma_mm = sigma_mm;
+      options.solver.threads = 1;
+      if (std::getenv("MC_VERBOSE")) {
+        options.progress = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
+      }
+      try {
+        results[k] = Calibrate(start, session.targets, detections, options);
+      } catch (const CalibrationError& e) {
+        failures[k] = e.what();
+      }
+    }
+  };
+  std::thread worker(run, 1, 2);
+  run(0, 2);
+  worker.join();
+  for (int k = 0; k < solves; ++k) EXPECT_TRUE(failures[k].empty()) << "solve " << k << ": " << failures[k];
+  std::map<std::string, std::vector<double>> errors, sigmas;
+  for (const auto& r : results) {
+    for (size_t i = 0; i < r.names.size(); ++i) {
+      errors[r.names[i]].push_back(r.values(i) - testing::TruthValue(truth, r.names[i]));
+      sigmas[r.names[i]].push_back(r.noise_sigma(i));
+    }
+  }
+  double sum_ratio2 = 0;
+  int compared = 0;
+  for (const auto& [name, e] : errors) {
+    double rms = 0, predicted = 0;
+    for (double x : e) rms += x * x / e.size();
+    for (double s : sigmas[name]) predicted += s / e.size();
+    const double ratio = std::sqrt(rms) / predicted;
+    std::fprintf(stderr, "%-16s n %3zu  RMS error %.6g  predicted %.6g  ratio %.3f\n", name.c_str(),
+                 e.size(), std::sqrt(rms), predicted, ratio);
+    // dist_k1's bound depends on the radii reached (covariance.cc): it may be named in a few.
+    if (testing::IsMisalignment(name)) {
+      EXPECT_EQ(e.size(), static_cast<size_t>(solves)) << name << " was named unobservable";
+    }
+    EXPECT_GT(ratio, 0.65) << name;
+    EXPECT_LT(ratio, 1.5) << name;
+    if (name.find(".sag_") != std::string::npos) continue;
+    sum_ratio2 += ratio * ratio;
+    ++compared;
+  }
+  const double rms_ratio = std::sqrt(sum_ratio2 / compared);
+  std::fprintf(stderr, "RMS of the ratios over %d misalignment and camera parameters: %.3f\n",
+               compared, rms_ratio);
+  EXPECT_NEAR(rms_ratio, 1.0, 0.2);
 }
 
 }  // namespace
