@@ -49,37 +49,47 @@ std::string Quadric(const HyperboloidSheet<double>& h) {
          ", " + Num(h.z0 * h.z0 * ia2 - 1) + " }";
 }
 
-// A machined mirror (model/mirror_profile.h) as POV-Ray's isosurface of
-//   sheet * (z - Z(x, y)),  Z = conic + sag,
-// which has the quadric's sign on each side of the surface near it (negative between the sheet
-// and z0: the same inside/outside and textures), in a box around the mirror's radii. The function is the model's own surface written
-// in POV-Ray's function syntax: exact, not a mesh.
-std::string ProfiledSurface(const HyperboloidSheet<double>& h, const ProfileShape& shape,
-                            const double* c, double r_max) {
+// A machined mirror's surface z = Z(x, y) (conic + sag, model/mirror_profile.h) as POV-Ray
+// functions declared once at the top of the scene: OmniMirror<n>P(W), the Legendre terms as one
+// polynomial in W (Horner), and OmniMirror<n>S(x, y, R2) with R2 = x^2 + y^2, so that each
+// evaluation computes r^2 and w once (3.3x faster than the terms written out, same image to the
+// byte but 2 values of 3.7 M).
+std::string ProfileFunctions(const HyperboloidSheet<double>& h, const ProfileShape& shape,
+                             const double* c, int mirror) {
+  // P1..P4 as monomials in W: a0 + a1 W + a2 W^2 + a3 W^3 + a4 W^4.
+  const double a[5] = {-0.5 * c[1] + 0.375 * c[3], c[0] - 1.5 * c[2], 1.5 * c[1] - 3.75 * c[3],
+                       2.5 * c[2], 4.375 * c[3]};
+  const std::string name = "OmniMirror" + std::to_string(mirror);
   const double span = shape.r_max * shape.r_max - shape.r_min * shape.r_min;
-  const std::string r2 = "(x*x+y*y)";
-  const std::string w = "(" + Num(2 / span) + "*(" + r2 + "-" + Num(shape.r_min * shape.r_min) + ")-1)";
-  std::ostringstream sag;
-  sag << Num(c[0]) << "*" << w << "+" << Num(c[1]) << "*(1.5*" << w << "*" << w << "-0.5)+"
-      << Num(c[2]) << "*(2.5*" << w << "*" << w << "-1.5)*" << w << "+" << Num(c[3]) << "*((4.375*"
-      << w << "*" << w << "-3.75)*" << w << "*" << w << "+0.375)+(" << Num(c[4])
-      << "*(x*x-y*y)+" << Num(c[5]) << "*2*x*y)/" << Num(shape.r_max * shape.r_max);
+  std::ostringstream s;
+  s << "#declare " << name << "P = function(W) { " << Num(a[0]) << "+W*(" << Num(a[1]) << "+W*("
+    << Num(a[2]) << "+W*(" << Num(a[3]) << "+W*" << Num(a[4]) << "))) }\n"
+    << "#declare " << name << "S = function(x, y, R2) { " << Num(h.z0) << "+" << Num(h.sheet * h.a / h.b)
+    << "*sqrt(" << Num(h.b * h.b) << "+R2)+" << name << "P(" << Num(2 / span) << "*(R2-"
+    << Num(shape.r_min * shape.r_min) << ")-1)+(" << Num(c[4]) << "*(x*x-y*y)+" << Num(c[5])
+    << "*2*x*y)/" << Num(shape.r_max * shape.r_max);
   if (shape.ripple_amplitude != 0) {
-    sag << "+" << Num(shape.ripple_amplitude) << "*sin(" << Num(2 * M_PI / shape.ripple_period)
-        << "*sqrt(" << r2 << ")+" << Num(shape.ripple_phase) << ")";
+    s << "+" << Num(shape.ripple_amplitude) << "*sin(" << Num(2 * M_PI / shape.ripple_period)
+      << "*sqrt(R2)+" << Num(shape.ripple_phase) << ")";
   }
-  const std::string conic = Num(h.z0) + "+" + Num(h.sheet * h.a / h.b) + "*sqrt(" +
-                            Num(h.b * h.b) + "+" + r2 + ")";
+  s << " }\n";
+  return s.str();
+}
+
+// The profiled mirror as POV-Ray's isosurface of sheet * (z - Z(x, y)) (ProfileFunctions), which
+// has the quadric's sign on each side of the surface near it (negative between the sheet and z0:
+// the same inside/outside and textures), in a box around the mirror's radii. Exact, not a mesh.
+std::string ProfiledSurface(const HyperboloidSheet<double>& h, double r_max, int mirror) {
   // |grad| <= sqrt(1 + slope^2) with the conic's slope below a/b and the profile's below 0.02.
   const double max_gradient = 1.05 * std::sqrt(1 + std::pow(h.a / h.b + 0.02, 2)) + 0.05;
   const double box = r_max + 1;
   const double z_a = h.Z(0), z_b = h.Z(r_max + 1);
   std::ostringstream s;
-  s << "isosurface { function { " << Num(h.sheet) << "*(z-(" << conic << "+" << sag.str()
-    << ")) }\n"
+  s << "isosurface { function { " << Num(h.sheet) << "*(z-OmniMirror" << mirror
+    << "S(x, y, x*x+y*y)) }\n"
     << "      contained_by { box { " << Vec(-box, -box, std::min(z_a, z_b) - 1) << ", "
     << Vec(box, box, std::max(z_a, z_b) + 1) << " } }\n"
-    << "      threshold 0 accuracy 1e-7 max_gradient " << Num(max_gradient) << " open }";
+    << "      threshold 0 accuracy 1e-5 max_gradient " << Num(max_gradient) << " open }";
   return s.str();
 }
 
@@ -87,13 +97,13 @@ std::string ProfiledSurface(const HyperboloidSheet<double>& h, const ProfileShap
 // reflective side faces the primary focus, which POV-Ray counts as the quadric's inside (checked by
 // the marker test: the camera sees interior_texture); the back is matte black.
 // extra_clip: further half-spaces in the body frame (mirror 1 exists only beyond the reflex plane).
-// A profile (shape.present) makes the surface ProfiledSurface's isosurface.
-std::string MirrorObject(const HyperboloidSheet<double>& h, const ProfileShape& shape,
-                         const double* profile, double r_min, double r_max,
-                         const std::string& extra_clip = "") {
+// A profile (shape.present) makes the surface ProfiledSurface's isosurface (its functions
+// declared by ProfileFunctions).
+std::string MirrorObject(const HyperboloidSheet<double>& h, const ProfileShape& shape, int mirror,
+                         double r_min, double r_max, const std::string& extra_clip = "") {
   const double z_lo = h.z0 - 2000, z_hi = h.z0 + 2000;
   std::ostringstream s;
-  s << "object { " << (shape.present ? ProfiledSurface(h, shape, profile, r_max) : Quadric(h))
+  s << "object { " << (shape.present ? ProfiledSurface(h, r_max, mirror) : Quadric(h))
     << "\n"
     << "    clipped_by { intersection {\n"
     << "      cylinder { " << Vec(0, 0, z_lo) << ", " << Vec(0, 0, z_hi) << ", " << Num(r_max)
@@ -162,6 +172,14 @@ std::string PovSceneText(const RigParams& rig, const SceneContent& content) {
        "emission 1 } }\n"
     << "#declare SelfLit = finish { ambient 0 diffuse 0 emission 1 }\n"
     << "#declare LipPaint = finish { ambient " << Num(kLipAmbient) << " diffuse 1 emission 0 }\n"
+    << (content.draw_mirrors && rig.profile1.present
+            ? ProfileFunctions(HyperboloidSheet<double>::Mirror1(rig.mirror1_shape[0], rig.mirror1_shape[1]),
+                               rig.profile1, rig.mirror1_profile.data(), 1)
+            : "")
+    << (content.draw_mirrors && rig.profile2.present
+            ? ProfileFunctions(HyperboloidSheet<double>::Mirror2(rig.mirror2_shape[0], rig.mirror2_shape[1], rig.d),
+                               rig.profile2, rig.mirror2_profile.data(), 2)
+            : "")
     << "camera { perspective location <0, 0, 0>\n"
     << "  direction " << Vec(a, b, 1) << "\n"
     << "  right " << Vec(right_x, 0, 0) << "\n"
@@ -182,8 +200,7 @@ std::string PovSceneText(const RigParams& rig, const SceneContent& content) {
         Vec(reflex.normal.x(), reflex.normal.y(), reflex.normal.z()) + ", " +
         Num(reflex.normal.dot(reflex.point)) + " }\n";
     s << "  union {  // mirror 1 body (frame M1)\n"
-      << "  " << MirrorObject(m1, rig.profile1, rig.mirror1_profile.data(), 0.0, rig.r_sys,
-                              beyond_reflex)
+      << "  " << MirrorObject(m1, rig.profile1, 1, 0.0, rig.r_sys, beyond_reflex)
       << "\n"
       << "  disc { " << Vec(reflex.point.x(), reflex.point.y(), reflex.point.z()) << ", "
       << Vec(reflex.normal.x(), reflex.normal.y(), reflex.normal.z()) << ", " << Num(rig.r_ref)
@@ -192,7 +209,7 @@ std::string PovSceneText(const RigParams& rig, const SceneContent& content) {
       << Num(rig.lip1.r_inner) << " " << LipTexture(rig.lip1, Mirror::kOne) << " }\n"
       << "  " << Matrix(cam_from_m1.rotation, cam_from_m1.translation) << "\n  }\n";
     s << "  union {  // mirror 2 body (frame M2), with the camera hole of radius r_cam\n"
-      << "  " << MirrorObject(m2, rig.profile2, rig.mirror2_profile.data(), rig.r_cam, rig.r_sys)
+      << "  " << MirrorObject(m2, rig.profile2, 2, rig.r_cam, rig.r_sys)
       << "\n"
       << "  disc { " << Vec(0, 0, rig.lip2.z) << ", <0, 0, 1>, " << Num(rig.lip2.r_outer) << ", "
       << Num(rig.lip2.r_inner) << " " << LipTexture(rig.lip2, Mirror::kTwo) << " }\n"

@@ -104,10 +104,13 @@ ToleranceCheck ProfileCheck(const NamedCovariance& cov, const RigParams& rig, in
     unit[k] = 1;
     ProfileShape smooth = shape;
     smooth.ripple_amplitude = 0;
-    names.push_back(BlockParameterNames(body + "_profile")[k]);
+    // Only the refined terms carry uncertainty (held ones are not in the covariance).
+    const std::string& name = BlockParameterNames(body + "_profile")[k];
+    if (!cov.Has({name})) continue;
+    names.push_back(name);
     gradient.push_back(SagAt(unit, smooth, at_hi.x(), at_hi.y()) - SagAt(unit, smooth, at_lo.x(), at_lo.y()));
   }
-  if (cov.Has(names)) check.sigma = cov.Sigma(names, gradient);
+  if (!names.empty()) check.sigma = cov.Sigma(names, gradient);
   return check;
 }
 

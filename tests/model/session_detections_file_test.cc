@@ -57,6 +57,8 @@ targets:
 estimate: [camera, mirror1_pose]
 priors: {mirror1_shape: {sigma_c: 0.05, sigma_k: 0.01}}
 consider: {dist_p1: 0.0004, dist_p2: 0}
+profile: free
+profile_sigma_mm: 0.003
 solver: {max_iterations: 50, loss: cauchy, outlier_px: 2.5}
 )";
 
@@ -98,6 +100,9 @@ TEST_F(SessionFileTest, WrittenTextReadsBackTheSame) {
   EXPECT_EQ(t.estimate, s.estimate);
   EXPECT_EQ(t.priors.size(), 1u);
   EXPECT_EQ(t.consider, s.consider);
+  EXPECT_EQ(s.profile, "free");
+  EXPECT_EQ(t.profile, "free");
+  EXPECT_EQ(t.profile_sigma_mm, 0.003);
   EXPECT_EQ(t.solver.loss, "cauchy");
 }
 
@@ -183,6 +188,8 @@ TEST_F(SessionFileTest, MalformedInputNamesTheKey) {
       {"dist_p2: 0}", "dist_p2: -1e-4}", "consider.dist_p2"},
       {"dist_p2: 0}", "dist_k1: 1e-4}", "consider.dist_k1"},
       {"{dist_p1: 0.0004, dist_p2: 0}", "[dist_p1]", "consider"},
+      {"profile: free", "profile: maybe", "profile"},
+      {"profile_sigma_mm: 0.003", "profile_sigma_mm: 0", "profile_sigma_mm"},
       // Found by scripts/fuzz.sh: a key that is not a name (was a yaml-cpp bad-conversion error).
       {"{dist_p1: 0.0004, dist_p2: 0}", "{[dist_p1]: 0.0004}", "consider"},
   };

@@ -1,5 +1,7 @@
 // Tolerance checks and their image effect (model/design/tolerance.h).
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -92,6 +94,71 @@ TEST(ToleranceTest, ImageEffectIsZeroForZeroToleranceAndGrowsWithIt) {
   EXPECT_LT(a.max_px[0], 1e-9);
   EXPECT_GT(a.p95_px[1], 0.1);
   EXPECT_NEAR(b.p95_px[1] / a.p95_px[1], 4.0, 0.6);
+}
+
+// Machined mirrors (issue 40). P1(w) = w runs from -1 at r_min to +1 at r_max: a profile of
+// sag_p1 alone has a peak-to-valley of exactly 2 |sag_p1|, and its sigma 2 sigma(sag_p1).
+TEST(ToleranceTest, ProfilePeakToValleyWithItsSigma) {
+  RigParams rig = BigRig();
+  rig.kind = ModelKind::kNoncentral;
+  rig.profile1 = DefaultProfileShape(rig, Mirror::kOne);
+  rig.mirror1_profile = {-0.004, 0, 0, 0, 0, 0};
+  CalibrationInfo c;
+  c.parameters = {"mirror1.sag_p1"};
+  c.values = {-0.004};
+  c.sigma = {0.001};
+  c.covariance = {1e-6};
+  rig.calibration = c;
+  ToleranceSpec spec;
+  spec.mirror[0].profile_pv_mm = 0.02;
+  spec.mirror[1].profile_pv_mm = 0.02;
+  auto checks = CheckTolerances(rig, spec);
+  ASSERT_EQ(checks.size(), 2u);
+  EXPECT_EQ(checks[0].name, "mirror1.profile");
+  EXPECT_NEAR(checks[0].value, 0.008, 1e-9);
+  ASSERT_TRUE(checks[0].sigma.has_value());
+  EXPECT_NEAR(*checks[0].sigma, 0.002, 1e-9);
+  EXPECT_EQ(checks[0].verdict, Verdict::kPass);  // 0.008 + 2 x 0.002 <= 0.02
+  // Mirror 2 has no profile in the model: never measured, no verdict.
+  EXPECT_EQ(checks[1].name, "mirror2.profile");
+  EXPECT_EQ(checks[1].verdict, Verdict::kUndecided);
+  spec.mirror[0].profile_pv_mm = 0.003;
+  EXPECT_EQ(CheckTolerances(rig, spec)[0].verdict, Verdict::kFail);  // 0.008 - 0.004 > 0.003
+  spec.mirror[0].profile_pv_mm = 0.01;
+  EXPECT_EQ(CheckTolerances(rig, spec)[0].verdict, Verdict::kUndecided);
+}
+
+// Random profiles have the peak-to-valley asked for (measured on a finer grid than they were
+// scaled on), and their effect on the images grows linearly with it at these microns.
+TEST(ToleranceTest, ProfileSensitivityIsLinearInThePeakToValley) {
+  const RigParams rig = BigRig();
+  const ProfileShape shape = DefaultProfileShape(rig, Mirror::kOne);
+  std::mt19937 rng(5);
+  for (int i = 0; i < 5; ++i) {
+    const auto c = RandomProfile(shape, 0.01, &rng);
+    double lo = 1, hi = -1;
+    for (int k = 0; k <= 400; ++k) {
+      const double r = shape.r_min + (shape.r_max - shape.r_min) * k / 400;
+      for (int deg = 0; deg < 360; ++deg) {
+        const double z = ProfileSag(c.data(), shape, r * std::cos(deg * M_PI / 180),
+                                    r * std::sin(deg * M_PI / 180), false).z;
+        lo = std::min(lo, z);
+        hi = std::max(hi, z);
+      }
+    }
+    EXPECT_NEAR(hi - lo, 0.01, 0.0003);
+  }
+  const ProfileSensitivity a = SimulateProfileSensitivity(rig, 0.005, 10, 3);
+  const ProfileSensitivity b = SimulateProfileSensitivity(rig, 0.010, 10, 3);
+  std::printf("10 um PV: p95 shift at 1 m %.3f / %.3f px, range error at 2 m %.3f%%; for 0.1 px "
+              "%.2f um, for 1%% at 2 m %.1f um\n",
+              b.p95_shift_px_1m[0], b.p95_shift_px_1m[1], 100 * b.p95_range_error_2m,
+              1000 * b.PvFor(0.1, b.p95_shift_px_1m[0]), 1000 * b.PvFor(0.01, b.p95_range_error_2m));
+  for (int m = 0; m < 2; ++m) {
+    EXPECT_GT(a.p95_shift_px_1m[m], 0.05);
+    EXPECT_NEAR(b.p95_shift_px_1m[m] / a.p95_shift_px_1m[m], 2.0, 0.1);
+  }
+  EXPECT_NEAR(b.p95_range_error_2m / a.p95_range_error_2m, 2.0, 0.2);
 }
 
 }  // namespace
