@@ -188,9 +188,15 @@ void Calibrator::FinishProfiles(CalibrationResult* result) {
       std::snprintf(buf, sizeof(buf),
                     "mirror %d's profile refined (prior sigma %.3g um per term): the corners cover "
                     "%d of %d bands of its radii %.1f-%.1f mm; their radial residual pattern along "
-                    "the mirror's radius, chi^2 per band %.2g before, %.2g after",
+                    "the mirror's radius, chi^2 per band %.2g before, %.2g after%s",
                     m + 1, um, d.bins_covered, d.bins, d.r_min, d.r_max, d.pattern_chi2_before,
-                    d.pattern_chi2_after);
+                    d.pattern_chi2_after,
+                    d.pattern_chi2_after > kPatternChi2
+                        ? ": a pattern the profile's four radial terms cannot take remains "
+                          "(finer than them, e.g. turning marks, or another mirror's error "
+                          "passed on through the shared parameters); it bounds what this model "
+                          "can reach"
+                        : "");
     } else {
       std::snprintf(buf, sizeof(buf),
                     "mirror %d's profile held at the %s and considered (sigma %.3g um per term, "

@@ -136,8 +136,20 @@ void ProfileAdvice(const calib::CalibrationResult& r, std::vector<std::string>* 
   constexpr double kPatternChi2 = 4.0;  // as calib/calibrator_profile.cc
   for (int m = 0; m < 2; ++m) {
     const calib::ProfileDecision& d = r.profile[m];
-    if (d.pattern_before.empty() || d.freed) continue;
+    if (d.pattern_before.empty()) continue;
     char buf[400];
+    if (d.freed) {
+      if (d.pattern_chi2_after > kPatternChi2) {
+        std::snprintf(buf, sizeof(buf),
+                      "mirror %d: with its profile refined the corners' residuals still form a "
+                      "pattern along the mirror's radius (chi^2 per band %.1f, see Mirror "
+                      "profiles): finer than the profile's terms (turning marks?); it bounds "
+                      "what this model can reach",
+                      m + 1, d.pattern_chi2_after);
+        out->push_back(buf);
+      }
+      continue;
+    }
     if (d.pattern_chi2_after > kPatternChi2) {
       std::snprintf(buf, sizeof(buf),
                     "mirror %d: the corners' residuals form a pattern along the mirror's radius "

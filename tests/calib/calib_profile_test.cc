@@ -118,6 +118,33 @@ TEST(CalibProfile, ExactQuadricsStayWithinTheirSigmas) {
   for (int m = 0; m < 2; ++m) EXPECT_LT(out.m1_rms_px[m], 2.5 * out.predicted_px[m]) << m;
 }
 
+// Turning marks (a 4 um PV ripple of 6 mm period on mirror 1, exact quadric otherwise): no
+// profile term takes them, so the corners' radial residuals along the mirror's radius keep a
+// pattern, and the session says so. Printed: the pattern with the profile held and freed.
+TEST(CalibProfile, ARippleShowsInTheRadialPattern) {
+  RigParams truth = MisalignedRig();
+  truth.profile1 = DefaultProfileShape(truth, Mirror::kOne);
+  truth.profile1.ripple_amplitude = 0.002;
+  truth.profile1.ripple_period = 6.0;
+  for (const char* mode : {"hold", "auto"}) {
+    const Outcome out = RunCalibration(truth, mode);
+    const ProfileDecision& d = out.result.profile[0];
+    for (size_t b = 0; b < d.pattern_after.size(); ++b) {
+      std::fprintf(stderr, "%s: r %.1f-%.1f mm  n %4d  mean radial residual %+.4f +- %.4f px\n",
+                   mode, d.pattern_after[b].r_lo, d.pattern_after[b].r_hi, d.pattern_after[b].count,
+                   d.pattern_after[b].mean_px, d.pattern_after[b].sem_px);
+    }
+    EXPECT_GT(d.pattern_chi2_after, 4.0) << mode;
+    bool said = false;
+    for (const auto& note : out.result.notes) said |= note.find("mirror 1's profile") != std::string::npos;
+    EXPECT_TRUE(said) << mode;
+  }
+  // The exact quadrics leave no pattern.
+  const Outcome exact = RunCalibration(MisalignedRig(), "hold");
+  EXPECT_LT(exact.result.profile[0].pattern_chi2_after, 4.0);
+  EXPECT_LT(exact.result.profile[1].pattern_chi2_after, 4.0);
+}
+
 // Monte Carlo over pixel noise and the prior (issue 40's acceptance): the small clean session of
 // calib_montecarlo_test.cc with profiled mirrors (10 um PV power on both), the profile freed. The
 // prior's mean is the starting model's profile, drawn per solve from N(truth, profile_sigma_mm^2)
