@@ -432,6 +432,10 @@ int main(int argc, char** argv) {
   calib::CalibrationOptions options;  // the session defaults: all but the shapes, 2 threads
   options.estimate = {"camera", "distortion", "mirror1_pose", "mirror2_pose", "reflex"};
   options.progress = [](const std::string& line) { std::printf("  %s\n", line.c_str()); };
+  // OMNI_PROFILE=off|hold|free|auto, OMNI_PROFILE_SIGMA_MM: the mirrors' profiles (default as a
+  // session's).
+  if (const char* profile = std::getenv("OMNI_PROFILE")) options.profile = profile;
+  if (const char* sigma = std::getenv("OMNI_PROFILE_SIGMA_MM")) options.profile_sigma_mm = std::atof(sigma);
   const auto t0 = std::chrono::steady_clock::now();
   std::clock_t cpu0 = std::clock();
   const calib::CalibrationResult result =

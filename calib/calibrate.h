@@ -93,7 +93,7 @@ struct CalibrationOptions {
   // the residuals stay at the noise (issue 40: 10 um moved both tz by 3 mm at 10 sigma).
   std::string profile = "auto";
   // A machined mirror's profile tolerance: the sigma of each term (half its peak-to-valley), mm.
-  double profile_sigma_mm = 0.005;
+  double profile_sigma_mm = 0.002;
   // Degeneracy checks on the target placements (horizontal range and azimuth of each target's
   // centre about the camera axis).
   double min_range_ratio = 1.6;         // max range / min range must reach this (the initial

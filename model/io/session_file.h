@@ -14,7 +14,7 @@
 //   consider: {dist_p1: 5.0e-4, dist_p2: 5.0e-4}   # optional: held parameters' sigma, carried
 //                                                  # into the covariance ({} for none)
 //   profile: auto                     # optional: each mirror's profile: auto | free | hold | off
-//   profile_sigma_mm: 0.005           # optional: the machining tolerance per profile term (mm)
+//   profile_sigma_mm: 0.002           # optional: the machining tolerance per profile term (mm)
 //   solver: {max_iterations: 100, loss: huber, loss_scale_px: 1.0, outlier_px: 3.0, threads: 2}
 #pragma once
 

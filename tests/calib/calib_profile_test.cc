@@ -1,10 +1,10 @@
 // Machined mirrors (issue 40) through the calibration, fast path (exact corner pixels of the true
-// profiled rig plus 0.05 px noise): a 10 um peak-to-valley "power" error on both mirrors.
-// Without the profile in the model (profile: off, the calibration before issue 40) it hides in
-// the mirrors' heights and the focal length with residuals at the noise: the axial positions end
-// many sigmas off. With the default (auto: the profile freed where the corners cover the
-// mirror's radii, with the machining tolerance as prior) every misalignment is within 3 sigma
-// and points held in mirror 1's body at 1 m project within 0.1 px of the true rig.
+// profiled rig plus 0.05 px noise, lips at 0.1 px): a 10 um peak-to-valley "power" error on both
+// mirrors. Without the profile in the model (profile: off, the calibration before issue 40) it
+// hides in the mirrors' heights and the focal length with residuals at the noise: the axial
+// positions end many sigmas off. Freed (what `auto` does where the corners cover the mirror's
+// radii), with the machining tolerance as prior, every misalignment is within 3 sigma and points
+// held in mirror 1's body at 1 m project within the predicted uncertainty of the true rig.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -104,7 +104,7 @@ TEST(CalibProfile, HeldOutOfTheModelTheProfileErrorIsConfidentlyWrong) {
 // the noise, so M1's axial place against the camera is as uncertain as the machining tolerance
 // makes it, and the session says so instead of being wrong.
 TEST(CalibProfile, FreedTheMisalignmentsHoldAndTheUncertaintyIsHonest) {
-  const Outcome out = RunCalibration(ProfiledTruth(0.010), "auto");
+  const Outcome out = RunCalibration(ProfiledTruth(0.010), "free");
   EXPECT_TRUE(out.result.profile[0].freed);
   EXPECT_TRUE(out.result.profile[1].freed);
   EXPECT_TRUE(out.result.rig.profile1.present);
@@ -113,7 +113,7 @@ TEST(CalibProfile, FreedTheMisalignmentsHoldAndTheUncertaintyIsHonest) {
 }
 
 TEST(CalibProfile, ExactQuadricsStayWithinTheirSigmas) {
-  const Outcome out = RunCalibration(MisalignedRig(), "auto");
+  const Outcome out = RunCalibration(MisalignedRig(), "free");
   EXPECT_LT(out.worst_sigmas, 3.0) << out.worst;
   for (int m = 0; m < 2; ++m) EXPECT_LT(out.m1_rms_px[m], 2.5 * out.predicted_px[m]) << m;
 }
@@ -165,7 +165,7 @@ TEST(CalibProfile, MonteCarloConfirmsTheSigmasWithTheProfileFreed) {
   const RigParams truth = testing::MakeSceneSession(
       truth_full, std::string(OMNI_SOURCE_DIR) + "/sample_configs/small_clean_scene.yaml", &session);
   const int solves = std::getenv("MC_SOLVES") ? std::atoi(std::getenv("MC_SOLVES")) : 40;
-  // A 2 um tolerance per term: drawn at the default 5 um the starting profile is ~10 um off at
+  // The default 2 um tolerance per term: drawn at 5 um the starting profile is ~10 um off at
   // the rim, where the lips' via-mirror images move by pixels, and the rounds reject the lips
   // before the freed profile has fitted them (docs/experiments.md 2026-11-27, issue 40).
   const double sigma_mm = 0.002;
