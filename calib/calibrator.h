@@ -91,6 +91,8 @@ class Calibrator {
     // rim, smaller disc; mirror 2: larger rim, smaller hole, larger disc), so a corner near a
     // ring's edge does not fail a trial step while the parameters are still off.
     cost_fixed_[0] = cost_fixed_[1] = fixed_;
+    // A detected point is seen: the mount's posts would only wall trial steps in.
+    for (RigFixed& f : cost_fixed_) f.mount.present = false;
     for (RigFixed& f : cost_fixed_) f.r_sys += kBoundSlackMm;
     cost_fixed_[0].r_ref = std::max(0.0, fixed_.r_ref - kBoundSlackMm);
     cost_fixed_[0].reflex_side_slack = kBoundSlackMm;
@@ -98,6 +100,7 @@ class Calibrator {
     cost_fixed_[1].r_cam = std::max(0.0, fixed_.r_cam - kBoundSlackMm);
     constexpr double kLipSlackMm = 30.0;
     lip_fixed_[0] = lip_fixed_[1] = fixed_;
+    for (RigFixed& f : lip_fixed_) f.mount.present = false;
     for (RigFixed& f : lip_fixed_) f.r_sys += kLipSlackMm;
     lip_fixed_[0].r_ref = 0;  // direct, via_mirror1: no occlusion by the disc
     lip_fixed_[1].r_ref += kLipSlackMm;

@@ -12,6 +12,11 @@ RigFixed FixedOf(const RigParams& rig) {
   fixed.r_cam = rig.r_cam;
   fixed.profile1 = rig.profile1;
   fixed.profile2 = rig.profile2;
+  fixed.mount = rig.mount;
+  if (rig.mount.present) {
+    fixed.cam_from_mount = PoseFromBlock(rig.mount.body == Mirror::kOne ? rig.mirror1_pose.data()
+                                                                         : rig.mirror2_pose.data());
+  }
   fixed.solver.max_radius = 5 * rig.r_sys;
   return fixed;
 }
@@ -29,6 +34,21 @@ std::optional<Eigen::Vector2d> RigModel::Project(const Eigen::Vector3d& point_in
                                          : path2_.Project(fixed_, point_in_cam, &pixel, info);
   if (!ok || !pixel.allFinite()) return std::nullopt;
   return pixel;
+}
+
+bool RigModel::BlockedByMount(const std::vector<Eigen::Vector3d>& camera_path,
+                              const Ray& world_ray) const {
+  if (!fixed_.mount.present) return false;
+  for (size_t i = 0; i + 1 < camera_path.size(); ++i) {
+    if (SegmentHitsMount(fixed_.mount, fixed_.cam_from_mount, camera_path[i], camera_path[i + 1])) {
+      return true;
+    }
+  }
+  // The reflected ray as far as the posts could stand in its way.
+  const double reach = 4 * (fixed_.mount.radius + fixed_.mount.width + std::abs(fixed_.mount.z_max) +
+                            std::abs(fixed_.mount.z_min));
+  return SegmentHitsMount(fixed_.mount, fixed_.cam_from_mount, world_ray.origin,
+                          world_ray.origin + reach * world_ray.direction);
 }
 
 std::optional<MirrorRay> RigModel::Unproject(const Eigen::Vector2d& pixel) const {
@@ -59,6 +79,9 @@ std::optional<MirrorRay> RigModel::Unproject(const Eigen::Vector2d& pixel) const
       out.ray.origin = path2_.cam_from_mirror * s;
       out.ray.direction = path2_.cam_from_mirror.Rotate(Reflect(dir, normal)).normalized();
       if (!out.ray.origin.allFinite() || !out.ray.direction.allFinite()) return std::nullopt;
+      if (BlockedByMount({Eigen::Vector3d::Zero(), crossing, out.ray.origin}, out.ray)) {
+        return std::nullopt;
+      }
       return out;
     }
   }
@@ -78,6 +101,7 @@ std::optional<MirrorRay> RigModel::Unproject(const Eigen::Vector2d& pixel) const
   out.ray.origin = path1_.cam_from_mirror * s;
   out.ray.direction = path1_.cam_from_mirror.Rotate(Reflect(dir, normal)).normalized();
   if (!out.ray.origin.allFinite() || !out.ray.direction.allFinite()) return std::nullopt;
+  if (BlockedByMount({Eigen::Vector3d::Zero(), out.ray.origin}, out.ray)) return std::nullopt;
   return out;
 }
 

@@ -36,16 +36,19 @@
 //    reflex plane and V behind it, and the path S2 -> V crosses the plane INSIDE the disc
 //    (|X - disc centre| <= r_ref);
 //  - the point the camera sees (S1, or X for mirror 2) is in front of the camera (z > 0 in C).
+//  - no segment of the path crosses a post of the mount (model/mount.h), where the model has one.
 // Not modelled: occlusion of a light path by the other mirror's body or the lips, vignetting by
 // the hole's rim, and the range where a strong lens distortion folds over (beyond the image).
 #pragma once
 
 #include <optional>
+#include <vector>
 
 #include <Eigen/Core>
 
 #include "model/camera.h"
 #include "model/hyperboloid.h"
+#include "model/mount.h"
 #include "model/reflection_solver.h"
 #include "model/rig_frames.h"
 #include "model/rig_params.h"
@@ -64,6 +67,10 @@ struct RigFixed {
   double reflex_side_slack = 0;
   // Each mirror's profile shape (present false: the exact conic).
   ProfileShape profile1, profile2;
+  // The mount's posts and the pose of the body they are fixed in (validity only: a path through
+  // a post is invalid). The calibration's costs leave it out (a detected corner is seen).
+  Mount mount;
+  Pose<double> cam_from_mount;
   ReflectionSolverOptions solver;
 };
 RigFixed FixedOf(const RigParams& rig);
@@ -157,6 +164,13 @@ struct Mirror1Path {
     }
     const Vec3<T> s_in_cam = cam_from_mirror * s;
     if (!(s_in_cam.z() > T(0))) return false;
+    if (fixed.mount.present) {  // the path point -> S1 -> O through a post
+      const Eigen::Vector3d s_cam_d = ScalarPart(s_in_cam);
+      if (SegmentHitsMount(fixed.mount, fixed.cam_from_mount, ScalarPart(point_in_cam), s_cam_d) ||
+          SegmentHitsMount(fixed.mount, fixed.cam_from_mount, s_cam_d, Eigen::Vector3d::Zero())) {
+        return false;
+      }
+    }
     *pixel = PixelOfPointInCam(cam, dist, s_in_cam);
     if (info) {
       info->point_on_mirror = ScalarPart(s);
@@ -220,6 +234,14 @@ struct Mirror2Path {
       return false;  // the path misses the reflex disc
     }
     if (!(ScalarPart(crossing.z()) > 0)) return false;
+    if (fixed.mount.present) {  // the path point -> S2 -> X -> O through a post
+      const Eigen::Vector3d s_cam_d = ScalarPart(s_in_cam), x_d = ScalarPart(crossing);
+      if (SegmentHitsMount(fixed.mount, fixed.cam_from_mount, ScalarPart(point_in_cam), s_cam_d) ||
+          SegmentHitsMount(fixed.mount, fixed.cam_from_mount, s_cam_d, x_d) ||
+          SegmentHitsMount(fixed.mount, fixed.cam_from_mount, x_d, Eigen::Vector3d::Zero())) {
+        return false;
+      }
+    }
     *pixel = PixelOfPointInCam(cam, dist, crossing);
     if (info) {
       info->point_on_mirror = ScalarPart(s);
@@ -276,6 +298,8 @@ class RigModel {
   const Mirror2Path<double>& path2() const { return path2_; }
 
  private:
+  // Whether the camera's path (points in C, in order) or the reflected world ray crosses a post.
+  bool BlockedByMount(const std::vector<Eigen::Vector3d>& camera_path, const Ray& world_ray) const;
   RigParams params_;
   RigFixed fixed_;
   Mirror1Path<double> path1_;

@@ -11,6 +11,7 @@
 #include "model/camera.h"
 #include "model/ideal_model.h"
 #include "model/mirror_profile.h"
+#include "model/mount.h"
 
 namespace omni {
 
@@ -68,6 +69,8 @@ struct RigParams {
   Lip lip1, lip2;
   // The profiles' fixed part: radii, ripple; present false (the default) = exact quadrics.
   ProfileShape profile1, profile2;
+  // The posts that hold the rig together (model/mount.h); present false: none (a glass tube).
+  Mount mount;
 
   std::optional<CalibrationInfo> calibration;
 

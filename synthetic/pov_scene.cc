@@ -150,6 +150,20 @@ std::string RoomLamps(const RigParams& rig, const SceneContent& content) {
   return s.str();
 }
 
+// The mount's posts (model/mount.h) in their body's frame: matte grey square prisms.
+std::string MountPosts(const Mount& mount) {
+  std::ostringstream s;
+  const double h = 0.5 * mount.width;
+  for (double azimuth : mount.azimuths) {
+    const Eigen::Matrix3d R = Eigen::AngleAxisd(azimuth, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    s << "  box { " << Vec(mount.radius - h, -h, mount.z_min) << ", "
+      << Vec(mount.radius + h, h, mount.z_max)
+      << " texture { pigment { rgb 0.25 } finish { SelfLit } } "
+      << Matrix(R, Eigen::Vector3d::Zero()) << " }\n";
+  }
+  return s.str();
+}
+
 }  // namespace
 
 std::string PovSceneText(const RigParams& rig, const SceneContent& content) {
@@ -207,12 +221,14 @@ std::string PovSceneText(const RigParams& rig, const SceneContent& content) {
       << " texture { MirrorFinish } }\n"
       << "  disc { " << Vec(0, 0, rig.lip1.z) << ", <0, 0, 1>, " << Num(rig.lip1.r_outer) << ", "
       << Num(rig.lip1.r_inner) << " " << LipTexture(rig.lip1, Mirror::kOne) << " }\n"
+      << (rig.mount.present && rig.mount.body == Mirror::kOne ? MountPosts(rig.mount) : "")
       << "  " << Matrix(cam_from_m1.rotation, cam_from_m1.translation) << "\n  }\n";
     s << "  union {  // mirror 2 body (frame M2), with the camera hole of radius r_cam\n"
       << "  " << MirrorObject(m2, rig.profile2, 2, rig.r_cam, rig.r_sys)
       << "\n"
       << "  disc { " << Vec(0, 0, rig.lip2.z) << ", <0, 0, 1>, " << Num(rig.lip2.r_outer) << ", "
       << Num(rig.lip2.r_inner) << " " << LipTexture(rig.lip2, Mirror::kTwo) << " }\n"
+      << (rig.mount.present && rig.mount.body == Mirror::kTwo ? MountPosts(rig.mount) : "")
       << "  " << Matrix(cam_from_m2.rotation, cam_from_m2.translation) << "\n  }\n";
   }
 

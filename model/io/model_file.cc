@@ -116,6 +116,64 @@ void ReadProfile(const Reader& in, const YAML::Node& map, const std::string& pat
   }
 }
 
+// `mount:` (model/mount.h): the posts that hold the rig. Refused where a post stands inside the
+// mirrors' radius, has no width, spans no height, or meets another post.
+Mount ReadMount(const Reader& in, const YAML::Node& map, const RigParams& rig) {
+  const std::string path = "mount";
+  Mount mount;
+  mount.present = true;
+  if (map["body"].IsDefined()) {
+    const std::string body = in.String(map, path, "body");
+    if (body != "mirror1" && body != "mirror2") {
+      in.Fail(Join(path, "body"), "expected mirror1 or mirror2", Describe(map["body"]));
+    }
+    mount.body = body == "mirror1" ? Mirror::kOne : Mirror::kTwo;
+  }
+  const int count = in.Integer(map, path, "count", 1);
+  mount.width = in.Number(map, path, "width");
+  if (!(mount.width > 0)) in.Fail(Join(path, "width"), "expected a width > 0 mm", Describe(map["width"]));
+  mount.radius = in.Number(map, path, "radius");
+  if (!(mount.radius - 0.5 * mount.width > rig.r_sys)) {
+    in.Fail(Join(path, "radius"),
+            "expected the posts outside the mirrors: radius - width/2 > r_sys (" +
+                FormatDouble(rig.r_sys) + " mm)",
+            Describe(map["radius"]));
+  }
+  mount.z_min = in.Number(map, path, "z_min");
+  mount.z_max = in.Number(map, path, "z_max");
+  if (!(mount.z_max > mount.z_min)) {
+    in.Fail(Join(path, "z_max"), "expected z_max > z_min (" + FormatDouble(mount.z_min) + ")",
+            Describe(map["z_max"]));
+  }
+  if (map["azimuths_deg"].IsDefined()) {
+    for (double deg : in.Numbers(map, path, "azimuths_deg")) mount.azimuths.push_back(deg * M_PI / 180);
+    if (static_cast<int>(mount.azimuths.size()) != count) {
+      in.Fail(Join(path, "azimuths_deg"), "expected " + std::to_string(count) + " azimuths (count)",
+              std::to_string(mount.azimuths.size()));
+    }
+  } else {
+    // Evenly spaced from +y (90 deg), as the prototype's three standoffs.
+    for (int i = 0; i < count; ++i) mount.azimuths.push_back(M_PI / 2 + 2 * M_PI * i / count);
+  }
+  if (PostsOverlap(mount)) {
+    in.Fail(Join(path, "azimuths_deg"), "posts that do not meet (centres at least width * sqrt 2 apart)",
+            "overlapping posts");
+  }
+  return mount;
+}
+
+std::string MountMap(const Mount& mount) {
+  std::vector<std::string> deg;
+  for (double a : mount.azimuths) deg.push_back(FormatDouble(a * 180 / M_PI));
+  std::string out = std::string("{body: ") + (mount.body == Mirror::kOne ? "mirror1" : "mirror2") +
+                    ", count: " + std::to_string(mount.azimuths.size()) +
+                    ", width: " + FormatDouble(mount.width) + ", radius: " + FormatDouble(mount.radius) +
+                    ", z_min: " + FormatDouble(mount.z_min) + ", z_max: " + FormatDouble(mount.z_max) +
+                    ", azimuths_deg: [";
+  for (size_t i = 0; i < deg.size(); ++i) out += (i ? ", " : "") + deg[i];
+  return out + "]}";
+}
+
 // The blocks an ideal model holds at 0, and the maps they are written in.
 const std::pair<const char*, const char*> kMisalignmentBlocks[] = {
     {"distortion", "camera.distortion"},
@@ -426,6 +484,7 @@ RigParams ParseModelText(const std::string& text, const std::string& file) {
                 &rig.profile2, rig.mirror2_profile.data());
   }
 
+  if (root["mount"].IsDefined()) rig.mount = ReadMount(in, in.Map(root, "mount", "mount"), rig);
   if (rig.kind == ModelKind::kIdeal) CheckIdeal(in, rig);
   // `derived:` is recomputed from the blocks above, never read back.
   if (root["calibration"].IsDefined()) rig.calibration = ReadCalibration(in, root);
@@ -483,6 +542,11 @@ std::string ModelFileText(const RigParams& rig) {
   if (rig.profile2.present) {
     Line(&out, 2, "profile: " + ProfileMap(rig.profile2, "mirror2_profile", rig.mirror2_profile.data()),
          "sag over the conic along +z (mm): docs/formats/model.md");
+  }
+
+  if (rig.mount.present) {
+    Line(&out, 0, "mount: " + MountMap(rig.mount),
+         "posts (square prisms) in that body's frame, mm / deg");
   }
 
   const ModelDerived derived = ComputeModelDerived(rig);

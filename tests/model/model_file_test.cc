@@ -471,8 +471,50 @@ INSTANTIATE_TEST_SUITE_P(
         Malformed{"profile_not_a_number", {{kLip1, kLip1 + "\n  profile: {sag_p1: 3um}"}},
                   "mirror1.profile.sag_p1", "expected a number"},
         Malformed{"ideal_with_profile", {kMakeIdeal, {kLip1, kLip1 + "\n  profile: {sag_p1: 0.001}"}},
-                  "mirror1.profile", "kind is ideal"}),
+                  "mirror1.profile", "kind is ideal"},
+        // The prototype's mount (issue 39).
+        Malformed{"mount_inside_mirrors", {{"", "mount: {count: 3, width: 3.0, radius: 30.0, z_min: -17.0, z_max: 132.0}\n"}},
+                  "mount.radius", "outside the mirrors"},
+        Malformed{"mount_no_width", {{"", "mount: {count: 3, width: 0.0, radius: 41.5, z_min: -17.0, z_max: 132.0}\n"}},
+                  "mount.width", "> 0"},
+        Malformed{"mount_overlapping", {{"", "mount: {count: 2, width: 3.0, radius: 41.5, z_min: -17.0, z_max: 132.0, azimuths_deg: [10, 12]}\n"}},
+                  "mount.azimuths_deg", "do not meet"},
+        Malformed{"mount_azimuth_count", {{"", "mount: {count: 3, width: 3.0, radius: 41.5, z_min: -17.0, z_max: 132.0, azimuths_deg: [10, 130]}\n"}},
+                  "mount.azimuths_deg", "expected 3 azimuths"},
+        Malformed{"mount_body", {{"", "mount: {body: camera, count: 3, width: 3.0, radius: 41.5, z_min: -17.0, z_max: 132.0}\n"}},
+                  "mount.body", "mirror1 or mirror2"},
+        Malformed{"mount_upside_down", {{"", "mount: {count: 3, width: 3.0, radius: 41.5, z_min: 132.0, z_max: -17.0}\n"}},
+                  "mount.z_max", "z_max > z_min"}),
     [](const ::testing::TestParamInfo<Malformed>& info) { return std::string(info.param.name); });
+
+TEST(ModelFileTest, MountRoundTrips) {
+  ScratchDir dir;
+  WriteText(dir / "m.yaml", ReadText(kExamplePath) +
+                                "mount: {body: mirror2, count: 3, width: 3.0, radius: 41.5, "
+                                "z_min: -17.29, z_max: 132.71, azimuths_deg: [90, 210, 330]}\n");
+  const RigParams rig = ReadModelFile(dir / "m.yaml");
+  ASSERT_TRUE(rig.mount.present);
+  EXPECT_EQ(rig.mount.body, Mirror::kTwo);
+  ASSERT_EQ(rig.mount.azimuths.size(), 3u);
+  EXPECT_NEAR(rig.mount.azimuths[1], 210 * M_PI / 180, 1e-15);
+  WriteModelFile(dir / "back.yaml", rig);
+  const RigParams back = ReadModelFile(dir / "back.yaml");
+  ASSERT_TRUE(back.mount.present);
+  EXPECT_EQ(back.mount.body, Mirror::kTwo);
+  EXPECT_EQ(back.mount.width, 3.0);
+  EXPECT_EQ(back.mount.radius, 41.5);
+  EXPECT_EQ(back.mount.z_min, -17.29);
+  EXPECT_EQ(back.mount.z_max, 132.71);
+  for (int i = 0; i < 3; ++i) EXPECT_NEAR(back.mount.azimuths[i], rig.mount.azimuths[i], 1e-14);
+  // Without azimuths: evenly spaced from +y.
+  WriteText(dir / "even.yaml", ReadText(kExamplePath) +
+                                   "mount: {count: 3, width: 3.0, radius: 41.5, z_min: -17.0, "
+                                   "z_max: 132.0}\n");
+  const RigParams even = ReadModelFile(dir / "even.yaml");
+  EXPECT_EQ(even.mount.body, Mirror::kOne);
+  EXPECT_NEAR(even.mount.azimuths[0], M_PI / 2, 1e-15);
+  EXPECT_NEAR(even.mount.azimuths[2], M_PI / 2 + 4 * M_PI / 3, 1e-15);
+}
 
 TEST(ModelFileTest, ValidCalibrationSectionIsRead) {
   ScratchDir dir;
