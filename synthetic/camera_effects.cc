@@ -89,10 +89,27 @@ std::optional<CameraEffects> CameraPreset(const std::string& name) {
     e.jpeg_quality = 75;
     return e;
   }
+  if (name == "webcam") {
+    // The paper's prototype camera (a 5-megapixel USB webcam, 2592x1944, MJPEG; issue 39): the
+    // harsh chain's blur scaled by the pixel size (2.025x the pixels of 1280x960 across), small
+    // pixels' noise, its JPEG at quality 80. The image size is the scene's (image:).
+    e.defocus_sigma_px[0] = 1.8;
+    e.defocus_sigma_px[1] = 2.6;
+    e.vignetting = 0.35;
+    e.bayer = io::BayerPattern::kGRBG;
+    e.demosaic = io::Demosaic::kBilinear;
+    e.full_well_e = 5000;
+    e.read_noise = 2.0;
+    e.tone = ToneCurve::kSrgb;
+    e.jpeg_quality = 80;
+    return e;
+  }
   return std::nullopt;
 }
 
-std::vector<std::string> CameraPresetNames() { return {"clean", "mild", "realistic", "harsh"}; }
+std::vector<std::string> CameraPresetNames() {
+  return {"clean", "mild", "realistic", "harsh", "webcam"};
+}
 
 cv::Mat InnerRingWeight(const RigParams& rig, double feather_px) {
   // The reflex disc's rim in C: mirror 1's pose applied to the disc of radius r_ref about the

@@ -52,8 +52,9 @@ struct CameraEffects {
 
 // "clean" (distortion only), "mild", "realistic" (the chain a machine-vision or phone camera
 // delivers: defocus 0.6 / 0.9 px, vignetting 0.25, RGGB + edge-aware demosaic, 10k e- full well,
-// read noise 1.0 levels, sRGB, 8 bit, JPEG 92) and "harsh" (more blur and noise, under-exposed,
-// bilinear demosaic, JPEG 75). nullopt for an unknown name.
+// read noise 1.0 levels, sRGB, 8 bit, JPEG 92), "harsh" (more blur and noise, under-exposed,
+// bilinear demosaic, JPEG 75) and "webcam" (the paper's 5-megapixel webcam at 2592x1944: the harsh
+// blur scaled with the pixel size, 1.8 / 2.6 px, JPEG 80). nullopt for an unknown name.
 std::optional<CameraEffects> CameraPreset(const std::string& name);
 std::vector<std::string> CameraPresetNames();
 
