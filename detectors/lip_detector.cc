@@ -131,6 +131,20 @@ int LabelExtreme(const std::vector<Sample>& samples, bool outer, double min_marg
   return best;
 }
 
+// Whether pixels across an edge (along `radial`, out to the edge search's reach, and a post's
+// width to each side along the edge) see a post of the model's mount.
+// In pixels of a 1280-wide image, scaled with the image's width.
+bool NearMount(const RigModel& model, const Eigen::Vector2d& pixel, const Eigen::Vector2d& radial) {
+  const Eigen::Vector2d along(-radial.y(), radial.x());
+  const double scale = std::max(1.0, model.params().image_width / 1280.0);
+  for (double a = -6; a <= 6; a += 2) {
+    for (double r = -8; r <= 8; r += 2) {
+      if (model.PixelSeesMount(pixel + scale * (r * radial + a * along))) return true;
+    }
+  }
+  return false;
+}
+
 // The labelled edges a model predicts (computed once per model; projections are costly).
 class LipPrediction {
  public:
@@ -167,6 +181,10 @@ class LipPrediction {
           const int i = LabelExtreme(samples, outer, options.min_margin_px, options.min_band_px);
           if (i < 0) continue;
           const Sample& e = samples[i];
+          // A post of the mount (model/mount.h) beside the edge: the band meets the post's grey
+          // there, not the background, and its edge is not the lip's. Skipped where the model
+          // says pixels across the edge (the search's reach) see a post.
+          if (rig.mount.present && NearMount(model, e.pixel, (e.pixel - centre) / e.rho)) continue;
           const LipCircle circle = e.j == 0 ? LipCircle::kInner : LipCircle::kOuter;
           for (EdgeTrack& t : tracks) {
             if (t.outer == outer && t.path == e.path && t.circle == circle) {
@@ -193,7 +211,9 @@ class LipPrediction {
            a.lip1.r_outer == b.lip1.r_outer && a.lip1.z == b.lip1.z &&
            a.lip2.r_inner == b.lip2.r_inner && a.lip2.r_outer == b.lip2.r_outer &&
            a.lip2.z == b.lip2.z && a.image_width == b.image_width &&
-           a.image_height == b.image_height;
+           a.image_height == b.image_height && a.mount.present == b.mount.present &&
+           a.mount.azimuths == b.mount.azimuths && a.mount.radius == b.mount.radius &&
+           a.mount.width == b.mount.width;
   }
 
   const std::vector<EdgeTrack>& tracks() const { return tracks_; }

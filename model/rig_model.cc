@@ -52,10 +52,30 @@ bool RigModel::BlockedByMount(const std::vector<Eigen::Vector3d>& camera_path,
 }
 
 std::optional<MirrorRay> RigModel::Unproject(const Eigen::Vector2d& pixel) const {
+  bool blocked = false;
+  auto ray = Trace(pixel, &blocked, nullptr);
+  if (blocked) return std::nullopt;
+  return ray;
+}
+
+bool RigModel::PixelSeesMount(const Eigen::Vector2d& pixel) const {
+  if (!fixed_.mount.present) return false;
+  bool blocked = false;
+  Eigen::Vector3d dir_in_cam = Eigen::Vector3d::Zero();
+  if (Trace(pixel, &blocked, &dir_in_cam)) return blocked;
+  // No mirror: the camera's own ray, as far as the posts stand.
+  if (!(dir_in_cam.squaredNorm() > 0)) return false;
+  return BlockedByMount({}, Ray{Eigen::Vector3d::Zero(), dir_in_cam});
+}
+
+std::optional<MirrorRay> RigModel::Trace(const Eigen::Vector2d& pixel, bool* blocked,
+                                         Eigen::Vector3d* camera_dir) const {
+  *blocked = false;
   if (!pixel.allFinite()) return std::nullopt;
   Eigen::Vector2d xy;
   if (!Undistort(path1_.dist, path1_.cam.NormalizedFromPixel(pixel), &xy)) return std::nullopt;
   const Eigen::Vector3d dir_in_cam = Eigen::Vector3d(xy.x(), xy.y(), 1.0).normalized();
+  if (camera_dir) *camera_dir = dir_in_cam;
 
   // Does the camera ray cross the reflex plane inside the disc?
   const Plane<double>& reflex = path2_.reflex_in_cam;
@@ -79,9 +99,7 @@ std::optional<MirrorRay> RigModel::Unproject(const Eigen::Vector2d& pixel) const
       out.ray.origin = path2_.cam_from_mirror * s;
       out.ray.direction = path2_.cam_from_mirror.Rotate(Reflect(dir, normal)).normalized();
       if (!out.ray.origin.allFinite() || !out.ray.direction.allFinite()) return std::nullopt;
-      if (BlockedByMount({Eigen::Vector3d::Zero(), crossing, out.ray.origin}, out.ray)) {
-        return std::nullopt;
-      }
+      *blocked = BlockedByMount({Eigen::Vector3d::Zero(), crossing, out.ray.origin}, out.ray);
       return out;
     }
   }
@@ -101,7 +119,7 @@ std::optional<MirrorRay> RigModel::Unproject(const Eigen::Vector2d& pixel) const
   out.ray.origin = path1_.cam_from_mirror * s;
   out.ray.direction = path1_.cam_from_mirror.Rotate(Reflect(dir, normal)).normalized();
   if (!out.ray.origin.allFinite() || !out.ray.direction.allFinite()) return std::nullopt;
-  if (BlockedByMount({Eigen::Vector3d::Zero(), out.ray.origin}, out.ray)) return std::nullopt;
+  *blocked = BlockedByMount({Eigen::Vector3d::Zero(), out.ray.origin}, out.ray);
   return out;
 }
 

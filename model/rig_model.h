@@ -292,6 +292,10 @@ class RigModel {
   // undistortion fails.
   std::optional<MirrorRay> Unproject(const Eigen::Vector2d& pixel) const;
 
+  // Whether the pixel sees a post of the mount (through a mirror, or directly beyond the
+  // mirrors' rim); false without a mount.
+  bool PixelSeesMount(const Eigen::Vector2d& pixel) const;
+
   const RigParams& params() const { return params_; }
   const RigFixed& fixed() const { return fixed_; }
   const Mirror1Path<double>& path1() const { return path1_; }
@@ -300,6 +304,10 @@ class RigModel {
  private:
   // Whether the camera's path (points in C, in order) or the reflected world ray crosses a post.
   bool BlockedByMount(const std::vector<Eigen::Vector3d>& camera_path, const Ray& world_ray) const;
+  // The camera ray of a pixel to the mirror it meets and the reflected ray, ignoring the mount;
+  // *blocked: a post stands on that path. *camera_dir (optional): the undistorted camera ray.
+  std::optional<MirrorRay> Trace(const Eigen::Vector2d& pixel, bool* blocked,
+                                 Eigen::Vector3d* camera_dir) const;
   RigParams params_;
   RigFixed fixed_;
   Mirror1Path<double> path1_;
