@@ -1,6 +1,6 @@
 // The rig's 39 parameters in one table (issue 18; each mirror's profile, issue 40): DESIGN.md §2's names, the block each lives in
 // (RigParams' arrays, the groups a session's `estimate` names) and its index there, its place in
-// the flat 27-vector, its internal unit, the sigma beyond which calibration calls it nearly
+// the flat vector, its internal unit, the sigma beyond which calibration calls it nearly
 // unobservable, the value beyond any assembly error, whether a session may hold it with an
 // assumed sigma, and the data that would determine it. Calibration, covariance, triangulation,
 // the model and session files and the result tables read it; no other file spells a name.
