@@ -26,7 +26,11 @@ for p in "${parsers[@]}"; do
     points_csv) printf 'x_mm,y_mm,z_mm\n1000,0,100\n-500.5,20,nan\n' > "$corpus/seed.csv" ;;
     pixels_csv) printf 'u,v,image\n640.5,480,a.png\n1e3,-2,b.png\n' > "$corpus/seed.csv" ;;
     ply) printf 'ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\nend_header\n0 0 1\n1 2 3\n' > "$corpus/seed.ply" ;;
-    *) cp sample_configs/*.yaml tests/data/*.yaml tests/model/data/*.yaml "$corpus/" ;;
+    # Seeds named by their path (two folders hold a calibrated_big_rig.yaml: cp refused to
+    # overwrite the one it had just copied, and the script stopped before fuzzing).
+    *) for f in sample_configs/*.yaml tests/data/*.yaml tests/model/data/*.yaml; do
+         cp "$f" "$corpus/${f//\//_}"
+       done ;;
   esac
   echo "== fuzz_$p for ${seconds} s"
   log=build_fuzz/fuzz_$p.log
