@@ -134,10 +134,12 @@ std::string BasaltCalibrationJson(const std::array<CentralRing, 2>& rings, int w
          "    \"calib_accel_bias\": [0, 0, 0, 0, 0, 0, 0, 0, 0],\n"
          "    \"calib_gyro_bias\": [0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0],\n"
          "    \"imu_update_rate\": 200.0,\n"
-         "    \"accel_noise_std\": 0.0,\n"
-         "    \"gyro_noise_std\": 0.0,\n"
-         "    \"accel_bias_std\": 0.0,\n"
-         "    \"gyro_bias_std\": 0.0,\n"
+         // basalt's Calibration holds these as 3-vectors (a number is refused), and zeros would
+         // give an IMU infinite weight: basalt_calibrate_imu's defaults (EuRoC's IMU).
+         "    \"accel_noise_std\": [0.016, 0.016, 0.016],\n"
+         "    \"gyro_noise_std\": [0.000282, 0.000282, 0.000282],\n"
+         "    \"accel_bias_std\": [0.001, 0.001, 0.001],\n"
+         "    \"gyro_bias_std\": [0.0001, 0.0001, 0.0001],\n"
          "    \"cam_time_offset_ns\": 0\n"
          "  },\n"
          "  \"omnistereo\": {\n"

@@ -120,6 +120,9 @@ def check_model(model, tag):
         calib = json.load(f)
     v = calib["value0"]
     assert len(v["T_imu_cam"]) == 2 and len(v["intrinsics"]) == 2
+    # basalt's Calibration reads the IMU noise as 3-vectors (Vec3), positive (issue 38).
+    for key in ("accel_noise_std", "gyro_noise_std", "accel_bias_std", "gyro_bias_std"):
+        assert isinstance(v[key], list) and len(v[key]) == 3 and all(x > 0 for x in v[key]), key
     for ring in range(2):
         q = v["intrinsics"][ring]
         assert q["camera_type"] == "ds"
