@@ -125,8 +125,15 @@ int ExportCentral(const RigModel& model, exports::CentralModel kind) {
              : exports::BasaltCalibrationJson(rings, w, h, FLAGS_model, options.frame);
   const std::string map_path = FLAGS_out.substr(0, FLAGS_out.rfind('.')) + "_residual.png";
   double scale = 0;
-  WriteResidualMap(rings, map_path, &scale);
+  // Whole or nothing: the file first (a bad --out fails here, naming it, before any map is
+  // written), then the map; if the map fails, the file goes again.
   io::WriteFileAtomically(FLAGS_out, text);
+  try {
+    WriteResidualMap(rings, map_path, &scale);
+  } catch (...) {
+    std::remove(FLAGS_out.c_str());
+    throw;
+  }
   std::printf("%s approximation of each ring (central, fitted to the non-central model):\n",
               exports::CentralModelName(kind));
   for (const auto& ring : rings) {

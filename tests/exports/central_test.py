@@ -118,6 +118,14 @@ def check_model(model, tag):
               "--allow_uncalibrated").stdout
     with open(basalt) as f:
         calib = json.load(f)
+    # Whole or nothing (issue 38): --out naming a folder fails and leaves no residual map.
+    folder = os.path.join(TMP, f"{tag}_taken.json")
+    os.makedirs(folder, exist_ok=True)
+    bad = subprocess.run([EXE, "export", f"--model={model}", "--format=basalt", f"--out={folder}",
+                          "--allow_uncalibrated"], capture_output=True, text=True)
+    assert bad.returncode != 0, bad.stdout
+    assert not os.path.exists(os.path.join(TMP, f"{tag}_taken_residual.png")), "a map was left"
+    assert "taken.json" in bad.stderr, bad.stderr
     v = calib["value0"]
     assert len(v["T_imu_cam"]) == 2 and len(v["intrinsics"]) == 2
     # basalt's Calibration reads the IMU noise as 3-vectors (Vec3), positive (issue 38).
