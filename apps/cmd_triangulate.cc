@@ -1,4 +1,5 @@
-// `omnistereo triangulate --model M --detections D --out out.csv [--sigma_px 1] [--truth T]`
+// `omnistereo triangulate --model M --detections D --out out.csv [--sigma_px S] [--truth T]`
+// (without --sigma_px: a calibrated model's measured corner noise per ring, else 1 px)
 // (DESIGN.md §5): every corner seen in both rings of an image is triangulated
 // (model/triangulation.h) with its 3x3 covariance [uncertainty_propagation]. With --truth (the
 // `omnistereo-truth/1` file of a synthetic session) the paper's table
@@ -10,6 +11,7 @@
 // --truth they are then compared with the true corners in the TRUE rig's M1 (the truth file's
 // model), which takes out the calibrated camera frame's unobservable turn (model/triangulation.h
 // ReferenceBody).
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <random>
@@ -169,8 +171,19 @@ void PrintTruthTables(const Triangulator& triangulator, const Truth& truth,
 }  // namespace
 
 int RunTriangulate() {
-  const TriangulationOptions options = OptionsFromFlags();
+  TriangulationOptions options = OptionsFromFlags();
   const RigParams rig = io::ReadModelFile(FLAGS_model);
+  // Without --sigma_px, a calibrated model's measured corner noise per ring (its residual RMS is
+  // sqrt(2) sigma per axis): the 1 px default made sigmas ~10x those the session measured.
+  std::string sigma_source;
+  if (gflags::GetCommandLineFlagInfoOrDie("sigma_px").is_default &&
+      gflags::GetCommandLineFlagInfoOrDie("sigma_px_ring2").is_default && rig.calibration &&
+      rig.calibration->per_mirror_rms_px.size() == 2 && rig.calibration->per_mirror_rms_px[0] > 0 &&
+      rig.calibration->per_mirror_rms_px[1] > 0) {
+    options.sigma_px = rig.calibration->per_mirror_rms_px[0] / std::sqrt(2.0);
+    options.sigma_px_ring2 = rig.calibration->per_mirror_rms_px[1] / std::sqrt(2.0);
+    sigma_source = ", the model's measured corner noise";
+  }
   const Triangulator triangulator{RigModel(rig)};
   if (FLAGS_model_covariance && !triangulator.has_model_covariance()) {
     throw io::InputError(FLAGS_model + ": calibration.covariance: expected a calibrated model "
@@ -198,11 +211,11 @@ int RunTriangulate() {
                          "triangulate");
   }
   WriteCsv(result, pairs.image_names);
-  std::printf("triangulate: %ld observations, %zu pairs, %zu triangulated (%s, sigma_px %g/%g%s), "
+  std::printf("triangulate: %ld observations, %zu pairs, %zu triangulated (%s, sigma_px %.3g/%.3g%s%s), "
               "%ld failed -> %s (frame %s)\n",
               pairs.observations, pairs.pairs.size(), result.points.size(), FLAGS_method.c_str(),
-              FLAGS_sigma_px, FLAGS_sigma_px_ring2 > 0 ? FLAGS_sigma_px_ring2 : FLAGS_sigma_px,
-              FLAGS_model_covariance ? " + model covariance" : "", result.failed,
+              options.sigma_px, options.sigma_px_ring2 > 0 ? options.sigma_px_ring2 : options.sigma_px,
+              sigma_source.c_str(), FLAGS_model_covariance ? " + model covariance" : "", result.failed,
               FLAGS_out.c_str(), options.reference == ReferenceBody::kMirror1 ? "M1" : "C");
   if (truth) PrintTruthTables(triangulator, *truth, result, options);
   return 0;

@@ -73,6 +73,32 @@ TEST_F(StereoCli, TriangulatesTruthPixelsAndPrintsTheRangeTable) {
   EXPECT_EQ(zero_rows, 6) << out;
 }
 
+// Without --sigma_px a calibrated model's measured corner noise per ring is the pixel sigma
+// (residual RMS / sqrt 2 per axis; issue 38: the 1 px default gave sigmas ~10x the measured).
+TEST_F(StereoCli, TriangulateDefaultsToTheModelsMeasuredNoise) {
+  const std::string model = std::string(OMNI_SOURCE_DIR) + "/tests/model/data/calibrated_big_rig.yaml";
+  std::string err, out;
+  ASSERT_EQ(RunOmnistereo("render --model=" + model + " --scene=" + kSampleDir +
+                              "rmse_scene.yaml --no_render --out=" + Path("noise"),
+                          Path("err.txt"), &err),
+            0)
+      << err;
+  ASSERT_EQ(RunOmnistereo("triangulate --model=" + model + " --truth=" + Path("noise/truth.yaml") +
+                              " --out=" + Path("n.csv"),
+                          Path("err.txt"), &err, Path("out.txt"), &out),
+            0)
+      << err;
+  // 0.06834645964211683 / sqrt 2 and 0.08048952304286269 / sqrt 2 (the file's per_mirror_rms_px).
+  EXPECT_NE(out.find("sigma_px 0.0483/0.0569, the model's measured corner noise"), std::string::npos)
+      << out;
+  ASSERT_EQ(RunOmnistereo("triangulate --model=" + model + " --truth=" + Path("noise/truth.yaml") +
+                              " --sigma_px=1 --out=" + Path("n.csv"),
+                          Path("err.txt"), &err, Path("out.txt"), &out),
+            0)
+      << err;
+  EXPECT_NE(out.find("sigma_px 1/1)"), std::string::npos) << out;
+}
+
 // --frame mirror1: the points relative to mirror 1's body (its pose in the model file, applied
 // here independently) and, with --truth, compared in the true rig's M1 (exact here: zero RMSE).
 TEST_F(StereoCli, Mirror1FrameGivesThePointsInTheMirrorBody) {
