@@ -335,7 +335,8 @@ std::string WriteReport(const std::string& dir, const ReportInput& in) {
                               t.substr(9, t.size() - 13));
   }
   html << "</body></html>\n";
-  const std::string index = dir + "/index.html";
+  // "report/" given: report/index.html, not report//index.html.
+  const std::string index = (!dir.empty() && dir.back() == '/' ? dir : dir + "/") + "index.html";
   io::WriteFileAtomically(index, html.str());
   return index;
 }
