@@ -140,8 +140,8 @@ struct RadialResidualBin {
 };
 struct ProfileDecision {
   bool freed = false;
-  int bins_covered = 0, bins = 0;  // radial bands of the profile's radii holding corners
-  double r_min = 0, r_max = 0;     // the profile's radii (mm)
+  int bins_covered = 0, bins = 0;  // radial bands holding >= 10 corners
+  double r_min = 0, r_max = 0;     // the radii the mirror's corners reach (mm): the bands' span
   // Before the profile was decided (held at the start) and at the end.
   std::vector<RadialResidualBin> pattern_before, pattern_after;
   // chi^2 of the band means against zero per band (~1 where no pattern is left), before / after.

@@ -202,6 +202,7 @@ class Calibrator {
   bool profile_free_[2] = {false, false};  // each mirror's profile refined (DecideProfiles)
   bool profile_given_[2] = {false, false};  // the starting model had a profile
   std::array<double, kProfileTerms> profile_start_[2];  // its values: the priors' means
+  double corner_radii_[2][2] = {{0, 0}, {0, 0}};  // the radii each mirror's corners reach (mm)
   // What the last Covariance() found for a held dist_k3 if it were freed: its sigma and the
   // largest factor by which dist_k1's and dist_k2's sigmas would grow.
   struct {

@@ -8,9 +8,9 @@
 namespace omni::calib {
 namespace {
 
-// The profile's radii are split into kProfileBands bands of equal width in r^2 (equal steps of
-// the Legendre variable w); a band with kMinCornersPerBand corners is covered. Four Legendre
-// terms need the range's both ends and its middle: kMinBandsToFree of the bands.
+// The radii a mirror's corners reach are split into kProfileBands bands of equal width in r^2
+// (equal steps of the Legendre variable w); a band with kMinCornersPerBand corners is covered.
+// Four Legendre terms need the range's both ends and its middle: kMinBandsToFree of the bands.
 constexpr int kProfileBands = 6;
 constexpr int kMinCornersPerBand = 10;
 constexpr int kMinBandsToFree = 5;
@@ -54,8 +54,11 @@ void Calibrator::SetUpProfiles(const RigParams& start) {
 }
 
 std::vector<RadialResidualBin> Calibrator::RadialPattern(int mirror, double* chi2) const {
+  // The bands span the radii the corners reach (FitProfileRadiiToCorners), else the profile's.
   const ProfileShape& shape = ShapeOf(rig_, mirror - 1);
-  const double r2_lo = shape.r_min * shape.r_min, r2_hi = shape.r_max * shape.r_max;
+  const double lo = corner_radii_[mirror - 1][1] > 0 ? corner_radii_[mirror - 1][0] : shape.r_min;
+  const double hi = corner_radii_[mirror - 1][1] > 0 ? corner_radii_[mirror - 1][1] : shape.r_max;
+  const double r2_lo = lo * lo, r2_hi = hi * hi;
   std::vector<RadialResidualBin> bins(kProfileBands);
   std::vector<double> sum(kProfileBands, 0), sum2(kProfileBands, 0);
   for (int b = 0; b < kProfileBands; ++b) {
@@ -115,6 +118,9 @@ void Calibrator::FitProfileRadiiToCorners(int m) {
     r_hi = std::max(r_hi, r);
   }
   if (!(r_hi > r_lo + 1.0)) return;  // too few corners to say: the default radii stay
+  corner_radii_[m][0] = r_lo;
+  corner_radii_[m][1] = r_hi;
+  if (profile_given_[m]) return;  // a given profile keeps its radii
   // Out to the rim always: the lips' paths reflect there, and the Legendre terms grow fast
   // beyond w = 1 (a profile fitted to 35.5 mm gave 14% range errors at 2 m through the rim).
   ProfileShape shape = ShapeOf(rig_, m);
@@ -136,10 +142,10 @@ bool Calibrator::DecideProfiles(CalibrationResult* result) {
     // A profile the start did not have is laid from the smallest radius the corners reach on the
     // mirror out to its rim (its Legendre variable spans them; below them it would only
     // extrapolate). Its coefficients are zero, so the model is unchanged.
-    if (!profile_given_[m]) FitProfileRadiiToCorners(m);
+    FitProfileRadiiToCorners(m);
     ProfileDecision& d = result->profile[m];
-    d.r_min = ShapeOf(rig_, m).r_min;
-    d.r_max = ShapeOf(rig_, m).r_max;
+    d.r_min = corner_radii_[m][1] > 0 ? corner_radii_[m][0] : ShapeOf(rig_, m).r_min;
+    d.r_max = corner_radii_[m][1] > 0 ? corner_radii_[m][1] : ShapeOf(rig_, m).r_max;
     d.pattern_before = RadialPattern(m + 1, &d.pattern_chi2_before);
     d.bins = kProfileBands;
     d.bins_covered = 0;
@@ -189,7 +195,7 @@ void Calibrator::FinishProfiles(CalibrationResult* result) {
     if (d.freed) {
       std::snprintf(buf, sizeof(buf),
                     "mirror %d's profile refined (prior sigma %.3g um per term): the corners cover "
-                    "%d of %d bands of its radii %.1f-%.1f mm; their radial residual pattern along "
+                    "%d of %d bands of the radii they reach on it, %.1f-%.1f mm; their radial residual pattern along "
                     "the mirror's radius, chi^2 per band %.2g before, %.2g after%s",
                     m + 1, um, d.bins_covered, d.bins, d.r_min, d.r_max, d.pattern_chi2_before,
                     d.pattern_chi2_after,
@@ -202,7 +208,7 @@ void Calibrator::FinishProfiles(CalibrationResult* result) {
     } else {
       std::snprintf(buf, sizeof(buf),
                     "mirror %d's profile held at the %s and considered (sigma %.3g um per term, "
-                    "the machining tolerance): the corners cover %d of %d bands of its radii "
+                    "the machining tolerance): the corners fill %d of %d bands of the radii they reach on it, "
                     "%.1f-%.1f mm (%d needed to refine it: targets low and high in the ring); "
                     "radial residual pattern chi^2 per band %.2g%s",
                     m + 1, profile_given_[m] ? "starting model's profile" : "conic", um,

@@ -160,7 +160,7 @@ void ProfileAdvice(const calib::CalibrationResult& r, std::vector<std::string>* 
     }
     if (d.bins_covered < d.bins - 1) {
       std::snprintf(buf, sizeof(buf),
-                    "mirror %d: the corners cover %d of %d bands of its radii, too few to refine "
+                    "mirror %d: the corners fill %d of %d bands of the radii they reach on it, too few to refine "
                     "its profile (held at its tolerance, which widens the sigmas): add photos with "
                     "targets low and high in ring %d",
                     m + 1, d.bins_covered, d.bins, m + 1);

@@ -244,7 +244,7 @@ std::string ProfileSection(const calib::CalibrationResult& r) {
     if (d.pattern_before.empty()) continue;
     any = true;
     out << "<h3>Mirror " << m + 1 << "</h3>\n<p>Profile " << (d.freed ? "refined" : "held (its tolerance carried into the sigmas)")
-        << "; the corners cover " << d.bins_covered << " of " << d.bins << " bands of its radii "
+        << "; the corners fill " << d.bins_covered << " of " << d.bins << " bands of the radii they reach on it, "
         << Format("%.1f", d.r_min) << "-" << Format("%.1f", d.r_max)
         << " mm. Radial residual pattern (chi<sup>2</sup> per band, ~1 without a pattern): "
         << Format("%.2f", d.pattern_chi2_before) << " before, " << Format("%.2f", d.pattern_chi2_after)
