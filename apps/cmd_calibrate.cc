@@ -39,7 +39,7 @@
 DEFINE_string(truth_model, "", "calibrate, refine: the true model file (synthetic sessions), to add a "
                                 "truth column to the table");
 DEFINE_string(report, "", "calibrate: write an HTML report (index.html and its images) into this folder");
-DEFINE_double(report_range_mm, 2000, "calibrate --report: the range of the second projection-uncertainty map (mm)");
+DEFINE_double(report_range_mm, 2000, "the range of the report's second projection-uncertainty map (mm; calibrate --report, report)");
 DEFINE_string(tolerances, "", "calibrate --report: an omnistereo-tolerances/1 file; the report gives the calibrated rig's verdicts");
 DECLARE_string(truth);
 
