@@ -154,6 +154,8 @@ class Calibrator {
   void InitialisePoses();
   void CheckDegeneracy() const;
   bool Reproject(const Observation& obs, Eigen::Vector2d* pixel) const;
+  // Reproject, and the radius (mirror's body frame) where the corner's path meets its mirror.
+  bool ReprojectOnMirror(const Observation& obs, Eigen::Vector2d* pixel, double* radius) const;
   bool ReprojectLip(const LipObservation& lip, Eigen::Vector2d* pixel) const;
   const RigFixed& LipFixed(LipPath path) const {
     // The detector labelled each edge's path already, and the lips lie at the mirrors' rims, so

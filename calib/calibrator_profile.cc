@@ -22,6 +22,18 @@ const ProfileShape& ShapeOf(const RigParams& rig, int m) { return m == 0 ? rig.p
 
 }  // namespace
 
+bool Calibrator::ReprojectOnMirror(const Observation& o, Eigen::Vector2d* pixel,
+                                   double* radius) const {
+  const Eigen::Vector3d point =
+      CornerInCam(placements_[o.placement].cam_from_target.data(), o.corner_in_target);
+  const RigBlocks<double> blocks = RigBlocksOf(rig_);
+  ProjectionInfo info;
+  const bool ok = o.mirror == 1 ? ProjectViaMirror1(blocks, cost_fixed_[0], point, pixel, &info)
+                                : ProjectViaMirror2(blocks, cost_fixed_[1], point, pixel, &info);
+  if (ok) *radius = info.point_on_mirror.head<2>().norm();
+  return ok;
+}
+
 void Calibrator::SetUpProfiles(const RigParams& start) {
   const std::string& mode = options_.profile;
   if (mode != "auto" && mode != "free" && mode != "hold" && mode != "off") {
@@ -65,18 +77,13 @@ std::vector<RadialResidualBin> Calibrator::RadialPattern(int mirror, double* chi
     bins[b].r_lo = std::sqrt(r2_lo + (r2_hi - r2_lo) * b / kProfileBands);
     bins[b].r_hi = std::sqrt(r2_lo + (r2_hi - r2_lo) * (b + 1) / kProfileBands);
   }
-  const RigBlocks<double> blocks = RigBlocksOf(rig_);
   const Eigen::Vector2d centre(rig_.camera[2], rig_.camera[3]);
   for (const auto& o : obs_) {
     if (o.rejected || o.mirror != mirror) continue;
-    const Eigen::Vector3d point =
-        CornerInCam(placements_[o.placement].cam_from_target.data(), o.corner_in_target);
     Eigen::Vector2d px;
-    ProjectionInfo info;
-    const bool ok = mirror == 1 ? ProjectViaMirror1(blocks, cost_fixed_[0], point, &px, &info)
-                                : ProjectViaMirror2(blocks, cost_fixed_[1], point, &px, &info);
-    if (!ok) continue;
-    const double r2 = info.point_on_mirror.head<2>().squaredNorm();
+    double r = 0;
+    if (!ReprojectOnMirror(o, &px, &r)) continue;
+    const double r2 = r * r;
     const int b = static_cast<int>(std::floor((r2 - r2_lo) / (r2_hi - r2_lo) * kProfileBands));
     if (b < 0 || b >= kProfileBands) continue;
     const double radial = (px - o.pixel).dot((px - centre).normalized());
@@ -102,18 +109,12 @@ std::vector<RadialResidualBin> Calibrator::RadialPattern(int mirror, double* chi
 }
 
 void Calibrator::FitProfileRadiiToCorners(int m) {
-  const RigBlocks<double> blocks = RigBlocksOf(rig_);
   double r_lo = HUGE_VAL, r_hi = 0;
   for (const auto& o : obs_) {
     if (o.rejected || o.mirror != m + 1) continue;
-    const Eigen::Vector3d point =
-        CornerInCam(placements_[o.placement].cam_from_target.data(), o.corner_in_target);
     Eigen::Vector2d px;
-    ProjectionInfo info;
-    const bool ok = m == 0 ? ProjectViaMirror1(blocks, cost_fixed_[0], point, &px, &info)
-                           : ProjectViaMirror2(blocks, cost_fixed_[1], point, &px, &info);
-    if (!ok) continue;
-    const double r = info.point_on_mirror.head<2>().norm();
+    double r = 0;
+    if (!ReprojectOnMirror(o, &px, &r)) continue;
     r_lo = std::min(r_lo, r);
     r_hi = std::max(r_hi, r);
   }

@@ -274,7 +274,9 @@ struct Oracle {
   }
 };
 
-Eigen::Vector2d NelderMead(const Oracle& f, Eigen::Vector2d x0, double size) {
+// Any oracle with Miss(azimuth, radius) (the conic's here, the profiled one below).
+template <typename OracleT>
+Eigen::Vector2d NelderMead(const OracleT& f, Eigen::Vector2d x0, double size) {
   std::array<Eigen::Vector2d, 3> x = {x0, x0 + Eigen::Vector2d(size, 0),
                                       x0 + Eigen::Vector2d(0, size)};
   std::array<double, 3> fx;
@@ -438,45 +440,8 @@ Eigen::Vector3d ProfiledOraclePoint(const ProfiledOracle& oracle, double r_lo, d
       if (f < best_f) best_f = f, best = Eigen::Vector2d(ia * kRigDeg, r);
     }
   }
-  // Nelder-Mead as for the conic (a local copy: the oracle type differs).
-  auto nm = [&](Eigen::Vector2d x0, double size) {
-    std::array<Eigen::Vector2d, 3> x = {x0, x0 + Eigen::Vector2d(size, 0), x0 + Eigen::Vector2d(0, size)};
-    std::array<double, 3> fx;
-    for (int i = 0; i < 3; ++i) fx[i] = oracle.Miss(x[i]);
-    for (int iter = 0; iter < 4000; ++iter) {
-      std::array<int, 3> idx = {0, 1, 2};
-      std::sort(idx.begin(), idx.end(), [&](int a, int b) { return fx[a] < fx[b]; });
-      const int b = idx[0], m = idx[1], w = idx[2];
-      if ((x[w] - x[b]).norm() < 1e-15 * (1 + x[b].norm())) break;
-      const Eigen::Vector2d centroid = 0.5 * (x[b] + x[m]);
-      const Eigen::Vector2d xr = centroid + (centroid - x[w]);
-      const double fr = oracle.Miss(xr);
-      if (fr < fx[b]) {
-        const Eigen::Vector2d xe = centroid + 2.0 * (centroid - x[w]);
-        const double fe = oracle.Miss(xe);
-        if (fe < fr) x[w] = xe, fx[w] = fe;
-        else x[w] = xr, fx[w] = fr;
-      } else if (fr < fx[m]) {
-        x[w] = xr, fx[w] = fr;
-      } else {
-        const Eigen::Vector2d xc = centroid + 0.5 * (x[w] - centroid);
-        const double fc = oracle.Miss(xc);
-        if (fc < fx[w]) {
-          x[w] = xc, fx[w] = fc;
-        } else {
-          for (int i : {m, w}) {
-            x[i] = x[b] + 0.5 * (x[i] - x[b]);
-            fx[i] = oracle.Miss(x[i]);
-          }
-        }
-      }
-    }
-    int b = 0;
-    for (int i = 1; i < 3; ++i) if (fx[i] < fx[b]) b = i;
-    return x[b];
-  };
   Eigen::Vector2d x = best;
-  for (double size : {0.01, 1e-4, 1e-6}) x = nm(x, size);
+  for (double size : {0.01, 1e-4, 1e-6}) x = NelderMead(oracle, x, size);
   return oracle.Surface(x(0), x(1));
 }
 
