@@ -145,6 +145,7 @@ int main(int argc, char** argv) {
   const auto t_ctx = std::chrono::steady_clock::now();
   const char* detect_model = std::getenv("EVAL_DETECT_MODEL");
   detectors::DetectorContext ctx(detect_model ? io::ReadModelFile(detect_model) : rig, scene.targets);
+  std::array<std::vector<double>, 2> view_blur;  // per ring, every image's measured view blur
   if (const char* g = std::getenv("EVAL_GUIDED")) ctx.guided.enabled = std::string(g) != "0";
   if (detect_model) std::printf("detecting with %s\n", detect_model);
   // The images are encoded as the camera wrote them (raw mosaics are linear).
@@ -213,6 +214,9 @@ int main(int argc, char** argv) {
     const std::clock_t c0 = std::clock();
     std::vector<bool> guided;
     const ImageObservations det = detectors::DetectImage(raw, &ctx, nullptr, &guided);
+    for (const detectors::RingView& v : ctx.views) {
+      if (v.blur_sigma) view_blur[MirrorIndex(v.mirror) - 1].push_back(*v.blur_sigma);
+    }
     cpu_ms.push_back(1000.0 * (std::clock() - c0) / CLOCKS_PER_SEC);
     times_ms.push_back(
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
@@ -316,6 +320,14 @@ int main(int argc, char** argv) {
                  times_ms.back());
   }
   std::printf("views and layout built once in %.0f ms\n", ctx_ms);
+  for (int ring = 0; ring < 2; ++ring) {
+    for (const detectors::RingView& v : ctx.views) {
+      if (MirrorIndex(v.mirror) != ring + 1) continue;
+      std::printf("ring %d views: %d x %d px, f %.0f px/rad, measured blur sigma median %.2f view px\n",
+                  ring + 1, v.width, v.height, v.f, Percentile(view_blur[ring], 0.5));
+      break;
+    }
+  }
   std::printf("%-6s %-10s %8s %8s %8s %8s %8s %6s\n", "ring", "range", "visible", "found", "found%",
               "mean_px", "p99_px", "wrong");
   Bin all;

@@ -575,7 +575,7 @@ std::optional<BoardDetection> MakeBoard(const cv::Mat& raw_grey, const RingView&
   // out, or dropped.
   if (options.refine_in_raw && options.clean_windows) {
     KeepWindowsOnTheirSquares(raw_grey, spec.rows, spec.cols, sides, options.min_clean_half,
-                              &halves, &refined);
+                              &halves, &refined, view.RawBlurAt(centre));
   }
   // The board's lines from its refined corners, before any is corrected.
   if (options.refine_in_raw && options.fit_junctions) {

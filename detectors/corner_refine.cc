@@ -131,14 +131,17 @@ void RemoveCurvatureBias(int rows, int cols, const std::vector<int>& halves,
 }
 
 int CleanHalfWindow(const cv::Mat& grey, const Eigen::Vector2d& corner, const LocalLine& row,
-                    const LocalLine& col, double side, int half) {
+                    const LocalLine& col, double side, int half, double blur_px) {
   // The pixels cornerSubPix may read from: the window, its gradient border, interpolation.
   const int reach = half + 2;
   const int u0 = static_cast<int>(std::lround(corner.x())), v0 = static_cast<int>(std::lround(corner.y()));
   if (u0 - reach < 0 || v0 - reach < 0 || u0 + reach >= grey.cols || v0 + reach >= grey.rows) {
     return half;  // RefineCornerInRaw refuses it
   }
-  constexpr double kEdgeBand = 1.5;  // px either side of a line: its blur, the box filter
+  // Px either side of a line: its blur, the box filter. Two blurred edges' product at b from
+  // both is erf(b / (sqrt2 s))^2 of the contrast: within 35% of the level (with room for noise)
+  // from b = 1.3 s; a fixed 1.5 px took a 5-megapixel webcam's 2.6 px blur for foreign edges.
+  const double kEdgeBand = std::max(1.5, 1.3 * blur_px);
   struct Sample {
     double chebyshev;
     bool bright_quadrant;
@@ -336,7 +339,7 @@ int FitBoardJunctions(const cv::Mat& grey, int rows, int cols, const std::vector
 
 int KeepWindowsOnTheirSquares(const cv::Mat& grey, int rows, int cols, const std::vector<double>& sides,
                               int min_half, std::vector<int>* halves,
-                              std::vector<std::optional<Eigen::Vector2d>>* corners) {
+                              std::vector<std::optional<Eigen::Vector2d>>* corners, double blur_px) {
   int dropped = 0;
   // Twice: a corner refined again moves the lines its neighbours are judged with.
   for (int pass = 0; pass < 2; ++pass) {
@@ -344,7 +347,7 @@ int KeepWindowsOnTheirSquares(const cv::Mat& grey, int rows, int cols, const std
     ForEachCornerWithLines(measured, rows, cols, [&](int id, const Eigen::Vector2d& corner,
                                                      const LocalLine& row, const LocalLine& col) {
       int& half = (*halves)[id];
-      const int clean = CleanHalfWindow(grey, corner, row, col, sides[id], half);
+      const int clean = CleanHalfWindow(grey, corner, row, col, sides[id], half, blur_px);
       if (clean >= half) return;
       Eigen::Vector2d pixel = corner;
       if (clean < std::min(min_half, half) || !RefineCornerInRaw(grey, clean, &pixel) ||

@@ -57,15 +57,16 @@ void RemoveCurvatureBias(int rows, int cols, const std::vector<int>& halves,
 // The largest half-window <= `half` whose cornerSubPix window around `corner` (with the one-pixel
 // border its gradients read and the half pixel its interpolation adds) shows nothing but the
 // corner's own four squares. The two grid lines through the corner split the window into two
-// dark and two bright quadrants (levels: the median of each pair); a pixel more than 1.5 px from
-// both lines and less than `side` - 1.5 px from them (inside the four squares, not on a blurred
+// dark and two bright quadrants (levels: the median of each pair); a pixel more than b px from
+// both lines and less than `side` - b px from them (b = max(1.5, 1.3 blur_px): a blurred
+// junction's product of two edges is within 35% of its quadrant's level from there on) (inside the four squares, not on a blurred
 // edge) must match its quadrant's level to within 35% of the contrast. One that does not (the
 // ring's rim or lip, a board sheet's edge, an occluder) is an edge cornerSubPix would take as one
 // of the corner's: the window is bounded to leave it out. `half` if nothing is found or nothing
 // can be judged (squares too small, no contrast).
 // `grey`: CV_8U or CV_32F.
 int CleanHalfWindow(const cv::Mat& grey, const Eigen::Vector2d& corner, const LocalLine& row,
-                    const LocalLine& col, double side, int half);
+                    const LocalLine& col, double side, int half, double blur_px = 0);
 
 // Every known corner of a board refined by RefineCornerInRaw (half-windows `halves`, local
 // square sides `sides`, per id) whose window takes in something besides its own four squares
@@ -111,8 +112,9 @@ int FitBoardJunctions(const cv::Mat& grey, int rows, int cols, const std::vector
                       const std::vector<int>& halves, double window_squares,
                       std::vector<std::optional<Eigen::Vector2d>>* corners);
 
+// `blur_px`: the image's blur sigma there in pixels (RingView::RawBlurAt; 0: sharp).
 int KeepWindowsOnTheirSquares(const cv::Mat& grey, int rows, int cols, const std::vector<double>& sides,
                               int min_half, std::vector<int>* halves,
-                              std::vector<std::optional<Eigen::Vector2d>>* corners);
+                              std::vector<std::optional<Eigen::Vector2d>>* corners, double blur_px = 0);
 
 }  // namespace omni::detectors

@@ -621,7 +621,8 @@ std::vector<CornerObservation> GuideTarget(
         halves[id] = half;
         sides[id] = side;
       }
-      KeepWindowsOnTheirSquares(raw_grey, target.rows, target.cols, sides, 2, &halves, &corners);
+      KeepWindowsOnTheirSquares(raw_grey, target.rows, target.cols, sides, 2, &halves, &corners,
+                                view.RawBlurAt(Apply(h, centre)));
       // The junction fit the chessboard detector runs (the curvature correction where it cannot).
       FitBoardJunctions(raw_grey, target.rows, target.cols, sides, halves, ChessboardOptions().junction_window_squares,
                         &corners);

@@ -141,6 +141,16 @@ std::optional<Eigen::Vector2d> RingView::RawToView(const RigModel& model,
   return pixel;
 }
 
+double RingView::RawBlurAt(const Eigen::Vector2d& view_pixel) const {
+  if (!blur_sigma) return 0;
+  const auto c = ViewToRaw(view_pixel);
+  const auto x = ViewToRaw(view_pixel + Eigen::Vector2d(2, 0));
+  const auto y = ViewToRaw(view_pixel + Eigen::Vector2d(0, 2));
+  if (!c || !x || !y) return 0;
+  const double det = std::abs((*x - *c).x() * (*y - *c).y() - (*x - *c).y() * (*y - *c).x()) / 4;
+  return *blur_sigma * std::sqrt(det);
+}
+
 std::vector<RingView> MakeRingViews(const RigModel& model, const ViewOptions& options) {
   const IdealModel ideal = model.params().Ideal();
   const FieldOfView fov = ComputeFieldOfView(model.params().Design(), ideal.r_ref, ideal.r_cam);

@@ -72,6 +72,10 @@ struct RingView {
   // Raw pixel of a view pixel by bilinear lookup of the map; nullopt where any of the four
   // neighbouring map entries is invalid or the pixel is outside the view.
   std::optional<Eigen::Vector2d> ViewToRaw(const Eigen::Vector2d& view_pixel) const;
+  // The blur (sigma) of the sharpest edges in raw pixels near a view pixel: blur_sigma times
+  // the raw pixels per view pixel there (the square root of the map's Jacobian determinant);
+  // 0 where the ring has no blur measure or the map is invalid there.
+  double RawBlurAt(const Eigen::Vector2d& view_pixel) const;
   // Raw pixel of a view pixel by projecting exactly through the model.
   std::optional<Eigen::Vector2d> ViewToRawExact(const RigModel& model,
                                                 const Eigen::Vector2d& view_pixel) const;
