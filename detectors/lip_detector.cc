@@ -579,9 +579,13 @@ bool FitEllipseRobust(const std::vector<Eigen::Vector2d>& points, const LipDetec
 }
 
 std::vector<LipEdgeFit> DetectLipEdges(const cv::Mat& raw_bgr, const RigModel& model,
-                                       const LipDetectorOptions& options) {
+                                       const LipDetectorOptions& options_in) {
   std::vector<LipEdgeFit> out;
   const RigParams& rig = model.params();
+  LipDetectorOptions options = options_in;
+  if (options.search_px <= 0) {
+    options.search_px = std::max(20.0, kLipSearchPerFocal * 0.5 * (rig.camera[0] + rig.camera[1]));
+  }
   if (raw_bgr.empty() || (raw_bgr.type() != CV_8UC3 && raw_bgr.type() != CV_16UC3) ||
       raw_bgr.cols != rig.image_width ||
       raw_bgr.rows != rig.image_height) {

@@ -41,10 +41,15 @@
 
 namespace omni::detectors {
 
+constexpr double kLipSearchPerFocal = 0.014;  // 20 px at the big rig's f 1452 px (1280x960)
+
 struct LipDetectorOptions {
   int profiles = 720;            // radial profiles per full circle
-  double search_px = 20;         // half-width of the search window around the prediction (the
-                                 // ideal design's prediction is 10-20 px off on a built rig)
+  // Half-width of the search window around the prediction (px); 0: kLipSearchPerFocal times
+  // the model's focal length, at least 20 px. The ideal design's prediction is off by the rig's
+  // tilts (rays turned by a few tenths of a degree: pixels in proportion to f) and its focal
+  // length's error (f from the image size): 10-20 px at 1280x960, twice that at 2592x1944.
+  double search_px = 0;
   double min_margin_px = 1.5;    // to the nearest other (circle, path) image of the same band
   double min_band_px = 2.5;      // visible band width along the edge's own path (prior model)
   double min_measured_band_px = 4.5;  // the band's colour found this far past the edge point

@@ -2,9 +2,12 @@
 
 #include <cmath>
 #include <cstdio>
+#include <optional>
+#include <utility>
 
 #include "detectors/lip_detector.h"
 #include "detectors/lip_intrinsics.h"
+#include "model/io/image_file.h"
 
 namespace omni::detectors {
 
@@ -21,6 +24,33 @@ std::vector<size_t> LipGuideImages(size_t n) {
   return out;
 }
 
+namespace {
+
+// The lips' edges in the guide's images as `model` predicts them, and the lip-only fit from them.
+struct LipSearch {
+  std::vector<LipEdgeObservation> edges;
+  std::optional<LipIntrinsics> fit;
+};
+
+LipSearch SearchLips(const std::vector<GuideImage>& images, const RigModel& model,
+                     io::ToneCurve tone) {
+  LipSearch search;
+  const RigParams& rig = model.params();
+  for (const GuideImage& one : images) {
+    const cv::Mat& image = one.image;
+    if (image.channels() < 3 || image.cols != rig.image_width || image.rows != rig.image_height) {
+      continue;
+    }
+    const std::vector<LipEdgeObservation> found = DetectLips(
+        LipInput(io::LinearImage(image, tone)), model, LipOptionsFor(image, one.chroma_halved, one.luma));
+    search.edges.insert(search.edges.end(), found.begin(), found.end());
+  }
+  search.fit = InitialIntrinsicsFromLips(search.edges, model, /*fit_reflex_tilt=*/true);
+  return search;
+}
+
+}  // namespace
+
 LipGuide GuideByLips(const std::vector<GuideImage>& images, DetectorContext* ctx,
                      const LipGuideOptions& options) {
   const RigParams& rig = ctx->model.params();
@@ -28,23 +58,48 @@ LipGuide GuideByLips(const std::vector<GuideImage>& images, DetectorContext* ctx
   guide.f_before = 0.5 * (rig.camera[0] + rig.camera[1]);
   guide.pp_before = Eigen::Vector2d(rig.camera[2], rig.camera[3]);
   guide.reflex_before = guide.reflex_after = Eigen::Vector2d(rig.reflex[0], rig.reflex[1]);
-  std::vector<LipEdgeObservation> edges;
   for (const GuideImage& one : images) {
-    const cv::Mat& image = one.image;
-    if (image.channels() < 3 || image.cols != rig.image_width || image.rows != rig.image_height) {
-      continue;
-    }
-    ++guide.images;
-    const std::vector<LipEdgeObservation> found =
-        DetectLips(LipInput(io::LinearImage(image, ctx->tone)), ctx->model,
-                   LipOptionsFor(image, one.chroma_halved, one.luma));
-    edges.insert(edges.end(), found.begin(), found.end());
+    guide.images += one.image.channels() >= 3 && one.image.cols == rig.image_width &&
+                    one.image.rows == rig.image_height;
   }
   if (guide.images == 0) {
     guide.why_not = "no colour image to find the lips in";
     return guide;
   }
-  const auto lips = InitialIntrinsicsFromLips(edges, ctx->model, /*fit_reflex_tilt=*/true);
+  LipSearch search = SearchLips(images, ctx->model, ctx->tone);
+  // A model whose f is several percent off (the design's f at another camera's size) predicts
+  // the lips beyond the detector's search (+-1.4% of f: about +-4% of f in the lips' radii): the
+  // lips are looked for again with f scaled in steps within that reach, and the search that
+  // finds the most edge points whose fit holds is kept.
+  const auto holds = [&](const LipSearch& s) { return s.fit && s.fit->rms_px <= options.max_rms_px; };
+  if (!holds(search)) {
+    for (double scale : options.f_scan) {
+      RigParams scaled = rig;
+      scaled.camera[0] *= scale;
+      scaled.camera[1] *= scale;
+      LipSearch candidate = SearchLips(images, RigModel(scaled), ctx->tone);
+      if (holds(candidate) && (!holds(search) || candidate.fit->n_points > search.fit->n_points)) {
+        search = std::move(candidate);
+        guide.f_scanned = scale;
+      }
+    }
+  }
+  // A fit far from the model it was searched with (a scaled f, or a start whose lips lay at the
+  // search's reach) came from the edges that prediction reached, which may be a few: the lips
+  // are looked for again with its f and principal point (the model's reflex tilt: a few edges
+  // set it poorly), and the search with more edge points kept.
+  if (holds(search) &&
+      (std::abs(search.fit->f / guide.f_before - 1) > options.min_f_change ||
+       (Eigen::Vector2d(search.fit->cx, search.fit->cy) - guide.pp_before).norm() > options.min_pp_move_px)) {
+    RigParams refit = rig;
+    refit.camera[0] = refit.camera[1] = search.fit->f;
+    refit.camera[2] = search.fit->cx;
+    refit.camera[3] = search.fit->cy;
+    LipSearch again = SearchLips(images, RigModel(refit), ctx->tone);
+    if (holds(again) && again.fit->n_points >= search.fit->n_points) search = std::move(again);
+  }
+  const std::vector<LipEdgeObservation>& edges = search.edges;
+  const std::optional<LipIntrinsics>& lips = search.fit;
   if (!lips) {
     guide.why_not = "too few lip edge points (" + std::to_string(edges.size()) +
                     " edges) for the lip-only fit: check the lips' paints (color:) in the model file "
@@ -67,7 +122,7 @@ LipGuide GuideByLips(const std::vector<GuideImage>& images, DetectorContext* ctx
     return guide;
   }
   const double move_px = pp_move_px + inner_move_px;
-  if (f_change > options.max_f_change || move_px > options.max_move_px ||
+  if (f_change > options.max_f_change || move_px > options.max_move_per_f * guide.f_after ||
       lips->rms_px > options.max_rms_px) {
     char line[200];
     std::snprintf(line, sizeof line,

@@ -1,7 +1,8 @@
 // Detection's guide corrected by the lips. Every detector is guided by the model: it places the
 // rings' edges and views, labels the lip edges, and predicts one ring's targets from the other's.
 // A design (or any model not yet calibrated) puts all of these 10-20 px off on a built rig: lens
-// distortion and the mirrors' tilts. The lips are found even so (a +-20 px search), so a few
+// distortion and the mirrors' tilts. The lips are found even so (a search of +-1.4% of f, and
+// with f scaled by a few percent where that finds none: lip_detector.h), so a few
 // images' lip edges first correct the model's focal length and principal point (the lip-only fit,
 // lip_intrinsics.h, as `init` does), and the session is detected with that model.
 //
@@ -29,6 +30,7 @@ struct LipGuide {
   Eigen::Vector2d pp_before = Eigen::Vector2d::Zero(), pp_after = Eigen::Vector2d::Zero();
   // The reflex tilt (rx, ry, rad), fitted where the via_mirror2 edge was found.
   Eigen::Vector2d reflex_before = Eigen::Vector2d::Zero(), reflex_after = Eigen::Vector2d::Zero();
+  double f_scanned = 1;  // the scale of the model's f the lips were found with (f_scan)
   std::string why_not;   // when not applied: one line for the user
 };
 
@@ -39,7 +41,12 @@ struct LipGuide {
 // px. A guide 1 px off changes nothing in detection (its searches span several px).
 struct LipGuideOptions {
   double min_f_change = 1e-3, min_pp_move_px = 0.5, min_inner_move_px = 1.0;
-  double max_f_change = 0.05, max_move_px = 60, max_rms_px = 3.0;
+  // The rings' move (principal point and the inner ring's by the reflex tilt) is bounded as a
+  // fraction of f: 60 px at 1280x960's f 1452 px, 120 px at 2592x1944.
+  double max_f_change = 0.12, max_move_per_f = 0.04, max_rms_px = 3.0;
+  // Where the model's lips are not found (or their fit does not hold), f scaled by these is
+  // tried (GuideByLips): a start up to ~10% off.
+  std::vector<double> f_scan = {0.96, 1.04, 0.92, 1.08};
 };
 
 // One image for the guide: as read, and its file's chroma layout (LipOptionsFor).

@@ -391,6 +391,44 @@ TEST_F(LipDetectorOnPaintedRealisticRender, TheLipGuideCorrectsTheDesignAndLeave
   EXPECT_FALSE(GuideByLips({{cv::Mat(960, 1280, CV_16UC1, cv::Scalar(0))}}, &ctx).applied);
 }
 
+// A start whose focal length is 10% off (another camera's f, a wrong design) predicts the lips
+// beyond the detector's search: the guide looks for them with f scaled (LipGuideOptions::f_scan)
+// and ends where it does from the design (independent oracle: the true model's projections).
+TEST_F(LipDetectorOnPaintedRealisticRender, TheLipGuideFindsTheLipsFromAFocalLengthFarOff) {
+  ASSERT_FALSE(jpeg_->empty());
+  const RigModel truth(*truth_);
+  int needed_the_scan = 0;
+  for (double scale : {0.90, 1.10}) {
+    RigParams start = ReadSample("big_rig_ideal.yaml");
+    start.camera[0] *= scale;
+    start.camera[1] *= scale;
+    DetectorContext unscanned(start, {});
+    LipGuideOptions no_scan;
+    no_scan.f_scan.clear();
+    const LipGuide without = GuideByLips({{*jpeg_, true, *jpeg_luma_}}, &unscanned, no_scan);
+    DetectorContext ctx(start, {});
+    const LipGuide guide = GuideByLips({{*jpeg_, true, *jpeg_luma_}}, &ctx);
+    std::printf("f x %.2f: without the scan: %s\n  with it: %s\n", scale, Describe(without).c_str(),
+                Describe(guide).c_str());
+    ASSERT_TRUE(guide.applied) << guide.why_not;
+    if (!without.applied) {
+      ++needed_the_scan;
+      EXPECT_NE(guide.f_scanned, 1.0);
+    }
+    const std::array<double, 2> after = ProjectionDifferenceAt1m(ctx.model, truth);
+    std::printf("against the true rig at 1 m: ring 1 %.2f px, ring 2 %.2f px RMS\n", after[0], after[1]);
+    EXPECT_NEAR(guide.f_after / truth_->camera[0], 1.0, 0.008);  // as from the design (see above)
+    EXPECT_LT(after[0], 2.0);  // 1.43 / 0.78 px from the design (see above)
+    EXPECT_LT(after[1], 1.2);
+  }
+  EXPECT_GE(needed_the_scan, 1);  // else the test does not see the scan
+}
+
+TEST_F(LipDetectorOnPaintedRealisticRender, TheLipGuideLeavesGreyImagesAlone) {
+  DetectorContext ctx(ReadSample("big_rig_ideal.yaml"), {});
+  EXPECT_FALSE(GuideByLips({{cv::Mat(960, 1280, CV_16UC1, cv::Scalar(0))}}, &ctx).applied);
+}
+
 TEST(LipDetector, GreyOrWrongSizeImagesGiveNoEdges) {
   const RigModel model(ReadSample("big_rig_ideal.yaml"));
   EXPECT_TRUE(DetectLips(cv::Mat(960, 1280, CV_8UC1, cv::Scalar(0)), model).empty());
