@@ -16,6 +16,9 @@
 #include "apps/common_flags.h"
 #include "detectors/detect_session.h"
 #include "detectors/lip_intrinsics.h"
+#include "detectors/post_finder.h"
+#include "detectors/views.h"
+#include "model/mount.h"
 #include "model/design/design_config.h"
 #include "model/design/optimizer.h"
 #include "model/io/file_util.h"
@@ -31,6 +34,11 @@ DEFINE_string(design, "big_rig", "init: the rig as designed: big_rig | small_rig
 DEFINE_string(targets, "", "init: the printed targets as a YAML list of session entries, e.g. "
                            "'[{type: chessboard, rows: 6, cols: 8, square: 40}]' (what "
                            "`omnistereo target` prints)");
+
+DEFINE_int32(posts, -1, "init: the posts of the rig's mount to find in the photos (the paper's "
+                        "prototype: 3 standoffs); -1: as many as the design's mount has, 0: none");
+DEFINE_double(post_width, 3.0, "init: with --posts and a design without a mount: the posts' side "
+                               "(mm); they stand just outside the wider lip, lip plane to lip plane");
 
 namespace omni::apps {
 namespace {
@@ -108,11 +116,76 @@ void StartingIntrinsics(const std::vector<std::string>& images, RigParams* rig, 
               lips_only.images.size(), lips->f, lips->sigma_f, lips->cx, lips->cy, lips->n_points);
 }
 
+// The mount's posts where the first photos show them (detectors/post_finder.h): their azimuths,
+// with the design's mount (or, without one, --post_width posts just outside the wider lip from
+// lip plane to lip plane, carried by mirror 1). Says what it found; leaves the model without a
+// mount when the photos do not show the posts asked for.
+void PostsFromPhotos(const std::vector<std::string>& images, RigParams* rig) {
+  const int wanted = FLAGS_posts >= 0 ? FLAGS_posts : (rig->mount.present ? static_cast<int>(rig->mount.azimuths.size()) : 0);
+  if (wanted == 0) {
+    rig->mount = Mount();
+    return;
+  }
+  std::vector<cv::Mat> greys;
+  for (size_t i = 0; i < std::min<size_t>(5, images.size()); ++i) {
+    greys.push_back(detectors::ToGrey(io::ReadImage(images[i])));
+  }
+  const std::vector<detectors::FoundPost> found = detectors::FindPosts(greys, RigModel(*rig), wanted);
+  if (static_cast<int>(found.size()) < wanted) {
+    std::printf("posts: found %zu of the %d asked for in the first %zu photos (a post shows as a plain "
+                "radial band across both rings in every photo, against a textured room); the "
+                "starting model has %s\n", found.size(), wanted, greys.size(),
+                rig->mount.present ? "the design's mount" : "no mount: give it in the model file (mount:)");
+    return;
+  }
+  Mount mount = rig->mount;
+  if (!mount.present) {
+    mount.present = true;
+    mount.body = Mirror::kOne;
+    mount.width = FLAGS_post_width;
+    mount.radius = std::max(rig->lip1.r_outer, rig->lip2.r_outer) + 0.5 * mount.width;
+    mount.z_min = std::min(rig->lip1.z, rig->lip2.z);
+    mount.z_max = std::max(rig->lip1.z, rig->lip2.z);
+  }
+  std::vector<double> azimuths;
+  for (const auto& post : found) azimuths.push_back(post.azimuth);
+  std::sort(azimuths.begin(), azimuths.end());
+  std::string list;
+  double worst_move = 0;
+  for (double a : azimuths) {
+    char one[32];
+    std::snprintf(one, sizeof one, "%s%.1f", list.empty() ? "" : ", ", a * 180 / M_PI);
+    list += one;
+    if (rig->mount.present) {
+      double nearest = M_PI;
+      for (double b : rig->mount.azimuths) nearest = std::min(nearest, std::abs(std::remainder(a - b, 2 * M_PI)));
+      worst_move = std::max(worst_move, nearest);
+    }
+  }
+  mount.azimuths = azimuths;
+  if (PostsOverlap(mount)) {
+    std::printf("posts: the photos' flat bands at %s deg would make posts that meet; the starting "
+                "model keeps %s\n", list.c_str(), rig->mount.present ? "the design's mount" : "no mount");
+    return;
+  }
+  std::printf("posts found in the first %zu photos at azimuths %s deg (%d posts of %.1f mm at %.1f mm "
+              "from the axis); projection leaves their sectors out\n",
+              greys.size(), list.c_str(), wanted, mount.width, mount.radius);
+  if (rig->mount.present && worst_move > 1.0 * M_PI / 180) {
+    std::printf("warning: the design's posts are up to %.1f deg from where the photos show them: the "
+                "photos' azimuths are used\n", worst_move * 180 / M_PI);
+  }
+  rig->mount = mount;
+}
+
 }  // namespace
 
 int RunInit() {
   if (FLAGS_images.empty() || FLAGS_out.empty()) {
     throw io::InputError("--images (a glob of the photos) and --out (the session file) are required");
+  }
+  if (!(FLAGS_post_width > 0)) {
+    throw io::InputError("--post_width: expected the posts' side in mm (> 0), got " + std::to_string(FLAGS_post_width));
   }
   io::Session session;
   session.estimate = DefaultEstimateBlocks();
@@ -125,6 +198,7 @@ int RunInit() {
   session.images = Images(&width, &height);
   RigParams rig = DesignedRig();
   StartingIntrinsics(session.images, &rig, width, height);
+  PostsFromPhotos(session.images, &rig);
 
   const fs::path out = fs::absolute(FLAGS_out);
   const std::string model_path = (out.parent_path() / "start_model.yaml").string();

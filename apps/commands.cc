@@ -40,7 +40,7 @@ const std::vector<Command>& Commands() {
         "allow_uncalibrated"},
        RunExport},
       {"init", "write a session for a built rig's photos (starting model from the design and the lips)",
-       {"images", "design", "targets", "out"}, RunInit},
+       {"images", "design", "targets", "posts", "post_width", "out"}, RunInit},
       {"target", "a printable target at exact size (PDF, SVG, PNG) and its session entry",
        {"type", "rows", "cols", "size", "spacing", "first_id", "out", "paper", "dpi"}, RunTarget},
       {"check", "does the stored calibration still hold? natural-scene photos, no target "
