@@ -1,8 +1,12 @@
 #include "detectors/detect_session.h"
 
 #include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <optional>
 #include <utility>
 
+#include "detectors/post_finder.h"
 #include "model/io/image_file.h"
 
 namespace omni::detectors {
@@ -29,6 +33,24 @@ LipGuide GuideSessionByLips(const io::Session& session, DetectorContext* ctx) {
   }
   return GuideByLips(images, ctx);
 }
+
+namespace {
+
+// A warning where this photo shows the model's posts turned (MountTurnInPhoto).
+void CheckPosts(const cv::Mat& image, const RigModel& model, std::vector<std::string>* warnings) {
+  const Mount& mount = model.params().mount;
+  if (!mount.present || mount.azimuths.empty()) return;
+  const std::optional<double> turn = MountTurnInPhoto(ToGrey(image), model);
+  if (!turn) return;
+  char line[220];
+  std::snprintf(line, sizeof line,
+                "the mount's posts show %+.1f deg from where the model puts them (mount.azimuths_deg): "
+                "another rig's model, or a mount turned since; `omnistereo init --posts %zu` finds them",
+                *turn * 180 / M_PI, mount.azimuths.size());
+  warnings->push_back(line);
+}
+
+}  // namespace
 
 Observations DetectSession(const io::Session& session, DetectorContext* ctx,
                              const ImageCallback& on_image) {
@@ -64,6 +86,7 @@ Observations DetectSession(const io::Session& session, DetectorContext* ctx,
     }
     ctx->chroma_halved = io::HasHalvedChroma(report.file);
     ctx->luma = ctx->chroma_halved ? io::ReadStoredLuma(report.file) : cv::Mat();
+    CheckPosts(image, ctx->model, &report.warnings);
     ImageObservations det = DetectImage(image, ctx, &report.warnings);
     det.file = report.file;
     det.width = image.cols;

@@ -157,4 +157,27 @@ std::vector<FoundPost> FindPosts(const std::vector<cv::Mat>& grey_images, const 
   return out;
 }
 
+std::optional<double> MountTurnInPhoto(const cv::Mat& grey, const RigModel& model, double min_turn_deg) {
+  const Mount& mount = model.params().mount;
+  if (!mount.present || mount.azimuths.empty()) return std::nullopt;
+  const int n = static_cast<int>(mount.azimuths.size());
+  const std::vector<FoundPost> found = FindPosts({grey}, model, n);
+  if (static_cast<int>(found.size()) < n) return std::nullopt;
+  std::vector<double> offsets;
+  for (double a : mount.azimuths) {
+    double best = M_PI;
+    for (const FoundPost& post : found) {
+      const double d = std::remainder(post.azimuth - a, 2 * M_PI);
+      if (std::abs(d) < std::abs(best)) best = d;
+    }
+    offsets.push_back(best);
+  }
+  const auto [lo, hi] = std::minmax_element(offsets.begin(), offsets.end());
+  double mean = 0;
+  for (double d : offsets) mean += d / n;
+  constexpr double kDeg = M_PI / 180;
+  if (*hi - *lo > 0.5 * kDeg || std::abs(mean) < min_turn_deg * kDeg) return std::nullopt;
+  return mean;
+}
+
 }  // namespace omni::detectors

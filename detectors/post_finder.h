@@ -47,4 +47,12 @@ struct PostFinderOptions {
 std::vector<FoundPost> FindPosts(const std::vector<cv::Mat>& grey_images, const RigModel& model,
                                  int count, const PostFinderOptions& options = {});
 
+// Where the model has a mount and the photo (grey) shows all of its posts turned by one angle
+// of over min_turn_deg (they agree within 0.5 deg: a photo of another rig, or a mount turned since
+// the model was made), that angle (rad, + counter-clockwise about the camera's z). nullopt
+// otherwise: posts where the model says, or a photo that shows fewer of them or posts that
+// disagree among themselves (a target can hide a post).
+std::optional<double> MountTurnInPhoto(const cv::Mat& grey, const RigModel& model,
+                                       double min_turn_deg = 1.0);
+
 }  // namespace omni::detectors

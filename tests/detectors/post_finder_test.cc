@@ -96,6 +96,17 @@ TEST(PostFinder, FindsThePrototypesPostsFromTheDesign) {
     EXPECT_GT(AngleBetween(posts[1].azimuth, posts[2].azimuth), 1.0);
     EXPECT_GT(AngleBetween(posts[0].azimuth, posts[2].azimuth), 1.0);
   }
+  // A model whose mount is turned 5 deg from the photos': each photo says by how much; the true
+  // mount: nothing to say.
+  RigParams turned = prototype;
+  for (double& a : turned.mount.azimuths) a += 5 * M_PI / 180;
+  for (const cv::Mat& grey : Grey(photos)) {
+    const std::optional<double> turn = MountTurnInPhoto(grey, RigModel(turned));
+    ASSERT_TRUE(turn);
+    std::printf("photo of the mount turned by -5 deg: %+.2f deg\n", *turn * 180 / M_PI);
+    EXPECT_NEAR(*turn * 180 / M_PI, -5.0, 0.5);
+    EXPECT_FALSE(MountTurnInPhoto(grey, RigModel(prototype)));
+  }
   // The same rig and room without its mount: nothing is taken for a post.
   RigParams bare = prototype;
   bare.mount = Mount();
