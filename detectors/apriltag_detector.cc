@@ -47,6 +47,14 @@ struct ViewTag {
   int view;
 };
 
+// A Kalibr tag a post (or the ring's rim) hides in part: its place predicted from the tags read
+// in the view (GrowTagGrids), its code unreadable; the corners the view shows that refine as
+// X-junctions near the prediction (`seen`) are measured as any Kalibr corner is.
+struct PartialTag {
+  ViewTag tag;
+  bool seen[4] = {false, false, false, false};
+};
+
 // libapriltag's detector for tag36h11, made once per thread: the quick-decode table for codes up
 // to 2 bits off is ~400k entries.
 struct PlainDetector {
@@ -144,9 +152,15 @@ std::array<cv::Point2f, 4> Printed(const Eigen::Vector2d (&corners)[4]) {
 // target gives, only if its pattern there fits that code's blurred pattern (TagCodeResidual
 // <= options.grow_max_residual) and, for Kalibr tags, its corners refine as X-junctions near the
 // prediction. A wrong seed cannot carry a grid: its predicted neighbours read as other codes.
+// Kalibr tags the view shows in part are returned in `partial` (their code cannot be read: the
+// grid alone names them, and the grid check judges each of their corners).
+// Only tags a post hides are partial: where a tag runs past the view's or the ring's edge, guided
+// detection (guided_detection.h) measures its corners beyond it. `unmounted`: the model without
+// its mount (nullptr: the rig has none).
 void GrowTagGrids(const cv::Mat& view_grey, const RingView& view, int v,
                   const std::vector<TargetSpec>& targets, const TagDetectorOptions& options,
-                  std::vector<ViewTag>* found) {
+                  const RigModel* model, const RigModel* unmounted, std::vector<ViewTag>* found,
+                  std::vector<PartialTag>* partial) {
   const double blur = view.blur_sigma ? *view.blur_sigma : 0.0;
   for (std::size_t ti = 0; ti < targets.size(); ++ti) {
     const TargetSpec& target = targets[ti];
@@ -167,7 +181,9 @@ void GrowTagGrids(const cv::Mat& view_grey, const RingView& view, int v,
       if (!earlier) have[{row, col}] = static_cast<int>(i);
     }
     if (have.empty()) continue;
-    std::set<std::pair<int, int>> tried;
+    // Cells whose predicted tag the view does not show whole (a post of the mount, the ring's
+    // rim): growth goes on past them, so that a grid cut by a post is read on both sides.
+    std::set<std::pair<int, int>> tried, hidden;
     for (;;) {
       std::vector<cv::Point2f> plane, in_view;
       for (const auto& [cell, i] : have) {
@@ -189,6 +205,9 @@ void GrowTagGrids(const cv::Mat& view_grey, const RingView& view, int v,
           for (const auto& [cell, i] : have) {
             adjacent |= std::max(std::abs(cell.first - row), std::abs(cell.second - col)) == 1;
           }
+          for (const auto& cell : hidden) {
+            adjacent |= std::max(std::abs(cell.first - row), std::abs(cell.second - col)) == 1;
+          }
           if (adjacent) next.emplace_back(row, col);
         }
       }
@@ -208,13 +227,40 @@ void GrowTagGrids(const cv::Mat& view_grey, const RingView& view, int v,
         double side = 0;
         for (int k = 0; k < 4; ++k) side += 0.25 * cv::norm(predicted[(k + 1) % 4] - predicted[k]);
         const double margin = 0.3 * side + 3;
-        for (int k = 0; k < 4 && ok; ++k) {
+        bool in_view = true;
+        for (int k = 0; k < 4; ++k) {
           tag.corners[k] = Eigen::Vector2d(predicted[k].x, predicted[k].y);
-          ok = predicted[k].x >= margin && predicted[k].y >= margin &&
-               predicted[k].x < view_grey.cols - margin && predicted[k].y < view_grey.rows - margin &&
-               view.ViewToRaw(tag.corners[k]).has_value();
+          in_view = in_view && predicted[k].x >= margin && predicted[k].y >= margin &&
+                    predicted[k].x < view_grey.cols - margin && predicted[k].y < view_grey.rows - margin;
         }
-        if (!ok) continue;
+        // The tag's corners, centre and the middles of its half-sides: where the view does not
+        // show one (its map invalid there), the tag is covered and its code cannot be read.
+        std::vector<Eigen::Vector2d> probes(tag.corners, tag.corners + 4);
+        const Eigen::Vector2d centre = 0.25 * (tag.corners[0] + tag.corners[1] + tag.corners[2] + tag.corners[3]);
+        probes.push_back(centre);
+        for (int k = 0; k < 4; ++k) probes.push_back(0.5 * (tag.corners[k] + centre));
+        bool covered = false, post = false;
+        for (const Eigen::Vector2d& p : probes) {
+          if (view.ViewToRaw(p)) continue;
+          covered = true;
+          if (!unmounted) continue;
+          const auto behind = view.ViewToRawExact(*unmounted, p);
+          post = post || (behind && model->PixelSeesMount(*behind));
+        }
+        if (in_view && covered) {
+          hidden.insert(cell);
+          grew = true;  // its neighbours are candidates now
+          if (kalibr && post) {
+            PartialTag part{tag, {}};
+            const int half = static_cast<int>(std::lround(0.15 * side));
+            for (int k = 0; k < 4; ++k) {
+              part.seen[k] = view.ViewToRaw(tag.corners[k]).has_value() &&
+                             RefineSaddleCorner(view_grey, tag.corners[k], half, 0.1 * side, &part.tag.corners[k]);
+            }
+            if (std::count(part.seen, part.seen + 4, true) > 0) partial->push_back(part);
+          }
+        }
+        if (!in_view || covered) continue;
         if (kalibr) {
           const int half = static_cast<int>(std::lround(0.15 * side));
           for (int k = 0; k < 4 && ok; ++k) {
@@ -708,9 +754,17 @@ std::vector<TagCornerDetection> DetectTagCorners(const cv::Mat& raw_bgr,
     }
   }
 
+  std::vector<PartialTag> partial;
+  std::optional<RigModel> unmounted;
+  if (model.params().mount.present) {
+    RigParams bare = model.params();
+    bare.mount = Mount();
+    unmounted.emplace(bare);
+  }
   if (options.grow_grids) {
     for (std::size_t v = 0; v < views.size(); ++v) {
-      GrowTagGrids(view_images[v], views[v], static_cast<int>(v), targets, options, &found);
+      GrowTagGrids(view_images[v], views[v], static_cast<int>(v), targets, options, &model,
+                   unmounted ? &*unmounted : nullptr, &found, &partial);
     }
   }
 
@@ -854,6 +908,75 @@ std::vector<TagCornerDetection> DetectTagCorners(const cv::Mat& raw_bgr,
       d.in_view = t.corners[k];
       for (int j = 0; j < 4; ++j) d.side_in_view += 0.25 * (t.corners[(j + 1) % 4] - t.corners[j]).norm();
       out.push_back(d);
+    }
+  }
+  // The seen corners of Kalibr tags hidden in part (GrowTagGrids): where the raw image shows a
+  // whole X-junction there, measured as the corners above; corners already found are kept.
+  std::set<std::tuple<int, int, int>> have;  // (target, corner id, ring)
+  for (const TagCornerDetection& d : out) {
+    have.insert({d.observation.target, d.observation.id, MirrorIndex(d.observation.mirror)});
+  }
+  for (const PartialTag& part : partial) {
+    const ViewTag& t = part.tag;
+    const RingView& view = views[t.view];
+    int target = -1;
+    for (std::size_t i = 0; i < targets.size() && target < 0; ++i) {
+      int row = 0, col = 0;
+      if (targets[i].type == t.layout && TagCell(targets[i], t.tag_id, &row, &col)) target = static_cast<int>(i);
+    }
+    if (target < 0) continue;
+    for (int k = 0; k < 4; ++k) {
+      if (!part.seen[k] || have.count({target, 4 * t.tag_id + k, MirrorIndex(view.mirror)})) continue;
+      // The junction's two lines run through the corner: the tag's edges and, beyond the corner,
+      // its corner square's sides. Each is taken a quarter side along the edge, or as far the
+      // other way where the post covers the edge.
+      const Eigen::Vector2d& c = t.corners[k];
+      const auto mapped = view.ViewToRaw(c);
+      if (!mapped) continue;
+      const auto along = [&](int other, double fraction) -> std::optional<Eigen::Vector2d> {
+        return view.ViewToRaw(c + fraction * (t.corners[other] - c));
+      };
+      const auto towards = [&](int other) -> std::optional<Eigen::Vector2d> {
+        if (const auto p = along(other, 0.25)) return *p - *mapped;
+        if (const auto p = along(other, -0.25)) return *mapped - *p;
+        return std::nullopt;
+      };
+      const auto next = towards((k + 1) % 4), previous = towards((k + 3) % 4);
+      if (!next || !previous) continue;
+      const double side = 4 * std::min(next->norm(), previous->norm());
+      if (!IsKalibrXJunction(raw_grey8, *mapped, next->normalized(), previous->normalized(),
+                             std::max(1.5, 0.12 * side), options.kalibr.min_contrast)) {
+        continue;
+      }
+      Eigen::Vector2d refined = *mapped;
+      if (options.kalibr_fit_junction) {
+        const auto line = [&](int other) -> std::optional<LocalLine> {
+          std::optional<Eigen::Vector2d> back = along(other, -0.5), ahead = along(other, 0.5);
+          if (!back && ahead) back = 2 * *mapped - *ahead;  // straight across the corner
+          if (!ahead && back) ahead = 2 * *mapped - *back;
+          if (!back || !ahead) return std::nullopt;
+          std::vector<std::optional<Eigen::Vector2d>> points = {back, mapped, ahead};
+          return LineThroughCorner(points, 1, 3, 1, true);
+        };
+        const auto row = line((k + 1) % 4), col = line((k + 3) % 4);
+        if (row && col) {
+          if (const auto fit = FitBlurredJunction(grey, refined, *row, *col, options.kalibr_junction_window * side)) {
+            refined = fit->corner;
+          }
+        }
+      }
+      TagCornerDetection d;
+      d.observation.target = target;
+      d.observation.id = 4 * t.tag_id + k;
+      d.observation.mirror = view.mirror;
+      d.observation.pixel = refined;
+      d.tag_id = t.tag_id;
+      d.mapped = *mapped;
+      d.view = t.view;
+      d.in_view = c;
+      for (int j = 0; j < 4; ++j) d.side_in_view += 0.25 * (t.corners[(j + 1) % 4] - t.corners[j]).norm();
+      out.push_back(d);
+      have.insert({target, d.observation.id, MirrorIndex(view.mirror)});
     }
   }
   if (options.grid_check) DropCornersOffTheirTarget(views, view_images, model, targets, options, &out);
