@@ -210,14 +210,12 @@ std::optional<double> ViewBlurSigma(const cv::Mat& view_image, const cv::Mat& ma
   return BlurWhereValid(view_image, BlurValidMask(map_x));
 }
 
-namespace {
-
-std::optional<double> BlurInWindow(const cv::Mat& view_image, const cv::Mat& valid, int window) {
+std::optional<double> BlurWhereValid(const cv::Mat& view_image, const cv::Mat& valid) {
   CV_Assert(view_image.type() == CV_8U);
   cv::Mat gx, gy, hi, lo;
   cv::Sobel(view_image, gx, CV_16S, 1, 0, 3);
   cv::Sobel(view_image, gy, CV_16S, 0, 1, 3);
-  const cv::Mat box = cv::getStructuringElement(cv::MORPH_RECT, cv::Size(window, window));
+  const cv::Mat box = cv::getStructuringElement(cv::MORPH_RECT, cv::Size(13, 13));
   cv::dilate(view_image, hi, box);
   cv::erode(view_image, lo, box);
   // Every second pixel of every second row: the percentile does not need them all.
@@ -239,22 +237,6 @@ std::optional<double> BlurInWindow(const cv::Mat& view_image, const cv::Mat& val
   // A step of contrast C blurred by s has a peak gradient C / (sqrt(2 pi) s).
   const double measured = 1.0 / (std::sqrt(2 * M_PI) * *k);
   return std::sqrt(std::max(0.0, measured * measured - 0.5));
-}
-
-}  // namespace
-
-std::optional<double> BlurWhereValid(const cv::Mat& view_image, const cv::Mat& valid) {
-  std::optional<double> blur = BlurInWindow(view_image, valid, 13);
-  // The window must hold both sides of a blurred edge (+-2.5 sigma) for its max - min to be the
-  // edge's contrast: over ~2.4 px the 13 x 13 one reads the blur short (a 5 px blur as 3.9), so
-  // it is measured again in a window that does (`valid` eroded by the difference).
-  for (int pass = 0; pass < 2 && blur && *blur > 2.4; ++pass) {
-    const int window = 2 * static_cast<int>(std::ceil(2.5 * *blur)) + 1;
-    cv::Mat wider;
-    cv::erode(valid, wider, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(window - 12, window - 12)));
-    if (const auto again = BlurInWindow(view_image, wider, window)) blur = again;
-  }
-  return blur;
 }
 
 void RenderViews(const cv::Mat& raw, std::vector<RingView>* views) {

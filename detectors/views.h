@@ -101,8 +101,6 @@ void RenderViews(const cv::Mat& raw, std::vector<RingView>* views);
 // nullopt where fewer than 200 pixels have such contrast.
 std::optional<double> ViewBlurSigma(const cv::Mat& view_image, const cv::Mat& map_x);
 // The same with the mask of pixels to measure given (BlurValidMask of the view's map).
-// Blurs over 2.4 px are measured again in a window that holds +-2.5 sigma (the 13 x 13 one
-// reads them short).
 std::optional<double> BlurWhereValid(const cv::Mat& view_image, const cv::Mat& valid);
 
 // RingView::valid_for_blur and valid_for_saddles from a view's map_x (CV_8U, 255 = usable).

@@ -1,11 +1,9 @@
 // Ring layout and ring views against the model's exact ray tracing (RigModel::Unproject), an
 // independent code path from the forward projection the views are built with.
 #include <cmath>
-#include <cstdio>
 #include <random>
 
 #include <gtest/gtest.h>
-#include <opencv2/imgproc.hpp>
 
 #include "detectors/ring_layout.h"
 #include "detectors/views.h"
@@ -123,45 +121,6 @@ TEST_F(ViewsTest, ViewsAreNotMirrored) {
                           up = to_view(centre + 50 * Eigen::Vector3d::UnitZ());
     EXPECT_GT(r.x() - o.x(), 5) << "mirror " << MirrorIndex(view.mirror);
     EXPECT_LT(up.y() - o.y(), -5) << "mirror " << MirrorIndex(view.mirror);
-  }
-}
-
-}  // namespace
-}  // namespace omni::detectors
-
-namespace omni::detectors {
-namespace {
-
-// ViewBlurSigma against the blur put in: a checkerboard of 48 px squares (levels 30 / 220),
-// box-filtered exactly (8 x 8 samples per pixel), then a Gaussian of sigma s. Within 10% from
-// 0.8 to 6 px: a 5-megapixel webcam's inner-ring views are ~5 px blurred, and a fixed 13 x 13
-// window read that as 3.9.
-TEST(ViewBlur, MeasuresNarrowAndWideBlurs) {
-  constexpr int kSize = 480, kSquare = 48;
-  cv::Mat exact(kSize, kSize, CV_32F);
-  for (int v = 0; v < kSize; ++v) {
-    for (int u = 0; u < kSize; ++u) {
-      int dark = 0;
-      for (int a = 0; a < 8; ++a) {
-        for (int b = 0; b < 8; ++b) {
-          // Squares turned by 0.3 rad: edges at every angle the views see.
-          const double x = u + (a + 0.5) / 8 - 0.5, y = v + (b + 0.5) / 8 - 0.5;
-          const double p = std::cos(0.3) * x + std::sin(0.3) * y, q = -std::sin(0.3) * x + std::cos(0.3) * y;
-          dark += ((static_cast<int>(std::floor(p / kSquare)) + static_cast<int>(std::floor(q / kSquare))) & 1);
-        }
-      }
-      exact.at<float>(v, u) = 220.f - 190.f * dark / 64;
-    }
-  }
-  const cv::Mat map_x(kSize, kSize, CV_32F, cv::Scalar(1));  // every pixel seen
-  for (double s : {0.8, 1.5, 2.5, 4.0, 6.0}) {
-    cv::Mat blurred, image;
-    cv::GaussianBlur(exact, blurred, cv::Size(0, 0), s);
-    blurred.convertTo(image, CV_8U);
-    const std::optional<double> measured = ViewBlurSigma(image, map_x);
-    ASSERT_TRUE(measured);
-    std::printf("blur %.1f px: measured %.2f px\n", s, *measured);
-    EXPECT_NEAR(*measured / s, 1.0, 0.10) << "blur " << s;
   }
 }
 
