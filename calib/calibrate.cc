@@ -186,6 +186,7 @@ CalibrationResult Calibrator::Run() {
                            std::to_string(n_total) + " observations remain within " +
                            std::to_string(options_.solver.outlier_px) + " px");
   }
+  CheckTargetScales();
   result.converged = result.stages.back().converged;
   if (!result.converged) {
     Progress("warning: the final stage did not converge in " +

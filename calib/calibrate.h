@@ -96,6 +96,12 @@ struct CalibrationOptions {
   double profile_sigma_mm = 0.002;
   // Degeneracy checks on the target placements (horizontal range and azimuth of each target's
   // centre about the camera axis).
+  // A target whose corners, triangulated by the calibrated rig's two rings, lie more than this
+  // factor nearer or farther apart than its size (square, tag_size) gives stops the run: the
+  // size or layout entered is not the one printed (right sizes measure within 0.1%; a page
+  // printed "fit to page" is 3-6% small).
+  double max_target_scale_error = 1.05;
+  double max_target_scale_range_mm = 3000;  // placements triangulated farther are not used
   double min_range_ratio = 1.6;         // max range / min range must reach this (the initial
                                         // poses from the ideal model misjudge ranges by ~25%)
   double min_azimuth_span_deg = 120.0;  // the targets must span this much azimuth

@@ -152,6 +152,9 @@ class Calibrator {
   }
   void Collect(const Observations& detections);
   void InitialisePoses();
+  // Throws where a target's size (square, tag_size) is off by more than
+  // options_.max_target_scale_error from what the rig's stereo measures of it.
+  void CheckTargetScales() const;
   void CheckDegeneracy() const;
   bool Reproject(const Observation& obs, Eigen::Vector2d* pixel) const;
   // Reproject, and the radius (mirror's body frame) where the corner's path meets its mirror.

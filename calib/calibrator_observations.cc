@@ -1,5 +1,9 @@
 #include "calib/calibrator.h"
 
+#include <map>
+
+#include "model/triangulation.h"
+
 namespace omni::calib {
 
 void Calibrator::Collect(const Observations& detections) {
@@ -430,6 +434,70 @@ void Calibrator::InitialisePoses() {
   Progress("initial poses: " + std::to_string(placements_.size() - failed) + " of " +
            std::to_string(placements_.size()) + " target placements posed from the starting " +
            "model's rays" + (failed ? " (" + std::to_string(failed) + " failed, left out)" : ""));
+}
+
+void Calibrator::CheckTargetScales() const {
+  // A target seen in both rings is measured by the rig itself: its corners' rays meet, so the
+  // distances between them, over the distances the session's size gives, are the factor by
+  // which that size is wrong. The mirrors' shapes (in mm, from the design) set the rig's scale,
+  // so the calibrated rig measures it (a starting model's rays, a few tenths of a degree off,
+  // gave factors 0.45-1.46 for right sizes). A board entered 10x too small is posed 10x too
+  // near, and the solve bends the rig to fit it.
+  const RigModel start(rig_);
+  std::map<int, std::vector<double>> factors;  // target -> one median factor per placement
+  // Every placement and corner as detected: a target whose size is wrong has its corners
+  // rejected as outliers (or its placements fail) while the others calibrate the rig.
+  for (size_t p = 0; p < placements_.size(); ++p) {
+    std::map<int, Eigen::Vector2d> ring[2];
+    for (const Observation& o : obs_) {
+      if (o.placement == static_cast<int>(p)) ring[o.mirror - 1][o.id] = o.pixel;
+    }
+    std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>> points;  // (triangulated, in target)
+    for (const auto& [id, pixel1] : ring[0]) {
+      const auto it = ring[1].find(id);
+      if (it == ring[1].end()) continue;
+      const auto ray1 = start.Unproject(pixel1), ray2 = start.Unproject(it->second);
+      if (!ray1 || !ray2 || ray1->mirror != Mirror::kOne || ray2->mirror != Mirror::kTwo) continue;
+      Eigen::Vector3d point;
+      if (!MidpointOnCommonPerpendicular(ray1->ray.origin, ray1->ray.direction, ray2->ray.origin,
+                                         ray2->ray.direction, &point)) {
+        continue;
+      }
+      points.emplace_back(point, CornerInTarget(targets_[placements_[p].target], id));
+    }
+    if (points.size() < 6) continue;
+    // Not beyond the range where the rings' parallax (~0.04 rad at 3 m) is a few times the
+    // calibrated rays' errors.
+    Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+    for (const auto& pt : points) centre += pt.first / points.size();
+    if (std::hypot(centre.x(), centre.y()) > options_.max_target_scale_range_mm) continue;
+    std::vector<double> ratios;
+    for (size_t i = 0; i < points.size(); ++i) {
+      for (size_t j = i + 1; j < points.size(); ++j) {
+        const double declared = (points[i].second - points[j].second).norm();
+        if (declared > 0) ratios.push_back((points[i].first - points[j].first).norm() / declared);
+      }
+    }
+    std::nth_element(ratios.begin(), ratios.begin() + ratios.size() / 2, ratios.end());
+    factors[placements_[p].target].push_back(ratios[ratios.size() / 2]);
+  }
+  for (auto& [t, f] : factors) {
+    std::nth_element(f.begin(), f.begin() + f.size() / 2, f.end());
+    const double factor = f[f.size() / 2];
+    if (factor > 1.0 / options_.max_target_scale_error && factor < options_.max_target_scale_error) continue;
+    const TargetSpec& spec = targets_[t];
+    const bool chessboard = spec.type == TargetType::kChessboard;
+    const double size = chessboard ? spec.square_mm : spec.tag_size_mm;
+    char buf[512];
+    std::snprintf(buf, sizeof(buf),
+                  "target %d (%s %dx%d, %s %g mm): seen in both rings, its corners triangulate %.2f "
+                  "times as far apart as that size gives (median of %zu placements): the printed "
+                  "size is likely ~%.3g mm; measure it and correct `%s:` in the session's targets "
+                  "(mm), or check rows/cols and first_id; nothing written",
+                  t, TargetTypeName(spec.type), spec.rows, spec.cols, chessboard ? "square" : "tag_size",
+                  size, factor, f.size(), size * factor, chessboard ? "square" : "tag_size");
+    throw CalibrationError(buf);
+  }
 }
 
 void Calibrator::CheckDegeneracy() const {
