@@ -113,16 +113,18 @@ std::vector<ViewTag> DetectPlainTags(const cv::Mat& view_grey, int view_index, f
 // seen in the same view.
 std::vector<ViewTag> DetectKalibrTags(const cv::Mat& view_grey, int view_index,
                                       const std::vector<TargetSpec>& targets,
-                                      const KalibrDetectorOptions& options) {
+                                      const KalibrDetectorOptions& options, std::set<int>* unclaimed) {
   std::map<int, std::vector<KalibrViewTag>> by_target;
   for (const KalibrViewTag& t : DetectKalibrTagsInView(view_grey, options)) {
-    for (std::size_t i = 0; i < targets.size(); ++i) {
+    bool claimed = false;
+    for (std::size_t i = 0; i < targets.size() && !claimed; ++i) {
       int row = 0, col = 0;
       if (targets[i].type == TargetType::kKalibrAprilGrid && TagCell(targets[i], t.tag_id, &row, &col)) {
         by_target[static_cast<int>(i)].push_back(t);
-        break;
+        claimed = true;
       }
     }
+    if (!claimed && unclaimed) unclaimed->insert(t.tag_id);
   }
   std::vector<ViewTag> out;
   for (auto& [target, tags] : by_target) {
@@ -664,7 +666,8 @@ std::vector<TagCornerDetection> DetectTagCorners(const cv::Mat& raw_bgr,
                                                  const std::vector<RingView>& views,
                                                  const RigModel& model,
                                                  const std::vector<TargetSpec>& targets,
-                                                 const TagDetectorOptions& options) {
+                                                 const TagDetectorOptions& options,
+                                                 UnclaimedTags* unclaimed) {
   std::vector<TagCornerDetection> out;
   bool want_plain = false, want_kalibr = false;
   for (const TargetSpec& t : targets) {
@@ -746,7 +749,7 @@ std::vector<TagCornerDetection> DetectTagCorners(const cv::Mat& raw_bgr,
         KalibrDetectorOptions kalibr = options.kalibr;
         kalibr.blur_sigma = blur;
         for (ViewTag t : DetectKalibrTags(view_grey(box).clone(), static_cast<int>(v), targets,
-                                          kalibr)) {
+                                          kalibr, unclaimed ? &unclaimed->kalibr : nullptr)) {
           for (auto& c : t.corners) c += Eigen::Vector2d(box.x, box.y);
           found.push_back(t);
         }
@@ -791,7 +794,10 @@ std::vector<TagCornerDetection> DetectTagCorners(const cv::Mat& raw_bgr,
         target = static_cast<int>(i);
       }
     }
-    if (target < 0) continue;
+    if (target < 0) {
+      if (unclaimed && t.layout == TargetType::kAprilTagGrid) unclaimed->plain.insert(t.tag_id);
+      continue;
+    }
     Eigen::Vector2d mapped[4];
     bool ok = true;
     for (int k = 0; k < 4 && ok; ++k) {
@@ -986,9 +992,10 @@ std::vector<TagCornerDetection> DetectTagCorners(const cv::Mat& raw_bgr,
 std::vector<CornerObservation> DetectTagGrids(const cv::Mat& raw_bgr,
                                                   const std::vector<RingView>& views,
                                                   const RigModel& model,
-                                                  const std::vector<TargetSpec>& targets) {
+                                                  const std::vector<TargetSpec>& targets,
+                                                  UnclaimedTags* unclaimed) {
   std::vector<CornerObservation> out;
-  for (const TagCornerDetection& d : DetectTagCorners(raw_bgr, views, model, targets)) {
+  for (const TagCornerDetection& d : DetectTagCorners(raw_bgr, views, model, targets, {}, unclaimed)) {
     out.push_back(d.observation);
   }
   return out;

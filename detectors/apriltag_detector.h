@@ -20,6 +20,7 @@
 // that fit their target's homography with the target's other corners in the ring (tag_grid_check.h).
 #pragma once
 
+#include <set>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -132,16 +133,24 @@ struct TagCornerDetection {
 // Tag-grid corners in a raw image. `views` come from MakeRingViews for `model`; their `image` is
 // used if RenderViews filled it for this raw image, otherwise the views are resampled here.
 // Target index = index in `targets`; chessboard targets are skipped.
+// Tag ids read in an image that no target of the session holds (per layout): a `first_id`,
+// rows x cols or layout that is not the printed one.
+struct UnclaimedTags {
+  std::set<int> plain, kalibr;
+};
+
 std::vector<CornerObservation> DetectTagGrids(const cv::Mat& raw_bgr,
                                                   const std::vector<RingView>& views,
                                                   const RigModel& model,
-                                                  const std::vector<TargetSpec>& targets);
+                                                  const std::vector<TargetSpec>& targets,
+                                                  UnclaimedTags* unclaimed = nullptr);
 
 std::vector<TagCornerDetection> DetectTagCorners(const cv::Mat& raw_bgr,
                                                  const std::vector<RingView>& views,
                                                  const RigModel& model,
                                                  const std::vector<TargetSpec>& targets,
-                                                 const TagDetectorOptions& options = {});
+                                                 const TagDetectorOptions& options = {},
+                                                 UnclaimedTags* unclaimed = nullptr);
 
 // Refines a plain tag's four corners (raw pixels, approximate, in k order round the tag) in a grey
 // CV_32F raw image: each edge's sub-pixel points (where profiles across it cross halfway between

@@ -1,6 +1,9 @@
 #include "detectors/detect_image.h"
 
 #include <algorithm>
+#include <iterator>
+#include <set>
+#include <string>
 #include <mutex>
 #include <utility>
 
@@ -47,6 +50,34 @@ void KeepImageBuffersForReuse() {
   });
 }
 
+// "30-37, 40" from a set of ids.
+std::string IdRanges(const std::set<int>& ids) {
+  std::string out;
+  for (auto it = ids.begin(); it != ids.end();) {
+    int last = *it;
+    auto next = std::next(it);
+    while (next != ids.end() && *next == last + 1) last = *next++;
+    out += (out.empty() ? "" : ", ") + std::to_string(*it) + (last > *it ? "-" + std::to_string(last) : "");
+    it = next;
+  }
+  return out;
+}
+
+// One line for tags read that no target holds: which, and the ids the session's targets of that
+// layout take.
+std::string UnclaimedTagsLine(TargetType layout, const std::set<int>& ids,
+                              const std::vector<TargetSpec>& targets) {
+  std::set<int> taken;
+  for (const TargetSpec& t : targets) {
+    if (t.type != layout) continue;
+    for (int id = t.first_id; id < t.first_id + t.rows * t.cols; ++id) taken.insert(id);
+  }
+  return std::string(TargetTypeName(layout)) + " tag ids " + IdRanges(ids) +
+         " read that no target of the session holds (its " + TargetTypeName(layout) + " targets take " +
+         (taken.empty() ? std::string("none") : IdRanges(taken)) +
+         "): check first_id, rows x cols and the layout of the printed sheets";
+}
+
 }  // namespace
 
 DetectorContext::DetectorContext(const RigParams& rig, std::vector<TargetSpec> target_specs,
@@ -87,9 +118,16 @@ ImageObservations DetectImage(const cv::Mat& image, DetectorContext* ctx,
   bool any_tags = false;
   for (const TargetSpec& t : ctx->targets) any_tags = any_tags || t.type != TargetType::kChessboard;
   if (any_tags) {
+    UnclaimedTags unclaimed;
     const std::vector<CornerObservation> tags =
-        DetectTagGrids(grey, ctx->views, ctx->model, ctx->targets);
+        DetectTagGrids(grey, ctx->views, ctx->model, ctx->targets, &unclaimed);
     out.corners.insert(out.corners.end(), tags.begin(), tags.end());
+    if (warnings) {
+      for (const auto& [layout, ids] : {std::pair{TargetType::kKalibrAprilGrid, &unclaimed.kalibr},
+                                        std::pair{TargetType::kAprilTagGrid, &unclaimed.plain}}) {
+        if (ids->size() >= 2) warnings->push_back(UnclaimedTagsLine(layout, *ids, ctx->targets));
+      }
+    }
   }
   const size_t per_ring = out.corners.size();
   const std::vector<CornerObservation> across =

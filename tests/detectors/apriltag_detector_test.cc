@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <map>
+#include <set>
 #include <tuple>
 
 #include <opencv2/core.hpp>
@@ -256,6 +257,31 @@ TEST(AprilTagDetector, RawEdgeFitBeatsTheViewCornersAgainstTruth) {
   }
   // Without the raw fit ring 1 was off by more than twice that.
   EXPECT_LT(stats[1][0].Mean(), 0.6 * stats[0][0].Mean());
+}
+
+// A session whose first_id is not the printed sheet's (issue 38: tags 30-37 printed, first_id 0
+// entered): no corner, and the tags read are reported with their ids for the warning.
+TEST(AprilTagDetector, TagsNoTargetHoldsAreReported) {
+  const Rendered r = RenderTags();
+  const RigModel model(r.rig);
+  std::vector<RingView> views = MakeRingViews(model);
+  RenderViews(r.image, &views);
+  std::vector<TargetSpec> shifted = r.scene.targets;
+  for (TargetSpec& t : shifted) t.first_id += 100;
+  UnclaimedTags unclaimed;
+  const std::vector<TagCornerDetection> found = DetectTagCorners(r.image, views, model, shifted, {}, &unclaimed);
+  EXPECT_TRUE(found.empty());
+  // The printed ids: plain 0-5 and 40-43, Kalibr 20-25 and 60-63 (RenderTags).
+  const std::set<int> plain = {0, 1, 2, 3, 4, 5, 40, 41, 42, 43}, kalibr = {20, 21, 22, 23, 24, 25, 60, 61, 62, 63};
+  std::printf("unclaimed: %zu plain, %zu Kalibr ids\n", unclaimed.plain.size(), unclaimed.kalibr.size());
+  for (int id : unclaimed.plain) EXPECT_TRUE(plain.count(id)) << id;
+  for (int id : unclaimed.kalibr) EXPECT_TRUE(kalibr.count(id)) << id;
+  EXPECT_GE(unclaimed.plain.size(), 8u);
+  EXPECT_GE(unclaimed.kalibr.size(), 8u);
+  // With the right ids nothing is unclaimed.
+  UnclaimedTags none;
+  EXPECT_FALSE(DetectTagCorners(r.image, views, model, r.scene.targets, {}, &none).empty());
+  EXPECT_TRUE(none.plain.empty() && none.kalibr.empty());
 }
 
 // The prototype's mount (big_rig_prototype.yaml): a Kalibr AprilGrid of 2 x 4 tags of 140 mm
