@@ -308,10 +308,20 @@ int RunCalibrate() {
               predicted.in_mirror1_px[0], predicted.in_mirror1_px[1], predicted.in_cam_px[0],
               predicted.in_cam_px[1]);
   if (truth) PrintTruthShare(result, *truth);
+  // Detected here: the detections are kept beside the model (`report`, `refine` and a second
+  // calibration read them; detecting again costs the same time).
+  std::string detections_path = FLAGS_detections;
+  if (detections_path.empty()) {
+    namespace fs = std::filesystem;
+    const fs::path out(FLAGS_out);
+    detections_path = (out.parent_path() / (out.stem().string() + "_detections.yaml")).string();
+    io::WriteDetectionsFile(detections_path, detections);
+  }
   io::WriteModelFile(FLAGS_out, result.rig);
   std::printf("calibrated model written to %s\n", FLAGS_out.c_str());
+  if (FLAGS_detections.empty()) std::printf("the detections it was calibrated from: %s\n", detections_path.c_str());
   if (!FLAGS_report.empty()) {
-    WriteReport(result, detections, session, FLAGS_detections, FLAGS_report, seconds);
+    WriteReport(result, detections, session, detections_path, FLAGS_report, seconds);
   }
   return 0;
 }

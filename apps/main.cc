@@ -1,6 +1,7 @@
 // omnistereo <command> [--flags]: the toolkit's one executable (DESIGN.md §5).
 #include <algorithm>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <exception>
 #include <string>
@@ -26,7 +27,12 @@ void PrintCommandHelp(const Command& c) {
     gflags::CommandLineFlagInfo info;
     if (!gflags::GetCommandLineFlagInfo(name.c_str(), &info)) continue;
     std::printf("  --%s (%s) %s", info.name.c_str(), info.type.c_str(), info.description.c_str());
-    if (!info.default_value.empty()) std::printf("  [default: %s]", info.default_value.c_str());
+    if (info.type == "double" && !info.default_value.empty()) {
+      // gflags prints a double's default to 17 digits (0.29999999999999999).
+      std::printf("  [default: %g]", std::strtod(info.default_value.c_str(), nullptr));
+    } else if (!info.default_value.empty()) {
+      std::printf("  [default: %s]", info.default_value.c_str());
+    }
     std::printf("\n");
   }
 }

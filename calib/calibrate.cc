@@ -91,7 +91,7 @@ CalibrationResult Calibrator::Run() {
     }
     if (n == 0 && !weights_moved) {
       if (!robust_subset_only_) {
-        Progress("weights settled, no outliers: the last solve stands");
+        Progress("weights settled, no new outliers: the last solve stands");
         break;
       }
       robust_subset_only_ = false;

@@ -252,15 +252,22 @@ StageReport Calibrator::Solve(const std::string& name, const std::set<std::strin
   }
   report.seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  // A stage before the last that stops at its iteration cap (the pinhole stage's few
+  // iterations: it only brings every corner within pixels) is not a failure: the next goes on.
+  const bool capped = !report.converged && name != "final" &&
+                      summary.termination_type == ceres::NO_CONVERGENCE;
+  const std::string stage_status =
+      report.undone      ? "ENDED WORSE: undone"
+      : report.converged ? "converged"
+      : capped           ? "stopped at its cap of " + std::to_string(report.iterations) +
+                               " iterations (the next stage goes on from here)"
+                         : "NOT converged: " + summary.message;
   char buf[384];
   std::snprintf(buf, sizeof(buf),
                 "stage %-11s %6d obs  rms %8.3f -> %7.3f px  %3d iterations  %s  %.2f s "
                 "(residuals %.2f, jacobians %.2f, linear solver %.2f)",
                 name.c_str(), report.n_observations, report.initial_rms_px, report.final_rms_px,
-                report.iterations,
-                report.undone      ? "ENDED WORSE: undone"
-                : report.converged ? "converged"
-                                   : ("NOT converged: " + summary.message).c_str(),
+                report.iterations, stage_status.c_str(),
                 report.seconds, summary.residual_evaluation_time_in_seconds,
                 summary.jacobian_evaluation_time_in_seconds, summary.linear_solver_time_in_seconds);
   Progress(buf);

@@ -123,12 +123,21 @@ TargetPage LayoutTargetPage(const TargetSpec& target, const Paper& paper) {
     page.width_mm = paper.height_mm;
     page.height_mm = paper.width_mm;
   } else {
+    // The smallest paper that holds it, either way up.
+    const Paper* fitting = nullptr;
+    for (const Paper& p : Papers()) {
+      if ((fits(p.width_mm, p.height_mm) || fits(p.height_mm, p.width_mm)) &&
+          (!fitting || p.width_mm * p.height_mm < fitting->width_mm * fitting->height_mm)) {
+        fitting = &p;
+      }
+    }
     throw InputError("target: the pattern is " + Mm(w) + " x " + Mm(h) + " mm; " + paper.name +
                      " (" + Mm(paper.width_mm) + " x " + Mm(paper.height_mm) + " mm) holds at most " +
                      Mm(paper.width_mm - 2 * kMarginMm) + " x " +
-                     Mm(paper.height_mm - kMarginMm - kFooterMm) +
-                     " mm either way up: a larger --paper (" + PaperNames() +
-                     "), a smaller --size or fewer rows/cols");
+                     Mm(paper.height_mm - kMarginMm - kFooterMm) + " mm either way up: " +
+                     (fitting ? "--paper " + fitting->name + " holds it"
+                              : "no paper of " + PaperNames() + " holds it") +
+                     ", or a smaller --size or fewer rows/cols");
   }
   const double area_h = page.height_mm - kMarginMm - kFooterMm;
   page.pattern = {(page.width_mm - w) / 2, kMarginMm + (area_h - h) / 2, w, h};

@@ -104,6 +104,13 @@ def main():
     print(f"calibrated vs true rig at 1 m in mirror 1's body: ring 1 {rms1} px, ring 2 {rms2} px")
     assert rms1 <= 0.1 and rms2 <= 0.1, (rms1, rms2)
 
+    # calibrate without --detections detects, and keeps what it detected beside the model
+    # (issue 38): report, refine and a second calibration read it.
+    out = sh(f"{exe} calibrate --session session.yaml --out direct.yaml", [])
+    kept = os.path.join(TMP, "direct_detections.yaml")
+    assert "the detections it was calibrated from: " in out and os.path.exists(kept), out
+    assert len(yaml.safe_load(open(kept))["images"]) == len(session["images"])
+
     # init on bad input: one line, nothing written.
     os.makedirs(os.path.join(TMP, "mixed"))
     shutil.copy(os.path.join(TMP, "photos", "0001.jpg"), os.path.join(TMP, "mixed"))

@@ -109,6 +109,9 @@ def main():
     for flags, needle in (
             (["--type=kalibr_aprilgrid", "--rows=6", "--cols=6", "--size=88", "--paper=A4"],
              "A4 (210 x 297 mm) holds at most"),
+            # The message names the smallest paper that holds the pattern (issue 38).
+            (["--type=kalibr_aprilgrid", "--rows=6", "--cols=6", "--size=88", "--paper=A4"],
+             "--paper A0 holds it"),
             (["--type=checkerboard", "--rows=6", "--cols=8", "--size=20"], "--type: expected"),
             (["--type=chessboard", "--rows=6", "--cols=8", "--size=20", "--paper=B5"],
              "--paper: expected")):
