@@ -120,6 +120,9 @@ int RunCheck() {
     std::printf("next: re-estimate what moved from these photos with `omnistereo refine --model "
                 "%s --images ...`, or recalibrate with targets\n",
                 FLAGS_model.c_str());
+  } else if (r.verdict == health::Verdict::kCannotTell && r.model_misfit) {
+    std::printf("next: check that --model is this rig's calibrated model; if it is, the rig moved "
+                "too far for `refine`: calibrate again with targets\n");
   } else if (r.verdict == health::Verdict::kCannotTell) {
     std::printf("next: photograph a textured scene (shelves, posters, a patterned floor) that "
                 "fills most of the view around the rig\n");

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include <Eigen/Cholesky>
 #include <Eigen/SVD>
@@ -186,6 +187,20 @@ CheckResult CheckSamples(const RigParams& stored, const SampleSet& set, int n_im
   result.chi2 = r_white.squaredNorm();
   result.p_value = ChiSquareSurvival(result.chi2, m);
 
+  const double f = 0.5 * (stored.camera[0] + stored.camera[1]);
+  if (!enough && result.n_lip_points > 0 && result.lip_rms_px > options.lip_misfit_per_f * f) {
+    result.verdict = Verdict::kCannotTell;
+    result.model_misfit = true;
+    char buf[400];
+    std::snprintf(buf, sizeof(buf),
+                  "the model does not fit these photos: their lips lie %.1f px rms from where it "
+                  "puts them (a rig it describes: under %.1f px), and under it only %d "
+                  "ring-to-ring matches were found: a model of another rig or an uncalibrated "
+                  "start, or a rig knocked far",
+                  result.lip_rms_px, options.lip_misfit_per_f * f, result.n_matches);
+    result.reason = buf;
+    return result;
+  }
   if (!enough) {
     result.verdict = Verdict::kCannotTell;
     result.reason = "too little texture seen by both rings: " + std::to_string(result.n_matches) +

@@ -53,6 +53,9 @@ struct CheckOptions {
   int max_lip_points_per_edge = 360;  // per image (a subsample spread along the edge)
   double significance = 1e-3;    // p-value below which the rig has drifted
   int min_matches = 150;         // fewer: CANNOT TELL
+  // With too few matches, lips farther than this fraction of f (rms; 1.5 px at 1280x960's f,
+  // a calibrated rig's are 0.2-0.5 px) say the model does not fit the photos at all.
+  double lip_misfit_per_f = 0.001;
   double min_match_coverage = 0.5;  // share of azimuth bins with a usable match bin
 };
 
@@ -82,6 +85,7 @@ struct ResidualBin {
 struct CheckResult {
   Verdict verdict = Verdict::kCannotTell;
   std::string reason;  // one sentence: why this verdict
+  bool model_misfit = false;  // CANNOT TELL because the model does not fit the photos at all
   int n_images = 0, n_matches = 0, n_lip_points = 0;
   int match_bins = 0, lip_bins = 0, covered_azimuth_bins = 0;
   double gap_rms_px = 0, lip_rms_px = 0;  // of the (clipped) samples

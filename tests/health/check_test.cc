@@ -134,5 +134,22 @@ TEST_F(CheckTest, TooFewMatchesCannotTell) {
   EXPECT_NE(r.reason.find("too little texture"), std::string::npos) << r.reason;
 }
 
+// `check` with a model that is not the photos' rig (issue 38: the uncalibrated start model given
+// as --model): under it few ring-to-ring matches are found and the lips lie pixels off. Not
+// "too little texture": the model does not fit. The same few matches under the right model
+// still say too little texture.
+TEST_F(CheckTest, AModelThatDoesNotFitThePhotosIsSaidSo) {
+  const RigParams design = io::ReadModelFile(kSampleDir + "big_rig_ideal.yaml");
+  const CheckResult wrong = CheckRig(design, {Simulate(stored_, 60, 0.1, 0.15, 4)});
+  std::printf("wrong model: lips %.2f px rms, %d matches: %s\n", wrong.lip_rms_px, wrong.n_matches,
+              wrong.reason.c_str());
+  EXPECT_EQ(wrong.verdict, Verdict::kCannotTell);
+  EXPECT_TRUE(wrong.model_misfit);
+  EXPECT_NE(wrong.reason.find("does not fit"), std::string::npos) << wrong.reason;
+  const CheckResult right = CheckRig(stored_, {Simulate(stored_, 60, 0.1, 0.15, 4)});
+  EXPECT_FALSE(right.model_misfit);
+  EXPECT_NE(right.reason.find("too little texture"), std::string::npos) << right.reason;
+}
+
 }  // namespace
 }  // namespace omni::health
