@@ -11,9 +11,11 @@
 // against the model's: a quick check of a new camera (or of the lips' paints) before any target
 // is printed.
 // --model M detects with M instead of the session's model (a second pass from the calibrated model).
+#include <array>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -158,11 +160,19 @@ int RunDetect() {
                        image, ctx.layout, *det);
         }
         det->file = RelativeTo(r.file, out_dir);
+        // Per target: corners in ring 1 / ring 2 (what a user checks each photo by).
+        std::map<int, std::array<int, 2>> per_target;
+        for (const CornerObservation& c : det->corners) ++per_target[c.target][MirrorIndex(c.mirror) - 1];
+        std::string targets;
+        for (const auto& [t, count] : per_target) {
+          targets += (targets.empty() ? "; " : ", ") + std::string("target ") + std::to_string(t) +
+                     " " + std::to_string(count[0]) + " / " + std::to_string(count[1]);
+        }
         char line[512];
         std::snprintf(line, sizeof(line),
-                      "[%zu/%zu] %s: %d corners in ring 1, %d in ring 2, %zu lip edges (%.0f ms)",
+                      "[%zu/%zu] %s: %d corners in ring 1, %d in ring 2, %zu lip edges (%.0f ms)%s",
                       r.index + 1, r.total, file, r.corners[0], r.corners[1], det->lips.size(),
-                      r.ms);
+                      r.ms, targets.c_str());
         progress.Done(line);
       });
   detections.session = RelativeTo(session.path, out_dir);
@@ -173,6 +183,23 @@ int RunDetect() {
   io::WriteDetectionsFile(FLAGS_out, detections);
   std::printf("%zu of %zu images used (%d skipped), %d corners, detections in %s\n",
               detections.images.size(), n, bad, corners, FLAGS_out.c_str());
+  // The session per target: in how many photos it was found, its corners per ring.
+  for (size_t t = 0; t < session.targets.size(); ++t) {
+    int photos = 0, ring[2] = {0, 0};
+    for (const ImageObservations& image : detections.images) {
+      bool seen = false;
+      for (const CornerObservation& c : image.corners) {
+        if (c.target != static_cast<int>(t)) continue;
+        seen = true;
+        ++ring[MirrorIndex(c.mirror) - 1];
+      }
+      photos += seen;
+    }
+    const TargetSpec& spec = session.targets[t];
+    std::printf("  target %zu (%s %dx%d): in %d of %zu photos, %d corners in ring 1, %d in ring 2%s\n",
+                t, TargetTypeName(spec.type), spec.rows, spec.cols, photos, detections.images.size(),
+                ring[0], ring[1], photos == 0 ? ": never found (check its rows/cols, size and first_id)" : "");
+  }
   if (session.targets.empty()) PrintLipCheck(detections, RigModel(rig));
   return 0;
 }

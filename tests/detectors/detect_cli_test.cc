@@ -62,6 +62,9 @@ TEST(DetectCliTest, BadImagesAreSkippedWithOneLineEach) {
   EXPECT_NE(err.find("broken.png: cannot read"), std::string::npos) << err;
   EXPECT_NE(err.find("grey.png: no target corners found"), std::string::npos) << err;
   EXPECT_NE(out.find("1 of 3 images used (2 skipped)"), std::string::npos) << out;
+  // The session per target (issue 38): a target found in no photo is named.
+  EXPECT_NE(out.find("target 0 (chessboard 6x8): in 0 of 1 photos, 0 corners in ring 1, 0 in ring 2: "
+                     "never found"), std::string::npos) << out;
   const Observations det = io::ReadDetectionsFile((dir / "det.yaml").string());
   ASSERT_EQ(det.images.size(), 1u);
   EXPECT_EQ(det.images[0].file, "grey.png");
