@@ -236,6 +236,24 @@ const char kStyle[] =
 // Each mirror's profile (calib ProfileDecision): freed or held, and the corners' mean radial
 // residual per band of the mirror's radius before the decision and at the end. A machining error
 // the model lacks shows as a smooth run of means many standard errors from zero.
+// The posts of the rig's mount (model/mount.h): where they stand and the azimuths they hide.
+std::string MountSection(const RigParams& rig) {
+  const Mount& m = rig.mount;
+  if (!m.present) return "<p>No mount in the model: nothing hides part of the rings.</p>\n";
+  std::string azimuths;
+  for (double a : m.azimuths) azimuths += (azimuths.empty() ? "" : ", ") + Format("%.1f", a * 180 / M_PI);
+  // A square post seen from the axis: its near face's corners at radius - width / 2.
+  const double wide_deg = 2 * std::atan2(0.5 * m.width, m.radius - 0.5 * m.width) * 180 / M_PI;
+  return "<p>" + std::to_string(m.azimuths.size()) + " posts of " + Format("%.1f", m.width) +
+         " mm at " + Format("%.1f", m.radius) + " mm from the axis of mirror " +
+         std::to_string(MirrorIndex(m.body)) + "'s body, z " + Format("%.1f", m.z_min) + " to " +
+         Format("%.1f", m.z_max) + " mm, at azimuths " + azimuths + " deg. Each hides about " +
+         Format("%.1f", wide_deg) + " deg of azimuth in both rings (" +
+         Format("%.1f", 100 * wide_deg * m.azimuths.size() / 360) +
+         "% of the view): paths through a post are invalid, so projection, panoramas, depth and "
+         "the check leave those sectors out, and no corner is expected there.</p>\n";
+}
+
 std::string ProfileSection(const calib::CalibrationResult& r) {
   std::ostringstream out;
   bool any = false;
@@ -315,6 +333,7 @@ std::string WriteReport(const std::string& dir, const ReportInput& in) {
        << Figure(per_image, note[3], "residual RMS per image")
        << Figure(per_target, note[6], "residual RMS per target")
        << "<h2>Mirror profiles</h2>\n" << ProfileSection(*in.result)
+       << "<h2>Mount</h2>\n" << MountSection(in.result->rig)
        << "<h2>Coverage</h2>\n"
        << Figure(angles, note[7], "where the corners' rays point, per ring")
        << Figure(coverage, note[1], "where corners were seen (every image)")

@@ -19,6 +19,7 @@
 #include "model/design/tolerance_file.h"
 #include "model/model_compare.h"
 #include "model/rig_model.h"
+#include "model/io/model_file.h"
 #include "report/report.h"
 #include "tests/calib/calib_test_util.h"
 #include "tests/report/browser_check.h"
@@ -109,9 +110,23 @@ TEST(Report, PageIsSelfContainedAndEveryImageIsWritten) {
   EXPECT_EQ(html.find("class=\"missing\""), std::string::npos);
   for (const char* section : {"Advice", "Parameters", "Residuals", "Coverage",
                               "Projection uncertainty", "Triangulation uncertainty",
-                              "Assembly tolerances",
+                              "Assembly tolerances", "Mount",
                               "Strongest correlations", "Left out"}) {
     EXPECT_NE(html.find(std::string("<h2>") + section + "</h2>"), std::string::npos) << section;
+  }
+  EXPECT_NE(html.find("No mount in the model"), std::string::npos);
+  // A rig on posts (issue 39): the page says where they stand and what they hide, 3 mm at 41.5
+  // mm: 2 atan(1.5 / 40) = 4.3 deg each.
+  {
+    ReportInput posts = InputOf(s);
+    calib::CalibrationResult with_mount = s.result;
+    with_mount.rig.mount = io::ReadModelFile(std::string(OMNI_SOURCE_DIR) +
+                                             "/sample_configs/big_rig_prototype.yaml").mount;
+    posts.result = &with_mount;
+    const std::string page = Read(WriteReport(dir + "_posts", posts));
+    EXPECT_NE(page.find("3 posts of 3.0 mm at 41.5 mm from the axis of mirror 1's body"), std::string::npos);
+    EXPECT_NE(page.find("at azimuths 90.0, 210.0, 330.0 deg. Each hides about 4.3 deg"), std::string::npos);
+    fs::remove_all(dir + "_posts");
   }
   testing::CheckReportInBrowser(dir, 8);
   for (const std::string& a : Advice(InputOf(s))) {
