@@ -16,6 +16,8 @@ namespace {
 constexpr int kMinCornersPerRing = 100;   // fewer: the ring's parameters rest on little data
 constexpr int kMinOutliersToName = 10;    // outliers of one target in one image worth a look
 constexpr double kPrintErrorPx = 0.5;     // ... when their median residual is this large
+constexpr int kFewPhotos = 20;            // fewer photos than this: say the guide asks 20-40
+constexpr double kTargetRmsFactor = 2.0;  // a target's residual RMS over the median target's
 constexpr int kAzimuthSectors = 6;        // 60 deg each
 constexpr double kEmptyBandShare = 0.02;  // a third of the band with fewer corners is empty
 
@@ -169,6 +171,59 @@ void ProfileAdvice(const calib::CalibrationResult& r, std::vector<std::string>* 
   }
 }
 
+// Everything else the page shows that a user would act on: the assembly tolerances' verdicts,
+// a session with fewer photos than the guide asks, and a target whose residuals stand out.
+void SessionAdvice(const ReportInput& in, std::vector<std::string>* out) {
+  std::string failed, undecided;
+  for (const design::ToleranceCheck& t : in.tolerances) {
+    if (t.verdict == design::Verdict::kFail) failed += (failed.empty() ? "" : ", ") + t.name;
+    if (t.verdict == design::Verdict::kUndecided) undecided += (undecided.empty() ? "" : ", ") + t.name;
+  }
+  if (!failed.empty()) {
+    out->push_back("assembly: " + failed + " outside its tolerance (see Assembly tolerances): "
+                   "adjust the rig there and calibrate again");
+  }
+  if (!undecided.empty()) {
+    out->push_back("assembly: " + undecided + " undecided (its value, within its uncertainty, straddles the "
+                   "limit): more photos, targets near and far in both rings, would decide");
+  }
+  const int photos = in.observations ? static_cast<int>(in.observations->images.size()) : 0;
+  if (photos > 0 && photos < kFewPhotos) {
+    out->push_back(std::to_string(photos) + " photos: 20-40 with 1-3 targets each, near and far, "
+                   "high and low, determine the rig and its lens better (docs/guide.md, step 3)");
+  }
+  // Per target: the RMS of its residuals against the median target's.
+  std::map<int, std::pair<double, int>> per_target;  // target -> (sum of squares, count)
+  for (const calib::CornerResidual& r : in.result->residuals) {
+    auto& [ss, n] = per_target[r.target];
+    ss += r.residual.squaredNorm();
+    ++n;
+  }
+  if (per_target.size() < 2) return;
+  std::vector<double> rms;
+  for (const auto& [t, v] : per_target) rms.push_back(std::sqrt(v.first / v.second));
+  std::vector<double> sorted = rms;
+  std::sort(sorted.begin(), sorted.end());
+  const double median = sorted[(sorted.size() - 1) / 2];
+  size_t k = 0;
+  for (const auto& [t, v] : per_target) {
+    const double r = rms[k++];
+    if (median > 0 && r > kTargetRmsFactor * median) {
+      char line[400];
+      const std::string name = t < static_cast<int>(in.targets.size())
+          ? std::string(TargetTypeName(in.targets[t].type)) + " " + std::to_string(in.targets[t].rows) +
+                "x" + std::to_string(in.targets[t].cols)
+          : "?";
+      std::snprintf(line, sizeof(line),
+                    "target %d (%s): its corners' residuals are %.3f px rms, %.1f times the other "
+                    "targets' median (%.3f px): a print that is not flat, or its detections "
+                    "(see Residual RMS per target and the overlays)",
+                    t, name.c_str(), r, r / median, median);
+      out->push_back(line);
+    }
+  }
+}
+
 std::vector<std::string> Advice(const ReportInput& in) {
   std::vector<std::string> out;
   if (!in.result->converged) {
@@ -181,6 +236,7 @@ std::vector<std::string> Advice(const ReportInput& in) {
     out.push_back(u.name + " is not determined by this session: " + u.hint);
   }
   ProfileAdvice(*in.result, &out);
+  SessionAdvice(in, &out);
   return out;
 }
 

@@ -158,5 +158,35 @@ TEST(Report, AdviceAsksForHigherTargetsWhereTheSessionHasNone) {
   EXPECT_TRUE(asked);
 }
 
+// Advice from everything the page shows (issue 38: with --tolerances the page showed FAIL and
+// UNDECIDED verdicts, a target with the worst residuals and 16 photos, and Advice said "Nothing
+// stands out"): the failed and undecided tolerances by name, a session under 20 photos, and a
+// target whose residuals are over twice the others' median.
+TEST(Report, AdviceNamesWhatThePageShows) {
+  const Solved s = Solve([](const RigModel&, const CornerObservation&) { return true; });
+  ReportInput in = InputOf(s);
+  design::ToleranceCheck fail, undecided;
+  fail.name = "mirror2.decentre";
+  fail.verdict = design::Verdict::kFail;
+  undecided.name = "reflex.tilt";
+  undecided.verdict = design::Verdict::kUndecided;
+  in.tolerances = {fail, undecided};
+  calib::CalibrationResult worse = s.result;
+  for (auto& r : worse.residuals) {
+    if (r.target == 0) r.residual *= 5;
+  }
+  in.result = &worse;
+  const std::vector<std::string> advice = Advice(in);
+  std::string all;
+  for (const auto& a : advice) all += a + "\n";
+  std::fprintf(stderr, "%s", all.c_str());
+  EXPECT_NE(all.find("assembly: mirror2.decentre outside its tolerance"), std::string::npos) << all;
+  EXPECT_NE(all.find("assembly: reflex.tilt undecided"), std::string::npos) << all;
+  EXPECT_NE(all.find("target 0 ("), std::string::npos) << all;
+  if (s.detections.images.size() < 20) {
+    EXPECT_NE(all.find(std::to_string(s.detections.images.size()) + " photos: 20-40"), std::string::npos) << all;
+  }
+}
+
 }  // namespace
 }  // namespace omni::report
