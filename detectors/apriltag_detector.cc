@@ -148,6 +148,31 @@ std::array<cv::Point2f, 4> Printed(const Eigen::Vector2d (&corners)[4]) {
   return q;
 }
 
+// A Kalibr corner fitted as a blurred X-junction (corner_refine.h FitBlurredJunction) from
+// `start`, in a window of half `half`: its lines are the tag's edges through the corner,
+// continued along the corner square's sides, as the view's map bends them (raw points half a tag
+// side either side of `mapped`, the corner's raw pixel). With `across` a line whose one side the
+// view does not show (a post covers it) is continued straight across the corner. `start` where
+// the lines or the fit fail.
+Eigen::Vector2d FitKalibrJunction(const cv::Mat& grey, const RingView& view, const ViewTag& t, int k,
+                                  const Eigen::Vector2d& mapped, const Eigen::Vector2d& start,
+                                  double half, bool across) {
+  const auto line = [&](int other) -> std::optional<LocalLine> {
+    const Eigen::Vector2d step = 0.5 * (t.corners[other] - t.corners[k]);
+    std::optional<Eigen::Vector2d> back = view.ViewToRaw(t.corners[k] - step);
+    std::optional<Eigen::Vector2d> ahead = view.ViewToRaw(t.corners[k] + step);
+    if (across && !back && ahead) back = 2 * mapped - *ahead;
+    if (across && !ahead && back) ahead = 2 * mapped - *back;
+    if (!back || !ahead) return std::nullopt;
+    std::vector<std::optional<Eigen::Vector2d>> points = {back, mapped, ahead};
+    return LineThroughCorner(points, 1, 3, 1, true);
+  };
+  const auto row = line((k + 1) % 4), col = line((k + 3) % 4);
+  if (!row || !col) return start;
+  const auto fit = FitBlurredJunction(grey, start, *row, *col, half);
+  return fit ? fit->corner : start;
+}
+
 // One read tag carries its grid: in a view a target is a homography of its plane, so the tags of
 // a target read in view `v` predict where its other tags are (nearest first, the homography
 // refitted to every tag accepted so far). A predicted tag is taken, with the id its place on the
@@ -851,22 +876,8 @@ std::vector<TagCornerDetection> DetectTagCorners(const cv::Mat& raw_bgr,
                                         options.max_refine_shift_px, &refined[k]);
         }
         if (whole[k] && options.kalibr_fit_junction) {
-          // The junction's lines: the tag's edges through the corner, continued along the corner
-          // square's sides, as the view's map bends them (raw points half a tag side either side).
-          const auto line = [&](int other) -> std::optional<LocalLine> {
-            const Eigen::Vector2d step = 0.5 * (t.corners[other] - t.corners[k]);
-            std::vector<std::optional<Eigen::Vector2d>> points = {
-                view.ViewToRaw(t.corners[k] - step), mapped[k], view.ViewToRaw(t.corners[k] + step)};
-            if (!points[0] || !points[2]) return std::nullopt;
-            return LineThroughCorner(points, 1, 3, 1, true);
-          };
-          const auto row = line((k + 1) % 4), col = line((k + 3) % 4);
-          if (row && col) {
-            if (const auto fit = FitBlurredJunction(grey, refined[k], *row, *col,
-                                                    options.kalibr_junction_window * side)) {
-              refined[k] = fit->corner;
-            }
-          }
+          refined[k] = FitKalibrJunction(grey, view, t, k, mapped[k], refined[k],
+                                         options.kalibr_junction_window * side, false);
         }
         continue;
       }
@@ -954,23 +965,10 @@ std::vector<TagCornerDetection> DetectTagCorners(const cv::Mat& raw_bgr,
                              std::max(1.5, 0.12 * side), options.kalibr.min_contrast)) {
         continue;
       }
-      Eigen::Vector2d refined = *mapped;
-      if (options.kalibr_fit_junction) {
-        const auto line = [&](int other) -> std::optional<LocalLine> {
-          std::optional<Eigen::Vector2d> back = along(other, -0.5), ahead = along(other, 0.5);
-          if (!back && ahead) back = 2 * *mapped - *ahead;  // straight across the corner
-          if (!ahead && back) ahead = 2 * *mapped - *back;
-          if (!back || !ahead) return std::nullopt;
-          std::vector<std::optional<Eigen::Vector2d>> points = {back, mapped, ahead};
-          return LineThroughCorner(points, 1, 3, 1, true);
-        };
-        const auto row = line((k + 1) % 4), col = line((k + 3) % 4);
-        if (row && col) {
-          if (const auto fit = FitBlurredJunction(grey, refined, *row, *col, options.kalibr_junction_window * side)) {
-            refined = fit->corner;
-          }
-        }
-      }
+      const Eigen::Vector2d refined =
+          options.kalibr_fit_junction
+              ? FitKalibrJunction(grey, view, t, k, *mapped, *mapped, options.kalibr_junction_window * side, true)
+              : *mapped;
       TagCornerDetection d;
       d.observation.target = target;
       d.observation.id = 4 * t.tag_id + k;
