@@ -160,6 +160,10 @@ int main(int argc, char** argv) {
   // kSpacedPx away (true pixels): issue 17's recall applies to junctions resolved that far apart.
   const double kSpacedPx = 4.0;
   std::map<std::pair<int, int>, Bin> spaced_by_kind;
+  // Issue 39's acceptance: whole targets (one placement in one ring) whose junctions are at least
+  // kResolvedPx apart (the median over its corners of the nearest other corner), per ring.
+  const double kResolvedPx = 6.0;
+  std::map<int, Bin> resolved_by_ring;
   std::vector<double> times_ms, cpu_ms;  // wall clock, process CPU time (one thread)
   const double match_px = 3.0;
   // EVAL_DETECTORS_CSV=FILE: every matched corner (detected and true pixel, range) and every
@@ -278,6 +282,7 @@ int main(int argc, char** argv) {
     }
     // (target, mirror) -> visible, found, range: to name the boards that were missed.
     std::map<std::pair<int, int>, std::array<double, 3>> boards;
+    std::map<std::pair<int, int>, std::vector<double>> nearest_by_board;
     for (size_t i = 0; i < truth.size(); ++i) {
       for (int m = 1; m <= 2; ++m) {
         if (!truth[i].pixel[m - 1]) continue;
@@ -304,6 +309,7 @@ int main(int argc, char** argv) {
           ++spaced.visible;
           if (truth_found[2 * i + m - 1]) ++spaced.found;
         }
+        nearest_by_board[{truth[i].target, m}].push_back(nearest);
         auto& b = boards[{truth[i].target, m}];
         b[0] += 1;
         b[1] += truth_found[2 * i + m - 1] ? 1 : 0;
@@ -311,6 +317,10 @@ int main(int argc, char** argv) {
       }
     }
     for (const auto& [key, b] : boards) {
+      if (Percentile(nearest_by_board[key], 0.5) >= kResolvedPx) {
+        resolved_by_ring[key.second].visible += static_cast<int>(b[0]);
+        resolved_by_ring[key.second].found += static_cast<int>(b[1]);
+      }
       if (b[1] < b[0]) {
         std::fprintf(stderr, "%s: missed: target %d ring %d at %.2f m: %.0f of %.0f visible corners found\n",
                      image.name.c_str(), key.first, key.second, b[2] / 1000, b[1], b[0]);
@@ -371,6 +381,12 @@ int main(int argc, char** argv) {
   std::printf("corners at least %.0f px from their target's other corners in the ring:\n", kSpacedPx);
   for (const auto& [key, bin] : spaced_by_kind) {
     std::printf("%-6d %-10s %8d %8d %7.1f%%\n", key.second, kKindNames[key.first], bin.visible, bin.found,
+                100.0 * bin.found / std::max(1, bin.visible));
+  }
+  std::printf("targets whose junctions are at least %.0f px apart (median nearest) in the ring:\n",
+              kResolvedPx);
+  for (const auto& [ring, bin] : resolved_by_ring) {
+    std::printf("%-6d %-10s %8d %8d %7.1f%%\n", ring, "resolved", bin.visible, bin.found,
                 100.0 * bin.found / std::max(1, bin.visible));
   }
   // Guided corners alone (guided_detection.h): how many, their error and wrong ids.

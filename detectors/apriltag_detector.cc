@@ -760,7 +760,7 @@ std::vector<TagCornerDetection> DetectTagCorners(const cv::Mat& raw_bgr,
       std::vector<Region> regions;
       if (options.kalibr_saddle_gate) {
         regions = Regions(SaddlePoints(rendered, options.kalibr_saddles), view_grey.size(),
-                          options.kalibr_saddles);
+                          options.kalibr_saddles, view.f);
       } else {
         regions.emplace_back();
         regions.back().rect = crop_rect;

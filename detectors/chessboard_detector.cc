@@ -761,7 +761,7 @@ std::vector<BoardDetection> DetectChessboardBoards(const cv::Mat& raw_grey,
   for (size_t vi = 0; vi < views.size(); ++vi) {
     const RingView& view = views[vi];
     const cv::Mat in_ring = RingPixels(view, 0), trusted = RingPixels(view, options.edge_margin_rad);
-    for (const Region& region : Regions(SaddlePoints(view, Saddles(options)), view.image.size(), Saddles(options))) {
+    for (const Region& region : Regions(SaddlePoints(view, Saddles(options)), view.image.size(), Saddles(options), view.f)) {
       if (BetterInNeighbour(view, region.rect, views.size() / 2)) continue;
       for (BoardDetection& board : SearchRegion(raw_grey, view, in_ring, trusted, model, targets, patterns, region,
                                                         views.size() / 2, options)) {

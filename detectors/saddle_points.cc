@@ -95,10 +95,13 @@ int Find(std::vector<int>& parent, int i) {
 // times the smaller of their 4th-nearest-neighbour distances (a grid corner's 4th neighbour is at
 // most 2 squares away; neighbouring boards are at least 3 squares apart with their margins).
 std::vector<Region> Regions(const std::vector<cv::Point2f>& points, const cv::Size& size,
-                            const SaddleOptions& options) {
+                            const SaddleOptions& options, double view_f) {
   const int n = static_cast<int>(points.size());
-  // Buckets of kCell pixels; neighbours are searched within kReach buckets.
-  constexpr int kCell = 16, kReach = 3;
+  // Buckets of kCell pixels; neighbours are searched within kReach buckets: ~9.4 degrees of the
+  // view (48 px at the 293 px/rad of a 1280x960 image's views, never less), so that a near
+  // board's squares link at any resolution (at 5 MP a 35 mm square at 0.4 m is ~60 view px).
+  constexpr int kReach = 3;
+  const int kCell = std::max(16, static_cast<int>(std::lround(0.164 * view_f / kReach)));
   const int bw = size.width / kCell + 1, bh = size.height / kCell + 1;
   std::vector<std::vector<int>> buckets(bw * bh);
   for (int i = 0; i < n; ++i) {

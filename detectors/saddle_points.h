@@ -39,9 +39,10 @@ std::vector<cv::Point2f> SaddlePoints(const RingView& view, const SaddleOptions&
 
 
 // Groups saddle points into candidate regions: a point links to another closer than 1.25 times
-// the smaller of their 4th-nearest-neighbour distances. Each region's box has a margin of
-// 2.5 spacings + 8 px beyond its outermost points.
+// the smaller of their 4th-nearest-neighbour distances, searched within ~9.4 degrees of a view
+// of `view_f` pixels per radian (at least 48 px). Each region's box has a margin of 2.5 spacings
+// + 8 px beyond its outermost points.
 std::vector<Region> Regions(const std::vector<cv::Point2f>& points, const cv::Size& size,
-                            const SaddleOptions& options);
+                            const SaddleOptions& options, double view_f);
 
 }  // namespace omni::detectors
