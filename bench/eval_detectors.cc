@@ -187,6 +187,15 @@ int main(int argc, char** argv) {
         raw = synthetic::ApplyCamera(pinhole, rig, *camera, scene.noise_seed + index);
         std::vector<uchar> bytes;
         synthetic::EncodeCameraImage(raw, *camera, &bytes);
+        // EVAL_SAVE_DIR=DIR: the image as the camera wrote it, DIR/NNNN.jpg or .png (to look at).
+        if (const char* save = std::getenv("EVAL_SAVE_DIR")) {
+          const std::string ext = camera->jpeg_quality > 0 ? ".jpg" : ".png";
+          std::FILE* f = std::fopen((std::string(save) + "/" + image.name + ext).c_str(), "wb");
+          if (f) {
+            std::fwrite(bytes.data(), 1, bytes.size(), f);
+            std::fclose(f);
+          }
+        }
         ctx.chroma_halved = io::HasHalvedChroma(bytes);
         ctx.luma = io::ReadStoredLuma(bytes);
         raw = cv::imdecode(bytes, cv::IMREAD_UNCHANGED);
