@@ -1,4 +1,4 @@
-// `omnistereo project` and `omnistereo unproject` (DESIGN.md §5): stream a CSV through the
+// `omnistereo project` and `omnistereo unproject` (docs/design.md, Conventions): stream a CSV through the
 // non-central rig model (model/rig_model.h). The output is written to a temporary file and
 // renamed into place only after the last row, so bad input never leaves a half-written file.
 #include <cmath>

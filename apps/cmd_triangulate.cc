@@ -1,6 +1,6 @@
 // `omnistereo triangulate --model M --detections D --out out.csv [--sigma_px S] [--truth T]`
 // (without --sigma_px: a calibrated model's measured corner noise per ring, else 1 px)
-// (DESIGN.md §5): every corner seen in both rings of an image is triangulated
+// (docs/design.md, Conventions): every corner seen in both rings of an image is triangulated
 // (model/triangulation.h) with its 3x3 covariance [uncertainty_propagation]. With --truth (the
 // `omnistereo-truth/1` file of a synthetic session) the paper's table
 // (tab:rmse_triangulation_experiment) is printed: RMSE, SD and points per range, with the mean

@@ -1,4 +1,4 @@
-// omnistereo <command> [--flags]: the toolkit's one executable (DESIGN.md §5).
+// omnistereo <command> [--flags]: the toolkit's one executable (docs/design.md, Conventions).
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>

@@ -209,7 +209,7 @@ cv::Mat RenderOracle(const Setup& s, int samples, int parity) {
         int n = 0;
         for (int a = 0; a < samples; ++a) {
           for (int b = 0; b < samples; ++b) {
-            // Pixel (u, v) covers [u - 0.5, u + 0.5] x [v - 0.5, v + 0.5] (DESIGN.md §2).
+            // Pixel (u, v) covers [u - 0.5, u + 0.5] x [v - 0.5, v + 0.5] (docs/design.md, Conventions).
             const Eigen::Vector2d q(u - 0.5 + (a + 0.5) / samples, v - 0.5 + (b + 0.5) / samples);
             if (s.direct) {
               const double yn = (q.y() - cy) / fy, xn = (q.x() - cx - skew * yn) / fx;

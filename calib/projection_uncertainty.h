@@ -1,4 +1,4 @@
-// What a calibration's uncertainty means where a user measures (DESIGN.md section 6): the
+// What a calibration's uncertainty means where a user measures (docs/design.md, Conventions): the
 // covariance of the rig parameters propagated to the pixels of points at a given range, held in
 // mirror 1's body M1 (the rig's physical frame, `triangulate --frame mirror1`) or in the camera
 // frame C, over the stereo band (model/model_compare.h's points). The same figure as

@@ -47,7 +47,7 @@ Eigen::Vector2d PredictedRefineBias(const Eigen::Vector2d& corner, const LocalLi
   cv::Mat patch(size, size, CV_32F);
   for (int v = 0; v < size; ++v) {
     for (int u = 0; u < size; ++u) {
-      // Pixel (x, y) covers [x - 0.5, x + 0.5] x [y - 0.5, y + 0.5] (DESIGN.md §2).
+      // Pixel (x, y) covers [x - 0.5, x + 0.5] x [y - 0.5, y + 0.5] (docs/design.md, Conventions).
       const Eigen::Vector2d centre = Eigen::Vector2d(x0 + u, y0 + v) - corner;
       const double f1 = Side(row, centre), f2 = Side(col, centre);
       float value;

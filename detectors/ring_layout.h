@@ -13,7 +13,7 @@
 //                starts at the outer of the two)
 //   mirror1_rim  mirror 1's rim (r_sys)            -> camera                   (outer edge of ring 1)
 //   lip1_outer   the blue lip's outer circle       -> camera
-// The mirrors also reflect the undersides of their own lips just inside their rims (DESIGN.md §1),
+// The mirrors also reflect the undersides of their own lips just inside their rims (docs/design.md, Conventions),
 // so the last few pixels inside mirror?_rim show a lip, not the world: the label there is still
 // the mirror's; the lip detector separates those images.
 // Each boundary is a closed curve around `centre`, stored as its radius at evenly spaced polar

@@ -1,4 +1,4 @@
-// The perspective camera of the rig (DESIGN.md §2): pinhole with skew and OpenCV's
+// The perspective camera of the rig (docs/design.md, Conventions): pinhole with skew and OpenCV's
 // radial-tangential distortion applied to normalised coordinates before K
 // [camera_intrinsic_matrix]. Pixel centres at integer coordinates.
 #pragma once

@@ -1,4 +1,4 @@
-// The coloured lips (DESIGN.md §1) as 3D circles and the optical paths by which the camera sees
+// The coloured lips (docs/design.md, Conventions) as 3D circles and the optical paths by which the camera sees
 // them. A lip is a flat annulus r_inner <= r <= r_outer at height z in its mirror's body frame
 // (RigParams::lip1 / lip2); its two boundary circles are what an image edge can be the image of.
 //

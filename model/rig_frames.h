@@ -1,4 +1,4 @@
-// Frames of a misaligned rig (DESIGN.md §2), templated on the scalar:
+// Frames of a misaligned rig (docs/design.md, Conventions), templated on the scalar:
 //   cam_from_mirror_i: point_in_cam = R(rx, ry, 0) * point_in_mirror_i + (tx, ty, tz);
 //   the reflex plane, part of mirror 1's body: through (0, 0, d/2 + dz) in M1 with normal
 //   R(rx_ref, ry_ref, 0) * (0, 0, -1).

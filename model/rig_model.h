@@ -1,4 +1,4 @@
-// The generalised, NON-central rig model (DESIGN.md §1-§3): a pinhole camera with radial-tangential
+// The generalised, NON-central rig model (docs/design.md, Conventions): a pinhole camera with radial-tangential
 // distortion, two hyperboloidal mirror bodies each with its own misalignment cam_from_mirror_i, and
 // the planar reflex disc that is part of mirror 1's body. With every misalignment zero and no
 // distortion it equals IdealModel (ideal_model.h) to rounding.

@@ -1,4 +1,4 @@
-// The rig's 39 parameters in one table (issue 18; each mirror's profile, issue 40): DESIGN.md §2's names, the block each lives in
+// The rig's 39 parameters in one table (issue 18; each mirror's profile, issue 40): the names of docs/design.md's Conventions, the block each lives in
 // (RigParams' arrays, the groups a session's `estimate` names) and its index there, its place in
 // the flat vector, its internal unit, the sigma beyond which calibration calls it nearly
 // unobservable, the value beyond any assembly error, whether a session may hold it with an
@@ -38,7 +38,7 @@ inline constexpr int kCameraOffset = 0, kDistortionOffset = 5, kShape1Offset = 1
                      kProfile1Offset = 27, kProfile2Offset = 33;
 
 struct RigParameter {
-  const char* name;   // DESIGN.md §2: "fx", "dist_k1", "c1", "mirror1.rx", "reflex.dz"
+  const char* name;   // docs/design.md, Conventions: "fx", "dist_k1", "c1", "mirror1.rx", "reflex.dz"
   const char* block;  // kRigBlocks' name
   int index;          // within the block
   int flat;           // within the flat vector

@@ -1,5 +1,5 @@
 // The parameters of a (possibly misaligned) rig, grouped in the blocks a calibration fixes or
-// refines independently (DESIGN.md §2, shared/formats/model_example.yaml). Plain data: the maths
+// refines independently (docs/design.md, Conventions; tests/data/model_example.yaml). Plain data: the maths
 // that uses them lives in rig_model.h (non-central) and ideal_model.h (SVP).
 #pragma once
 

@@ -3,7 +3,7 @@
 // Target frame T (all kinds): the printed face is the plane z = 0 and faces -z (a camera looking
 // along +z sees it, as in OpenCV); seen from the printed side x runs right and y runs DOWN; the
 // origin is the first corner (chessboard) or the top-left outer corner of the top-left tag (tag
-// grids). Corner ids are the detections file's (shared/formats/detections_example.yaml):
+// grids). Corner ids are the detections file's (tests/data/detections_example.yaml):
 //   chessboard:            id = row * cols + col over INNER corners, row 0 at the top;
 //   apriltag_grid/kalibr:  id = 4 * tag_id + k, k = 0..3 the tag's outer black corners
 //                          counter-clockwise as seen from the printed side, starting bottom-left

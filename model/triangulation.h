@@ -1,5 +1,5 @@
 // Triangulation of a pixel pair (one pixel in each ring) for any rig model, with its covariance
-// (DESIGN.md §3, the paper's section "Range from Triangulation").
+// (docs/design.md, Conventions, the paper's section "Range from Triangulation").
 //
 //  - MidpointOnCommonPerpendicular: the midpoint of the common perpendicular of two (skew) rays
 //    [midpoint_on_common_perpendicular] ([linear_system_common_perpendicular] solved in closed

@@ -1,7 +1,7 @@
 // POV-Ray scene export of a rig model (ideal or misaligned) with targets, markers and a room, so
 // an independent ray tracer renders images through the true mirror geometry.
 //
-// Frames: the scene is written in the camera frame C (DESIGN.md §2; x right, y down, z forward)
+// Frames: the scene is written in the camera frame C (docs/design.md, Conventions; x right, y down, z forward)
 // mapped into POV-Ray's left-handed, y-up world by (x, y, z)_POV = (x, -y, z)_C. That map is a
 // reflection, and so is the change of handedness, so reflections and distances are preserved.
 // Camera: POV-Ray samples pixel i at screen x_s = (i + 0.5)/W - 0.5 and row j at

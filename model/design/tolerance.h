@@ -2,7 +2,7 @@
 // uncertainty, and (2) what would parts machined and assembled to them do to the images, before
 // anything is built (Monte Carlo over rigs drawn within the tolerances).
 //
-// Quantities checked, per mirror body (DESIGN.md §2 misalignment parameters):
+// Quantities checked, per mirror body (docs/design.md, Conventions misalignment parameters):
 //   decentre  = |(tx, ty)|   mm      tilt = |(rx, ry)|   rad      axial = |tz|   mm
 //   profile   = the peak-to-valley of the mirror's profile (model/mirror_profile.h) over its
 //               radii, mm: how far the machined surface departs from the conic

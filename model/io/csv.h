@@ -1,4 +1,4 @@
-// Streaming CSV point lists (DESIGN.md §5): a header row naming the columns, then one row of
+// Streaming CSV point lists (docs/design.md, Conventions): a header row naming the columns, then one row of
 // numbers per line. The reader holds one buffer, not the file, so million-row lists stream; the
 // writer writes to a temporary file that only Commit() renames into place.
 //

@@ -1,4 +1,4 @@
-// The detections file `omnistereo-detections/1` (shared/formats/detections_example.yaml): what
+// The detections file `omnistereo-detections/1` (tests/data/detections_example.yaml): what
 // `detect` writes and `calibrate` / `triangulate` read: the typed observations of
 // model/observations.h, checked when read (a lip edge's path must image its mirror's lip).
 #pragma once

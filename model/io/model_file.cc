@@ -500,7 +500,7 @@ std::string ModelFileText(const RigParams& rig) {
   out +=
       "# omnistereo-model/1: a single-camera folded catadioptric omnistereo rig (camera, two\n"
       "# hyperboloidal mirrors, reflex plane), written by the omnistereo toolkit.\n"
-      "# Units: mm and rad. Frames (DESIGN.md §2): camera C (OpenCV: +z along the optical axis),\n"
+      "# Units: mm and rad. Frames (docs/design.md, Conventions): camera C (OpenCV: +z along the optical axis),\n"
       "# mirror bodies M1, M2; cam_from_mirror maps M_i to C with tilt = rotation vector (rx, ry, 0).\n"
       "# Numbers are written to full double precision; `derived:` is for people and other tools\n"
       "# and is ignored when the file is read.\n";

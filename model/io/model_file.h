@@ -1,4 +1,4 @@
-// Reading and writing `omnistereo-model/1` YAML files (shared/formats/model_example.yaml).
+// Reading and writing `omnistereo-model/1` YAML files (tests/data/model_example.yaml).
 // I/O is kept apart from the geometry: model/ never includes this.
 #pragma once
 

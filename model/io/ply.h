@@ -1,4 +1,4 @@
-// Point clouds as PLY (DESIGN.md §4): x, y, z in mm in the camera frame C, colour, and each
+// Point clouds as PLY (docs/design.md, Conventions): x, y, z in mm in the camera frame C, colour, and each
 // point's standard deviation sigma_mm (the square root of the largest eigenvalue of its 3x3
 // covariance, [uncertainty_propagation]). Written atomically (file_util.h).
 //

@@ -1,4 +1,4 @@
-// The session file `omnistereo-session/1` (shared/formats/session_example.yaml): the starting
+// The session file `omnistereo-session/1` (tests/data/session_example.yaml): the starting
 // model, the images, the targets that may appear, what to estimate and how.
 //
 //   format: omnistereo-session/1

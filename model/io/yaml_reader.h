@@ -84,7 +84,7 @@ class Reader {
     return value;
   }
 
-  // An angle in radians under `name`, or in degrees under `name`_deg (DESIGN.md §2).
+  // An angle in radians under `name`, or in degrees under `name`_deg (docs/design.md, Conventions).
   double Angle(const YAML::Node& map, const std::string& path, const char* name) const {
     const std::string deg_name = std::string(name) + "_deg";
     const bool has_rad = map[name].IsDefined();
@@ -187,7 +187,7 @@ class Reader {
   std::string file_;
 };
 
-// Checks `format: <prefix><major>[.<minor>]` (DESIGN.md §4: unknown major versions are rejected).
+// Checks `format: <prefix><major>[.<minor>]` (docs/design.md, Conventions: unknown major versions are rejected).
 void CheckFormat(const Reader& in, const YAML::Node& root, const char* prefix, int major);
 
 // The whole file; InputError "<path>: expected a readable <what>, got ..." otherwise.

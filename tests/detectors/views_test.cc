@@ -48,7 +48,7 @@ TEST(RingLayoutTest, LabelsAgreeWithRayTracing) {
     const RingLabel expected = ray->mirror == Mirror::kOne ? RingLabel::kMirror1 : RingLabel::kMirror2;
     EXPECT_EQ(layout.LabelAt(pixel), expected) << pixel.transpose();
   }
-  // The rims and the reflex edge of the big rig at fx ~1450 px (see DESIGN.md §1): about 405 px
+  // The rims and the reflex edge of the big rig at fx ~1450 px (see docs/design.md, Conventions): about 405 px
   // for mirror 1's rim and 214 px for the reflex disc, within a few pixels of misalignment.
   EXPECT_NEAR(layout.mirror1_rim.RadiusAt(0.3), 405, 8);
   EXPECT_NEAR(layout.reflex_edge.RadiusAt(-2.0), 214, 6);

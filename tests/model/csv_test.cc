@@ -1,4 +1,4 @@
-// CSV point lists (DESIGN.md §5): columns by name, exact numbers, one-line errors with the line
+// CSV point lists (docs/design.md, Conventions): columns by name, exact numbers, one-line errors with the line
 // and column, streaming across buffer boundaries, and writes that leave nothing half-written.
 #include "model/io/csv.h"
 

@@ -74,7 +74,7 @@ TEST(ModelCompare, RotationRemovedIsTheLeastSquaresOne) {
 }
 
 // cam_from_mirror1 built from its block here, independently of the model's Pose: tilt (rx, ry) as
-// a rotation vector with z = 0, then the translation (DESIGN.md section 2).
+// a rotation vector with z = 0, then the translation (docs/design.md, Conventions).
 Eigen::Isometry3d CamFromMirror1Block(const RigParams& rig) {
   const Eigen::Vector3d tilt(rig.mirror1_pose[0], rig.mirror1_pose[1], 0);
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();

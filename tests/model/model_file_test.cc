@@ -1,4 +1,4 @@
-// Model files (shared/formats/model_example.yaml): bit-exact round trips, the shared example,
+// Model files (tests/data/model_example.yaml): bit-exact round trips, the shared example,
 // the derived section against an independent computation, one clear error per malformed input,
 // and atomic writes.
 #include "model/io/model_file.h"
