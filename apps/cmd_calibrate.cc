@@ -57,11 +57,15 @@ std::string UtcNow() {
 
 Observations DetectSession(const io::Session& session, const RigParams& start) {
   detectors::DetectorContext ctx(start, session.targets, session.use_lips);
-  std::printf("%s\n", Describe(detectors::GuideSessionByLips(session, &ctx)).c_str());
+  bool nothing_read = false;
+  const detectors::LipGuide guide = detectors::GuideSessionByLips(session, &ctx, &nothing_read);
+  if (!nothing_read) std::printf("%s\n", detectors::GuideLine(guide).c_str());
   std::fflush(stdout);  // before the progress lines on stderr
+  detectors::RepeatedSheets repeated;
   ProgressLine progress("detect", static_cast<int>(session.images.size()));
-  return detectors::DetectSession(
+  Observations detections = detectors::DetectSession(
       session, &ctx, [&](const detectors::ImageReport& r, const cv::Mat&, ImageObservations*) {
+        repeated.Add(r);
         for (size_t k = 0; k < r.warnings.size(); ++k) {
           const std::string line = "warning: " + r.file + ": " + r.warnings[k] +
                                    (r.skipped ? "; skipped" : "");
@@ -78,6 +82,10 @@ Observations DetectSession(const io::Session& session, const RigParams& start) {
           progress.Done(line);
         }
       });
+  progress.Finish();
+  const std::string note = repeated.Note(session.targets);
+  if (!note.empty()) std::fprintf(stderr, "warning: %s: %s\n", FLAGS_session.c_str(), note.c_str());
+  return detections;
 }
 
 // The calibration with its stages' lines on stderr and, on a terminal, a status line (stage,

@@ -133,7 +133,9 @@ int RunDetect() {
   // hid3 from the ideal design 89% of the corners, from the calibrated model 95%).
   const RigParams rig = io::ReadModelFile(FLAGS_model.empty() ? session.model_path : FLAGS_model);
   detectors::DetectorContext ctx(rig, session.targets, session.use_lips);
-  std::printf("%s\n", Describe(detectors::GuideSessionByLips(session, &ctx)).c_str());
+  bool nothing_read = false;
+  const detectors::LipGuide guide = detectors::GuideSessionByLips(session, &ctx, &nothing_read);
+  if (!nothing_read) std::printf("%s\n", detectors::GuideLine(guide).c_str());
   std::fflush(stdout);  // before the progress lines on stderr
   if (!FLAGS_overlay.empty()) {
     std::error_code ec;
@@ -143,10 +145,12 @@ int RunDetect() {
   const fs::path out_dir = fs::absolute(FLAGS_out).parent_path();
   int bad = 0, corners = 0;
   const size_t n = session.images.size();
+  detectors::RepeatedSheets repeated;
   ProgressLine progress("detect", static_cast<int>(n));
   Observations detections = detectors::DetectSession(
       session, &ctx,
       [&](const detectors::ImageReport& r, const cv::Mat& image, ImageObservations* det) {
+        repeated.Add(r);
         const char* file = r.file.c_str();
         if (r.skipped) {
           progress.Done(std::string("warning: ") + file + ": " + r.warnings.front() + "; skipped");
@@ -175,11 +179,10 @@ int RunDetect() {
                       r.ms, targets.c_str());
         progress.Done(line);
       });
+  progress.Finish();
+  const std::string note = repeated.Note(session.targets);
+  if (!note.empty()) std::fprintf(stderr, "warning: %s: %s\n", FLAGS_session.c_str(), note.c_str());
   detections.session = RelativeTo(session.path, out_dir);
-  if (detections.images.empty()) {
-    throw io::InputError(FLAGS_session + ": none of the " + std::to_string(n) +
-                         " images could be used; nothing written");
-  }
   io::WriteDetectionsFile(FLAGS_out, detections);
   std::printf("%zu of %zu images used (%d skipped), %d corners, detections in %s\n",
               detections.images.size(), n, bad, corners, FLAGS_out.c_str());
