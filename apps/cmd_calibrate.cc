@@ -39,8 +39,9 @@
 DEFINE_string(truth_model, "", "calibrate, refine: the true model file (synthetic sessions), to add a "
                                 "truth column to the table");
 DEFINE_string(report, "", "calibrate: write an HTML report (index.html and its images) into this folder");
-DEFINE_double(report_range_mm, 2000, "the range of the report's second projection-uncertainty map (mm; calibrate --report, report)");
-DEFINE_string(tolerances, "", "calibrate --report: an omnistereo-tolerances/1 file; the report gives the calibrated rig's verdicts");
+DEFINE_double(report_range_mm, 2000, "the range of the report's second projection-uncertainty map (mm)");
+DEFINE_string(tolerances, "", "an omnistereo-tolerances/1 file: the report gives the calibrated "
+                              "rig's verdicts against it");
 DECLARE_string(truth);
 
 namespace omni::apps {

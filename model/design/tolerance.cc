@@ -40,6 +40,15 @@ class NamedCovariance {
     }
     return std::sqrt(std::max(0.0, var));
   }
+  // The correlation of two named parameters (0 when either is missing or has no variance).
+  double Correlation(const std::string& a, const std::string& b) const {
+    if (!Has({a, b})) return 0;
+    const auto at = [&](const std::string& p, const std::string& q) {
+      return (*cov_)[index_.at(p) * n_ + index_.at(q)];
+    };
+    const double scale = std::sqrt(at(a, a) * at(b, b));
+    return scale > 0 ? at(a, b) / scale : 0;
+  }
 
  private:
   std::map<std::string, int> index_;
@@ -53,6 +62,8 @@ ToleranceCheck Magnitude2(const NamedCovariance& cov, const std::string& name,
                           const std::string& unit, const std::string& px, const std::string& py,
                           double x, double y, double limit) {
   ToleranceCheck check{name, unit, std::hypot(x, y), std::nullopt, limit, Verdict::kUndecided};
+  check.parameters = {px, py};
+  check.components = {x, y};
   if (cov.Has({px, py})) {
     if (check.value > 1e-12) {
       check.sigma = cov.Sigma({px, py}, {x / check.value, y / check.value});
@@ -66,6 +77,8 @@ ToleranceCheck Magnitude2(const NamedCovariance& cov, const std::string& name,
 ToleranceCheck Magnitude1(const NamedCovariance& cov, const std::string& name,
                           const std::string& unit, const std::string& p, double x, double limit) {
   ToleranceCheck check{name, unit, std::abs(x), std::nullopt, limit, Verdict::kUndecided};
+  check.parameters = {p};
+  check.components = {x};
   if (cov.Has({p})) check.sigma = cov.Sigma({p}, {1.0});
   return check;
 }
@@ -183,6 +196,15 @@ std::vector<ToleranceCheck> CheckTolerances(const RigParams& rig, const Toleranc
   }
   for (ToleranceCheck& c : checks) {
     Decide(spec.confidence_sigmas, &c);
+    for (const std::string& p : c.parameters) {
+      for (const char* camera : {"cx", "cy"}) {
+        const double r = cov.Correlation(p, camera);
+        if (std::abs(r) > std::abs(c.valley_correlation)) {
+          c.valley_correlation = r;
+          c.valley_pair = p + " ~ " + camera;
+        }
+      }
+    }
     // A profile the model does not carry was never measured: no verdict.
     const bool unmeasured_profile = (c.name == "mirror1.profile" && !rig.profile1.present) ||
                                     (c.name == "mirror2.profile" && !rig.profile2.present);

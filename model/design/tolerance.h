@@ -42,7 +42,18 @@ struct ToleranceCheck {
   std::optional<double> sigma;  // first-order sigma of the magnitude (calibrated models only)
   double limit = 0;
   Verdict verdict = Verdict::kUndecided;
+  // The signed parameters the magnitude is made of (mirror1.tx, mirror1.ty for a decentre;
+  // none for a profile): which way the part sits, so which way to move it.
+  std::vector<std::string> parameters;
+  std::vector<double> components;
+  // The strongest correlation (calibrated models) of one of `parameters` with the principal
+  // point (cx, cy), and the pair ("mirror1.ry ~ cx"): beyond kRotationValleyCorrelation the
+  // value lies in the camera-rotation valley, where turning the camera against the bodies moves
+  // it with the principal point, so the calibration cannot separate it from the camera's rotation.
+  double valley_correlation = 0;
+  std::string valley_pair;
 };
+constexpr double kRotationValleyCorrelation = 0.99;
 
 // Checks a model against the spec. With a covariance (rig.calibration, parameter names like
 // mirror1.tx, reflex.rx) a verdict is PASS only if value + k*sigma <= limit, FAIL only if
