@@ -310,9 +310,12 @@ std::string WriteReport(const std::string& dir, const ReportInput& in) {
   status("projection uncertainty");
   const std::vector<calib::PointUncertainty> map_1m =
       calib::ProjectionUncertaintyMap(*in.result, 1000);
-  const std::string near = UncertaintyMap(dir, map_1m, 1000, &note[4]);
-  const std::string far = UncertaintyMap(
-      dir, calib::ProjectionUncertaintyMap(*in.result, in.range_mm), in.range_mm, &note[5]);
+  const std::vector<calib::PointUncertainty> map_far =
+      calib::ProjectionUncertaintyMap(*in.result, in.range_mm);
+  // Both maps, both rings on one colour scale: a colour means the same sigma everywhere.
+  const double cb_max = std::max(LargestUncertaintyPx(map_1m), LargestUncertaintyPx(map_far));
+  const std::string near = UncertaintyMap(dir, map_1m, 1000, cb_max, &note[4]);
+  const std::string far = UncertaintyMap(dir, map_far, in.range_mm, cb_max, &note[5]);
   status("triangulation uncertainty");
   const calib::ProjectionUncertainty at_1m = calib::RmsOf(map_1m);
 
