@@ -173,8 +173,8 @@ int RunDetect() {
       photos += seen;
     }
     const TargetSpec& spec = session.targets[t];
-    std::printf("  target %zu (%s %dx%d): in %d of %zu photos, %d corners in ring 1, %d in ring 2%s\n",
-                t, TargetTypeName(spec.type), spec.rows, spec.cols, photos, detections.images.size(),
+    std::printf("  target %zu (%s): in %d of %zu photos, %d corners in ring 1, %d in ring 2%s\n",
+                t, TargetName(spec).c_str(), photos, detections.images.size(),
                 ring[0], ring[1], photos == 0 ? ": never found (check its rows/cols, size and first_id)" : "");
   }
   if (session.targets.empty()) PrintLipCheck(detections, RigModel(rig));

@@ -105,8 +105,7 @@ std::string RepeatedSheets::Note(const std::vector<TargetSpec>& targets) const {
   for (const auto& [t, photos] : photos_) {
     const TargetSpec& spec = targets[t];
     which += (which.empty() ? "" : ", ") + std::string("target ") + std::to_string(t) + " (" +
-             TargetTypeName(spec.type) + " " + std::to_string(spec.rows) + "x" +
-             std::to_string(spec.cols) + ") in " + std::to_string(photos) + " photo(s)";
+             TargetName(spec) + ") in " + std::to_string(photos) + " photo(s)";
   }
   return "more copies of one sheet in a ring than the session lists targets of its pattern: " +
          which + "; one copy per ring was kept, the others left out. Copies of one pattern cannot "
