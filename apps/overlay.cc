@@ -111,6 +111,7 @@ cv::Mat DrawOverlay(const cv::Mat& image, const detectors::RingLayout& layout,
   const double id_scale = 0.35 * s, name_scale = 0.5 * s;
   std::vector<cv::Point2d> anchors;
   std::vector<std::pair<std::string, cv::Scalar>> labels;
+  std::vector<cv::Rect> names;  // where the boards' names went
   for (const auto& [key, corners] : boards) {
     const cv::Scalar colour = key.second == 1 ? kRing1 : kRing2;
     Eigen::Vector2d lo = corners[0]->pixel, hi = lo;
@@ -123,7 +124,22 @@ cv::Mat DrawOverlay(const cv::Mat& image, const detectors::RingLayout& layout,
         (key.first >= 0 && key.first < static_cast<int>(targets.size())
              ? " " + TargetName(targets[key.first])
              : std::string());
-    Text(&out, name, cv::Point(cvRound(lo.x()), cvRound(hi.y() + 16 * s)), name_scale, colour);
+    // Below the board, else above it, else right of it: where no other board's name is.
+    int base = 0;
+    const cv::Size size = cv::getTextSize(name, cv::FONT_HERSHEY_SIMPLEX, name_scale, 1, &base);
+    const cv::Point below(cvRound(lo.x()), cvRound(hi.y() + 16 * s)),
+        above(cvRound(lo.x()), cvRound(lo.y() - 8 * s)),
+        right(cvRound(hi.x() + 8 * s), cvRound(0.5 * (lo.y() + hi.y())));
+    cv::Point at = below;
+    for (const cv::Point& candidate : {below, above, right}) {
+      const cv::Rect box(candidate.x, candidate.y - size.height, size.width, size.height + base);
+      if (std::none_of(names.begin(), names.end(), [&](const cv::Rect& r) { return (r & box).area() > 0; })) {
+        at = candidate;
+        break;
+      }
+    }
+    names.emplace_back(at.x, at.y - size.height, size.width, size.height + base);
+    Text(&out, name, at, name_scale, colour);
     for (const CornerObservation* c : corners) {
       anchors.emplace_back(c->pixel.x(), c->pixel.y());
       labels.emplace_back(std::to_string(c->id), colour);

@@ -2,7 +2,8 @@
 // so that a person can check it at a glance (docs/guide.md step 5).
 //   - the ring boundaries the model predicts (cyan lines);
 //   - corners as crosses coloured by ring (mirror 1 green, mirror 2 magenta); each board named
-//     once per ring beside its corners ("T0 chessboard 5x6"), and the ids of as many corners as
+//     once per ring beside its corners ("T0 chessboard 5x6": below, else above or right of it
+//     where another board's name is not), and the ids of as many corners as
 //     can be read without overlapping (SpreadLabels: the inner ring's corners are 3-5 px apart,
 //     one label per corner was one magenta blob);
 //   - lip edge points as single yellow pixels, so that the painted band between them stays

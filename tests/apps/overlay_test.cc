@@ -77,6 +77,38 @@ TEST(Overlay, LegendAndSinglePixelLipPoints) {
   }
 }
 
+// Two boards' names that would fall on one another (a board seen at the same place in both
+// rings' corners): the second goes above its board.
+TEST(Overlay, BoardNamesDoNotOverlap) {
+  const cv::Mat photo(960, 1280, CV_8UC3, cv::Scalar(0, 0, 0));
+  ImageObservations det;
+  for (const Mirror mirror : {Mirror::kOne, Mirror::kTwo}) {
+    for (const cv::Point2d& p : DenseBoard()) {
+      CornerObservation c;
+      c.target = 0;
+      c.id = 0;
+      c.mirror = mirror;
+      c.pixel = Eigen::Vector2d(p.x, p.y);
+      det.corners.push_back(c);
+    }
+  }
+  const cv::Mat out = DrawOverlay(photo, detectors::RingLayout(), det, {ChessboardSpec(6, 8, 40)});
+  // The board spans rows 400-420; ring 1's name below it, ring 2's above.
+  const auto count = [&](int v0, int v1, bool magenta) {
+    int n = 0;
+    for (int v = v0; v < v1; ++v) {
+      for (int u = 590; u < 900; ++u) {
+        const cv::Vec3b c = out.at<cv::Vec3b>(v, u);
+        n += magenta ? (c[0] > 180 && c[2] > 180 && c[1] < 80) : (c[1] > 180 && c[0] < 80 && c[2] < 80);
+      }
+    }
+    return n;
+  };
+  EXPECT_GT(count(424, 442, false), 20);
+  EXPECT_LT(count(424, 442, true), 5);
+  EXPECT_GT(count(370, 396, true), 20);
+}
+
 // The exports' residual map carries its colour bar: blue at the bottom (0), red at the top.
 TEST(Overlay, ColourBarRunsFromBlueAtZeroToRedAtTheTop) {
   cv::Mat image(960, 1280, CV_8UC3, cv::Scalar(0, 0, 0));
