@@ -19,7 +19,9 @@ const std::vector<Command>& Commands() {
         "tolerances"},
        RunCalibrate,
        {{"out", "the calibrated model file to write (omnistereo-model/1 YAML; the detections "
-                "beside it as <name>_detections.yaml when detected here)"}}},
+                "beside it as <name>_detections.yaml when detected here)"},
+        {"truth", "ground truth of a synthetic session (omnistereo-truth/1): print the "
+                  "reprojection RMS per ring against the detector's true corner error"}}},
       {"report", "the HTML report of a calibrated model from its detections (as calibrate --report)",
        {"model", "detections", "out", "session", "report_range_mm", "tolerances"}, RunReport,
        {{"out", "the report's folder to write (index.html and its figures)"}}},

@@ -66,6 +66,10 @@ TEST(HelpCli, EachCommandSaysWhatItsOutWrites) {
 
 TEST(HelpCli, SharedFlagsNameNoOtherCommand) {
   EXPECT_EQ(FlagLine(Help("export"), "frame").find("triangulate"), std::string::npos);
+  // calibrate --truth is the corner-noise check, not triangulate's RMSE table.
+  const std::string truth = FlagLine(Help("calibrate"), "truth");
+  EXPECT_EQ(truth.find("RMSE table"), std::string::npos) << truth;
+  EXPECT_NE(truth.find("true corner error"), std::string::npos) << truth;
   EXPECT_NE(FlagLine(Help("triangulate"), "frame").find("--truth"), std::string::npos);
   const std::string report = Help("report");
   for (const char* flag : {"report_range_mm", "tolerances"}) {
