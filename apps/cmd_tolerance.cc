@@ -39,14 +39,14 @@ std::string Correction(const design::ToleranceCheck& c) {
   char line[400];
   if (c.components.empty()) {
     std::snprintf(line, sizeof line,
-                  "%.4f %s beyond the limit: the surface itself (not its assembly) departs from "
-                  "the conic; a mirror machined closer to it",
+                  "%.4f %s beyond the limit: the machined surface departs from the conic, which "
+                  "no move of the part corrects",
                   excess * k, unit);
     return line;
   }
   std::vector<double> move;
   for (double v : c.components) move.push_back(c.value > 0 ? -excess * v / c.value : 0.0);
-  const std::string is = Signed(c.components, k, deg ? "%+.3f" : "%+.3f");
+  const std::string is = Signed(c.components, k, "%+.3f");
   const std::string by = Signed(move, k, "%+.3f");
   if (c.components.size() == 1) {
     const bool up = move[0] > 0;

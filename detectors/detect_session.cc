@@ -41,6 +41,7 @@ LipGuide GuideSessionByLips(const io::Session& session, DetectorContext* ctx,
         images.push_back(std::move(one));
         break;
       } catch (const io::UnreadableImage&) {
+        // DetectSession reports it; the next image is tried in its place.
       }
     }
   }
