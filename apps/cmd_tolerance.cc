@@ -4,7 +4,6 @@
 #include <cmath>
 #include <cstdio>
 #include <string>
-#include <vector>
 
 #include "apps/command.h"
 #include "apps/common_flags.h"
@@ -14,66 +13,6 @@
 #include "model/design/tolerance_file.h"
 
 namespace omni::apps {
-namespace {
-
-// "+0.123, -0.045" of values scaled by k.
-std::string Signed(const std::vector<double>& values, double k, const char* format) {
-  std::string out;
-  char one[32];
-  for (double v : values) {
-    std::snprintf(one, sizeof one, format, v * k);
-    out += (out.empty() ? "" : ", ") + std::string(one);
-  }
-  return out;
-}
-
-// For a FAIL: by how much the part is beyond its limit and the smallest move that brings it
-// back (against the direction its signed components point in). C's axes: +x image right, +y
-// image down, +z from the camera towards the mirrors.
-std::string Correction(const design::ToleranceCheck& c) {
-  const bool deg = c.unit == "rad";
-  const double k = deg ? 180.0 / M_PI : 1.0;
-  const char* unit = deg ? "deg" : "mm";
-  const double excess = c.value - c.limit;
-  const std::string part = c.name.substr(0, c.name.find('.'));
-  char line[400];
-  if (c.components.empty()) {
-    std::snprintf(line, sizeof line,
-                  "%.4f %s beyond the limit: the machined surface departs from the conic, which "
-                  "no move of the part corrects",
-                  excess * k, unit);
-    return line;
-  }
-  std::vector<double> move;
-  for (double v : c.components) move.push_back(c.value > 0 ? -excess * v / c.value : 0.0);
-  const std::string is = Signed(c.components, k, "%+.3f");
-  const std::string by = Signed(move, k, "%+.3f");
-  if (c.components.size() == 1) {
-    const bool up = move[0] > 0;
-    std::snprintf(line, sizeof line,
-                  "%s is %s %s, %.3f %s beyond +-%.3f: move %s %.3f %s along %sz (%s the camera)",
-                  c.parameters[0].c_str(), is.c_str(), unit, excess * k, unit, c.limit * k,
-                  part == "reflex" ? "the reflex plane" : part.c_str(), excess * k, unit,
-                  up ? "+" : "-", up ? "away from" : "towards");
-  } else if (deg) {
-    std::snprintf(line, sizeof line,
-                  "(%s, %s) is (%s) deg, |.| %.3f beyond %.3f by %.3f: turn %s back by (%s) deg "
-                  "about C's x, y",
-                  c.parameters[0].c_str(), c.parameters[1].c_str(), is.c_str(), c.value * k,
-                  c.limit * k, excess * k, part == "reflex" ? "the reflex plane" : part.c_str(),
-                  by.c_str());
-  } else {
-    std::snprintf(line, sizeof line,
-                  "(%s, %s) is (%s) mm, |.| %.3f beyond %.3f by %.3f: move %s by (%s) mm in C's "
-                  "x, y (x image right, y image down), towards the axis",
-                  c.parameters[0].c_str(), c.parameters[1].c_str(), is.c_str(), c.value,
-                  c.limit, excess, part.c_str(), by.c_str());
-  }
-  return line;
-}
-
-}  // namespace
-
 int RunTolerance() {
   if (FLAGS_model.empty() || FLAGS_config.empty()) {
     throw io::InputError("--model and --config (an omnistereo-tolerances/1 file) are required");
@@ -97,12 +36,8 @@ int RunTolerance() {
     std::printf("  %-18s %8.4f %-3s %10s %10.4f  %s\n", c.name.c_str(), c.value * k, unit, sigma,
                 c.limit * k, design::VerdictName(c.verdict));
     ++counts[static_cast<int>(c.verdict)];
-    if (c.verdict == design::Verdict::kFail) std::printf("    %s\n", Correction(c).c_str());
-    if (std::abs(c.valley_correlation) > design::kRotationValleyCorrelation) {
-      std::printf("    %s correlation %+.4f: in the camera-rotation valley; this value is not "
-                  "separable from the camera's rotation against the bodies (the principal point "
-                  "moves with it)\n",
-                  c.valley_pair.c_str(), c.valley_correlation);
+    for (const std::string& line : {design::Correction(c), design::RotationValleyNote(c)}) {
+      if (!line.empty()) std::printf("    %s\n", line.c_str());
     }
   }
   std::printf("  %d pass, %d fail, %d undecided%s\n", counts[0], counts[1], counts[2],

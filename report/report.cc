@@ -219,6 +219,11 @@ std::string Tolerances(const std::vector<design::ToleranceCheck>& checks) {
         << "</td><td>" << (c.sigma ? Format("%.2g", *c.sigma * scale) + unit : "-") << "</td><td>"
         << Format("%.4g", c.limit * scale) << unit << "</td><td>" << design::VerdictName(c.verdict)
         << "</td></tr>\n";
+    // Which way to move a part that fails; a value the calibration cannot tell from the
+    // camera's rotation.
+    for (const std::string& note : {design::Correction(c), design::RotationValleyNote(c)}) {
+      if (!note.empty()) out << "<tr><td></td><td colspan=\"4\">" << Escape(note) << "</td></tr>\n";
+    }
   }
   out << "</table>\n<p>PASS: within the limit even at the value plus its confidence sigmas; "
          "FAIL: beyond it even at the value minus them; UNDECIDED: more data would decide.</p>\n";

@@ -61,6 +61,16 @@ constexpr double kRotationValleyCorrelation = 0.99;
 // covariance the verdict compares the value alone (and says so by an empty sigma).
 std::vector<ToleranceCheck> CheckTolerances(const RigParams& rig, const ToleranceSpec& spec);
 
+// For a FAIL (else empty): by how much the part is beyond its limit and the smallest move that
+// brings it back, against the direction its signed components point in; C's axes: +x image
+// right, +y image down, +z from the camera towards the mirrors. E.g. "(mirror1.tx, mirror1.ty)
+// is (+0.311, -0.205) mm, |.| 0.373 beyond 0.300 by 0.073: move mirror1 by (-0.061, +0.040) mm
+// in C's x, y (x image right, y image down), towards the axis".
+std::string Correction(const ToleranceCheck& check);
+// Where one of the check's parameters lies in the camera-rotation valley (|valley_correlation|
+// over kRotationValleyCorrelation), one line saying so; else empty.
+std::string RotationValleyNote(const ToleranceCheck& check);
+
 // The image effect of the tolerances: `samples` rigs are drawn uniformly within the limits
 // (decentre uniform in a disc, tilt uniform in a disc, axial and dz uniform in +-limit, random
 // directions) around `nominal`; each projects a grid of points at horizontal range `range_mm`
