@@ -126,6 +126,7 @@ Observations DetectSession(const io::Session& session, DetectorContext* ctx,
   Observations detections;
   detections.session = session.path;
   const size_t n = session.images.size();
+  std::string first_unreadable;
   for (size_t i = 0; i < n; ++i) {
     const auto t0 = std::chrono::steady_clock::now();
     ImageReport report;
@@ -136,6 +137,7 @@ Observations DetectSession(const io::Session& session, DetectorContext* ctx,
     try {
       image = io::ReadImage(report.file, session.bayer);
     } catch (const io::UnreadableImage& e) {
+      if (first_unreadable.empty()) first_unreadable = e.what();
       report.skipped = true;
       report.warnings.push_back(std::string(e.what()).substr(report.file.size() + 2));
       if (on_image) on_image(report, cv::Mat(), nullptr);
@@ -165,8 +167,8 @@ Observations DetectSession(const io::Session& session, DetectorContext* ctx,
   }
   if (detections.images.empty()) {
     throw io::InputError(session.path + ": none of the " + std::to_string(n) +
-                         " images could be read (missing or undecodable, each named above); "
-                         "nothing written");
+                         " images could be read (missing or undecodable; the first: " +
+                         first_unreadable + ")");
   }
   return detections;
 }
