@@ -39,8 +39,9 @@
 DEFINE_string(truth_model, "", "calibrate, refine: the true model file (synthetic sessions), to add a "
                                 "truth column to the table");
 DEFINE_string(report, "", "calibrate: write an HTML report (index.html and its images) into this folder");
-DEFINE_double(report_range_mm, 2000, "the range of the report's second projection-uncertainty map (mm; calibrate --report, report)");
-DEFINE_string(tolerances, "", "calibrate --report: an omnistereo-tolerances/1 file; the report gives the calibrated rig's verdicts");
+DEFINE_double(report_range_mm, 2000, "the range of the report's second projection-uncertainty map (mm)");
+DEFINE_string(tolerances, "", "an omnistereo-tolerances/1 file: the report gives the calibrated "
+                              "rig's verdicts against it");
 DECLARE_string(truth);
 
 namespace omni::apps {
@@ -57,11 +58,15 @@ std::string UtcNow() {
 
 Observations DetectSession(const io::Session& session, const RigParams& start) {
   detectors::DetectorContext ctx(start, session.targets, session.use_lips);
-  std::printf("%s\n", Describe(detectors::GuideSessionByLips(session, &ctx)).c_str());
+  bool nothing_read = false;
+  const detectors::LipGuide guide = detectors::GuideSessionByLips(session, &ctx, &nothing_read);
+  if (!nothing_read) std::printf("%s\n", detectors::GuideLine(guide).c_str());
   std::fflush(stdout);  // before the progress lines on stderr
+  detectors::RepeatedSheets repeated;
   ProgressLine progress("detect", static_cast<int>(session.images.size()));
-  return detectors::DetectSession(
+  Observations detections = detectors::DetectSession(
       session, &ctx, [&](const detectors::ImageReport& r, const cv::Mat&, ImageObservations*) {
+        repeated.Add(r);
         for (size_t k = 0; k < r.warnings.size(); ++k) {
           const std::string line = "warning: " + r.file + ": " + r.warnings[k] +
                                    (r.skipped ? "; skipped" : "");
@@ -78,6 +83,10 @@ Observations DetectSession(const io::Session& session, const RigParams& start) {
           progress.Done(line);
         }
       });
+  progress.Finish();
+  const std::string note = repeated.Note(session.targets);
+  if (!note.empty()) std::fprintf(stderr, "warning: %s: %s\n", FLAGS_session.c_str(), note.c_str());
+  return detections;
 }
 
 // The calibration with its stages' lines on stderr and, on a terminal, a status line (stage,

@@ -5,8 +5,9 @@
 // line each and are left out; if no image is usable nothing is written and the exit code is 2.
 // An image of an unsupported layout (float, 32 bit, colour with a session `bayer:` key) or not
 // of the model's size stops the session with one line naming it: nothing is written.
-// --overlay writes DIR/<image>.png: the ring boundaries, corners coloured by ring (mirror 1
-// green, mirror 2 magenta) with "target:id", lip edge points in yellow.
+// --overlay writes DIR/<image>.png (apps/overlay.h): the ring boundaries, corners coloured by
+// ring (mirror 1 green, mirror 2 magenta), each board named once per ring and the ids that can be
+// read, lip edge points as single yellow pixels, a legend.
 // A lips-only session (`targets: []`) finds the lips alone and prints the intrinsics they give
 // against the model's: a quick check of a new camera (or of the lips' paints) before any target
 // is printed.
@@ -21,10 +22,10 @@
 
 #include <gflags/gflags.h>
 #include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
 
 #include "apps/command.h"
 #include "apps/common_flags.h"
+#include "apps/overlay.h"
 #include "apps/progress.h"
 #include "detectors/detect_image.h"
 #include "detectors/detect_session.h"
@@ -34,7 +35,7 @@
 #include "model/io/model_file.h"
 #include "model/io/session_file.h"
 
-DEFINE_string(overlay, "", "folder for overlay PNGs (corners by ring, ids, ring boundaries)");
+DEFINE_string(overlay, "", "folder for overlay PNGs (corners by ring, board names and ids, lip edge points, ring boundaries, a legend)");
 
 namespace omni::apps {
 namespace {
@@ -50,40 +51,13 @@ std::string RelativeTo(const std::string& path, const fs::path& base_dir) {
   return rel.string();
 }
 
+// The overlay (apps/overlay.h) of one photo, written whole or not at all.
 void WriteOverlay(const std::string& path, const cv::Mat& image, const detectors::RingLayout& layout,
-                  const ImageObservations& det) {
-  cv::Mat out;
-  if (image.channels() == 1) {
-    cv::cvtColor(detectors::ToGrey(image), out, cv::COLOR_GRAY2BGR);
-  } else {
-    detectors::ToGrey(image);  // same depth conversion as the detector
-    image.convertTo(out, CV_8U, image.depth() == CV_16U ? 1.0 / 257.0 : 1.0);
-    if (out.channels() == 4) cv::cvtColor(out, out, cv::COLOR_BGRA2BGR);
-  }
-  for (const detectors::RingBoundary* b : {&layout.hole, &layout.reflex_edge, &layout.mirror1_cut,
-                                           &layout.mirror1_rim, &layout.mirror2_rim}) {
-    std::vector<cv::Point> curve;
-    for (size_t k = 0; k < b->radius.size(); ++k) {
-      const double phi = -M_PI + 2 * M_PI * k / b->radius.size();
-      curve.emplace_back(cvRound(layout.centre.x() + b->radius[k] * std::cos(phi)),
-                         cvRound(layout.centre.y() + b->radius[k] * std::sin(phi)));
-    }
-    cv::polylines(out, curve, true, cv::Scalar(255, 255, 0), 1, cv::LINE_AA);
-  }
-  for (const auto& lip : det.lips) {
-    for (const auto& p : lip.points) {
-      cv::circle(out, cv::Point(cvRound(p.x()), cvRound(p.y())), 1, cv::Scalar(0, 255, 255), -1);
-    }
-  }
-  for (const auto& c : det.corners) {
-    const cv::Scalar colour = c.mirror == Mirror::kOne ? cv::Scalar(0, 220, 0) : cv::Scalar(255, 0, 255);
-    const cv::Point p(cvRound(c.pixel.x()), cvRound(c.pixel.y()));
-    cv::drawMarker(out, p, colour, cv::MARKER_CROSS, 5, 1);
-    cv::putText(out, std::to_string(c.target) + ":" + std::to_string(c.id), p + cv::Point(2, -2),
-                cv::FONT_HERSHEY_PLAIN, 0.6, colour, 1, cv::LINE_AA);
-  }
+                  const ImageObservations& det, const std::vector<TargetSpec>& targets) {
   std::vector<uchar> png;
-  if (!cv::imencode(".png", out, png)) throw std::runtime_error("cannot encode " + path);
+  if (!cv::imencode(".png", DrawOverlay(image, layout, det, targets), png)) {
+    throw std::runtime_error("cannot encode " + path);
+  }
   io::WriteFileAtomically(path, std::string(png.begin(), png.end()));
 }
 
@@ -133,7 +107,9 @@ int RunDetect() {
   // hid3 from the ideal design 89% of the corners, from the calibrated model 95%).
   const RigParams rig = io::ReadModelFile(FLAGS_model.empty() ? session.model_path : FLAGS_model);
   detectors::DetectorContext ctx(rig, session.targets, session.use_lips);
-  std::printf("%s\n", Describe(detectors::GuideSessionByLips(session, &ctx)).c_str());
+  bool nothing_read = false;
+  const detectors::LipGuide guide = detectors::GuideSessionByLips(session, &ctx, &nothing_read);
+  if (!nothing_read) std::printf("%s\n", detectors::GuideLine(guide).c_str());
   std::fflush(stdout);  // before the progress lines on stderr
   if (!FLAGS_overlay.empty()) {
     std::error_code ec;
@@ -143,10 +119,12 @@ int RunDetect() {
   const fs::path out_dir = fs::absolute(FLAGS_out).parent_path();
   int bad = 0, corners = 0;
   const size_t n = session.images.size();
+  detectors::RepeatedSheets repeated;
   ProgressLine progress("detect", static_cast<int>(n));
   Observations detections = detectors::DetectSession(
       session, &ctx,
       [&](const detectors::ImageReport& r, const cv::Mat& image, ImageObservations* det) {
+        repeated.Add(r);
         const char* file = r.file.c_str();
         if (r.skipped) {
           progress.Done(std::string("warning: ") + file + ": " + r.warnings.front() + "; skipped");
@@ -157,7 +135,7 @@ int RunDetect() {
         corners += r.corners[0] + r.corners[1];
         if (!FLAGS_overlay.empty()) {
           WriteOverlay((fs::path(FLAGS_overlay) / (fs::path(r.file).stem().string() + ".png")).string(),
-                       image, ctx.layout, *det);
+                       image, ctx.layout, *det, session.targets);
         }
         det->file = RelativeTo(r.file, out_dir);
         // Per target: corners in ring 1 / ring 2 (what a user checks each photo by).
@@ -175,11 +153,10 @@ int RunDetect() {
                       r.ms, targets.c_str());
         progress.Done(line);
       });
+  progress.Finish();
+  const std::string note = repeated.Note(session.targets);
+  if (!note.empty()) std::fprintf(stderr, "warning: %s: %s\n", FLAGS_session.c_str(), note.c_str());
   detections.session = RelativeTo(session.path, out_dir);
-  if (detections.images.empty()) {
-    throw io::InputError(FLAGS_session + ": none of the " + std::to_string(n) +
-                         " images could be used; nothing written");
-  }
   io::WriteDetectionsFile(FLAGS_out, detections);
   std::printf("%zu of %zu images used (%d skipped), %d corners, detections in %s\n",
               detections.images.size(), n, bad, corners, FLAGS_out.c_str());
@@ -196,8 +173,8 @@ int RunDetect() {
       photos += seen;
     }
     const TargetSpec& spec = session.targets[t];
-    std::printf("  target %zu (%s %dx%d): in %d of %zu photos, %d corners in ring 1, %d in ring 2%s\n",
-                t, TargetTypeName(spec.type), spec.rows, spec.cols, photos, detections.images.size(),
+    std::printf("  target %zu (%s): in %d of %zu photos, %d corners in ring 1, %d in ring 2%s\n",
+                t, TargetName(spec).c_str(), photos, detections.images.size(),
                 ring[0], ring[1], photos == 0 ? ": never found (check its rows/cols, size and first_id)" : "");
   }
   if (session.targets.empty()) PrintLipCheck(detections, RigModel(rig));

@@ -21,6 +21,7 @@
 
 #include "apps/command.h"
 #include "apps/common_flags.h"
+#include "apps/overlay.h"
 #include "apps/stereo_cli.h"
 #include "exports/camchain.h"
 #include "exports/central_fit.h"
@@ -87,9 +88,9 @@ int ExportPanoramaMaps(const RigModel& model) {
 }
 
 // Both rings' residual maps side by side in one colour image over the frame: blue 0 px, red at
-// the larger ring maximum; the scale is printed.
+// the larger ring maximum; the scale is printed and drawn as a colour bar (top right).
 void WriteResidualMap(const std::array<exports::CentralRing, 2>& rings, const std::string& path,
-                      double* scale_px) {
+                      double distance_mm, double* scale_px) {
   // The maps are NaN off their ring (OpenCV's comparisons do not single NaN out: by hand).
   cv::Mat both(rings[0].residual_map.size(), CV_32F, cv::Scalar(0));
   cv::Mat seen(both.size(), CV_8U, cv::Scalar(0));
@@ -110,6 +111,9 @@ void WriteResidualMap(const std::array<exports::CentralRing, 2>& rings, const st
   both.convertTo(scaled, CV_8U, 255.0 / *scale_px);
   cv::applyColorMap(scaled, colour, cv::COLORMAP_JET);
   colour.setTo(cv::Scalar(0, 0, 0), ~seen);
+  char title[64];
+  std::snprintf(title, sizeof title, "central fit's residual at %.0f m", distance_mm / 1000);
+  DrawColourBar(&colour, cv::COLORMAP_JET, *scale_px, "px", title);
   WriteImageAtomically(path, colour);
 }
 
@@ -129,7 +133,7 @@ int ExportCentral(const RigModel& model, exports::CentralModel kind) {
   // written), then the map; if the map fails, the file goes again.
   io::WriteFileAtomically(FLAGS_out, text);
   try {
-    WriteResidualMap(rings, map_path, &scale);
+    WriteResidualMap(rings, map_path, options.map_distance_mm, &scale);
   } catch (...) {
     std::remove(FLAGS_out.c_str());
     throw;

@@ -3,6 +3,7 @@
 // what parts within the tolerances do to the images (model/design/tolerance.h).
 #include <cmath>
 #include <cstdio>
+#include <string>
 
 #include "apps/command.h"
 #include "apps/common_flags.h"
@@ -12,7 +13,6 @@
 #include "model/design/tolerance_file.h"
 
 namespace omni::apps {
-
 int RunTolerance() {
   if (FLAGS_model.empty() || FLAGS_config.empty()) {
     throw io::InputError("--model and --config (an omnistereo-tolerances/1 file) are required");
@@ -36,6 +36,9 @@ int RunTolerance() {
     std::printf("  %-18s %8.4f %-3s %10s %10.4f  %s\n", c.name.c_str(), c.value * k, unit, sigma,
                 c.limit * k, design::VerdictName(c.verdict));
     ++counts[static_cast<int>(c.verdict)];
+    for (const std::string& line : {design::Correction(c), design::RotationValleyNote(c)}) {
+      if (!line.empty()) std::printf("    %s\n", line.c_str());
+    }
   }
   std::printf("  %d pass, %d fail, %d undecided%s\n", counts[0], counts[1], counts[2],
               counts[2] ? " (undecided: the limit lies within the uncertainty; more calibration "

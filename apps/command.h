@@ -4,6 +4,7 @@
 #pragma once
 
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace omni::apps {
@@ -13,6 +14,9 @@ struct Command {
   const char* summary;
   std::vector<std::string> flags;  // the gflags this command reads, listed by --help
   int (*run)();
+  // --help's text of a shared flag for this command where the flag's own is general (what
+  // --out writes, say): flag name, text.
+  std::vector<std::pair<std::string, std::string>> help = {};
 };
 
 const std::vector<Command>& Commands();

@@ -4,7 +4,10 @@
 #include "model/io/session_file.h"
 
 DEFINE_string(model, "", "model file (omnistereo-model/1 YAML)");
-DEFINE_string(out, "", "output file or folder");
+DEFINE_string(out, "", "output: model YAML (design, calibrate, refine), detections YAML (detect), "
+                        "session YAML (init), CSV (project, unproject, triangulate), a folder "
+                        "(render, report, panorama, depth, demo), the exported file (export), "
+                        "the sheet (target), the verdict YAML (check)");
 DEFINE_string(config, "", "configuration file (YAML)");
 DEFINE_string(session, "", "session file (omnistereo-session/1 YAML)");
 DEFINE_string(scene, "", "scene file (omnistereo-scene/1 YAML)");
@@ -19,7 +22,7 @@ DEFINE_double(sigma_px, 1.0, "pixel noise sigma for the covariance [uncertainty_
 DEFINE_int32(panorama_width, 1280, "panorama width in pixels (height from [panorama_pixel_size])");
 DEFINE_double(cylinder_radius_mm, 2000.0, "radius of the panorama projection cylinder (mm)");
 DEFINE_string(frame, "cam", "frame of output points, covariances and rays: cam (C) | mirror1 "
-                            "(M1, mirror 1's body; triangulate --truth compares in the true rig's M1)");
+                            "(M1, mirror 1's body)");
 
 namespace omni::apps {
 

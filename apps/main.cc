@@ -26,7 +26,11 @@ void PrintCommandHelp(const Command& c) {
   for (const auto& name : c.flags) {
     gflags::CommandLineFlagInfo info;
     if (!gflags::GetCommandLineFlagInfo(name.c_str(), &info)) continue;
-    std::printf("  --%s (%s) %s", info.name.c_str(), info.type.c_str(), info.description.c_str());
+    std::string description = info.description;
+    for (const auto& [flag, text] : c.help) {
+      if (flag == name) description = text;
+    }
+    std::printf("  --%s (%s) %s", info.name.c_str(), info.type.c_str(), description.c_str());
     if (info.type == "double" && !info.default_value.empty()) {
       // gflags prints a double's default to 17 digits (0.29999999999999999).
       std::printf("  [default: %g]", std::strtod(info.default_value.c_str(), nullptr));

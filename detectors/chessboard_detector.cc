@@ -713,7 +713,8 @@ std::vector<BoardDetection> SearchRegion(const cv::Mat& raw_grey, const RingView
 }  // namespace
 
 std::vector<BoardDetection> DropRepeatedPlacements(std::vector<BoardDetection> kept,
-                                                   const std::vector<TargetSpec>& targets) {
+                                                   const std::vector<TargetSpec>& targets,
+                                                   std::vector<int>* repeated_sheets) {
   // A sheet shows each of its corners once per ring: a smaller placement that repeats ids of a
   // larger one, beyond the number of sheets printed with the pattern, is a false board (a partial
   // grid of junctions on a Kalibr grid's corner squares next to the true board: hid3 0003, 4
@@ -735,7 +736,12 @@ std::vector<BoardDetection> DropRepeatedPlacements(std::vector<BoardDetection> k
         return std::find(k.ids.begin(), k.ids.end(), id) != k.ids.end();
       });
     }
-    if (repeated < sheets) placed.push_back(std::move(b));
+    if (repeated < sheets) {
+      placed.push_back(std::move(b));
+    } else if (repeated_sheets &&
+               2 * b.ids.size() >= static_cast<size_t>(targets[b.target].rows * targets[b.target].cols)) {
+      repeated_sheets->push_back(b.target);
+    }
   }
   return placed;
 }
@@ -744,7 +750,8 @@ std::vector<BoardDetection> DetectChessboardBoards(const cv::Mat& raw_grey,
                                                    const std::vector<RingView>& views,
                                                    const RigModel& model,
                                                    const std::vector<TargetSpec>& targets,
-                                                   const ChessboardOptions& options) {
+                                                   const ChessboardOptions& options,
+                                                   std::vector<int>* repeated) {
   // Distinct patterns, larger first (a smaller pattern must not claim part of a larger board).
   std::vector<int> patterns;
   for (size_t t = 0; t < targets.size(); ++t) {
@@ -799,16 +806,18 @@ std::vector<BoardDetection> DetectChessboardBoards(const cv::Mat& raw_grey,
     }
     if (!duplicate) kept.push_back(std::move(b));
   }
-  return DropRepeatedPlacements(std::move(kept), targets);
+  return DropRepeatedPlacements(std::move(kept), targets, repeated);
 }
 
 std::vector<CornerObservation> DetectChessboards(const cv::Mat& raw_grey,
                                                      const std::vector<RingView>& views,
                                                      const RigModel& model,
                                                      const std::vector<TargetSpec>& targets,
-                                                     const ChessboardOptions& options) {
+                                                     const ChessboardOptions& options,
+                                                     std::vector<int>* repeated) {
   std::vector<CornerObservation> out;
-  for (const BoardDetection& b : DetectChessboardBoards(raw_grey, views, model, targets, options)) {
+  for (const BoardDetection& b :
+       DetectChessboardBoards(raw_grey, views, model, targets, options, repeated)) {
     for (size_t i = 0; i < b.ids.size(); ++i) {
       CornerObservation o;
       o.target = b.target;

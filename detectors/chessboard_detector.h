@@ -88,23 +88,28 @@ struct BoardDetection {
 // Of boards found in one image, drops a placement (the smaller first) that
 // repeats ids of larger ones of its target in its ring beyond the number of sheets printed with
 // the pattern (a sheet shows each corner once per ring). Parts of one board with no id in common
-// stay.
+// stay. A dropped placement with at least half its target's corners is another copy of the
+// sheet (several identical sheets in one photo): its target index is appended to *repeated.
 std::vector<BoardDetection> DropRepeatedPlacements(std::vector<BoardDetection> boards,
-                                                   const std::vector<TargetSpec>& targets);
+                                                   const std::vector<TargetSpec>& targets,
+                                                   std::vector<int>* repeated = nullptr);
 
 // Chessboards in one image. `views` must have been rendered from this image (RenderViews);
 // `raw_grey` is the raw image as CV_8U grey. Targets that are not chessboards are ignored; the
-// target index of an observation is its index in `targets`.
+// target index of an observation is its index in `targets`. *repeated (may be null): as
+// DropRepeatedPlacements, the targets of which another copy was found and left out.
 std::vector<BoardDetection> DetectChessboardBoards(const cv::Mat& raw_grey,
                                                    const std::vector<RingView>& views,
                                                    const RigModel& model,
                                                    const std::vector<TargetSpec>& targets,
-                                                   const ChessboardOptions& options = {});
+                                                   const ChessboardOptions& options = {},
+                                                   std::vector<int>* repeated = nullptr);
 
 std::vector<CornerObservation> DetectChessboards(const cv::Mat& raw_grey,
                                                      const std::vector<RingView>& views,
                                                      const RigModel& model,
                                                      const std::vector<TargetSpec>& targets,
-                                                     const ChessboardOptions& options = {});
+                                                     const ChessboardOptions& options = {},
+                                                     std::vector<int>* repeated = nullptr);
 
 }  // namespace omni::detectors

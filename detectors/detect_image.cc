@@ -98,7 +98,8 @@ void DetectorContext::SetModel(const RigParams& rig) {
 }
 
 ImageObservations DetectImage(const cv::Mat& image, DetectorContext* ctx,
-                                std::vector<std::string>* warnings, std::vector<bool>* guided) {
+                                std::vector<std::string>* warnings, std::vector<bool>* guided,
+                                std::vector<int>* repeated) {
   const RigParams& rig = ctx->model.params();
   if (image.empty()) throw io::InputError("the image is empty or could not be decoded");
   if (image.cols != rig.image_width || image.rows != rig.image_height) {
@@ -113,7 +114,8 @@ ImageObservations DetectImage(const cv::Mat& image, DetectorContext* ctx,
   const cv::Mat linear = io::LinearImage(image, ctx->tone);
   const cv::Mat grey = ToGrey(linear);
   RenderViews(grey, &ctx->views);
-  out.corners = DetectChessboards(grey, ctx->views, ctx->model, ctx->targets, ctx->chessboard);
+  out.corners =
+      DetectChessboards(grey, ctx->views, ctx->model, ctx->targets, ctx->chessboard, repeated);
   // Tag grids (plain tag36h11 and Kalibr AprilGrids) in the same, already rendered views.
   bool any_tags = false;
   for (const TargetSpec& t : ctx->targets) any_tags = any_tags || t.type != TargetType::kChessboard;

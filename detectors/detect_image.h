@@ -54,6 +54,8 @@ struct DetectorContext {
 // appends a line to *warnings for what was skipped (e.g. lips on a grey image). `file`, `width`
 // and `height` of the result are for the caller to fill in. With `guided`: one flag per corner,
 // true where guided detection across rings found it (guided_detection.h; those come last).
+// With `repeated`: the targets of which the image showed more copies in a ring than the session
+// lists sheets of the pattern (one copy per ring kept; each extra copy's target appended).
 // The lip detector's input from a linear image (io::LinearImage, 16 bit): BGR, alpha dropped, the
 // 16 bits kept (8-bit linear levels are too coarse for a dark band's Y': lip_detector.h).
 cv::Mat LipInput(const cv::Mat& linear);
@@ -64,6 +66,7 @@ LipDetectorOptions LipOptionsFor(const cv::Mat& image, bool chroma_halved, const
 
 ImageObservations DetectImage(const cv::Mat& image, DetectorContext* ctx,
                                 std::vector<std::string>* warnings = nullptr,
-                                std::vector<bool>* guided = nullptr);
+                                std::vector<bool>* guided = nullptr,
+                                std::vector<int>* repeated = nullptr);
 
 }  // namespace omni::detectors

@@ -11,6 +11,16 @@ const char* TargetTypeName(TargetType type) {
   return "?";
 }
 
+std::string TargetName(const TargetSpec& spec) {
+  std::string name = std::string(TargetTypeName(spec.type)) + " " + std::to_string(spec.rows) +
+                     "x" + std::to_string(spec.cols);
+  if (spec.type != TargetType::kChessboard) {
+    name += " ids " + std::to_string(spec.first_id) + "-" +
+            std::to_string(spec.first_id + spec.rows * spec.cols - 1);
+  }
+  return name;
+}
+
 bool ParseTargetType(const std::string& name, TargetType* type) {
   for (TargetType t : {TargetType::kChessboard, TargetType::kAprilTagGrid,
                        TargetType::kKalibrAprilGrid}) {

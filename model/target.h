@@ -52,6 +52,10 @@ inline TargetSpec ChessboardSpec(int rows, int cols, double square_mm) {
 
 // "chessboard", "apriltag_grid", "kalibr_aprilgrid".
 const char* TargetTypeName(TargetType type);
+// A target's name for people: "chessboard 5x6", "apriltag_grid 5x5 ids 0-24",
+// "kalibr_aprilgrid 2x3 ids 50-55". Distinct for a session's targets as far as the detectors can
+// tell them apart (chessboards by rows x cols, tag grids by their ids).
+std::string TargetName(const TargetSpec& spec);
 // Parses a type name; false if unknown.
 bool ParseTargetType(const std::string& name, TargetType* type);
 

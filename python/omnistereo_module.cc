@@ -261,7 +261,7 @@ class Detector {
       py::gil_scoped_release release;
       // The lip guide, as `detect` runs it, once: on the first images detected.
       if (guide_.empty()) {
-        guide_ = detectors::Describe(detectors::GuideSessionByLips(session, &ctx_));
+        guide_ = detectors::GuideLine(detectors::GuideSessionByLips(session, &ctx_));
       }
       obs = detectors::DetectSession(session, &ctx_);
     }
@@ -329,11 +329,12 @@ PYBIND11_MODULE(omnistereo, m) {
            "Reads the session (omnistereo-session/1) and its starting model.")
       .def("detect", &Detector::Detect, py::arg("images") = py::none(),
            "Detects the session's images (or the given image paths): the same dict as "
-           "read_detections. Unreadable images are skipped; an image of the wrong size raises "
-           "InputError. The first call corrects the model detection is guided by from the "
+           "read_detections. Unreadable images are skipped (none readable at all raises "
+           "InputError); an image of the wrong size raises InputError. The first call corrects the model detection is guided by from the "
            "lips, as `omnistereo detect` does (see guide).")
       .def_property_readonly("guide", &Detector::Guide,
-                             "What the lip guide did on the first detect (empty before it).");
+                             "What the lip guide did on the first detect, with a judgement of its fit's rms "
+                             "(empty before it).");
 
   m.def("read_detections",
         [](const std::string& path) { return ObservationsDict(io::ReadDetectionsFile(path)); },

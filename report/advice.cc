@@ -122,10 +122,14 @@ void OutlierAdvice(const ReportInput& in, std::vector<std::string>* out) {
                                                                       : "?";
     char line[400];
     std::snprintf(line, sizeof(line),
-                  "image %s target %d: %zu corners left out as outliers (median %.2f px off); "
-                  "check the print (flat, the session's square or tag size) and the detections "
-                  "overlay",
-                  file.c_str(), key.second, residuals.size(), median);
+                  "image %s target %d (%s): %zu corners left out as outliers (median %.2f px "
+                  "off); check the print (flat, the session's square or tag size) and the "
+                  "detections overlay",
+                  file.c_str(), key.second,
+                  key.second >= 0 && key.second < static_cast<int>(in.targets.size())
+                      ? TargetName(in.targets[key.second]).c_str()
+                      : "?",
+                  residuals.size(), median);
     out->push_back(line);
   }
 }
@@ -210,10 +214,7 @@ void SessionAdvice(const ReportInput& in, std::vector<std::string>* out) {
     const double r = rms[k++];
     if (median > 0 && r > kTargetRmsFactor * median) {
       char line[400];
-      const std::string name = t < static_cast<int>(in.targets.size())
-          ? std::string(TargetTypeName(in.targets[t].type)) + " " + std::to_string(in.targets[t].rows) +
-                "x" + std::to_string(in.targets[t].cols)
-          : "?";
+      const std::string name = t < static_cast<int>(in.targets.size()) ? TargetName(in.targets[t]) : "?";
       std::snprintf(line, sizeof(line),
                     "target %d (%s): its corners' residuals are %.3f px rms, %.1f times the other "
                     "targets' median (%.3f px): a print that is not flat, or its detections "

@@ -158,25 +158,46 @@ std::vector<std::vector<double>> RmsByGroup(const ReportInput& in, int n, GroupO
 }
 
 std::string RmsBars(const std::string& dir, const std::string& name, const std::string& what,
-                     const std::string& xtic, const std::vector<std::vector<double>>& rows,
-                     std::string* note) {
-  const std::string body = Datablock("rms", rows) +
-                           "set style data histograms\nset style histogram clustered\n"
-                           "set style fill solid 0.7\nset xlabel '" + what + "'\n"
-                           "set ylabel 'residual RMS (px)'\nset key top right\n"
-                           "set title 'residual RMS per " + what + "'\n"
-                           "plot $rms using 2:xtic(" + xtic + ") title 'ring 1', '' using 3 "
-                           "title 'ring 2'\n";
-  return Plot(dir, name, body, note);
+                    const std::vector<std::string>& labels,
+                    const std::vector<std::vector<double>>& rows, std::string* note) {
+  return Plot(dir, name, RmsBarsScript(what, labels, rows), note);
 }
 
 }  // namespace
 
+std::string RmsBarsScript(const std::string& what, const std::vector<std::string>& labels,
+                          const std::vector<std::vector<double>>& rows) {
+  // From 0 to above the largest bar (room for the key): bars are read against 0, and a range
+  // that gnuplot's autoscale starts elsewhere makes a small RMS look large.
+  double largest = 0;
+  for (const auto& row : rows) largest = std::max({largest, row[1], row[2]});
+  std::string data = "$rms << EOD\n";
+  char line[160];
+  for (size_t g = 0; g < rows.size(); ++g) {
+    std::string label = g < labels.size() ? labels[g] : "";
+    std::replace(label.begin(), label.end(), '"', '\'');
+    std::snprintf(line, sizeof line, "%zu %.9g %.9g \"%s\"\n", g, rows[g][1], rows[g][2],
+                  label.c_str());
+    data += line;
+  }
+  data += "EOD\n";
+  char range[80];
+  std::snprintf(range, sizeof range, "set yrange [0:%.6g]\n", largest > 0 ? 1.25 * largest : 1.0);
+  return data + "set style data histograms\nset style histogram clustered\n"
+                "set style fill solid 0.7\nset xlabel '" + what + "'\n"
+                "set ylabel 'residual RMS (px)'\nset key top right\n" + range +
+                "set title 'residual RMS per " + what + "'\n"
+                "plot $rms using 2:xtic(stringcolumn(4)) title 'ring 1', '' using 3 title 'ring 2'\n";
+}
+
 std::string PerImageRms(const std::string& dir, const ReportInput& in, std::string* note) {
   const auto rows = RmsByGroup(in, static_cast<int>(in.observations->images.size()),
                                [](const calib::CornerResidual& r) { return r.image; });
-  return RmsBars(dir, "per_image_rms.png", "image", "int($1) % 5 == 0 ? sprintf('%d', $1) : ''",
-                 rows, note);
+  // Every image's index up to 20 images, then every k-th (about 20 labels).
+  const size_t every = std::max<size_t>(1, (rows.size() + 19) / 20);
+  std::vector<std::string> labels;
+  for (size_t i = 0; i < rows.size(); ++i) labels.push_back(i % every == 0 ? std::to_string(i) : "");
+  return RmsBars(dir, "per_image_rms.png", "image", labels, rows, note);
 }
 
 std::string PerTargetRms(const std::string& dir, const ReportInput& in, std::string* note) {
@@ -186,7 +207,9 @@ std::string PerTargetRms(const std::string& dir, const ReportInput& in, std::str
   }
   const auto rows = RmsByGroup(in, static_cast<int>(in.targets.size()),
                                [](const calib::CornerResidual& r) { return r.target; });
-  return RmsBars(dir, "per_target_rms.png", "target", "sprintf('%d', $1)", rows, note);
+  std::vector<std::string> labels;
+  for (const TargetSpec& t : in.targets) labels.push_back(TargetName(t));
+  return RmsBars(dir, "per_target_rms.png", "target", labels, rows, note);
 }
 
 std::string CoverageAngles(const std::string& dir, const ReportInput& in, std::string* note) {
@@ -261,13 +284,14 @@ std::vector<std::string> OutlierThumbnails(const std::string& dir, const ReportI
   return out;
 }
 
-std::string UncertaintyMap(const std::string& dir,
-                           const std::vector<calib::PointUncertainty>& map, double range_mm,
-                           std::string* note) {
-  if (map.empty()) {
-    *note = "no stereo-band point is seen in both rings at this range";
-    return "";
-  }
+double LargestUncertaintyPx(const std::vector<calib::PointUncertainty>& map) {
+  double largest = 0;
+  for (const auto& p : map) largest = std::max({largest, p.in_mirror1_px[0], p.in_mirror1_px[1]});
+  return largest;
+}
+
+std::string UncertaintyMapScript(const std::vector<calib::PointUncertainty>& map,
+                                 double range_mm, double cb_max_px) {
   std::vector<std::vector<double>> rows;
   for (const auto& p : map) {
     const Eigen::Vector3d& x = p.point_in_cam;
@@ -275,21 +299,34 @@ std::string UncertaintyMap(const std::string& dir,
                     std::atan2(x.z(), x.head<2>().norm()) * 180 / M_PI, p.in_mirror1_px[0],
                     p.in_mirror1_px[1]});
   }
+  char head[512];
+  std::snprintf(head, sizeof(head),
+                "set multiplot layout 1,2 title 'sigma of projection (px) of points at %.2f m "
+                "held in mirror 1''s body'\n"
+                "set cbrange [0:%.6g]\n",
+                range_mm / 1000, cb_max_px > 0 ? cb_max_px : 1.0);
+  // One colour scale for both rings (and both ranges: the caller's cb_max_px), its bar drawn
+  // once, beside ring 2.
+  return Datablock("u", rows) + head +
+         "set xlabel 'azimuth (deg)'\nset ylabel 'direction from C above its xy plane (deg)'\n"
+         "set palette rgbformulae 22,13,-31\nset cblabel 'sigma (px)'\nunset key\n"
+         "unset colorbox\n"
+         "set title 'ring 1 (mirror 1)'\nplot $u using 1:2:3 with points pt 5 ps 0.6 palette\n"
+         "set colorbox\n"
+         "set title 'ring 2 (mirror 2)'\nplot $u using 1:2:4 with points pt 5 ps 0.6 palette\n"
+         "unset multiplot\n";
+}
+
+std::string UncertaintyMap(const std::string& dir,
+                           const std::vector<calib::PointUncertainty>& map, double range_mm,
+                           double cb_max_px, std::string* note) {
+  if (map.empty()) {
+    *note = "no stereo-band point is seen in both rings at this range";
+    return "";
+  }
   char name[64];
   std::snprintf(name, sizeof(name), "uncertainty_%.0fmm.png", range_mm);
-  char title[256];
-  std::snprintf(title, sizeof(title),
-                "set multiplot layout 1,2 title 'sigma of projection (px) of points at %.2f m "
-                "held in mirror 1''s body'\n",
-                range_mm / 1000);
-  const std::string body =
-      Datablock("u", rows) + title +
-      "set xlabel 'azimuth (deg)'\nset ylabel 'direction from C above its xy plane (deg)'\n"
-      "set palette rgbformulae 22,13,-31\nset cblabel 'px'\nunset key\n"
-      "set title 'ring 1 (mirror 1)'\nplot $u using 1:2:3 with points pt 5 ps 0.6 palette\n"
-      "set title 'ring 2 (mirror 2)'\nplot $u using 1:2:4 with points pt 5 ps 0.6 palette\n"
-      "unset multiplot\n";
-  return Plot(dir, name, body, note);
+  return Plot(dir, name, UncertaintyMapScript(map, range_mm, cb_max_px), note);
 }
 
 }  // namespace omni::report

@@ -18,8 +18,12 @@ std::string CoverageImage(const std::string& dir, const ReportInput& in, std::st
 std::string ResidualHistograms(const std::string& dir, const ReportInput& in, std::string* note);
 // Residual RMS per image and ring.
 std::string PerImageRms(const std::string& dir, const ReportInput& in, std::string* note);
-// Residual RMS per session target and ring.
+// Residual RMS per session target (named: TargetName) and ring.
 std::string PerTargetRms(const std::string& dir, const ReportInput& in, std::string* note);
+// The gnuplot script of those bar plots: rows (index, ring 1 RMS, ring 2 RMS), one x label per
+// row; the y axis from 0 to above the largest bar.
+std::string RmsBarsScript(const std::string& what, const std::vector<std::string>& labels,
+                          const std::vector<std::vector<double>>& rows);
 // Where the used corners' rays point, per ring: azimuth x elevation (deg) through the
 // calibrated model, over the stereo band's outline at 1 m.
 std::string CoverageAngles(const std::string& dir, const ReportInput& in, std::string* note);
@@ -28,9 +32,14 @@ std::string CoverageAngles(const std::string& dir, const ReportInput& in, std::s
 std::vector<std::string> OutlierThumbnails(const std::string& dir, const ReportInput& in,
                                            int count);
 // The predicted sigma of projection over each ring's stereo band (azimuth x elevation) for
-// points at range_mm held in mirror 1's body (`map`: calib::ProjectionUncertaintyMap).
+// points at range_mm held in mirror 1's body (`map`: calib::ProjectionUncertaintyMap), both
+// rings on one colour scale from 0 to cb_max_px (the report passes the largest over all its maps:
+// LargestUncertaintyPx), with its colour bar.
 std::string UncertaintyMap(const std::string& dir,
                            const std::vector<calib::PointUncertainty>& map, double range_mm,
-                           std::string* note);
+                           double cb_max_px, std::string* note);
+std::string UncertaintyMapScript(const std::vector<calib::PointUncertainty>& map,
+                                 double range_mm, double cb_max_px);
+double LargestUncertaintyPx(const std::vector<calib::PointUncertainty>& map);
 
 }  // namespace omni::report

@@ -219,6 +219,11 @@ std::string Tolerances(const std::vector<design::ToleranceCheck>& checks) {
         << "</td><td>" << (c.sigma ? Format("%.2g", *c.sigma * scale) + unit : "-") << "</td><td>"
         << Format("%.4g", c.limit * scale) << unit << "</td><td>" << design::VerdictName(c.verdict)
         << "</td></tr>\n";
+    // Which way to move a part that fails; a value the calibration cannot tell from the
+    // camera's rotation.
+    for (const std::string& note : {design::Correction(c), design::RotationValleyNote(c)}) {
+      if (!note.empty()) out << "<tr><td></td><td colspan=\"4\">" << Escape(note) << "</td></tr>\n";
+    }
   }
   out << "</table>\n<p>PASS: within the limit even at the value plus its confidence sigmas; "
          "FAIL: beyond it even at the value minus them; UNDECIDED: more data would decide.</p>\n";
@@ -310,9 +315,12 @@ std::string WriteReport(const std::string& dir, const ReportInput& in) {
   status("projection uncertainty");
   const std::vector<calib::PointUncertainty> map_1m =
       calib::ProjectionUncertaintyMap(*in.result, 1000);
-  const std::string near = UncertaintyMap(dir, map_1m, 1000, &note[4]);
-  const std::string far = UncertaintyMap(
-      dir, calib::ProjectionUncertaintyMap(*in.result, in.range_mm), in.range_mm, &note[5]);
+  const std::vector<calib::PointUncertainty> map_far =
+      calib::ProjectionUncertaintyMap(*in.result, in.range_mm);
+  // Both maps, both rings on one colour scale: a colour means the same sigma everywhere.
+  const double cb_max = std::max(LargestUncertaintyPx(map_1m), LargestUncertaintyPx(map_far));
+  const std::string near = UncertaintyMap(dir, map_1m, 1000, cb_max, &note[4]);
+  const std::string far = UncertaintyMap(dir, map_far, in.range_mm, cb_max, &note[5]);
   status("triangulation uncertainty");
   const calib::ProjectionUncertainty at_1m = calib::RmsOf(map_1m);
 

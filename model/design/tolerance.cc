@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <map>
 #include <random>
 
@@ -40,6 +41,15 @@ class NamedCovariance {
     }
     return std::sqrt(std::max(0.0, var));
   }
+  // The correlation of two named parameters (0 when either is missing or has no variance).
+  double Correlation(const std::string& a, const std::string& b) const {
+    if (!Has({a, b})) return 0;
+    const auto at = [&](const std::string& p, const std::string& q) {
+      return (*cov_)[index_.at(p) * n_ + index_.at(q)];
+    };
+    const double scale = std::sqrt(at(a, a) * at(b, b));
+    return scale > 0 ? at(a, b) / scale : 0;
+  }
 
  private:
   std::map<std::string, int> index_;
@@ -53,6 +63,8 @@ ToleranceCheck Magnitude2(const NamedCovariance& cov, const std::string& name,
                           const std::string& unit, const std::string& px, const std::string& py,
                           double x, double y, double limit) {
   ToleranceCheck check{name, unit, std::hypot(x, y), std::nullopt, limit, Verdict::kUndecided};
+  check.parameters = {px, py};
+  check.components = {x, y};
   if (cov.Has({px, py})) {
     if (check.value > 1e-12) {
       check.sigma = cov.Sigma({px, py}, {x / check.value, y / check.value});
@@ -66,6 +78,8 @@ ToleranceCheck Magnitude2(const NamedCovariance& cov, const std::string& name,
 ToleranceCheck Magnitude1(const NamedCovariance& cov, const std::string& name,
                           const std::string& unit, const std::string& p, double x, double limit) {
   ToleranceCheck check{name, unit, std::abs(x), std::nullopt, limit, Verdict::kUndecided};
+  check.parameters = {p};
+  check.components = {x};
   if (cov.Has({p})) check.sigma = cov.Sigma({p}, {1.0});
   return check;
 }
@@ -142,6 +156,17 @@ double Percentile(std::vector<double> v, double p) {
   return v[k];
 }
 
+// "+0.123, -0.045" of values scaled by k.
+std::string Signed(const std::vector<double>& values, double k, const char* format) {
+  std::string out;
+  char one[32];
+  for (double v : values) {
+    std::snprintf(one, sizeof one, format, v * k);
+    out += (out.empty() ? "" : ", ") + std::string(one);
+  }
+  return out;
+}
+
 }  // namespace
 
 const char* VerdictName(Verdict verdict) {
@@ -151,6 +176,60 @@ const char* VerdictName(Verdict verdict) {
     case Verdict::kUndecided: return "UNDECIDED";
   }
   return "?";
+}
+
+std::string Correction(const ToleranceCheck& c) {
+  if (c.verdict != Verdict::kFail) return "";
+  const bool deg = c.unit == "rad";
+  const double k = deg ? 180.0 / M_PI : 1.0;
+  const char* unit = deg ? "deg" : "mm";
+  const double excess = c.value - c.limit;
+  const std::string part = c.name.substr(0, c.name.find('.'));
+  char line[400];
+  if (c.components.empty()) {
+    std::snprintf(line, sizeof line,
+                  "%.4f %s beyond the limit: the machined surface departs from the conic, which "
+                  "no move of the part corrects",
+                  excess * k, unit);
+    return line;
+  }
+  std::vector<double> move;
+  for (double v : c.components) move.push_back(c.value > 0 ? -excess * v / c.value : 0.0);
+  const std::string is = Signed(c.components, k, "%+.3f");
+  const std::string by = Signed(move, k, "%+.3f");
+  if (c.components.size() == 1) {
+    const bool up = move[0] > 0;
+    std::snprintf(line, sizeof line,
+                  "%s is %s %s, %.3f %s beyond +-%.3f: move %s %.3f %s along %sz (%s the camera)",
+                  c.parameters[0].c_str(), is.c_str(), unit, excess * k, unit, c.limit * k,
+                  part == "reflex" ? "the reflex plane" : part.c_str(), excess * k, unit,
+                  up ? "+" : "-", up ? "away from" : "towards");
+  } else if (deg) {
+    std::snprintf(line, sizeof line,
+                  "(%s, %s) is (%s) deg, |.| %.3f beyond %.3f by %.3f: turn %s back by (%s) deg "
+                  "about C's x, y",
+                  c.parameters[0].c_str(), c.parameters[1].c_str(), is.c_str(), c.value * k,
+                  c.limit * k, excess * k, part == "reflex" ? "the reflex plane" : part.c_str(),
+                  by.c_str());
+  } else {
+    std::snprintf(line, sizeof line,
+                  "(%s, %s) is (%s) mm, |.| %.3f beyond %.3f by %.3f: move %s by (%s) mm in C's "
+                  "x, y (x image right, y image down), towards the axis",
+                  c.parameters[0].c_str(), c.parameters[1].c_str(), is.c_str(), c.value,
+                  c.limit, excess, part.c_str(), by.c_str());
+  }
+  return line;
+}
+
+std::string RotationValleyNote(const ToleranceCheck& c) {
+  if (!(std::abs(c.valley_correlation) > kRotationValleyCorrelation)) return "";
+  char line[300];
+  std::snprintf(line, sizeof line,
+                "%s correlation %+.4f: in the camera-rotation valley; this value is not "
+                "separable from the camera's rotation against the bodies (the principal point "
+                "moves with it)",
+                c.valley_pair.c_str(), c.valley_correlation);
+  return line;
 }
 
 std::vector<ToleranceCheck> CheckTolerances(const RigParams& rig, const ToleranceSpec& spec) {
@@ -183,6 +262,15 @@ std::vector<ToleranceCheck> CheckTolerances(const RigParams& rig, const Toleranc
   }
   for (ToleranceCheck& c : checks) {
     Decide(spec.confidence_sigmas, &c);
+    for (const std::string& p : c.parameters) {
+      for (const char* camera : {"cx", "cy"}) {
+        const double r = cov.Correlation(p, camera);
+        if (std::abs(r) > std::abs(c.valley_correlation)) {
+          c.valley_correlation = r;
+          c.valley_pair = p + " ~ " + camera;
+        }
+      }
+    }
     // A profile the model does not carry was never measured: no verdict.
     const bool unmeasured_profile = (c.name == "mirror1.profile" && !rig.profile1.present) ||
                                     (c.name == "mirror2.profile" && !rig.profile2.present);

@@ -42,13 +42,34 @@ struct ToleranceCheck {
   std::optional<double> sigma;  // first-order sigma of the magnitude (calibrated models only)
   double limit = 0;
   Verdict verdict = Verdict::kUndecided;
+  // The signed parameters the magnitude is made of (mirror1.tx, mirror1.ty for a decentre;
+  // none for a profile): which way the part sits, so which way to move it.
+  std::vector<std::string> parameters;
+  std::vector<double> components;
+  // The strongest correlation (calibrated models) of one of `parameters` with the principal
+  // point (cx, cy), and the pair ("mirror1.ry ~ cx"): beyond kRotationValleyCorrelation the
+  // value lies in the camera-rotation valley, where turning the camera against the bodies moves
+  // it with the principal point, so the calibration cannot separate it from the camera's rotation.
+  double valley_correlation = 0;
+  std::string valley_pair;
 };
+constexpr double kRotationValleyCorrelation = 0.99;
 
 // Checks a model against the spec. With a covariance (rig.calibration, parameter names like
 // mirror1.tx, reflex.rx) a verdict is PASS only if value + k*sigma <= limit, FAIL only if
 // value - k*sigma > limit, and UNDECIDED otherwise (more data would decide it). Without a
 // covariance the verdict compares the value alone (and says so by an empty sigma).
 std::vector<ToleranceCheck> CheckTolerances(const RigParams& rig, const ToleranceSpec& spec);
+
+// For a FAIL (else empty): by how much the part is beyond its limit and the smallest move that
+// brings it back, against the direction its signed components point in; C's axes: +x image
+// right, +y image down, +z from the camera towards the mirrors. E.g. "(mirror1.tx, mirror1.ty)
+// is (+0.311, -0.205) mm, |.| 0.373 beyond 0.300 by 0.073: move mirror1 by (-0.061, +0.040) mm
+// in C's x, y (x image right, y image down), towards the axis".
+std::string Correction(const ToleranceCheck& check);
+// Where one of the check's parameters lies in the camera-rotation valley (|valley_correlation|
+// over kRotationValleyCorrelation), one line saying so; else empty.
+std::string RotationValleyNote(const ToleranceCheck& check);
 
 // The image effect of the tolerances: `samples` rigs are drawn uniformly within the limits
 // (decentre uniform in a disc, tilt uniform in a disc, axial and dz uniform in +-limit, random

@@ -244,6 +244,25 @@ TEST_F(CalibrateCli, TargetsThatMatchNothing) {
   ExpectFailure(Files(SessionWith(session_->targets), none), "match nothing");
 }
 
+// Photos none of which can be read: the session is named with the count, after one line per
+// file; the lip guide's line (which read nothing) is not printed.
+TEST_F(CalibrateCli, NoReadableImageIsNamedWithTheSession) {
+  io::Session session = SessionWith(session_->targets);
+  session.images = {(dir_ / "broken.png").string(), (dir_ / "missing.png").string()};
+  std::ofstream(dir_ / "broken.png") << "not a png";
+  io::WriteFileAtomically((dir_ / "session.yaml").string(), io::SessionText(session, dir_.string()));
+  std::string err, out;
+  EXPECT_EQ(Run("calibrate --session='" + (dir_ / "session.yaml").string() + "' --out='" +
+                    (dir_ / "out.yaml").string() + "'",
+                &err, &out),
+            2);
+  EXPECT_NE(err.find("broken.png: cannot read the image"), std::string::npos) << err;
+  EXPECT_NE(LastLine(err).find("session.yaml: none of the 2 images could be read"), std::string::npos)
+      << err;
+  EXPECT_EQ(out.find("detection guided"), std::string::npos) << out;
+  EXPECT_FALSE(fs::exists(dir_ / "out.yaml"));
+}
+
 // A lips-only session (targets: []) is for detect's intrinsics check: calibrate says so.
 TEST_F(CalibrateCli, LipsOnlySessionIsRefused) {
   ExpectFailure(Files(SessionWith({}), *detections_), "lips-only session: calibrate needs target");

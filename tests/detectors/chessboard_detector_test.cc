@@ -21,6 +21,7 @@
 #include "synthetic/scene.h"
 #include "synthetic/scene_file.h"
 #include "detectors/detect_image.h"
+#include "detectors/detect_session.h"
 #include "model/io/model_file.h"
 #include "tests/detectors/nearest_truth.h"
 #include "tests/temp_dir.h"
@@ -323,6 +324,45 @@ TEST(ChessboardDetector, RepeatedPlacementsOfOneSheetAreDropped) {
   EXPECT_EQ(kept({sheet, sheet}, {board(0, Mirror::kOne, all), board(0, Mirror::kOne, all),
                                   board(0, Mirror::kOne, {0, 3, 4, 11})}),
             (std::vector<size_t>{121, 121}));
+}
+
+// Several identical sheets in one photo (four copies of one board): the copies left out are
+// reported (not the false 4-corner placement), and said once for the session with the number of
+// photos and what to do.
+TEST(ChessboardDetector, CopiesOfOneSheetLeftOutAreSaidOncePerSession) {
+  const auto board = [](Mirror mirror, int corners) {
+    BoardDetection b;
+    b.mirror = mirror;
+    for (int i = 0; i < corners; ++i) b.ids.push_back(i);
+    b.view_pixels.assign(corners, Eigen::Vector2d::Zero());
+    b.raw_pixels.assign(corners, Eigen::Vector2d::Zero());
+    return b;
+  };
+  TargetSpec sheet;
+  sheet.type = TargetType::kChessboard;
+  sheet.rows = 3;
+  sheet.cols = 4;
+  std::vector<int> repeated;
+  EXPECT_EQ(DropRepeatedPlacements({board(Mirror::kOne, 12), board(Mirror::kOne, 4)}, {sheet},
+                                   &repeated).size(), 1u);
+  EXPECT_TRUE(repeated.empty());
+  EXPECT_EQ(DropRepeatedPlacements({board(Mirror::kOne, 12), board(Mirror::kOne, 12),
+                                    board(Mirror::kOne, 10), board(Mirror::kTwo, 12),
+                                    board(Mirror::kTwo, 8)},
+                                   {sheet}, &repeated).size(), 2u);
+  EXPECT_EQ(repeated, (std::vector<int>{0, 0, 0}));
+
+  RepeatedSheets sheets;
+  EXPECT_EQ(sheets.Note({sheet}), "");
+  ImageReport photo;
+  photo.repeated_targets = repeated;
+  sheets.Add(photo);
+  sheets.Add(ImageReport());
+  sheets.Add(photo);
+  const std::string note = sheets.Note({sheet});
+  EXPECT_NE(note.find("target 0 (chessboard 3x4) in 2 photo(s)"), std::string::npos) << note;
+  EXPECT_NE(note.find("one copy per ring was kept"), std::string::npos) << note;
+  EXPECT_NE(note.find("its own entry under targets:"), std::string::npos) << note;
 }
 
 }  // namespace

@@ -117,10 +117,17 @@ TEST(DetectCliTest, NoUsableImageWritesNothing) {
   const fs::path dir = MakeDir("none");
   std::ofstream(dir / "broken.png") << "not a png";
   WriteSession(dir, "[broken.png, missing.png]");
-  std::string err;
-  const int code = Detect(dir, &err);
+  std::string err, out;
+  const int code = Detect(dir, &err, &out);
   EXPECT_EQ(code, 2);
-  EXPECT_NE(err.find("none of the 2 images could be used; nothing written"), std::string::npos) << err;
+  // Each file named once, then the session's line; no lip guide line for images never read.
+  EXPECT_NE(err.find("broken.png: cannot read the image"), std::string::npos) << err;
+  EXPECT_EQ(out.find("detection guided"), std::string::npos) << out;
+  EXPECT_EQ(out.find("no colour image"), std::string::npos) << out;
+  EXPECT_NE(err.find("session.yaml: none of the 2 images could be read"), std::string::npos) << err;
+  EXPECT_NE(err.find("the first: " + (dir / "broken.png").string() + ": cannot read the image"),
+            std::string::npos)
+      << err;
   EXPECT_FALSE(fs::exists(dir / "det.yaml"));
 }
 

@@ -16,6 +16,7 @@
 #include "synthetic/image_effects.h"
 #include "synthetic/pov_scene.h"
 #include "synthetic/scene_file.h"
+#include "detectors/detect_session.h"
 #include "detectors/lip_detector.h"
 #include "detectors/lip_guide.h"
 #include "detectors/lip_intrinsics.h"
@@ -435,6 +436,27 @@ TEST(LipDetector, GreyOrWrongSizeImagesGiveNoEdges) {
   EXPECT_TRUE(DetectLips(cv::Mat(480, 640, CV_8UC3, cv::Scalar(0)), model).empty());
   EXPECT_TRUE(DetectLips(cv::Mat(960, 1280, CV_8UC3, cv::Scalar(0)), model).empty());
   EXPECT_FALSE(InitialIntrinsicsFromLips({}, model));
+}
+
+// The guide's line says whether its fit's rms is fine: 0.43-0.45 px where the model fits the
+// lips, over 1 px where it does not (the "rms 1.46 px over 6005 edge points").
+TEST(LipGuideLine, JudgesTheFitsRms) {
+  LipGuide guide;
+  guide.applied = true;
+  guide.images = 3;
+  guide.points = 6005;
+  guide.rms_px = 1.46;
+  const std::string high = GuideLine(guide);
+  EXPECT_NE(high.find("rms 1.46 px over 6005 edge points"), std::string::npos) << high;
+  EXPECT_NE(high.find("lip fit rms 1.46 px: high"), std::string::npos) << high;
+  EXPECT_NE(high.find("init --posts"), std::string::npos) << high;
+  guide.rms_px = 0.45;
+  const std::string fine = GuideLine(guide);
+  EXPECT_NE(fine.find("lip fit rms 0.45 px: fine"), std::string::npos) << fine;
+  // No fit, no judgement.
+  LipGuide none;
+  none.why_not = "the session does not use the lips (lips: false)";
+  EXPECT_EQ(GuideLine(none), Describe(none));
 }
 
 }  // namespace

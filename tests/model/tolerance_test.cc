@@ -161,5 +161,38 @@ TEST(ToleranceTest, ProfileSensitivityIsLinearInThePeakToValley) {
   EXPECT_NEAR(b.p95_range_error_2m / a.p95_range_error_2m, 2.0, 0.2);
 }
 
+// A FAIL says which way to move the part and by how much; a parameter correlated beyond 0.99
+// with cx or cy is said to lie in the camera-rotation valley; a PASS says neither.
+TEST(ToleranceTest, FailSaysWhichWayAndTheValleyIsNamed) {
+  ToleranceCheck decentre{"mirror2.decentre", "mm", 0.5, 0.01, 0.3, Verdict::kFail};
+  decentre.parameters = {"mirror2.tx", "mirror2.ty"};
+  decentre.components = {0.3, -0.4};
+  EXPECT_EQ(Correction(decentre),
+            "(mirror2.tx, mirror2.ty) is (+0.300, -0.400) mm, |.| 0.500 beyond 0.300 by 0.200: "
+            "move mirror2 by (-0.120, +0.160) mm in C's x, y (x image right, y image down), "
+            "towards the axis");
+  ToleranceCheck axial{"mirror1.axial", "mm", 0.41, 0.02, 0.2, Verdict::kFail};
+  axial.parameters = {"mirror1.tz"};
+  axial.components = {0.41};
+  EXPECT_EQ(Correction(axial), "mirror1.tz is +0.410 mm, 0.210 mm beyond +-0.200: move mirror1 "
+                               "0.210 mm along -z (towards the camera)");
+  EXPECT_EQ(RotationValleyNote(axial), "");
+  axial.verdict = Verdict::kPass;
+  EXPECT_EQ(Correction(axial), "");
+  // The calibrated test model: mirror 1's tilt is in the valley (rx ~ cy +0.9997).
+  const RigParams rig = io::ReadModelFile(std::string(OMNI_SAMPLE_DIR) + "/../tests/data/calibrated_big_rig.yaml");
+  ToleranceSpec spec;
+  spec.mirror[0].tilt_rad = 0.01 * M_PI / 180;
+  spec.mirror[0].axial_mm = 5;
+  const std::vector<ToleranceCheck> checks = CheckTolerances(rig, spec);
+  ASSERT_EQ(checks.size(), 2u);
+  EXPECT_EQ(checks[0].valley_pair, "mirror1.rx ~ cy");
+  EXPECT_GT(checks[0].valley_correlation, 0.999);
+  EXPECT_NE(RotationValleyNote(checks[0]).find("camera-rotation valley"), std::string::npos);
+  EXPECT_NE(Correction(checks[0]).find("turn mirror1 back by"), std::string::npos);
+  EXPECT_LT(std::abs(checks[1].valley_correlation), 0.99);  // tz
+  EXPECT_EQ(RotationValleyNote(checks[1]), "");
+}
+
 }  // namespace
 }  // namespace omni::design
