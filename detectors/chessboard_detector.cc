@@ -746,6 +746,64 @@ std::vector<BoardDetection> DropRepeatedPlacements(std::vector<BoardDetection> k
   return placed;
 }
 
+void SpreadCopiesOverTheirTargets(const RigModel& model, const std::vector<TargetSpec>& targets,
+                                  std::vector<BoardDetection>* boards) {
+  // The azimuth (about C's z) of a copy's mean ray direction; NaN where no corner unprojects.
+  const auto azimuth = [&](const BoardDetection& b) {
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    for (const Eigen::Vector2d& px : b.raw_pixels) {
+      if (const auto ray = model.Unproject(px)) sum += ray->ray.direction;
+    }
+    return sum.head<2>().norm() > 0 ? std::atan2(sum.y(), sum.x()) : std::nan("");
+  };
+  const auto angle_between = [](double a, double b) {
+    return std::abs(std::remainder(a - b, 2 * M_PI));
+  };
+  for (size_t first = 0; first < targets.size(); ++first) {
+    const TargetSpec& spec = targets[first];
+    if (spec.type != TargetType::kChessboard) continue;
+    std::vector<int> siblings;  // the targets printed with this pattern, the first first
+    for (size_t t = 0; t < targets.size(); ++t) {
+      if (targets[t].type == TargetType::kChessboard && targets[t].rows == spec.rows &&
+          targets[t].cols == spec.cols) {
+        siblings.push_back(static_cast<int>(t));
+      }
+    }
+    if (siblings.size() < 2 || siblings[0] != static_cast<int>(first)) continue;
+    // Ring 1's copies in order of azimuth take the siblings in turn; each of ring 2's copies
+    // takes the target of ring 1's copy nearest in azimuth not yet paired, else the next free.
+    std::vector<std::pair<double, BoardDetection*>> ring[2];
+    for (BoardDetection& b : *boards) {
+      if (b.target == static_cast<int>(first)) ring[MirrorIndex(b.mirror) - 1].emplace_back(azimuth(b), &b);
+    }
+    std::sort(ring[0].begin(), ring[0].end(),
+              [](const auto& a, const auto& b) { return a.first < b.first; });
+    size_t next = 0;
+    std::vector<std::pair<double, int>> taken;  // (azimuth, target) of ring 1's copies
+    for (auto& [az, b] : ring[0]) {
+      if (next >= siblings.size()) break;
+      b->target = siblings[next++];
+      taken.emplace_back(az, b->target);
+    }
+    std::vector<bool> paired(taken.size(), false);
+    for (auto& [az, b] : ring[1]) {
+      int best = -1;
+      for (size_t k = 0; k < taken.size(); ++k) {
+        if (paired[k] || std::isnan(az) || std::isnan(taken[k].first)) continue;
+        if (best < 0 || angle_between(az, taken[k].first) < angle_between(az, taken[best].first)) {
+          best = static_cast<int>(k);
+        }
+      }
+      if (best >= 0) {
+        paired[best] = true;
+        b->target = taken[best].second;
+      } else if (next < siblings.size()) {
+        b->target = siblings[next++];
+      }
+    }
+  }
+}
+
 std::vector<BoardDetection> DetectChessboardBoards(const cv::Mat& raw_grey,
                                                    const std::vector<RingView>& views,
                                                    const RigModel& model,
@@ -806,7 +864,9 @@ std::vector<BoardDetection> DetectChessboardBoards(const cv::Mat& raw_grey,
     }
     if (!duplicate) kept.push_back(std::move(b));
   }
-  return DropRepeatedPlacements(std::move(kept), targets, repeated);
+  std::vector<BoardDetection> placed = DropRepeatedPlacements(std::move(kept), targets, repeated);
+  SpreadCopiesOverTheirTargets(model, targets, &placed);
+  return placed;
 }
 
 std::vector<CornerObservation> DetectChessboards(const cv::Mat& raw_grey,

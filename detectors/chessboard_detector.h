@@ -94,6 +94,14 @@ std::vector<BoardDetection> DropRepeatedPlacements(std::vector<BoardDetection> b
                                                    const std::vector<TargetSpec>& targets,
                                                    std::vector<int>* repeated = nullptr);
 
+// Several identical sheets listed as targets (one chessboard pattern, rows x cols, listed k
+// times): every copy found carries the first such target's index. Gives the copies in one
+// photo one target each, the same in both rings: copies are paired across the rings by the
+// azimuth of their corners' rays (model.Unproject) and numbered in order of azimuth. Across
+// photos the numbering need not follow one physical sheet (each placement is posed on its own).
+void SpreadCopiesOverTheirTargets(const RigModel& model, const std::vector<TargetSpec>& targets,
+                                  std::vector<BoardDetection>* boards);
+
 // Chessboards in one image. `views` must have been rendered from this image (RenderViews);
 // `raw_grey` is the raw image as CV_8U grey. Targets that are not chessboards are ignored; the
 // target index of an observation is its index in `targets`. *repeated (may be null): as

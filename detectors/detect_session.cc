@@ -109,10 +109,11 @@ std::string RepeatedSheets::Note(const std::vector<TargetSpec>& targets) const {
              TargetName(spec) + ") in " + std::to_string(photos) + " photo(s)";
   }
   return "more copies of one sheet in a ring than the session lists targets of its pattern: " +
-         which + "; one copy per ring was kept, the others left out. Copies of one pattern cannot "
-         "be told apart nor paired across the rings: give each sheet its own pattern (chessboards "
-         "another rows x cols, tag grids their own first_id range: `omnistereo target`) and list "
-         "each as its own entry under targets: (docs/formats/session.md)";
+         which + "; one copy per ring was kept, the others left out. List an identical chessboard "
+         "once per copy under targets: (the copies are then told apart by azimuth), or give "
+         "each sheet its own pattern (chessboards another rows x cols, tag grids their own "
+         "first_id range: `omnistereo target`) and list each as its own entry "
+         "(docs/formats/session.md)";
 }
 
 Observations DetectSession(const io::Session& session, DetectorContext* ctx,

@@ -362,7 +362,54 @@ TEST(ChessboardDetector, CopiesOfOneSheetLeftOutAreSaidOncePerSession) {
   const std::string note = sheets.Note({sheet});
   EXPECT_NE(note.find("target 0 (chessboard 3x4) in 2 photo(s)"), std::string::npos) << note;
   EXPECT_NE(note.find("one copy per ring was kept"), std::string::npos) << note;
-  EXPECT_NE(note.find("its own entry under targets:"), std::string::npos) << note;
+  EXPECT_NE(note.find("once per copy under targets:"), std::string::npos) << note;
+}
+
+// Three identical sheets listed as three targets, two of them in a photo: every copy arrives
+// with the first target's index. Each copy takes a target of its own, the same in both rings
+// (paired by azimuth, though ring 2's copies come in another order), whatever the order.
+TEST(ChessboardDetector, IdenticalSheetsListedOncePerCopyTakeOneTargetEach) {
+  const RigParams rig = io::ReadModelFile(std::string(OMNISTEREO_SOURCE_DIR) +
+                                          "/sample_configs/big_rig_misaligned.yaml");
+  const RigModel model(rig);
+  const TargetSpec sheet = ChessboardSpec(3, 4, 40);
+  const std::vector<TargetSpec> targets = {ChessboardSpec(5, 6, 35), sheet, sheet, sheet};
+  const IdealModel ideal = rig.Ideal();
+  const double z_mid = 0.5 * (ideal.c1 + ideal.d - ideal.c2);
+  // A copy: the sheet's corners at `range` mm and `azimuth` rad, as one ring sees them.
+  const auto copy = [&](double azimuth, double range, Mirror mirror) {
+    BoardDetection b;
+    b.target = 1;
+    b.mirror = mirror;
+    const synthetic::Placement p = synthetic::PlaceFacingAxis(
+        sheet, 1, Eigen::Vector3d(range * std::cos(azimuth), range * std::sin(azimuth), z_mid));
+    for (int id = 0; id < sheet.rows * sheet.cols; ++id) {
+      const Eigen::Vector3d point_in_cam = p.cam_from_target_rotation * CornerInTarget(sheet, id) +
+                                           p.cam_from_target_translation;
+      const auto px = model.Project(point_in_cam, mirror);
+      if (!px) continue;
+      b.ids.push_back(id);
+      b.raw_pixels.push_back(*px);
+      b.view_pixels.push_back(*px);
+    }
+    EXPECT_FALSE(b.ids.empty());
+    return b;
+  };
+  for (const double a : {0.3, 2.0, 4.0}) {
+    const double b = a + 2.6;  // the other copy
+    std::vector<BoardDetection> boards = {copy(b, 1200, Mirror::kTwo), copy(a, 600, Mirror::kOne),
+                                          copy(a, 600, Mirror::kTwo), copy(b, 1200, Mirror::kOne)};
+    SpreadCopiesOverTheirTargets(model, targets, &boards);
+    // Pairs: boards 1 and 2 (copy a), 0 and 3 (copy b); two of the three sheets' targets.
+    EXPECT_EQ(boards[1].target, boards[2].target) << a;
+    EXPECT_EQ(boards[0].target, boards[3].target) << a;
+    EXPECT_NE(boards[1].target, boards[0].target) << a;
+    for (const auto& board : boards) EXPECT_TRUE(board.target >= 1 && board.target <= 3) << a;
+  }
+  // One sheet listed once: nothing changes.
+  std::vector<BoardDetection> one = {copy(1.0, 800, Mirror::kOne)};
+  SpreadCopiesOverTheirTargets(model, {ChessboardSpec(5, 6, 35), sheet}, &one);
+  EXPECT_EQ(one[0].target, 1);
 }
 
 }  // namespace
