@@ -12,6 +12,7 @@
 #include <ctime>
 #include <filesystem>
 #include <set>
+#include <map>
 #include <string>
 #include <tuple>
 
@@ -250,15 +251,34 @@ void CheckSolveStayed(const CalibrationInfo& info, const calib::CalibrationResul
   }
 }
 
-// Every observation the solve left out, one line each, with why.
-void PrintLeftOut(const calib::CalibrationResult& result, const Observations& detections) {
+// Every observation the solve left out, one line each, with why; then per target (named) how
+// many, in how many photos: a target with most of the outliers is worth a look (its print,
+// its size, its flatness).
+void PrintLeftOut(const calib::CalibrationResult& result, const Observations& detections,
+                  const std::vector<TargetSpec>& targets) {
+  std::map<int, std::pair<int, std::set<int>>> per_target;  // target -> (count, images)
   for (const auto& r : result.rejected) {
-    std::printf("left out: image %d (%s) target %d corner %d mirror %d at (%.2f, %.2f): %s",
+    std::printf("left out: image %d (%s) target %d corner %d ring %d at (%.2f, %.2f): %s",
                 r.image, detections.images[r.image].file.c_str(), r.target, r.id, r.mirror,
                 r.pixel.x(), r.pixel.y(), r.reason.c_str());
     if (r.residual_px > 0) std::printf(" (%.2f px)", r.residual_px);
     std::printf("\n");
+    auto& [count, images] = per_target[r.target];
+    ++count;
+    images.insert(r.image);
   }
+  if (per_target.empty()) return;
+  std::printf("left out %zu corner observation(s):", result.rejected.size());
+  const char* separator = " ";
+  for (const auto& [t, entry] : per_target) {
+    const std::string name = t >= 0 && t < static_cast<int>(targets.size())
+                                 ? TargetName(targets[t])
+                                 : std::string("?");
+    std::printf("%starget %d (%s) %d in %zu photo(s)", separator, t, name.c_str(), entry.first,
+                entry.second.size());
+    separator = ", ";
+  }
+  std::printf("\n");
 }
 
 // With the true rig known (synthetic sessions): the projection difference at 1 m, each group's
@@ -304,7 +324,7 @@ int RunCalibrate() {
   std::optional<RigParams> truth;
   if (!FLAGS_truth_model.empty()) truth = io::ReadModelFile(FLAGS_truth_model);
   std::printf("%s", calib::ResultTable(result, truth ? &*truth : nullptr).c_str());
-  PrintLeftOut(result, detections);
+  PrintLeftOut(result, detections, session.targets);
   if (!FLAGS_truth.empty()) PrintCornerNoiseCheck(result, detections, FLAGS_truth);
   std::printf("solved in %.2f s (%s); %zu target placements in %zu images\n", seconds,
               result.converged ? "converged" : "NOT converged", result.placements.size(),

@@ -67,16 +67,14 @@ void WriteOverlay(const std::string& path, const cv::Mat& image, const detectors
 // (lip_intrinsics.h; measured: f -0.5 to -0.6%, principal point 5-9 px from the true one on a rig
 // misaligned by 0.3 mm and 0.3 deg).
 void PrintLipCheck(const Observations& detections, const RigModel& model) {
-  std::vector<LipEdgeObservation> edges;
-  for (const auto& image : detections.images) {
-    edges.insert(edges.end(), image.lips.begin(), image.lips.end());
-  }
   const RigParams& p = model.params();
-  const auto lips = detectors::InitialIntrinsicsFromLips(edges, model);
+  const auto lips = detectors::InitialIntrinsicsFromLipsOf(detections, model);
   if (!lips) {
+    size_t edges = 0;
+    for (const auto& image : detections.images) edges += image.lips.size();
     std::printf("lips only: too few lip edge points for an intrinsics check (%zu edges found): "
                 "check the lips' paints (color:) in the model file and the overlays\n",
-                edges.size());
+                edges);
     return;
   }
   const double f_model = 0.5 * (p.camera[0] + p.camera[1]);

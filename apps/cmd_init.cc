@@ -99,9 +99,7 @@ void StartingIntrinsics(const std::vector<std::string>& images, RigParams* rig, 
   lips_only.images.assign(images.begin(), images.begin() + std::min<size_t>(3, images.size()));
   detectors::DetectorContext ctx(*rig, {}, true);
   const Observations found = detectors::DetectSession(lips_only, &ctx);
-  std::vector<LipEdgeObservation> edges;
-  for (const auto& image : found.images) edges.insert(edges.end(), image.lips.begin(), image.lips.end());
-  const auto lips = detectors::InitialIntrinsicsFromLips(edges, ctx.model);
+  const auto lips = detectors::InitialIntrinsicsFromLipsOf(found, ctx.model);
   if (!lips) {
     std::printf("intrinsics from the image size (f %.1f px, principal point at the centre): no "
                 "lips found in the first photos (check `color:` of the lips in %s)\n",

@@ -77,6 +77,15 @@ LipReferencePoints LipReferencePointsOf(const RigParams& rig) {
   return out;
 }
 
+std::optional<LipIntrinsics> InitialIntrinsicsFromLipsOf(const Observations& detections,
+                                                       const RigModel& nominal) {
+  std::vector<LipEdgeObservation> edges;
+  for (const auto& image : detections.images) {
+    edges.insert(edges.end(), image.lips.begin(), image.lips.end());
+  }
+  return InitialIntrinsicsFromLips(edges, nominal);
+}
+
 std::optional<LipIntrinsics> InitialIntrinsicsFromLips(const std::vector<LipEdgeObservation>& edges,
                                                        const RigModel& nominal,
                                                        bool fit_reflex_tilt) {

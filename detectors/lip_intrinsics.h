@@ -39,6 +39,9 @@ struct LipIntrinsics {
 std::optional<LipIntrinsics> InitialIntrinsicsFromLips(const std::vector<LipEdgeObservation>& edges,
                                                        const RigModel& nominal,
                                                        bool fit_reflex_tilt = false);
+// The same over every image's lip edges (init's start, detect's lips-only check).
+std::optional<LipIntrinsics> InitialIntrinsicsFromLipsOf(const Observations& detections,
+                                                         const RigModel& nominal);
 
 // Where a rig's mirror bodies put the points a lip-only fit can find instead of the principal
 // point (for evaluation against a true rig): the vanishing points K * R_cam_from_mirror_i *

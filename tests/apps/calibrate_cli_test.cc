@@ -302,6 +302,24 @@ TEST_F(CalibrateCli, OneTargetsWrongSizeIsNamedWithItsFactor) {
   }
 }
 
+// Corners moved 4 px off (a smudge on one board): each is left out, and a summary line says how
+// many per target, naming it, and in how many photos.
+TEST_F(CalibrateCli, LeftOutCornersAreCountedPerNamedTarget) {
+  Observations moved = *detections_;
+  int shifted = 0;
+  for (auto& o : moved.images[0].corners) {
+    if (o.target == 1 && shifted < 3) {
+      o.pixel.x() += 4;
+      ++shifted;
+    }
+  }
+  ASSERT_EQ(shifted, 3);
+  std::string err, out;
+  ASSERT_EQ(Run(Files(SessionWith(session_->targets), moved), &err, &out), 0) << err;
+  EXPECT_NE(out.find("left out: image 0"), std::string::npos) << out;
+  EXPECT_NE(out.find("target 1 (chessboard 5x8) 3 in 1 photo(s)"), std::string::npos) << out;
+}
+
 // Malformed detections: exit 2 and one line naming the file and the field; no model file.
 TEST_F(CalibrateCli, MalformedDetectionsNameFileAndField) {
   const std::string args = Files(SessionWith(session_->targets), *detections_);
