@@ -687,116 +687,102 @@ bool RefineTagCorners(const cv::Mat& grey, const Eigen::Vector2d (&corners)[4],
   return true;
 }
 
-std::vector<TagCornerDetection> DetectTagCorners(const cv::Mat& raw_bgr,
-                                                 const std::vector<RingView>& views,
-                                                 const RigModel& model,
-                                                 const std::vector<TargetSpec>& targets,
-                                                 const TagDetectorOptions& options,
-                                                 UnclaimedTags* unclaimed) {
-  std::vector<TagCornerDetection> out;
-  bool want_plain = false, want_kalibr = false;
-  for (const TargetSpec& t : targets) {
-    want_plain |= t.type == TargetType::kAprilTagGrid;
-    want_kalibr |= t.type == TargetType::kKalibrAprilGrid;
-  }
-  if ((!want_plain && !want_kalibr) || raw_bgr.empty()) return out;
-  const cv::Mat raw_grey8 = ToGrey(raw_bgr);
-  cv::Mat grey;
-  raw_grey8.convertTo(grey, CV_32F, 1.0 / 255);
+namespace {
 
-  // Neighbouring views overlap (views.h: 8 views of 90 degrees per ring): each ring's azimuth is
-  // searched once by taking only the middle of each view, 360 / views-per-ring degrees plus
-  // options.view_overlap_deg on each side, so a tag up to that wide lies whole in some crop.
-  // Cuts the tag detectors' pixels by ~40% (they were ~290 ms of a 1280x960 image's ~390 ms).
-  int views_per_ring = 0;
-  for (const RingView& view : views) views_per_ring += view.mirror == views.front().mirror;
-  std::vector<ViewTag> found;
-  std::vector<cv::Mat> view_images(views.size());  // kept for the grid check's Kalibr retries
-  for (std::size_t v = 0; v < views.size(); ++v) {
-    const RingView& view = views[v];
-    cv::Mat view_grey = view.image;
-    if (view_grey.empty() || view_grey.cols != view.width || view_grey.rows != view.height) {
-      cv::remap(raw_grey8, view_grey, view.map_fixed, view.map_interp, cv::INTER_LINEAR,
-                cv::BORDER_CONSTANT, cv::Scalar(0));
-    }
-    view_images[v] = view_grey;
-    const double half_deg = 180.0 / std::max(1, views_per_ring) + options.view_overlap_deg;
-    const int half_px = static_cast<int>(std::ceil(view.f * std::tan(half_deg * M_PI / 180)));
-    const int x0 = std::max(0, static_cast<int>(view.cx) - half_px);
-    const int x1 = std::min(view.width, static_cast<int>(view.cx) + half_px + 2);
-    const cv::Mat crop = view_grey.colRange(x0, x1).clone();
-    std::vector<ViewTag> in_crop;
-    const double blur = view.blur_sigma ? *view.blur_sigma : 0.0;
-    if (want_plain) {
-      const float decimate =
-          view.mirror == Mirror::kTwo ? options.inner_ring_quad_decimate : options.quad_decimate;
-      in_crop = DetectPlainTags(crop, static_cast<int>(v), decimate, blur, options);
-      // Blurred views: libapriltag's quad finder misses small blurred tags (realistic_scene's
-      // 45 mm tags at 0.3-0.45 m in the inner ring, ~2 raw px per bit); outlines of our own,
-      // read by their blurred pattern, for tags it did not read.
-      if (options.plain_outline_finder && blur >= options.blurred_view_sigma) {
-        for (const KalibrViewTag& t : DetectPlainTagsBlurred(crop, blur, options.kalibr.blurred)) {
-          bool known = false;
-          for (const ViewTag& u : in_crop) known |= u.tag_id == t.tag_id;
-          if (known) continue;
-          ViewTag tag{TargetType::kAprilTagGrid, t.tag_id, {}, static_cast<int>(v)};
-          for (int k = 0; k < 4; ++k) tag.corners[k] = t.corners[k];
-          in_crop.push_back(tag);
-        }
-      }
-    }
-    for (ViewTag& t : in_crop) {
-      for (auto& c : t.corners) c.x() += x0;
-      found.push_back(t);
-    }
-    if (want_kalibr) {
-      // Kalibr tag corners are X-junctions (kalibr_detector.h): the quad finder (its contours on
-      // the 2x enlarged view were 135 of 280 ms per calibration_scene_tags image) runs only on
-      // the boxes of saddle-point clusters (saddle_points.h) within the crop, each with a margin
-      // of 2.5 spacings + 8 px around its outermost saddles.
-      const cv::Rect crop_rect(x0, 0, x1 - x0, view.height);
-      RingView rendered = view;  // shallow: the maps are shared
-      rendered.image = view_grey;
-      std::vector<Region> regions;
-      if (options.kalibr_saddle_gate) {
-        regions = Regions(SaddlePoints(rendered, options.kalibr_saddles), view_grey.size(),
-                          options.kalibr_saddles, view.f);
-      } else {
-        regions.emplace_back();
-        regions.back().rect = crop_rect;
-      }
-      for (const Region& region : regions) {
-        const int pad = static_cast<int>(options.kalibr_region_pad_px);
-        const cv::Rect box =
-            cv::Rect(region.rect.x - pad, region.rect.y - pad, region.rect.width + 2 * pad,
-                     region.rect.height + 2 * pad) & crop_rect;
-        if (box.empty()) continue;
-        KalibrDetectorOptions kalibr = options.kalibr;
-        kalibr.blur_sigma = blur;
-        for (ViewTag t : DetectKalibrTags(view_grey(box).clone(), static_cast<int>(v), targets,
-                                          kalibr, unclaimed ? &unclaimed->kalibr : nullptr)) {
-          for (auto& c : t.corners) c += Eigen::Vector2d(box.x, box.y);
-          found.push_back(t);
-        }
-      }
-    }
+// The view's image: the one RenderViews left in it for this raw image, else resampled here.
+cv::Mat ViewImage(const cv::Mat& raw_grey8, const RingView& view) {
+  cv::Mat view_grey = view.image;
+  if (view_grey.empty() || view_grey.cols != view.width || view_grey.rows != view.height) {
+    cv::remap(raw_grey8, view_grey, view.map_fixed, view.map_interp, cv::INTER_LINEAR,
+              cv::BORDER_CONSTANT, cv::Scalar(0));
   }
+  return view_grey;
+}
 
-  std::vector<PartialTag> partial;
-  std::optional<RigModel> unmounted;
-  if (model.params().mount.present) {
-    RigParams bare = model.params();
-    bare.mount = Mount();
-    unmounted.emplace(bare);
-  }
-  if (options.grow_grids) {
-    for (std::size_t v = 0; v < views.size(); ++v) {
-      GrowTagGrids(view_images[v], views[v], static_cast<int>(v), targets, options, &model,
-                   unmounted ? &*unmounted : nullptr, &found, &partial);
+// Plain tags in a crop of view `v` (crop px): libapriltag's, plus in blurred views outlines of
+// our own read by their blurred pattern for tags it did not read (libapriltag's quad finder
+// misses small blurred tags: realistic_scene's 45 mm tags at 0.3-0.45 m in the inner ring, ~2
+// raw px per bit).
+std::vector<ViewTag> PlainTagsInCrop(const cv::Mat& crop, const RingView& view, int v, double blur,
+                                     const TagDetectorOptions& options) {
+  const float decimate = view.mirror == Mirror::kTwo ? options.inner_ring_quad_decimate : options.quad_decimate;
+  std::vector<ViewTag> in_crop = DetectPlainTags(crop, v, decimate, blur, options);
+  if (options.plain_outline_finder && blur >= options.blurred_view_sigma) {
+    for (const KalibrViewTag& t : DetectPlainTagsBlurred(crop, blur, options.kalibr.blurred)) {
+      bool known = false;
+      for (const ViewTag& u : in_crop) known |= u.tag_id == t.tag_id;
+      if (known) continue;
+      ViewTag tag{TargetType::kAprilTagGrid, t.tag_id, {}, v};
+      for (int k = 0; k < 4; ++k) tag.corners[k] = t.corners[k];
+      in_crop.push_back(tag);
     }
   }
+  return in_crop;
+}
 
-  // One detection per (layout, tag, ring): the one whose corners lie nearest its view's centre.
+// Kalibr tags in `crop_rect` of view `v` (view px), appended to `found`. Kalibr tag corners are
+// X-junctions (kalibr_detector.h): the quad finder (its contours on the 2x enlarged view were
+// 135 of 280 ms per calibration_scene_tags image) runs only on the boxes of saddle-point
+// clusters (saddle_points.h) within the crop, each with a margin of 2.5 spacings + 8 px around
+// its outermost saddles.
+void KalibrTagsInView(const cv::Mat& view_grey, const RingView& view, int v, const cv::Rect& crop_rect,
+                      double blur, const std::vector<TargetSpec>& targets, const TagDetectorOptions& options,
+                      UnclaimedTags* unclaimed, std::vector<ViewTag>* found) {
+  RingView rendered = view;  // shallow: the maps are shared
+  rendered.image = view_grey;
+  std::vector<Region> regions;
+  if (options.kalibr_saddle_gate) {
+    regions = Regions(SaddlePoints(rendered, options.kalibr_saddles), view_grey.size(), options.kalibr_saddles, view.f);
+  } else {
+    regions.emplace_back();
+    regions.back().rect = crop_rect;
+  }
+  for (const Region& region : regions) {
+    const int pad = static_cast<int>(options.kalibr_region_pad_px);
+    const cv::Rect box = cv::Rect(region.rect.x - pad, region.rect.y - pad, region.rect.width + 2 * pad,
+                                  region.rect.height + 2 * pad) &
+                         crop_rect;
+    if (box.empty()) continue;
+    KalibrDetectorOptions kalibr = options.kalibr;
+    kalibr.blur_sigma = blur;
+    for (ViewTag t : DetectKalibrTags(view_grey(box).clone(), v, targets, kalibr,
+                                      unclaimed ? &unclaimed->kalibr : nullptr)) {
+      for (auto& c : t.corners) c += Eigen::Vector2d(box.x, box.y);
+      found->push_back(t);
+    }
+  }
+}
+
+// The tags read in view `v` (view px), appended to `found`: plain tags first, then Kalibr tags.
+// Neighbouring views overlap (views.h: 8 views of 90 degrees per ring): each ring's azimuth is
+// searched once by taking only the middle of each view, 360 / views-per-ring degrees plus
+// options.view_overlap_deg on each side, so a tag up to that wide lies whole in some crop.
+// Cuts the tag detectors' pixels by ~40% (they were ~290 ms of a 1280x960 image's ~390 ms).
+void TagsInView(const cv::Mat& view_grey, const RingView& view, int v, int views_per_ring, bool want_plain,
+                bool want_kalibr, const std::vector<TargetSpec>& targets, const TagDetectorOptions& options,
+                UnclaimedTags* unclaimed, std::vector<ViewTag>* found) {
+  const double half_deg = 180.0 / std::max(1, views_per_ring) + options.view_overlap_deg;
+  const int half_px = static_cast<int>(std::ceil(view.f * std::tan(half_deg * M_PI / 180)));
+  const int x0 = std::max(0, static_cast<int>(view.cx) - half_px);
+  const int x1 = std::min(view.width, static_cast<int>(view.cx) + half_px + 2);
+  const cv::Mat crop = view_grey.colRange(x0, x1).clone();
+  std::vector<ViewTag> in_crop;
+  const double blur = view.blur_sigma ? *view.blur_sigma : 0.0;
+  if (want_plain) in_crop = PlainTagsInCrop(crop, view, v, blur, options);
+  for (ViewTag& t : in_crop) {
+    for (auto& c : t.corners) c.x() += x0;
+    found->push_back(t);
+  }
+  if (want_kalibr) {
+    KalibrTagsInView(view_grey, view, v, cv::Rect(x0, 0, x1 - x0, view.height), blur, targets, options, unclaimed,
+                     found);
+  }
+}
+
+// One detection per (layout, tag, ring): the one whose corners lie nearest its view's centre
+// (pointers into `found`).
+std::map<std::tuple<int, int, int>, std::pair<double, const ViewTag*>> NearestToViewCentre(
+    const std::vector<ViewTag>& found, const std::vector<RingView>& views) {
   std::map<std::tuple<int, int, int>, std::pair<double, const ViewTag*>> best;
   for (const ViewTag& t : found) {
     const RingView& view = views[t.view];
@@ -807,146 +793,168 @@ std::vector<TagCornerDetection> DetectTagCorners(const cv::Mat& raw_bgr,
     auto it = best.find(key);
     if (it == best.end() || off < it->second.first) best[key] = {off, &t};
   }
+  return best;
+}
 
-  for (const auto& [key, entry] : best) {
-    const ViewTag& t = *entry.second;
-    const RingView& view = views[t.view];
-    // The target this id belongs to: the first of the detector's layout that holds it.
-    int target = -1;
-    for (std::size_t i = 0; i < targets.size() && target < 0; ++i) {
-      int row = 0, col = 0;
-      if (targets[i].type == t.layout && TagCell(targets[i], t.tag_id, &row, &col)) {
-        target = static_cast<int>(i);
+// The target a tag id belongs to: the first of the detector's layout that holds it; -1 if none.
+int TargetOfTag(const std::vector<TargetSpec>& targets, TargetType layout, int tag_id) {
+  int target = -1;
+  for (std::size_t i = 0; i < targets.size() && target < 0; ++i) {
+    int row = 0, col = 0;
+    if (targets[i].type == layout && TagCell(targets[i], tag_id, &row, &col)) target = static_cast<int>(i);
+  }
+  return target;
+}
+
+// A tag's corners mapped from its view to raw (`mapped`); false where one is off the view's map
+// or they do not form a convex quadrilateral with the same turning sense all round.
+bool MappedConvexQuad(const RingView& view, const ViewTag& t, Eigen::Vector2d (&mapped)[4]) {
+  bool ok = true;
+  for (int k = 0; k < 4 && ok; ++k) {
+    const auto raw = view.ViewToRaw(t.corners[k]);
+    ok = raw.has_value();
+    if (ok) mapped[k] = *raw;
+  }
+  if (!ok) return false;
+  double sign = 0;
+  for (int k = 0; k < 4 && ok; ++k) {
+    const Eigen::Vector2d a = mapped[(k + 1) % 4] - mapped[k];
+    const Eigen::Vector2d b = mapped[(k + 2) % 4] - mapped[(k + 1) % 4];
+    const double cross = a.x() * b.y() - a.y() * b.x();
+    if (k == 0) sign = cross;
+    ok = cross * sign > 0;
+  }
+  return ok;
+}
+
+// A Kalibr tag's corners in raw: small tags by their whole printed pattern (FitTagPattern),
+// else each corner as an X-junction (kalibr_detector.h): saddle refinement in the raw image over
+// the 2-bit border around the corner, then the blurred-junction fit, only where the junction is
+// whole (`whole[k]`). Corners judged one by one: a tag read exactly in its view next to the
+// ring's rim has its corner squares and gaps on that side cut off by the lip band
+// (calibration_scene_tags 0016 and 0019, ring 1: 3 tags lost whole); those corners cannot be
+// measured and are dropped, the tag's whole X-junctions kept (the grid check judges each).
+void RefineKalibrTag(const cv::Mat& raw_grey8, const cv::Mat& grey, const RingView& view, const ViewTag& t,
+                     const TargetSpec& target, const Eigen::Vector2d (&mapped)[4],
+                     const TagDetectorOptions& options, Eigen::Vector2d (&refined)[4], bool (&whole)[4]) {
+  if (options.fit_tag_pattern) {
+    double side = 1e9;
+    for (int k = 0; k < 4; ++k) side = std::min(side, (mapped[(k + 1) % 4] - mapped[k]).norm());
+    if (target.spacing * side < options.kalibr_pattern_below_gap_px) {
+      if (const auto fit = FitTagPattern(grey, view, target, t.tag_id, t.corners)) {
+        std::copy(fit->corners, fit->corners + 4, refined);
+        return;
       }
-    }
-    if (target < 0) {
-      if (unclaimed && t.layout == TargetType::kAprilTagGrid) unclaimed->plain.insert(t.tag_id);
-      continue;
-    }
-    Eigen::Vector2d mapped[4];
-    bool ok = true;
-    for (int k = 0; k < 4 && ok; ++k) {
-      const auto raw = view.ViewToRaw(t.corners[k]);
-      ok = raw.has_value();
-      if (ok) mapped[k] = *raw;
-    }
-    if (!ok) continue;
-    // Geometry: a convex quadrilateral with the same turning sense all round.
-    double sign = 0;
-    for (int k = 0; k < 4 && ok; ++k) {
-      const Eigen::Vector2d a = mapped[(k + 1) % 4] - mapped[k];
-      const Eigen::Vector2d b = mapped[(k + 2) % 4] - mapped[(k + 1) % 4];
-      const double cross = a.x() * b.y() - a.y() * b.x();
-      if (k == 0) sign = cross;
-      ok = cross * sign > 0;
-    }
-    if (!ok) continue;
-    Eigen::Vector2d refined[4];
-    // Kalibr corners are judged one by one: a tag read exactly in its view (and consistent with
-    // its neighbours there) next to the ring's rim has its corner squares and gaps on that side
-    // cut off by the lip band (calibration_scene_tags 0016 and 0019, ring 1: 3 tags lost whole).
-    // Those corners cannot be measured and are dropped; the tag's whole X-junctions are kept
-    // (the grid check below still judges each against the target's other corners).
-    bool whole[4] = {true, true, true, true};
-    bool kalibr_pattern = false;
-    if (t.layout == TargetType::kKalibrAprilGrid && options.fit_tag_pattern) {
-      double side = 1e9;
-      for (int k = 0; k < 4; ++k) side = std::min(side, (mapped[(k + 1) % 4] - mapped[k]).norm());
-      if (targets[target].spacing * side < options.kalibr_pattern_below_gap_px) {
-        if (const auto fit = FitTagPattern(grey, view, targets[target], t.tag_id, t.corners)) {
-          std::copy(fit->corners, fit->corners + 4, refined);
-          kalibr_pattern = true;
-        }
-      }
-    }
-    for (int k = 0; k < 4 && ok && !kalibr_pattern; ++k) {
-      refined[k] = mapped[k];
-      if (t.layout == TargetType::kKalibrAprilGrid) {
-        // Kalibr's corners are X-junctions (kalibr_detector.h): saddle refinement in the raw
-        // image, over the 2-bit border around the corner; only where the junction is whole.
-        const double side = std::min((mapped[(k + 1) % 4] - mapped[k]).norm(),
-                                     (mapped[(k + 3) % 4] - mapped[k]).norm());
-        const Eigen::Vector2d to_next = (mapped[(k + 1) % 4] - mapped[k]).normalized();
-        const Eigen::Vector2d to_previous = (mapped[(k + 3) % 4] - mapped[k]).normalized();
-        whole[k] = IsKalibrXJunction(raw_grey8, mapped[k], to_next, to_previous,
-                                     std::max(1.5, 0.12 * side), options.kalibr.min_contrast);
-        if (whole[k] && options.kalibr_refine_in_raw) {
-          whole[k] = RefineSaddleCorner(raw_grey8, mapped[k],
-                                        static_cast<int>(std::lround(0.15 * side)),
-                                        options.max_refine_shift_px, &refined[k]);
-        }
-        if (whole[k] && options.kalibr_fit_junction) {
-          refined[k] = FitKalibrJunction(grey, view, t, k, mapped[k], refined[k],
-                                         options.kalibr_junction_window * side, false);
-        }
-        continue;
-      }
-    }
-    // Plain tags: the whole tag's printed pattern fitted to its raw pixels (tag_pattern_fit.h),
-    // else its four edges fitted in the raw image, the corners where they meet. A tag neither
-    // can measure keeps libapriltag's corners mapped from the view.
-    if (ok && t.layout == TargetType::kAprilTagGrid && options.refine_in_raw) {
-      const bool blurred = view.blur_sigma && *view.blur_sigma >= options.blurred_view_sigma;
-      const std::optional<TagPatternFit> pattern_fit =
-          options.fit_tag_pattern && blurred ? FitTagPattern(grey, view, targets[target], t.tag_id, t.corners)
-                                             : std::nullopt;
-      if (pattern_fit) {
-        std::copy(pattern_fit->corners, pattern_fit->corners + 4, refined);
-      } else {
-        const Eigen::Vector2d centre = 0.25 * (mapped[0] + mapped[1] + mapped[2] + mapped[3]);
-        double curvature[4];
-        for (int j = 0; j < 4; ++j) {
-          curvature[j] = options.curvature_from_view
-                             ? EdgeCurvatureFromView(view, t.corners[j], t.corners[(j + 1) % 4], centre)
-                             : std::nan("");
-        }
-        TagDetectorOptions tag_options = options;
-        if (!blurred) tag_options.edge_fit_reach_in_blurred = options.edge_fit_reach_in;
-        Eigen::Vector2d fitted[4];
-        if (RefineTagCorners(grey, mapped, curvature, BorderFraction(t.layout), targets[target].spacing,
-                             tag_options, fitted, t.tag_id)) {
-          std::copy(fitted, fitted + 4, refined);
-        }
-      }
-    }
-    // Plain tags: the whole tag or nothing (a half-refined tag is suspect). Kalibr tags: at least
-    // two whole junctions (fewer: the quad itself is doubtful).
-    if (!ok || std::count(whole, whole + 4, true) < options.kalibr_min_whole_corners) continue;
-    for (int k = 0; k < 4; ++k) {
-      if (!whole[k]) continue;
-      TagCornerDetection d;
-      d.observation.target = target;
-      d.observation.id = 4 * t.tag_id + k;
-      d.observation.mirror = view.mirror;
-      d.observation.pixel = refined[k];
-      d.tag_id = t.tag_id;
-      d.mapped = mapped[k];
-      d.view = t.view;
-      d.in_view = t.corners[k];
-      for (int j = 0; j < 4; ++j) d.side_in_view += 0.25 * (t.corners[(j + 1) % 4] - t.corners[j]).norm();
-      out.push_back(d);
     }
   }
-  // The seen corners of Kalibr tags hidden in part (GrowTagGrids): where the raw image shows a
-  // whole X-junction there, measured as the corners above; corners already found are kept.
+  for (int k = 0; k < 4; ++k) {
+    refined[k] = mapped[k];
+    const double side =
+        std::min((mapped[(k + 1) % 4] - mapped[k]).norm(), (mapped[(k + 3) % 4] - mapped[k]).norm());
+    const Eigen::Vector2d to_next = (mapped[(k + 1) % 4] - mapped[k]).normalized();
+    const Eigen::Vector2d to_previous = (mapped[(k + 3) % 4] - mapped[k]).normalized();
+    whole[k] = IsKalibrXJunction(raw_grey8, mapped[k], to_next, to_previous, std::max(1.5, 0.12 * side),
+                                 options.kalibr.min_contrast);
+    if (whole[k] && options.kalibr_refine_in_raw) {
+      whole[k] = RefineSaddleCorner(raw_grey8, mapped[k], static_cast<int>(std::lround(0.15 * side)),
+                                    options.max_refine_shift_px, &refined[k]);
+    }
+    if (whole[k] && options.kalibr_fit_junction) {
+      refined[k] = FitKalibrJunction(grey, view, t, k, mapped[k], refined[k], options.kalibr_junction_window * side,
+                                     false);
+    }
+  }
+}
+
+// A plain tag's corners in raw: the whole tag's printed pattern fitted to its raw pixels in
+// blurred views (tag_pattern_fit.h), else its four edges fitted in the raw image, the corners
+// where they meet. `refined` is left as it is (libapriltag's corners mapped from the view) where
+// neither can measure the tag.
+void RefinePlainTag(const cv::Mat& grey, const RingView& view, const ViewTag& t, const TargetSpec& target,
+                    const Eigen::Vector2d (&mapped)[4], const TagDetectorOptions& options,
+                    Eigen::Vector2d (&refined)[4]) {
+  const bool blurred = view.blur_sigma && *view.blur_sigma >= options.blurred_view_sigma;
+  const std::optional<TagPatternFit> pattern_fit =
+      options.fit_tag_pattern && blurred ? FitTagPattern(grey, view, target, t.tag_id, t.corners) : std::nullopt;
+  if (pattern_fit) {
+    std::copy(pattern_fit->corners, pattern_fit->corners + 4, refined);
+    return;
+  }
+  const Eigen::Vector2d centre = 0.25 * (mapped[0] + mapped[1] + mapped[2] + mapped[3]);
+  double curvature[4];
+  for (int j = 0; j < 4; ++j) {
+    curvature[j] = options.curvature_from_view ? EdgeCurvatureFromView(view, t.corners[j], t.corners[(j + 1) % 4], centre)
+                                               : std::nan("");
+  }
+  TagDetectorOptions tag_options = options;
+  if (!blurred) tag_options.edge_fit_reach_in_blurred = options.edge_fit_reach_in;
+  Eigen::Vector2d fitted[4];
+  if (RefineTagCorners(grey, mapped, curvature, BorderFraction(t.layout), target.spacing, tag_options, fitted,
+                       t.tag_id)) {
+    std::copy(fitted, fitted + 4, refined);
+  }
+}
+
+// Corner k of tag `t` of target `target` as reported: its raw pixel, the view corner it came from
+// and where the view mapped it, and the tag's mean side in the view (for the grid check).
+TagCornerDetection CornerDetection(const ViewTag& t, int target, int k, Mirror mirror, const Eigen::Vector2d& pixel,
+                                   const Eigen::Vector2d& mapped) {
+  TagCornerDetection d;
+  d.observation.target = target;
+  d.observation.id = 4 * t.tag_id + k;
+  d.observation.mirror = mirror;
+  d.observation.pixel = pixel;
+  d.tag_id = t.tag_id;
+  d.mapped = mapped;
+  d.view = t.view;
+  d.in_view = t.corners[k];
+  for (int j = 0; j < 4; ++j) d.side_in_view += 0.25 * (t.corners[(j + 1) % 4] - t.corners[j]).norm();
+  return d;
+}
+
+// One read tag of target `target` measured in raw, its corners appended to `out`. Plain tags: the
+// whole tag or nothing (a half-refined tag is suspect). Kalibr tags: at least
+// kalibr_min_whole_corners whole junctions (fewer: the quad itself is doubtful).
+void MeasureTag(const cv::Mat& raw_grey8, const cv::Mat& grey, const RingView& view, const ViewTag& t,
+                int target, const TargetSpec& spec, const TagDetectorOptions& options,
+                std::vector<TagCornerDetection>* out) {
+  Eigen::Vector2d mapped[4];
+  if (!MappedConvexQuad(view, t, mapped)) return;
+  Eigen::Vector2d refined[4];
+  bool whole[4] = {true, true, true, true};
+  if (t.layout == TargetType::kKalibrAprilGrid) {
+    RefineKalibrTag(raw_grey8, grey, view, t, spec, mapped, options, refined, whole);
+  } else {
+    std::copy(mapped, mapped + 4, refined);
+    if (t.layout == TargetType::kAprilTagGrid && options.refine_in_raw) {
+      RefinePlainTag(grey, view, t, spec, mapped, options, refined);
+    }
+  }
+  if (std::count(whole, whole + 4, true) < options.kalibr_min_whole_corners) return;
+  for (int k = 0; k < 4; ++k) {
+    if (whole[k]) out->push_back(CornerDetection(t, target, k, view.mirror, refined[k], mapped[k]));
+  }
+}
+
+// The seen corners of Kalibr tags hidden in part (GrowTagGrids): where the raw image shows a
+// whole X-junction there, measured as read tags' corners are; corners already in `out` are
+// kept. The junction's two lines run through the corner: the tag's edges and, beyond the
+// corner, its corner square's sides, each taken a quarter side along the edge, or as far the
+// other way where the post covers the edge.
+void MeasurePartialTags(const cv::Mat& raw_grey8, const cv::Mat& grey, const std::vector<RingView>& views,
+                        const std::vector<TargetSpec>& targets, const TagDetectorOptions& options,
+                        const std::vector<PartialTag>& partial, std::vector<TagCornerDetection>* out) {
   std::set<std::tuple<int, int, int>> have;  // (target, corner id, ring)
-  for (const TagCornerDetection& d : out) {
+  for (const TagCornerDetection& d : *out) {
     have.insert({d.observation.target, d.observation.id, MirrorIndex(d.observation.mirror)});
   }
   for (const PartialTag& part : partial) {
     const ViewTag& t = part.tag;
     const RingView& view = views[t.view];
-    int target = -1;
-    for (std::size_t i = 0; i < targets.size() && target < 0; ++i) {
-      int row = 0, col = 0;
-      if (targets[i].type == t.layout && TagCell(targets[i], t.tag_id, &row, &col)) target = static_cast<int>(i);
-    }
+    const int target = TargetOfTag(targets, t.layout, t.tag_id);
     if (target < 0) continue;
     for (int k = 0; k < 4; ++k) {
       if (!part.seen[k] || have.count({target, 4 * t.tag_id + k, MirrorIndex(view.mirror)})) continue;
-      // The junction's two lines run through the corner: the tag's edges and, beyond the corner,
-      // its corner square's sides. Each is taken a quarter side along the edge, or as far the
-      // other way where the post covers the edge.
       const Eigen::Vector2d& c = t.corners[k];
       const auto mapped = view.ViewToRaw(c);
       if (!mapped) continue;
@@ -969,20 +977,65 @@ std::vector<TagCornerDetection> DetectTagCorners(const cv::Mat& raw_bgr,
           options.kalibr_fit_junction
               ? FitKalibrJunction(grey, view, t, k, *mapped, *mapped, options.kalibr_junction_window * side, true)
               : *mapped;
-      TagCornerDetection d;
-      d.observation.target = target;
-      d.observation.id = 4 * t.tag_id + k;
-      d.observation.mirror = view.mirror;
-      d.observation.pixel = refined;
-      d.tag_id = t.tag_id;
-      d.mapped = *mapped;
-      d.view = t.view;
-      d.in_view = c;
-      for (int j = 0; j < 4; ++j) d.side_in_view += 0.25 * (t.corners[(j + 1) % 4] - t.corners[j]).norm();
-      out.push_back(d);
-      have.insert({target, d.observation.id, MirrorIndex(view.mirror)});
+      out->push_back(CornerDetection(t, target, k, view.mirror, refined, *mapped));
+      have.insert({target, out->back().observation.id, MirrorIndex(view.mirror)});
     }
   }
+}
+
+}  // namespace
+
+std::vector<TagCornerDetection> DetectTagCorners(const cv::Mat& raw_bgr,
+                                                 const std::vector<RingView>& views,
+                                                 const RigModel& model,
+                                                 const std::vector<TargetSpec>& targets,
+                                                 const TagDetectorOptions& options,
+                                                 UnclaimedTags* unclaimed) {
+  std::vector<TagCornerDetection> out;
+  bool want_plain = false, want_kalibr = false;
+  for (const TargetSpec& t : targets) {
+    want_plain |= t.type == TargetType::kAprilTagGrid;
+    want_kalibr |= t.type == TargetType::kKalibrAprilGrid;
+  }
+  if ((!want_plain && !want_kalibr) || raw_bgr.empty()) return out;
+  const cv::Mat raw_grey8 = ToGrey(raw_bgr);
+  cv::Mat grey;
+  raw_grey8.convertTo(grey, CV_32F, 1.0 / 255);
+
+  int views_per_ring = 0;
+  for (const RingView& view : views) views_per_ring += view.mirror == views.front().mirror;
+  std::vector<ViewTag> found;
+  std::vector<cv::Mat> view_images(views.size());  // kept for the grid check's Kalibr retries
+  for (std::size_t v = 0; v < views.size(); ++v) {
+    view_images[v] = ViewImage(raw_grey8, views[v]);
+    TagsInView(view_images[v], views[v], static_cast<int>(v), views_per_ring, want_plain, want_kalibr, targets,
+               options, unclaimed, &found);
+  }
+
+  std::vector<PartialTag> partial;
+  std::optional<RigModel> unmounted;
+  if (model.params().mount.present) {
+    RigParams bare = model.params();
+    bare.mount = Mount();
+    unmounted.emplace(bare);
+  }
+  if (options.grow_grids) {
+    for (std::size_t v = 0; v < views.size(); ++v) {
+      GrowTagGrids(view_images[v], views[v], static_cast<int>(v), targets, options, &model,
+                   unmounted ? &*unmounted : nullptr, &found, &partial);
+    }
+  }
+
+  for (const auto& [key, entry] : NearestToViewCentre(found, views)) {
+    const ViewTag& t = *entry.second;
+    const int target = TargetOfTag(targets, t.layout, t.tag_id);
+    if (target < 0) {
+      if (unclaimed && t.layout == TargetType::kAprilTagGrid) unclaimed->plain.insert(t.tag_id);
+      continue;
+    }
+    MeasureTag(raw_grey8, grey, views[t.view], t, target, targets[target], options, &out);
+  }
+  MeasurePartialTags(raw_grey8, grey, views, targets, options, partial, &out);
   if (options.grid_check) DropCornersOffTheirTarget(views, view_images, model, targets, options, &out);
   return out;
 }
