@@ -173,6 +173,174 @@ Eigen::Vector2d FitKalibrJunction(const cv::Mat& grey, const RingView& view, con
   return fit ? fit->corner : start;
 }
 
+// Target `ti`'s tags read in view `v` (cell (row, col) -> index in `found`): the first target of
+// its layout that holds the id, as DetectTagCorners assigns them.
+std::map<std::pair<int, int>, int> TagsOfTargetInView(const std::vector<ViewTag>& found, int v,
+                                                      const std::vector<TargetSpec>& targets, std::size_t ti) {
+  const TargetSpec& target = targets[ti];
+  std::map<std::pair<int, int>, int> have;
+  for (std::size_t i = 0; i < found.size(); ++i) {
+    const ViewTag& t = found[i];
+    if (t.view != v || t.layout != target.type) continue;
+    int row = 0, col = 0;
+    if (!TagCell(target, t.tag_id, &row, &col)) continue;
+    bool earlier = false;  // an earlier target of this layout holds the id
+    for (std::size_t tj = 0; tj < ti && !earlier; ++tj) {
+      int r2 = 0, c2 = 0;
+      earlier = targets[tj].type == target.type && TagCell(targets[tj], t.tag_id, &r2, &c2);
+    }
+    if (!earlier) have[{row, col}] = static_cast<int>(i);
+  }
+  return have;
+}
+
+// The target's plane -> view homography from the corners of the tags accepted so far (`have`).
+cv::Mat GridHomography(const TargetSpec& target, const std::vector<ViewTag>& found,
+                       const std::map<std::pair<int, int>, int>& have) {
+  std::vector<cv::Point2f> plane, in_view;
+  for (const auto& [cell, i] : have) {
+    const ViewTag& t = found[i];
+    for (int k = 0; k < 4; ++k) {
+      const Eigen::Vector3d p = CornerInTarget(target, 4 * t.tag_id + k);
+      plane.emplace_back(static_cast<float>(p.x()), static_cast<float>(p.y()));
+      in_view.emplace_back(static_cast<float>(t.corners[k].x()), static_cast<float>(t.corners[k].y()));
+    }
+  }
+  return cv::findHomography(plane, in_view, 0);
+}
+
+// The untried cells next (8-neighbourhood) to an accepted tag or a hidden cell.
+std::vector<std::pair<int, int>> CellsNextToGrid(const TargetSpec& target,
+                                                 const std::map<std::pair<int, int>, int>& have,
+                                                 const std::set<std::pair<int, int>>& tried,
+                                                 const std::set<std::pair<int, int>>& hidden) {
+  std::vector<std::pair<int, int>> next;
+  for (int row = 0; row < target.rows; ++row) {
+    for (int col = 0; col < target.cols; ++col) {
+      if (have.count({row, col}) || tried.count({row, col})) continue;
+      bool adjacent = false;
+      for (const auto& [cell, i] : have) {
+        adjacent |= std::max(std::abs(cell.first - row), std::abs(cell.second - col)) == 1;
+      }
+      for (const auto& cell : hidden) {
+        adjacent |= std::max(std::abs(cell.first - row), std::abs(cell.second - col)) == 1;
+      }
+      if (adjacent) next.emplace_back(row, col);
+    }
+  }
+  return next;
+}
+
+// Whether the view shows a predicted tag whole: its corners, centre and the middles of its
+// half-sides all on the view's map (`covered` where one is not: its code cannot be read), and
+// `post` where such a point sees the mount's post through the model without its mount.
+void TagCoverage(const RingView& view, const RigModel* model, const RigModel* unmounted, const ViewTag& tag,
+                 bool* covered, bool* post) {
+  std::vector<Eigen::Vector2d> probes(tag.corners, tag.corners + 4);
+  const Eigen::Vector2d centre = 0.25 * (tag.corners[0] + tag.corners[1] + tag.corners[2] + tag.corners[3]);
+  probes.push_back(centre);
+  for (int k = 0; k < 4; ++k) probes.push_back(0.5 * (tag.corners[k] + centre));
+  *covered = false;
+  *post = false;
+  for (const Eigen::Vector2d& p : probes) {
+    if (view.ViewToRaw(p)) continue;
+    *covered = true;
+    if (!unmounted) continue;
+    const auto behind = view.ViewToRawExact(*unmounted, p);
+    *post = *post || (behind && model->PixelSeesMount(*behind));
+  }
+}
+
+// A plain tag's predicted corners moved to where the code's pattern fits best, +-0.25 bit in
+// steps of 1/16 bit (plain corners are not X-junctions, and the prediction is extrapolated from
+// a few tags); returns the code's residual there (`e`: at the prediction).
+double ShiftToCode(const cv::Mat& view_grey, const TagLayout& layout, double blur, int tag_id, double side,
+                   double e, ViewTag* tag) {
+  const double step = side / layout.bits / 16;
+  Eigen::Vector2d best_shift = Eigen::Vector2d::Zero();
+  for (int pass = 0; pass < 2; ++pass) {
+    const Eigen::Vector2d centre = best_shift;
+    const double h = pass == 0 ? 4 * step : step;
+    for (int dy = -1; dy <= 1; ++dy) {
+      for (int dx = -1; dx <= 1; ++dx) {
+        if (dx == 0 && dy == 0) continue;
+        const Eigen::Vector2d shift = centre + h * Eigen::Vector2d(dx, dy);
+        Eigen::Vector2d moved[4];
+        for (int k = 0; k < 4; ++k) moved[k] = tag->corners[k] + shift;
+        const double e_shift = TagCodeResidual(view_grey, Printed(moved), layout, blur, tag_id);
+        if (e_shift < e) {
+          e = e_shift;
+          best_shift = shift;
+        }
+      }
+    }
+  }
+  for (int k = 0; k < 4; ++k) tag->corners[k] += best_shift;
+  return e;
+}
+
+// The outcome of trying one cell: the tag grown there, or whether the cell is hidden.
+enum class CellOutcome { kNone, kHidden, kRead };
+
+// One predicted cell of the grid (homography H: plane -> view) tried: hidden where the view's
+// margin holds it but its map does not show it whole (a post's Kalibr tag then gives its seen
+// X-junctions in `partial`); read (`tag`) where its corners refine (Kalibr) and its code fits at
+// the prediction within grow_max_residual.
+CellOutcome TryCell(const cv::Mat& view_grey, const RingView& view, int v, const TargetSpec& target,
+                    const std::pair<int, int>& cell, const cv::Mat& H, const TagDetectorOptions& options,
+                    const RigModel* model, const RigModel* unmounted, ViewTag* tag_out,
+                    std::vector<PartialTag>* partial) {
+  const bool kalibr = target.type == TargetType::kKalibrAprilGrid;
+  const double blur = view.blur_sigma ? *view.blur_sigma : 0.0;
+  const int tag_id = TagIdAt(target, cell.first, cell.second);
+  std::vector<cv::Point2f> plane_k, predicted;
+  for (int k = 0; k < 4; ++k) {
+    const Eigen::Vector3d p = CornerInTarget(target, 4 * tag_id + k);
+    plane_k.emplace_back(static_cast<float>(p.x()), static_cast<float>(p.y()));
+  }
+  cv::perspectiveTransform(plane_k, predicted, H);
+  ViewTag tag{target.type, tag_id, {}, v};
+  bool ok = true;
+  double side = 0;
+  for (int k = 0; k < 4; ++k) side += 0.25 * cv::norm(predicted[(k + 1) % 4] - predicted[k]);
+  const double margin = 0.3 * side + 3;
+  bool in_view = true;
+  for (int k = 0; k < 4; ++k) {
+    tag.corners[k] = Eigen::Vector2d(predicted[k].x, predicted[k].y);
+    in_view = in_view && predicted[k].x >= margin && predicted[k].y >= margin &&
+              predicted[k].x < view_grey.cols - margin && predicted[k].y < view_grey.rows - margin;
+  }
+  bool covered = false, post = false;
+  TagCoverage(view, model, unmounted, tag, &covered, &post);
+  CellOutcome outcome = CellOutcome::kNone;
+  if (in_view && covered) {
+    outcome = CellOutcome::kHidden;  // its neighbours are candidates now
+    if (kalibr && post) {
+      PartialTag part{tag, {}};
+      const int half = static_cast<int>(std::lround(0.15 * side));
+      for (int k = 0; k < 4; ++k) {
+        part.seen[k] = view.ViewToRaw(tag.corners[k]).has_value() &&
+                       RefineSaddleCorner(view_grey, tag.corners[k], half, 0.1 * side, &part.tag.corners[k]);
+      }
+      if (std::count(part.seen, part.seen + 4, true) > 0) partial->push_back(part);
+    }
+  }
+  if (!in_view || covered) return outcome;
+  if (kalibr) {
+    const int half = static_cast<int>(std::lround(0.15 * side));
+    for (int k = 0; k < 4 && ok; ++k) {
+      ok = RefineSaddleCorner(view_grey, tag.corners[k], half, 0.1 * side, &tag.corners[k]);
+    }
+    if (!ok) return CellOutcome::kNone;
+  }
+  const TagLayout layout = kalibr ? KalibrTagLayout() : PlainTagLayout();
+  double e = TagCodeResidual(view_grey, Printed(tag.corners), layout, blur, tag_id);
+  if (!kalibr) e = ShiftToCode(view_grey, layout, blur, tag_id, side, e, &tag);
+  if (!(e <= options.grow_max_residual)) return CellOutcome::kNone;
+  *tag_out = tag;
+  return CellOutcome::kRead;
+}
+
 // One read tag carries its grid: in a view a target is a homography of its plane, so the tags of
 // a target read in view `v` predict where its other tags are (nearest first, the homography
 // refitted to every tag accepted so far). A predicted tag is taken, with the id its place on the
@@ -188,143 +356,31 @@ void GrowTagGrids(const cv::Mat& view_grey, const RingView& view, int v,
                   const std::vector<TargetSpec>& targets, const TagDetectorOptions& options,
                   const RigModel* model, const RigModel* unmounted, std::vector<ViewTag>* found,
                   std::vector<PartialTag>* partial) {
-  const double blur = view.blur_sigma ? *view.blur_sigma : 0.0;
   for (std::size_t ti = 0; ti < targets.size(); ++ti) {
     const TargetSpec& target = targets[ti];
     if (target.type == TargetType::kChessboard) continue;
-    const bool kalibr = target.type == TargetType::kKalibrAprilGrid;
-    // This target's tags read in this view (the first of its layout that holds the id, as below).
-    std::map<std::pair<int, int>, int> have;  // (row, col) -> index in found
-    for (std::size_t i = 0; i < found->size(); ++i) {
-      const ViewTag& t = (*found)[i];
-      if (t.view != v || t.layout != target.type) continue;
-      int row = 0, col = 0;
-      if (!TagCell(target, t.tag_id, &row, &col)) continue;
-      bool earlier = false;  // an earlier target of this layout holds the id
-      for (std::size_t tj = 0; tj < ti && !earlier; ++tj) {
-        int r2 = 0, c2 = 0;
-        earlier = targets[tj].type == target.type && TagCell(targets[tj], t.tag_id, &r2, &c2);
-      }
-      if (!earlier) have[{row, col}] = static_cast<int>(i);
-    }
+    std::map<std::pair<int, int>, int> have = TagsOfTargetInView(*found, v, targets, ti);
     if (have.empty()) continue;
     // Cells whose predicted tag the view does not show whole (a post of the mount, the ring's
     // rim): growth goes on past them, so that a grid cut by a post is read on both sides.
     std::set<std::pair<int, int>> tried, hidden;
     for (;;) {
-      std::vector<cv::Point2f> plane, in_view;
-      for (const auto& [cell, i] : have) {
-        const ViewTag& t = (*found)[i];
-        for (int k = 0; k < 4; ++k) {
-          const Eigen::Vector3d p = CornerInTarget(target, 4 * t.tag_id + k);
-          plane.emplace_back(static_cast<float>(p.x()), static_cast<float>(p.y()));
-          in_view.emplace_back(static_cast<float>(t.corners[k].x()), static_cast<float>(t.corners[k].y()));
-        }
-      }
-      const cv::Mat H = cv::findHomography(plane, in_view, 0);
+      const cv::Mat H = GridHomography(target, *found, have);
       if (H.empty()) break;
-      // The untried cells next to an accepted tag.
-      std::vector<std::pair<int, int>> next;
-      for (int row = 0; row < target.rows; ++row) {
-        for (int col = 0; col < target.cols; ++col) {
-          if (have.count({row, col}) || tried.count({row, col})) continue;
-          bool adjacent = false;
-          for (const auto& [cell, i] : have) {
-            adjacent |= std::max(std::abs(cell.first - row), std::abs(cell.second - col)) == 1;
-          }
-          for (const auto& cell : hidden) {
-            adjacent |= std::max(std::abs(cell.first - row), std::abs(cell.second - col)) == 1;
-          }
-          if (adjacent) next.emplace_back(row, col);
-        }
-      }
+      const std::vector<std::pair<int, int>> next = CellsNextToGrid(target, have, tried, hidden);
       if (next.empty()) break;
       bool grew = false;
       for (const auto& cell : next) {
         tried.insert(cell);
-        const int tag_id = TagIdAt(target, cell.first, cell.second);
-        std::vector<cv::Point2f> plane_k, predicted;
-        for (int k = 0; k < 4; ++k) {
-          const Eigen::Vector3d p = CornerInTarget(target, 4 * tag_id + k);
-          plane_k.emplace_back(static_cast<float>(p.x()), static_cast<float>(p.y()));
+        ViewTag tag{target.type, -1, {}, v};
+        const CellOutcome outcome = TryCell(view_grey, view, v, target, cell, H, options, model, unmounted, &tag,
+                                            partial);
+        if (outcome == CellOutcome::kHidden) hidden.insert(cell);
+        if (outcome == CellOutcome::kRead) {
+          have[cell] = static_cast<int>(found->size());
+          found->push_back(tag);
         }
-        cv::perspectiveTransform(plane_k, predicted, H);
-        ViewTag tag{target.type, tag_id, {}, v};
-        bool ok = true;
-        double side = 0;
-        for (int k = 0; k < 4; ++k) side += 0.25 * cv::norm(predicted[(k + 1) % 4] - predicted[k]);
-        const double margin = 0.3 * side + 3;
-        bool in_view = true;
-        for (int k = 0; k < 4; ++k) {
-          tag.corners[k] = Eigen::Vector2d(predicted[k].x, predicted[k].y);
-          in_view = in_view && predicted[k].x >= margin && predicted[k].y >= margin &&
-                    predicted[k].x < view_grey.cols - margin && predicted[k].y < view_grey.rows - margin;
-        }
-        // The tag's corners, centre and the middles of its half-sides: where the view does not
-        // show one (its map invalid there), the tag is covered and its code cannot be read.
-        std::vector<Eigen::Vector2d> probes(tag.corners, tag.corners + 4);
-        const Eigen::Vector2d centre = 0.25 * (tag.corners[0] + tag.corners[1] + tag.corners[2] + tag.corners[3]);
-        probes.push_back(centre);
-        for (int k = 0; k < 4; ++k) probes.push_back(0.5 * (tag.corners[k] + centre));
-        bool covered = false, post = false;
-        for (const Eigen::Vector2d& p : probes) {
-          if (view.ViewToRaw(p)) continue;
-          covered = true;
-          if (!unmounted) continue;
-          const auto behind = view.ViewToRawExact(*unmounted, p);
-          post = post || (behind && model->PixelSeesMount(*behind));
-        }
-        if (in_view && covered) {
-          hidden.insert(cell);
-          grew = true;  // its neighbours are candidates now
-          if (kalibr && post) {
-            PartialTag part{tag, {}};
-            const int half = static_cast<int>(std::lround(0.15 * side));
-            for (int k = 0; k < 4; ++k) {
-              part.seen[k] = view.ViewToRaw(tag.corners[k]).has_value() &&
-                             RefineSaddleCorner(view_grey, tag.corners[k], half, 0.1 * side, &part.tag.corners[k]);
-            }
-            if (std::count(part.seen, part.seen + 4, true) > 0) partial->push_back(part);
-          }
-        }
-        if (!in_view || covered) continue;
-        if (kalibr) {
-          const int half = static_cast<int>(std::lround(0.15 * side));
-          for (int k = 0; k < 4 && ok; ++k) {
-            ok = RefineSaddleCorner(view_grey, tag.corners[k], half, 0.1 * side, &tag.corners[k]);
-          }
-          if (!ok) continue;
-        }
-        const TagLayout layout = kalibr ? KalibrTagLayout() : PlainTagLayout();
-        double e = TagCodeResidual(view_grey, Printed(tag.corners), layout, blur, tag_id);
-        if (!kalibr) {
-          // Plain corners are not X-junctions: the prediction (extrapolated from a few tags) is
-          // moved to where the code's pattern fits best, +-0.25 bit in steps of 1/16 bit.
-          const double step = side / layout.bits / 16;
-          Eigen::Vector2d best_shift = Eigen::Vector2d::Zero();
-          for (int pass = 0; pass < 2; ++pass) {
-            const Eigen::Vector2d centre = best_shift;
-            const double h = pass == 0 ? 4 * step : step;
-            for (int dy = -1; dy <= 1; ++dy) {
-              for (int dx = -1; dx <= 1; ++dx) {
-                if (dx == 0 && dy == 0) continue;
-                const Eigen::Vector2d shift = centre + h * Eigen::Vector2d(dx, dy);
-                Eigen::Vector2d moved[4];
-                for (int k = 0; k < 4; ++k) moved[k] = tag.corners[k] + shift;
-                const double e_shift = TagCodeResidual(view_grey, Printed(moved), layout, blur, tag_id);
-                if (e_shift < e) {
-                  e = e_shift;
-                  best_shift = shift;
-                }
-              }
-            }
-          }
-          for (int k = 0; k < 4; ++k) tag.corners[k] += best_shift;
-        }
-        if (!(e <= options.grow_max_residual)) continue;
-        have[cell] = static_cast<int>(found->size());
-        found->push_back(tag);
-        grew = true;
+        grew |= outcome != CellOutcome::kNone;
       }
       if (!grew) break;
     }
