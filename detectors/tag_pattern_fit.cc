@@ -271,17 +271,17 @@ struct RegionFit {
   int pixels = 0;
 };
 
-std::optional<RegionFit> FitPatternRegion(const cv::Mat& grey, const RingView& view, const TargetPattern& pattern,
-                                          const Eigen::Vector2d (&plane)[4], const Eigen::Vector2d& region_lo,
-                                          const Eigen::Vector2d& region_hi,
-                                          const Eigen::Vector2d (&corners_in_view)[4],
-                                          const TagPatternFitOptions& options) {
-  Eigen::Vector2d view_corners[4];
-  std::copy(corners_in_view, corners_in_view + 4, view_corners);
-  const Eigen::Vector2d centre_bits = 0.25 * (plane[0] + plane[1] + plane[2] + plane[3]);
+// The view's map over a region, inverted roughly: raw -> view as a local quadratic fitted to
+// the map's exact points on a 9 x 9 grid over the region (and half a bit round it) as
+// `view_from_plane0` puts it, and the raw box those points span.
+struct RegionMap {
+  RawToViewMap map;
+  Eigen::Vector2d raw_lo, raw_hi;
+};
 
-  // The view's map sampled over the fitted region (where it has one) and inverted roughly.
-  const Eigen::Matrix3d view_from_plane0 = HomographyFrom(plane, view_corners);
+// nullopt where fewer than 30 of the grid's points lie on the ring's map.
+std::optional<RegionMap> MapOverRegion(const RingView& view, const Eigen::Matrix3d& view_from_plane0,
+                                       const Eigen::Vector2d& region_lo, const Eigen::Vector2d& region_hi) {
   std::vector<Eigen::Vector2d> raw_samples, view_samples;
   Eigen::Vector2d raw_lo(1e9, 1e9), raw_hi(-1e9, -1e9);
   constexpr int kGrid = 8;
@@ -299,173 +299,255 @@ std::optional<RegionFit> FitPatternRegion(const cv::Mat& grey, const RingView& v
     }
   }
   if (raw_samples.size() < 30) return std::nullopt;
-  RawToViewMap map;
-  map.origin = 0.5 * (raw_lo + raw_hi);
-  {
-    Eigen::MatrixXd a(raw_samples.size(), 6), b(raw_samples.size(), 2);
-    for (size_t k = 0; k < raw_samples.size(); ++k) {
-      a.row(k) = RawToViewMap::Basis((raw_samples[k] - map.origin) / 16.0).transpose();
-      b.row(k) = view_samples[k].transpose();
-    }
-    map.c = a.colPivHouseholderQr().solve(b);
+  RegionMap out;
+  out.raw_lo = raw_lo;
+  out.raw_hi = raw_hi;
+  out.map.origin = 0.5 * (raw_lo + raw_hi);
+  Eigen::MatrixXd a(raw_samples.size(), 6), b(raw_samples.size(), 2);
+  for (size_t k = 0; k < raw_samples.size(); ++k) {
+    a.row(k) = RawToViewMap::Basis((raw_samples[k] - out.map.origin) / 16.0).transpose();
+    b.row(k) = view_samples[k].transpose();
   }
+  out.map.c = a.colPivHouseholderQr().solve(b);
+  return out;
+}
 
-  // The raw pixels (centres at integer coordinates) whose plane point lies in the region.
-  struct Pixel {
-    Eigen::Vector2d view;
-    double value;
-  };
-  std::vector<Pixel> pixels;
+// A raw pixel of the fitted region: the view pixel the view's map takes it to, and its value.
+struct PatternPixel {
+  Eigen::Vector2d view;
+  double value;
+};
+
+// The raw pixels (centres at integer coordinates) of the region's raw box whose plane point
+// (through `plane_from_view0`) lies in the region; in a large region every stride-th pixel each
+// way, at most about options.max_pixels (the geometry is over-determined anyway). nullopt where
+// the box leaves the image or fewer than 40 pixels remain.
+std::optional<std::vector<PatternPixel>> RegionPixels(const cv::Mat& grey, const RingView& view,
+                                                      const RegionMap& region_map,
+                                                      const Eigen::Matrix3d& plane_from_view0,
+                                                      const Eigen::Vector2d& region_lo,
+                                                      const Eigen::Vector2d& region_hi,
+                                                      const TagPatternFitOptions& options) {
+  std::vector<PatternPixel> pixels;
+  const Eigen::Vector2d& raw_lo = region_map.raw_lo;
+  const Eigen::Vector2d& raw_hi = region_map.raw_hi;
   const int x0 = static_cast<int>(std::floor(raw_lo.x())), x1 = static_cast<int>(std::ceil(raw_hi.x()));
   const int y0 = static_cast<int>(std::floor(raw_lo.y())), y1 = static_cast<int>(std::ceil(raw_hi.y()));
   if (x0 < 0 || y0 < 0 || x1 >= grey.cols || y1 >= grey.rows) return std::nullopt;
-  const Eigen::Matrix3d plane_from_view0 = view_from_plane0.inverse();
-  // A large region: every stride-th pixel each way (the geometry is over-determined anyway).
   const int stride = options.max_pixels > 0
                          ? std::max(1, static_cast<int>(std::ceil(std::sqrt(double(x1 - x0 + 1) * (y1 - y0 + 1) /
                                                                         options.max_pixels))))
                          : 1;
   for (int y = y0; y <= y1; y += stride) {
     for (int x = x0; x <= x1; x += stride) {
-      const auto at_view = ViewOfRaw(view, map, Eigen::Vector2d(x, y));
+      const auto at_view = ViewOfRaw(view, region_map.map, Eigen::Vector2d(x, y));
       if (!at_view) continue;
       const Eigen::Vector2d bits = Apply(plane_from_view0, *at_view);
       if ((bits - region_lo).minCoeff() < 0 || (region_hi - bits).minCoeff() < 0) continue;
       pixels.push_back({*at_view, grey.at<float>(y, x)});
     }
   }
-  const int n = static_cast<int>(pixels.size());
-  if (n < 40) return std::nullopt;
+  if (static_cast<int>(pixels.size()) < 40) return std::nullopt;
+  return pixels;
+}
+
+// The blur step between the fit's two renders (raw px): the blur is interpolated between them.
+constexpr double kSigmaStep = 0.2;
+
+// The pattern rendered for one round of the fit: blurred at `sigma` and at sigma + kSigmaStep.
+struct PatternRenders {
+  BlurredPattern at_sigma, at_wider;
+};
+
+// The renders for the control points now at `corners_now` (view px): the raw pixel's blur
+// (Gaussian sigma plus the pixel's box) taken into bits through d raw / d plane at the
+// region's centre (`centre_bits`), sampled at least 2.5 samples per blur width (bilinear
+// look-ups stay smooth), from whole samples off the top-left control point (a tag's origin:
+// its cells' edges fall between samples) over the region and 3.5 blur widths + 1 bit round it.
+// nullopt where the centre is off the view's map or the map there is degenerate.
+std::optional<PatternRenders> RenderAtBlur(const RingView& view, const RawToViewMap& map,
+                                           const TargetPattern& pattern, const Eigen::Vector2d (&plane)[4],
+                                           const Eigen::Vector2d (&corners_now)[4],
+                                           const Eigen::Vector2d& centre_bits, const Eigen::Vector2d& region_lo,
+                                           const Eigen::Vector2d& region_hi, double sigma,
+                                           const TagPatternFitOptions& options) {
+  const Eigen::Matrix3d view_from_plane = HomographyFrom(plane, corners_now);
+  Eigen::Matrix2d view_from_plane_j;
+  for (int a = 0; a < 2; ++a) {
+    Eigen::Vector2d d = Eigen::Vector2d::Zero();
+    d(a) = 0.01;
+    view_from_plane_j.col(a) = (Apply(view_from_plane, centre_bits + d) - Apply(view_from_plane, centre_bits - d)) / 0.02;
+  }
+  const Eigen::Vector2d centre_view = Apply(view_from_plane, centre_bits);
+  const auto centre_raw = view.ViewToRaw(centre_view);
+  if (!centre_raw) return std::nullopt;
+  const Eigen::Matrix2d raw_from_plane = map.Jacobian(*centre_raw).inverse() * view_from_plane_j;
+  if (!raw_from_plane.allFinite() || std::abs(raw_from_plane.determinant()) < 1e-6) return std::nullopt;
+  const Eigen::Matrix2d plane_from_raw = raw_from_plane.inverse();
+  const auto cov_bits = [&](double s) {
+    return Eigen::Matrix2d(plane_from_raw * ((s * s + 1.0 / 12) * Eigen::Matrix2d::Identity()) *
+                           plane_from_raw.transpose());
+  };
+  const double bits_per_px = std::sqrt(std::abs(plane_from_raw.determinant()));
+  const int spb = std::clamp(static_cast<int>(std::ceil(2.5 / (bits_per_px * std::sqrt(sigma * sigma + 1.0 / 12)))),
+                             options.samples_per_bit / 2, 4 * options.samples_per_bit);
+  const double max_sigma_bits =
+      std::sqrt(cov_bits(sigma + kSigmaStep).selfadjointView<Eigen::Upper>().eigenvalues().maxCoeff());
+  const double margin = 3.5 * max_sigma_bits + 1;
+  const Eigen::Vector2d lo = plane[3] + ((region_lo - plane[3]).array() - margin).cwiseProduct(Eigen::Array2d::Constant(spb)).floor().matrix() / spb;
+  const Eigen::Vector2d hi = region_hi.array() + margin;
+  const cv::Mat sharp = BlurredPattern::Sharp(pattern, lo, hi, spb);
+  return PatternRenders{BlurredPattern(sharp, lo, spb, cov_bits(sigma)),
+                        BlurredPattern(sharp, lo, spb, cov_bits(sigma + kSigmaStep))};
+}
+
+// The fit's parameters: the 4 view corners' offsets (8), black, contrast, tau (the blur between
+// the two renders, linearly) and two tone terms.
+using Vector13 = Eigen::Matrix<double, 13, 1>;
+
+// The region's pixels as the renders model them, for parameters q: each pixel's plane point
+// through the homography of the moved corners, the pattern there (blurred between the two
+// renders by tau), through the levels and the tone terms.
+struct PatternModel {
+  const Eigen::Vector2d (&view_corners)[4];
+  const Eigen::Vector2d (&plane)[4];
+  const std::vector<PatternPixel>& pixels;
+  const PatternRenders& renders;
+
+  // Residuals (model - pixel) and, where asked, the pattern at sigma and the renders' difference.
+  void Evaluate(const Vector13& q, Eigen::VectorXd* r, Eigen::VectorXd* b_sigma, Eigen::VectorXd* b_diff) const {
+    const int n = static_cast<int>(pixels.size());
+    Eigen::Vector2d c[4];
+    for (int k = 0; k < 4; ++k) c[k] = view_corners[k] + q.segment<2>(2 * k);
+    const Eigen::Matrix3d plane_from_view = HomographyFrom(c, plane);
+    for (int i = 0; i < n; ++i) {
+      const Eigen::Vector2d bits = Apply(plane_from_view, pixels[i].view);
+      const double b0 = renders.at_sigma.At(bits), b1 = renders.at_wider.At(bits);
+      if (b_sigma) (*b_sigma)(i) = b0;
+      if (b_diff) (*b_diff)(i) = b1 - b0;
+      const double b = b0 + q(10) * (b1 - b0);
+      (*r)(i) = q(8) + q(9) * b + q(11) * b * (1 - b) + q(12) * b * (1 - b) * (1 - 2 * b) - pixels[i].value;
+    }
+  }
+
+  // The residuals' Jacobian at p (b0, bd: Evaluate's pattern values there). The corners' columns
+  // by the chain rule: the pattern's gradient at each pixel's plane point times how that point
+  // moves with each corner (the homography redone per corner).
+  Eigen::MatrixXd Jacobian(const Vector13& p, const Eigen::VectorXd& b0, const Eigen::VectorXd& bd,
+                           bool tone_terms) const {
+    const int n = static_cast<int>(pixels.size());
+    Eigen::MatrixXd jacobian(n, 13);
+    {
+      constexpr double kStep = 0.01;  // view px
+      Eigen::Vector2d c[4];
+      for (int k = 0; k < 4; ++k) c[k] = view_corners[k] + p.segment<2>(2 * k);
+      const Eigen::Matrix3d plane_from_view = HomographyFrom(c, plane);
+      Eigen::Matrix3d moved[8];
+      for (int k = 0; k < 8; ++k) {
+        Eigen::Vector2d ck[4];
+        std::copy(c, c + 4, ck);
+        ck[k / 2](k % 2) += kStep;
+        moved[k] = HomographyFrom(ck, plane);
+      }
+      for (int i = 0; i < n; ++i) {
+        const Eigen::Vector2d bits = Apply(plane_from_view, pixels[i].view);
+        Eigen::Vector2d g0, g1;
+        const double v0 = renders.at_sigma.At(bits, &g0), v1 = renders.at_wider.At(bits, &g1);
+        const double b = v0 + p(10) * (v1 - v0);
+        const double dtone = p(9) + p(11) * (1 - 2 * b) + p(12) * (1 - 6 * b + 6 * b * b);
+        const Eigen::Vector2d g = dtone * (g0 + p(10) * (g1 - g0));
+        for (int k = 0; k < 8; ++k) jacobian(i, k) = g.dot(Apply(moved[k], pixels[i].view) - bits) / kStep;
+      }
+    }
+    const Eigen::ArrayXd b = (b0 + p(10) * bd).array();
+    jacobian.col(8).setOnes();
+    jacobian.col(9) = b.matrix();
+    const Eigen::ArrayXd dtone = p(9) + p(11) * (1 - 2 * b) + p(12) * (1 - 6 * b + 6 * b * b);
+    jacobian.col(10) = (dtone * bd.array()).matrix();
+    jacobian.col(11) = (b * (1 - b)).matrix();
+    jacobian.col(12) = (b * (1 - b) * (1 - 2 * b)).matrix();
+    if (!tone_terms) jacobian.rightCols<2>().setZero();
+    return jacobian;
+  }
+};
+
+// Levenberg-Marquardt on the model's parameters from *p (tau clamped to [-2, 3]) until no step
+// improves or the corners move under 1e-4 view px; *cost the final sum of squared residuals.
+// False where a step is not finite.
+bool FitPatternModel(const PatternModel& model, const TagPatternFitOptions& options, Vector13* p, double* cost) {
+  const int n = static_cast<int>(model.pixels.size());
+  Eigen::VectorXd r(n), b0(n), bd(n), r_try(n);
+  model.Evaluate(*p, &r, &b0, &bd);
+  *cost = r.squaredNorm();
+  double lambda = 1e-3;
+  for (int it = 0; it < options.max_iterations; ++it) {
+    const Eigen::MatrixXd jacobian = model.Jacobian(*p, b0, bd, options.tone_terms);
+    const Eigen::Matrix<double, 13, 13> h = jacobian.transpose() * jacobian;
+    const Vector13 g = jacobian.transpose() * r;
+    bool improved = false;
+    Vector13 step = Vector13::Zero();
+    for (int attempt = 0; attempt < 8 && !improved; ++attempt) {
+      Eigen::Matrix<double, 13, 13> damped = h;
+      damped.diagonal() += lambda * h.diagonal();
+      if (!options.tone_terms) damped.diagonal().tail<2>().setOnes();
+      step = damped.ldlt().solve(-g);
+      if (!step.allFinite()) return false;
+      Vector13 q = *p + step;
+      q(10) = std::clamp(q(10), -2.0, 3.0);
+      model.Evaluate(q, &r_try, nullptr, nullptr);
+      if (r_try.squaredNorm() < *cost) {
+        *p = q;
+        model.Evaluate(*p, &r, &b0, &bd);
+        *cost = r.squaredNorm();
+        lambda = std::max(1e-6, lambda / 4);
+        improved = true;
+      } else {
+        lambda *= 8;
+      }
+    }
+    if (!improved || step.head<8>().cwiseAbs().maxCoeff() < 1e-4) break;
+  }
+  return true;
+}
+
+std::optional<RegionFit> FitPatternRegion(const cv::Mat& grey, const RingView& view, const TargetPattern& pattern,
+                                          const Eigen::Vector2d (&plane)[4], const Eigen::Vector2d& region_lo,
+                                          const Eigen::Vector2d& region_hi,
+                                          const Eigen::Vector2d (&corners_in_view)[4],
+                                          const TagPatternFitOptions& options) {
+  Eigen::Vector2d view_corners[4];
+  std::copy(corners_in_view, corners_in_view + 4, view_corners);
+  const Eigen::Vector2d centre_bits = 0.25 * (plane[0] + plane[1] + plane[2] + plane[3]);
+
+  // The view's map sampled over the fitted region (where it has one) and inverted roughly.
+  const Eigen::Matrix3d view_from_plane0 = HomographyFrom(plane, view_corners);
+  const std::optional<RegionMap> region_map = MapOverRegion(view, view_from_plane0, region_lo, region_hi);
+  if (!region_map) return std::nullopt;
+  const std::optional<std::vector<PatternPixel>> pixels =
+      RegionPixels(grey, view, *region_map, view_from_plane0.inverse(), region_lo, region_hi, options);
+  if (!pixels) return std::nullopt;
+  const int n = static_cast<int>(pixels->size());
   // Levels from the pixels' spread; the blur from a camera's typical defocus, then fitted.
   std::vector<double> values;
-  for (const Pixel& p : pixels) values.push_back(p.value);
+  for (const PatternPixel& p : *pixels) values.push_back(p.value);
   std::sort(values.begin(), values.end());
   const double black = values[n / 20], white = values[n - 1 - n / 20];
   double sigma = 0.8;
-  constexpr double kSigmaStep = 0.2;
 
-  // Parameters: the 4 view corners' offsets (8), black, contrast, and tau: the blur between
-  // the two renders at sigma and sigma + kSigmaStep, linearly.
-  using Vector13 = Eigen::Matrix<double, 13, 1>;
   Vector13 p = Vector13::Zero();
   p(8) = black;
   p(9) = white - black;
   double misfit = 0;
   for (int round = 0; round < options.max_rounds; ++round) {
-    // d raw / d plane at the tag's centre: the pixel's blur (Gaussian sigma plus the pixel's box)
-    // in bits.
     Eigen::Vector2d corners_now[4];
     for (int k = 0; k < 4; ++k) corners_now[k] = view_corners[k] + p.segment<2>(2 * k);
-    const Eigen::Matrix3d view_from_plane = HomographyFrom(plane, corners_now);
-    Eigen::Matrix2d view_from_plane_j;
-    for (int a = 0; a < 2; ++a) {
-      Eigen::Vector2d d = Eigen::Vector2d::Zero();
-      d(a) = 0.01;
-      view_from_plane_j.col(a) = (Apply(view_from_plane, centre_bits + d) - Apply(view_from_plane, centre_bits - d)) / 0.02;
-    }
-    const Eigen::Vector2d centre_view = Apply(view_from_plane, centre_bits);
-    const auto centre_raw = view.ViewToRaw(centre_view);
-    if (!centre_raw) return std::nullopt;
-    const Eigen::Matrix2d raw_from_plane = map.Jacobian(*centre_raw).inverse() * view_from_plane_j;
-    if (!raw_from_plane.allFinite() || std::abs(raw_from_plane.determinant()) < 1e-6) return std::nullopt;
-    const Eigen::Matrix2d plane_from_raw = raw_from_plane.inverse();
-    const auto cov_bits = [&](double s) {
-      return Eigen::Matrix2d(plane_from_raw * ((s * s + 1.0 / 12) * Eigen::Matrix2d::Identity()) *
-                             plane_from_raw.transpose());
-    };
-    // Samples per bit: the blur at least 2.5 samples wide (bilinear look-ups stay smooth).
-    const double bits_per_px = std::sqrt(std::abs(plane_from_raw.determinant()));
-    const int spb = std::clamp(static_cast<int>(std::ceil(2.5 / (bits_per_px * std::sqrt(sigma * sigma + 1.0 / 12)))),
-                               options.samples_per_bit / 2, 4 * options.samples_per_bit);
-    const double max_sigma_bits =
-        std::sqrt(cov_bits(sigma + kSigmaStep).selfadjointView<Eigen::Upper>().eigenvalues().maxCoeff());
-    // Whole samples from the top-left control point (a tag's origin): its cells' edges fall
-    // between samples.
-    const double margin = 3.5 * max_sigma_bits + 1;
-    const Eigen::Vector2d lo = plane[3] + ((region_lo - plane[3]).array() - margin).cwiseProduct(Eigen::Array2d::Constant(spb)).floor().matrix() / spb;
-    const Eigen::Vector2d hi = region_hi.array() + margin;
-    const cv::Mat sharp = BlurredPattern::Sharp(pattern, lo, hi, spb);
-    const BlurredPattern at_sigma(sharp, lo, spb, cov_bits(sigma));
-    const BlurredPattern at_wider(sharp, lo, spb, cov_bits(sigma + kSigmaStep));
-
+    const std::optional<PatternRenders> renders = RenderAtBlur(view, region_map->map, pattern, plane, corners_now,
+                                                               centre_bits, region_lo, region_hi, sigma, options);
+    if (!renders) return std::nullopt;
     p(10) = 0;
-    // Residuals and the model's pattern values for parameters q.
-    const auto evaluate = [&](const Vector13& q, Eigen::VectorXd* r, Eigen::VectorXd* b_sigma,
-                              Eigen::VectorXd* b_diff) {
-      Eigen::Vector2d c[4];
-      for (int k = 0; k < 4; ++k) c[k] = view_corners[k] + q.segment<2>(2 * k);
-      const Eigen::Matrix3d plane_from_view = HomographyFrom(c, plane);
-      for (int i = 0; i < n; ++i) {
-        const Eigen::Vector2d bits = Apply(plane_from_view, pixels[i].view);
-        const double b0 = at_sigma.At(bits), b1 = at_wider.At(bits);
-        if (b_sigma) (*b_sigma)(i) = b0;
-        if (b_diff) (*b_diff)(i) = b1 - b0;
-        const double b = b0 + q(10) * (b1 - b0);
-        (*r)(i) = q(8) + q(9) * b + q(11) * b * (1 - b) + q(12) * b * (1 - b) * (1 - 2 * b) - pixels[i].value;
-      }
-    };
-    Eigen::VectorXd r(n), b0(n), bd(n), r_try(n);
-    evaluate(p, &r, &b0, &bd);
-    double cost = r.squaredNorm(), lambda = 1e-3;
-    for (int it = 0; it < options.max_iterations; ++it) {
-      // The corners' columns by the chain rule: the pattern's gradient at each pixel's plane
-      // point times how that point moves with each corner (the homography redone per corner).
-      Eigen::MatrixXd jacobian(n, 13);
-      {
-        constexpr double kStep = 0.01;  // view px
-        Eigen::Vector2d c[4];
-        for (int k = 0; k < 4; ++k) c[k] = view_corners[k] + p.segment<2>(2 * k);
-        const Eigen::Matrix3d plane_from_view = HomographyFrom(c, plane);
-        Eigen::Matrix3d moved[8];
-        for (int k = 0; k < 8; ++k) {
-          Eigen::Vector2d ck[4];
-          std::copy(c, c + 4, ck);
-          ck[k / 2](k % 2) += kStep;
-          moved[k] = HomographyFrom(ck, plane);
-        }
-        for (int i = 0; i < n; ++i) {
-          const Eigen::Vector2d bits = Apply(plane_from_view, pixels[i].view);
-          Eigen::Vector2d g0, g1;
-          const double v0 = at_sigma.At(bits, &g0), v1 = at_wider.At(bits, &g1);
-          const double b = v0 + p(10) * (v1 - v0);
-          const double dtone = p(9) + p(11) * (1 - 2 * b) + p(12) * (1 - 6 * b + 6 * b * b);
-          const Eigen::Vector2d g = dtone * (g0 + p(10) * (g1 - g0));
-          for (int k = 0; k < 8; ++k) jacobian(i, k) = g.dot(Apply(moved[k], pixels[i].view) - bits) / kStep;
-        }
-      }
-      const Eigen::ArrayXd b = (b0 + p(10) * bd).array();
-      jacobian.col(8).setOnes();
-      jacobian.col(9) = b.matrix();
-      const Eigen::ArrayXd dtone = p(9) + p(11) * (1 - 2 * b) + p(12) * (1 - 6 * b + 6 * b * b);
-      jacobian.col(10) = (dtone * bd.array()).matrix();
-      jacobian.col(11) = (b * (1 - b)).matrix();
-      jacobian.col(12) = (b * (1 - b) * (1 - 2 * b)).matrix();
-      if (!options.tone_terms) jacobian.rightCols<2>().setZero();
-      const Eigen::Matrix<double, 13, 13> h = jacobian.transpose() * jacobian;
-      const Vector13 g = jacobian.transpose() * r;
-      bool improved = false;
-      Vector13 step = Vector13::Zero();
-      for (int attempt = 0; attempt < 8 && !improved; ++attempt) {
-        Eigen::Matrix<double, 13, 13> damped = h;
-        damped.diagonal() += lambda * h.diagonal();
-        if (!options.tone_terms) damped.diagonal().tail<2>().setOnes();
-        step = damped.ldlt().solve(-g);
-        if (!step.allFinite()) return std::nullopt;
-        Vector13 q = p + step;
-        q(10) = std::clamp(q(10), -2.0, 3.0);
-        evaluate(q, &r_try, nullptr, nullptr);
-        if (r_try.squaredNorm() < cost) {
-          p = q;
-          evaluate(p, &r, &b0, &bd);
-          cost = r.squaredNorm();
-          lambda = std::max(1e-6, lambda / 4);
-          improved = true;
-        } else {
-          lambda *= 8;
-        }
-      }
-      if (!improved || step.head<8>().cwiseAbs().maxCoeff() < 1e-4) break;
-    }
+    const PatternModel model{view_corners, plane, *pixels, *renders};
+    double cost = 0;
+    if (!FitPatternModel(model, options, &p, &cost)) return std::nullopt;
     misfit = std::sqrt(cost / n) / std::max(1e-9, p(9));
     const double new_sigma = std::clamp(sigma + p(10) * kSigmaStep, 0.1, 3.0);
     const bool settled = std::abs(new_sigma - sigma) < 0.02;
