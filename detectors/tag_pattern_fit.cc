@@ -564,6 +564,179 @@ std::optional<RegionFit> FitPatternRegion(const cv::Mat& grey, const RingView& v
   return fit;
 }
 
+// A correlation's result: the best translation (view px, sub-pixel) and the best half a pitch or
+// more from it (to a view pixel), with their scores.
+struct Peak {
+  double best = -2, second = -2;
+  Eigen::Vector2d shift = Eigen::Vector2d::Zero();
+  Eigen::Vector2d second_shift = Eigen::Vector2d::Zero();  // to a view pixel
+};
+
+// The template for a correlation: the pattern over the region [lo, hi] (bits) as `h_inverse`
+// (view -> bits) puts it in the view box at (tx0, ty0), 2 x 2 samples per view pixel, pixels
+// outside the region masked.
+void PatternTemplate(const TargetPattern& pattern, const Eigen::Matrix3d& h_inverse, const Eigen::Vector2d& lo,
+                     const Eigen::Vector2d& hi, int tx0, int ty0, cv::Mat* templ, cv::Mat* mask) {
+  for (int y = 0; y < templ->rows; ++y) {
+    for (int x = 0; x < templ->cols; ++x) {
+      double sum = 0;
+      for (int j = 0; j < 2; ++j) {
+        for (int i = 0; i < 2; ++i) {
+          const Eigen::Vector2d b = Apply(h_inverse, Eigen::Vector2d(tx0 + x + (i - 0.5) / 2, ty0 + y + (j - 0.5) / 2));
+          sum += pattern.At(b.x(), b.y());
+        }
+      }
+      templ->at<float>(y, x) = static_cast<float>(sum / 4);
+      const Eigen::Vector2d b = Apply(h_inverse, Eigen::Vector2d(tx0 + x, ty0 + y));
+      mask->at<float>(y, x) = (b - lo).minCoeff() >= 0 && (hi - b).minCoeff() >= 0 ? 1.0f : 0.0f;
+    }
+  }
+}
+
+// The peaks of a correlation score over `search` (at 1 / f of the resolution), as translations
+// of the template box at (tx0, ty0): the best, refined by a parabola per axis, and the best at
+// least half a pitch (`pitch_view`, view px) from it.
+Peak PeakOf(const cv::Mat& score, const cv::Rect& search, int tx0, int ty0, int f, double pitch_view) {
+  Peak peak;
+  cv::Point at;
+  for (int y = 0; y < score.rows; ++y) {
+    for (int x = 0; x < score.cols; ++x) {
+      const float s = score.at<float>(y, x);
+      if (std::isfinite(s) && s > peak.best) peak.best = s, at = cv::Point(x, y);
+    }
+  }
+  for (int y = 0; y < score.rows; ++y) {
+    for (int x = 0; x < score.cols; ++x) {
+      const float s = score.at<float>(y, x);
+      if (std::isfinite(s) && f * std::hypot(x - at.x, y - at.y) >= 0.5 * pitch_view && s > peak.second) {
+        peak.second = s;
+        peak.second_shift = Eigen::Vector2d(search.x + f * x - tx0, search.y + f * y - ty0);
+      }
+    }
+  }
+  // Sub-pixel: a parabola per axis.
+  const auto vertex = [&](int dx, int dy) {
+    if (at.x - dx < 0 || at.y - dy < 0 || at.x + dx >= score.cols || at.y + dy >= score.rows) return 0.0;
+    const double a = score.at<float>(at.y - dy, at.x - dx), b = score.at<float>(at.y, at.x),
+                 c = score.at<float>(at.y + dy, at.x + dx);
+    const double d = a - 2 * b + c;
+    return d < 0 ? std::clamp(0.5 * (a - c) / d, -0.5, 0.5) : 0.0;
+  };
+  peak.shift = Eigen::Vector2d(search.x + at.x + vertex(1, 0) - tx0, search.y + at.y + vertex(0, 1) - ty0);
+  return peak;
+}
+
+// The whole target's pattern correlated with a view: what every correlation of one alignment
+// shares (the region [lo, hi] in bits, the view's blur, the search radius and the pitch in view
+// px).
+struct PatternCorrelation {
+  const RingView& view;
+  const TargetPattern& pattern;
+  Eigen::Vector2d lo, hi;
+  double blur = 1, radius_view_px = 0, pitch_view = 0;
+
+  // One correlation: the template is the pattern over the region as `h` (bits -> view) puts it
+  // in the view, blurred as the view is, pixels outside the region masked; every translation
+  // within the radius (clipped to the view), at 1 / f of the resolution where f > 1 (the score
+  // only). nullopt where the target leaves the view's map or the template or search is too
+  // small or large.
+  std::optional<Peak> operator()(const Eigen::Matrix3d& h, int f) const {
+    const Eigen::Matrix3d h_inverse = h.inverse();
+    Eigen::Vector2d v_lo(1e9, 1e9), v_hi(-1e9, -1e9);
+    for (const Eigen::Vector2d& c : {lo, hi, Eigen::Vector2d(lo.x(), hi.y()), Eigen::Vector2d(hi.x(), lo.y())}) {
+      const Eigen::Vector2d at = Apply(h, c);
+      if (!at.allFinite() || !view.ViewToRaw(at)) return std::nullopt;  // the whole target in the view's map
+      v_lo = v_lo.cwiseMin(at);
+      v_hi = v_hi.cwiseMax(at);
+    }
+    const int pad = 2;
+    const int tx0 = static_cast<int>(std::floor(v_lo.x())) - pad, ty0 = static_cast<int>(std::floor(v_lo.y())) - pad;
+    const int tw = static_cast<int>(std::ceil(v_hi.x())) + pad + 1 - tx0;
+    const int th = static_cast<int>(std::ceil(v_hi.y())) + pad + 1 - ty0;
+    if (tw < 8 || th < 8 || tw > 400 || th > 400) return std::nullopt;
+    cv::Mat templ(th, tw, CV_32F), mask(th, tw, CV_32F);
+    PatternTemplate(pattern, h_inverse, lo, hi, tx0, ty0, &templ, &mask);
+    cv::GaussianBlur(templ, templ, cv::Size(0, 0), std::max(0.3, blur));
+    const int r = static_cast<int>(std::ceil(radius_view_px));
+    const cv::Rect search =
+        cv::Rect(tx0 - r, ty0 - r, tw + 2 * r, th + 2 * r) & cv::Rect(0, 0, view.image.cols, view.image.rows);
+    if (search.width < tw + 2 || search.height < th + 2) return std::nullopt;
+    cv::Mat image, score;
+    view.image(search).convertTo(image, CV_32F, 1.0 / 255);
+    if (f > 1) {  // at 1 / f of the resolution: the score only
+      cv::resize(image, image, cv::Size(), 1.0 / f, 1.0 / f, cv::INTER_AREA);
+      cv::resize(templ, templ, cv::Size(), 1.0 / f, 1.0 / f, cv::INTER_AREA);
+      cv::resize(mask, mask, cv::Size(), 1.0 / f, 1.0 / f, cv::INTER_AREA);
+      cv::threshold(mask, mask, 0.99, 1.0, cv::THRESH_BINARY);
+      if (image.cols < templ.cols || image.rows < templ.rows) return std::nullopt;
+    }
+    cv::matchTemplate(image, templ, score, cv::TM_CCOEFF_NORMED, mask);
+    return PeakOf(score, search, tx0, ty0, f, pitch_view);
+  }
+};
+
+// The prediction's scale and turn are off too (a few percent, a few degrees): each of a few
+// similarities of `view_from_bits` about the target's centre is correlated, the best kept
+// (*view_from_bits_found: its homography). Scales first, then turns at the best scale; at half
+// the resolution where the target is large enough (the similarity is chosen there), then the
+// chosen one at full resolution.
+std::optional<Peak> BestSimilarity(const PatternCorrelation& correlate, const Eigen::Matrix3d& view_from_bits,
+                                   const Eigen::Vector2d& extent, const TargetAlignOptions& options,
+                                   Eigen::Matrix3d* view_from_bits_found) {
+  const Eigen::Vector2d centre_view = Apply(view_from_bits, 0.5 * extent);
+  std::optional<Peak> found;
+  *view_from_bits_found = view_from_bits;
+  const Eigen::Vector2d corner_view = Apply(view_from_bits, Eigen::Vector2d::Zero());
+  const int coarse = (Apply(view_from_bits, extent) - corner_view).norm() > 48 ? 2 : 1;
+  const auto try_similarity = [&](double scale, double turn_deg) {
+    const double t = turn_deg * M_PI / 180;
+    Eigen::Matrix3d similarity = Eigen::Matrix3d::Identity();
+    similarity.topLeftCorner<2, 2>() << scale * std::cos(t), -scale * std::sin(t), scale * std::sin(t),
+        scale * std::cos(t);
+    similarity.topRightCorner<2, 1>() = centre_view - similarity.topLeftCorner<2, 2>() * centre_view;
+    const Eigen::Matrix3d h = similarity * view_from_bits;
+    const auto peak = correlate(h, coarse);
+    if (peak && (!found || peak->best > found->best)) {
+      found = peak;
+      *view_from_bits_found = h;
+      return true;
+    }
+    return false;
+  };
+  const std::vector<double> scales =
+      options.search_similarity ? std::vector<double>{1.0, 0.96, 1.04, 0.92, 1.08} : std::vector<double>{1.0};
+  const std::vector<double> turns = options.search_similarity ? std::vector<double>{-4.0, 4.0} : std::vector<double>{};
+  double best_scale = 1;
+  for (const double scale : scales) {
+    if (try_similarity(scale, 0)) best_scale = scale;
+  }
+  for (const double turn_deg : turns) try_similarity(best_scale, turn_deg);
+  if (found && coarse > 1) found = correlate(*view_from_bits_found, 1);
+  return found;
+}
+
+// The whole pattern (control points `plane`: its outer tag corners, bits) fitted to the raw
+// pixels from `view_from_bits` moved by `from` (view px), as an alignment for the tags' own
+// fits (the blur's first estimate and a coarser render do); nullopt where the fit fails or a
+// corner moves more than max_shift_pitches pitches.
+std::optional<RegionFit> FitWholePattern(const cv::Mat& grey, const PatternCorrelation& c,
+                                         const Eigen::Vector2d (&plane)[4], const Eigen::Matrix3d& view_from_bits,
+                                         const Eigen::Vector2d& from, const TargetAlignOptions& options) {
+  TagPatternFitOptions fit_options;
+  fit_options.max_misfit = options.max_misfit;
+  fit_options.max_pixels = options.max_fit_pixels;
+  fit_options.max_rounds = 2;
+  fit_options.max_iterations = 12;
+  fit_options.samples_per_bit = 4;
+  Eigen::Vector2d at[4];
+  for (int k = 0; k < 4; ++k) at[k] = Apply(view_from_bits, plane[k]) + from;
+  auto fit = FitPatternRegion(grey, c.view, c.pattern, plane, c.lo, c.hi, at, fit_options);
+  for (int k = 0; k < 4 && fit; ++k) {
+    if (!((fit->view_corners[k] - at[k]).norm() <= options.max_shift_pitches * c.pitch_view)) fit.reset();
+  }
+  return fit;
+}
+
 }  // namespace
 
 std::optional<TagPatternFit> FitTagPattern(const cv::Mat& grey, const RingView& view,
@@ -619,121 +792,10 @@ std::optional<TargetAlignment> AlignTargetPattern(const cv::Mat& grey, const Rin
       0.5 * ((Apply(view_from_bits, Eigen::Vector2d(pattern.pitch_bits(), 0)) - origin_view).norm() +
              (Apply(view_from_bits, Eigen::Vector2d(0, pattern.pitch_bits())) - origin_view).norm());
   const double blur = view.blur_sigma ? *view.blur_sigma : 1.0;
+  const PatternCorrelation correlate{view, pattern, lo, hi, blur, radius_view_px, pitch_view};
 
-  // One correlation: the template is the pattern over the region as `h` (bits -> view) puts it
-  // in the view (2 x 2 samples per view pixel), blurred as the view is, pixels outside the
-  // region masked; every translation within the radius (clipped to the view). The best
-  // translation (view px, sub-pixel) and the best half a pitch or more from it.
-  struct Peak {
-    double best = -2, second = -2;
-    Eigen::Vector2d shift = Eigen::Vector2d::Zero();
-    Eigen::Vector2d second_shift = Eigen::Vector2d::Zero();  // to a view pixel
-  };
-  const auto correlate = [&](const Eigen::Matrix3d& h, int f) -> std::optional<Peak> {
-    const Eigen::Matrix3d h_inverse = h.inverse();
-    Eigen::Vector2d v_lo(1e9, 1e9), v_hi(-1e9, -1e9);
-    for (const Eigen::Vector2d& c : {lo, hi, Eigen::Vector2d(lo.x(), hi.y()), Eigen::Vector2d(hi.x(), lo.y())}) {
-      const Eigen::Vector2d at = Apply(h, c);
-      if (!at.allFinite() || !view.ViewToRaw(at)) return std::nullopt;  // the whole target in the view's map
-      v_lo = v_lo.cwiseMin(at);
-      v_hi = v_hi.cwiseMax(at);
-    }
-    const int pad = 2;
-    const int tx0 = static_cast<int>(std::floor(v_lo.x())) - pad, ty0 = static_cast<int>(std::floor(v_lo.y())) - pad;
-    const int tw = static_cast<int>(std::ceil(v_hi.x())) + pad + 1 - tx0;
-    const int th = static_cast<int>(std::ceil(v_hi.y())) + pad + 1 - ty0;
-    if (tw < 8 || th < 8 || tw > 400 || th > 400) return std::nullopt;
-    cv::Mat templ(th, tw, CV_32F), mask(th, tw, CV_32F);
-    for (int y = 0; y < th; ++y) {
-      for (int x = 0; x < tw; ++x) {
-        double sum = 0;
-        for (int j = 0; j < 2; ++j) {
-          for (int i = 0; i < 2; ++i) {
-            const Eigen::Vector2d b = Apply(h_inverse, Eigen::Vector2d(tx0 + x + (i - 0.5) / 2, ty0 + y + (j - 0.5) / 2));
-            sum += pattern.At(b.x(), b.y());
-          }
-        }
-        templ.at<float>(y, x) = static_cast<float>(sum / 4);
-        const Eigen::Vector2d b = Apply(h_inverse, Eigen::Vector2d(tx0 + x, ty0 + y));
-        mask.at<float>(y, x) = (b - lo).minCoeff() >= 0 && (hi - b).minCoeff() >= 0 ? 1.0f : 0.0f;
-      }
-    }
-    cv::GaussianBlur(templ, templ, cv::Size(0, 0), std::max(0.3, blur));
-    const int r = static_cast<int>(std::ceil(radius_view_px));
-    const cv::Rect search =
-        cv::Rect(tx0 - r, ty0 - r, tw + 2 * r, th + 2 * r) & cv::Rect(0, 0, view.image.cols, view.image.rows);
-    if (search.width < tw + 2 || search.height < th + 2) return std::nullopt;
-    cv::Mat image, score;
-    view.image(search).convertTo(image, CV_32F, 1.0 / 255);
-    if (f > 1) {  // at 1 / f of the resolution: the score only
-      cv::resize(image, image, cv::Size(), 1.0 / f, 1.0 / f, cv::INTER_AREA);
-      cv::resize(templ, templ, cv::Size(), 1.0 / f, 1.0 / f, cv::INTER_AREA);
-      cv::resize(mask, mask, cv::Size(), 1.0 / f, 1.0 / f, cv::INTER_AREA);
-      cv::threshold(mask, mask, 0.99, 1.0, cv::THRESH_BINARY);
-      if (image.cols < templ.cols || image.rows < templ.rows) return std::nullopt;
-    }
-    cv::matchTemplate(image, templ, score, cv::TM_CCOEFF_NORMED, mask);
-    Peak peak;
-    cv::Point at;
-    for (int y = 0; y < score.rows; ++y) {
-      for (int x = 0; x < score.cols; ++x) {
-        const float s = score.at<float>(y, x);
-        if (std::isfinite(s) && s > peak.best) peak.best = s, at = cv::Point(x, y);
-      }
-    }
-    for (int y = 0; y < score.rows; ++y) {
-      for (int x = 0; x < score.cols; ++x) {
-        const float s = score.at<float>(y, x);
-        if (std::isfinite(s) && f * std::hypot(x - at.x, y - at.y) >= 0.5 * pitch_view && s > peak.second) {
-          peak.second = s;
-          peak.second_shift = Eigen::Vector2d(search.x + f * x - tx0, search.y + f * y - ty0);
-        }
-      }
-    }
-    // Sub-pixel: a parabola per axis.
-    const auto vertex = [&](int dx, int dy) {
-      if (at.x - dx < 0 || at.y - dy < 0 || at.x + dx >= score.cols || at.y + dy >= score.rows) return 0.0;
-      const double a = score.at<float>(at.y - dy, at.x - dx), b = score.at<float>(at.y, at.x),
-                   c = score.at<float>(at.y + dy, at.x + dx);
-      const double d = a - 2 * b + c;
-      return d < 0 ? std::clamp(0.5 * (a - c) / d, -0.5, 0.5) : 0.0;
-    };
-    peak.shift = Eigen::Vector2d(search.x + at.x + vertex(1, 0) - tx0, search.y + at.y + vertex(0, 1) - ty0);
-    return peak;
-  };
-  // The prediction's scale and turn are off too (a few percent, a few degrees): each of a few
-  // similarities about the target's centre is correlated, the best kept.
-  const Eigen::Vector2d centre_view = Apply(view_from_bits, 0.5 * extent);
-  std::optional<Peak> found;
-  Eigen::Matrix3d view_from_bits_found = view_from_bits;
-  const Eigen::Vector2d corner_view = Apply(view_from_bits, Eigen::Vector2d::Zero());
-  const int coarse = (Apply(view_from_bits, extent) - corner_view).norm() > 48 ? 2 : 1;
-  const auto try_similarity = [&](double scale, double turn_deg) {
-    const double t = turn_deg * M_PI / 180;
-    Eigen::Matrix3d similarity = Eigen::Matrix3d::Identity();
-    similarity.topLeftCorner<2, 2>() << scale * std::cos(t), -scale * std::sin(t), scale * std::sin(t),
-        scale * std::cos(t);
-    similarity.topRightCorner<2, 1>() = centre_view - similarity.topLeftCorner<2, 2>() * centre_view;
-    const Eigen::Matrix3d h = similarity * view_from_bits;
-    const auto peak = correlate(h, coarse);
-    if (peak && (!found || peak->best > found->best)) {
-      found = peak;
-      view_from_bits_found = h;
-      return true;
-    }
-    return false;
-  };
-  // Scales first, then turns at the best scale; at half the resolution where the target is
-  // large enough (the similarity is chosen there), then the chosen one at full resolution.
-  const std::vector<double> scales =
-      options.search_similarity ? std::vector<double>{1.0, 0.96, 1.04, 0.92, 1.08} : std::vector<double>{1.0};
-  const std::vector<double> turns = options.search_similarity ? std::vector<double>{-4.0, 4.0} : std::vector<double>{};
-  double best_scale = 1;
-  for (const double scale : scales) {
-    if (try_similarity(scale, 0)) best_scale = scale;
-  }
-  for (const double turn_deg : turns) try_similarity(best_scale, turn_deg);
-  if (found && coarse > 1) found = correlate(view_from_bits_found, 1);
+  Eigen::Matrix3d view_from_bits_found;
+  const std::optional<Peak> found = BestSimilarity(correlate, view_from_bits, extent, options, &view_from_bits_found);
   if (!found || !(found->best >= options.min_score) || found->best - found->second < options.min_margin_to_fit) {
     return std::nullopt;
   }
@@ -742,30 +804,13 @@ std::optional<TargetAlignment> AlignTargetPattern(const cv::Mat& grey, const Rin
 
   // The whole pattern fitted to the raw pixels, its outer tag corners free.
   const Eigen::Vector2d plane[4] = {{0, extent.y()}, {extent.x(), extent.y()}, {extent.x(), 0}, {0, 0}};
-  TagPatternFitOptions fit_options;
-  fit_options.max_misfit = options.max_misfit;
-  fit_options.max_pixels = options.max_fit_pixels;
-  // An alignment for the tags' own fits: the blur's first estimate and a coarser render do.
-  fit_options.max_rounds = 2;
-  fit_options.max_iterations = 12;
-  fit_options.samples_per_bit = 4;
-  // The whole pattern fitted from `shift`; nullopt where it fails or moves too far.
-  const auto fit_from = [&](const Eigen::Vector2d& from) -> std::optional<RegionFit> {
-    Eigen::Vector2d at[4];
-    for (int k = 0; k < 4; ++k) at[k] = Apply(view_from_bits_found, plane[k]) + from;
-    auto fit = FitPatternRegion(grey, view, pattern, plane, lo, hi, at, fit_options);
-    for (int k = 0; k < 4 && fit; ++k) {
-      if (!((fit->view_corners[k] - at[k]).norm() <= options.max_shift_pitches * pitch_view)) fit.reset();
-    }
-    return fit;
-  };
-  const auto fit = fit_from(shift);
+  const auto fit = FitWholePattern(grey, correlate, plane, view_from_bits_found, shift, options);
   if (!fit) return std::nullopt;
   // A close runner-up (an elongated grid shifted by a pitch along its length still overlaps
   // most of itself): the pattern fitted there too must fit clearly worse, or land where the
   // best did.
   if (found->best - found->second < options.min_margin) {
-    const auto other = fit_from(found->second_shift);
+    const auto other = FitWholePattern(grey, correlate, plane, view_from_bits_found, found->second_shift, options);
     const bool same = other && (other->view_corners[3] - fit->view_corners[3]).norm() < 0.25 * pitch_view;
     if (other && !same && !(other->misfit >= options.min_misfit_ratio * fit->misfit)) return std::nullopt;
   }
