@@ -173,6 +173,174 @@ Eigen::Vector2d FitKalibrJunction(const cv::Mat& grey, const RingView& view, con
   return fit ? fit->corner : start;
 }
 
+// Target `ti`'s tags read in view `v` (cell (row, col) -> index in `found`): the first target of
+// its layout that holds the id, as DetectTagCorners assigns them.
+std::map<std::pair<int, int>, int> TagsOfTargetInView(const std::vector<ViewTag>& found, int v,
+                                                      const std::vector<TargetSpec>& targets, std::size_t ti) {
+  const TargetSpec& target = targets[ti];
+  std::map<std::pair<int, int>, int> have;
+  for (std::size_t i = 0; i < found.size(); ++i) {
+    const ViewTag& t = found[i];
+    if (t.view != v || t.layout != target.type) continue;
+    int row = 0, col = 0;
+    if (!TagCell(target, t.tag_id, &row, &col)) continue;
+    bool earlier = false;  // an earlier target of this layout holds the id
+    for (std::size_t tj = 0; tj < ti && !earlier; ++tj) {
+      int r2 = 0, c2 = 0;
+      earlier = targets[tj].type == target.type && TagCell(targets[tj], t.tag_id, &r2, &c2);
+    }
+    if (!earlier) have[{row, col}] = static_cast<int>(i);
+  }
+  return have;
+}
+
+// The target's plane -> view homography from the corners of the tags accepted so far (`have`).
+cv::Mat GridHomography(const TargetSpec& target, const std::vector<ViewTag>& found,
+                       const std::map<std::pair<int, int>, int>& have) {
+  std::vector<cv::Point2f> plane, in_view;
+  for (const auto& [cell, i] : have) {
+    const ViewTag& t = found[i];
+    for (int k = 0; k < 4; ++k) {
+      const Eigen::Vector3d p = CornerInTarget(target, 4 * t.tag_id + k);
+      plane.emplace_back(static_cast<float>(p.x()), static_cast<float>(p.y()));
+      in_view.emplace_back(static_cast<float>(t.corners[k].x()), static_cast<float>(t.corners[k].y()));
+    }
+  }
+  return cv::findHomography(plane, in_view, 0);
+}
+
+// The untried cells next (8-neighbourhood) to an accepted tag or a hidden cell.
+std::vector<std::pair<int, int>> CellsNextToGrid(const TargetSpec& target,
+                                                 const std::map<std::pair<int, int>, int>& have,
+                                                 const std::set<std::pair<int, int>>& tried,
+                                                 const std::set<std::pair<int, int>>& hidden) {
+  std::vector<std::pair<int, int>> next;
+  for (int row = 0; row < target.rows; ++row) {
+    for (int col = 0; col < target.cols; ++col) {
+      if (have.count({row, col}) || tried.count({row, col})) continue;
+      bool adjacent = false;
+      for (const auto& [cell, i] : have) {
+        adjacent |= std::max(std::abs(cell.first - row), std::abs(cell.second - col)) == 1;
+      }
+      for (const auto& cell : hidden) {
+        adjacent |= std::max(std::abs(cell.first - row), std::abs(cell.second - col)) == 1;
+      }
+      if (adjacent) next.emplace_back(row, col);
+    }
+  }
+  return next;
+}
+
+// Whether the view shows a predicted tag whole: its corners, centre and the middles of its
+// half-sides all on the view's map (`covered` where one is not: its code cannot be read), and
+// `post` where such a point sees the mount's post through the model without its mount.
+void TagCoverage(const RingView& view, const RigModel* model, const RigModel* unmounted, const ViewTag& tag,
+                 bool* covered, bool* post) {
+  std::vector<Eigen::Vector2d> probes(tag.corners, tag.corners + 4);
+  const Eigen::Vector2d centre = 0.25 * (tag.corners[0] + tag.corners[1] + tag.corners[2] + tag.corners[3]);
+  probes.push_back(centre);
+  for (int k = 0; k < 4; ++k) probes.push_back(0.5 * (tag.corners[k] + centre));
+  *covered = false;
+  *post = false;
+  for (const Eigen::Vector2d& p : probes) {
+    if (view.ViewToRaw(p)) continue;
+    *covered = true;
+    if (!unmounted) continue;
+    const auto behind = view.ViewToRawExact(*unmounted, p);
+    *post = *post || (behind && model->PixelSeesMount(*behind));
+  }
+}
+
+// A plain tag's predicted corners moved to where the code's pattern fits best, +-0.25 bit in
+// steps of 1/16 bit (plain corners are not X-junctions, and the prediction is extrapolated from
+// a few tags); returns the code's residual there (`e`: at the prediction).
+double ShiftToCode(const cv::Mat& view_grey, const TagLayout& layout, double blur, int tag_id, double side,
+                   double e, ViewTag* tag) {
+  const double step = side / layout.bits / 16;
+  Eigen::Vector2d best_shift = Eigen::Vector2d::Zero();
+  for (int pass = 0; pass < 2; ++pass) {
+    const Eigen::Vector2d centre = best_shift;
+    const double h = pass == 0 ? 4 * step : step;
+    for (int dy = -1; dy <= 1; ++dy) {
+      for (int dx = -1; dx <= 1; ++dx) {
+        if (dx == 0 && dy == 0) continue;
+        const Eigen::Vector2d shift = centre + h * Eigen::Vector2d(dx, dy);
+        Eigen::Vector2d moved[4];
+        for (int k = 0; k < 4; ++k) moved[k] = tag->corners[k] + shift;
+        const double e_shift = TagCodeResidual(view_grey, Printed(moved), layout, blur, tag_id);
+        if (e_shift < e) {
+          e = e_shift;
+          best_shift = shift;
+        }
+      }
+    }
+  }
+  for (int k = 0; k < 4; ++k) tag->corners[k] += best_shift;
+  return e;
+}
+
+// The outcome of trying one cell: the tag grown there, or whether the cell is hidden.
+enum class CellOutcome { kNone, kHidden, kRead };
+
+// One predicted cell of the grid (homography H: plane -> view) tried: hidden where the view's
+// margin holds it but its map does not show it whole (a post's Kalibr tag then gives its seen
+// X-junctions in `partial`); read (`tag`) where its corners refine (Kalibr) and its code fits at
+// the prediction within grow_max_residual.
+CellOutcome TryCell(const cv::Mat& view_grey, const RingView& view, int v, const TargetSpec& target,
+                    const std::pair<int, int>& cell, const cv::Mat& H, const TagDetectorOptions& options,
+                    const RigModel* model, const RigModel* unmounted, ViewTag* tag_out,
+                    std::vector<PartialTag>* partial) {
+  const bool kalibr = target.type == TargetType::kKalibrAprilGrid;
+  const double blur = view.blur_sigma ? *view.blur_sigma : 0.0;
+  const int tag_id = TagIdAt(target, cell.first, cell.second);
+  std::vector<cv::Point2f> plane_k, predicted;
+  for (int k = 0; k < 4; ++k) {
+    const Eigen::Vector3d p = CornerInTarget(target, 4 * tag_id + k);
+    plane_k.emplace_back(static_cast<float>(p.x()), static_cast<float>(p.y()));
+  }
+  cv::perspectiveTransform(plane_k, predicted, H);
+  ViewTag tag{target.type, tag_id, {}, v};
+  bool ok = true;
+  double side = 0;
+  for (int k = 0; k < 4; ++k) side += 0.25 * cv::norm(predicted[(k + 1) % 4] - predicted[k]);
+  const double margin = 0.3 * side + 3;
+  bool in_view = true;
+  for (int k = 0; k < 4; ++k) {
+    tag.corners[k] = Eigen::Vector2d(predicted[k].x, predicted[k].y);
+    in_view = in_view && predicted[k].x >= margin && predicted[k].y >= margin &&
+              predicted[k].x < view_grey.cols - margin && predicted[k].y < view_grey.rows - margin;
+  }
+  bool covered = false, post = false;
+  TagCoverage(view, model, unmounted, tag, &covered, &post);
+  CellOutcome outcome = CellOutcome::kNone;
+  if (in_view && covered) {
+    outcome = CellOutcome::kHidden;  // its neighbours are candidates now
+    if (kalibr && post) {
+      PartialTag part{tag, {}};
+      const int half = static_cast<int>(std::lround(0.15 * side));
+      for (int k = 0; k < 4; ++k) {
+        part.seen[k] = view.ViewToRaw(tag.corners[k]).has_value() &&
+                       RefineSaddleCorner(view_grey, tag.corners[k], half, 0.1 * side, &part.tag.corners[k]);
+      }
+      if (std::count(part.seen, part.seen + 4, true) > 0) partial->push_back(part);
+    }
+  }
+  if (!in_view || covered) return outcome;
+  if (kalibr) {
+    const int half = static_cast<int>(std::lround(0.15 * side));
+    for (int k = 0; k < 4 && ok; ++k) {
+      ok = RefineSaddleCorner(view_grey, tag.corners[k], half, 0.1 * side, &tag.corners[k]);
+    }
+    if (!ok) return CellOutcome::kNone;
+  }
+  const TagLayout layout = kalibr ? KalibrTagLayout() : PlainTagLayout();
+  double e = TagCodeResidual(view_grey, Printed(tag.corners), layout, blur, tag_id);
+  if (!kalibr) e = ShiftToCode(view_grey, layout, blur, tag_id, side, e, &tag);
+  if (!(e <= options.grow_max_residual)) return CellOutcome::kNone;
+  *tag_out = tag;
+  return CellOutcome::kRead;
+}
+
 // One read tag carries its grid: in a view a target is a homography of its plane, so the tags of
 // a target read in view `v` predict where its other tags are (nearest first, the homography
 // refitted to every tag accepted so far). A predicted tag is taken, with the id its place on the
@@ -188,143 +356,31 @@ void GrowTagGrids(const cv::Mat& view_grey, const RingView& view, int v,
                   const std::vector<TargetSpec>& targets, const TagDetectorOptions& options,
                   const RigModel* model, const RigModel* unmounted, std::vector<ViewTag>* found,
                   std::vector<PartialTag>* partial) {
-  const double blur = view.blur_sigma ? *view.blur_sigma : 0.0;
   for (std::size_t ti = 0; ti < targets.size(); ++ti) {
     const TargetSpec& target = targets[ti];
     if (target.type == TargetType::kChessboard) continue;
-    const bool kalibr = target.type == TargetType::kKalibrAprilGrid;
-    // This target's tags read in this view (the first of its layout that holds the id, as below).
-    std::map<std::pair<int, int>, int> have;  // (row, col) -> index in found
-    for (std::size_t i = 0; i < found->size(); ++i) {
-      const ViewTag& t = (*found)[i];
-      if (t.view != v || t.layout != target.type) continue;
-      int row = 0, col = 0;
-      if (!TagCell(target, t.tag_id, &row, &col)) continue;
-      bool earlier = false;  // an earlier target of this layout holds the id
-      for (std::size_t tj = 0; tj < ti && !earlier; ++tj) {
-        int r2 = 0, c2 = 0;
-        earlier = targets[tj].type == target.type && TagCell(targets[tj], t.tag_id, &r2, &c2);
-      }
-      if (!earlier) have[{row, col}] = static_cast<int>(i);
-    }
+    std::map<std::pair<int, int>, int> have = TagsOfTargetInView(*found, v, targets, ti);
     if (have.empty()) continue;
     // Cells whose predicted tag the view does not show whole (a post of the mount, the ring's
     // rim): growth goes on past them, so that a grid cut by a post is read on both sides.
     std::set<std::pair<int, int>> tried, hidden;
     for (;;) {
-      std::vector<cv::Point2f> plane, in_view;
-      for (const auto& [cell, i] : have) {
-        const ViewTag& t = (*found)[i];
-        for (int k = 0; k < 4; ++k) {
-          const Eigen::Vector3d p = CornerInTarget(target, 4 * t.tag_id + k);
-          plane.emplace_back(static_cast<float>(p.x()), static_cast<float>(p.y()));
-          in_view.emplace_back(static_cast<float>(t.corners[k].x()), static_cast<float>(t.corners[k].y()));
-        }
-      }
-      const cv::Mat H = cv::findHomography(plane, in_view, 0);
+      const cv::Mat H = GridHomography(target, *found, have);
       if (H.empty()) break;
-      // The untried cells next to an accepted tag.
-      std::vector<std::pair<int, int>> next;
-      for (int row = 0; row < target.rows; ++row) {
-        for (int col = 0; col < target.cols; ++col) {
-          if (have.count({row, col}) || tried.count({row, col})) continue;
-          bool adjacent = false;
-          for (const auto& [cell, i] : have) {
-            adjacent |= std::max(std::abs(cell.first - row), std::abs(cell.second - col)) == 1;
-          }
-          for (const auto& cell : hidden) {
-            adjacent |= std::max(std::abs(cell.first - row), std::abs(cell.second - col)) == 1;
-          }
-          if (adjacent) next.emplace_back(row, col);
-        }
-      }
+      const std::vector<std::pair<int, int>> next = CellsNextToGrid(target, have, tried, hidden);
       if (next.empty()) break;
       bool grew = false;
       for (const auto& cell : next) {
         tried.insert(cell);
-        const int tag_id = TagIdAt(target, cell.first, cell.second);
-        std::vector<cv::Point2f> plane_k, predicted;
-        for (int k = 0; k < 4; ++k) {
-          const Eigen::Vector3d p = CornerInTarget(target, 4 * tag_id + k);
-          plane_k.emplace_back(static_cast<float>(p.x()), static_cast<float>(p.y()));
+        ViewTag tag{target.type, -1, {}, v};
+        const CellOutcome outcome = TryCell(view_grey, view, v, target, cell, H, options, model, unmounted, &tag,
+                                            partial);
+        if (outcome == CellOutcome::kHidden) hidden.insert(cell);
+        if (outcome == CellOutcome::kRead) {
+          have[cell] = static_cast<int>(found->size());
+          found->push_back(tag);
         }
-        cv::perspectiveTransform(plane_k, predicted, H);
-        ViewTag tag{target.type, tag_id, {}, v};
-        bool ok = true;
-        double side = 0;
-        for (int k = 0; k < 4; ++k) side += 0.25 * cv::norm(predicted[(k + 1) % 4] - predicted[k]);
-        const double margin = 0.3 * side + 3;
-        bool in_view = true;
-        for (int k = 0; k < 4; ++k) {
-          tag.corners[k] = Eigen::Vector2d(predicted[k].x, predicted[k].y);
-          in_view = in_view && predicted[k].x >= margin && predicted[k].y >= margin &&
-                    predicted[k].x < view_grey.cols - margin && predicted[k].y < view_grey.rows - margin;
-        }
-        // The tag's corners, centre and the middles of its half-sides: where the view does not
-        // show one (its map invalid there), the tag is covered and its code cannot be read.
-        std::vector<Eigen::Vector2d> probes(tag.corners, tag.corners + 4);
-        const Eigen::Vector2d centre = 0.25 * (tag.corners[0] + tag.corners[1] + tag.corners[2] + tag.corners[3]);
-        probes.push_back(centre);
-        for (int k = 0; k < 4; ++k) probes.push_back(0.5 * (tag.corners[k] + centre));
-        bool covered = false, post = false;
-        for (const Eigen::Vector2d& p : probes) {
-          if (view.ViewToRaw(p)) continue;
-          covered = true;
-          if (!unmounted) continue;
-          const auto behind = view.ViewToRawExact(*unmounted, p);
-          post = post || (behind && model->PixelSeesMount(*behind));
-        }
-        if (in_view && covered) {
-          hidden.insert(cell);
-          grew = true;  // its neighbours are candidates now
-          if (kalibr && post) {
-            PartialTag part{tag, {}};
-            const int half = static_cast<int>(std::lround(0.15 * side));
-            for (int k = 0; k < 4; ++k) {
-              part.seen[k] = view.ViewToRaw(tag.corners[k]).has_value() &&
-                             RefineSaddleCorner(view_grey, tag.corners[k], half, 0.1 * side, &part.tag.corners[k]);
-            }
-            if (std::count(part.seen, part.seen + 4, true) > 0) partial->push_back(part);
-          }
-        }
-        if (!in_view || covered) continue;
-        if (kalibr) {
-          const int half = static_cast<int>(std::lround(0.15 * side));
-          for (int k = 0; k < 4 && ok; ++k) {
-            ok = RefineSaddleCorner(view_grey, tag.corners[k], half, 0.1 * side, &tag.corners[k]);
-          }
-          if (!ok) continue;
-        }
-        const TagLayout layout = kalibr ? KalibrTagLayout() : PlainTagLayout();
-        double e = TagCodeResidual(view_grey, Printed(tag.corners), layout, blur, tag_id);
-        if (!kalibr) {
-          // Plain corners are not X-junctions: the prediction (extrapolated from a few tags) is
-          // moved to where the code's pattern fits best, +-0.25 bit in steps of 1/16 bit.
-          const double step = side / layout.bits / 16;
-          Eigen::Vector2d best_shift = Eigen::Vector2d::Zero();
-          for (int pass = 0; pass < 2; ++pass) {
-            const Eigen::Vector2d centre = best_shift;
-            const double h = pass == 0 ? 4 * step : step;
-            for (int dy = -1; dy <= 1; ++dy) {
-              for (int dx = -1; dx <= 1; ++dx) {
-                if (dx == 0 && dy == 0) continue;
-                const Eigen::Vector2d shift = centre + h * Eigen::Vector2d(dx, dy);
-                Eigen::Vector2d moved[4];
-                for (int k = 0; k < 4; ++k) moved[k] = tag.corners[k] + shift;
-                const double e_shift = TagCodeResidual(view_grey, Printed(moved), layout, blur, tag_id);
-                if (e_shift < e) {
-                  e = e_shift;
-                  best_shift = shift;
-                }
-              }
-            }
-          }
-          for (int k = 0; k < 4; ++k) tag.corners[k] += best_shift;
-        }
-        if (!(e <= options.grow_max_residual)) continue;
-        have[cell] = static_cast<int>(found->size());
-        found->push_back(tag);
-        grew = true;
+        grew |= outcome != CellOutcome::kNone;
       }
       if (!grew) break;
     }
@@ -687,116 +743,102 @@ bool RefineTagCorners(const cv::Mat& grey, const Eigen::Vector2d (&corners)[4],
   return true;
 }
 
-std::vector<TagCornerDetection> DetectTagCorners(const cv::Mat& raw_bgr,
-                                                 const std::vector<RingView>& views,
-                                                 const RigModel& model,
-                                                 const std::vector<TargetSpec>& targets,
-                                                 const TagDetectorOptions& options,
-                                                 UnclaimedTags* unclaimed) {
-  std::vector<TagCornerDetection> out;
-  bool want_plain = false, want_kalibr = false;
-  for (const TargetSpec& t : targets) {
-    want_plain |= t.type == TargetType::kAprilTagGrid;
-    want_kalibr |= t.type == TargetType::kKalibrAprilGrid;
-  }
-  if ((!want_plain && !want_kalibr) || raw_bgr.empty()) return out;
-  const cv::Mat raw_grey8 = ToGrey(raw_bgr);
-  cv::Mat grey;
-  raw_grey8.convertTo(grey, CV_32F, 1.0 / 255);
+namespace {
 
-  // Neighbouring views overlap (views.h: 8 views of 90 degrees per ring): each ring's azimuth is
-  // searched once by taking only the middle of each view, 360 / views-per-ring degrees plus
-  // options.view_overlap_deg on each side, so a tag up to that wide lies whole in some crop.
-  // Cuts the tag detectors' pixels by ~40% (they were ~290 ms of a 1280x960 image's ~390 ms).
-  int views_per_ring = 0;
-  for (const RingView& view : views) views_per_ring += view.mirror == views.front().mirror;
-  std::vector<ViewTag> found;
-  std::vector<cv::Mat> view_images(views.size());  // kept for the grid check's Kalibr retries
-  for (std::size_t v = 0; v < views.size(); ++v) {
-    const RingView& view = views[v];
-    cv::Mat view_grey = view.image;
-    if (view_grey.empty() || view_grey.cols != view.width || view_grey.rows != view.height) {
-      cv::remap(raw_grey8, view_grey, view.map_fixed, view.map_interp, cv::INTER_LINEAR,
-                cv::BORDER_CONSTANT, cv::Scalar(0));
-    }
-    view_images[v] = view_grey;
-    const double half_deg = 180.0 / std::max(1, views_per_ring) + options.view_overlap_deg;
-    const int half_px = static_cast<int>(std::ceil(view.f * std::tan(half_deg * M_PI / 180)));
-    const int x0 = std::max(0, static_cast<int>(view.cx) - half_px);
-    const int x1 = std::min(view.width, static_cast<int>(view.cx) + half_px + 2);
-    const cv::Mat crop = view_grey.colRange(x0, x1).clone();
-    std::vector<ViewTag> in_crop;
-    const double blur = view.blur_sigma ? *view.blur_sigma : 0.0;
-    if (want_plain) {
-      const float decimate =
-          view.mirror == Mirror::kTwo ? options.inner_ring_quad_decimate : options.quad_decimate;
-      in_crop = DetectPlainTags(crop, static_cast<int>(v), decimate, blur, options);
-      // Blurred views: libapriltag's quad finder misses small blurred tags (realistic_scene's
-      // 45 mm tags at 0.3-0.45 m in the inner ring, ~2 raw px per bit); outlines of our own,
-      // read by their blurred pattern, for tags it did not read.
-      if (options.plain_outline_finder && blur >= options.blurred_view_sigma) {
-        for (const KalibrViewTag& t : DetectPlainTagsBlurred(crop, blur, options.kalibr.blurred)) {
-          bool known = false;
-          for (const ViewTag& u : in_crop) known |= u.tag_id == t.tag_id;
-          if (known) continue;
-          ViewTag tag{TargetType::kAprilTagGrid, t.tag_id, {}, static_cast<int>(v)};
-          for (int k = 0; k < 4; ++k) tag.corners[k] = t.corners[k];
-          in_crop.push_back(tag);
-        }
-      }
-    }
-    for (ViewTag& t : in_crop) {
-      for (auto& c : t.corners) c.x() += x0;
-      found.push_back(t);
-    }
-    if (want_kalibr) {
-      // Kalibr tag corners are X-junctions (kalibr_detector.h): the quad finder (its contours on
-      // the 2x enlarged view were 135 of 280 ms per calibration_scene_tags image) runs only on
-      // the boxes of saddle-point clusters (saddle_points.h) within the crop, each with a margin
-      // of 2.5 spacings + 8 px around its outermost saddles.
-      const cv::Rect crop_rect(x0, 0, x1 - x0, view.height);
-      RingView rendered = view;  // shallow: the maps are shared
-      rendered.image = view_grey;
-      std::vector<Region> regions;
-      if (options.kalibr_saddle_gate) {
-        regions = Regions(SaddlePoints(rendered, options.kalibr_saddles), view_grey.size(),
-                          options.kalibr_saddles, view.f);
-      } else {
-        regions.emplace_back();
-        regions.back().rect = crop_rect;
-      }
-      for (const Region& region : regions) {
-        const int pad = static_cast<int>(options.kalibr_region_pad_px);
-        const cv::Rect box =
-            cv::Rect(region.rect.x - pad, region.rect.y - pad, region.rect.width + 2 * pad,
-                     region.rect.height + 2 * pad) & crop_rect;
-        if (box.empty()) continue;
-        KalibrDetectorOptions kalibr = options.kalibr;
-        kalibr.blur_sigma = blur;
-        for (ViewTag t : DetectKalibrTags(view_grey(box).clone(), static_cast<int>(v), targets,
-                                          kalibr, unclaimed ? &unclaimed->kalibr : nullptr)) {
-          for (auto& c : t.corners) c += Eigen::Vector2d(box.x, box.y);
-          found.push_back(t);
-        }
-      }
-    }
+// The view's image: the one RenderViews left in it for this raw image, else resampled here.
+cv::Mat ViewImage(const cv::Mat& raw_grey8, const RingView& view) {
+  cv::Mat view_grey = view.image;
+  if (view_grey.empty() || view_grey.cols != view.width || view_grey.rows != view.height) {
+    cv::remap(raw_grey8, view_grey, view.map_fixed, view.map_interp, cv::INTER_LINEAR,
+              cv::BORDER_CONSTANT, cv::Scalar(0));
   }
+  return view_grey;
+}
 
-  std::vector<PartialTag> partial;
-  std::optional<RigModel> unmounted;
-  if (model.params().mount.present) {
-    RigParams bare = model.params();
-    bare.mount = Mount();
-    unmounted.emplace(bare);
-  }
-  if (options.grow_grids) {
-    for (std::size_t v = 0; v < views.size(); ++v) {
-      GrowTagGrids(view_images[v], views[v], static_cast<int>(v), targets, options, &model,
-                   unmounted ? &*unmounted : nullptr, &found, &partial);
+// Plain tags in a crop of view `v` (crop px): libapriltag's, plus in blurred views outlines of
+// our own read by their blurred pattern for tags it did not read (libapriltag's quad finder
+// misses small blurred tags: realistic_scene's 45 mm tags at 0.3-0.45 m in the inner ring, ~2
+// raw px per bit).
+std::vector<ViewTag> PlainTagsInCrop(const cv::Mat& crop, const RingView& view, int v, double blur,
+                                     const TagDetectorOptions& options) {
+  const float decimate = view.mirror == Mirror::kTwo ? options.inner_ring_quad_decimate : options.quad_decimate;
+  std::vector<ViewTag> in_crop = DetectPlainTags(crop, v, decimate, blur, options);
+  if (options.plain_outline_finder && blur >= options.blurred_view_sigma) {
+    for (const KalibrViewTag& t : DetectPlainTagsBlurred(crop, blur, options.kalibr.blurred)) {
+      bool known = false;
+      for (const ViewTag& u : in_crop) known |= u.tag_id == t.tag_id;
+      if (known) continue;
+      ViewTag tag{TargetType::kAprilTagGrid, t.tag_id, {}, v};
+      for (int k = 0; k < 4; ++k) tag.corners[k] = t.corners[k];
+      in_crop.push_back(tag);
     }
   }
+  return in_crop;
+}
 
-  // One detection per (layout, tag, ring): the one whose corners lie nearest its view's centre.
+// Kalibr tags in `crop_rect` of view `v` (view px), appended to `found`. Kalibr tag corners are
+// X-junctions (kalibr_detector.h): the quad finder (its contours on the 2x enlarged view were
+// 135 of 280 ms per calibration_scene_tags image) runs only on the boxes of saddle-point
+// clusters (saddle_points.h) within the crop, each with a margin of 2.5 spacings + 8 px around
+// its outermost saddles.
+void KalibrTagsInView(const cv::Mat& view_grey, const RingView& view, int v, const cv::Rect& crop_rect,
+                      double blur, const std::vector<TargetSpec>& targets, const TagDetectorOptions& options,
+                      UnclaimedTags* unclaimed, std::vector<ViewTag>* found) {
+  RingView rendered = view;  // shallow: the maps are shared
+  rendered.image = view_grey;
+  std::vector<Region> regions;
+  if (options.kalibr_saddle_gate) {
+    regions = Regions(SaddlePoints(rendered, options.kalibr_saddles), view_grey.size(), options.kalibr_saddles, view.f);
+  } else {
+    regions.emplace_back();
+    regions.back().rect = crop_rect;
+  }
+  for (const Region& region : regions) {
+    const int pad = static_cast<int>(options.kalibr_region_pad_px);
+    const cv::Rect box = cv::Rect(region.rect.x - pad, region.rect.y - pad, region.rect.width + 2 * pad,
+                                  region.rect.height + 2 * pad) &
+                         crop_rect;
+    if (box.empty()) continue;
+    KalibrDetectorOptions kalibr = options.kalibr;
+    kalibr.blur_sigma = blur;
+    for (ViewTag t : DetectKalibrTags(view_grey(box).clone(), v, targets, kalibr,
+                                      unclaimed ? &unclaimed->kalibr : nullptr)) {
+      for (auto& c : t.corners) c += Eigen::Vector2d(box.x, box.y);
+      found->push_back(t);
+    }
+  }
+}
+
+// The tags read in view `v` (view px), appended to `found`: plain tags first, then Kalibr tags.
+// Neighbouring views overlap (views.h: 8 views of 90 degrees per ring): each ring's azimuth is
+// searched once by taking only the middle of each view, 360 / views-per-ring degrees plus
+// options.view_overlap_deg on each side, so a tag up to that wide lies whole in some crop.
+// Cuts the tag detectors' pixels by ~40% (they were ~290 ms of a 1280x960 image's ~390 ms).
+void TagsInView(const cv::Mat& view_grey, const RingView& view, int v, int views_per_ring, bool want_plain,
+                bool want_kalibr, const std::vector<TargetSpec>& targets, const TagDetectorOptions& options,
+                UnclaimedTags* unclaimed, std::vector<ViewTag>* found) {
+  const double half_deg = 180.0 / std::max(1, views_per_ring) + options.view_overlap_deg;
+  const int half_px = static_cast<int>(std::ceil(view.f * std::tan(half_deg * M_PI / 180)));
+  const int x0 = std::max(0, static_cast<int>(view.cx) - half_px);
+  const int x1 = std::min(view.width, static_cast<int>(view.cx) + half_px + 2);
+  const cv::Mat crop = view_grey.colRange(x0, x1).clone();
+  std::vector<ViewTag> in_crop;
+  const double blur = view.blur_sigma ? *view.blur_sigma : 0.0;
+  if (want_plain) in_crop = PlainTagsInCrop(crop, view, v, blur, options);
+  for (ViewTag& t : in_crop) {
+    for (auto& c : t.corners) c.x() += x0;
+    found->push_back(t);
+  }
+  if (want_kalibr) {
+    KalibrTagsInView(view_grey, view, v, cv::Rect(x0, 0, x1 - x0, view.height), blur, targets, options, unclaimed,
+                     found);
+  }
+}
+
+// One detection per (layout, tag, ring): the one whose corners lie nearest its view's centre
+// (pointers into `found`).
+std::map<std::tuple<int, int, int>, std::pair<double, const ViewTag*>> NearestToViewCentre(
+    const std::vector<ViewTag>& found, const std::vector<RingView>& views) {
   std::map<std::tuple<int, int, int>, std::pair<double, const ViewTag*>> best;
   for (const ViewTag& t : found) {
     const RingView& view = views[t.view];
@@ -807,146 +849,168 @@ std::vector<TagCornerDetection> DetectTagCorners(const cv::Mat& raw_bgr,
     auto it = best.find(key);
     if (it == best.end() || off < it->second.first) best[key] = {off, &t};
   }
+  return best;
+}
 
-  for (const auto& [key, entry] : best) {
-    const ViewTag& t = *entry.second;
-    const RingView& view = views[t.view];
-    // The target this id belongs to: the first of the detector's layout that holds it.
-    int target = -1;
-    for (std::size_t i = 0; i < targets.size() && target < 0; ++i) {
-      int row = 0, col = 0;
-      if (targets[i].type == t.layout && TagCell(targets[i], t.tag_id, &row, &col)) {
-        target = static_cast<int>(i);
+// The target a tag id belongs to: the first of the detector's layout that holds it; -1 if none.
+int TargetOfTag(const std::vector<TargetSpec>& targets, TargetType layout, int tag_id) {
+  int target = -1;
+  for (std::size_t i = 0; i < targets.size() && target < 0; ++i) {
+    int row = 0, col = 0;
+    if (targets[i].type == layout && TagCell(targets[i], tag_id, &row, &col)) target = static_cast<int>(i);
+  }
+  return target;
+}
+
+// A tag's corners mapped from its view to raw (`mapped`); false where one is off the view's map
+// or they do not form a convex quadrilateral with the same turning sense all round.
+bool MappedConvexQuad(const RingView& view, const ViewTag& t, Eigen::Vector2d (&mapped)[4]) {
+  bool ok = true;
+  for (int k = 0; k < 4 && ok; ++k) {
+    const auto raw = view.ViewToRaw(t.corners[k]);
+    ok = raw.has_value();
+    if (ok) mapped[k] = *raw;
+  }
+  if (!ok) return false;
+  double sign = 0;
+  for (int k = 0; k < 4 && ok; ++k) {
+    const Eigen::Vector2d a = mapped[(k + 1) % 4] - mapped[k];
+    const Eigen::Vector2d b = mapped[(k + 2) % 4] - mapped[(k + 1) % 4];
+    const double cross = a.x() * b.y() - a.y() * b.x();
+    if (k == 0) sign = cross;
+    ok = cross * sign > 0;
+  }
+  return ok;
+}
+
+// A Kalibr tag's corners in raw: small tags by their whole printed pattern (FitTagPattern),
+// else each corner as an X-junction (kalibr_detector.h): saddle refinement in the raw image over
+// the 2-bit border around the corner, then the blurred-junction fit, only where the junction is
+// whole (`whole[k]`). Corners judged one by one: a tag read exactly in its view next to the
+// ring's rim has its corner squares and gaps on that side cut off by the lip band
+// (calibration_scene_tags 0016 and 0019, ring 1: 3 tags lost whole); those corners cannot be
+// measured and are dropped, the tag's whole X-junctions kept (the grid check judges each).
+void RefineKalibrTag(const cv::Mat& raw_grey8, const cv::Mat& grey, const RingView& view, const ViewTag& t,
+                     const TargetSpec& target, const Eigen::Vector2d (&mapped)[4],
+                     const TagDetectorOptions& options, Eigen::Vector2d (&refined)[4], bool (&whole)[4]) {
+  if (options.fit_tag_pattern) {
+    double side = 1e9;
+    for (int k = 0; k < 4; ++k) side = std::min(side, (mapped[(k + 1) % 4] - mapped[k]).norm());
+    if (target.spacing * side < options.kalibr_pattern_below_gap_px) {
+      if (const auto fit = FitTagPattern(grey, view, target, t.tag_id, t.corners)) {
+        std::copy(fit->corners, fit->corners + 4, refined);
+        return;
       }
-    }
-    if (target < 0) {
-      if (unclaimed && t.layout == TargetType::kAprilTagGrid) unclaimed->plain.insert(t.tag_id);
-      continue;
-    }
-    Eigen::Vector2d mapped[4];
-    bool ok = true;
-    for (int k = 0; k < 4 && ok; ++k) {
-      const auto raw = view.ViewToRaw(t.corners[k]);
-      ok = raw.has_value();
-      if (ok) mapped[k] = *raw;
-    }
-    if (!ok) continue;
-    // Geometry: a convex quadrilateral with the same turning sense all round.
-    double sign = 0;
-    for (int k = 0; k < 4 && ok; ++k) {
-      const Eigen::Vector2d a = mapped[(k + 1) % 4] - mapped[k];
-      const Eigen::Vector2d b = mapped[(k + 2) % 4] - mapped[(k + 1) % 4];
-      const double cross = a.x() * b.y() - a.y() * b.x();
-      if (k == 0) sign = cross;
-      ok = cross * sign > 0;
-    }
-    if (!ok) continue;
-    Eigen::Vector2d refined[4];
-    // Kalibr corners are judged one by one: a tag read exactly in its view (and consistent with
-    // its neighbours there) next to the ring's rim has its corner squares and gaps on that side
-    // cut off by the lip band (calibration_scene_tags 0016 and 0019, ring 1: 3 tags lost whole).
-    // Those corners cannot be measured and are dropped; the tag's whole X-junctions are kept
-    // (the grid check below still judges each against the target's other corners).
-    bool whole[4] = {true, true, true, true};
-    bool kalibr_pattern = false;
-    if (t.layout == TargetType::kKalibrAprilGrid && options.fit_tag_pattern) {
-      double side = 1e9;
-      for (int k = 0; k < 4; ++k) side = std::min(side, (mapped[(k + 1) % 4] - mapped[k]).norm());
-      if (targets[target].spacing * side < options.kalibr_pattern_below_gap_px) {
-        if (const auto fit = FitTagPattern(grey, view, targets[target], t.tag_id, t.corners)) {
-          std::copy(fit->corners, fit->corners + 4, refined);
-          kalibr_pattern = true;
-        }
-      }
-    }
-    for (int k = 0; k < 4 && ok && !kalibr_pattern; ++k) {
-      refined[k] = mapped[k];
-      if (t.layout == TargetType::kKalibrAprilGrid) {
-        // Kalibr's corners are X-junctions (kalibr_detector.h): saddle refinement in the raw
-        // image, over the 2-bit border around the corner; only where the junction is whole.
-        const double side = std::min((mapped[(k + 1) % 4] - mapped[k]).norm(),
-                                     (mapped[(k + 3) % 4] - mapped[k]).norm());
-        const Eigen::Vector2d to_next = (mapped[(k + 1) % 4] - mapped[k]).normalized();
-        const Eigen::Vector2d to_previous = (mapped[(k + 3) % 4] - mapped[k]).normalized();
-        whole[k] = IsKalibrXJunction(raw_grey8, mapped[k], to_next, to_previous,
-                                     std::max(1.5, 0.12 * side), options.kalibr.min_contrast);
-        if (whole[k] && options.kalibr_refine_in_raw) {
-          whole[k] = RefineSaddleCorner(raw_grey8, mapped[k],
-                                        static_cast<int>(std::lround(0.15 * side)),
-                                        options.max_refine_shift_px, &refined[k]);
-        }
-        if (whole[k] && options.kalibr_fit_junction) {
-          refined[k] = FitKalibrJunction(grey, view, t, k, mapped[k], refined[k],
-                                         options.kalibr_junction_window * side, false);
-        }
-        continue;
-      }
-    }
-    // Plain tags: the whole tag's printed pattern fitted to its raw pixels (tag_pattern_fit.h),
-    // else its four edges fitted in the raw image, the corners where they meet. A tag neither
-    // can measure keeps libapriltag's corners mapped from the view.
-    if (ok && t.layout == TargetType::kAprilTagGrid && options.refine_in_raw) {
-      const bool blurred = view.blur_sigma && *view.blur_sigma >= options.blurred_view_sigma;
-      const std::optional<TagPatternFit> pattern_fit =
-          options.fit_tag_pattern && blurred ? FitTagPattern(grey, view, targets[target], t.tag_id, t.corners)
-                                             : std::nullopt;
-      if (pattern_fit) {
-        std::copy(pattern_fit->corners, pattern_fit->corners + 4, refined);
-      } else {
-        const Eigen::Vector2d centre = 0.25 * (mapped[0] + mapped[1] + mapped[2] + mapped[3]);
-        double curvature[4];
-        for (int j = 0; j < 4; ++j) {
-          curvature[j] = options.curvature_from_view
-                             ? EdgeCurvatureFromView(view, t.corners[j], t.corners[(j + 1) % 4], centre)
-                             : std::nan("");
-        }
-        TagDetectorOptions tag_options = options;
-        if (!blurred) tag_options.edge_fit_reach_in_blurred = options.edge_fit_reach_in;
-        Eigen::Vector2d fitted[4];
-        if (RefineTagCorners(grey, mapped, curvature, BorderFraction(t.layout), targets[target].spacing,
-                             tag_options, fitted, t.tag_id)) {
-          std::copy(fitted, fitted + 4, refined);
-        }
-      }
-    }
-    // Plain tags: the whole tag or nothing (a half-refined tag is suspect). Kalibr tags: at least
-    // two whole junctions (fewer: the quad itself is doubtful).
-    if (!ok || std::count(whole, whole + 4, true) < options.kalibr_min_whole_corners) continue;
-    for (int k = 0; k < 4; ++k) {
-      if (!whole[k]) continue;
-      TagCornerDetection d;
-      d.observation.target = target;
-      d.observation.id = 4 * t.tag_id + k;
-      d.observation.mirror = view.mirror;
-      d.observation.pixel = refined[k];
-      d.tag_id = t.tag_id;
-      d.mapped = mapped[k];
-      d.view = t.view;
-      d.in_view = t.corners[k];
-      for (int j = 0; j < 4; ++j) d.side_in_view += 0.25 * (t.corners[(j + 1) % 4] - t.corners[j]).norm();
-      out.push_back(d);
     }
   }
-  // The seen corners of Kalibr tags hidden in part (GrowTagGrids): where the raw image shows a
-  // whole X-junction there, measured as the corners above; corners already found are kept.
+  for (int k = 0; k < 4; ++k) {
+    refined[k] = mapped[k];
+    const double side =
+        std::min((mapped[(k + 1) % 4] - mapped[k]).norm(), (mapped[(k + 3) % 4] - mapped[k]).norm());
+    const Eigen::Vector2d to_next = (mapped[(k + 1) % 4] - mapped[k]).normalized();
+    const Eigen::Vector2d to_previous = (mapped[(k + 3) % 4] - mapped[k]).normalized();
+    whole[k] = IsKalibrXJunction(raw_grey8, mapped[k], to_next, to_previous, std::max(1.5, 0.12 * side),
+                                 options.kalibr.min_contrast);
+    if (whole[k] && options.kalibr_refine_in_raw) {
+      whole[k] = RefineSaddleCorner(raw_grey8, mapped[k], static_cast<int>(std::lround(0.15 * side)),
+                                    options.max_refine_shift_px, &refined[k]);
+    }
+    if (whole[k] && options.kalibr_fit_junction) {
+      refined[k] = FitKalibrJunction(grey, view, t, k, mapped[k], refined[k], options.kalibr_junction_window * side,
+                                     false);
+    }
+  }
+}
+
+// A plain tag's corners in raw: the whole tag's printed pattern fitted to its raw pixels in
+// blurred views (tag_pattern_fit.h), else its four edges fitted in the raw image, the corners
+// where they meet. `refined` is left as it is (libapriltag's corners mapped from the view) where
+// neither can measure the tag.
+void RefinePlainTag(const cv::Mat& grey, const RingView& view, const ViewTag& t, const TargetSpec& target,
+                    const Eigen::Vector2d (&mapped)[4], const TagDetectorOptions& options,
+                    Eigen::Vector2d (&refined)[4]) {
+  const bool blurred = view.blur_sigma && *view.blur_sigma >= options.blurred_view_sigma;
+  const std::optional<TagPatternFit> pattern_fit =
+      options.fit_tag_pattern && blurred ? FitTagPattern(grey, view, target, t.tag_id, t.corners) : std::nullopt;
+  if (pattern_fit) {
+    std::copy(pattern_fit->corners, pattern_fit->corners + 4, refined);
+    return;
+  }
+  const Eigen::Vector2d centre = 0.25 * (mapped[0] + mapped[1] + mapped[2] + mapped[3]);
+  double curvature[4];
+  for (int j = 0; j < 4; ++j) {
+    curvature[j] = options.curvature_from_view ? EdgeCurvatureFromView(view, t.corners[j], t.corners[(j + 1) % 4], centre)
+                                               : std::nan("");
+  }
+  TagDetectorOptions tag_options = options;
+  if (!blurred) tag_options.edge_fit_reach_in_blurred = options.edge_fit_reach_in;
+  Eigen::Vector2d fitted[4];
+  if (RefineTagCorners(grey, mapped, curvature, BorderFraction(t.layout), target.spacing, tag_options, fitted,
+                       t.tag_id)) {
+    std::copy(fitted, fitted + 4, refined);
+  }
+}
+
+// Corner k of tag `t` of target `target` as reported: its raw pixel, the view corner it came from
+// and where the view mapped it, and the tag's mean side in the view (for the grid check).
+TagCornerDetection CornerDetection(const ViewTag& t, int target, int k, Mirror mirror, const Eigen::Vector2d& pixel,
+                                   const Eigen::Vector2d& mapped) {
+  TagCornerDetection d;
+  d.observation.target = target;
+  d.observation.id = 4 * t.tag_id + k;
+  d.observation.mirror = mirror;
+  d.observation.pixel = pixel;
+  d.tag_id = t.tag_id;
+  d.mapped = mapped;
+  d.view = t.view;
+  d.in_view = t.corners[k];
+  for (int j = 0; j < 4; ++j) d.side_in_view += 0.25 * (t.corners[(j + 1) % 4] - t.corners[j]).norm();
+  return d;
+}
+
+// One read tag of target `target` measured in raw, its corners appended to `out`. Plain tags: the
+// whole tag or nothing (a half-refined tag is suspect). Kalibr tags: at least
+// kalibr_min_whole_corners whole junctions (fewer: the quad itself is doubtful).
+void MeasureTag(const cv::Mat& raw_grey8, const cv::Mat& grey, const RingView& view, const ViewTag& t,
+                int target, const TargetSpec& spec, const TagDetectorOptions& options,
+                std::vector<TagCornerDetection>* out) {
+  Eigen::Vector2d mapped[4];
+  if (!MappedConvexQuad(view, t, mapped)) return;
+  Eigen::Vector2d refined[4];
+  bool whole[4] = {true, true, true, true};
+  if (t.layout == TargetType::kKalibrAprilGrid) {
+    RefineKalibrTag(raw_grey8, grey, view, t, spec, mapped, options, refined, whole);
+  } else {
+    std::copy(mapped, mapped + 4, refined);
+    if (t.layout == TargetType::kAprilTagGrid && options.refine_in_raw) {
+      RefinePlainTag(grey, view, t, spec, mapped, options, refined);
+    }
+  }
+  if (std::count(whole, whole + 4, true) < options.kalibr_min_whole_corners) return;
+  for (int k = 0; k < 4; ++k) {
+    if (whole[k]) out->push_back(CornerDetection(t, target, k, view.mirror, refined[k], mapped[k]));
+  }
+}
+
+// The seen corners of Kalibr tags hidden in part (GrowTagGrids): where the raw image shows a
+// whole X-junction there, measured as read tags' corners are; corners already in `out` are
+// kept. The junction's two lines run through the corner: the tag's edges and, beyond the
+// corner, its corner square's sides, each taken a quarter side along the edge, or as far the
+// other way where the post covers the edge.
+void MeasurePartialTags(const cv::Mat& raw_grey8, const cv::Mat& grey, const std::vector<RingView>& views,
+                        const std::vector<TargetSpec>& targets, const TagDetectorOptions& options,
+                        const std::vector<PartialTag>& partial, std::vector<TagCornerDetection>* out) {
   std::set<std::tuple<int, int, int>> have;  // (target, corner id, ring)
-  for (const TagCornerDetection& d : out) {
+  for (const TagCornerDetection& d : *out) {
     have.insert({d.observation.target, d.observation.id, MirrorIndex(d.observation.mirror)});
   }
   for (const PartialTag& part : partial) {
     const ViewTag& t = part.tag;
     const RingView& view = views[t.view];
-    int target = -1;
-    for (std::size_t i = 0; i < targets.size() && target < 0; ++i) {
-      int row = 0, col = 0;
-      if (targets[i].type == t.layout && TagCell(targets[i], t.tag_id, &row, &col)) target = static_cast<int>(i);
-    }
+    const int target = TargetOfTag(targets, t.layout, t.tag_id);
     if (target < 0) continue;
     for (int k = 0; k < 4; ++k) {
       if (!part.seen[k] || have.count({target, 4 * t.tag_id + k, MirrorIndex(view.mirror)})) continue;
-      // The junction's two lines run through the corner: the tag's edges and, beyond the corner,
-      // its corner square's sides. Each is taken a quarter side along the edge, or as far the
-      // other way where the post covers the edge.
       const Eigen::Vector2d& c = t.corners[k];
       const auto mapped = view.ViewToRaw(c);
       if (!mapped) continue;
@@ -969,20 +1033,65 @@ std::vector<TagCornerDetection> DetectTagCorners(const cv::Mat& raw_bgr,
           options.kalibr_fit_junction
               ? FitKalibrJunction(grey, view, t, k, *mapped, *mapped, options.kalibr_junction_window * side, true)
               : *mapped;
-      TagCornerDetection d;
-      d.observation.target = target;
-      d.observation.id = 4 * t.tag_id + k;
-      d.observation.mirror = view.mirror;
-      d.observation.pixel = refined;
-      d.tag_id = t.tag_id;
-      d.mapped = *mapped;
-      d.view = t.view;
-      d.in_view = c;
-      for (int j = 0; j < 4; ++j) d.side_in_view += 0.25 * (t.corners[(j + 1) % 4] - t.corners[j]).norm();
-      out.push_back(d);
-      have.insert({target, d.observation.id, MirrorIndex(view.mirror)});
+      out->push_back(CornerDetection(t, target, k, view.mirror, refined, *mapped));
+      have.insert({target, out->back().observation.id, MirrorIndex(view.mirror)});
     }
   }
+}
+
+}  // namespace
+
+std::vector<TagCornerDetection> DetectTagCorners(const cv::Mat& raw_bgr,
+                                                 const std::vector<RingView>& views,
+                                                 const RigModel& model,
+                                                 const std::vector<TargetSpec>& targets,
+                                                 const TagDetectorOptions& options,
+                                                 UnclaimedTags* unclaimed) {
+  std::vector<TagCornerDetection> out;
+  bool want_plain = false, want_kalibr = false;
+  for (const TargetSpec& t : targets) {
+    want_plain |= t.type == TargetType::kAprilTagGrid;
+    want_kalibr |= t.type == TargetType::kKalibrAprilGrid;
+  }
+  if ((!want_plain && !want_kalibr) || raw_bgr.empty()) return out;
+  const cv::Mat raw_grey8 = ToGrey(raw_bgr);
+  cv::Mat grey;
+  raw_grey8.convertTo(grey, CV_32F, 1.0 / 255);
+
+  int views_per_ring = 0;
+  for (const RingView& view : views) views_per_ring += view.mirror == views.front().mirror;
+  std::vector<ViewTag> found;
+  std::vector<cv::Mat> view_images(views.size());  // kept for the grid check's Kalibr retries
+  for (std::size_t v = 0; v < views.size(); ++v) {
+    view_images[v] = ViewImage(raw_grey8, views[v]);
+    TagsInView(view_images[v], views[v], static_cast<int>(v), views_per_ring, want_plain, want_kalibr, targets,
+               options, unclaimed, &found);
+  }
+
+  std::vector<PartialTag> partial;
+  std::optional<RigModel> unmounted;
+  if (model.params().mount.present) {
+    RigParams bare = model.params();
+    bare.mount = Mount();
+    unmounted.emplace(bare);
+  }
+  if (options.grow_grids) {
+    for (std::size_t v = 0; v < views.size(); ++v) {
+      GrowTagGrids(view_images[v], views[v], static_cast<int>(v), targets, options, &model,
+                   unmounted ? &*unmounted : nullptr, &found, &partial);
+    }
+  }
+
+  for (const auto& [key, entry] : NearestToViewCentre(found, views)) {
+    const ViewTag& t = *entry.second;
+    const int target = TargetOfTag(targets, t.layout, t.tag_id);
+    if (target < 0) {
+      if (unclaimed && t.layout == TargetType::kAprilTagGrid) unclaimed->plain.insert(t.tag_id);
+      continue;
+    }
+    MeasureTag(raw_grey8, grey, views[t.view], t, target, targets[target], options, &out);
+  }
+  MeasurePartialTags(raw_grey8, grey, views, targets, options, partial, &out);
   if (options.grid_check) DropCornersOffTheirTarget(views, view_images, model, targets, options, &out);
   return out;
 }

@@ -18,6 +18,16 @@
 // detector's layout, Kalibr tags consistent with their neighbours in the view, and only tags whose
 // four refined raw corners form a convex quadrilateral close to the mapped one, and only corners
 // that fit their target's homography with the target's other corners in the ring (tag_grid_check.h).
+//
+// Scale and failure modes, in short: tags are read in the views (libapriltag, its quads found at half
+// resolution in the inner ring; Kalibr quads at least 10 view px a side, kalibr_detector.h); in
+// views with a measured blur, plain codes up to plain_max_hamming (2) bits off are taken only where
+// the tag's blurred pattern reads as that code. Raw refinement needs a border of at least 1.3 raw
+// px (min_border_px) and may move a corner at most 1.5 raw px: a plain tag it cannot refine keeps
+// its mapped corners; a Kalibr tag loses its corners that are not whole X-junctions (at least 2
+// must remain). Tags the views cut (at a ring's edge) and codes no target holds (UnclaimedTags)
+// give no corners here; guided detection (guided_detection.h) measures the former from the other
+// ring, and the grid check drops corners off their target's homography.
 #pragma once
 
 #include <set>

@@ -27,6 +27,13 @@
 // the ids are ambiguous and the board is refused); corners whose refinement window would take in
 // the ring's edge are left out. Boards cut further are found from the other ring's view of them
 // (guided_detection.h).
+//
+// Scale and failure modes, in short: OpenCV's finders need squares of several view pixels, and
+// the saddle regions a contrast of saddle_min_contrast (125 grey levels across a corner at the
+// view's blur); the raw refinement window is 0.55 squares (2-8 px half-width), so raw squares
+// under ~3 px get a 1 px window. Boards are refused whole where the grid fails the homography test
+// (0.5 raw px, 90% inliers), corners whose refinement moves them more than max(1.5 px, 0.3 squares)
+// are left out, and boards cut beyond one row or column give nothing here (see Limits above).
 #pragma once
 
 #include <vector>

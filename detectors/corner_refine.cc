@@ -179,44 +179,29 @@ int CleanHalfWindow(const cv::Mat& grey, const Eigen::Vector2d& corner, const Lo
   return std::min(half, static_cast<int>(std::ceil(nearest_foreign)) - 3);
 }
 
-std::optional<JunctionFit> FitBlurredJunction(const cv::Mat& grey, const Eigen::Vector2d& start,
-                                              const LocalLine& row, const LocalLine& col,
-                                              double half, double sigma0) {
-  CV_Assert(grey.depth() == CV_8U || grey.depth() == CV_32F);
-  const int reach = static_cast<int>(std::floor(half));
-  const int u0 = static_cast<int>(std::lround(start.x())), v0 = static_cast<int>(std::lround(start.y()));
-  if (u0 - reach - 1 < 0 || v0 - reach - 1 < 0 || u0 + reach + 1 >= grey.cols ||
-      v0 + reach + 1 >= grey.rows) {
-    return std::nullopt;
-  }
-  struct Pixel {
-    Eigen::Vector2d x;
-    double value;
-  };
-  std::vector<Pixel> pixels;
-  for (int v = v0 - reach - 1; v <= v0 + reach + 1; ++v) {
-    for (int u = u0 - reach - 1; u <= u0 + reach + 1; ++u) {
-      if (std::abs(u - start.x()) > half || std::abs(v - start.y()) > half) continue;
-      pixels.push_back({Eigen::Vector2d(u, v),
-                        grey.depth() == CV_8U ? grey.at<uchar>(v, u) : grey.at<float>(v, u)});
-    }
-  }
-  if (pixels.size() < 16) return std::nullopt;
-  // Curvature along each line's normal perp(t) (held while the tangent turns: it is the
-  // neighbours' estimate, good to a few percent of the few-hundredths-of-a-pixel effect).
-  const auto normal_curvature = [](const LocalLine& l) {
-    return l.curvature.dot(Eigen::Vector2d(-l.tangent.y(), l.tangent.x()));
-  };
-  const double k[2] = {normal_curvature(row), normal_curvature(col)};
-  // Parameters: corner (2), the lines' tangent angles (2), a, b, s.
-  using Vec7 = Eigen::Matrix<double, 7, 1>;
-  using Mat7 = Eigen::Matrix<double, 7, 7>;
-  Vec7 q;
-  q << start.x(), start.y(), std::atan2(row.tangent.y(), row.tangent.x()),
-      std::atan2(col.tangent.y(), col.tangent.x()), 0, 0, sigma0;
-  const double kErfScale = std::sqrt(0.5), kGaussScale = std::sqrt(2 / M_PI);
-  // Residuals (and, with J, their Jacobian rows) at q; returns the sum of squares.
-  const auto evaluate = [&](const Vec7& q, Mat7* jtj, Vec7* jtr) {
+namespace {
+
+// A pixel of a junction's window: its centre and its value.
+struct JunctionPixel {
+  Eigen::Vector2d x;
+  double value;
+};
+
+// The blurred junction's parameters: corner (2), the lines' tangent angles (2), a, b, s.
+using Vec7 = Eigen::Matrix<double, 7, 1>;
+using Mat7 = Eigen::Matrix<double, 7, 7>;
+
+// The model a + b erf(d_row / s) erf(d_col / s) of the window's pixels, d the signed distance
+// from each line with the line's curvature along its normal perp(t) held (the neighbours'
+// estimate, good to a few percent of the few-hundredths-of-a-pixel effect).
+struct JunctionModel {
+  const std::vector<JunctionPixel>& pixels;
+  double k[2];  // the row's and the column's curvature along their normals
+
+  // The sum of squared residuals at q; with jtj and jtr, J^T J (lower triangle) and J^T r are
+  // accumulated too.
+  double Evaluate(const Vec7& q, Mat7* jtj, Vec7* jtr) const {
+    const double kErfScale = std::sqrt(0.5), kGaussScale = std::sqrt(2 / M_PI);
     const double s = q[6];
     double e[2], g[2], dd_dth[2], dd_ds[2];
     Eigen::Vector2d dd_dp[2];
@@ -226,7 +211,7 @@ std::optional<JunctionFit> FitBlurredJunction(const cv::Mat& grey, const Eigen::
       tangents[i] = Eigen::Vector2d(std::cos(q[2 + i]), std::sin(q[2 + i]));
       normals[i] = Eigen::Vector2d(-tangents[i].y(), tangents[i].x());
     }
-    for (const Pixel& p : pixels) {
+    for (const JunctionPixel& p : pixels) {
       const Eigen::Vector2d r = p.x - q.head<2>();
       for (int i = 0; i < 2; ++i) {
         const Eigen::Vector2d& t = tangents[i];
@@ -254,32 +239,77 @@ std::optional<JunctionFit> FitBlurredJunction(const cv::Mat& grey, const Eigen::
       *jtr += j * res;
     }
     return sum;
-  };
-  // The levels, linear given the shape: a + b S by least squares.
-  {
-    Eigen::Matrix2d a = Eigen::Matrix2d::Zero();
-    Eigen::Vector2d b = Eigen::Vector2d::Zero();
-    for (const Pixel& p : pixels) {
-      const Eigen::Vector2d r = p.x - start;
-      double shape = 1;
-      for (int i = 0; i < 2; ++i) {
-        const Eigen::Vector2d t(std::cos(q[2 + i]), std::sin(q[2 + i])), n(-t.y(), t.x());
-        shape *= std::erf(kErfScale * n.dot(r) / sigma0);
-      }
-      const Eigen::Vector2d f(1, shape);
-      a += f * f.transpose();
-      b += f * p.value;
-    }
-    const Eigen::Vector2d levels = a.ldlt().solve(b);
-    q[4] = levels[0];
-    q[5] = levels[1];
   }
-  double cost = evaluate(q, nullptr, nullptr);
+};
+
+// The window's pixels: those within `half` (Chebyshev) of `start`; nullopt where the window
+// (plus a pixel) leaves the image.
+std::optional<std::vector<JunctionPixel>> JunctionWindow(const cv::Mat& grey, const Eigen::Vector2d& start,
+                                                         double half) {
+  const int reach = static_cast<int>(std::floor(half));
+  const int u0 = static_cast<int>(std::lround(start.x())), v0 = static_cast<int>(std::lround(start.y()));
+  if (u0 - reach - 1 < 0 || v0 - reach - 1 < 0 || u0 + reach + 1 >= grey.cols ||
+      v0 + reach + 1 >= grey.rows) {
+    return std::nullopt;
+  }
+  std::vector<JunctionPixel> pixels;
+  for (int v = v0 - reach - 1; v <= v0 + reach + 1; ++v) {
+    for (int u = u0 - reach - 1; u <= u0 + reach + 1; ++u) {
+      if (std::abs(u - start.x()) > half || std::abs(v - start.y()) > half) continue;
+      pixels.push_back({Eigen::Vector2d(u, v),
+                        grey.depth() == CV_8U ? grey.at<uchar>(v, u) : grey.at<float>(v, u)});
+    }
+  }
+  return pixels;
+}
+
+// The levels a and b, linear given the shape: least squares of a + b S over the pixels, S the
+// straight lines' product at the start (q's corner ignored: `start`) and blur sigma0.
+void InitialLevels(const std::vector<JunctionPixel>& pixels, const Eigen::Vector2d& start, double sigma0, Vec7* q) {
+  const double kErfScale = std::sqrt(0.5);
+  Eigen::Matrix2d a = Eigen::Matrix2d::Zero();
+  Eigen::Vector2d b = Eigen::Vector2d::Zero();
+  for (const JunctionPixel& p : pixels) {
+    const Eigen::Vector2d r = p.x - start;
+    double shape = 1;
+    for (int i = 0; i < 2; ++i) {
+      const Eigen::Vector2d t(std::cos((*q)[2 + i]), std::sin((*q)[2 + i])), n(-t.y(), t.x());
+      shape *= std::erf(kErfScale * n.dot(r) / sigma0);
+    }
+    const Eigen::Vector2d f(1, shape);
+    a += f * f.transpose();
+    b += f * p.value;
+  }
+  const Eigen::Vector2d levels = a.ldlt().solve(b);
+  (*q)[4] = levels[0];
+  (*q)[5] = levels[1];
+}
+
+}  // namespace
+
+std::optional<JunctionFit> FitBlurredJunction(const cv::Mat& grey, const Eigen::Vector2d& start,
+                                              const LocalLine& row, const LocalLine& col,
+                                              double half, double sigma0) {
+  CV_Assert(grey.depth() == CV_8U || grey.depth() == CV_32F);
+  const std::optional<std::vector<JunctionPixel>> pixels = JunctionWindow(grey, start, half);
+  if (!pixels) return std::nullopt;
+  if (pixels->size() < 16) return std::nullopt;
+  const auto normal_curvature = [](const LocalLine& l) {
+    return l.curvature.dot(Eigen::Vector2d(-l.tangent.y(), l.tangent.x()));
+  };
+  const JunctionModel model{*pixels, {normal_curvature(row), normal_curvature(col)}};
+  Vec7 q;
+  q << start.x(), start.y(), std::atan2(row.tangent.y(), row.tangent.x()),
+      std::atan2(col.tangent.y(), col.tangent.x()), 0, 0, sigma0;
+  InitialLevels(*pixels, start, sigma0, &q);
+  // Levenberg-Marquardt; the blur is held between 0.3 px and half the window (a blur, not the
+  // window's width).
+  double cost = model.Evaluate(q, nullptr, nullptr);
   double lambda = 1e-3;
   for (int iteration = 0; iteration < 30; ++iteration) {
     Mat7 jtj = Mat7::Zero();
     Vec7 jtr = Vec7::Zero();
-    evaluate(q, &jtj, &jtr);
+    model.Evaluate(q, &jtj, &jtr);
     jtj = jtj.selfadjointView<Eigen::Lower>();
     bool accepted = false, converged = false;
     for (int attempt = 0; attempt < 8 && !accepted; ++attempt) {
@@ -288,7 +318,7 @@ std::optional<JunctionFit> FitBlurredJunction(const cv::Mat& grey, const Eigen::
       const Vec7 step = -damped.ldlt().solve(jtr);
       Vec7 next = q + step;
       next[6] = std::clamp(next[6], 0.3, 0.5 * half + 0.5);  // a blur, not the window's width
-      const double next_cost = evaluate(next, nullptr, nullptr);
+      const double next_cost = model.Evaluate(next, nullptr, nullptr);
       if (next_cost < cost) {
         converged = step.head<2>().norm() < 1e-3;
         q = next;
@@ -306,7 +336,7 @@ std::optional<JunctionFit> FitBlurredJunction(const cv::Mat& grey, const Eigen::
   fit.corner = q.head<2>();
   fit.sigma = q[6];
   fit.contrast = std::abs(q[5]);
-  fit.rms = std::sqrt(cost / pixels.size());
+  fit.rms = std::sqrt(cost / pixels->size());
   return fit;
 }
 

@@ -339,49 +339,66 @@ std::vector<CornerObservation> KalibrBeyondTheView(const cv::Mat& raw_grey, cons
   return out;
 }
 
-// Guided corners of target `ti` in ring `dest` from its corners in the other ring.
-std::vector<CornerObservation> GuideTarget(
-    const cv::Mat& raw_grey, const cv::Mat& raw_grey32, const std::vector<RingView>& views, const RigModel& model,
-    const std::vector<TargetSpec>& targets, int ti, const Lattice& lattice, const Seeds& source,
-    Mirror source_mirror, const Seeds& own, Mirror dest, const GuidedOptions& options) {
-  std::vector<CornerObservation> out;
-  const TargetSpec& target = targets[ti];
-  std::set<int> have(own.ids.begin(), own.ids.end());
-  std::vector<Eigen::Vector2d> plane_all;
-  for (const Junction& j : lattice.corners) plane_all.push_back(j.plane);
+// What guiding one target into one ring works on: the target, its lattice, its corners in the
+// source ring and in ring `dest` (`own`), and the images. Every step below reads it; none
+// changes it.
+struct GuideInputs {
+  const cv::Mat& raw_grey;
+  const cv::Mat& raw_grey32;
+  const std::vector<RingView>& views;
+  const RigModel& model;
+  const TargetSpec& target;
+  int ti;
+  const Lattice& lattice;
+  const Seeds& source;
+  Mirror source_mirror;
+  const Seeds& own;
+  Mirror dest;
+  const GuidedOptions& options;
+  std::set<int> have;  // the ids ring `dest` has already (own.ids)
+};
 
-  // 1. The prediction H0 in a view of ring `dest`: from the ring's own corners where it has
-  // enough, else from the pose the source ring gives.
+// Step 1's result: the prediction H0 (plane -> view `v` of ring `dest`) and the translation
+// search radius (view px; 0: H0 from the ring's own corners).
+struct Prediction {
   cv::Mat h0;
   int v = -1;
-  double radius = 0;  // translation search radius (view px); 0: h0 from the ring's own corners
+  double radius = 0;
+};
+
+// 1. The prediction H0 in a view of ring `dest`: from the ring's own corners where it has
+// enough, else from the pose the source ring gives (the search radius then scales the model's
+// prediction error from raw to view px). nullopt where no view holds the target.
+std::optional<Prediction> PredictInRing(const GuideInputs& in) {
+  const GuidedOptions& options = in.options;
+  Prediction out;
   std::vector<std::optional<Eigen::Vector2d>> in_view;
-  if (static_cast<int>(own.ids.size()) >= options.min_seed_corners) {
-    v = BestView(views, model, dest, own.raw, &in_view);
-    if (v < 0) return out;
+  if (static_cast<int>(in.own.ids.size()) >= options.min_seed_corners) {
+    out.v = BestView(in.views, in.model, in.dest, in.own.raw, &in_view);
+    if (out.v < 0) return std::nullopt;
     std::vector<Eigen::Vector2d> p, q;
-    for (size_t i = 0; i < own.raw.size(); ++i) {
+    for (size_t i = 0; i < in.own.raw.size(); ++i) {
       if (!in_view[i]) continue;
-      p.push_back(own.plane[i].head<2>());
+      p.push_back(in.own.plane[i].head<2>());
       q.push_back(*in_view[i]);
     }
-    h0 = FitHomography(p, q, 0, 0);
+    out.h0 = FitHomography(p, q, 0, 0);
   } else {
     PoseGuess pose;
-    if (!CentralPoseFromRing(model, source_mirror, source.plane, source.raw, &pose)) return out;
+    if (!CentralPoseFromRing(in.model, in.source_mirror, in.source.plane, in.source.raw, &pose)) return std::nullopt;
     const Eigen::Matrix3d cam_from_target =
         Eigen::AngleAxisd(pose.rotation.norm(), pose.rotation.normalized()).toRotationMatrix();
     std::vector<Eigen::Vector2d> raw, plane;
-    for (const Junction& j : lattice.corners) {
+    for (const Junction& j : in.lattice.corners) {
       const Eigen::Vector3d point_in_cam =
           cam_from_target * Eigen::Vector3d(j.plane.x(), j.plane.y(), 0) + pose.translation;
-      const auto pixel = model.Project(point_in_cam, dest);
+      const auto pixel = in.model.Project(point_in_cam, in.dest);
       if (!pixel) continue;
       raw.push_back(*pixel);
       plane.push_back(j.plane);
     }
-    v = BestView(views, model, dest, raw, &in_view);
-    if (v < 0) return out;
+    out.v = BestView(in.views, in.model, in.dest, raw, &in_view);
+    if (out.v < 0) return std::nullopt;
     std::vector<Eigen::Vector2d> p, q;
     double raw_span = 0, view_span = 0;
     for (size_t i = 0; i < raw.size(); ++i) {
@@ -393,442 +410,586 @@ std::vector<CornerObservation> GuideTarget(
         view_span = std::max(view_span, (*in_view[i] - q.front()).norm());
       }
     }
-    h0 = FitHomography(p, q, 0, 0);
-    if (raw_span <= 0) return out;
-    radius = options.max_prediction_error_px * view_span / raw_span;
+    out.h0 = FitHomography(p, q, 0, 0);
+    if (raw_span <= 0) return std::nullopt;
+    out.radius = options.max_prediction_error_px * view_span / raw_span;
   }
-  if (h0.empty()) return out;
-  const RingView& view = views[v];
+  if (out.h0.empty()) return std::nullopt;
+  return out;
+}
+
+// Which diagonal is dark at parity-0 junctions in the source ring (its view, its corners'
+// homography there): a one-square shift of a chessboard (Kalibr: a gap's) flips it, so the
+// saddles are matched by it. +1 or -1; 0 for L-corners (matched by quadrant instead); nullopt
+// where the source ring's junctions do not agree enough to tell.
+std::optional<int> SourcePolarity(const GuideInputs& in, bool l_corners) {
+  if (l_corners) return 0;
+  std::vector<std::optional<Eigen::Vector2d>> source_view;
+  const int sv = BestView(in.views, in.model, in.source_mirror, in.source.raw, &source_view);
+  if (sv < 0) return std::nullopt;
+  std::vector<Eigen::Vector2d> p, q;
+  std::vector<int> ids;
+  for (size_t i = 0; i < in.source.raw.size(); ++i) {
+    if (!source_view[i]) continue;
+    p.push_back(in.source.plane[i].head<2>());
+    q.push_back(*source_view[i]);
+    ids.push_back(in.source.ids[i]);
+  }
+  const cv::Mat hs = FitHomography(p, q, 0, 0);
+  if (hs.empty()) return std::nullopt;
+  std::map<int, const Junction*> by_id;
+  for (const Junction& j : in.lattice.corners) by_id[j.id] = &j;
+  int sum = 0, counted = 0;
+  for (int id : ids) {
+    const auto it = by_id.find(id);
+    if (it == by_id.end()) continue;
+    const int sign = Polarity(in.views[sv].image, hs, *it->second, in.lattice.polarity_offset_mm);
+    sum += sign;
+    counted += sign != 0;
+  }
+  if (counted == 0 || std::abs(sum) < in.options.min_polarity_agreement * counted) return std::nullopt;
+  return sum > 0 ? 1 : -1;
+}
+
+// 2. The lattice as H0 puts it in the view: its junctions and its extension (view px), and the
+// match tolerance and search radius that the junctions' spacing sets.
+struct LatticeInView {
+  std::vector<Eigen::Vector2d> predicted, extension;
+  double spacing = 0, tolerance = 0, search_radius = 0;
+};
+
+// nullopt where the junctions are under ~3 view px apart: too close to be told apart by saddles.
+std::optional<LatticeInView> PredictLattice(const Lattice& lattice, const Prediction& prediction,
+                                            const GuidedOptions& options) {
+  LatticeInView out;
+  for (const Junction& j : lattice.corners) out.predicted.push_back(Apply(prediction.h0, j.plane));
+  for (const Junction& j : lattice.extension) out.extension.push_back(Apply(prediction.h0, j.plane));
+  std::vector<double> nearest;
+  for (size_t i = 0; i < out.predicted.size(); ++i) {
+    double d = 1e18;
+    for (size_t k = 0; k < out.predicted.size(); ++k) {
+      if (k != i) d = std::min(d, (out.predicted[k] - out.predicted[i]).norm());
+    }
+    nearest.push_back(d);
+  }
+  std::nth_element(nearest.begin(), nearest.begin() + nearest.size() / 2, nearest.end());
+  out.spacing = nearest[nearest.size() / 2];
+  out.tolerance = options.match_fraction * out.spacing;
+  if (!(out.tolerance >= 1.0)) return std::nullopt;  // junctions under ~3 view px apart: not searched
+  out.search_radius = prediction.radius > 0 ? prediction.radius : 1.5 * out.tolerance;
+  return out;
+}
+
+// The view's saddle points around the predicted lattice, indexed for look-ups: all of them
+// (for the extension's test) and by class. A lattice junction matches only saddles of its own
+// polarity (as the source ring shows it): X-junctions by their dark diagonal (1,1) or (1,-1),
+// plain tags' L-corners by their dark quadrant.
+struct SaddleMatcher {
+  std::vector<Eigen::Vector2d> saddles;
+  std::vector<SaddleIndex> any, classes;  // any: one index; classes: 4
+  bool l_corners = false;
+  int source_sign = 0;
+  double tolerance = 0;
+
+  // The saddle matching junction j at view pixel p; nullopt if none.
+  std::optional<Eigen::Vector2d> Match(const Junction& j, const Eigen::Vector2d& p) const {
+    const SaddleIndex& index =
+        l_corners ? classes[j.quadrant] : classes[source_sign * (j.parity ? -1 : 1) > 0 ? 0 : 1];
+    const int m = index.Nearest(p, tolerance);
+    if (m < 0) return std::nullopt;
+    return index.points()[m];
+  }
+  // Whether any saddle lies within the tolerance of p.
+  bool AnyNear(const Eigen::Vector2d& p) const { return any.front().Nearest(p, tolerance) >= 0; }
+};
+
+// The saddle points in the view's crop around the extended lattice (plus the search radius and
+// a spacing), classified as the prediction orients the target: the X test reads along its
+// diagonals (an L-corner at a board's outer square passes the Hessian test), plain tags'
+// L-corners (the Hessian test passes at their tips too) by their dark quadrant. nullopt where
+// the crop is too small or fewer than min_matched saddles classify.
+std::optional<SaddleMatcher> ClassifiedSaddles(const GuideInputs& in, const Prediction& prediction,
+                                               const LatticeInView& lv, bool l_corners, int source_sign) {
+  const RingView& view = in.views[prediction.v];
   const cv::Mat& grey = view.image;
+  double x0 = 1e18, y0 = 1e18, x1 = -1e18, y1 = -1e18;
+  for (const auto& p : lv.extension) {
+    x0 = std::min(x0, p.x()), y0 = std::min(y0, p.y()), x1 = std::max(x1, p.x()), y1 = std::max(y1, p.y());
+  }
+  const double pad = lv.search_radius + lv.spacing;
+  const cv::Rect roi = cv::Rect(cv::Point(static_cast<int>(x0 - pad), static_cast<int>(y0 - pad)),
+                                cv::Point(static_cast<int>(x1 + pad) + 1, static_cast<int>(y1 + pad) + 1)) &
+                       cv::Rect(0, 0, view.width, view.height);
+  if (roi.width < 8 || roi.height < 8) return std::nullopt;
+  RingView crop = view;  // shallow: headers on the view's own data
+  crop.image = grey(roi);
+  crop.map_x = view.map_x(roi);
+  SaddleOptions saddle_options;
+  saddle_options.min_contrast = in.options.saddle_min_contrast;
+  SaddleMatcher out;
+  std::vector<Eigen::Vector2d> by_class[4];  // X: dark diagonal (1,1), (1,-1); L: quadrant
+  const cv::Mat h0_inverse = prediction.h0.inv();
+  for (const cv::Point2f& s : SaddlePoints(crop, saddle_options)) {
+    const Eigen::Vector2d at(s.x + roi.x, s.y + roi.y);
+    const Junction probe{-1, Apply(h0_inverse, at), 0};
+    int class_index = -1;
+    if (l_corners) {
+      class_index = Quadrant(grey, prediction.h0, probe.plane, in.lattice.polarity_offset_mm);
+    } else if (const int sign = Polarity(grey, prediction.h0, probe, in.lattice.polarity_offset_mm)) {
+      class_index = sign > 0 ? 0 : 1;
+    }
+    if (class_index < 0) continue;
+    out.saddles.push_back(at);
+    by_class[class_index].push_back(at);
+  }
+  if (static_cast<int>(out.saddles.size()) < in.options.min_matched) return std::nullopt;
+  const double cell = std::max(lv.tolerance, 1.0);
+  out.any.emplace_back(out.saddles, cell);
+  for (int c = 0; c < 4; ++c) out.classes.emplace_back(by_class[c], cell);
+  out.l_corners = l_corners;
+  out.source_sign = source_sign;
+  out.tolerance = lv.tolerance;
+  return out;
+}
 
-  // 2-4: the target aligned in the view (h: plane -> view) and its corners refined there.
+// The translations (predicted junction -> saddle, within the search radius) scored by the
+// junctions they match less the extension's (a lattice one row / column off matches the
+// extension too); the best ones, distinct by 2 tolerances, at most alignments_refined of them.
+// nullopt where no saddle lies within the search radius of any junction.
+std::optional<std::vector<Eigen::Vector2d>> BestShifts(const Lattice& lattice, const LatticeInView& lv,
+                                                       const SaddleMatcher& saddles,
+                                                       const GuidedOptions& options) {
+  const double tolerance = lv.tolerance;
+  std::set<std::pair<long, long>> tried;
+  std::vector<std::pair<int, Eigen::Vector2d>> scored;  // (in - ext, shift)
+  for (const auto& p : lv.predicted) {
+    for (const auto& s : saddles.saddles) {
+      const Eigen::Vector2d shift = s - p;
+      if (shift.norm() > lv.search_radius) continue;
+      const std::pair<long, long> key{std::lround(2 * shift.x() / tolerance),
+                                      std::lround(2 * shift.y() / tolerance)};
+      if (!tried.insert(key).second) continue;
+      int in = 0, ext = 0;
+      for (size_t i = 0; i < lv.predicted.size(); ++i) {
+        in += saddles.Match(lattice.corners[i], lv.predicted[i] + shift).has_value();
+      }
+      for (const auto& e : lv.extension) ext += saddles.AnyNear(e + shift);
+      scored.emplace_back(in - ext, shift);
+    }
+  }
+  if (scored.empty()) return std::nullopt;
+  std::sort(scored.begin(), scored.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+  std::vector<Eigen::Vector2d> starts;
+  for (const auto& [score, shift] : scored) {
+    if (static_cast<int>(starts.size()) >= options.alignments_refined) break;
+    bool distinct = true;
+    for (const auto& s0 : starts) distinct &= (shift - s0).norm() > 2 * tolerance;
+    if (distinct) starts.push_back(shift);
+  }
+  return starts;
+}
+
+// One alignment of the lattice to the saddles: its homography (plane -> view), the junctions it
+// matches, the extension's junctions it matches, and its score (matched - ext).
+struct Alignment {
   cv::Mat h;
-  std::map<int, Eigen::Vector2d> refined;  // id -> raw pixel
-  const auto by_saddles = [&]() -> bool {
-    // Which diagonal is dark at parity-0 junctions in the source ring (its view, its corners'
-    // homography there): a one-square shift of a chessboard (Kalibr: a gap's) flips it.
-    const bool l_corners = lattice.corners.front().quadrant >= 0;
-    int source_sign = 0;
-    if (!l_corners) {
-      std::vector<std::optional<Eigen::Vector2d>> source_view;
-      const int sv = BestView(views, model, source_mirror, source.raw, &source_view);
-      if (sv < 0) return false;
-      std::vector<Eigen::Vector2d> p, q;
-      std::vector<int> ids;
-      for (size_t i = 0; i < source.raw.size(); ++i) {
-        if (!source_view[i]) continue;
-        p.push_back(source.plane[i].head<2>());
-        q.push_back(*source_view[i]);
-        ids.push_back(source.ids[i]);
-      }
-      const cv::Mat hs = FitHomography(p, q, 0, 0);
-      if (hs.empty()) return false;
-      std::map<int, const Junction*> by_id;
-      for (const Junction& j : lattice.corners) by_id[j.id] = &j;
-      int sum = 0, counted = 0;
-      for (int id : ids) {
-        const auto it = by_id.find(id);
-        if (it == by_id.end()) continue;
-        const int sign = Polarity(views[sv].image, hs, *it->second, lattice.polarity_offset_mm);
-        sum += sign;
-        counted += sign != 0;
-      }
-      if (counted == 0 || std::abs(sum) < options.min_polarity_agreement * counted) return false;
-      source_sign = sum > 0 ? 1 : -1;
-    }
+  int score = 0, matched = 0, ext = 0;
+};
 
-    // 2. The lattice in the view and the saddle points around it.
-    std::vector<Eigen::Vector2d> predicted, extension;
-    for (const Junction& j : lattice.corners) predicted.push_back(Apply(h0, j.plane));
-    for (const Junction& j : lattice.extension) extension.push_back(Apply(h0, j.plane));
-    std::vector<double> nearest;
-    for (size_t i = 0; i < predicted.size(); ++i) {
-      double d = 1e18;
-      for (size_t k = 0; k < predicted.size(); ++k) {
-        if (k != i) d = std::min(d, (predicted[k] - predicted[i]).norm());
-      }
-      nearest.push_back(d);
+// 3. A translation of H0 refined to the homography of its matched saddles (RANSAC, then least
+// squares on the tight matches: the prediction's scale and turn are off too) and scored again.
+Alignment RefineShift(const cv::Mat& h0, const Lattice& lattice, const SaddleMatcher& saddles,
+                      const Eigen::Vector2d& shift) {
+  Alignment a;
+  cv::Mat h = h0.clone();
+  h.row(0) += shift.x() * h.row(2);
+  h.row(1) += shift.y() * h.row(2);
+  for (int round = 0; round < 3; ++round) {
+    std::vector<Eigen::Vector2d> p, q;
+    for (const Junction& j : lattice.corners) {
+      const auto m = saddles.Match(j, Apply(h, j.plane));
+      if (!m) continue;
+      p.push_back(j.plane);
+      q.push_back(*m);
     }
-    std::nth_element(nearest.begin(), nearest.begin() + nearest.size() / 2, nearest.end());
-    const double spacing = nearest[nearest.size() / 2];
-    const double tolerance = options.match_fraction * spacing;
-    if (!(tolerance >= 1.0)) return false;  // junctions under ~3 view px apart: not searched
-    const double search_radius = radius > 0 ? radius : 1.5 * tolerance;
-    double x0 = 1e18, y0 = 1e18, x1 = -1e18, y1 = -1e18;
-    for (const auto& p : extension) {
-      x0 = std::min(x0, p.x()), y0 = std::min(y0, p.y()), x1 = std::max(x1, p.x()), y1 = std::max(y1, p.y());
-    }
-    const double pad = search_radius + spacing;
-    const cv::Rect roi = cv::Rect(cv::Point(static_cast<int>(x0 - pad), static_cast<int>(y0 - pad)),
-                                  cv::Point(static_cast<int>(x1 + pad) + 1, static_cast<int>(y1 + pad) + 1)) &
-                         cv::Rect(0, 0, view.width, view.height);
-    if (roi.width < 8 || roi.height < 8) return false;
-    RingView crop = view;  // shallow: headers on the view's own data
-    crop.image = grey(roi);
-    crop.map_x = view.map_x(roi);
-    SaddleOptions saddle_options;
-    saddle_options.min_contrast = options.saddle_min_contrast;
-    // Saddle points that read as X-junctions (an L-corner at a board's outer square passes the
-    // Hessian test), each with its polarity for both diagonals.
-    // The X test reads along the target's diagonals as the prediction orients them.
-    // A lattice junction matches only saddles of its own polarity (as the source ring shows it).
-    // Plain tags' L-corners (the Hessian test passes at their tips too) by their dark quadrant.
-    std::vector<Eigen::Vector2d> saddles, by_class[4];  // X: dark diagonal (1,1), (1,-1); L: quadrant
-    const cv::Mat h0_inverse = h0.inv();
-    for (const cv::Point2f& s : SaddlePoints(crop, saddle_options)) {
-      const Eigen::Vector2d at(s.x + roi.x, s.y + roi.y);
-      const Junction probe{-1, Apply(h0_inverse, at), 0};
-      int class_index = -1;
-      if (l_corners) {
-        class_index = Quadrant(grey, h0, probe.plane, lattice.polarity_offset_mm);
-      } else if (const int sign = Polarity(grey, h0, probe, lattice.polarity_offset_mm)) {
-        class_index = sign > 0 ? 0 : 1;
-      }
-      if (class_index < 0) continue;
-      saddles.push_back(at);
-      by_class[class_index].push_back(at);
-    }
-    if (static_cast<int>(saddles.size()) < options.min_matched) return false;
-    const double cell = std::max(tolerance, 1.0);
-    const SaddleIndex any(saddles, cell);
-    const SaddleIndex classes[4] = {{by_class[0], cell}, {by_class[1], cell}, {by_class[2], cell}, {by_class[3], cell}};
-    // The saddle matching junction j at view pixel p; nullopt if none.
-    const auto match_of = [&](const Junction& j, const Eigen::Vector2d& p) -> std::optional<Eigen::Vector2d> {
-      const SaddleIndex& index =
-          l_corners ? classes[j.quadrant] : classes[source_sign * (j.parity ? -1 : 1) > 0 ? 0 : 1];
-      const int m = index.Nearest(p, tolerance);
-      if (m < 0) return std::nullopt;
-      return index.points()[m];
-    };
+    const cv::Mat refit = FitHomography(p, q, round == 0 ? cv::RANSAC : 0, saddles.tolerance);
+    if (refit.empty()) break;
+    h = refit;
+  }
+  a.h = h;
+  for (const Junction& j : lattice.corners) a.matched += saddles.Match(j, Apply(h, j.plane)).has_value();
+  for (const Junction& j : lattice.extension) a.ext += saddles.AnyNear(Apply(h, j.plane));
+  a.score = a.matched - a.ext;
+  return a;
+}
 
-    // The translation most junctions agree on, against every other.
-    std::set<std::pair<long, long>> tried;
-    std::vector<std::pair<int, Eigen::Vector2d>> scored;  // (in - ext, shift)
-    for (const auto& p : predicted) {
-      for (const auto& s : saddles) {
-        const Eigen::Vector2d shift = s - p;
-        if (shift.norm() > search_radius) continue;
-        const std::pair<long, long> key{std::lround(2 * shift.x() / tolerance),
-                                        std::lround(2 * shift.y() / tolerance)};
-        if (!tried.insert(key).second) continue;
-        int in = 0, ext = 0;
-        for (size_t i = 0; i < predicted.size(); ++i) in += match_of(lattice.corners[i], predicted[i] + shift).has_value();
-        for (const auto& e : extension) ext += any.Nearest(e + shift, tolerance) >= 0;
-        scored.emplace_back(in - ext, shift);
-      }
-    }
-    if (scored.empty()) return false;
-    // 3. The best translations (distinct by 2 tolerances), each refined to the homography of its
-    // matched saddles (RANSAC, then least squares on the tight matches: the prediction's scale
-    // and turn are off too) and scored again; the best must beat every other alignment.
-    std::sort(scored.begin(), scored.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
-    struct Alignment {
-      cv::Mat h;
-      int score = 0, matched = 0, ext = 0;
-    };
-    const auto refine = [&](const Eigen::Vector2d& shift) {
-      Alignment a;
-      cv::Mat h = h0.clone();
-      h.row(0) += shift.x() * h.row(2);
-      h.row(1) += shift.y() * h.row(2);
-      for (int round = 0; round < 3; ++round) {
-        std::vector<Eigen::Vector2d> p, q;
-        for (const Junction& j : lattice.corners) {
-          const auto m = match_of(j, Apply(h, j.plane));
-          if (!m) continue;
-          p.push_back(j.plane);
-          q.push_back(*m);
-        }
-        const cv::Mat refit = FitHomography(p, q, round == 0 ? cv::RANSAC : 0, tolerance);
-        if (refit.empty()) break;
-        h = refit;
-      }
-      a.h = h;
-      for (const Junction& j : lattice.corners) a.matched += match_of(j, Apply(h, j.plane)).has_value();
-      for (const Junction& j : lattice.extension) a.ext += any.Nearest(Apply(h, j.plane), tolerance) >= 0;
-      a.score = a.matched - a.ext;
-      return a;
-    };
-    std::vector<Eigen::Vector2d> starts;
-    for (const auto& [score, shift] : scored) {
-      if (static_cast<int>(starts.size()) >= options.alignments_refined) break;
-      bool distinct = true;
-      for (const auto& s0 : starts) distinct &= (shift - s0).norm() > 2 * tolerance;
-      if (distinct) starts.push_back(shift);
-    }
-    std::vector<Alignment> alignments;
-    for (const auto& shift : starts) alignments.push_back(refine(shift));
-    std::sort(alignments.begin(), alignments.end(), [](const auto& a, const auto& b) { return a.score > b.score; });
-    Eigen::Vector2d centre = Eigen::Vector2d::Zero();
-    for (const Junction& j : lattice.corners) centre += j.plane / lattice.corners.size();
-    const Alignment& best = alignments.front();
-    int second = 0;
-    for (size_t k = 1; k < alignments.size(); ++k) {
-      if ((Apply(alignments[k].h, centre) - Apply(best.h, centre)).norm() > tolerance) {
-        second = std::max(second, alignments[k].score);
-      }
-    }
-    if (best.matched < options.min_matched ||
-        best.score - second < std::max<double>(options.min_margin, options.min_margin_fraction * best.score)) {
-      return false;
-    }
-    h = best.h;
-    const int matched = best.matched;
-    if (best.ext > options.max_extension_fraction * matched) return false;
-    std::vector<int> match(lattice.corners.size(), -1);
-    for (size_t i = 0; i < lattice.corners.size(); ++i) {
-      match[i] = match_of(lattice.corners[i], Apply(h, lattice.corners[i].plane)) ? 1 : -1;
-    }
+// The centre of the target's junctions on its plane (mm).
+Eigen::Vector2d LatticeCentre(const Lattice& lattice) {
+  Eigen::Vector2d centre = Eigen::Vector2d::Zero();
+  for (const Junction& j : lattice.corners) centre += j.plane / lattice.corners.size();
+  return centre;
+}
 
-    // 4. Refinement of the matched junctions the ring does not have yet.
-    const bool chessboard = target.type == TargetType::kChessboard;
-    std::map<int, size_t> index_of;
-    for (size_t i = 0; i < lattice.corners.size(); ++i) index_of[lattice.corners[i].id] = i;
-    const auto raw_of = [&](int id) -> std::optional<Eigen::Vector2d> {
-      const auto it = index_of.find(id);
-      if (it == index_of.end()) return std::nullopt;
-      return view.ViewToRaw(Apply(h, lattice.corners[it->second].plane));
+// The best of the refined alignments, where it beats every other (one placing the target's
+// centre more than a tolerance elsewhere) by the margin and matches at least min_matched
+// junctions: a lattice repeats, and a close second is a guess. nullopt otherwise.
+std::optional<Alignment> DistinctBestAlignment(const Prediction& prediction, const Lattice& lattice,
+                                               const SaddleMatcher& saddles,
+                                               const std::vector<Eigen::Vector2d>& starts,
+                                               const GuidedOptions& options) {
+  std::vector<Alignment> alignments;
+  for (const auto& shift : starts) alignments.push_back(RefineShift(prediction.h0, lattice, saddles, shift));
+  std::sort(alignments.begin(), alignments.end(), [](const auto& a, const auto& b) { return a.score > b.score; });
+  const Eigen::Vector2d centre = LatticeCentre(lattice);
+  const Alignment& best = alignments.front();
+  int second = 0;
+  for (size_t k = 1; k < alignments.size(); ++k) {
+    if ((Apply(alignments[k].h, centre) - Apply(best.h, centre)).norm() > saddles.tolerance) {
+      second = std::max(second, alignments[k].score);
+    }
+  }
+  if (best.matched < options.min_matched ||
+      best.score - second < std::max<double>(options.min_margin, options.min_margin_fraction * best.score)) {
+    return std::nullopt;
+  }
+  return best;
+}
+
+// The target aligned in the view of ring `dest`: its homography, which junctions a saddle
+// matched there, and each junction's place in the lattice (by id).
+struct AlignedTarget {
+  const RingView& view;
+  cv::Mat h;  // plane -> view
+  std::vector<int> match;  // per lattice corner: 1 where a saddle matched it under h, else -1
+  std::map<int, size_t> index_of;  // id -> index in lattice.corners
+
+  // The raw pixel of junction `id` under h; nullopt off the view's map (or not a junction).
+  std::optional<Eigen::Vector2d> RawOf(const Lattice& lattice, int id) const {
+    const auto it = index_of.find(id);
+    if (it == index_of.end()) return std::nullopt;
+    return view.ViewToRaw(Apply(h, lattice.corners[it->second].plane));
+  }
+};
+
+// 4 (chessboards). The matched junctions the ring does not have yet, refined in raw as the
+// chessboard detector refines its corners (its window, its windows' check, its junction fit).
+// The ring's own corners take part as the guided ones' neighbours (their lines, their windows'
+// check), as in the per-ring detector's board; only the guided ones are reported.
+std::map<int, Eigen::Vector2d> RefineChessboardCorners(const GuideInputs& in, AlignedTarget& a) {
+  std::map<int, Eigen::Vector2d> refined;
+  const TargetSpec& target = in.target;
+  const int n = target.rows * target.cols;
+  std::vector<std::optional<Eigen::Vector2d>> corners(n);
+  std::vector<int> halves(n, 1);
+  std::vector<double> sides(n, 0);
+  std::map<int, Eigen::Vector2d> own_raw;
+  for (size_t i = 0; i < in.own.ids.size(); ++i) own_raw[in.own.ids[i]] = in.own.raw[i];
+  for (int id = 0; id < n; ++id) {
+    const size_t i = a.index_of[id];
+    const bool is_own = own_raw.count(id) > 0;
+    if (a.match[i] < 0 && !is_own) continue;
+    const auto start = is_own ? std::optional<Eigen::Vector2d>(own_raw[id]) : a.RawOf(in.lattice, id);
+    if (!start) continue;
+    const int r = id / target.cols, c = id % target.cols;
+    double side = 1e9;
+    for (auto [dr, dc] : {std::pair{0, 1}, {0, -1}, {1, 0}, {-1, 0}}) {
+      const int rr = r + dr, cc = c + dc;
+      if (rr < 0 || cc < 0 || rr >= target.rows || cc >= target.cols) continue;
+      if (const auto q = a.RawOf(in.lattice, rr * target.cols + cc)) side = std::min(side, (*q - *start).norm());
+    }
+    if (side > 1e8) continue;
+    // The per-ring detector's window (chessboard_detector.cc MakeBoard): 0.55 squares.
+    const int half = side < 3.0 ? 1 : std::clamp(static_cast<int>(std::lround(0.55 * side)), 2, 8);
+    Eigen::Vector2d pixel = *start;
+    if (!is_own && !RefineCornerInRaw(in.raw_grey, half, &pixel)) continue;
+    if ((pixel - *start).norm() > std::max(1.5, 0.3 * side)) continue;
+    corners[id] = pixel;
+    halves[id] = half;
+    sides[id] = side;
+  }
+  KeepWindowsOnTheirSquares(in.raw_grey, target.rows, target.cols, sides, 2, &halves, &corners,
+                            a.view.RawBlurAt(Apply(a.h, LatticeCentre(in.lattice))));
+  // The junction fit the chessboard detector runs (the curvature correction where it cannot).
+  FitBoardJunctions(in.raw_grey, target.rows, target.cols, sides, halves, ChessboardOptions().junction_window_squares,
+                    &corners);
+  for (int id = 0; id < n; ++id) {
+    if (corners[id] && !in.have.count(id)) refined[id] = *corners[id];
+  }
+  return refined;
+}
+
+// 4 (plain tags). Tags measured as the tag detector measures them: in blurred views the whole
+// pattern (FitTagPattern), else the four edges (RefineTagCorners; the data bits behind the
+// border from the code of the tag's place), from the corners the alignment puts there; a tag
+// whole or not at all, and only where a saddle matched at least 3 of its corners.
+std::map<int, Eigen::Vector2d> RefinePlainTagCorners(const GuideInputs& in, AlignedTarget& a) {
+  std::map<int, Eigen::Vector2d> refined;
+  TagDetectorOptions tag_options;
+  const bool blurred = a.view.blur_sigma && *a.view.blur_sigma >= tag_options.blurred_view_sigma;
+  if (!blurred) tag_options.edge_fit_reach_in_blurred = tag_options.edge_fit_reach_in;
+  std::set<int> tags;
+  for (const Junction& j : in.lattice.corners) tags.insert(j.id / 4);
+  for (const int tag : tags) {
+    Eigen::Vector2d corners[4], fitted[4];
+    double curvature[4];
+    int matched_here = 0, wanted = 0;
+    bool ok = true;
+    for (int k = 0; k < 4 && ok; ++k) {
+      matched_here += a.match[a.index_of[4 * tag + k]] >= 0;
+      wanted += !in.have.count(4 * tag + k);
+      const auto raw = a.RawOf(in.lattice, 4 * tag + k);
+      ok = raw.has_value();
+      if (ok) corners[k] = *raw;
+      curvature[k] = std::nan("");  // fitted
+    }
+    if (!ok || wanted == 0 || matched_here < 3) continue;
+    Eigen::Vector2d in_view[4];
+    for (int k = 0; k < 4; ++k) in_view[k] = Apply(a.h, in.lattice.corners[a.index_of[4 * tag + k]].plane);
+    const auto pattern_fit = tag_options.fit_tag_pattern && blurred
+                                 ? FitTagPattern(in.raw_grey32, a.view, in.target, tag, in_view)
+                                 : std::nullopt;
+    if (pattern_fit) {
+      std::copy(pattern_fit->corners, pattern_fit->corners + 4, fitted);
+    } else if (!RefineTagCorners(in.raw_grey32, corners, curvature, 1.0 / PlainTagLayout().bits, in.target.spacing,
+                                 tag_options, fitted, tag)) {
+      continue;
+    }
+    for (int k = 0; k < 4; ++k) {
+      if (!in.have.count(4 * tag + k)) refined[4 * tag + k] = fitted[k];
+    }
+  }
+  return refined;
+}
+
+// 4 (Kalibr grids). Each matched X-junction the ring does not have: cornerSubPix in the view,
+// the Kalibr detector's X-junction check in raw, then its blurred-junction fit with the tag's
+// edges as the view's map bends them. A corner the fit cannot measure is left out: guided
+// corners have no decoded quad to vouch for them.
+std::map<int, Eigen::Vector2d> RefineKalibrCorners(const GuideInputs& in, AlignedTarget& a) {
+  std::map<int, Eigen::Vector2d> refined;
+  const RingView& view = a.view;
+  const cv::Mat& h = a.h;
+  const Lattice& lattice = in.lattice;
+  const TagDetectorOptions tag_options;  // the Kalibr detector's junction window
+  const KalibrDetectorOptions& kalibr = tag_options.kalibr;
+  for (size_t i = 0; i < lattice.corners.size(); ++i) {
+    const int id = lattice.corners[i].id;
+    if (a.match[i] < 0 || in.have.count(id)) continue;
+    const int tag = id / 4, k = id % 4;
+    const Eigen::Vector2d at_view = Apply(h, lattice.corners[i].plane);
+    const auto view_of = [&](int other) { return Apply(h, lattice.corners[a.index_of[4 * tag + other]].plane); };
+    // The tag's edges' directions and length in raw: its neighbouring corners may lie beyond
+    // the view's map (a tag at the ring's edge seen through the ideal design) while this one
+    // does not: from inside the view (near_scene 0002, 200 mm tags at 2 m: 37 -> 43 of 48).
+    const auto raw = a.RawOf(lattice, id);
+    const auto next = RawTowards(view, at_view, view_of((k + 1) % 4) - at_view);
+    const auto previous = RawTowards(view, at_view, view_of((k + 3) % 4) - at_view);
+    if (!raw || !next || !previous) continue;
+    double side_view = 0;
+    for (int m = 0; m < 4; ++m) {
+      side_view += 0.25 * (Apply(h, lattice.corners[a.index_of[4 * tag + (m + 1) % 4]].plane) -
+                           Apply(h, lattice.corners[a.index_of[4 * tag + m]].plane)).norm();
+    }
+    Eigen::Vector2d in_view;
+    if (!RefineSaddleCorner(view.image, Apply(h, lattice.corners[i].plane),
+                            static_cast<int>(std::lround(0.15 * side_view)), 0.1 * side_view, &in_view)) {
+      continue;
+    }
+    const auto pixel = view.ViewToRaw(in_view);
+    if (!pixel) continue;
+    const double side_raw = std::min((*next - *raw).norm(), (*previous - *raw).norm());
+    if (!IsKalibrXJunction(in.raw_grey, *pixel, (*next - *raw).normalized(), (*previous - *raw).normalized(),
+                           std::max(1.5, 0.12 * side_raw), kalibr.min_contrast)) {
+      continue;
+    }
+    const Eigen::Vector2d corner = *pixel;
+    // The junction fitted as the Kalibr detector fits it (corner_refine.h FitBlurredJunction):
+    // its lines the tag's edges through the corner, as the view's map bends them.
+    const auto line = [&](int other) -> std::optional<LocalLine> {
+      const Eigen::Vector2d step = 0.5 * (view_of(other) - at_view);
+      std::vector<std::optional<Eigen::Vector2d>> points = {RawTowards(view, at_view, -step), *raw,
+                                                            RawTowards(view, at_view, step)};
+      if (!points[0] || !points[2]) return std::nullopt;
+      return LineThroughCorner(points, 1, 3, 1, true);
     };
-    if (chessboard) {
-      const int n = target.rows * target.cols;
-      std::vector<std::optional<Eigen::Vector2d>> corners(n);
-      std::vector<int> halves(n, 1);
-      std::vector<double> sides(n, 0);
-      // The ring's own corners take part as the guided ones' neighbours (their lines, their
-      // windows' check), as in the per-ring detector's board; only the guided ones are reported.
-      std::map<int, Eigen::Vector2d> own_raw;
-      for (size_t i = 0; i < own.ids.size(); ++i) own_raw[own.ids[i]] = own.raw[i];
-      for (int id = 0; id < n; ++id) {
-        const size_t i = index_of[id];
-        const bool is_own = own_raw.count(id) > 0;
-        if (match[i] < 0 && !is_own) continue;
-        const auto start = is_own ? std::optional<Eigen::Vector2d>(own_raw[id]) : raw_of(id);
-        if (!start) continue;
-        const int r = id / target.cols, c = id % target.cols;
-        double side = 1e9;
-        for (auto [dr, dc] : {std::pair{0, 1}, {0, -1}, {1, 0}, {-1, 0}}) {
-          const int rr = r + dr, cc = c + dc;
-          if (rr < 0 || cc < 0 || rr >= target.rows || cc >= target.cols) continue;
-          if (const auto q = raw_of(rr * target.cols + cc)) side = std::min(side, (*q - *start).norm());
-        }
-        if (side > 1e8) continue;
-        // The per-ring detector's window (chessboard_detector.cc MakeBoard): 0.55 squares.
-        const int half = side < 3.0 ? 1 : std::clamp(static_cast<int>(std::lround(0.55 * side)), 2, 8);
-        Eigen::Vector2d pixel = *start;
-        if (!is_own && !RefineCornerInRaw(raw_grey, half, &pixel)) continue;
-        if ((pixel - *start).norm() > std::max(1.5, 0.3 * side)) continue;
-        corners[id] = pixel;
-        halves[id] = half;
-        sides[id] = side;
-      }
-      KeepWindowsOnTheirSquares(raw_grey, target.rows, target.cols, sides, 2, &halves, &corners,
-                                view.RawBlurAt(Apply(h, centre)));
-      // The junction fit the chessboard detector runs (the curvature correction where it cannot).
-      FitBoardJunctions(raw_grey, target.rows, target.cols, sides, halves, ChessboardOptions().junction_window_squares,
-                        &corners);
-      for (int id = 0; id < n; ++id) {
-        if (corners[id] && !have.count(id)) refined[id] = *corners[id];
-      }
-    } else if (l_corners) {
-      // Plain tags measured as the tag detector measures them: in blurred views the whole pattern
-      // (FitTagPattern), else the four edges (RefineTagCorners; the data bits behind the border
-      // from the code of the tag's place), from the corners the alignment puts there; a tag whole
-      // or not at all.
-      TagDetectorOptions tag_options;
-      const bool blurred = view.blur_sigma && *view.blur_sigma >= tag_options.blurred_view_sigma;
-      if (!blurred) tag_options.edge_fit_reach_in_blurred = tag_options.edge_fit_reach_in;
-      std::set<int> tags;
-      for (const Junction& j : lattice.corners) tags.insert(j.id / 4);
-      for (const int tag : tags) {
-        Eigen::Vector2d corners[4], fitted[4];
-        double curvature[4];
-        int matched_here = 0, wanted = 0;
-        bool ok = true;
-        for (int k = 0; k < 4 && ok; ++k) {
-          matched_here += match[index_of[4 * tag + k]] >= 0;
-          wanted += !have.count(4 * tag + k);
-          const auto raw = raw_of(4 * tag + k);
-          ok = raw.has_value();
-          if (ok) corners[k] = *raw;
-          curvature[k] = std::nan("");  // fitted
-        }
-        if (!ok || wanted == 0 || matched_here < 3) continue;
-        Eigen::Vector2d in_view[4];
-        for (int k = 0; k < 4; ++k) in_view[k] = Apply(h, lattice.corners[index_of[4 * tag + k]].plane);
-        const auto pattern_fit = tag_options.fit_tag_pattern && blurred
-                                     ? FitTagPattern(raw_grey32, view, target, tag, in_view)
-                                     : std::nullopt;
-        if (pattern_fit) {
-          std::copy(pattern_fit->corners, pattern_fit->corners + 4, fitted);
-        } else if (!RefineTagCorners(raw_grey32, corners, curvature, 1.0 / PlainTagLayout().bits, target.spacing,
-                                     tag_options, fitted, tag)) {
-          continue;
-        }
-        for (int k = 0; k < 4; ++k) {
-          if (!have.count(4 * tag + k)) refined[4 * tag + k] = fitted[k];
-        }
-      }
-    } else {
-      const TagDetectorOptions tag_options;  // the Kalibr detector's junction window
-      const KalibrDetectorOptions& kalibr = tag_options.kalibr;
-      for (size_t i = 0; i < lattice.corners.size(); ++i) {
-        const int id = lattice.corners[i].id;
-        if (match[i] < 0 || have.count(id)) continue;
-        const int tag = id / 4, k = id % 4;
-        const Eigen::Vector2d at_view = Apply(h, lattice.corners[i].plane);
-        const auto view_of = [&](int other) { return Apply(h, lattice.corners[index_of[4 * tag + other]].plane); };
-        // The tag's edges' directions and length in raw: its neighbouring corners may lie beyond
-        // the view's map (a tag at the ring's edge seen through the ideal design) while this one
-        // does not: from inside the view (near_scene 0002, 200 mm tags at 2 m: 37 -> 43 of 48).
-        const auto raw = raw_of(id);
-        const auto next = RawTowards(view, at_view, view_of((k + 1) % 4) - at_view);
-        const auto previous = RawTowards(view, at_view, view_of((k + 3) % 4) - at_view);
-        if (!raw || !next || !previous) continue;
-        double side_view = 0;
-        for (int m = 0; m < 4; ++m) {
-          side_view += 0.25 * (Apply(h, lattice.corners[index_of[4 * tag + (m + 1) % 4]].plane) -
-                               Apply(h, lattice.corners[index_of[4 * tag + m]].plane)).norm();
-        }
-        Eigen::Vector2d in_view;
-        if (!RefineSaddleCorner(grey, Apply(h, lattice.corners[i].plane),
-                                static_cast<int>(std::lround(0.15 * side_view)), 0.1 * side_view, &in_view)) {
-          continue;
-        }
-        const auto pixel = view.ViewToRaw(in_view);
-        if (!pixel) continue;
-        const double side_raw = std::min((*next - *raw).norm(), (*previous - *raw).norm());
-        if (!IsKalibrXJunction(raw_grey, *pixel, (*next - *raw).normalized(), (*previous - *raw).normalized(),
-                               std::max(1.5, 0.12 * side_raw), kalibr.min_contrast)) {
-          continue;
-        }
-        const Eigen::Vector2d corner = *pixel;
-        // The junction fitted as the Kalibr detector fits it (corner_refine.h FitBlurredJunction):
-        // its lines the tag's edges through the corner, as the view's map bends them.
-        const auto line = [&](int other) -> std::optional<LocalLine> {
-          const Eigen::Vector2d step = 0.5 * (view_of(other) - at_view);
-          std::vector<std::optional<Eigen::Vector2d>> points = {RawTowards(view, at_view, -step), *raw,
-                                                                RawTowards(view, at_view, step)};
-          if (!points[0] || !points[2]) return std::nullopt;
-          return LineThroughCorner(points, 1, 3, 1, true);
-        };
-        // Over the same fraction of the tag side (the 2-bit border): at 0.15 the inner ring's
-        // 9-12 px tags left a window of under 16 pixels, the fit refused, and the view's
-        // cornerSubPix corner (0.3-0.9 px off there) was kept. A corner the fit cannot measure is
-        // left out: guided corners have no decoded quad to vouch for them.
-        const auto row = line((k + 1) % 4), col = line((k + 3) % 4);
-        if (!row || !col) continue;
-        const auto fit = FitBlurredJunction(raw_grey, corner, *row, *col, tag_options.kalibr_junction_window * side_raw);
-        if (!fit) continue;
-        refined[id] = fit->corner;
-      }
+    // Over the same fraction of the tag side (the 2-bit border): at 0.15 the inner ring's
+    // 9-12 px tags left a window of under 16 pixels, the fit refused, and the view's
+    // cornerSubPix corner (0.3-0.9 px off there) was kept.
+    const auto row = line((k + 1) % 4), col = line((k + 3) % 4);
+    if (!row || !col) continue;
+    const auto fit = FitBlurredJunction(in.raw_grey, corner, *row, *col, tag_options.kalibr_junction_window * side_raw);
+    if (!fit) continue;
+    refined[id] = fit->corner;
+  }
+  return refined;
+}
+
+// 2-4: the target aligned in the view by its junctions (h: plane -> view) and the matched
+// junctions the ring does not have yet refined in raw (`refined`: id -> raw pixel). False where
+// the saddles cannot align it unambiguously; `h` is set once an alignment wins.
+bool AlignBySaddles(const GuideInputs& in, const Prediction& prediction, cv::Mat* h,
+                    std::map<int, Eigen::Vector2d>* refined) {
+  const Lattice& lattice = in.lattice;
+  const bool l_corners = lattice.corners.front().quadrant >= 0;
+  const std::optional<int> source_sign = SourcePolarity(in, l_corners);
+  if (!source_sign) return false;
+  // 2. The lattice in the view and the saddle points around it.
+  const std::optional<LatticeInView> lv = PredictLattice(lattice, prediction, in.options);
+  if (!lv) return false;
+  const std::optional<SaddleMatcher> saddles = ClassifiedSaddles(in, prediction, *lv, l_corners, *source_sign);
+  if (!saddles) return false;
+  // The translation most junctions agree on, against every other.
+  const auto starts = BestShifts(lattice, *lv, *saddles, in.options);
+  if (!starts) return false;
+  // 3. The best translations, each refined to a homography; the best must beat every other.
+  const std::optional<Alignment> best = DistinctBestAlignment(prediction, lattice, *saddles, *starts, in.options);
+  if (!best) return false;
+  *h = best->h;
+  if (best->ext > in.options.max_extension_fraction * best->matched) return false;
+  AlignedTarget aligned{in.views[prediction.v], *h, {}, {}};
+  aligned.match.assign(lattice.corners.size(), -1);
+  for (size_t i = 0; i < lattice.corners.size(); ++i) {
+    aligned.match[i] = saddles->Match(lattice.corners[i], Apply(*h, lattice.corners[i].plane)) ? 1 : -1;
+  }
+  // 4. Refinement of the matched junctions the ring does not have yet.
+  for (size_t i = 0; i < lattice.corners.size(); ++i) aligned.index_of[lattice.corners[i].id] = i;
+  if (in.target.type == TargetType::kChessboard) {
+    *refined = RefineChessboardCorners(in, aligned);
+  } else if (l_corners) {
+    *refined = RefinePlainTagCorners(in, aligned);
+  } else {
+    *refined = RefineKalibrCorners(in, aligned);
+  }
+  return true;
+}
+
+// Tag grids whose junctions the saddle points cannot align (too close, or too blurred to be
+// saddles: the inner ring's smallest tags): the whole printed pattern (AlignTargetPattern),
+// then each tag by its pattern (FitTagPattern); a tag whole or not at all. Sets `h` where the
+// pattern aligns; true where some tag was fitted.
+bool AlignByPattern(const GuideInputs& in, const Prediction& prediction, cv::Mat* h,
+                    std::map<int, Eigen::Vector2d>* refined) {
+  const TargetSpec& target = in.target;
+  const GuidedOptions& options = in.options;
+  if (target.type == TargetType::kChessboard || !options.pattern_alignment) return false;
+  const RingView& view = in.views[prediction.v];
+  Eigen::Matrix3d h0e;
+  cv::cv2eigen(prediction.h0, h0e);
+  // Where the ring has the target already, only for a small one (the gap between tags in view
+  // px): a large one's missing corners are cut or unmeasurable, and its whole pattern costly.
+  if (static_cast<int>(in.own.ids.size()) >= options.min_seed_corners &&
+      !(TargetInViewOf(prediction.h0, target).gap_px < options.pattern_below_gap_px)) {
+    return false;
+  }
+  const double search = prediction.radius > 0 ? prediction.radius : options.pattern_search_px;
+  const auto aligned = AlignTargetPattern(in.raw_grey32, view, target, h0e, search);
+  if (!aligned) return false;
+  cv::eigen2cv(Eigen::Matrix3d(aligned->view_from_plane), *h);
+  std::set<int> tags;
+  for (const Junction& j : in.lattice.corners) tags.insert(j.id / 4);
+  for (const int tag : tags) {
+    bool wanted = false;
+    Eigen::Vector2d in_view[4];
+    for (int k = 0; k < 4; ++k) {
+      wanted |= !in.have.count(4 * tag + k);
+      in_view[k] = Apply(*h, CornerInTarget(target, 4 * tag + k).head<2>());
     }
-    return true;
-  };
-  // Tag grids whose junctions the saddle points cannot align (too close, or too blurred to be
-  // saddles: the inner ring's smallest tags): the whole printed pattern (AlignTargetPattern),
-  // then each tag by its pattern (FitTagPattern); a tag whole or not at all.
-  const auto by_pattern = [&]() -> bool {
-    if (target.type == TargetType::kChessboard || !options.pattern_alignment) return false;
-    Eigen::Matrix3d h0e;
-    cv::cv2eigen(h0, h0e);
-    // Where the ring has the target already, only for a small one (the gap between tags in view
-    // px): a large one's missing corners are cut or unmeasurable, and its whole pattern costly.
-    if (static_cast<int>(own.ids.size()) >= options.min_seed_corners &&
-        !(TargetInViewOf(h0, target).gap_px < options.pattern_below_gap_px)) {
-      return false;
+    if (!wanted) continue;
+    const auto fit = FitTagPattern(in.raw_grey32, view, target, tag, in_view);
+    if (!fit) continue;
+    for (int k = 0; k < 4; ++k) {
+      if (!in.have.count(4 * tag + k)) (*refined)[4 * tag + k] = fit->corners[k];
     }
-    const double search = radius > 0 ? radius : options.pattern_search_px;
-    const auto aligned = AlignTargetPattern(raw_grey32, view, target, h0e, search);
-    if (!aligned) return false;
-    cv::eigen2cv(Eigen::Matrix3d(aligned->view_from_plane), h);
-    std::set<int> tags;
-    for (const Junction& j : lattice.corners) tags.insert(j.id / 4);
-    for (const int tag : tags) {
-      bool wanted = false;
-      Eigen::Vector2d in_view[4];
-      for (int k = 0; k < 4; ++k) {
-        wanted |= !have.count(4 * tag + k);
-        in_view[k] = Apply(h, CornerInTarget(target, 4 * tag + k).head<2>());
-      }
-      if (!wanted) continue;
-      const auto fit = FitTagPattern(raw_grey32, view, target, tag, in_view);
-      if (!fit) continue;
-      for (int k = 0; k < 4; ++k) {
-        if (!have.count(4 * tag + k)) refined[4 * tag + k] = fit->corners[k];
-      }
-    }
-    return !refined.empty();
-  };
-  // 5. The grid check with the ring's own corners of the target.
-  const auto checked = [&]() {
-    std::vector<CornerObservation> kept;
-    if (refined.empty() || (own.ids.empty() && static_cast<int>(refined.size()) < options.min_kept)) return kept;
-    std::vector<GridCorner> grid;
-    for (size_t i = 0; i < own.ids.size(); ++i) grid.push_back({own.plane[i].head<2>(), own.raw[i], v});
-    std::vector<int> guided_ids;
-    for (const auto& [id, pixel] : refined) {
-      grid.push_back({CornerInTarget(target, id).head<2>(), pixel, v});
-      guided_ids.push_back(id);
-    }
-    const std::vector<GridFit> fits = CornersFittingTargetHomography(views, model, grid, options.grid_check);
-    for (size_t g = 0; g < guided_ids.size(); ++g) {
-      const GridFit& fit = fits[own.ids.size() + g];
-      if (!fit.keep || fit.residual_px < 0) continue;
-      CornerObservation o;
-      o.target = ti;
-      o.id = guided_ids[g];
-      o.mirror = dest;
-      o.pixel = refined[guided_ids[g]];
+  }
+  return !refined->empty();
+}
+
+// 5. The grid check with the ring's own corners of the target (view `v`); Kalibr grids then gain
+// the junctions beyond the view's map (KalibrBeyondTheView, from `h`). Ids anchored by the
+// ring's own corners need no quorum; ids from the other ring need min_kept.
+std::vector<CornerObservation> CheckAgainstGrid(const GuideInputs& in, int v, const cv::Mat& h,
+                                                const std::map<int, Eigen::Vector2d>& refined) {
+  const GuidedOptions& options = in.options;
+  const Seeds& own = in.own;
+  std::vector<CornerObservation> kept;
+  if (refined.empty() || (own.ids.empty() && static_cast<int>(refined.size()) < options.min_kept)) return kept;
+  std::vector<GridCorner> grid;
+  for (size_t i = 0; i < own.ids.size(); ++i) grid.push_back({own.plane[i].head<2>(), own.raw[i], v});
+  std::vector<int> guided_ids;
+  for (const auto& [id, pixel] : refined) {
+    grid.push_back({CornerInTarget(in.target, id).head<2>(), pixel, v});
+    guided_ids.push_back(id);
+  }
+  const std::vector<GridFit> fits = CornersFittingTargetHomography(in.views, in.model, grid, options.grid_check);
+  for (size_t g = 0; g < guided_ids.size(); ++g) {
+    const GridFit& fit = fits[own.ids.size() + g];
+    if (!fit.keep || fit.residual_px < 0) continue;
+    CornerObservation o;
+    o.target = in.ti;
+    o.id = guided_ids[g];
+    o.mirror = in.dest;
+    o.pixel = refined.at(guided_ids[g]);
+    kept.push_back(o);
+  }
+  if (own.ids.empty() && static_cast<int>(kept.size()) < options.min_kept) kept.clear();
+  if (!kept.empty() && in.target.type == TargetType::kKalibrAprilGrid) {
+    for (CornerObservation o :
+         KalibrBeyondTheView(in.raw_grey, in.views[v], in.target, in.lattice, h, own, kept, options)) {
+      o.target = in.ti;
+      o.mirror = in.dest;
       kept.push_back(o);
     }
-    // Ids anchored by the ring's own corners need no quorum; ids from the other ring do.
-    if (own.ids.empty() && static_cast<int>(kept.size()) < options.min_kept) kept.clear();
-    if (!kept.empty() && target.type == TargetType::kKalibrAprilGrid) {
-      for (CornerObservation o : KalibrBeyondTheView(raw_grey, view, target, lattice, h, own, kept, options)) {
-        o.target = ti;
-        o.mirror = dest;
-        kept.push_back(o);
-      }
-    }
-    return kept;
-  };
-  // A tag grid's saddle alignment read against the printed codes: the junctions of a grid of
-  // small tags repeat every pitch, so where the prediction is a pitch or more off (the ideal
-  // design's on a built rig) the translation most junctions agree on may be a pitch off, with
-  // every id wrong (hid3: a 4 x 4 Kalibr grid of 35 mm tags at 0.4 m in the inner ring, 17
-  // corners a tag or a row off). The whole pattern aligned from there, over 1.5 pitches, must
-  // succeed and stay where the saddles put it (there the pattern failed its fit or scored under
-  // 0.5: the ids cannot be told, and no corners beat wrong ones).
-  // Where the ring's own decoded corners placed the lattice (radius 0) its ids are anchored.
-  const auto saddles_read_as_the_code = [&]() {
-    if (target.type == TargetType::kChessboard || !options.pattern_alignment || radius <= 0) return true;
-    const TargetInView placed = TargetInViewOf(h, target);
-    if (!(placed.gap_px < options.pattern_below_gap_px)) return true;
-    // The pattern is aligned only where the view's map holds the whole grid; a grid the map
-    // cuts (a ring's edge through the design) keeps the saddles' placement unchecked, as before.
-    for (int id = 0; id < CornerCount(target); ++id) {
-      if (!view.ViewToRaw(Apply(h, CornerInTarget(target, id).head<2>()))) return true;
-    }
-    Eigen::Matrix3d he;
-    cv::cv2eigen(h, he);
-    TargetAlignOptions align;
-    align.search_similarity = false;  // the saddles' homography has the scale and turn
-    const auto aligned = AlignTargetPattern(raw_grey32, view, target, he, 1.5 * placed.pitch_px, align);
-    if (!aligned) return false;
-    const Eigen::Vector2d centre = (aligned->view_from_plane * placed.centre_plane.homogeneous()).hnormalized();
-    return (centre - placed.centre_view).norm() < 0.5 * placed.pitch_px;
-  };
-  std::vector<CornerObservation> kept;
-  if (by_saddles()) {
-    kept = checked();
-    if (!kept.empty() && !saddles_read_as_the_code()) kept.clear();
   }
-  // The pattern where the saddles left most of the target's missing corners out.
-  const int missing = CornerCount(target) - static_cast<int>(own.ids.size());
-  if (static_cast<int>(kept.size()) < options.pattern_when_found_below * missing) {
+  return kept;
+}
+
+// A tag grid's saddle alignment read against the printed codes: the junctions of a grid of
+// small tags repeat every pitch, so where the prediction is a pitch or more off (the ideal
+// design's on a built rig) the translation most junctions agree on may be a pitch off, with
+// every id wrong (hid3: a 4 x 4 Kalibr grid of 35 mm tags at 0.4 m in the inner ring, 17
+// corners a tag or a row off). The whole pattern aligned from there, over 1.5 pitches, must
+// succeed and stay where the saddles put it (there the pattern failed its fit or scored under
+// 0.5: the ids cannot be told, and no corners beat wrong ones).
+// Where the ring's own decoded corners placed the lattice (radius 0) its ids are anchored.
+bool SaddlesReadAsTheCode(const GuideInputs& in, const Prediction& prediction, const cv::Mat& h) {
+  const TargetSpec& target = in.target;
+  if (target.type == TargetType::kChessboard || !in.options.pattern_alignment || prediction.radius <= 0) return true;
+  const RingView& view = in.views[prediction.v];
+  const TargetInView placed = TargetInViewOf(h, target);
+  if (!(placed.gap_px < in.options.pattern_below_gap_px)) return true;
+  // The pattern is aligned only where the view's map holds the whole grid; a grid the map
+  // cuts (a ring's edge through the design) keeps the saddles' placement unchecked, as before.
+  for (int id = 0; id < CornerCount(target); ++id) {
+    if (!view.ViewToRaw(Apply(h, CornerInTarget(target, id).head<2>()))) return true;
+  }
+  Eigen::Matrix3d he;
+  cv::cv2eigen(h, he);
+  TargetAlignOptions align;
+  align.search_similarity = false;  // the saddles' homography has the scale and turn
+  const auto aligned = AlignTargetPattern(in.raw_grey32, view, target, he, 1.5 * placed.pitch_px, align);
+  if (!aligned) return false;
+  const Eigen::Vector2d centre = (aligned->view_from_plane * placed.centre_plane.homogeneous()).hnormalized();
+  return (centre - placed.centre_view).norm() < 0.5 * placed.pitch_px;
+}
+
+// Guided corners of the target in ring `in.dest` from its corners in the other ring: by the
+// saddles (steps 1-5), and by the whole printed pattern where the saddles left most of the
+// target's missing corners out.
+std::vector<CornerObservation> GuideTarget(const GuideInputs& in) {
+  const std::optional<Prediction> prediction = PredictInRing(in);
+  if (!prediction) return {};
+  cv::Mat h;
+  std::map<int, Eigen::Vector2d> refined;  // id -> raw pixel
+  std::vector<CornerObservation> kept;
+  if (AlignBySaddles(in, *prediction, &h, &refined)) {
+    kept = CheckAgainstGrid(in, prediction->v, h, refined);
+    if (!kept.empty() && !SaddlesReadAsTheCode(in, *prediction, h)) kept.clear();
+  }
+  const int missing = CornerCount(in.target) - static_cast<int>(in.own.ids.size());
+  if (static_cast<int>(kept.size()) < in.options.pattern_when_found_below * missing) {
     refined.clear();
-    if (by_pattern()) {
-      std::vector<CornerObservation> by_pattern_kept = checked();
+    if (AlignByPattern(in, *prediction, &h, &refined)) {
+      std::vector<CornerObservation> by_pattern_kept = CheckAgainstGrid(in, prediction->v, h, refined);
       if (by_pattern_kept.size() > kept.size()) kept = std::move(by_pattern_kept);
     }
   }
@@ -876,8 +1037,9 @@ std::vector<CornerObservation> GuidedCorners(const cv::Mat& raw_grey,
       const Mirror dest = d == 0 ? Mirror::kOne : Mirror::kTwo;
       const Mirror from = d == 0 ? Mirror::kTwo : Mirror::kOne;
       if (raw_grey32.empty()) raw_grey.convertTo(raw_grey32, CV_32F, 1.0 / 255);
-      for (CornerObservation& o : GuideTarget(raw_grey, raw_grey32, views, model, targets, static_cast<int>(ti),
-                                                  *lattice, source, from, ring[d], dest, options)) {
+      const GuideInputs in{raw_grey, raw_grey32, views, model, target, static_cast<int>(ti), *lattice, source,
+                           from, ring[d], dest, options, std::set<int>(ring[d].ids.begin(), ring[d].ids.end())};
+      for (CornerObservation& o : GuideTarget(in)) {
         // Not where the ring already has a corner of another target.
         bool taken = false;
         for (const CornerObservation& f : found) {

@@ -44,6 +44,15 @@
 //     the guided ones: a guided corner is kept only if checked and within its tolerance.
 // Ids come from the target's lattice, fixed by ring s's ids and the alignment; a wrong
 // alignment would give every corner a wrong id, so where any check is in doubt nothing is kept.
+//
+// Scale and failure modes, in short: the seed ring needs min_seed_corners (6) corners of the
+// target; the prediction may be off by max_prediction_error_px (30 raw px, scaled into the view);
+// saddles align only junctions at least ~3 view px apart (match_fraction 0.3 of their spacing >= 1
+// px), smaller or more blurred tag grids go to the pattern alignment (gap under
+// pattern_below_gap_px, 10 view px). It returns nothing for a target whose alignment is ambiguous
+// (margin under min_margin / min_margin_fraction, the extension matched, polarity disagreeing in
+// the seed ring), that one image holds twice, or that shares its rows x cols with another
+// chessboard; fewer than min_kept (4) checked corners from the other ring alone are dropped.
 #pragma once
 
 #include <vector>

@@ -17,6 +17,13 @@
 //
 // Ids are right or absent: only exact codes (hamming 0), a dark 2-bit border, every data bit
 // clearly on one side of the threshold; the caller checks the id set and the neighbours.
+//
+// Scale and failure modes, in short: quads are found on the view enlarged 2x, with tag sides of at
+// least min_side_px (10 view px) and 25 grey levels between local black and white; a code is
+// taken only with every data bit 5% of the contrast clear of the threshold (blurred views: the
+// blurred pattern's best code by a margin). Tags whose erosion does not separate them from their
+// corner squares (very blurred views), whose border is not dark all round, or that disagree with
+// their neighbours' homography by more than 0.15 of a side give nothing.
 #pragma once
 
 #include <array>

@@ -258,6 +258,105 @@ struct EdgeCandidate {
   double sign = 1;  // +1: the band lies outward
 };
 
+// The coarse edge along one profile: the sample (every kCoarseStep px from t0 outward) where the
+// paint likeness rises most steeply towards the band (`sign`) within the search window; -1 where
+// there is no rise, or it lies at the window's border: the edge itself lies beyond it (the prior
+// is that far off), and the profile around the border is its slope, not its two sides (demo3
+// from the ideal design: via_mirror2 points 1-4 px off where the edge lay 16 px from the
+// prediction).
+constexpr double kCoarseStep = 0.5;
+int CoarseEdge(const cv::Mat& bgr, const PaintLikeness& likeness, const EdgePrediction& pred, double sign,
+               double t0, const LipDetectorOptions& options) {
+  const int n_coarse = static_cast<int>(2 * (options.search_px + 1) / kCoarseStep) + 1;
+  std::vector<double> coarse(n_coarse);
+  for (int i = 0; i < n_coarse; ++i) {
+    coarse[i] = likeness(Colour(bgr, pred.pixel + (t0 + i * kCoarseStep) * pred.outward));
+  }
+  int best = -1;
+  double best_slope = 0;
+  for (int i = 1; i + 1 < n_coarse; ++i) {
+    if (std::abs(t0 + i * kCoarseStep) > options.search_px) continue;
+    const double slope = sign * (coarse[i + 1] - coarse[i - 1]);
+    if (slope > best_slope) {
+      best_slope = slope;
+      best = i;
+    }
+  }
+  if (best < 0 || std::abs(t0 + best * kCoarseStep) > options.search_px - kCoarseStep) return -1;
+  return best;
+}
+
+// The fine colour profile around a coarse edge: n samples every kStep px from radius
+// pred.rho + tc, each the mean over kTangential points on the arc about the profiles' centre
+// within +-tangential_px (a straight tangent would average a curved edge inwards by a third of
+// its sagitta: 0.01 px for +-3 px at the inner ring's 200 px radius), and the side means and the
+// projection on the colour difference read from it.
+struct ColourProfile {
+  static constexpr double kStep = 0.25;
+  std::vector<Eigen::Vector3d> colour;
+  double sign = 1;  // +1: the band lies outward
+  int near = static_cast<int>(1.5 / kStep), far = static_cast<int>(3.0 / kStep);
+
+  ColourProfile(const cv::Mat& bgr, const EdgePrediction& pred, double tc, int n, double sign,
+                const LipDetectorOptions& options)
+      : colour(n, Eigen::Vector3d::Zero()), sign(sign) {
+    constexpr int kTangential = 5;
+    const Eigen::Vector2d centre = pred.pixel - pred.rho * pred.outward;
+    const Eigen::Vector2d tangent(-pred.outward.y(), pred.outward.x());
+    for (int k = 0; k < kTangential; ++k) {
+      const double angle = options.tangential_px * (2.0 * k / (kTangential - 1) - 1) / pred.rho;
+      const Eigen::Vector2d dir = std::cos(angle) * pred.outward + std::sin(angle) * tangent;
+      for (int i = 0; i < n; ++i) {
+        colour[i] += Colour(bgr, centre + (pred.rho + tc + i * kStep) * dir) / kTangential;
+      }
+    }
+  }
+  int size() const { return static_cast<int>(colour.size()); }
+
+  // Mean colours 1.5-3 px on the band side (mean[1]) and the outside (mean[0]) of sample `at`;
+  // false where they run off the profile.
+  bool SideColours(int at, Eigen::Vector3d mean[2]) const {
+    const int n = size();
+    mean[0].setZero();
+    mean[1].setZero();
+    int count = 0;
+    for (int off = near; off <= far; ++off) {
+      const int band_i = at + static_cast<int>(sign) * off;
+      const int out_i = at - static_cast<int>(sign) * off;
+      if (band_i < 0 || band_i >= n || out_i < 0 || out_i >= n) return false;
+      mean[1] += colour[band_i];
+      mean[0] += colour[out_i];
+      ++count;
+    }
+    mean[0] /= count;
+    mean[1] /= count;
+    return true;
+  }
+
+  // The profile along the colour difference w from level0: 0 outside, 1 in the band.
+  void Project(const Eigen::Vector3d& level0, const Eigen::Vector3d& w, std::vector<double>* score) const {
+    for (int i = 0; i < size(); ++i) (*score)[i] = (colour[i] - level0).dot(w) / w.squaredNorm();
+  }
+};
+
+// The steepest point of the projected profile within 1 px of sample `mid` (derivative over
+// 1 px); -1 where it does not rise towards the band.
+int SteepestSample(const std::vector<double>& score, int mid, double sign) {
+  const int n = static_cast<int>(score.size());
+  const int d = 2;  // derivative over 1 px
+  const int reach = static_cast<int>(1.0 / ColourProfile::kStep);
+  int steep = -1;
+  double best_slope = 0;
+  for (int i = std::max(d, mid - reach); i <= std::min(n - 1 - d, mid + reach); ++i) {
+    const double slope = sign * (score[i + d] - score[i - d]);
+    if (slope > best_slope) {
+      best_slope = slope;
+      steep = i;
+    }
+  }
+  return steep;
+}
+
 // The sub-pixel edge along one profile. The steepest rise of the paint likeness towards the band
 // within the search window is found on single samples. Around it the colour profile is sampled
 // again, each sample the mean over +-tangential_px along arcs about the profiles' centre (the
@@ -273,91 +372,30 @@ struct EdgeCandidate {
 bool FindEdge(const cv::Mat& bgr, const PaintLikeness& likeness, bool outer,
               const EdgePrediction& pred, const LipDetectorOptions& options, EdgeCandidate* out) {
   const double sign = outer ? -1 : 1;  // +1: the band lies outward
-  constexpr double kCoarseStep = 0.5;
-  const int n_coarse = static_cast<int>(2 * (options.search_px + 1) / kCoarseStep) + 1;
   const double t0 = -options.search_px - 1;
-  std::vector<double> coarse(n_coarse);
-  for (int i = 0; i < n_coarse; ++i) {
-    coarse[i] = likeness(Colour(bgr, pred.pixel + (t0 + i * kCoarseStep) * pred.outward));
-  }
-  int best = -1;
-  double best_slope = 0;
-  for (int i = 1; i + 1 < n_coarse; ++i) {
-    if (std::abs(t0 + i * kCoarseStep) > options.search_px) continue;
-    const double slope = sign * (coarse[i + 1] - coarse[i - 1]);
-    if (slope > best_slope) {
-      best_slope = slope;
-      best = i;
-    }
-  }
-  // The steepest rise at the window's border: the edge itself lies beyond it (the prior is that
-  // far off), and the profile around the border is its slope, not its two sides (demo3 from the
-  // ideal design: via_mirror2 points 1-4 px off where the edge lay 16 px from the prediction).
-  if (best < 0 || std::abs(t0 + best * kCoarseStep) > options.search_px - kCoarseStep) return false;
+  const int best = CoarseEdge(bgr, likeness, pred, sign, t0, options);
+  if (best < 0) return false;
   // Fine colour samples at kStep from kOutside px outside the coarse edge to kOutside or
   // min_measured_band_px + 2 px (whichever is more) into the band: the side means need 3 px, the
   // steepest point may lie 1 px from the coarse edge and the crossing 1 px from that.
-  constexpr double kStep = 0.25, kOutside = 4.0;
+  constexpr double kStep = ColourProfile::kStep, kOutside = 4.0;
   const double inside = std::max(kOutside, options.min_measured_band_px + 2.0);
   const int n = static_cast<int>((kOutside + inside) / kStep) + 1;
   const int mid = static_cast<int>((sign > 0 ? kOutside : inside) / kStep);  // the coarse edge
   const double tc = t0 + best * kCoarseStep - mid * kStep;
-  // On arcs: a straight tangent would average a curved edge inwards by a third of its sagitta
-  // (0.01 px for +-3 px at the inner ring's 200 px radius).
-  constexpr int kTangential = 5;
-  const Eigen::Vector2d centre = pred.pixel - pred.rho * pred.outward;
-  const Eigen::Vector2d tangent(-pred.outward.y(), pred.outward.x());
-  std::vector<Eigen::Vector3d> colour(n, Eigen::Vector3d::Zero());
-  for (int k = 0; k < kTangential; ++k) {
-    const double angle = options.tangential_px * (2.0 * k / (kTangential - 1) - 1) / pred.rho;
-    const Eigen::Vector2d dir = std::cos(angle) * pred.outward + std::sin(angle) * tangent;
-    for (int i = 0; i < n; ++i) {
-      colour[i] += Colour(bgr, centre + (pred.rho + tc + i * kStep) * dir) / kTangential;
-    }
-  }
-  // Mean colours 1.5-3 px on the band side (1) and the outside (0) of sample `at`.
-  const int near = static_cast<int>(1.5 / kStep), far = static_cast<int>(3.0 / kStep);
-  auto side_colours = [&](int at, Eigen::Vector3d mean[2]) {
-    mean[0].setZero();
-    mean[1].setZero();
-    int count = 0;
-    for (int off = near; off <= far; ++off) {
-      const int band_i = at + static_cast<int>(sign) * off;
-      const int out_i = at - static_cast<int>(sign) * off;
-      if (band_i < 0 || band_i >= n || out_i < 0 || out_i >= n) return false;
-      mean[1] += colour[band_i];
-      mean[0] += colour[out_i];
-      ++count;
-    }
-    mean[0] /= count;
-    mean[1] /= count;
-    return true;
-  };
+  const ColourProfile profile(bgr, pred, tc, n, sign, options);
+  const int near = profile.near, far = profile.far;
   Eigen::Vector3d level[2];
-  if (!side_colours(mid, level)) return false;
+  if (!profile.SideColours(mid, level)) return false;
   Eigen::Vector3d w = level[1] - level[0];
   if (!(w.squaredNorm() > 0)) return false;
-  // The profile along the colour difference: 0 outside, 1 in the band.
   std::vector<double> score(n);
-  auto project = [&]() {
-    for (int i = 0; i < n; ++i) score[i] = (colour[i] - level[0]).dot(w) / w.squaredNorm();
-  };
-  project();
-  const int d = 2;  // derivative over 1 px
-  const int reach = static_cast<int>(1.0 / kStep);
-  int steep = -1;
-  best_slope = 0;
-  for (int i = std::max(d, mid - reach); i <= std::min(n - 1 - d, mid + reach); ++i) {
-    const double slope = sign * (score[i + d] - score[i - d]);
-    if (slope > best_slope) {
-      best_slope = slope;
-      steep = i;
-    }
-  }
-  if (steep < 0 || !side_colours(steep, level)) return false;
+  profile.Project(level[0], w, &score);
+  const int steep = SteepestSample(score, mid, sign);
+  if (steep < 0 || !profile.SideColours(steep, level)) return false;
   w = level[1] - level[0];
   if (!(w.squaredNorm() > 0)) return false;
-  project();
+  profile.Project(level[0], w, &score);
   out->band = likeness(level[1]);
   if (!(out->band > likeness(level[0]))) return false;
   out->contrast = w.norm();
@@ -387,7 +425,7 @@ bool FindEdge(const cv::Mat& bgr, const PaintLikeness& likeness, bool outer,
           if (k < 0 || k >= n || score[k] < 0.5) return false;
         }
         out->pixel = pred.pixel + (tc + kStep * t) * pred.outward;
-        out->centre = centre;
+        out->centre = pred.pixel - pred.rho * pred.outward;
         out->outward = pred.outward;
         out->rho = pred.rho + tc + kStep * t;
         out->sign = sign;

@@ -28,6 +28,13 @@
 // noise estimated from the image), wherever Y' stands luma_min_snr times above its noise (else on
 // the colour, as without). Give the file's own Y' plane as `luma` (io::ReadStoredLuma) and the
 // linear image in 16 bit: 8-bit linear levels are too coarse for a dark band's Y'.
+//
+// Scale and failure modes, in short: the model may be misaligned by search_px (by default
+// kLipSearchPerFocal of the focal length: 20 px at f 1452 px); a band must be at least 2.5 px wide
+// along the edge's own path (4.5 px measured) and 1.5 px clear of any other image of the band.
+// An edge gives nothing where it is ambiguous at every azimuth, clipped by the reflex disc, its
+// contrast is under min_snr times its noise (or 2 grey levels), or fewer than 30 points fit its
+// ellipse within 0.5 px.
 #pragma once
 
 #include <vector>

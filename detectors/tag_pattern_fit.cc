@@ -271,17 +271,17 @@ struct RegionFit {
   int pixels = 0;
 };
 
-std::optional<RegionFit> FitPatternRegion(const cv::Mat& grey, const RingView& view, const TargetPattern& pattern,
-                                          const Eigen::Vector2d (&plane)[4], const Eigen::Vector2d& region_lo,
-                                          const Eigen::Vector2d& region_hi,
-                                          const Eigen::Vector2d (&corners_in_view)[4],
-                                          const TagPatternFitOptions& options) {
-  Eigen::Vector2d view_corners[4];
-  std::copy(corners_in_view, corners_in_view + 4, view_corners);
-  const Eigen::Vector2d centre_bits = 0.25 * (plane[0] + plane[1] + plane[2] + plane[3]);
+// The view's map over a region, inverted roughly: raw -> view as a local quadratic fitted to
+// the map's exact points on a 9 x 9 grid over the region (and half a bit round it) as
+// `view_from_plane0` puts it, and the raw box those points span.
+struct RegionMap {
+  RawToViewMap map;
+  Eigen::Vector2d raw_lo, raw_hi;
+};
 
-  // The view's map sampled over the fitted region (where it has one) and inverted roughly.
-  const Eigen::Matrix3d view_from_plane0 = HomographyFrom(plane, view_corners);
+// nullopt where fewer than 30 of the grid's points lie on the ring's map.
+std::optional<RegionMap> MapOverRegion(const RingView& view, const Eigen::Matrix3d& view_from_plane0,
+                                       const Eigen::Vector2d& region_lo, const Eigen::Vector2d& region_hi) {
   std::vector<Eigen::Vector2d> raw_samples, view_samples;
   Eigen::Vector2d raw_lo(1e9, 1e9), raw_hi(-1e9, -1e9);
   constexpr int kGrid = 8;
@@ -299,173 +299,255 @@ std::optional<RegionFit> FitPatternRegion(const cv::Mat& grey, const RingView& v
     }
   }
   if (raw_samples.size() < 30) return std::nullopt;
-  RawToViewMap map;
-  map.origin = 0.5 * (raw_lo + raw_hi);
-  {
-    Eigen::MatrixXd a(raw_samples.size(), 6), b(raw_samples.size(), 2);
-    for (size_t k = 0; k < raw_samples.size(); ++k) {
-      a.row(k) = RawToViewMap::Basis((raw_samples[k] - map.origin) / 16.0).transpose();
-      b.row(k) = view_samples[k].transpose();
-    }
-    map.c = a.colPivHouseholderQr().solve(b);
+  RegionMap out;
+  out.raw_lo = raw_lo;
+  out.raw_hi = raw_hi;
+  out.map.origin = 0.5 * (raw_lo + raw_hi);
+  Eigen::MatrixXd a(raw_samples.size(), 6), b(raw_samples.size(), 2);
+  for (size_t k = 0; k < raw_samples.size(); ++k) {
+    a.row(k) = RawToViewMap::Basis((raw_samples[k] - out.map.origin) / 16.0).transpose();
+    b.row(k) = view_samples[k].transpose();
   }
+  out.map.c = a.colPivHouseholderQr().solve(b);
+  return out;
+}
 
-  // The raw pixels (centres at integer coordinates) whose plane point lies in the region.
-  struct Pixel {
-    Eigen::Vector2d view;
-    double value;
-  };
-  std::vector<Pixel> pixels;
+// A raw pixel of the fitted region: the view pixel the view's map takes it to, and its value.
+struct PatternPixel {
+  Eigen::Vector2d view;
+  double value;
+};
+
+// The raw pixels (centres at integer coordinates) of the region's raw box whose plane point
+// (through `plane_from_view0`) lies in the region; in a large region every stride-th pixel each
+// way, at most about options.max_pixels (the geometry is over-determined anyway). nullopt where
+// the box leaves the image or fewer than 40 pixels remain.
+std::optional<std::vector<PatternPixel>> RegionPixels(const cv::Mat& grey, const RingView& view,
+                                                      const RegionMap& region_map,
+                                                      const Eigen::Matrix3d& plane_from_view0,
+                                                      const Eigen::Vector2d& region_lo,
+                                                      const Eigen::Vector2d& region_hi,
+                                                      const TagPatternFitOptions& options) {
+  std::vector<PatternPixel> pixels;
+  const Eigen::Vector2d& raw_lo = region_map.raw_lo;
+  const Eigen::Vector2d& raw_hi = region_map.raw_hi;
   const int x0 = static_cast<int>(std::floor(raw_lo.x())), x1 = static_cast<int>(std::ceil(raw_hi.x()));
   const int y0 = static_cast<int>(std::floor(raw_lo.y())), y1 = static_cast<int>(std::ceil(raw_hi.y()));
   if (x0 < 0 || y0 < 0 || x1 >= grey.cols || y1 >= grey.rows) return std::nullopt;
-  const Eigen::Matrix3d plane_from_view0 = view_from_plane0.inverse();
-  // A large region: every stride-th pixel each way (the geometry is over-determined anyway).
   const int stride = options.max_pixels > 0
                          ? std::max(1, static_cast<int>(std::ceil(std::sqrt(double(x1 - x0 + 1) * (y1 - y0 + 1) /
                                                                         options.max_pixels))))
                          : 1;
   for (int y = y0; y <= y1; y += stride) {
     for (int x = x0; x <= x1; x += stride) {
-      const auto at_view = ViewOfRaw(view, map, Eigen::Vector2d(x, y));
+      const auto at_view = ViewOfRaw(view, region_map.map, Eigen::Vector2d(x, y));
       if (!at_view) continue;
       const Eigen::Vector2d bits = Apply(plane_from_view0, *at_view);
       if ((bits - region_lo).minCoeff() < 0 || (region_hi - bits).minCoeff() < 0) continue;
       pixels.push_back({*at_view, grey.at<float>(y, x)});
     }
   }
-  const int n = static_cast<int>(pixels.size());
-  if (n < 40) return std::nullopt;
+  if (static_cast<int>(pixels.size()) < 40) return std::nullopt;
+  return pixels;
+}
+
+// The blur step between the fit's two renders (raw px): the blur is interpolated between them.
+constexpr double kSigmaStep = 0.2;
+
+// The pattern rendered for one round of the fit: blurred at `sigma` and at sigma + kSigmaStep.
+struct PatternRenders {
+  BlurredPattern at_sigma, at_wider;
+};
+
+// The renders for the control points now at `corners_now` (view px): the raw pixel's blur
+// (Gaussian sigma plus the pixel's box) taken into bits through d raw / d plane at the
+// region's centre (`centre_bits`), sampled at least 2.5 samples per blur width (bilinear
+// look-ups stay smooth), from whole samples off the top-left control point (a tag's origin:
+// its cells' edges fall between samples) over the region and 3.5 blur widths + 1 bit round it.
+// nullopt where the centre is off the view's map or the map there is degenerate.
+std::optional<PatternRenders> RenderAtBlur(const RingView& view, const RawToViewMap& map,
+                                           const TargetPattern& pattern, const Eigen::Vector2d (&plane)[4],
+                                           const Eigen::Vector2d (&corners_now)[4],
+                                           const Eigen::Vector2d& centre_bits, const Eigen::Vector2d& region_lo,
+                                           const Eigen::Vector2d& region_hi, double sigma,
+                                           const TagPatternFitOptions& options) {
+  const Eigen::Matrix3d view_from_plane = HomographyFrom(plane, corners_now);
+  Eigen::Matrix2d view_from_plane_j;
+  for (int a = 0; a < 2; ++a) {
+    Eigen::Vector2d d = Eigen::Vector2d::Zero();
+    d(a) = 0.01;
+    view_from_plane_j.col(a) = (Apply(view_from_plane, centre_bits + d) - Apply(view_from_plane, centre_bits - d)) / 0.02;
+  }
+  const Eigen::Vector2d centre_view = Apply(view_from_plane, centre_bits);
+  const auto centre_raw = view.ViewToRaw(centre_view);
+  if (!centre_raw) return std::nullopt;
+  const Eigen::Matrix2d raw_from_plane = map.Jacobian(*centre_raw).inverse() * view_from_plane_j;
+  if (!raw_from_plane.allFinite() || std::abs(raw_from_plane.determinant()) < 1e-6) return std::nullopt;
+  const Eigen::Matrix2d plane_from_raw = raw_from_plane.inverse();
+  const auto cov_bits = [&](double s) {
+    return Eigen::Matrix2d(plane_from_raw * ((s * s + 1.0 / 12) * Eigen::Matrix2d::Identity()) *
+                           plane_from_raw.transpose());
+  };
+  const double bits_per_px = std::sqrt(std::abs(plane_from_raw.determinant()));
+  const int spb = std::clamp(static_cast<int>(std::ceil(2.5 / (bits_per_px * std::sqrt(sigma * sigma + 1.0 / 12)))),
+                             options.samples_per_bit / 2, 4 * options.samples_per_bit);
+  const double max_sigma_bits =
+      std::sqrt(cov_bits(sigma + kSigmaStep).selfadjointView<Eigen::Upper>().eigenvalues().maxCoeff());
+  const double margin = 3.5 * max_sigma_bits + 1;
+  const Eigen::Vector2d lo = plane[3] + ((region_lo - plane[3]).array() - margin).cwiseProduct(Eigen::Array2d::Constant(spb)).floor().matrix() / spb;
+  const Eigen::Vector2d hi = region_hi.array() + margin;
+  const cv::Mat sharp = BlurredPattern::Sharp(pattern, lo, hi, spb);
+  return PatternRenders{BlurredPattern(sharp, lo, spb, cov_bits(sigma)),
+                        BlurredPattern(sharp, lo, spb, cov_bits(sigma + kSigmaStep))};
+}
+
+// The fit's parameters: the 4 view corners' offsets (8), black, contrast, tau (the blur between
+// the two renders, linearly) and two tone terms.
+using Vector13 = Eigen::Matrix<double, 13, 1>;
+
+// The region's pixels as the renders model them, for parameters q: each pixel's plane point
+// through the homography of the moved corners, the pattern there (blurred between the two
+// renders by tau), through the levels and the tone terms.
+struct PatternModel {
+  const Eigen::Vector2d (&view_corners)[4];
+  const Eigen::Vector2d (&plane)[4];
+  const std::vector<PatternPixel>& pixels;
+  const PatternRenders& renders;
+
+  // Residuals (model - pixel) and, where asked, the pattern at sigma and the renders' difference.
+  void Evaluate(const Vector13& q, Eigen::VectorXd* r, Eigen::VectorXd* b_sigma, Eigen::VectorXd* b_diff) const {
+    const int n = static_cast<int>(pixels.size());
+    Eigen::Vector2d c[4];
+    for (int k = 0; k < 4; ++k) c[k] = view_corners[k] + q.segment<2>(2 * k);
+    const Eigen::Matrix3d plane_from_view = HomographyFrom(c, plane);
+    for (int i = 0; i < n; ++i) {
+      const Eigen::Vector2d bits = Apply(plane_from_view, pixels[i].view);
+      const double b0 = renders.at_sigma.At(bits), b1 = renders.at_wider.At(bits);
+      if (b_sigma) (*b_sigma)(i) = b0;
+      if (b_diff) (*b_diff)(i) = b1 - b0;
+      const double b = b0 + q(10) * (b1 - b0);
+      (*r)(i) = q(8) + q(9) * b + q(11) * b * (1 - b) + q(12) * b * (1 - b) * (1 - 2 * b) - pixels[i].value;
+    }
+  }
+
+  // The residuals' Jacobian at p (b0, bd: Evaluate's pattern values there). The corners' columns
+  // by the chain rule: the pattern's gradient at each pixel's plane point times how that point
+  // moves with each corner (the homography redone per corner).
+  Eigen::MatrixXd Jacobian(const Vector13& p, const Eigen::VectorXd& b0, const Eigen::VectorXd& bd,
+                           bool tone_terms) const {
+    const int n = static_cast<int>(pixels.size());
+    Eigen::MatrixXd jacobian(n, 13);
+    {
+      constexpr double kStep = 0.01;  // view px
+      Eigen::Vector2d c[4];
+      for (int k = 0; k < 4; ++k) c[k] = view_corners[k] + p.segment<2>(2 * k);
+      const Eigen::Matrix3d plane_from_view = HomographyFrom(c, plane);
+      Eigen::Matrix3d moved[8];
+      for (int k = 0; k < 8; ++k) {
+        Eigen::Vector2d ck[4];
+        std::copy(c, c + 4, ck);
+        ck[k / 2](k % 2) += kStep;
+        moved[k] = HomographyFrom(ck, plane);
+      }
+      for (int i = 0; i < n; ++i) {
+        const Eigen::Vector2d bits = Apply(plane_from_view, pixels[i].view);
+        Eigen::Vector2d g0, g1;
+        const double v0 = renders.at_sigma.At(bits, &g0), v1 = renders.at_wider.At(bits, &g1);
+        const double b = v0 + p(10) * (v1 - v0);
+        const double dtone = p(9) + p(11) * (1 - 2 * b) + p(12) * (1 - 6 * b + 6 * b * b);
+        const Eigen::Vector2d g = dtone * (g0 + p(10) * (g1 - g0));
+        for (int k = 0; k < 8; ++k) jacobian(i, k) = g.dot(Apply(moved[k], pixels[i].view) - bits) / kStep;
+      }
+    }
+    const Eigen::ArrayXd b = (b0 + p(10) * bd).array();
+    jacobian.col(8).setOnes();
+    jacobian.col(9) = b.matrix();
+    const Eigen::ArrayXd dtone = p(9) + p(11) * (1 - 2 * b) + p(12) * (1 - 6 * b + 6 * b * b);
+    jacobian.col(10) = (dtone * bd.array()).matrix();
+    jacobian.col(11) = (b * (1 - b)).matrix();
+    jacobian.col(12) = (b * (1 - b) * (1 - 2 * b)).matrix();
+    if (!tone_terms) jacobian.rightCols<2>().setZero();
+    return jacobian;
+  }
+};
+
+// Levenberg-Marquardt on the model's parameters from *p (tau clamped to [-2, 3]) until no step
+// improves or the corners move under 1e-4 view px; *cost the final sum of squared residuals.
+// False where a step is not finite.
+bool FitPatternModel(const PatternModel& model, const TagPatternFitOptions& options, Vector13* p, double* cost) {
+  const int n = static_cast<int>(model.pixels.size());
+  Eigen::VectorXd r(n), b0(n), bd(n), r_try(n);
+  model.Evaluate(*p, &r, &b0, &bd);
+  *cost = r.squaredNorm();
+  double lambda = 1e-3;
+  for (int it = 0; it < options.max_iterations; ++it) {
+    const Eigen::MatrixXd jacobian = model.Jacobian(*p, b0, bd, options.tone_terms);
+    const Eigen::Matrix<double, 13, 13> h = jacobian.transpose() * jacobian;
+    const Vector13 g = jacobian.transpose() * r;
+    bool improved = false;
+    Vector13 step = Vector13::Zero();
+    for (int attempt = 0; attempt < 8 && !improved; ++attempt) {
+      Eigen::Matrix<double, 13, 13> damped = h;
+      damped.diagonal() += lambda * h.diagonal();
+      if (!options.tone_terms) damped.diagonal().tail<2>().setOnes();
+      step = damped.ldlt().solve(-g);
+      if (!step.allFinite()) return false;
+      Vector13 q = *p + step;
+      q(10) = std::clamp(q(10), -2.0, 3.0);
+      model.Evaluate(q, &r_try, nullptr, nullptr);
+      if (r_try.squaredNorm() < *cost) {
+        *p = q;
+        model.Evaluate(*p, &r, &b0, &bd);
+        *cost = r.squaredNorm();
+        lambda = std::max(1e-6, lambda / 4);
+        improved = true;
+      } else {
+        lambda *= 8;
+      }
+    }
+    if (!improved || step.head<8>().cwiseAbs().maxCoeff() < 1e-4) break;
+  }
+  return true;
+}
+
+std::optional<RegionFit> FitPatternRegion(const cv::Mat& grey, const RingView& view, const TargetPattern& pattern,
+                                          const Eigen::Vector2d (&plane)[4], const Eigen::Vector2d& region_lo,
+                                          const Eigen::Vector2d& region_hi,
+                                          const Eigen::Vector2d (&corners_in_view)[4],
+                                          const TagPatternFitOptions& options) {
+  Eigen::Vector2d view_corners[4];
+  std::copy(corners_in_view, corners_in_view + 4, view_corners);
+  const Eigen::Vector2d centre_bits = 0.25 * (plane[0] + plane[1] + plane[2] + plane[3]);
+
+  // The view's map sampled over the fitted region (where it has one) and inverted roughly.
+  const Eigen::Matrix3d view_from_plane0 = HomographyFrom(plane, view_corners);
+  const std::optional<RegionMap> region_map = MapOverRegion(view, view_from_plane0, region_lo, region_hi);
+  if (!region_map) return std::nullopt;
+  const std::optional<std::vector<PatternPixel>> pixels =
+      RegionPixels(grey, view, *region_map, view_from_plane0.inverse(), region_lo, region_hi, options);
+  if (!pixels) return std::nullopt;
+  const int n = static_cast<int>(pixels->size());
   // Levels from the pixels' spread; the blur from a camera's typical defocus, then fitted.
   std::vector<double> values;
-  for (const Pixel& p : pixels) values.push_back(p.value);
+  for (const PatternPixel& p : *pixels) values.push_back(p.value);
   std::sort(values.begin(), values.end());
   const double black = values[n / 20], white = values[n - 1 - n / 20];
   double sigma = 0.8;
-  constexpr double kSigmaStep = 0.2;
 
-  // Parameters: the 4 view corners' offsets (8), black, contrast, and tau: the blur between
-  // the two renders at sigma and sigma + kSigmaStep, linearly.
-  using Vector13 = Eigen::Matrix<double, 13, 1>;
   Vector13 p = Vector13::Zero();
   p(8) = black;
   p(9) = white - black;
   double misfit = 0;
   for (int round = 0; round < options.max_rounds; ++round) {
-    // d raw / d plane at the tag's centre: the pixel's blur (Gaussian sigma plus the pixel's box)
-    // in bits.
     Eigen::Vector2d corners_now[4];
     for (int k = 0; k < 4; ++k) corners_now[k] = view_corners[k] + p.segment<2>(2 * k);
-    const Eigen::Matrix3d view_from_plane = HomographyFrom(plane, corners_now);
-    Eigen::Matrix2d view_from_plane_j;
-    for (int a = 0; a < 2; ++a) {
-      Eigen::Vector2d d = Eigen::Vector2d::Zero();
-      d(a) = 0.01;
-      view_from_plane_j.col(a) = (Apply(view_from_plane, centre_bits + d) - Apply(view_from_plane, centre_bits - d)) / 0.02;
-    }
-    const Eigen::Vector2d centre_view = Apply(view_from_plane, centre_bits);
-    const auto centre_raw = view.ViewToRaw(centre_view);
-    if (!centre_raw) return std::nullopt;
-    const Eigen::Matrix2d raw_from_plane = map.Jacobian(*centre_raw).inverse() * view_from_plane_j;
-    if (!raw_from_plane.allFinite() || std::abs(raw_from_plane.determinant()) < 1e-6) return std::nullopt;
-    const Eigen::Matrix2d plane_from_raw = raw_from_plane.inverse();
-    const auto cov_bits = [&](double s) {
-      return Eigen::Matrix2d(plane_from_raw * ((s * s + 1.0 / 12) * Eigen::Matrix2d::Identity()) *
-                             plane_from_raw.transpose());
-    };
-    // Samples per bit: the blur at least 2.5 samples wide (bilinear look-ups stay smooth).
-    const double bits_per_px = std::sqrt(std::abs(plane_from_raw.determinant()));
-    const int spb = std::clamp(static_cast<int>(std::ceil(2.5 / (bits_per_px * std::sqrt(sigma * sigma + 1.0 / 12)))),
-                               options.samples_per_bit / 2, 4 * options.samples_per_bit);
-    const double max_sigma_bits =
-        std::sqrt(cov_bits(sigma + kSigmaStep).selfadjointView<Eigen::Upper>().eigenvalues().maxCoeff());
-    // Whole samples from the top-left control point (a tag's origin): its cells' edges fall
-    // between samples.
-    const double margin = 3.5 * max_sigma_bits + 1;
-    const Eigen::Vector2d lo = plane[3] + ((region_lo - plane[3]).array() - margin).cwiseProduct(Eigen::Array2d::Constant(spb)).floor().matrix() / spb;
-    const Eigen::Vector2d hi = region_hi.array() + margin;
-    const cv::Mat sharp = BlurredPattern::Sharp(pattern, lo, hi, spb);
-    const BlurredPattern at_sigma(sharp, lo, spb, cov_bits(sigma));
-    const BlurredPattern at_wider(sharp, lo, spb, cov_bits(sigma + kSigmaStep));
-
+    const std::optional<PatternRenders> renders = RenderAtBlur(view, region_map->map, pattern, plane, corners_now,
+                                                               centre_bits, region_lo, region_hi, sigma, options);
+    if (!renders) return std::nullopt;
     p(10) = 0;
-    // Residuals and the model's pattern values for parameters q.
-    const auto evaluate = [&](const Vector13& q, Eigen::VectorXd* r, Eigen::VectorXd* b_sigma,
-                              Eigen::VectorXd* b_diff) {
-      Eigen::Vector2d c[4];
-      for (int k = 0; k < 4; ++k) c[k] = view_corners[k] + q.segment<2>(2 * k);
-      const Eigen::Matrix3d plane_from_view = HomographyFrom(c, plane);
-      for (int i = 0; i < n; ++i) {
-        const Eigen::Vector2d bits = Apply(plane_from_view, pixels[i].view);
-        const double b0 = at_sigma.At(bits), b1 = at_wider.At(bits);
-        if (b_sigma) (*b_sigma)(i) = b0;
-        if (b_diff) (*b_diff)(i) = b1 - b0;
-        const double b = b0 + q(10) * (b1 - b0);
-        (*r)(i) = q(8) + q(9) * b + q(11) * b * (1 - b) + q(12) * b * (1 - b) * (1 - 2 * b) - pixels[i].value;
-      }
-    };
-    Eigen::VectorXd r(n), b0(n), bd(n), r_try(n);
-    evaluate(p, &r, &b0, &bd);
-    double cost = r.squaredNorm(), lambda = 1e-3;
-    for (int it = 0; it < options.max_iterations; ++it) {
-      // The corners' columns by the chain rule: the pattern's gradient at each pixel's plane
-      // point times how that point moves with each corner (the homography redone per corner).
-      Eigen::MatrixXd jacobian(n, 13);
-      {
-        constexpr double kStep = 0.01;  // view px
-        Eigen::Vector2d c[4];
-        for (int k = 0; k < 4; ++k) c[k] = view_corners[k] + p.segment<2>(2 * k);
-        const Eigen::Matrix3d plane_from_view = HomographyFrom(c, plane);
-        Eigen::Matrix3d moved[8];
-        for (int k = 0; k < 8; ++k) {
-          Eigen::Vector2d ck[4];
-          std::copy(c, c + 4, ck);
-          ck[k / 2](k % 2) += kStep;
-          moved[k] = HomographyFrom(ck, plane);
-        }
-        for (int i = 0; i < n; ++i) {
-          const Eigen::Vector2d bits = Apply(plane_from_view, pixels[i].view);
-          Eigen::Vector2d g0, g1;
-          const double v0 = at_sigma.At(bits, &g0), v1 = at_wider.At(bits, &g1);
-          const double b = v0 + p(10) * (v1 - v0);
-          const double dtone = p(9) + p(11) * (1 - 2 * b) + p(12) * (1 - 6 * b + 6 * b * b);
-          const Eigen::Vector2d g = dtone * (g0 + p(10) * (g1 - g0));
-          for (int k = 0; k < 8; ++k) jacobian(i, k) = g.dot(Apply(moved[k], pixels[i].view) - bits) / kStep;
-        }
-      }
-      const Eigen::ArrayXd b = (b0 + p(10) * bd).array();
-      jacobian.col(8).setOnes();
-      jacobian.col(9) = b.matrix();
-      const Eigen::ArrayXd dtone = p(9) + p(11) * (1 - 2 * b) + p(12) * (1 - 6 * b + 6 * b * b);
-      jacobian.col(10) = (dtone * bd.array()).matrix();
-      jacobian.col(11) = (b * (1 - b)).matrix();
-      jacobian.col(12) = (b * (1 - b) * (1 - 2 * b)).matrix();
-      if (!options.tone_terms) jacobian.rightCols<2>().setZero();
-      const Eigen::Matrix<double, 13, 13> h = jacobian.transpose() * jacobian;
-      const Vector13 g = jacobian.transpose() * r;
-      bool improved = false;
-      Vector13 step = Vector13::Zero();
-      for (int attempt = 0; attempt < 8 && !improved; ++attempt) {
-        Eigen::Matrix<double, 13, 13> damped = h;
-        damped.diagonal() += lambda * h.diagonal();
-        if (!options.tone_terms) damped.diagonal().tail<2>().setOnes();
-        step = damped.ldlt().solve(-g);
-        if (!step.allFinite()) return std::nullopt;
-        Vector13 q = p + step;
-        q(10) = std::clamp(q(10), -2.0, 3.0);
-        evaluate(q, &r_try, nullptr, nullptr);
-        if (r_try.squaredNorm() < cost) {
-          p = q;
-          evaluate(p, &r, &b0, &bd);
-          cost = r.squaredNorm();
-          lambda = std::max(1e-6, lambda / 4);
-          improved = true;
-        } else {
-          lambda *= 8;
-        }
-      }
-      if (!improved || step.head<8>().cwiseAbs().maxCoeff() < 1e-4) break;
-    }
+    const PatternModel model{view_corners, plane, *pixels, *renders};
+    double cost = 0;
+    if (!FitPatternModel(model, options, &p, &cost)) return std::nullopt;
     misfit = std::sqrt(cost / n) / std::max(1e-9, p(9));
     const double new_sigma = std::clamp(sigma + p(10) * kSigmaStep, 0.1, 3.0);
     const bool settled = std::abs(new_sigma - sigma) < 0.02;
@@ -479,6 +561,179 @@ std::optional<RegionFit> FitPatternRegion(const cv::Mat& grey, const RingView& v
   fit.contrast = p(9);
   fit.pixels = n;
   for (int k = 0; k < 4; ++k) fit.view_corners[k] = view_corners[k] + p.segment<2>(2 * k);
+  return fit;
+}
+
+// A correlation's result: the best translation (view px, sub-pixel) and the best half a pitch or
+// more from it (to a view pixel), with their scores.
+struct Peak {
+  double best = -2, second = -2;
+  Eigen::Vector2d shift = Eigen::Vector2d::Zero();
+  Eigen::Vector2d second_shift = Eigen::Vector2d::Zero();  // to a view pixel
+};
+
+// The template for a correlation: the pattern over the region [lo, hi] (bits) as `h_inverse`
+// (view -> bits) puts it in the view box at (tx0, ty0), 2 x 2 samples per view pixel, pixels
+// outside the region masked.
+void PatternTemplate(const TargetPattern& pattern, const Eigen::Matrix3d& h_inverse, const Eigen::Vector2d& lo,
+                     const Eigen::Vector2d& hi, int tx0, int ty0, cv::Mat* templ, cv::Mat* mask) {
+  for (int y = 0; y < templ->rows; ++y) {
+    for (int x = 0; x < templ->cols; ++x) {
+      double sum = 0;
+      for (int j = 0; j < 2; ++j) {
+        for (int i = 0; i < 2; ++i) {
+          const Eigen::Vector2d b = Apply(h_inverse, Eigen::Vector2d(tx0 + x + (i - 0.5) / 2, ty0 + y + (j - 0.5) / 2));
+          sum += pattern.At(b.x(), b.y());
+        }
+      }
+      templ->at<float>(y, x) = static_cast<float>(sum / 4);
+      const Eigen::Vector2d b = Apply(h_inverse, Eigen::Vector2d(tx0 + x, ty0 + y));
+      mask->at<float>(y, x) = (b - lo).minCoeff() >= 0 && (hi - b).minCoeff() >= 0 ? 1.0f : 0.0f;
+    }
+  }
+}
+
+// The peaks of a correlation score over `search` (at 1 / f of the resolution), as translations
+// of the template box at (tx0, ty0): the best, refined by a parabola per axis, and the best at
+// least half a pitch (`pitch_view`, view px) from it.
+Peak PeakOf(const cv::Mat& score, const cv::Rect& search, int tx0, int ty0, int f, double pitch_view) {
+  Peak peak;
+  cv::Point at;
+  for (int y = 0; y < score.rows; ++y) {
+    for (int x = 0; x < score.cols; ++x) {
+      const float s = score.at<float>(y, x);
+      if (std::isfinite(s) && s > peak.best) peak.best = s, at = cv::Point(x, y);
+    }
+  }
+  for (int y = 0; y < score.rows; ++y) {
+    for (int x = 0; x < score.cols; ++x) {
+      const float s = score.at<float>(y, x);
+      if (std::isfinite(s) && f * std::hypot(x - at.x, y - at.y) >= 0.5 * pitch_view && s > peak.second) {
+        peak.second = s;
+        peak.second_shift = Eigen::Vector2d(search.x + f * x - tx0, search.y + f * y - ty0);
+      }
+    }
+  }
+  // Sub-pixel: a parabola per axis.
+  const auto vertex = [&](int dx, int dy) {
+    if (at.x - dx < 0 || at.y - dy < 0 || at.x + dx >= score.cols || at.y + dy >= score.rows) return 0.0;
+    const double a = score.at<float>(at.y - dy, at.x - dx), b = score.at<float>(at.y, at.x),
+                 c = score.at<float>(at.y + dy, at.x + dx);
+    const double d = a - 2 * b + c;
+    return d < 0 ? std::clamp(0.5 * (a - c) / d, -0.5, 0.5) : 0.0;
+  };
+  peak.shift = Eigen::Vector2d(search.x + at.x + vertex(1, 0) - tx0, search.y + at.y + vertex(0, 1) - ty0);
+  return peak;
+}
+
+// The whole target's pattern correlated with a view: what every correlation of one alignment
+// shares (the region [lo, hi] in bits, the view's blur, the search radius and the pitch in view
+// px).
+struct PatternCorrelation {
+  const RingView& view;
+  const TargetPattern& pattern;
+  Eigen::Vector2d lo, hi;
+  double blur = 1, radius_view_px = 0, pitch_view = 0;
+
+  // One correlation: the template is the pattern over the region as `h` (bits -> view) puts it
+  // in the view, blurred as the view is, pixels outside the region masked; every translation
+  // within the radius (clipped to the view), at 1 / f of the resolution where f > 1 (the score
+  // only). nullopt where the target leaves the view's map or the template or search is too
+  // small or large.
+  std::optional<Peak> operator()(const Eigen::Matrix3d& h, int f) const {
+    const Eigen::Matrix3d h_inverse = h.inverse();
+    Eigen::Vector2d v_lo(1e9, 1e9), v_hi(-1e9, -1e9);
+    for (const Eigen::Vector2d& c : {lo, hi, Eigen::Vector2d(lo.x(), hi.y()), Eigen::Vector2d(hi.x(), lo.y())}) {
+      const Eigen::Vector2d at = Apply(h, c);
+      if (!at.allFinite() || !view.ViewToRaw(at)) return std::nullopt;  // the whole target in the view's map
+      v_lo = v_lo.cwiseMin(at);
+      v_hi = v_hi.cwiseMax(at);
+    }
+    const int pad = 2;
+    const int tx0 = static_cast<int>(std::floor(v_lo.x())) - pad, ty0 = static_cast<int>(std::floor(v_lo.y())) - pad;
+    const int tw = static_cast<int>(std::ceil(v_hi.x())) + pad + 1 - tx0;
+    const int th = static_cast<int>(std::ceil(v_hi.y())) + pad + 1 - ty0;
+    if (tw < 8 || th < 8 || tw > 400 || th > 400) return std::nullopt;
+    cv::Mat templ(th, tw, CV_32F), mask(th, tw, CV_32F);
+    PatternTemplate(pattern, h_inverse, lo, hi, tx0, ty0, &templ, &mask);
+    cv::GaussianBlur(templ, templ, cv::Size(0, 0), std::max(0.3, blur));
+    const int r = static_cast<int>(std::ceil(radius_view_px));
+    const cv::Rect search =
+        cv::Rect(tx0 - r, ty0 - r, tw + 2 * r, th + 2 * r) & cv::Rect(0, 0, view.image.cols, view.image.rows);
+    if (search.width < tw + 2 || search.height < th + 2) return std::nullopt;
+    cv::Mat image, score;
+    view.image(search).convertTo(image, CV_32F, 1.0 / 255);
+    if (f > 1) {  // at 1 / f of the resolution: the score only
+      cv::resize(image, image, cv::Size(), 1.0 / f, 1.0 / f, cv::INTER_AREA);
+      cv::resize(templ, templ, cv::Size(), 1.0 / f, 1.0 / f, cv::INTER_AREA);
+      cv::resize(mask, mask, cv::Size(), 1.0 / f, 1.0 / f, cv::INTER_AREA);
+      cv::threshold(mask, mask, 0.99, 1.0, cv::THRESH_BINARY);
+      if (image.cols < templ.cols || image.rows < templ.rows) return std::nullopt;
+    }
+    cv::matchTemplate(image, templ, score, cv::TM_CCOEFF_NORMED, mask);
+    return PeakOf(score, search, tx0, ty0, f, pitch_view);
+  }
+};
+
+// The prediction's scale and turn are off too (a few percent, a few degrees): each of a few
+// similarities of `view_from_bits` about the target's centre is correlated, the best kept
+// (*view_from_bits_found: its homography). Scales first, then turns at the best scale; at half
+// the resolution where the target is large enough (the similarity is chosen there), then the
+// chosen one at full resolution.
+std::optional<Peak> BestSimilarity(const PatternCorrelation& correlate, const Eigen::Matrix3d& view_from_bits,
+                                   const Eigen::Vector2d& extent, const TargetAlignOptions& options,
+                                   Eigen::Matrix3d* view_from_bits_found) {
+  const Eigen::Vector2d centre_view = Apply(view_from_bits, 0.5 * extent);
+  std::optional<Peak> found;
+  *view_from_bits_found = view_from_bits;
+  const Eigen::Vector2d corner_view = Apply(view_from_bits, Eigen::Vector2d::Zero());
+  const int coarse = (Apply(view_from_bits, extent) - corner_view).norm() > 48 ? 2 : 1;
+  const auto try_similarity = [&](double scale, double turn_deg) {
+    const double t = turn_deg * M_PI / 180;
+    Eigen::Matrix3d similarity = Eigen::Matrix3d::Identity();
+    similarity.topLeftCorner<2, 2>() << scale * std::cos(t), -scale * std::sin(t), scale * std::sin(t),
+        scale * std::cos(t);
+    similarity.topRightCorner<2, 1>() = centre_view - similarity.topLeftCorner<2, 2>() * centre_view;
+    const Eigen::Matrix3d h = similarity * view_from_bits;
+    const auto peak = correlate(h, coarse);
+    if (peak && (!found || peak->best > found->best)) {
+      found = peak;
+      *view_from_bits_found = h;
+      return true;
+    }
+    return false;
+  };
+  const std::vector<double> scales =
+      options.search_similarity ? std::vector<double>{1.0, 0.96, 1.04, 0.92, 1.08} : std::vector<double>{1.0};
+  const std::vector<double> turns = options.search_similarity ? std::vector<double>{-4.0, 4.0} : std::vector<double>{};
+  double best_scale = 1;
+  for (const double scale : scales) {
+    if (try_similarity(scale, 0)) best_scale = scale;
+  }
+  for (const double turn_deg : turns) try_similarity(best_scale, turn_deg);
+  if (found && coarse > 1) found = correlate(*view_from_bits_found, 1);
+  return found;
+}
+
+// The whole pattern (control points `plane`: its outer tag corners, bits) fitted to the raw
+// pixels from `view_from_bits` moved by `from` (view px), as an alignment for the tags' own
+// fits (the blur's first estimate and a coarser render do); nullopt where the fit fails or a
+// corner moves more than max_shift_pitches pitches.
+std::optional<RegionFit> FitWholePattern(const cv::Mat& grey, const PatternCorrelation& c,
+                                         const Eigen::Vector2d (&plane)[4], const Eigen::Matrix3d& view_from_bits,
+                                         const Eigen::Vector2d& from, const TargetAlignOptions& options) {
+  TagPatternFitOptions fit_options;
+  fit_options.max_misfit = options.max_misfit;
+  fit_options.max_pixels = options.max_fit_pixels;
+  fit_options.max_rounds = 2;
+  fit_options.max_iterations = 12;
+  fit_options.samples_per_bit = 4;
+  Eigen::Vector2d at[4];
+  for (int k = 0; k < 4; ++k) at[k] = Apply(view_from_bits, plane[k]) + from;
+  auto fit = FitPatternRegion(grey, c.view, c.pattern, plane, c.lo, c.hi, at, fit_options);
+  for (int k = 0; k < 4 && fit; ++k) {
+    if (!((fit->view_corners[k] - at[k]).norm() <= options.max_shift_pitches * c.pitch_view)) fit.reset();
+  }
   return fit;
 }
 
@@ -537,121 +792,10 @@ std::optional<TargetAlignment> AlignTargetPattern(const cv::Mat& grey, const Rin
       0.5 * ((Apply(view_from_bits, Eigen::Vector2d(pattern.pitch_bits(), 0)) - origin_view).norm() +
              (Apply(view_from_bits, Eigen::Vector2d(0, pattern.pitch_bits())) - origin_view).norm());
   const double blur = view.blur_sigma ? *view.blur_sigma : 1.0;
+  const PatternCorrelation correlate{view, pattern, lo, hi, blur, radius_view_px, pitch_view};
 
-  // One correlation: the template is the pattern over the region as `h` (bits -> view) puts it
-  // in the view (2 x 2 samples per view pixel), blurred as the view is, pixels outside the
-  // region masked; every translation within the radius (clipped to the view). The best
-  // translation (view px, sub-pixel) and the best half a pitch or more from it.
-  struct Peak {
-    double best = -2, second = -2;
-    Eigen::Vector2d shift = Eigen::Vector2d::Zero();
-    Eigen::Vector2d second_shift = Eigen::Vector2d::Zero();  // to a view pixel
-  };
-  const auto correlate = [&](const Eigen::Matrix3d& h, int f) -> std::optional<Peak> {
-    const Eigen::Matrix3d h_inverse = h.inverse();
-    Eigen::Vector2d v_lo(1e9, 1e9), v_hi(-1e9, -1e9);
-    for (const Eigen::Vector2d& c : {lo, hi, Eigen::Vector2d(lo.x(), hi.y()), Eigen::Vector2d(hi.x(), lo.y())}) {
-      const Eigen::Vector2d at = Apply(h, c);
-      if (!at.allFinite() || !view.ViewToRaw(at)) return std::nullopt;  // the whole target in the view's map
-      v_lo = v_lo.cwiseMin(at);
-      v_hi = v_hi.cwiseMax(at);
-    }
-    const int pad = 2;
-    const int tx0 = static_cast<int>(std::floor(v_lo.x())) - pad, ty0 = static_cast<int>(std::floor(v_lo.y())) - pad;
-    const int tw = static_cast<int>(std::ceil(v_hi.x())) + pad + 1 - tx0;
-    const int th = static_cast<int>(std::ceil(v_hi.y())) + pad + 1 - ty0;
-    if (tw < 8 || th < 8 || tw > 400 || th > 400) return std::nullopt;
-    cv::Mat templ(th, tw, CV_32F), mask(th, tw, CV_32F);
-    for (int y = 0; y < th; ++y) {
-      for (int x = 0; x < tw; ++x) {
-        double sum = 0;
-        for (int j = 0; j < 2; ++j) {
-          for (int i = 0; i < 2; ++i) {
-            const Eigen::Vector2d b = Apply(h_inverse, Eigen::Vector2d(tx0 + x + (i - 0.5) / 2, ty0 + y + (j - 0.5) / 2));
-            sum += pattern.At(b.x(), b.y());
-          }
-        }
-        templ.at<float>(y, x) = static_cast<float>(sum / 4);
-        const Eigen::Vector2d b = Apply(h_inverse, Eigen::Vector2d(tx0 + x, ty0 + y));
-        mask.at<float>(y, x) = (b - lo).minCoeff() >= 0 && (hi - b).minCoeff() >= 0 ? 1.0f : 0.0f;
-      }
-    }
-    cv::GaussianBlur(templ, templ, cv::Size(0, 0), std::max(0.3, blur));
-    const int r = static_cast<int>(std::ceil(radius_view_px));
-    const cv::Rect search =
-        cv::Rect(tx0 - r, ty0 - r, tw + 2 * r, th + 2 * r) & cv::Rect(0, 0, view.image.cols, view.image.rows);
-    if (search.width < tw + 2 || search.height < th + 2) return std::nullopt;
-    cv::Mat image, score;
-    view.image(search).convertTo(image, CV_32F, 1.0 / 255);
-    if (f > 1) {  // at 1 / f of the resolution: the score only
-      cv::resize(image, image, cv::Size(), 1.0 / f, 1.0 / f, cv::INTER_AREA);
-      cv::resize(templ, templ, cv::Size(), 1.0 / f, 1.0 / f, cv::INTER_AREA);
-      cv::resize(mask, mask, cv::Size(), 1.0 / f, 1.0 / f, cv::INTER_AREA);
-      cv::threshold(mask, mask, 0.99, 1.0, cv::THRESH_BINARY);
-      if (image.cols < templ.cols || image.rows < templ.rows) return std::nullopt;
-    }
-    cv::matchTemplate(image, templ, score, cv::TM_CCOEFF_NORMED, mask);
-    Peak peak;
-    cv::Point at;
-    for (int y = 0; y < score.rows; ++y) {
-      for (int x = 0; x < score.cols; ++x) {
-        const float s = score.at<float>(y, x);
-        if (std::isfinite(s) && s > peak.best) peak.best = s, at = cv::Point(x, y);
-      }
-    }
-    for (int y = 0; y < score.rows; ++y) {
-      for (int x = 0; x < score.cols; ++x) {
-        const float s = score.at<float>(y, x);
-        if (std::isfinite(s) && f * std::hypot(x - at.x, y - at.y) >= 0.5 * pitch_view && s > peak.second) {
-          peak.second = s;
-          peak.second_shift = Eigen::Vector2d(search.x + f * x - tx0, search.y + f * y - ty0);
-        }
-      }
-    }
-    // Sub-pixel: a parabola per axis.
-    const auto vertex = [&](int dx, int dy) {
-      if (at.x - dx < 0 || at.y - dy < 0 || at.x + dx >= score.cols || at.y + dy >= score.rows) return 0.0;
-      const double a = score.at<float>(at.y - dy, at.x - dx), b = score.at<float>(at.y, at.x),
-                   c = score.at<float>(at.y + dy, at.x + dx);
-      const double d = a - 2 * b + c;
-      return d < 0 ? std::clamp(0.5 * (a - c) / d, -0.5, 0.5) : 0.0;
-    };
-    peak.shift = Eigen::Vector2d(search.x + at.x + vertex(1, 0) - tx0, search.y + at.y + vertex(0, 1) - ty0);
-    return peak;
-  };
-  // The prediction's scale and turn are off too (a few percent, a few degrees): each of a few
-  // similarities about the target's centre is correlated, the best kept.
-  const Eigen::Vector2d centre_view = Apply(view_from_bits, 0.5 * extent);
-  std::optional<Peak> found;
-  Eigen::Matrix3d view_from_bits_found = view_from_bits;
-  const Eigen::Vector2d corner_view = Apply(view_from_bits, Eigen::Vector2d::Zero());
-  const int coarse = (Apply(view_from_bits, extent) - corner_view).norm() > 48 ? 2 : 1;
-  const auto try_similarity = [&](double scale, double turn_deg) {
-    const double t = turn_deg * M_PI / 180;
-    Eigen::Matrix3d similarity = Eigen::Matrix3d::Identity();
-    similarity.topLeftCorner<2, 2>() << scale * std::cos(t), -scale * std::sin(t), scale * std::sin(t),
-        scale * std::cos(t);
-    similarity.topRightCorner<2, 1>() = centre_view - similarity.topLeftCorner<2, 2>() * centre_view;
-    const Eigen::Matrix3d h = similarity * view_from_bits;
-    const auto peak = correlate(h, coarse);
-    if (peak && (!found || peak->best > found->best)) {
-      found = peak;
-      view_from_bits_found = h;
-      return true;
-    }
-    return false;
-  };
-  // Scales first, then turns at the best scale; at half the resolution where the target is
-  // large enough (the similarity is chosen there), then the chosen one at full resolution.
-  const std::vector<double> scales =
-      options.search_similarity ? std::vector<double>{1.0, 0.96, 1.04, 0.92, 1.08} : std::vector<double>{1.0};
-  const std::vector<double> turns = options.search_similarity ? std::vector<double>{-4.0, 4.0} : std::vector<double>{};
-  double best_scale = 1;
-  for (const double scale : scales) {
-    if (try_similarity(scale, 0)) best_scale = scale;
-  }
-  for (const double turn_deg : turns) try_similarity(best_scale, turn_deg);
-  if (found && coarse > 1) found = correlate(view_from_bits_found, 1);
+  Eigen::Matrix3d view_from_bits_found;
+  const std::optional<Peak> found = BestSimilarity(correlate, view_from_bits, extent, options, &view_from_bits_found);
   if (!found || !(found->best >= options.min_score) || found->best - found->second < options.min_margin_to_fit) {
     return std::nullopt;
   }
@@ -660,30 +804,13 @@ std::optional<TargetAlignment> AlignTargetPattern(const cv::Mat& grey, const Rin
 
   // The whole pattern fitted to the raw pixels, its outer tag corners free.
   const Eigen::Vector2d plane[4] = {{0, extent.y()}, {extent.x(), extent.y()}, {extent.x(), 0}, {0, 0}};
-  TagPatternFitOptions fit_options;
-  fit_options.max_misfit = options.max_misfit;
-  fit_options.max_pixels = options.max_fit_pixels;
-  // An alignment for the tags' own fits: the blur's first estimate and a coarser render do.
-  fit_options.max_rounds = 2;
-  fit_options.max_iterations = 12;
-  fit_options.samples_per_bit = 4;
-  // The whole pattern fitted from `shift`; nullopt where it fails or moves too far.
-  const auto fit_from = [&](const Eigen::Vector2d& from) -> std::optional<RegionFit> {
-    Eigen::Vector2d at[4];
-    for (int k = 0; k < 4; ++k) at[k] = Apply(view_from_bits_found, plane[k]) + from;
-    auto fit = FitPatternRegion(grey, view, pattern, plane, lo, hi, at, fit_options);
-    for (int k = 0; k < 4 && fit; ++k) {
-      if (!((fit->view_corners[k] - at[k]).norm() <= options.max_shift_pitches * pitch_view)) fit.reset();
-    }
-    return fit;
-  };
-  const auto fit = fit_from(shift);
+  const auto fit = FitWholePattern(grey, correlate, plane, view_from_bits_found, shift, options);
   if (!fit) return std::nullopt;
   // A close runner-up (an elongated grid shifted by a pitch along its length still overlaps
   // most of itself): the pattern fitted there too must fit clearly worse, or land where the
   // best did.
   if (found->best - found->second < options.min_margin) {
-    const auto other = fit_from(found->second_shift);
+    const auto other = FitWholePattern(grey, correlate, plane, view_from_bits_found, found->second_shift, options);
     const bool same = other && (other->view_corners[3] - fit->view_corners[3]).norm() < 0.25 * pitch_view;
     if (other && !same && !(other->misfit >= options.min_misfit_ratio * fit->misfit)) return std::nullopt;
   }

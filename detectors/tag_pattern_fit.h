@@ -9,6 +9,15 @@
 // each border edge with the bit behind it as a bar) erred ~0.1 px per corner even without noise
 // (hid1 session, defocus alone). The pattern is known exactly once the tag is read; every bit
 // edge inside it carries the geometry too.
+//
+// Scale and failure modes, in short: meant for small tags (the inner ring's 1.4-2 raw px per
+// bit) under a camera's blur (fitted from 0.8 px, clamped to 0.1-3 px). The fit returns nothing
+// where the ring's map holds too little of the region (under 30 of its 81 samples) or the region
+// leaves the image, under 40 pixels remain, the fitted contrast is under min_contrast, the rms
+// misfit exceeds max_misfit of the contrast, or a corner moves more than max_shift_px (1.5 raw
+// px). AlignTargetPattern returns nothing for a target the view's map does not hold whole, a
+// template over 400 view px, a best correlation under min_score (0.5), or a runner-up half a
+// pitch away too close to tell the grid's shift.
 #pragma once
 
 #include <optional>
