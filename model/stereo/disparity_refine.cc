@@ -1,0 +1,194 @@
+#include "model/stereo/disparity_refine.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <stdexcept>
+#include <vector>
+
+#include <opencv2/core/utility.hpp>
+
+namespace omni::stereo {
+namespace {
+
+// Catmull-Rom cubic through column samples p[-1..2] at t in [0, 1), and its derivative.
+inline void CatmullRom(const float* p0, size_t step, double t, double* value, double* slope) {
+  const double pm = p0[-static_cast<std::ptrdiff_t>(step)], a = p0[0], b = p0[step],
+               pp = p0[2 * step];
+  const double c1 = 0.5 * (b - pm), c2 = pm - 2.5 * a + 2 * b - 0.5 * pp,
+               c3 = 0.5 * (pp - pm) + 1.5 * (a - b);
+  *value = a + t * (c1 + t * (c2 + t * c3));
+  *slope = c1 + t * (2 * c2 + t * 3 * c3);
+}
+
+// The same cubic as weights on the taps p[-1], p[0], p[1], p[2]: value = w . p, slope = w' . p.
+inline void CatmullRomWeights(double t, double w[4], double w_slope[4]) {
+  const double t2 = t * t, t3 = t2 * t;
+  w[0] = -0.5 * t + t2 - 0.5 * t3;
+  w[1] = 1 - 2.5 * t2 + 1.5 * t3;
+  w[2] = 0.5 * t + 2 * t2 - 1.5 * t3;
+  w[3] = -0.5 * t2 + 0.5 * t3;
+  w_slope[0] = -0.5 + 2 * t - 1.5 * t2;
+  w_slope[1] = -5 * t + 4.5 * t2;
+  w_slope[2] = 0.5 + 4 * t - 4.5 * t2;
+  w_slope[3] = -t + 1.5 * t2;
+}
+
+}  // namespace
+
+bool RefineDisparity(const cv::Mat& xi1, const cv::Mat& xi2, int u, int v, double d0,
+                     int half_width, int half_height, double* d) {
+  const int w = xi1.cols;
+  const size_t step = xi2.step1();
+  double disparity = d0;
+  for (int iteration = 0; iteration < 4; ++iteration) {
+    // Normal equations of r = I1 - I2(v' - d) - b in (delta d, b): dr/dd = I2'(v' - d), dr/db = -1.
+    double h11 = 0, h12 = 0, h22 = 0, g1 = 0, g2 = 0;
+    const double y = v - disparity;
+    const int y0 = static_cast<int>(std::floor(y));
+    const double t = y - y0;
+    if (y0 - half_height - 1 < 0 || y0 + half_height + 2 >= xi2.rows ||
+        v - half_height < 0 || v + half_height >= xi1.rows) {
+      return false;
+    }
+    for (int du = -half_width; du <= half_width; ++du) {
+      const int c = (u + du + w) % w;
+      for (int dv = -half_height; dv <= half_height; ++dv) {
+        double i2, slope;
+        CatmullRom(xi2.ptr<float>(y0 + dv) + c, step, t, &i2, &slope);
+        const double r = xi1.at<float>(v + dv, c) - i2;
+        h11 += slope * slope;
+        h12 -= slope;
+        h22 += 1;
+        g1 += slope * r;
+        g2 -= r;
+      }
+    }
+    const double det = h11 * h22 - h12 * h12;
+    if (!(det > 1e-6 * h22 * h11) || h11 < 1e-3 * h22) return false;  // flat window
+    // Gauss-Newton step (J^T J) x = -J^T r, J = (slope, -1); the offset b is re-solved from 0 at
+    // every step (the problem is linear in it), only the disparity step is kept.
+    const double delta = -(h22 * g1 - h12 * g2) / det;
+    disparity += delta;
+    if (std::abs(disparity - d0) > 1.0) return false;
+    if (std::abs(delta) < 1e-3) break;
+  }
+  *d = disparity;
+  return true;
+}
+
+DisparityRefiner::DisparityRefiner(const cv::Mat& xi1_t, const cv::Mat& xi2_t, int half_width,
+                                   int half_height)
+    : t1_(xi1_t), t2_(xi2_t), half_width_(half_width), half_height_(half_height) {
+  if (xi1_t.type() != CV_8UC1 || xi2_t.type() != CV_8UC1 || xi1_t.size() != xi2_t.size()) {
+    throw std::invalid_argument("DisparityRefiner: expected two 8-bit images of the same size");
+  }
+  if (half_width < 0 || half_height < 0 ||
+      (2 * half_width + 1) * (2 * half_height + 1) > 33025) {  // 33025 * 255^2 < 2^31
+    throw std::invalid_argument("DisparityRefiner: window of at most 33025 samples expected");
+  }
+  const int columns = t1_.rows, rows = t1_.cols;  // of the panorama
+  sum1_ = cv::Mat::zeros(columns, rows, CV_32S);
+  sum2_ = cv::Mat::zeros(columns, rows, CV_32S);
+  for (cv::Mat& lag : lag_) lag = cv::Mat::zeros(columns, rows, CV_32S);
+  const int hw = half_width, hh = half_height;
+  cv::parallel_for_(cv::Range(0, columns), [&](const cv::Range& range) {
+    std::vector<std::int32_t> acc(rows);
+    // Window sums over rows [m - hh, m + hh] of the column sums acc (running sum).
+    auto window = [&](cv::Mat* out, int u, int last_row) {
+      std::int32_t* o = out->ptr<std::int32_t>(u);
+      if (last_row - 2 * hh < 0) return;
+      std::int32_t running = 0;
+      for (int k = 0; k <= 2 * hh; ++k) running += acc[k];
+      o[hh] = running;
+      for (int m = hh + 1; m + hh <= last_row; ++m) {
+        running += acc[m + hh] - acc[m - hh - 1];
+        o[m] = running;
+      }
+    };
+    for (int u = range.start; u < range.end; ++u) {
+      for (int which = 0; which < 6; ++which) {  // sum1, sum2, lag 0..3
+        const cv::Mat& image = which == 0 ? t1_ : t2_;
+        const int lag = which < 2 ? -1 : which - 2;
+        std::fill(acc.begin(), acc.end(), 0);
+        for (int du = -hw; du <= hw; ++du) {
+          const std::uint8_t* p = image.ptr<std::uint8_t>(((u + du) % columns + columns) % columns);
+          if (lag < 0) {
+            for (int m = 0; m < rows; ++m) acc[m] += p[m];
+          } else {
+            for (int m = 0; m + lag < rows; ++m) acc[m] += p[m] * p[m + lag];
+          }
+        }
+        cv::Mat* out = which == 0 ? &sum1_ : which == 1 ? &sum2_ : &lag_[lag];
+        window(out, u, rows - 1 - std::max(lag, 0));
+      }
+    }
+  });
+}
+
+bool DisparityRefiner::Refine(int u, int v, double d0, double* d) const {
+  const int columns = t1_.rows, rows = t1_.cols, hh = half_height_, hw = half_width_;
+  if (v - hh < 0 || v + hh >= rows) return false;
+  const double n = static_cast<double>((2 * hw + 1) * (2 * hh + 1));
+  const double sum1 = sum1_.at<std::int32_t>(u, v);
+  const std::int32_t* sum2 = sum2_.ptr<std::int32_t>(u);
+  const std::int32_t* lag[4] = {lag_[0].ptr<std::int32_t>(u), lag_[1].ptr<std::int32_t>(u),
+                                lag_[2].ptr<std::int32_t>(u), lag_[3].ptr<std::int32_t>(u)};
+  double S[4], Q[4][4], C[4];
+  int moments_row = -1;
+  double disparity = d0;
+  for (int iteration = 0; iteration < 4; ++iteration) {
+    const double y = v - disparity;
+    const int y0 = static_cast<int>(std::floor(y));
+    const double t = y - y0;
+    if (y0 - hh - 1 < 0 || y0 + hh + 2 >= rows) return false;
+    if (y0 != moments_row) {
+      // Tap j of the sample in row y0 + k is row y0 + k + j - 1: windows centred on y0 + j - 1.
+      std::int32_t c[4] = {0, 0, 0, 0};
+      for (int du = -hw; du <= hw; ++du) {
+        const int col = ((u + du) % columns + columns) % columns;
+        const std::uint8_t* a = t1_.ptr<std::uint8_t>(col) + v - hh;
+        const std::uint8_t* b = t2_.ptr<std::uint8_t>(col) + y0 - hh - 1;
+        for (int k = 0; k <= 2 * hh; ++k) {
+          const std::int32_t ak = a[k];
+          c[0] += ak * b[k];
+          c[1] += ak * b[k + 1];
+          c[2] += ak * b[k + 2];
+          c[3] += ak * b[k + 3];
+        }
+      }
+      for (int j = 0; j < 4; ++j) {
+        const int m = y0 + j - 1;
+        C[j] = c[j];
+        S[j] = sum2[m];
+        for (int l = j; l < 4; ++l) Q[j][l] = Q[l][j] = lag[l - j][m];
+      }
+      moments_row = y0;
+    }
+    double w[4], ws[4];
+    CatmullRomWeights(t, w, ws);
+    // Sums of RefineDisparity's normal equations, slope_k = ws . p_k, I2_k = w . p_k.
+    double ws_q_ws = 0, ws_q_w = 0, ws_s = 0, w_s = 0, ws_c = 0;
+    for (int j = 0; j < 4; ++j) {
+      double q_ws = 0, q_w = 0;
+      for (int l = 0; l < 4; ++l) q_ws += Q[j][l] * ws[l], q_w += Q[j][l] * w[l];
+      ws_q_ws += ws[j] * q_ws;
+      ws_q_w += ws[j] * q_w;
+      ws_s += ws[j] * S[j];
+      w_s += w[j] * S[j];
+      ws_c += ws[j] * C[j];
+    }
+    const double h11 = ws_q_ws, h12 = -ws_s, h22 = n;
+    const double g1 = ws_c - ws_q_w, g2 = -(sum1 - w_s);
+    const double det = h11 * h22 - h12 * h12;
+    if (!(det > 1e-6 * h22 * h11) || h11 < 1e-3 * h22) return false;  // flat window
+    const double delta = -(h22 * g1 - h12 * g2) / det;
+    disparity += delta;
+    if (std::abs(disparity - d0) > 1.0) return false;
+    if (std::abs(delta) < 1e-3) break;
+  }
+  *d = disparity;
+  return true;
+}
+
+}  // namespace omni::stereo
