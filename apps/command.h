@@ -13,6 +13,9 @@ struct Command {
   const char* summary;
   std::vector<std::string> flags;  // the gflags this command reads, listed by --help
   int (*run)();
+  // --image is one photo of its own (depth: one frame, its own outputs) rather than one more of
+  // --images: main then gathers only the repeated --images into one list.
+  bool image_apart_from_images = false;
 };
 
 const std::vector<Command>& Commands();

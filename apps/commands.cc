@@ -30,10 +30,11 @@ const std::vector<Command>& Commands() {
        RunTolerance},
       {"panorama", "unwarp both rings into panoramas",
        {"model", "image", "out", "panorama_width", "cylinder_radius_mm"}, RunPanorama},
-      {"depth", "dense stereo on the panoramas to a point cloud",
-       {"model", "image", "out", "panorama_width", "cylinder_radius_mm", "sigma_px",
+      {"depth", "dense stereo on the panoramas to a point cloud (one --image, or --images: a "
+                "cloud per frame)",
+       {"model", "image", "images", "out", "panorama_width", "cylinder_radius_mm", "sigma_px",
         "num_disparities", "block_size", "max_sigma_mm", "ply_ascii"},
-       RunDepth},
+       RunDepth, /*image_apart_from_images=*/true},
       {"export", "model data for other programs: ray table (.npy), panorama maps (.npz), central "
                  "approximations (Kalibr camchain .yaml, basalt .json)",
        {"model", "format", "out", "frame", "dtype", "panorama_width", "cylinder_radius_mm",
