@@ -133,7 +133,8 @@ std::vector<std::pair<std::string, std::string>> FramesFromFlags() {
 // times and the frame rate.
 int RunDepthFrames(const RigModel& model) {
   const auto frames = FramesFromFlags();
-  const stereo::DepthOptions options = OptionsFromFlags();
+  stereo::DepthOptions options = OptionsFromFlags();
+  options.full_panoramas = false;  // only the clouds are written
   const stereo::PanoramaOptions panorama = PanoramaOptionsFromFlags();
   const std::string dir = RequireOutputFolder();
 

@@ -65,13 +65,14 @@ void DenseStereo::MatchBand(const cv::Mat& image, DepthFrame* frame, cv::Mat gre
     throw std::invalid_argument("image: expected 8-bit grey or BGR");
   }
   auto t0 = std::chrono::steady_clock::now();
-  Unwarp(image, luts_, Mirror::kOne, &frame->panorama[0]);
-  Unwarp(image, luts_, Mirror::kTwo, &frame->panorama[1]);
+  const cv::Range rows(crop_begin_, band_end_);  // what SGBM reads
+  const cv::Range remapped = options_.full_panoramas ? cv::Range::all() : rows;
+  Unwarp(image, luts_, Mirror::kOne, remapped, &frame->panorama[0]);
+  Unwarp(image, luts_, Mirror::kTwo, remapped, &frame->panorama[1]);
   frame->seconds_remap = Seconds(t0);
 
   // SGBM on the transposed band (see the header on the disparity convention).
   t0 = std::chrono::steady_clock::now();
-  const cv::Range rows(crop_begin_, band_end_);
   for (int i = 0; i < 2; ++i) {
     const cv::Mat band = frame->panorama[i].rowRange(rows);
     if (band.channels() == 3) cv::cvtColor(band, grey[i], cv::COLOR_BGR2GRAY);

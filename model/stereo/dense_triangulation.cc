@@ -66,6 +66,13 @@ bool RayTable::At(int u, double v, Eigen::Matrix<double, 6, 1>* r,
   if (v0 < row_begin || v1 >= row_end) return false;
   const size_t i0 = Index(u, v0), i1 = Index(u, v1);
   if (!valid[i0] || !valid[i1]) return false;
+  if (t == 0) {  // a whole row (ring 1 always): the entry itself, as the blend would give
+    for (int k = 0; k < 6; ++k) {
+      (*r)[k] = ray[6 * i0 + k];
+      for (int c = 0; c < 2; ++c) (*J)(k, c) = jacobian[12 * i0 + 2 * k + c];
+    }
+    return true;
+  }
   for (int k = 0; k < 6; ++k) {
     (*r)[k] = (1 - t) * ray[6 * i0 + k] + t * ray[6 * i1 + k];
     for (int c = 0; c < 2; ++c) {
@@ -94,7 +101,9 @@ double LargestEigenvalue(const Eigen::Matrix3d& m) {
     if (!(f > 0) || !(slope > 0)) break;  // on the root to rounding
     const double step = f / slope;
     lambda -= step;
-    if (step <= 1e-16 * (std::abs(q) + lambda)) break;
+    // Quadratic convergence: after a step of 1e-10 the error is ~1e-20 (a double root, linear:
+    // ~1e-10), far below the float the sigma is stored in.
+    if (step <= 1e-10 * (std::abs(q) + lambda)) break;
   }
   return q + lambda;
 }

@@ -34,6 +34,20 @@ inline void CatmullRomWeights(double t, double w[4], double w_slope[4]) {
   w_slope[3] = -t + 1.5 * t2;
 }
 
+// C_j += sum_k a[k] b[k + j], k < n, j = 0..3 (a window of Xi_1 times the taps of Xi_2).
+// N > 0: the window's length at compile time (unrolled, the taps stay in registers).
+template <int N>
+inline void CrossSums(const std::uint8_t* a, const std::uint8_t* b, int n, std::int32_t c[4]) {
+  const int length = N > 0 ? N : n;
+  for (int k = 0; k < length; ++k) {
+    const std::int32_t ak = a[k];
+    c[0] += ak * b[k];
+    c[1] += ak * b[k + 1];
+    c[2] += ak * b[k + 2];
+    c[3] += ak * b[k + 3];
+  }
+}
+
 }  // namespace
 
 bool RefineDisparity(const cv::Mat& xi1, const cv::Mat& xi2, int u, int v, double d0,
@@ -92,38 +106,51 @@ DisparityRefiner::DisparityRefiner(const cv::Mat& xi1_t, const cv::Mat& xi2_t, i
   sum2_ = cv::Mat::zeros(columns, rows, CV_32S);
   for (cv::Mat& lag : lag_) lag = cv::Mat::zeros(columns, rows, CV_32S);
   const int hw = half_width, hh = half_height;
+  cv::Mat* const outputs[6] = {&sum1_, &sum2_, &lag_[0], &lag_[1], &lag_[2], &lag_[3]};
   cv::parallel_for_(cv::Range(0, columns), [&](const cv::Range& range) {
-    std::vector<std::int32_t> acc(rows);
-    // Window sums over rows [m - hh, m + hh] of the column sums acc (running sum).
-    auto window = [&](cv::Mat* out, int u, int last_row) {
-      std::int32_t* o = out->ptr<std::int32_t>(u);
-      if (last_row - 2 * hh < 0) return;
-      std::int32_t running = 0;
-      for (int k = 0; k <= 2 * hh; ++k) running += acc[k];
-      o[hh] = running;
-      for (int m = hh + 1; m + hh <= last_row; ++m) {
-        running += acc[m + hh] - acc[m - hh - 1];
-        o[m] = running;
+    // Column sums over u - hw .. u + hw (wrapped) of the six quantities, per row m, slid along u:
+    // one column enters and one leaves per step.
+    std::vector<std::int32_t> acc(6 * static_cast<size_t>(rows), 0);
+    auto add_column = [&](int c, std::int32_t sign) {
+      c = (c % columns + columns) % columns;
+      const std::uint8_t* __restrict a = t1_.ptr<std::uint8_t>(c);
+      const std::uint8_t* __restrict b = t2_.ptr<std::uint8_t>(c);
+      std::int32_t* __restrict s1 = acc.data();
+      std::int32_t* __restrict s2 = s1 + rows;
+      for (int m = 0; m < rows; ++m) {
+        s1[m] += sign * a[m];
+        s2[m] += sign * b[m];
+      }
+      for (int lag = 0; lag < 4; ++lag) {
+        std::int32_t* __restrict s = s1 + (2 + lag) * static_cast<size_t>(rows);
+        const std::uint8_t* __restrict q = b + lag;
+        for (int m = 0; m + lag < rows; ++m) s[m] += sign * (std::int32_t(b[m]) * q[m]);
       }
     };
-    for (int u = range.start; u < range.end; ++u) {
-      for (int which = 0; which < 6; ++which) {  // sum1, sum2, lag 0..3
-        const cv::Mat& image = which == 0 ? t1_ : t2_;
-        const int lag = which < 2 ? -1 : which - 2;
-        std::fill(acc.begin(), acc.end(), 0);
-        for (int du = -hw; du <= hw; ++du) {
-          const std::uint8_t* p = image.ptr<std::uint8_t>(((u + du) % columns + columns) % columns);
-          if (lag < 0) {
-            for (int m = 0; m < rows; ++m) acc[m] += p[m];
-          } else {
-            for (int m = 0; m + lag < rows; ++m) acc[m] += p[m] * p[m + lag];
-          }
+    // Window sums over rows [m - hh, m + hh] (running sum) into row u of the tables.
+    auto window = [&](int u) {
+      for (int which = 0; which < 6; ++which) {
+        const std::int32_t* sums = acc.data() + which * static_cast<size_t>(rows);
+        std::int32_t* o = outputs[which]->ptr<std::int32_t>(u);
+        const int last_row = rows - 1 - std::max(which - 2, 0);  // lag rows end earlier
+        if (last_row - 2 * hh < 0) continue;
+        std::int32_t running = 0;
+        for (int k = 0; k <= 2 * hh; ++k) running += sums[k];
+        o[hh] = running;
+        for (int m = hh + 1; m + hh <= last_row; ++m) {
+          running += sums[m + hh] - sums[m - hh - 1];
+          o[m] = running;
         }
-        cv::Mat* out = which == 0 ? &sum1_ : which == 1 ? &sum2_ : &lag_[lag];
-        window(out, u, rows - 1 - std::max(lag, 0));
       }
+    };
+    for (int du = -hw; du <= hw; ++du) add_column(range.start + du, 1);
+    window(range.start);
+    for (int u = range.start + 1; u < range.end; ++u) {
+      add_column(u + hw, 1);
+      add_column(u - hw - 1, -1);
+      window(u);
     }
-  });
+  }, 4.0 * cv::getNumThreads());  // a few long stripes: the sliding pays off along each
 }
 
 bool DisparityRefiner::Refine(int u, int v, double d0, double* d) const {
@@ -145,17 +172,13 @@ bool DisparityRefiner::Refine(int u, int v, double d0, double* d) const {
     if (y0 != moments_row) {
       // Tap j of the sample in row y0 + k is row y0 + k + j - 1: windows centred on y0 + j - 1.
       std::int32_t c[4] = {0, 0, 0, 0};
+      const bool wraps = u - hw < 0 || u + hw >= columns;
       for (int du = -hw; du <= hw; ++du) {
-        const int col = ((u + du) % columns + columns) % columns;
+        const int col = wraps ? ((u + du) % columns + columns) % columns : u + du;
         const std::uint8_t* a = t1_.ptr<std::uint8_t>(col) + v - hh;
         const std::uint8_t* b = t2_.ptr<std::uint8_t>(col) + y0 - hh - 1;
-        for (int k = 0; k <= 2 * hh; ++k) {
-          const std::int32_t ak = a[k];
-          c[0] += ak * b[k];
-          c[1] += ak * b[k + 1];
-          c[2] += ak * b[k + 2];
-          c[3] += ak * b[k + 3];
-        }
+        if (hh == 3) CrossSums<7>(a, b, 7, c);  // the default 5 x 7 window
+        else CrossSums<0>(a, b, 2 * hh + 1, c);
       }
       for (int j = 0; j < 4; ++j) {
         const int m = y0 + j - 1;

@@ -2,8 +2,9 @@
 // TriangulateMatch's 4-tangent Jets and LargestEigenvalue) against two oracles, on a small frame
 // of the box room (box_room.h) through the misaligned rig:
 //  - the first implementation's per-point path (DepthOptions::reference_path: RefineDisparity
-//    sample by sample, Jets over the 12 ray coordinates, Eigen's closed-form eigenvalues): the
-//    same matches, disparities, points and sigmas to rounding;
+//    sample by sample, Jets over the 12 ray coordinates, Eigen's closed-form eigenvalues) on the
+//    whole panoramas: the same matches, colours, disparities, points and sigmas to rounding with
+//    only the band remapped (full_panoramas = false);
 //  - the model's own triangulation (Triangulator::Triangulate: exact ray tracing of the LUT's raw
 //    pixels, central differences of the whole chain, no table): the same points and sigmas to
 //    the tables' row interpolation, a small fraction of the point's sigma.
@@ -48,7 +49,9 @@ TEST(DenseFastPath, SamePointsAndSigmasAsTheReferencePath) {
   const SmallFrame& f = Frame();
   DepthOptions options;
   options.sigma_px = 0.7;
+  options.full_panoramas = false;  // as depth --images: only the band remapped
   const DepthFrame fast = DenseStereo(f.model, f.panorama, options).Compute(f.image);
+  options.full_panoramas = true;
   options.reference_path = true;
   const DepthFrame reference = DenseStereo(f.model, f.panorama, options).Compute(f.image);
   ASSERT_GT(reference.points.size(), 10000u);
@@ -59,6 +62,7 @@ TEST(DenseFastPath, SamePointsAndSigmasAsTheReferencePath) {
     const DensePoint& b = reference.points[i];
     ASSERT_EQ(a.u, b.u);
     ASSERT_EQ(a.v, b.v);
+    ASSERT_TRUE(std::equal(a.bgr, a.bgr + 3, b.bgr)) << a.u << " " << a.v;  // the band's colours
     max_disparity = std::max(max_disparity, double(std::abs(a.disparity - b.disparity)));
     max_point = std::max(max_point, double((a.point_in_cam - b.point_in_cam).norm() /
                                            b.point_in_cam.norm()));
