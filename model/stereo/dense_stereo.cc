@@ -134,6 +134,7 @@ DepthFrame DenseStereo::Compute(const cv::Mat& image) const {
   cv::parallel_for_(cv::Range(0, g.width), [&](const cv::Range& cols) {
     for (int u = cols.start; u < cols.end; ++u) {
       const std::int16_t* d_row = disparity16.ptr<std::int16_t>(u);  // transposed: row = column u
+      per_column[u].reserve(band_end_ - band_begin_);  // one allocation per column
       for (int v = band_begin_; v < band_end_; ++v) {
         const int x = v - crop_begin_;
         if (d_row[x] <= 0) continue;  // invalid (negative) or zero disparity

@@ -190,17 +190,15 @@ bool DisparityRefiner::Refine(int u, int v, double d0, double* d) const {
     }
     double w[4], ws[4];
     CatmullRomWeights(t, w, ws);
-    // Sums of RefineDisparity's normal equations, slope_k = ws . p_k, I2_k = w . p_k.
-    double ws_q_ws = 0, ws_q_w = 0, ws_s = 0, w_s = 0, ws_c = 0;
-    for (int j = 0; j < 4; ++j) {
-      double q_ws = 0, q_w = 0;
-      for (int l = 0; l < 4; ++l) q_ws += Q[j][l] * ws[l], q_w += Q[j][l] * w[l];
-      ws_q_ws += ws[j] * q_ws;
-      ws_q_w += ws[j] * q_w;
-      ws_s += ws[j] * S[j];
-      w_s += w[j] * S[j];
-      ws_c += ws[j] * C[j];
-    }
+    // Sums of RefineDisparity's normal equations, slope_k = ws . p_k, I2_k = w . p_k. Summed in
+    // pairs: each iteration waits on the last, so the adds' latency is what it costs.
+    auto dot = [](const double* x, const double* y) {
+      return (x[0] * y[0] + x[1] * y[1]) + (x[2] * y[2] + x[3] * y[3]);
+    };
+    double q_ws[4], q_w[4];
+    for (int j = 0; j < 4; ++j) q_ws[j] = dot(Q[j], ws), q_w[j] = dot(Q[j], w);
+    const double ws_q_ws = dot(ws, q_ws), ws_q_w = dot(ws, q_w);
+    const double ws_s = dot(ws, S), w_s = dot(w, S), ws_c = dot(ws, C);
     const double h11 = ws_q_ws, h12 = -ws_s, h22 = n;
     const double g1 = ws_c - ws_q_w, g2 = -(sum1 - w_s);
     const double det = h11 * h22 - h12 * h12;
