@@ -8,10 +8,12 @@
 // order, with a progress line. A frame that cannot be read or is not the model's size stops the
 // run (exit 2, the file named); the frames before it are written whole, nothing of it or after.
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <future>
 #include <map>
 #include <string>
 #include <vector>
@@ -130,7 +132,9 @@ std::vector<std::pair<std::string, std::string>> FramesFromFlags() {
 }
 
 // Every frame through one DenseStereo; DIR/<name>.ply per frame, a summary of the stages' mean
-// times and the frame rate.
+// times and the frame rate. The next frame is read and the last cloud written on threads of their
+// own while a frame is computed (decoding a frame costs about half its computing), so a frame's
+// wall time is its computing plus what the three contend for.
 int RunDepthFrames(const RigModel& model) {
   const auto frames = FramesFromFlags();
   stereo::DepthOptions options = OptionsFromFlags();
@@ -143,15 +147,25 @@ int RunDepthFrames(const RigModel& model) {
   progress.Status("panorama maps and ray tables");
   const stereo::DenseStereo dense(model, panorama, options);
   const double setup_s = SecondsSince(t0);
-  double read = 0, remap = 0, sgbm = 0, triangulation = 0, write = 0;
+
+  std::atomic<double> read{0}, write{0};  // seconds on the reading and writing threads
+  auto read_frame = [&](size_t i) {
+    const auto start = std::chrono::steady_clock::now();
+    cv::Mat image = ReadModelImage(model, frames[i].first);
+    read = read + SecondsSince(start);
+    return image;
+  };
+  double remap = 0, sgbm = 0, triangulation = 0;
   size_t points = 0;
+  t0 = std::chrono::steady_clock::now();
+  std::future<cv::Mat> next = std::async(std::launch::async, read_frame, size_t{0});
+  std::future<void> writing;  // the last frame's cloud
   for (size_t i = 0; i < frames.size(); ++i) {
-    const auto& [path, name] = frames[i];
-    t0 = std::chrono::steady_clock::now();
     cv::Mat image;
     try {
-      image = ReadModelImage(model, path);
+      image = next.get();
     } catch (const io::InputError& e) {
+      if (writing.valid()) writing.get();  // the frames before it are whole
       throw io::InputError(std::string(e.what()) + " (frame " + std::to_string(i + 1) + " of " +
                            std::to_string(frames.size()) + "; " +
                            (i == 0 ? std::string("nothing written")
@@ -159,33 +173,39 @@ int RunDepthFrames(const RigModel& model) {
                                          dir) +
                            ")");
     }
-    read += SecondsSince(t0);
+    if (i + 1 < frames.size()) next = std::async(std::launch::async, read_frame, i + 1);
     const stereo::DepthFrame frame = dense.Compute(image);
     remap += frame.seconds_remap;
     sgbm += frame.seconds_sgbm;
     triangulation += frame.seconds_triangulation;
-    t0 = std::chrono::steady_clock::now();
-    double median_sigma = 0;
-    io::WritePlyFile(dir + "/" + name, Cloud(frame, &median_sigma), !FLAGS_ply_ascii);
-    write += SecondsSince(t0);
     points += frame.points.size();
+    double median_sigma = 0;
+    std::vector<io::PlyPoint> cloud = Cloud(frame, &median_sigma);
+    if (writing.valid()) writing.get();
+    writing = std::async(std::launch::async, [&write, path = dir + "/" + frames[i].second,
+                                              cloud = std::move(cloud)] {
+      const auto start = std::chrono::steady_clock::now();
+      io::WritePlyFile(path, cloud, !FLAGS_ply_ascii);
+      write = write + SecondsSince(start);
+    });
     char line[200];
     std::snprintf(line, sizeof(line), "%s: %zu points (median sigma %.1f mm); remap %.1f, SGBM "
-                  "%.1f, triangulation %.1f ms", name.c_str(), frame.points.size(), median_sigma,
-                  1e3 * frame.seconds_remap, 1e3 * frame.seconds_sgbm,
+                  "%.1f, triangulation %.1f ms", frames[i].second.c_str(), frame.points.size(),
+                  median_sigma, 1e3 * frame.seconds_remap, 1e3 * frame.seconds_sgbm,
                   1e3 * frame.seconds_triangulation);
     progress.Done(line);
   }
+  if (writing.valid()) writing.get();
+  const double wall = SecondsSince(t0);
   progress.Finish();
   const double n = static_cast<double>(frames.size());
-  const double compute = remap + sgbm + triangulation;
   std::printf("depth: %zu frames, panoramas %dx%d, %.0f points per frame; set-up %.2f s; per "
-              "frame: read %.1f, remap %.1f, SGBM %.1f, triangulation %.1f, write %.1f ms; "
-              "%.1f frames/s computing, %.1f with reading and writing -> %s/*.ply\n",
+              "frame: remap %.1f, SGBM %.1f, triangulation %.1f ms (%.1f frames/s computing), "
+              "reading %.1f and writing %.1f ms alongside; %.1f frames/s in all -> %s/*.ply\n",
               frames.size(), dense.luts().geometry.width, dense.luts().geometry.height,
-              points / n, setup_s, 1e3 * read / n, 1e3 * remap / n, 1e3 * sgbm / n,
-              1e3 * triangulation / n, 1e3 * write / n, n / compute,
-              n / (compute + read + write), dir.c_str());
+              points / n, setup_s, 1e3 * remap / n, 1e3 * sgbm / n, 1e3 * triangulation / n,
+              n / (remap + sgbm + triangulation), 1e3 * read / n, 1e3 * write / n, n / wall,
+              dir.c_str());
   return 0;
 }
 
