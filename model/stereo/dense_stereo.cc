@@ -132,20 +132,47 @@ DepthFrame DenseStereo::Compute(const cv::Mat& image) const {
   const cv::Mat& colour = frame.panorama[0];
   std::vector<std::vector<DensePoint>> per_column(g.width);
   cv::parallel_for_(cv::Range(0, g.width), [&](const cv::Range& cols) {
+    std::vector<int> rows;        // a column's SGBM matches (panorama rows)
+    std::vector<double> d_match;  // and their disparities, refined in place
     for (int u = cols.start; u < cols.end; ++u) {
       const std::int16_t* d_row = disparity16.ptr<std::int16_t>(u);  // transposed: row = column u
       per_column[u].reserve(band_end_ - band_begin_);  // one allocation per column
+      rows.clear();
+      d_match.clear();
       for (int v = band_begin_; v < band_end_; ++v) {
-        const int x = v - crop_begin_;
-        if (d_row[x] <= 0) continue;  // invalid (negative) or zero disparity
-        double d = d_row[x] / 16.0;
-        if (options_.refine_subpixel) {
+        const std::int16_t d16 = d_row[v - crop_begin_];
+        if (d16 <= 0) continue;  // invalid (negative) or zero disparity
+        rows.push_back(v);
+        d_match.push_back(d16 / 16.0);
+      }
+      const int n = static_cast<int>(rows.size());
+      if (options_.refine_subpixel && reference) {
+        for (int i = 0; i < n; ++i) {
           double refined;
-          if (reference ? RefineDisparity(band_f[0], band_f[1], u, x, d, hw, hh, &refined)
-                        : refiner->Refine(u, x, d, &refined)) {
-            d = refined;
+          if (RefineDisparity(band_f[0], band_f[1], u, rows[i] - crop_begin_, d_match[i], hw, hh,
+                              &refined)) {
+            d_match[i] = refined;
           }
         }
+      } else if (options_.refine_subpixel) {
+        for (int i = 0; i < n; i += 2) {  // two at a time (DisparityRefiner::RefinePair)
+          double refined[2];
+          bool ok[2];
+          if (i + 1 < n) {
+            const int x[2] = {rows[i] - crop_begin_, rows[i + 1] - crop_begin_};
+            refiner->RefinePair(u, x, &d_match[i], refined, ok);
+          } else {
+            ok[1] = false;
+            ok[0] = refiner->Refine(u, rows[i] - crop_begin_, d_match[i], &refined[0]);
+          }
+          for (int k = 0; k < 2; ++k) {
+            if (ok[k]) d_match[i + k] = refined[k];
+          }
+        }
+      }
+      for (int i = 0; i < n; ++i) {
+        const int v = rows[i];
+        const double d = d_match[i];
         if (d < options_.min_disparity_px) continue;
         MatchPoint m;
         if (!(reference ? TriangulateMatchReference(*rays_[0], *rays_[1], u, v, d,

@@ -153,63 +153,105 @@ DisparityRefiner::DisparityRefiner(const cv::Mat& xi1_t, const cv::Mat& xi2_t, i
   }, 4.0 * cv::getNumThreads());  // a few long stripes: the sliding pays off along each
 }
 
-bool DisparityRefiner::Refine(int u, int v, double d0, double* d) const {
-  const int columns = t1_.rows, rows = t1_.cols, hh = half_height_, hw = half_width_;
-  if (v - hh < 0 || v + hh >= rows) return false;
-  const double n = static_cast<double>((2 * hw + 1) * (2 * hh + 1));
-  const double sum1 = sum1_.at<std::int32_t>(u, v);
-  const std::int32_t* sum2 = sum2_.ptr<std::int32_t>(u);
-  const std::int32_t* lag[4] = {lag_[0].ptr<std::int32_t>(u), lag_[1].ptr<std::int32_t>(u),
-                                lag_[2].ptr<std::int32_t>(u), lag_[3].ptr<std::int32_t>(u)};
+// One refinement in progress: RefineDisparity's loop cut into steps, so that two can run side by
+// side (RefinePair).
+struct DisparityRefiner::Chain {
+  enum State { kRunning, kDone, kFailed };
+  int u = 0, v = 0, iteration = 0, moments_row = -1;
+  double d0 = 0, disparity = 0, sum1 = 0;
   double S[4], Q[4][4], C[4];
-  int moments_row = -1;
-  double disparity = d0;
-  for (int iteration = 0; iteration < 4; ++iteration) {
-    const double y = v - disparity;
-    const int y0 = static_cast<int>(std::floor(y));
-    const double t = y - y0;
-    if (y0 - hh - 1 < 0 || y0 + hh + 2 >= rows) return false;
-    if (y0 != moments_row) {
-      // Tap j of the sample in row y0 + k is row y0 + k + j - 1: windows centred on y0 + j - 1.
-      std::int32_t c[4] = {0, 0, 0, 0};
-      const bool wraps = u - hw < 0 || u + hw >= columns;
-      for (int du = -hw; du <= hw; ++du) {
-        const int col = wraps ? ((u + du) % columns + columns) % columns : u + du;
-        const std::uint8_t* a = t1_.ptr<std::uint8_t>(col) + v - hh;
-        const std::uint8_t* b = t2_.ptr<std::uint8_t>(col) + y0 - hh - 1;
-        if (hh == 3) CrossSums<7>(a, b, 7, c);  // the default 5 x 7 window
-        else CrossSums<0>(a, b, 2 * hh + 1, c);
-      }
-      for (int j = 0; j < 4; ++j) {
-        const int m = y0 + j - 1;
-        C[j] = c[j];
-        S[j] = sum2[m];
-        for (int l = j; l < 4; ++l) Q[j][l] = Q[l][j] = lag[l - j][m];
-      }
-      moments_row = y0;
-    }
-    double w[4], ws[4];
-    CatmullRomWeights(t, w, ws);
-    // Sums of RefineDisparity's normal equations, slope_k = ws . p_k, I2_k = w . p_k. Summed in
-    // pairs: each iteration waits on the last, so the adds' latency is what it costs.
-    auto dot = [](const double* x, const double* y) {
-      return (x[0] * y[0] + x[1] * y[1]) + (x[2] * y[2] + x[3] * y[3]);
-    };
-    double q_ws[4], q_w[4];
-    for (int j = 0; j < 4; ++j) q_ws[j] = dot(Q[j], ws), q_w[j] = dot(Q[j], w);
-    const double ws_q_ws = dot(ws, q_ws), ws_q_w = dot(ws, q_w);
-    const double ws_s = dot(ws, S), w_s = dot(w, S), ws_c = dot(ws, C);
-    const double h11 = ws_q_ws, h12 = -ws_s, h22 = n;
-    const double g1 = ws_c - ws_q_w, g2 = -(sum1 - w_s);
-    const double det = h11 * h22 - h12 * h12;
-    if (!(det > 1e-6 * h22 * h11) || h11 < 1e-3 * h22) return false;  // flat window
-    const double delta = -(h22 * g1 - h12 * g2) / det;
-    disparity += delta;
-    if (std::abs(disparity - d0) > 1.0) return false;
-    if (std::abs(delta) < 1e-3) break;
+  State state = kFailed;
+};
+
+void DisparityRefiner::Start(int u, int v, double d0, Chain* c) const {
+  const int rows = t1_.cols, hh = half_height_;
+  c->u = u, c->v = v, c->d0 = c->disparity = d0;
+  c->iteration = 0;
+  c->moments_row = -1;
+  c->state = v - hh < 0 || v + hh >= rows ? Chain::kFailed : Chain::kRunning;
+  if (c->state == Chain::kRunning) c->sum1 = sum1_.at<std::int32_t>(u, v);
+}
+
+// One Gauss-Newton step of RefineDisparity (see there) on the window moments.
+inline void DisparityRefiner::Step(Chain* c) const {
+  const int columns = t1_.rows, rows = t1_.cols, hh = half_height_, hw = half_width_;
+  const int u = c->u, v = c->v;
+  const double n = static_cast<double>((2 * hw + 1) * (2 * hh + 1));
+  const double y = v - c->disparity;
+  const int y0 = static_cast<int>(std::floor(y));
+  const double t = y - y0;
+  if (y0 - hh - 1 < 0 || y0 + hh + 2 >= rows) {
+    c->state = Chain::kFailed;
+    return;
   }
-  *d = disparity;
-  return true;
+  if (y0 != c->moments_row) {
+    // Tap j of the sample in row y0 + k is row y0 + k + j - 1: windows centred on y0 + j - 1.
+    std::int32_t cross[4] = {0, 0, 0, 0};
+    const bool wraps = u - hw < 0 || u + hw >= columns;
+    for (int du = -hw; du <= hw; ++du) {
+      const int col = wraps ? ((u + du) % columns + columns) % columns : u + du;
+      const std::uint8_t* a = t1_.ptr<std::uint8_t>(col) + v - hh;
+      const std::uint8_t* b = t2_.ptr<std::uint8_t>(col) + y0 - hh - 1;
+      if (hh == 3) CrossSums<7>(a, b, 7, cross);  // the default 5 x 7 window
+      else CrossSums<0>(a, b, 2 * hh + 1, cross);
+    }
+    const std::int32_t* sum2 = sum2_.ptr<std::int32_t>(u);
+    for (int j = 0; j < 4; ++j) {
+      const int m = y0 + j - 1;
+      c->C[j] = cross[j];
+      c->S[j] = sum2[m];
+      for (int l = j; l < 4; ++l) c->Q[j][l] = c->Q[l][j] = lag_[l - j].ptr<std::int32_t>(u)[m];
+    }
+    c->moments_row = y0;
+  }
+  double w[4], ws[4];
+  CatmullRomWeights(t, w, ws);
+  // Sums of RefineDisparity's normal equations, slope_k = ws . p_k, I2_k = w . p_k. Summed in
+  // pairs: each step waits on the last, so the adds' latency is what it costs.
+  auto dot = [](const double* x, const double* y) {
+    return (x[0] * y[0] + x[1] * y[1]) + (x[2] * y[2] + x[3] * y[3]);
+  };
+  double q_ws[4], q_w[4];
+  for (int j = 0; j < 4; ++j) q_ws[j] = dot(c->Q[j], ws), q_w[j] = dot(c->Q[j], w);
+  const double ws_q_ws = dot(ws, q_ws), ws_q_w = dot(ws, q_w);
+  const double ws_s = dot(ws, c->S), w_s = dot(w, c->S), ws_c = dot(ws, c->C);
+  const double h11 = ws_q_ws, h12 = -ws_s, h22 = n;
+  const double g1 = ws_c - ws_q_w, g2 = -(c->sum1 - w_s);
+  const double det = h11 * h22 - h12 * h12;
+  if (!(det > 1e-6 * h22 * h11) || h11 < 1e-3 * h22) {  // flat window
+    c->state = Chain::kFailed;
+    return;
+  }
+  const double delta = -(h22 * g1 - h12 * g2) / det;
+  c->disparity += delta;
+  if (std::abs(c->disparity - c->d0) > 1.0) c->state = Chain::kFailed;
+  else if (std::abs(delta) < 1e-3 || ++c->iteration == 4) c->state = Chain::kDone;
+}
+
+bool DisparityRefiner::Refine(int u, int v, double d0, double* d) const {
+  Chain c;
+  Start(u, v, d0, &c);
+  while (c.state == Chain::kRunning) Step(&c);
+  if (c.state == Chain::kDone) *d = c.disparity;
+  return c.state == Chain::kDone;
+}
+
+void DisparityRefiner::RefinePair(int u, const int v[2], const double d0[2], double d[2],
+                                  bool refined[2]) const {
+  Chain a, b;
+  Start(u, v[0], d0[0], &a);
+  Start(u, v[1], d0[1], &b);
+  // The two chains' steps are independent: the CPU overlaps one's latency with the other's.
+  while (a.state == Chain::kRunning && b.state == Chain::kRunning) {
+    Step(&a);
+    Step(&b);
+  }
+  while (a.state == Chain::kRunning) Step(&a);
+  while (b.state == Chain::kRunning) Step(&b);
+  refined[0] = a.state == Chain::kDone;
+  refined[1] = b.state == Chain::kDone;
+  if (refined[0]) d[0] = a.disparity;
+  if (refined[1]) d[1] = b.disparity;
 }
 
 }  // namespace omni::stereo

@@ -37,8 +37,15 @@ class DisparityRefiner {
 
   // RefineDisparity(xi1, xi2, u, v, d0, half_width, half_height, d) on the untransposed images.
   bool Refine(int u, int v, double d0, double* d) const;
+  // Two refinements of column u at once (rows v[i], starts d0[i]): refined[i] as Refine returns,
+  // d[i] set where true. Each Gauss-Newton step waits on the one before; two independent chains
+  // side by side fill that wait.
+  void RefinePair(int u, const int v[2], const double d0[2], double d[2], bool refined[2]) const;
 
  private:
+  struct Chain;
+  void Start(int u, int v, double d0, Chain* c) const;
+  void Step(Chain* c) const;
   cv::Mat t1_, t2_;
   int half_width_, half_height_;
   cv::Mat sum1_, sum2_;  // window sums of xi1, xi2 at [u][v] (CV_32S; 0 where it leaves)
