@@ -73,7 +73,7 @@ struct DensePoint {
 };
 
 struct DepthFrame {
-  cv::Mat panorama[2];           // Xi_1, Xi_2 (the input's type)
+  cv::Mat panorama[2];           // Xi_1, Xi_2 (the input's type; see full_panoramas)
   cv::Mat disparity;             // CV_32FC1 over Xi_1; NaN where no match
   int band_row_begin = 0, band_row_end = 0;  // rows of Xi_1 that were matched
   std::vector<DensePoint> points;
