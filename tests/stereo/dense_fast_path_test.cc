@@ -14,6 +14,7 @@
 #include <cmath>
 #include <cstdio>
 #include <random>
+#include <utility>
 
 #include <Eigen/Eigenvalues>
 
@@ -45,10 +46,16 @@ const SmallFrame& Frame() {
   return frame;
 }
 
-TEST(DenseFastPath, SamePointsAndSigmasAsTheReferencePath) {
+// The default 5 x 7 refinement window (its unrolled cross sums) and a 3 x 5 one (the generic
+// loop).
+class DenseFastPathWindow : public ::testing::TestWithParam<std::pair<int, int>> {};
+
+TEST_P(DenseFastPathWindow, SamePointsAndSigmasAsTheReferencePath) {
   const SmallFrame& f = Frame();
   DepthOptions options;
   options.sigma_px = 0.7;
+  options.refine_half_width = GetParam().first;
+  options.refine_half_height = GetParam().second;
   options.full_panoramas = false;  // as depth --images: only the band remapped
   const DepthFrame fast = DenseStereo(f.model, f.panorama, options).Compute(f.image);
   options.full_panoramas = true;
@@ -76,6 +83,8 @@ TEST(DenseFastPath, SamePointsAndSigmasAsTheReferencePath) {
   EXPECT_LT(max_point, 1e-6);
   EXPECT_LT(max_sigma, 1e-6);
 }
+INSTANTIATE_TEST_SUITE_P(Windows, DenseFastPathWindow,
+                         ::testing::Values(std::make_pair(2, 3), std::make_pair(1, 2)));
 
 TEST(DenseFastPath, TablesAgreeWithTheModelTriangulation) {
   const SmallFrame& f = Frame();
