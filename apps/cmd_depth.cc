@@ -131,6 +131,43 @@ std::vector<std::pair<std::string, std::string>> FramesFromFlags() {
   return frames;
 }
 
+// The frames' times: the stages as DepthFrame reports them (main thread), reading and writing
+// (their own threads), and the whole loop.
+struct FrameTimes {
+  double remap = 0, sgbm = 0, triangulation = 0, loop = 0;
+  std::atomic<double> read{0}, write{0};
+  size_t points = 0;
+
+  void Add(const stereo::DepthFrame& frame) {
+    remap += frame.seconds_remap;
+    sgbm += frame.seconds_sgbm;
+    triangulation += frame.seconds_triangulation;
+    points += frame.points.size();
+  }
+  void Print(size_t frames, const stereo::DenseStereo& dense, double setup_s,
+             const std::string& dir) const {
+    const double n = static_cast<double>(frames);
+    std::printf("depth: %zu frames, panoramas %dx%d, %.0f points per frame; set-up %.2f s; per "
+                "frame: remap %.1f, SGBM %.1f, triangulation %.1f ms (%.1f frames/s computing), "
+                "reading %.1f and writing %.1f ms alongside; %.1f frames/s in all -> %s/*.ply\n",
+                frames, dense.luts().geometry.width, dense.luts().geometry.height, points / n,
+                setup_s, 1e3 * remap / n, 1e3 * sgbm / n, 1e3 * triangulation / n,
+                n / (remap + sgbm + triangulation), 1e3 * read / n, 1e3 * write / n, n / loop,
+                dir.c_str());
+  }
+};
+
+// A frame's progress line.
+std::string FrameLine(const std::string& name, const stereo::DepthFrame& frame,
+                      double median_sigma) {
+  char line[200];
+  std::snprintf(line, sizeof(line), "%s: %zu points (median sigma %.1f mm); remap %.1f, SGBM "
+                "%.1f, triangulation %.1f ms", name.c_str(), frame.points.size(), median_sigma,
+                1e3 * frame.seconds_remap, 1e3 * frame.seconds_sgbm,
+                1e3 * frame.seconds_triangulation);
+  return line;
+}
+
 // Every frame through one DenseStereo; DIR/<name>.ply per frame, a summary of the stages' mean
 // times and the frame rate. The next frame is read and the last cloud written on threads of their
 // own while a frame is computed (decoding a frame costs about half its computing), so a frame's
@@ -147,18 +184,15 @@ int RunDepthFrames(const RigModel& model) {
   progress.Status("panorama maps and ray tables");
   const stereo::DenseStereo dense(model, panorama, options);
   const double setup_s = SecondsSince(t0);
-
-  std::atomic<double> read{0}, write{0};  // seconds on the reading and writing threads
-  auto read_frame = [&](size_t i) {
+  FrameTimes times;
+  auto read = [&](size_t i) {
     const auto start = std::chrono::steady_clock::now();
     cv::Mat image = ReadModelImage(model, frames[i].first);
-    read = read + SecondsSince(start);
+    times.read = times.read + SecondsSince(start);
     return image;
   };
-  double remap = 0, sgbm = 0, triangulation = 0;
-  size_t points = 0;
   t0 = std::chrono::steady_clock::now();
-  std::future<cv::Mat> next = std::async(std::launch::async, read_frame, size_t{0});
+  std::future<cv::Mat> next = std::async(std::launch::async, read, size_t{0});
   std::future<void> writing;  // the last frame's cloud
   for (size_t i = 0; i < frames.size(); ++i) {
     cv::Mat image;
@@ -170,42 +204,26 @@ int RunDepthFrames(const RigModel& model) {
                            std::to_string(frames.size()) + "; " +
                            (i == 0 ? std::string("nothing written")
                                    : "the clouds of frames 1-" + std::to_string(i) + " are in " +
-                                         dir) +
-                           ")");
+                                         dir) + ")");
     }
-    if (i + 1 < frames.size()) next = std::async(std::launch::async, read_frame, i + 1);
+    if (i + 1 < frames.size()) next = std::async(std::launch::async, read, i + 1);
     const stereo::DepthFrame frame = dense.Compute(image);
-    remap += frame.seconds_remap;
-    sgbm += frame.seconds_sgbm;
-    triangulation += frame.seconds_triangulation;
-    points += frame.points.size();
+    times.Add(frame);
     double median_sigma = 0;
     std::vector<io::PlyPoint> cloud = Cloud(frame, &median_sigma);
     if (writing.valid()) writing.get();
-    writing = std::async(std::launch::async, [&write, path = dir + "/" + frames[i].second,
+    writing = std::async(std::launch::async, [&times, path = dir + "/" + frames[i].second,
                                               cloud = std::move(cloud)] {
       const auto start = std::chrono::steady_clock::now();
       io::WritePlyFile(path, cloud, !FLAGS_ply_ascii);
-      write = write + SecondsSince(start);
+      times.write = times.write + SecondsSince(start);
     });
-    char line[200];
-    std::snprintf(line, sizeof(line), "%s: %zu points (median sigma %.1f mm); remap %.1f, SGBM "
-                  "%.1f, triangulation %.1f ms", frames[i].second.c_str(), frame.points.size(),
-                  median_sigma, 1e3 * frame.seconds_remap, 1e3 * frame.seconds_sgbm,
-                  1e3 * frame.seconds_triangulation);
-    progress.Done(line);
+    progress.Done(FrameLine(frames[i].second, frame, median_sigma));
   }
   if (writing.valid()) writing.get();
-  const double wall = SecondsSince(t0);
+  times.loop = SecondsSince(t0);
   progress.Finish();
-  const double n = static_cast<double>(frames.size());
-  std::printf("depth: %zu frames, panoramas %dx%d, %.0f points per frame; set-up %.2f s; per "
-              "frame: remap %.1f, SGBM %.1f, triangulation %.1f ms (%.1f frames/s computing), "
-              "reading %.1f and writing %.1f ms alongside; %.1f frames/s in all -> %s/*.ply\n",
-              frames.size(), dense.luts().geometry.width, dense.luts().geometry.height,
-              points / n, setup_s, 1e3 * remap / n, 1e3 * sgbm / n, 1e3 * triangulation / n,
-              n / (remap + sgbm + triangulation), 1e3 * read / n, 1e3 * write / n, n / wall,
-              dir.c_str());
+  times.Print(frames.size(), dense, setup_s, dir);
   return 0;
 }
 
