@@ -3,10 +3,18 @@
 // (8-bit view, brighter = nearer, black = no match), DIR/disparity16.png (16-bit, 16 x d, 0 = no
 // match; d as in dense_stereo.h: v2 = v1 - d) and DIR/cloud.ply (points in C, mm, colour, per-point
 // sigma_mm).
+// `omnistereo depth --model M --images 'frames/*.jpg' --out DIR` (a video's frames; globs and
+// lists): one set-up (maps, ray tables) for all frames, then DIR/<image name>.ply per frame, in
+// order, with a progress line. A frame that cannot be read or is not the model's size stops the
+// run (exit 2, the file named); the frames before it are written whole, nothing of it or after.
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
+#include <future>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -50,22 +58,12 @@ stereo::DepthOptions OptionsFromFlags() {
   return options;
 }
 
-// Writes the panoramas, the disparity images (16-bit 16 d, and an 8-bit view scaled to the
-// disparity range) and the cloud; returns the points' median sigma (mm; 0 without points).
-double WriteDepthFrame(const stereo::DepthFrame& frame, const stereo::DepthOptions& options,
-                       const std::string& dir) {
-  cv::Mat valid = frame.disparity == frame.disparity;  // false at NaN
-  cv::Mat d16, d8;
-  cv::Mat scaled = frame.disparity * 16.0;
-  scaled.setTo(0, ~valid);
-  scaled.convertTo(d16, CV_16UC1);
-  cv::Mat view = frame.disparity * (255.0 / options.num_disparities);
-  view.setTo(0, ~valid);
-  view.convertTo(d8, CV_8UC1);
-
+// The frame's points as PLY vertices; *median_sigma: their median sigma (mm; 0 without points).
+std::vector<io::PlyPoint> Cloud(const stereo::DepthFrame& frame, double* median_sigma) {
   std::vector<io::PlyPoint> cloud;
   cloud.reserve(frame.points.size());
   std::vector<float> sigmas;
+  sigmas.reserve(frame.points.size());
   for (const auto& p : frame.points) {
     io::PlyPoint q;
     q.x = p.point_in_cam.x();
@@ -78,20 +76,164 @@ double WriteDepthFrame(const stereo::DepthFrame& frame, const stereo::DepthOptio
     cloud.push_back(q);
     sigmas.push_back(p.sigma_mm);
   }
+  *median_sigma = 0;
+  if (!sigmas.empty()) {
+    std::nth_element(sigmas.begin(), sigmas.begin() + sigmas.size() / 2, sigmas.end());
+    *median_sigma = sigmas[sigmas.size() / 2];
+  }
+  return cloud;
+}
+
+// Writes the panoramas, the disparity images (16-bit 16 d, and an 8-bit view scaled to the
+// disparity range) and the cloud; returns the points' median sigma (mm; 0 without points).
+double WriteDepthFrame(const stereo::DepthFrame& frame, const stereo::DepthOptions& options,
+                       const std::string& dir) {
+  cv::Mat valid = frame.disparity == frame.disparity;  // false at NaN
+  cv::Mat d16, d8;
+  cv::Mat scaled = frame.disparity * 16.0;
+  scaled.setTo(0, ~valid);
+  scaled.convertTo(d16, CV_16UC1);
+  cv::Mat view = frame.disparity * (255.0 / options.num_disparities);
+  view.setTo(0, ~valid);
+  view.convertTo(d8, CV_8UC1);
+  double median_sigma = 0;
+  const std::vector<io::PlyPoint> cloud = Cloud(frame, &median_sigma);
   WriteImageAtomically(dir + "/panorama1.png", frame.panorama[0]);
   WriteImageAtomically(dir + "/panorama2.png", frame.panorama[1]);
   WriteImageAtomically(dir + "/disparity.png", d8);
   WriteImageAtomically(dir + "/disparity16.png", d16);
   io::WritePlyFile(dir + "/cloud.ply", cloud, !FLAGS_ply_ascii);
-  if (sigmas.empty()) return 0;
-  std::nth_element(sigmas.begin(), sigmas.begin() + sigmas.size() / 2, sigmas.end());
-  return sigmas[sigmas.size() / 2];
+  return median_sigma;
+}
+
+double SecondsSince(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+// --images: the frames' paths with their output names (the image's stem); InputError if two
+// images would write the same name or --image is also given.
+std::vector<std::pair<std::string, std::string>> FramesFromFlags() {
+  if (!FLAGS_image.empty()) {
+    throw io::InputError("--image, --images: expected one of them (--image: one frame and its "
+                         "panoramas, disparities and cloud; --images: a cloud per frame)");
+  }
+  std::vector<std::pair<std::string, std::string>> frames;
+  std::map<std::string, std::string> path_of_name;
+  for (const std::string& path : ImagesFromFlags()) {
+    const std::string name = std::filesystem::path(path).stem().string() + ".ply";
+    const auto [it, inserted] = path_of_name.emplace(name, path);
+    if (!inserted) {
+      throw io::InputError("--images: " + it->second + " and " + path + " would both write " +
+                           name + "; expected images of distinct names");
+    }
+    frames.emplace_back(path, name);
+  }
+  return frames;
+}
+
+// The frames' times: the stages as DepthFrame reports them (main thread), reading and writing
+// (their own threads), and the whole loop.
+struct FrameTimes {
+  double remap = 0, sgbm = 0, triangulation = 0, loop = 0;
+  std::atomic<double> read{0}, write{0};
+  size_t points = 0;
+
+  void Add(const stereo::DepthFrame& frame) {
+    remap += frame.seconds_remap;
+    sgbm += frame.seconds_sgbm;
+    triangulation += frame.seconds_triangulation;
+    points += frame.points.size();
+  }
+  void Print(size_t frames, const stereo::DenseStereo& dense, double setup_s,
+             const std::string& dir) const {
+    const double n = static_cast<double>(frames);
+    std::printf("depth: %zu frames, panoramas %dx%d, %.0f points per frame; set-up %.2f s; per "
+                "frame: remap %.1f, SGBM %.1f, triangulation %.1f ms (%.1f frames/s computing), "
+                "reading %.1f and writing %.1f ms alongside; %.1f frames/s in all -> %s/*.ply\n",
+                frames, dense.luts().geometry.width, dense.luts().geometry.height, points / n,
+                setup_s, 1e3 * remap / n, 1e3 * sgbm / n, 1e3 * triangulation / n,
+                n / (remap + sgbm + triangulation), 1e3 * read / n, 1e3 * write / n, n / loop,
+                dir.c_str());
+  }
+};
+
+// A frame's progress line.
+std::string FrameLine(const std::string& name, const stereo::DepthFrame& frame,
+                      double median_sigma) {
+  char line[200];
+  std::snprintf(line, sizeof(line), "%s: %zu points (median sigma %.1f mm); remap %.1f, SGBM "
+                "%.1f, triangulation %.1f ms", name.c_str(), frame.points.size(), median_sigma,
+                1e3 * frame.seconds_remap, 1e3 * frame.seconds_sgbm,
+                1e3 * frame.seconds_triangulation);
+  return line;
+}
+
+// Every frame through one DenseStereo; DIR/<name>.ply per frame, a summary of the stages' mean
+// times and the frame rate. The next frame is read and the last cloud written on threads of their
+// own while a frame is computed (decoding a frame costs about half its computing), so a frame's
+// wall time is its computing plus what the three contend for.
+int RunDepthFrames(const RigModel& model) {
+  const auto frames = FramesFromFlags();
+  stereo::DepthOptions options = OptionsFromFlags();
+  options.full_panoramas = false;  // only the clouds are written
+  const stereo::PanoramaOptions panorama = PanoramaOptionsFromFlags();
+  const std::string dir = RequireOutputFolder();
+
+  ProgressLine progress("depth", static_cast<int>(frames.size()));
+  auto t0 = std::chrono::steady_clock::now();
+  progress.Status("panorama maps and ray tables");
+  const stereo::DenseStereo dense(model, panorama, options);
+  const double setup_s = SecondsSince(t0);
+  FrameTimes times;
+  auto read = [&](size_t i) {
+    const auto start = std::chrono::steady_clock::now();
+    cv::Mat image = ReadModelImage(model, frames[i].first);
+    times.read = times.read + SecondsSince(start);
+    return image;
+  };
+  t0 = std::chrono::steady_clock::now();
+  std::future<cv::Mat> next = std::async(std::launch::async, read, size_t{0});
+  std::future<void> writing;  // the last frame's cloud
+  for (size_t i = 0; i < frames.size(); ++i) {
+    cv::Mat image;
+    try {
+      image = next.get();
+    } catch (const io::InputError& e) {
+      if (writing.valid()) writing.get();  // the frames before it are whole
+      throw io::InputError(std::string(e.what()) + " (frame " + std::to_string(i + 1) + " of " +
+                           std::to_string(frames.size()) + "; " +
+                           (i == 0 ? std::string("nothing written")
+                                   : "the clouds of frames 1-" + std::to_string(i) + " are in " +
+                                         dir) + ")");
+    }
+    if (i + 1 < frames.size()) next = std::async(std::launch::async, read, i + 1);
+    const stereo::DepthFrame frame = dense.Compute(image);
+    times.Add(frame);
+    double median_sigma = 0;
+    std::vector<io::PlyPoint> cloud = Cloud(frame, &median_sigma);
+    if (writing.valid()) writing.get();
+    writing = std::async(std::launch::async, [&times, path = dir + "/" + frames[i].second,
+                                              cloud = std::move(cloud)] {
+      const auto start = std::chrono::steady_clock::now();
+      io::WritePlyFile(path, cloud, !FLAGS_ply_ascii);
+      times.write = times.write + SecondsSince(start);
+    });
+    progress.Done(FrameLine(frames[i].second, frame, median_sigma));
+  }
+  if (writing.valid()) writing.get();
+  times.loop = SecondsSince(t0);
+  progress.Finish();
+  times.Print(frames.size(), dense, setup_s, dir);
+  return 0;
 }
 
 }  // namespace
 
 int RunDepth() {
   const RigModel model(io::ReadModelFile(RequireStereoFlag(FLAGS_model, "model", "a model file")));
+  if (!FLAGS_images.empty()) return RunDepthFrames(model);
+  RequireStereoFlag(FLAGS_image, "image",
+                    "a raw omnidirectional image (or --images: a video's frames, a glob or list)");
   const cv::Mat image = ReadModelImage(model);
   const std::string dir = RequireOutputFolder();
   const stereo::DepthOptions options = OptionsFromFlags();
@@ -100,8 +242,7 @@ int RunDepth() {
   auto t0 = std::chrono::steady_clock::now();
   progress.Status("panorama maps and ray tables");
   const stereo::DenseStereo dense(model, PanoramaOptionsFromFlags(), options);
-  const double setup_s =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const double setup_s = SecondsSince(t0);
   progress.Status("matching and triangulation");
   const stereo::DepthFrame frame = dense.Compute(image);
   progress.Status("writing " + dir);

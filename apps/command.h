@@ -17,6 +17,9 @@ struct Command {
   // --help's text of a shared flag for this command where the flag's own is general (what
   // --out writes, say): flag name, text.
   std::vector<std::pair<std::string, std::string>> help = {};
+  // --image is one photo of its own (depth: one frame, its own outputs) rather than one more of
+  // --images: main then gathers only the repeated --images into one list.
+  bool image_apart_from_images = false;
 };
 
 const std::vector<Command>& Commands();

@@ -43,12 +43,14 @@ const std::vector<Command>& Commands() {
       {"panorama", "unwarp both rings into panoramas",
        {"model", "image", "out", "panorama_width", "cylinder_radius_mm"}, RunPanorama,
        {{"out", "the folder to write panorama1.png and panorama2.png into"}}},
-      {"depth", "dense stereo on the panoramas to a point cloud",
-       {"model", "image", "out", "panorama_width", "cylinder_radius_mm", "sigma_px",
+      {"depth", "dense stereo on the panoramas to a point cloud (one --image, or --images: a "
+                "cloud per frame)",
+       {"model", "image", "images", "out", "panorama_width", "cylinder_radius_mm", "sigma_px",
         "num_disparities", "block_size", "max_sigma_mm", "ply_ascii"},
        RunDepth,
-       {{"out", "the folder to write into: the panoramas, disparity.png, disparity16.png and "
-                "cloud.ply"}}},
+       {{"out", "the folder to write into: with --image the panoramas, disparity.png, "
+                "disparity16.png and cloud.ply; with --images one <image name>.ply per frame"}},
+       /*image_apart_from_images=*/true},
       {"export", "model data for other programs: ray table (.npy), panorama maps (.npz), central "
                  "approximations (Kalibr camchain .yaml, basalt .json)",
        {"model", "format", "out", "frame", "dtype", "panorama_width", "cylinder_radius_mm",

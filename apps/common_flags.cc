@@ -15,8 +15,8 @@ DEFINE_string(detections, "", "detections file (omnistereo-detections/1 YAML)");
 DEFINE_string(points, "", "CSV of 3D points in the camera frame, header x_mm,y_mm,z_mm");
 DEFINE_string(pixels, "", "CSV of pixels, header u,v");
 // 3D sensing (triangulate, panorama, depth).
-DEFINE_string(images, "", "the photos (init, check, refine): a path or glob (quote it: "
-                          "'photos/*.jpg'); several separated by commas");
+DEFINE_string(images, "", "the photos (init, check, refine) or a video's frames (depth): a path "
+                          "or glob (quote it: 'photos/*.jpg'); several separated by commas");
 DEFINE_string(image, "", "raw omnidirectional image (PNG, JPEG, ...) of the model's size");
 DEFINE_double(sigma_px, 1.0, "pixel noise sigma for the covariance [uncertainty_propagation]");
 DEFINE_int32(panorama_width, 1280, "panorama width in pixels (height from [panorama_pixel_size])");

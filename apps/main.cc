@@ -91,7 +91,8 @@ std::string UnknownFlagMessage(const Command& command, int argc, char** argv) {
 
 // For a command that takes several photos (--images): every --image and --images given, in
 // order, as one --images=a,b,c (gflags keeps only the last of a repeated flag, and the issue's
-// `check --image I --image J` is the natural way to name two photos).
+// `check --image I --image J` is the natural way to name two photos). A command whose --image is
+// one photo of its own (Command::image_apart_from_images) gathers only its --images.
 std::vector<std::string> MergePhotoFlags(const Command& command, int argc, char** argv) {
   std::vector<std::string> args(argv, argv + argc);
   if (std::find(command.flags.begin(), command.flags.end(), "images") == command.flags.end()) {
@@ -106,6 +107,7 @@ std::vector<std::string> MergePhotoFlags(const Command& command, int argc, char*
     }
     bool matched = false;
     for (const char* name : {"image", "images"}) {
+      if (command.image_apart_from_images && std::string(name) == "image") continue;
       for (const std::string dashes : {"-", "--"}) {
         const std::string flag = dashes + name;
         if (a == flag && i + 1 < args.size()) {

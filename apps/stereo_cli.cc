@@ -22,11 +22,15 @@ const std::string& RequireStereoFlag(const std::string& value, const char* flag,
 
 cv::Mat ReadModelImage(const RigModel& model) {
   RequireStereoFlag(FLAGS_image, "image", "a raw omnidirectional image");
-  const cv::Mat image = cv::imread(FLAGS_image, cv::IMREAD_COLOR);
-  if (image.empty()) throw io::InputError(FLAGS_image + ": expected a readable image");
+  return ReadModelImage(model, FLAGS_image);
+}
+
+cv::Mat ReadModelImage(const RigModel& model, const std::string& path) {
+  const cv::Mat image = cv::imread(path, cv::IMREAD_COLOR);
+  if (image.empty()) throw io::InputError(path + ": expected a readable image");
   const RigParams& rig = model.params();
   if (image.cols != rig.image_width || image.rows != rig.image_height) {
-    throw io::InputError(FLAGS_image + ": expected the model's image size " +
+    throw io::InputError(path + ": expected the model's image size " +
                          std::to_string(rig.image_width) + "x" + std::to_string(rig.image_height) +
                          ", got " + std::to_string(image.cols) + "x" + std::to_string(image.rows));
   }

@@ -15,6 +15,8 @@ namespace omni::apps {
 const std::string& RequireStereoFlag(const std::string& value, const char* flag, const char* what);
 // --image read as 8-bit BGR; InputError if unreadable or not the model's size.
 cv::Mat ReadModelImage(const RigModel& model);
+// The same for the image at `path` (InputError naming it).
+cv::Mat ReadModelImage(const RigModel& model, const std::string& path);
 // --out as an existing or newly created folder.
 std::string RequireOutputFolder();
 stereo::PanoramaOptions PanoramaOptionsFromFlags();

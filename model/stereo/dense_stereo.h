@@ -14,14 +14,13 @@
 // matched; the crop starts num_disparities rows higher so that every reference row has its full
 // disparity range.
 //
-// Triangulation: each match (u, v1) <-> (u, v2) maps through the LUTs to raw pixels (m1, m2)
-// [panorama_pixel_mapping_function]. The exact rays of both rings and their derivatives w.r.t.
-// the raw pixel are tabulated once per model at every panorama pixel of the band (central
-// differences of RigModel::Unproject, step 1e-3 px); the ring-2 ray at the sub-pixel row v2 is
-// interpolated linearly between rows (rays vary by ~1e-3 rad per row, so the interpolation error
-// is ~1e-7 rad, far below the pixel noise). The midpoint's Jacobian w.r.t. the two rays comes from
-// ceres::Jet through MidpointOnCommonPerpendicular; chained with the ray Jacobians it gives the
-// 3x4 A and Sigma = sigma_px^2 A A^T; the point's sigma is sqrt(largest eigenvalue).
+// Sub-pixel disparity: disparity_refine.h. Triangulation: each match (u, v1) <-> (u, v2) maps
+// through the LUTs to raw pixels (m1, m2) [panorama_pixel_mapping_function]; the exact rays of
+// both rings and their derivatives w.r.t. the raw pixel are tabulated once per model at every
+// panorama pixel of the band (dense_triangulation.h: RayTable), and each match is the midpoint of
+// the common perpendicular with sigma = sqrt(largest eigenvalue of sigma_px^2 A A^T).
+// Per frame, Compute costs remap + SGBM + refinement and triangulation of every match; the
+// latter two run on the tables (no ray tracing) and in parallel over columns (cv::parallel_for_).
 #pragma once
 
 #include <cstdint>
@@ -32,6 +31,8 @@
 #include <opencv2/core.hpp>
 
 #include "model/rig_model.h"
+#include "model/stereo/dense_triangulation.h"
+#include "model/stereo/disparity_refine.h"  // RefineDisparity
 #include "model/stereo/panorama.h"
 
 namespace omni::stereo {
@@ -53,6 +54,14 @@ struct DepthOptions {
   // zero, measured +0.07 px (+0.8% range, nearer) on a synthetic box room.
   bool refine_subpixel = true;
   int refine_half_width = 2, refine_half_height = 3;  // window (2 hw + 1) x (2 hh + 1) panorama px
+  // The first implementation's per-point paths (RefineDisparity, TriangulateMatchReference)
+  // instead of the tabulated ones: the same points and sigmas to rounding, several times slower;
+  // the oracle of the fast path (tests/stereo/dense_fast_path_test.cc).
+  bool reference_path = false;
+  // false: remap only the panorama rows that matching and colours read (the stereo band and
+  // num_disparities rows above it), DepthFrame::panorama black elsewhere; the points are the
+  // same. For a loop that keeps only the clouds (`depth --images`): ~60% less remap at 2592.
+  bool full_panoramas = true;
 };
 
 struct DensePoint {
@@ -64,22 +73,12 @@ struct DensePoint {
 };
 
 struct DepthFrame {
-  cv::Mat panorama[2];           // Xi_1, Xi_2 (the input's type)
+  cv::Mat panorama[2];           // Xi_1, Xi_2 (the input's type; see full_panoramas)
   cv::Mat disparity;             // CV_32FC1 over Xi_1; NaN where no match
   int band_row_begin = 0, band_row_end = 0;  // rows of Xi_1 that were matched
   std::vector<DensePoint> points;
   double seconds_sgbm = 0, seconds_triangulation = 0, seconds_remap = 0;
 };
-
-// Sub-pixel disparity by Gauss-Newton on the sum of squared differences between the window of
-// Xi_1 around (u, v) and Xi_2 shifted up by d (the convention above), with a brightness offset
-// (the rings see the scene through different mirrors), Xi_2 sampled between rows by Catmull-Rom
-// cubic interpolation (columns are whole pixels: matches share the column). Starts at d0 (SGBM's
-// disparity); false if the window leaves the panoramas, the texture is flat, or the estimate
-// leaves d0 +- 1 px (then SGBM's value stands). Panoramas: CV_32FC1 of the same size; columns
-// wrap around (azimuth).
-bool RefineDisparity(const cv::Mat& xi1, const cv::Mat& xi2, int u, int v, double d0,
-                     int half_width, int half_height, double* d);
 
 class DenseStereo {
  public:
@@ -98,11 +97,10 @@ class DenseStereo {
   const DepthOptions& options() const { return options_; }
 
  private:
-  struct RayTable;
-  // Panoramas into *frame, the band's grey panoramas (rows from crop_begin_) and SGBM's CV_16S
-  // disparity of the transposed band.
+  // Panoramas into *frame, the band's grey panoramas (rows from crop_begin_), transposed
+  // (what SGBM matched) and SGBM's CV_16S disparity of the transposed band.
   void MatchBand(const cv::Mat& image, DepthFrame* frame, cv::Mat grey[2],
-                 cv::Mat* disparity16) const;
+                 cv::Mat transposed[2], cv::Mat* disparity16) const;
   RigModel model_;
   PanoramaLuts luts_;
   DepthOptions options_;

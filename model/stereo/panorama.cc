@@ -101,8 +101,17 @@ PanoramaLuts BuildPanoramaLuts(const RigModel& model, const PanoramaOptions& opt
 }
 
 void Unwarp(const cv::Mat& image, const PanoramaLuts& luts, Mirror mirror, cv::Mat* panorama) {
+  Unwarp(image, luts, mirror, cv::Range::all(), panorama);
+}
+
+void Unwarp(const cv::Mat& image, const PanoramaLuts& luts, Mirror mirror, cv::Range wanted,
+            cv::Mat* panorama) {
   const int i = MirrorIndex(mirror) - 1;
-  const cv::Range rows = luts.valid_rows[i];
+  cv::Range rows = luts.valid_rows[i];
+  if (wanted != cv::Range::all()) {
+    rows = cv::Range(std::max(rows.start, wanted.start), std::min(rows.end, wanted.end));
+    if (rows.start >= rows.end) rows = cv::Range(0, 0);
+  }
   panorama->create(luts.fixed_xy[i].rows, luts.fixed_xy[i].cols, image.type());
   panorama->rowRange(0, rows.start).setTo(cv::Scalar::all(0));
   panorama->rowRange(rows.end, panorama->rows).setTo(cv::Scalar::all(0));

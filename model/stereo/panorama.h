@@ -76,5 +76,9 @@ PanoramaLuts BuildPanoramaLuts(const RigModel& model, const PanoramaOptions& opt
 // Panorama Xi_mirror of a raw image (any type cv::remap takes), bilinear, black where invalid.
 // Only the rows the mirror sees are remapped (the rest is set to black).
 void Unwarp(const cv::Mat& image, const PanoramaLuts& luts, Mirror mirror, cv::Mat* panorama);
+// The same for the panorama rows `rows` alone (the rest black): what a caller that reads only a
+// band (dense stereo) needs, at that band's share of the cost.
+void Unwarp(const cv::Mat& image, const PanoramaLuts& luts, Mirror mirror, cv::Range rows,
+            cv::Mat* panorama);
 
 }  // namespace omni::stereo

@@ -14,6 +14,7 @@
 
 #include <Eigen/Geometry>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "model/io/csv.h"
 #include "model/io/model_file.h"
@@ -201,6 +202,99 @@ TEST_F(StereoCli, PanoramaAndDepthWriteTheirFiles) {
                         "cloud.ply"}) {
     EXPECT_TRUE(fs::exists(dir_ / "d" / f)) << f;
   }
+}
+
+// `depth --images`: one set-up for a glob of frames, DIR/<name>.ply per frame, the same cloud as
+// `depth --image` of that frame (nothing carried from one frame to the next); bad frames and
+// flags end in one line naming the file or flag, exit 2, nothing half-written.
+TEST_F(StereoCli, DepthOfFramesWritesACloudPerFrame) {
+  fs::create_directories(dir_ / "frames");
+  for (int seed : {1, 2}) {  // blurred noise: SGBM finds matches
+    cv::Mat image(960, 1280, CV_8UC3);
+    cv::theRNG().state = seed;
+    cv::randu(image, 0, 255);
+    cv::GaussianBlur(image, image, cv::Size(0, 0), 2.0);
+    cv::imwrite(Path("frames/f" + std::to_string(seed) + ".png"), image);
+  }
+  const std::string model = " --model=" + kSampleDir + "big_rig_ideal.yaml --panorama_width=360";
+  std::string err, out;
+  ASSERT_EQ(RunOmnistereo("depth" + model + " --images='" + Path("frames") + "/*.png' --out=" +
+                              Path("d"),
+                          Path("e"), &err, Path("o"), &out),
+            0)
+      << err;
+  EXPECT_NE(out.find("2 frames"), std::string::npos) << out;
+  EXPECT_NE(out.find("frames/s"), std::string::npos) << out;
+  for (const std::string name : {"f1", "f2"}) {
+    ASSERT_EQ(RunOmnistereo("depth" + model + " --image=" + Path("frames/" + name + ".png") +
+                                " --out=" + Path("single_" + name),
+                            Path("e"), &err),
+              0)
+        << err;
+    const std::string cloud = testing::ReadText(dir_ / ("single_" + name) / "cloud.ply");
+    EXPECT_GT(cloud.size(), 1000u) << name;  // some matches
+    EXPECT_EQ(testing::ReadText(dir_ / "d" / (name + ".ply")), cloud) << name;
+  }
+  const std::string f1 = testing::ReadText(dir_ / "d" / "f1.ply");
+  // The error: one line, the last (the frames before it print their progress lines).
+  auto only_line = [](const std::string& e) {
+    const size_t at = e.find("omnistereo depth: ");
+    return at != std::string::npos && e.find('\n', at) == e.size() - 1 &&
+           e.find("omnistereo depth: ", at + 1) == std::string::npos;
+  };
+  auto no_temporaries = [&](const std::string& folder) {
+    for (const auto& entry : fs::directory_iterator(dir_ / folder)) {
+      if (entry.path().filename().string().rfind(".tmp", 0) == 0) return false;
+    }
+    return true;
+  };
+
+  // A frame that is no image, between two good ones: stops there; f1 whole, nothing of f1b or f2.
+  { std::ofstream(Path("frames/f1b.png")) << "not an image"; }
+  EXPECT_EQ(RunOmnistereo("depth" + model + " --images='" + Path("frames") + "/*.png' --out=" +
+                              Path("bad"),
+                          Path("e"), &err),
+            2);
+  EXPECT_NE(err.find("f1b.png: expected a readable image"), std::string::npos) << err;
+  EXPECT_TRUE(only_line(err)) << err;
+  EXPECT_EQ(testing::ReadText(dir_ / "bad" / "f1.ply"), f1);
+  EXPECT_FALSE(fs::exists(dir_ / "bad" / "f1b.ply"));
+  EXPECT_FALSE(fs::exists(dir_ / "bad" / "f2.ply"));
+  EXPECT_TRUE(no_temporaries("bad"));
+  fs::remove(Path("frames/f1b.png"));
+
+  // A frame of another size.
+  cv::imwrite(Path("frames/f3.png"), cv::Mat(48, 64, CV_8UC3, cv::Scalar(90, 90, 90)));
+  EXPECT_EQ(RunOmnistereo("depth" + model + " --images=" + Path("frames/f1.png") + "," +
+                              Path("frames/f3.png") + " --out=" + Path("size"),
+                          Path("e"), &err),
+            2);
+  EXPECT_NE(err.find("f3.png: expected the model's image size 1280x960, got 64x48"),
+            std::string::npos)
+      << err;
+  EXPECT_TRUE(only_line(err)) << err;
+  EXPECT_FALSE(fs::exists(dir_ / "size" / "f3.ply"));
+  EXPECT_TRUE(no_temporaries("size"));
+
+  // Flags: a glob matching nothing, two frames of one name, --image with --images.
+  EXPECT_EQ(RunOmnistereo("depth" + model + " --images='" + Path("none") + "/*.png' --out=" +
+                              Path("x"),
+                          Path("e"), &err),
+            2);
+  EXPECT_NE(err.find("--images: no file matches"), std::string::npos) << err;
+  fs::create_directories(dir_ / "other");
+  fs::copy_file(Path("frames/f1.png"), Path("other/f1.png"));
+  EXPECT_EQ(RunOmnistereo("depth" + model + " --images=" + Path("frames/f1.png") + "," +
+                              Path("other/f1.png") + " --out=" + Path("x"),
+                          Path("e"), &err),
+            2);
+  EXPECT_NE(err.find("would both write f1.ply"), std::string::npos) << err;
+  EXPECT_EQ(RunOmnistereo("depth" + model + " --image=" + Path("frames/f1.png") + " --images=" +
+                              Path("frames/f2.png") + " --out=" + Path("x"),
+                          Path("e"), &err),
+            2);
+  EXPECT_NE(err.find("--image, --images: expected one of them"), std::string::npos) << err;
+  EXPECT_FALSE(fs::exists(dir_ / "x"));
 }
 
 }  // namespace
