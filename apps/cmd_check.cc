@@ -14,6 +14,7 @@
 #include "apps/common_flags.h"
 #include "apps/health_cli.h"
 #include "health/check.h"
+#include "health/check_file.h"
 #include "health/drift.h"
 #include "model/io/file_util.h"
 #include "model/rig_parameters.h"
@@ -49,42 +50,6 @@ std::string GroupLine(const health::GroupFit& fit) {
     s << (k ? "," : "") << item;
   }
   return s.str();
-}
-
-std::string ResultYaml(const health::CheckResult& r, const std::string& model) {
-  std::ostringstream y;
-  y << "format: omnistereo-check/1\n"
-    << "model: " << model << "\n"
-    << "verdict: " << health::VerdictName(r.verdict) << "\n"
-    << "reason: \"" << r.reason << "\"\n"
-    << "named_group: " << (r.named_group.empty() ? "null" : r.named_group) << "\n"
-    << "runner_up: " << (r.runner_up.empty() ? "null" : r.runner_up) << "\n"
-    << "images: " << r.n_images << "\n"
-    << "matches: " << r.n_matches << "\n"
-    << "lip_points: " << r.n_lip_points << "\n"
-    << "gap_rms_px: " << io::FormatDouble(r.gap_rms_px) << "\n"
-    << "lip_rms_px: " << io::FormatDouble(r.lip_rms_px) << "\n"
-    << "covered_azimuth_sectors: " << r.covered_azimuth_bins << "\n"
-    << "chi2: " << io::FormatDouble(r.chi2) << "\n"
-    << "dof: " << r.dof << "\n"
-    << "p_value: " << io::FormatDouble(r.p_value) << "\n"
-    << "model_covariance: " << (r.model_covariance ? "true" : "false") << "\n"
-    << "groups:\n";
-  for (const health::GroupFit& g : r.groups) {
-    y << "  - {group: " << g.group << ", chi2: " << io::FormatDouble(g.chi2) << ", dof: " << g.dof
-      << ", p_value: " << io::FormatDouble(g.p_value) << ", amounts: {";
-    for (size_t k = 0; k < g.names.size(); ++k) {
-      y << (k ? ", " : "") << g.names[k] << ": [" << io::FormatDouble(g.amounts[k]) << ", "
-        << io::FormatDouble(g.sigma[k]) << "]";
-    }
-    y << "}}\n";
-  }
-  y << "bins:  # kind, azimuth_deg, count, mean_px, standard_error_px\n";
-  for (const health::ResidualBin& b : r.bins) {
-    y << "  - [\"" << b.kind << "\", " << b.azimuth_deg << ", " << b.count << ", "
-      << io::FormatDouble(b.mean) << ", " << io::FormatDouble(b.standard_error) << "]\n";
-  }
-  return y.str();
 }
 
 }  // namespace
@@ -128,7 +93,7 @@ int RunCheck() {
                 "fills most of the view around the rig\n");
   }
   if (!FLAGS_out.empty()) {
-    io::WriteFileAtomically(FLAGS_out, ResultYaml(r, FLAGS_model));
+    io::WriteFileAtomically(FLAGS_out, health::CheckResultYaml(r, FLAGS_model));
     std::printf("wrote %s\n", FLAGS_out.c_str());
   }
   switch (r.verdict) {
