@@ -47,9 +47,10 @@ struct ViewTag {
   int view;
 };
 
-// A Kalibr tag a post (or the ring's rim) hides in part: its place predicted from the tags read
-// in the view (GrowTagGrids), its code unreadable; the corners the view shows that refine as
-// X-junctions near the prediction (`seen`) are measured as any Kalibr corner is.
+// A tag a post hides in part: its place predicted from the tags read in the view (GrowTagGrids),
+// its code unreadable. Kalibr: the corners the view shows that refine as X-junctions near the
+// prediction (`seen`) are measured as any Kalibr corner is; plain: the corners the view shows,
+// measured from their edges near them (PartialPlainCorner).
 struct PartialTag {
   ViewTag tag;
   bool seen[4] = {false, false, false, false};
@@ -315,12 +316,15 @@ CellOutcome TryCell(const cv::Mat& view_grey, const RingView& view, int v, const
   CellOutcome outcome = CellOutcome::kNone;
   if (in_view && covered) {
     outcome = CellOutcome::kHidden;  // its neighbours are candidates now
-    if (kalibr && post) {
+    if (post) {
       PartialTag part{tag, {}};
       const int half = static_cast<int>(std::lround(0.15 * side));
       for (int k = 0; k < 4; ++k) {
+        // Kalibr: a seen X-junction near the prediction; plain: a corner the view shows, its
+        // edges measured near it later (MeasurePartialTags).
         part.seen[k] = view.ViewToRaw(tag.corners[k]).has_value() &&
-                       RefineSaddleCorner(view_grey, tag.corners[k], half, 0.1 * side, &part.tag.corners[k]);
+                       (!kalibr || RefineSaddleCorner(view_grey, tag.corners[k], half, 0.1 * side,
+                                                      &part.tag.corners[k]));
       }
       if (std::count(part.seen, part.seen + 4, true) > 0) partial->push_back(part);
     }
@@ -347,8 +351,8 @@ CellOutcome TryCell(const cv::Mat& view_grey, const RingView& view, int v, const
 // target gives, only if its pattern there fits that code's blurred pattern (TagCodeResidual
 // <= options.grow_max_residual) and, for Kalibr tags, its corners refine as X-junctions near the
 // prediction. A wrong seed cannot carry a grid: its predicted neighbours read as other codes.
-// Kalibr tags the view shows in part are returned in `partial` (their code cannot be read: the
-// grid alone names them, and the grid check judges each of their corners).
+// Tags a post hides in part are returned in `partial` (their code cannot be read: the grid alone
+// names them, and the grid check judges each of their corners).
 // Only tags a post hides are partial: where a tag runs past the view's or the ring's edge, guided
 // detection (guided_detection.h) measures its corners beyond it. `unmounted`: the model without
 // its mount (nullptr: the rig has none).
@@ -992,6 +996,50 @@ void MeasureTag(const cv::Mat& raw_grey8, const cv::Mat& grey, const RingView& v
   }
 }
 
+// Corner k of a plain tag a post hides in part (its code unreadable, its place from the grid): its
+// two edges fitted near it only, over the part of each within kPartialEdge of the side from the
+// corner where the view shows all of it, and intersected (as RefineTagCorners does with whole
+// edges; no code bits along them). nullopt where the post is too close or an edge does not fit.
+std::optional<Eigen::Vector2d> PartialPlainCorner(const cv::Mat& grey, const RingView& view, const ViewTag& t,
+                                                  int k, const TargetSpec& target,
+                                                  const TagDetectorOptions& options) {
+  constexpr double kPartialEdge = 0.45;
+  const Eigen::Vector2d& c = t.corners[k];
+  const Eigen::Vector2d to_next = kPartialEdge * (t.corners[(k + 1) % 4] - c);
+  const Eigen::Vector2d to_previous = kPartialEdge * (t.corners[(k + 3) % 4] - c);
+  for (int i = 0; i <= 8; ++i) {
+    if (!view.ViewToRaw(c + i / 8.0 * to_next) || !view.ViewToRaw(c + i / 8.0 * to_previous)) return std::nullopt;
+  }
+  const Eigen::Vector2d centre = 0.25 * (t.corners[0] + t.corners[1] + t.corners[2] + t.corners[3]);
+  const auto raw_c = view.ViewToRaw(c), raw_next = view.ViewToRaw(c + to_next),
+             raw_previous = view.ViewToRaw(c + to_previous), inside = view.ViewToRaw(c + 0.2 * (centre - c));
+  if (!raw_c || !raw_next || !raw_previous || !inside) return std::nullopt;
+  const double side = 0.5 * ((*raw_next - *raw_c).norm() + (*raw_previous - *raw_c).norm()) / kPartialEdge;
+  EdgeBits bits;
+  bits.border_px = BorderFraction(t.layout) * side;
+  if (bits.border_px < options.min_border_px) return std::nullopt;
+  const double reach_out = std::clamp(0.5 * target.spacing * side, 1.0, 2.5);
+  TagDetectorOptions edge_options = options;
+  const bool blurred = view.blur_sigma && *view.blur_sigma >= options.blurred_view_sigma;
+  if (!blurred) edge_options.edge_fit_reach_in_blurred = options.edge_fit_reach_in;
+  const auto curvature = [&](const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+    return options.curvature_from_view ? EdgeCurvatureFromView(view, a, b, *inside) : std::nan("");
+  };
+  // Edge k - 1 runs from corner k - 1 to k (its part ends at the corner), edge k from k on.
+  EdgeCurve into, from;
+  if (!FitTagEdge(grey, *raw_previous, *raw_c, *inside, bits.border_px, reach_out,
+                  curvature(c + to_previous, c), bits, edge_options, &into) ||
+      !FitTagEdge(grey, *raw_c, *raw_next, *inside, bits.border_px, reach_out, curvature(c, c + to_next),
+                  bits, edge_options, &from)) {
+    return std::nullopt;
+  }
+  Eigen::Vector2d corner;
+  if (!IntersectEdges(into, from, &corner) || (corner - *raw_c).norm() > options.max_refine_shift_px) {
+    return std::nullopt;
+  }
+  return corner;
+}
+
 // The seen corners of Kalibr tags hidden in part (GrowTagGrids): where the raw image shows a
 // whole X-junction there, measured as read tags' corners are; corners already in `out` are
 // kept. The junction's two lines run through the corner: the tag's edges and, beyond the
@@ -1014,6 +1062,13 @@ void MeasurePartialTags(const cv::Mat& raw_grey8, const cv::Mat& grey, const std
       const Eigen::Vector2d& c = t.corners[k];
       const auto mapped = view.ViewToRaw(c);
       if (!mapped) continue;
+      if (t.layout == TargetType::kAprilTagGrid) {
+        if (const auto corner = PartialPlainCorner(grey, view, t, k, targets[target], options)) {
+          out->push_back(CornerDetection(t, target, k, view.mirror, *corner, *mapped));
+          have.insert({target, out->back().observation.id, MirrorIndex(view.mirror)});
+        }
+        continue;
+      }
       const auto along = [&](int other, double fraction) -> std::optional<Eigen::Vector2d> {
         return view.ViewToRaw(c + fraction * (t.corners[other] - c));
       };

@@ -290,7 +290,9 @@ TEST(AprilTagDetector, TagsNoTargetHoldsAreReported) {
 // it hides two of that column's corners. The tags read on one side carry the grid past the post
 // (GrowTagGrids): the corners the post leaves visible of the tags it covers, and the columns
 // beyond, against the truth (ComputeTruth: the model's blocked paths), no wrong id.
-TEST(AprilTagDetector, KalibrGridCutByAPostIsReadOnBothSides) {
+// `type`'s grid of 2 x 4 tags of 140 mm at 1.5 m, offset_deg off the post at 210 deg; returns
+// (right, visible) in ring 1 after checking wrong ids and the worst error.
+void GridCutByAPost(TargetType type, double roll_deg) {
   const RigParams rig =
       io::ReadModelFile(std::string(OMNISTEREO_SOURCE_DIR) + "/sample_configs/big_rig_prototype.yaml");
   ASSERT_TRUE(rig.mount.present);
@@ -300,11 +302,15 @@ TEST(AprilTagDetector, KalibrGridCutByAPostIsReadOnBothSides) {
   std::vector<RingView> views = MakeRingViews(model);
   for (double offset_deg : {4.0, 6.0}) {
     synthetic::Scene scene;
-    scene.targets = {Grid(TargetType::kKalibrAprilGrid, 2, 4, 140, 60)};
+    scene.targets = {Grid(type, 2, 4, 140, 60)};
     const double azimuth = (210.0 + offset_deg) * M_PI / 180;
     synthetic::SceneImage image{"post", {}};
     image.placements.push_back(synthetic::PlaceFacingAxis(
         scene.targets[0], 0, Eigen::Vector3d(1500 * std::cos(azimuth), 1500 * std::sin(azimuth), z_mid)));
+    // Turned about its normal: the post then crosses the tags obliquely.
+    image.placements.back().cam_from_target_rotation =
+        image.placements.back().cam_from_target_rotation *
+        Eigen::AngleAxisd(roll_deg * M_PI / 180, Eigen::Vector3d::UnitZ()).toRotationMatrix();
     scene.images.push_back(image);
     const std::vector<synthetic::CornerTruth> truth = synthetic::ComputeTruth(model, scene, image);
     const std::string dir = omni::testing::UniqueTempDir("omni_tag_post");
@@ -335,8 +341,8 @@ TEST(AprilTagDetector, KalibrGridCutByAPostIsReadOnBothSides) {
       ++right;
       worst = std::max(worst, (it->second - d.observation.pixel).norm());
     }
-    std::printf("Kalibr grid %.0f deg off a post, ring 1: %d of %zu visible corners found (%d hidden "
-                "by the post), worst %.3f px, %d wrong\n", offset_deg, right, ring1.size(), hidden,
+    std::printf("%s grid %.0f deg off a post, ring 1: %d of %zu visible corners found (%d hidden "
+                "by the post), worst %.3f px, %d wrong\n", TargetTypeName(type), offset_deg, right, ring1.size(), hidden,
                 worst, wrong);
     EXPECT_EQ(wrong, 0);
     // 4 deg off: the covered column's corners at 207.8 deg lie 2 px from the post's edge, their
@@ -346,6 +352,14 @@ TEST(AprilTagDetector, KalibrGridCutByAPostIsReadOnBothSides) {
     fs::remove_all(dir);
   }
 }
+
+TEST(AprilTagDetector, KalibrGridCutByAPostIsReadOnBothSides) { GridCutByAPost(TargetType::kKalibrAprilGrid, 0); }
+
+// The same with a plain AprilTag grid turned 20 deg about its normal (the post crosses its tags
+// obliquely): the covered tags' codes cannot be read; their corners the post leaves clear are
+// measured from their two edges near them (PartialPlainCorner): 16 -> 23 of 26 and 16 -> 24 of
+// 27 visible corners (the rest lie too close to the post for two edges).
+TEST(AprilTagDetector, PlainGridCutByAPostIsReadOnBothSides) { GridCutByAPost(TargetType::kAprilTagGrid, 20); }
 
 }  // namespace
 }  // namespace omni::detectors
