@@ -1,5 +1,7 @@
 #include "health/ring_matches.h"
 
+#include <algorithm>
+
 #include <cmath>
 #include <stdexcept>
 
@@ -49,7 +51,8 @@ struct RingMatcher::Impl {
       : options(o), stereo(model, PanoramaOf(model, o), stereo::DepthOptions{}) {}
   static stereo::PanoramaOptions PanoramaOf(const RigModel& model, const RingMatchOptions& o) {
     stereo::PanoramaOptions p;
-    p.width = o.panorama_width > 0 ? o.panorama_width : model.params().image_width;
+    p.width = o.panorama_width > 0 ? o.panorama_width
+                                   : std::min(model.params().image_width, o.max_panorama_width);
     return p;
   }
   RingMatchOptions options;

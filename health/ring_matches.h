@@ -31,7 +31,11 @@ struct RingMatch {
 };
 
 struct RingMatchOptions {
-  int panorama_width = 0;  // 0: the image's width (about ring 1's circumference in pixels)
+  int panorama_width = 0;  // 0: the image's width (about ring 1's circumference in pixels)...
+  // ...up to this: the window and thresholds below are set for 1280-1600 px panoramas. A 5 MP
+  // image's full width (2592) spreads its blur over twice the pixels: 259 matches of one photo
+  // where 1600 px gave 953 (docs/experiments.md, 2026-11-28).
+  int max_panorama_width = 1600;
   int max_features = 4000;
   double quality_level = 0.005;   // cv::goodFeaturesToTrack, relative to the strongest corner
   double min_distance_px = 5;     // between features (panorama px)
