@@ -926,6 +926,19 @@ void RefineKalibrTag(const cv::Mat& raw_grey8, const cv::Mat& grey, const RingVi
   }
 }
 
+// Whether the view is blurred enough for the plain tags' blurred-view paths (pattern fit, the
+// edge fit's deeper reach inside the border).
+bool BlurredView(const RingView& view, const TagDetectorOptions& options) {
+  return view.blur_sigma && *view.blur_sigma >= options.blurred_view_sigma;
+}
+
+// The options a plain tag's edge fits use in this view: the blurred reach only in blurred views.
+TagDetectorOptions EdgeFitOptions(const RingView& view, const TagDetectorOptions& options) {
+  TagDetectorOptions edge_options = options;
+  if (!BlurredView(view, options)) edge_options.edge_fit_reach_in_blurred = options.edge_fit_reach_in;
+  return edge_options;
+}
+
 // A plain tag's corners in raw: the whole tag's printed pattern fitted to its raw pixels in
 // blurred views (tag_pattern_fit.h), else its four edges fitted in the raw image, the corners
 // where they meet. `refined` is left as it is (libapriltag's corners mapped from the view) where
@@ -933,9 +946,8 @@ void RefineKalibrTag(const cv::Mat& raw_grey8, const cv::Mat& grey, const RingVi
 void RefinePlainTag(const cv::Mat& grey, const RingView& view, const ViewTag& t, const TargetSpec& target,
                     const Eigen::Vector2d (&mapped)[4], const TagDetectorOptions& options,
                     Eigen::Vector2d (&refined)[4]) {
-  const bool blurred = view.blur_sigma && *view.blur_sigma >= options.blurred_view_sigma;
   const std::optional<TagPatternFit> pattern_fit =
-      options.fit_tag_pattern && blurred ? FitTagPattern(grey, view, target, t.tag_id, t.corners) : std::nullopt;
+      options.fit_tag_pattern && BlurredView(view, options) ? FitTagPattern(grey, view, target, t.tag_id, t.corners) : std::nullopt;
   if (pattern_fit) {
     std::copy(pattern_fit->corners, pattern_fit->corners + 4, refined);
     return;
@@ -946,10 +958,9 @@ void RefinePlainTag(const cv::Mat& grey, const RingView& view, const ViewTag& t,
     curvature[j] = options.curvature_from_view ? EdgeCurvatureFromView(view, t.corners[j], t.corners[(j + 1) % 4], centre)
                                                : std::nan("");
   }
-  TagDetectorOptions tag_options = options;
-  if (!blurred) tag_options.edge_fit_reach_in_blurred = options.edge_fit_reach_in;
   Eigen::Vector2d fitted[4];
-  if (RefineTagCorners(grey, mapped, curvature, BorderFraction(t.layout), target.spacing, tag_options, fitted,
+  if (RefineTagCorners(grey, mapped, curvature, BorderFraction(t.layout), target.spacing,
+                       EdgeFitOptions(view, options), fitted,
                        t.tag_id)) {
     std::copy(fitted, fitted + 4, refined);
   }
@@ -1019,9 +1030,7 @@ std::optional<Eigen::Vector2d> PartialPlainCorner(const cv::Mat& grey, const Rin
   bits.border_px = BorderFraction(t.layout) * side;
   if (bits.border_px < options.min_border_px) return std::nullopt;
   const double reach_out = std::clamp(0.5 * target.spacing * side, 1.0, 2.5);
-  TagDetectorOptions edge_options = options;
-  const bool blurred = view.blur_sigma && *view.blur_sigma >= options.blurred_view_sigma;
-  if (!blurred) edge_options.edge_fit_reach_in_blurred = options.edge_fit_reach_in;
+  const TagDetectorOptions edge_options = EdgeFitOptions(view, options);
   const auto curvature = [&](const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
     return options.curvature_from_view ? EdgeCurvatureFromView(view, a, b, *inside) : std::nan("");
   };
