@@ -125,18 +125,14 @@ void PrintCornerNoiseCheck(const calib::CalibrationResult& result, const Observa
     for (const auto& c : detections.images[i].corners) {
       if (rejected.count({static_cast<int>(i), c.target, c.id, MirrorIndex(c.mirror)})) continue;
       // A target may be placed several times in one image: the nearest true corner.
-      double best = INFINITY;
-      for (const auto& t : image ? image->corners : std::vector<TruthCorner>{}) {
-        const auto& pixel = t.pixel[MirrorIndex(c.mirror) - 1];
-        if (t.target == c.target && t.id == c.id && pixel) {
-          best = std::min(best, (c.pixel - *pixel).squaredNorm());
-        }
-      }
-      if (!std::isfinite(best)) {
+      const TrueCornerMatch match = NearestTrueCorner(
+          image ? image->corners : std::vector<TruthCorner>{}, c.mirror, c.pixel, HUGE_VAL,
+          [&](const TruthCorner& t) { return t.target == c.target && t.id == c.id; });
+      if (!match.corner) {
         ++unmatched;
         continue;
       }
-      squared[MirrorIndex(c.mirror) - 1] += best;
+      squared[MirrorIndex(c.mirror) - 1] += match.distance_px * match.distance_px;
       ++count[MirrorIndex(c.mirror) - 1];
     }
   }

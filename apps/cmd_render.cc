@@ -34,7 +34,7 @@ int RunRender() {
   options.render = !FLAGS_no_render;
   options.jobs = FLAGS_jobs;
   options.keep_pinhole = FLAGS_keep_pinhole;
-  options.Check();
+  if (const std::string error = options.Check(); !error.empty()) throw io::InputError(error);
   const RigParams rig = io::ReadModelFile(FLAGS_model);
   const synthetic::Scene scene = synthetic::ReadSceneFile(FLAGS_scene, RigModel(rig));
   ProgressLine progress("render", static_cast<int>(scene.images.size()));

@@ -22,6 +22,7 @@
 #include "apps/command.h"
 #include "apps/common_flags.h"
 #include "model/io/csv.h"
+#include "model/io/csv.h"
 #include "model/io/detections_file.h"
 #include "model/io/model_file.h"
 #include "model/io/truth_file.h"
@@ -38,6 +39,9 @@ DEFINE_int32(seed, 1, "random seed of --noise_px");
 DEFINE_int32(seeds, 0, "with --truth and no --detections: also repeat the noisy experiment over "
                        "this many seeds (from --seed) and print, per range, the predicted RMSE "
                        "at the noise sigmas and the spread of the RMSE over the seeds");
+DEFINE_string(reference_table, "", "with --truth: a CSV (range_m,rmse_mm,sd_mm) printed beside the "
+                                   "RMSE table by range, e.g. bench/paper_triangulation_table.csv "
+                                   "(the paper's)");
 DEFINE_string(method, "midpoint", "midpoint (common perpendicular) | reprojection (refined)");
 DEFINE_double(sigma_px_ring2, 0.0, "inner ring's (mirror 2's) pixel sigma if > 0, else --sigma_px "
                                    "(the rings' corner errors differ; the refined point weighs "
@@ -148,15 +152,32 @@ void WriteCsv(const stereo::SessionTriangulation& result,
   out.Commit();
 }
 
+// --reference_table's rows (empty without it); throws io::InputError naming the file and line.
+std::vector<stereo::ReferenceRow> ReadReferenceTable() {
+  std::vector<stereo::ReferenceRow> rows;
+  if (FLAGS_reference_table.empty()) return rows;
+  io::CsvReader in(FLAGS_reference_table, {"range_m", "rmse_mm", "sd_mm"});
+  std::vector<double> v;
+  while (in.ReadRow(&v)) {
+    if (!(v[0] > 0) || !(v[1] >= 0) || !(v[2] >= 0)) {
+      throw io::InputError(FLAGS_reference_table + ": line " + std::to_string(in.line()) +
+                           ": expected range_m > 0 and rmse_mm, sd_mm >= 0");
+    }
+    rows.push_back({v[0], v[1], v[2]});
+  }
+  return rows;
+}
+
 void PrintTruthTables(const Triangulator& triangulator, const Truth& truth,
                       const stereo::SessionTriangulation& result,
-                      const TriangulationOptions& options) {
+                      const TriangulationOptions& options,
+                      const std::vector<stereo::ReferenceRow>& reference) {
   const double noise2 = FLAGS_noise_px_ring2 >= 0 ? FLAGS_noise_px_ring2 : FLAGS_noise_px;
   if (FLAGS_detections.empty()) {
     std::printf("pixels: the truth's own, noise %g/%g px (seed %d)\n", FLAGS_noise_px, noise2,
                 FLAGS_seed);
   }
-  std::printf("%s", stereo::FormatRangeTable(stereo::RangeTable(result.errors)).c_str());
+  std::printf("%s", stereo::FormatRangeTable(stereo::RangeTable(result.errors), reference).c_str());
   if (result.unmatched > 0) std::printf("(%ld points without a true corner)\n", result.unmatched);
   if (FLAGS_seeds > 0) {
     std::printf("over %d seeds (from %d), noise %g/%g px (rings 1/2), RMSE in mm:\n", FLAGS_seeds,
@@ -164,7 +185,8 @@ void PrintTruthTables(const Triangulator& triangulator, const Truth& truth,
     std::printf("%s", stereo::FormatSeedSpread(
                           stereo::SeedSpread(triangulator, truth, FLAGS_noise_px, noise2,
                                              FLAGS_seeds, static_cast<unsigned>(FLAGS_seed),
-                                             options)).c_str());
+                                             options),
+                          reference).c_str());
   }
 }
 
@@ -197,6 +219,7 @@ int RunTriangulate() {
   }
   std::optional<Truth> truth;
   if (!FLAGS_truth.empty()) truth = io::ReadTruthFile(FLAGS_truth);
+  const std::vector<stereo::ReferenceRow> reference = ReadReferenceTable();
   std::optional<RigParams> true_rig;
   if (truth && options.reference == ReferenceBody::kMirror1) true_rig = TrueRig(*truth);
   const stereo::OutputFrames frames =
@@ -217,7 +240,7 @@ int RunTriangulate() {
               options.sigma_px, options.sigma_px_ring2 > 0 ? options.sigma_px_ring2 : options.sigma_px,
               sigma_source.c_str(), FLAGS_model_covariance ? " + model covariance" : "", result.failed,
               FLAGS_out.c_str(), options.reference == ReferenceBody::kMirror1 ? "M1" : "C");
-  if (truth) PrintTruthTables(triangulator, *truth, result, options);
+  if (truth) PrintTruthTables(triangulator, *truth, result, options, reference);
   return 0;
 }
 

@@ -244,17 +244,9 @@ int main(int argc, char** argv) {
       Bin* guided_bin =
           guided[k] ? &guided_by_kind[{static_cast<int>(scene.targets[o.target].type), MirrorIndex(o.mirror)}] : nullptr;
       // The nearest visible true corner in the same ring.
-      double best = 1e9;
-      int best_i = -1;
-      for (size_t i = 0; i < truth.size(); ++i) {
-        const auto& px = truth[i].pixel[MirrorIndex(o.mirror) - 1];
-        if (!px) continue;
-        const double d = (*px - o.pixel).norm();
-        if (d < best) {
-          best = d;
-          best_i = static_cast<int>(i);
-        }
-      }
+      const TrueCornerMatch match = NearestTrueCorner(truth, o.mirror, o.pixel);
+      const double best = match.distance_px;
+      const int best_i = match.corner ? static_cast<int>(match.corner - truth.data()) : -1;
       const double range = best_i >= 0 ? truth[best_i].point_in_cam.head<2>().norm() : 0;
       Bin& bin = bins[{MirrorIndex(o.mirror), RangeBin(range)}];
       // Targets with the same rows x cols cannot be told apart in an image (the detector reports

@@ -1,15 +1,20 @@
 // What a synthetic session's truth says (the `omnistereo-truth/1` file that `render` writes beside
-// its images, synthetic/scene_file.h TruthText; read by model/io/truth_file.h): per image, the
-// target placements and every target corner's point in C and its exact pixel in each ring. The
-// triangulation experiment (model/stereo/sparse_triangulation.h) and `calibrate --truth_model`
-// compare against it.
+// its images, synthetic/scene_file.h TruthText; read by model/io/truth_file.h; computed by
+// synthetic/scene.h ComputeTruth): per image, the target placements and every target corner's
+// point in C and its exact pixel in each ring. `calibrate --truth`, the triangulation experiment
+// (model/stereo/sparse_triangulation.h), bench/eval_detectors and the detector tests compare
+// detections with it through one matcher, NearestTrueCorner.
 #pragma once
 
+#include <cmath>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include <Eigen/Core>
+
+#include "model/types.h"
 
 namespace omni {
 
@@ -29,5 +34,22 @@ struct Truth {
   std::string model;  // the model file the session was rendered with
   std::vector<TruthImage> images;
 };
+
+// The true corner a detection is, judged by its pixels alone (independent of any model): among
+// the corners `admit` accepts (all if empty) that are seen in every ring the detection has a
+// pixel in, the one whose distance (the larger of its rings' distances) is least and below
+// max_px; the first of equals. corner is nullptr when none is.
+struct TrueCornerMatch {
+  const TruthCorner* corner = nullptr;
+  double distance_px = HUGE_VAL;
+};
+TrueCornerMatch NearestTrueCorner(const std::vector<TruthCorner>& corners,
+                                  const std::optional<Eigen::Vector2d> (&pixel)[2],
+                                  double max_px = HUGE_VAL,
+                                  const std::function<bool(const TruthCorner&)>& admit = {});
+// One ring's detection (pixel seen via `mirror`).
+TrueCornerMatch NearestTrueCorner(const std::vector<TruthCorner>& corners, Mirror mirror,
+                                  const Eigen::Vector2d& pixel, double max_px = HUGE_VAL,
+                                  const std::function<bool(const TruthCorner&)>& admit = {});
 
 }  // namespace omni

@@ -10,7 +10,8 @@
 #       `omnistereo calibrate`, starting from the ideal design.
 # Each case: omnistereo render (sample_configs/rmse_scene.yaml: one image per range 0.25..8 m,
 # 4 chessboards each) -> omnistereo detect (starting model: the ideal design, as a user would) ->
-# omnistereo triangulate --truth: range, RMSE, SD, points, the paper's RMSE and SD, mean
+# omnistereo triangulate --truth: range, RMSE, SD, points, the paper's RMSE and SD
+# (--reference_table bench/paper_triangulation_table.csv), mean
 # predicted sigma, mean NEES at --sigma_px (the paper's 1 px), the detector's measured pixel RMS
 # per ring and range, and the NEES with those measured sigmas (3 if the propagation is right).
 # (c) is printed again with the calibration's parameter covariance added (--model_covariance)
@@ -81,7 +82,8 @@ triangulate() {  # label, rig dir, model, extra flags...
   echo
   echo "== ($label) rig $(basename "$dir"), model $model $*"
   "$EXE" triangulate --model="$model" --detections="$dir/detections.yaml" \
-    --truth="$dir/truth.yaml" --sigma_px="$SIGMA_PX" --out="$OUT/$label.csv" "$@"
+    --truth="$dir/truth.yaml" --sigma_px="$SIGMA_PX" --out="$OUT/$label.csv" \
+    --reference_table="$ROOT/bench/paper_triangulation_table.csv" "$@"
 }
 
 # The RMSE scene through both rigs.

@@ -86,9 +86,10 @@ void ForEachImage(size_t n, int jobs, const std::function<void(size_t)>& render)
 
 }  // namespace
 
-void RenderSessionOptions::Check() const {
-  if (dir.empty()) throw io::InputError("--out: expected the output folder");
-  if (jobs < 1) throw io::InputError("--jobs: expected a number >= 1");
+std::string RenderSessionOptions::Check() const {
+  if (dir.empty()) return "--out: expected the output folder";
+  if (jobs < 1) return "--jobs: expected a number >= 1";
+  return "";
 }
 
 io::Session SessionOfRender(const Scene& scene, const std::string& dir) {
@@ -106,7 +107,7 @@ io::Session SessionOfRender(const Scene& scene, const std::string& dir) {
 
 RenderSessionStats RenderSession(const Scene& scene, const RigParams& rig_in,
                                  const RenderSessionOptions& options) {
-  options.Check();
+  if (const std::string error = options.Check(); !error.empty()) throw io::InputError(error);
   // The scene's image size renders the same rig at that resolution; model.yaml and the truth
   // describe the images as rendered.
   const RigParams rig =

@@ -19,8 +19,8 @@ struct RenderSessionOptions {
   // Called after each image with its number (1-based), the count and its seconds.
   std::function<void(int done, int total, const std::string& file, double seconds)> progress;
 
-  // Throws io::InputError naming the option.
-  void Check() const;
+  // Empty if the options are consistent, else what is wrong, naming the command's flag.
+  std::string Check() const;
 };
 
 struct RenderSessionStats {

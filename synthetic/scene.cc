@@ -43,16 +43,16 @@ bool SegmentHitsBoard(const TargetSpec& spec, const Placement& p, const Eigen::V
 
 }  // namespace
 
-std::vector<CornerTruth> ComputeTruth(const RigModel& model, const Scene& scene,
+std::vector<TruthCorner> ComputeTruth(const RigModel& model, const Scene& scene,
                                       const SceneImage& image) {
-  std::vector<CornerTruth> out;
+  std::vector<TruthCorner> out;
   for (size_t pi = 0; pi < image.placements.size(); ++pi) {
     const Placement& p = image.placements[pi];
     const TargetSpec& spec = scene.targets[p.target];
     // The printed side faces -z of the target frame.
     const Eigen::Vector3d front = p.cam_from_target_rotation * Eigen::Vector3d(0, 0, -1);
     for (int id : CornerIds(spec)) {
-      CornerTruth t;
+      TruthCorner t;
       t.placement = static_cast<int>(pi);
       t.target = p.target;
       t.id = id;

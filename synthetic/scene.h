@@ -13,6 +13,7 @@
 #include "synthetic/pov_scene.h"
 #include "model/rig_model.h"
 #include "model/target.h"
+#include "model/truth.h"
 
 namespace omni::synthetic {
 
@@ -84,17 +85,10 @@ Placement PlaceFacingAxis(const TargetSpec& spec, int target, const Eigen::Vecto
 // Adds one image with the ring placements (and a target definition per range).
 void AddRingImage(const RigModel& model, const RingPlacement& rings, Scene* scene);
 
-// Ground truth of one corner: its point in C and its pixel via each mirror (nullopt where the
-// model says invalid, the target faces away from that mirror, or another target occludes it).
-struct CornerTruth {
-  int placement = 0;  // index into SceneImage::placements
-  int target = 0;
-  int id = 0;
-  Eigen::Vector3d point_in_cam;
-  std::optional<Eigen::Vector2d> pixel[2];  // [0]: mirror 1, [1]: mirror 2
-};
-
-std::vector<CornerTruth> ComputeTruth(const RigModel& model, const Scene& scene,
+// Ground truth of each corner of the image's placements (model/truth.h TruthCorner): its point in
+// C and its pixel via each mirror (nullopt where the model says invalid, the target faces away
+// from that mirror, or another target occludes it).
+std::vector<TruthCorner> ComputeTruth(const RigModel& model, const Scene& scene,
                                       const SceneImage& image);
 
 // A lip (flat coloured annulus at a mirror's rim) as its two boundary circles in C, the mirror's

@@ -48,7 +48,7 @@ inline bool RenderWindowInto(const std::string& pov, const cv::Rect& box,
 // `pinhole` (the full frame, CV_8UC3 or CV_16UC3 for a 16-bit linear render), files in `dir`.
 inline bool RenderTargetWindows(const RigParams& rig, const synthetic::Scene& scene,
                                 const synthetic::SceneImage& image,
-                                const std::vector<synthetic::CornerTruth>& truth,
+                                const std::vector<TruthCorner>& truth,
                                 const std::string& dir, cv::Mat* pinhole, std::string* error) {
   const std::string pov = synthetic::PovSceneText(rig, synthetic::ContentOf(scene, image));
   for (size_t t = 0; t < scene.targets.size(); ++t) {

@@ -168,8 +168,7 @@ DesignConfig ReadDesignConfig(const std::string& path) {
     o.starts.insert(o.starts.begin(), r.Theta(root, "", "start"));
   }
 
-  std::string why;
-  if (!o.Check(&why)) throw InputError(path + ": " + why);
+  if (const std::string why = o.Check(); !why.empty()) throw InputError(path + ": " + why);
   return config;
 }
 

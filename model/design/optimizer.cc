@@ -185,11 +185,8 @@ bool Finite(const DesignParams& t) {
 
 }  // namespace
 
-bool OptimizerOptions::Check(std::string* why) const {
-  auto fail = [&](const std::string& message) {
-    if (why) *why = message;
-    return false;
-  };
+std::string OptimizerOptions::Check() const {
+  auto fail = [](const std::string& message) { return message; };
   if (!Finite(lower) || !Finite(upper)) return fail("search box has a non-finite bound");
   const char* names[kNumVars] = {"c1", "c2", "k1", "k2", "d", "r_sys"};
   const auto lo = ToArray(lower), hi = ToArray(upper);
@@ -215,7 +212,7 @@ bool OptimizerOptions::Check(std::string* why) const {
   }
   if (starts.empty() && num_default_starts < 1) return fail("need at least one starting point");
   if (max_evaluations_per_start < 1) return fail("max_evaluations_per_start must be >= 1");
-  return true;
+  return "";
 }
 
 const char* ToString(OptimizerStatus status) {
@@ -313,8 +310,7 @@ std::vector<DesignParams> DefaultStarts(const OptimizerOptions& o) {
 // (with the authors' mass model; the full model's Simpson integral is smooth in theta as well).
 OptimizerResult OptimizeBaseline(const OptimizerOptions& options) {
   OptimizerResult result;
-  std::string why;
-  if (!options.Check(&why)) {
+  if (std::string why = options.Check(); !why.empty()) {
     result.status = OptimizerStatus::kInvalidOptions;
     result.message = why;
     return result;

@@ -74,9 +74,10 @@ struct OptimizerOptions {
   // A constraint is reported active when |g| <= active_tol (same units).
   double active_tol = 1e-3;
 
-  // False (with the reason in *why) for an empty or inverted box, k <= 2 or c, d, r_sys <= 0 in
-  // the box, non-finite values, non-positive limits where a positive one is needed.
-  bool Check(std::string* why) const;
+  // Empty if the options are consistent, else what is wrong (docs/design.md, Conventions: every
+  // options struct's Check()): an empty or inverted box, k <= 2 or c, d, r_sys <= 0 in the box,
+  // non-finite values, non-positive limits where a positive one is needed.
+  std::string Check() const;
 };
 
 struct ConstraintValue {

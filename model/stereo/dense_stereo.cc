@@ -23,18 +23,23 @@ double Seconds(std::chrono::steady_clock::time_point since) {
 
 DenseStereo::~DenseStereo() = default;
 
+std::string DepthOptions::Check() const {
+  if (num_disparities < 16 || num_disparities % 16 != 0) {
+    return "num_disparities: expected a positive multiple of 16";
+  }
+  if (block_size < 1 || block_size % 2 == 0) return "block_size: expected an odd number >= 1";
+  if (refine_half_width < 0 || refine_half_width > 50 || refine_half_height < 0 ||
+      refine_half_height > 50) {
+    return "refine_half_width, refine_half_height: expected 0..50";
+  }
+  return "";
+}
+
 DenseStereo::DenseStereo(const RigModel& model, const PanoramaOptions& panorama_options,
                          const DepthOptions& depth_options)
     : model_(model), options_(depth_options) {
-  if (options_.num_disparities < 16 || options_.num_disparities % 16 != 0) {
-    throw std::invalid_argument("num_disparities: expected a positive multiple of 16");
-  }
-  if (options_.block_size < 1 || options_.block_size % 2 == 0) {
-    throw std::invalid_argument("block_size: expected an odd number >= 1");
-  }
-  if (options_.refine_half_width < 0 || options_.refine_half_width > 50 ||
-      options_.refine_half_height < 0 || options_.refine_half_height > 50) {
-    throw std::invalid_argument("refine_half_width, refine_half_height: expected 0..50");
+  if (const std::string error = options_.Check(); !error.empty()) {
+    throw std::invalid_argument(error);
   }
   luts_ = BuildPanoramaLuts(model_, panorama_options);
   const PanoramaGeometry& g = luts_.geometry;

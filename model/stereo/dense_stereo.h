@@ -25,6 +25,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include <Eigen/Core>
@@ -62,6 +63,9 @@ struct DepthOptions {
   // num_disparities rows above it), DepthFrame::panorama black elsewhere; the points are the
   // same. For a loop that keeps only the clouds (`depth --images`): ~60% less remap at 2592.
   bool full_panoramas = true;
+
+  // Empty if the options are consistent, else what is wrong (names the field).
+  std::string Check() const;
 };
 
 struct DensePoint {

@@ -35,10 +35,15 @@ Eigen::Vector2d PanoramaGeometry::PanoramaPixel(Mirror mirror,
   return Eigen::Vector2d((2 * M_PI - psi) / l_px, (z_max - p.z() / rho) / l_px);
 }
 
+std::string PanoramaOptions::Check() const {
+  if (width < 8) return "panorama width: expected at least 8";
+  if (!(cylinder_radius_mm > 0)) return "panorama cylinder radius: expected > 0 mm";
+  return "";
+}
+
 PanoramaGeometry MakePanoramaGeometry(const RigModel& model, const PanoramaOptions& options) {
-  if (options.width < 8) throw std::invalid_argument("panorama width: expected at least 8");
-  if (!(options.cylinder_radius_mm > 0)) {
-    throw std::invalid_argument("panorama cylinder radius: expected > 0 mm");
+  if (const std::string error = options.Check(); !error.empty()) {
+    throw std::invalid_argument(error);
   }
   const RigParams& rig = model.params();
   PanoramaGeometry g;

@@ -25,6 +25,7 @@
 
 #include <array>
 #include <limits>
+#include <string>
 
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
@@ -39,6 +40,10 @@ struct PanoramaOptions {
   // Elevation limits (rad); NaN: theta_sys,min/max of the ideal model [cylinder_height].
   double theta_min = std::numeric_limits<double>::quiet_NaN();
   double theta_max = std::numeric_limits<double>::quiet_NaN();
+
+  // Empty if the options are consistent, else what is wrong (names the field). The elevation
+  // limits are checked against the model's (MakePanoramaGeometry).
+  std::string Check() const;
 };
 
 struct PanoramaGeometry {

@@ -129,13 +129,11 @@ std::optional<CornerError> CompareWithTruth(const Truth& truth,
                                             const TriangulatedPoint& estimate) {
   if (pair.image < 0 || pair.image >= static_cast<int>(truth.images.size())) return std::nullopt;
   const TruthImage& image = truth.images[pair.image];
-  const TruthCorner* best = nullptr;
-  double best_d = kMaxPixelDistance;
-  for (const TruthCorner& c : image.corners) {
-    if (c.id != pair.id || !c.pixel[0] || !c.pixel[1]) continue;  // any target: see the header
-    const double d = std::max((*c.pixel[0] - pair.pixel1).norm(), (*c.pixel[1] - pair.pixel2).norm());
-    if (d < best_d) best_d = d, best = &c;
-  }
+  const std::optional<Eigen::Vector2d> pixels[2] = {pair.pixel1, pair.pixel2};
+  // Any target: see the header.
+  const TruthCorner* best =
+      NearestTrueCorner(image.corners, pixels, kMaxPixelDistance,
+                        [&](const TruthCorner& c) { return c.id == pair.id; }).corner;
   if (!best) return std::nullopt;
   CornerError e;
   e.range_bin_mm = NearestBin(range_bins_mm,
@@ -205,41 +203,31 @@ std::vector<RangeRow> RangeTable(const std::vector<CornerError>& errors) {
 
 namespace {
 
-// The paper's RMSE and SD (tab:rmse_triangulation_experiment), mm, by range in m.
-const std::map<double, std::pair<double, double>>& PaperTable() {
-  static const std::map<double, std::pair<double, double>> paper = {
-      {0.25, {0.46, 0.31}}, {0.5, {1.20, 0.71}},    {1.0, {4.62, 2.55}},
-      {2.0, {14.85, 9.06}}, {4.0, {57.67, 31.34}}, {8.0, {219.09, 129.92}}};
-  return paper;
-}
-
-// The paper's RMSE at this range (within 10%), or 0.
-double PaperRmse(double range_mm) {
-  for (const auto& [range_m, figures] : PaperTable()) {
-    if (std::abs(range_mm / 1000.0 - range_m) < 0.1 * range_m) return figures.first;
+// The reference row within 10% of this range, or nullptr.
+const ReferenceRow* ReferenceAt(const std::vector<ReferenceRow>& reference, double range_mm) {
+  for (const ReferenceRow& r : reference) {
+    if (std::abs(range_mm / 1000.0 - r.range_m) < 0.1 * r.range_m) return &r;
   }
-  return 0;
+  return nullptr;
 }
 
 }  // namespace
 
-std::string FormatRangeTable(const std::vector<RangeRow>& rows) {
-  const auto& paper = PaperTable();
+std::string FormatRangeTable(const std::vector<RangeRow>& rows,
+                             const std::vector<ReferenceRow>& reference) {
   std::string out =
-      "range_m  rmse_mm    sd_mm  points paper_rmse paper_sd  sigma_mm  mean_nees  "
+      "range_m  rmse_mm    sd_mm  points   ref_rmse   ref_sd  sigma_mm  mean_nees  "
       "px_rms_1 px_rms_2  nees_at_px_rms\n";
   char line[200];
   for (const RangeRow& r : rows) {
-    std::string paper_text = "        -        -";
-    for (const auto& [range_m, figures] : paper) {
-      if (std::abs(r.range_mm / 1000.0 - range_m) < 0.1 * range_m) {
-        char p[48];
-        std::snprintf(p, sizeof(p), "%9.2f %8.2f", figures.first, figures.second);
-        paper_text = p;
-      }
+    std::string reference_text = "        -        -";
+    if (const ReferenceRow* ref = ReferenceAt(reference, r.range_mm)) {
+      char p[48];
+      std::snprintf(p, sizeof(p), "%9.2f %8.2f", ref->rmse_mm, ref->sd_mm);
+      reference_text = p;
     }
     std::snprintf(line, sizeof(line), "%7.3f %8.3f %8.3f %7d  %s %9.3f %10.2f %9.3f %8.3f %15.2f\n",
-                  r.range_mm / 1000.0, r.rmse_mm, r.sd_mm, r.points, paper_text.c_str(),
+                  r.range_mm / 1000.0, r.rmse_mm, r.sd_mm, r.points, reference_text.c_str(),
                   r.mean_sigma_mm, r.mean_nees, r.pixel_rms_px[0], r.pixel_rms_px[1],
                   r.mean_nees_measured);
     out += line;
@@ -309,12 +297,15 @@ std::vector<SeedSpreadRow> SeedSpread(const Triangulator& triangulator, const Tr
   return rows;
 }
 
-std::string FormatSeedSpread(const std::vector<SeedSpreadRow>& rows) {
-  std::string out = "range_m  points predicted_rmse  rmse_all    p05_rmse  p50_rmse  p95_rmse  paper_rmse\n";
+std::string FormatSeedSpread(const std::vector<SeedSpreadRow>& rows,
+                             const std::vector<ReferenceRow>& reference) {
+  std::string out = "range_m  points predicted_rmse  rmse_all    p05_rmse  p50_rmse  p95_rmse    ref_rmse\n";
   char line[200];
   for (const SeedSpreadRow& r : rows) {
     char paper[16] = "         -";
-    if (PaperRmse(r.range_mm) > 0) std::snprintf(paper, sizeof(paper), "%10.2f", PaperRmse(r.range_mm));
+    if (const ReferenceRow* ref = ReferenceAt(reference, r.range_mm)) {
+      std::snprintf(paper, sizeof(paper), "%10.2f", ref->rmse_mm);
+    }
     std::snprintf(line, sizeof(line), "%7.3f %7d %14.3f %9.3f %11.3f %9.3f %9.3f  %s\n",
                   r.range_mm / 1000.0, r.points, r.predicted_rmse_mm, r.rmse_mm, r.p05_mm,
                   r.p50_mm, r.p95_mm, paper);

@@ -88,9 +88,18 @@ struct RangeRow {
   double mean_nees_measured = 0;
 };
 std::vector<RangeRow> RangeTable(const std::vector<CornerError>& errors);
-// The table as text (range m, RMSE, SD, points, the paper's RMSE and SD, mean sigma, NEES, the
-// per-ring pixel RMS and the NEES at those).
-std::string FormatRangeTable(const std::vector<RangeRow>& rows);
+
+// A table to compare with, by range (e.g. the paper's tab:rmse_triangulation_experiment, kept in
+// bench/paper_triangulation_table.csv; `triangulate --reference_table`). A row applies to the
+// range bins within 10% of its range.
+struct ReferenceRow {
+  double range_m = 0, rmse_mm = 0, sd_mm = 0;
+};
+
+// The table as text (range m, RMSE, SD, points, the reference's RMSE and SD or "-", mean sigma,
+// NEES, the per-ring pixel RMS and the NEES at those).
+std::string FormatRangeTable(const std::vector<RangeRow>& rows,
+                             const std::vector<ReferenceRow>& reference = {});
 
 // The experiment without a detector, repeated: the truth's pixels plus Gaussian noise (noise_px
 // in ring 1, noise_px_ring2 in ring 2) over `seeds` seeds, triangulated with `options`. Per
@@ -107,7 +116,9 @@ struct SeedSpreadRow {
 std::vector<SeedSpreadRow> SeedSpread(const Triangulator& triangulator, const Truth& truth,
                                       double noise_px, double noise_px_ring2, int seeds,
                                       unsigned first_seed, const TriangulationOptions& options);
-std::string FormatSeedSpread(const std::vector<SeedSpreadRow>& rows);
+// The spread as text, with the reference's RMSE by range.
+std::string FormatSeedSpread(const std::vector<SeedSpreadRow>& rows,
+                             const std::vector<ReferenceRow>& reference = {});
 
 // A triangulated point moved rigidly into the frame that `to_from_cam` maps C to: the point,
 // both covariances and the pixel Jacobian re-expressed.

@@ -50,7 +50,7 @@ inline double TruthValue(const RigParams& rig, const std::string& name) {
 struct SyntheticSession {
   synthetic::Scene scene;
   std::vector<TargetSpec> targets;  // the session's targets (chessboards)
-  std::vector<std::vector<synthetic::CornerTruth>> truth;  // per image
+  std::vector<std::vector<TruthCorner>> truth;  // per image
 };
 
 inline TargetSpec Chessboard(int rows, int cols, double square_mm) {

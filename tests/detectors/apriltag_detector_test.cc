@@ -45,7 +45,7 @@ TargetSpec Grid(TargetType type, int rows, int cols, double tag_mm, int first_id
 struct Rendered {
   RigParams rig;
   synthetic::Scene scene;
-  std::vector<synthetic::CornerTruth> truth;
+  std::vector<TruthCorner> truth;
   cv::Mat image;
 };
 
@@ -182,7 +182,7 @@ TEST(AprilTagDetector, RawEdgeFitBeatsTheViewCornersAgainstTruth) {
   image.name = "tags_0004";
   scene.room = false;
   const int target = image.placements[0].target;
-  const std::vector<synthetic::CornerTruth> truth = synthetic::ComputeTruth(model, scene, image);
+  const std::vector<TruthCorner> truth = synthetic::ComputeTruth(model, scene, image);
   const std::string dir = omni::testing::UniqueTempDir("omni_tag_raw_fit");
   fs::remove_all(dir);
   fs::create_directories(dir);
@@ -312,7 +312,7 @@ void GridCutByAPost(TargetType type, double roll_deg) {
         image.placements.back().cam_from_target_rotation *
         Eigen::AngleAxisd(roll_deg * M_PI / 180, Eigen::Vector3d::UnitZ()).toRotationMatrix();
     scene.images.push_back(image);
-    const std::vector<synthetic::CornerTruth> truth = synthetic::ComputeTruth(model, scene, image);
+    const std::vector<TruthCorner> truth = synthetic::ComputeTruth(model, scene, image);
     const std::string dir = omni::testing::UniqueTempDir("omni_tag_post");
     fs::remove_all(dir);
     fs::create_directories(dir);

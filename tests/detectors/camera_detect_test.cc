@@ -19,7 +19,6 @@
 #include "synthetic/scene.h"
 #include "detectors/detect_image.h"
 #include "model/io/model_file.h"
-#include "tests/detectors/nearest_truth.h"
 #include "tests/render_window.h"
 #include "tests/temp_dir.h"
 
@@ -76,8 +75,9 @@ RingScore DetectThroughCamera(const std::string& preset, const std::vector<Targe
   }
   for (const auto& o : det.corners) {
     const int m = MirrorIndex(o.mirror) - 1;
-    double d = 0;
-    const synthetic::CornerTruth* near = omni::testing::NearestTruth(truth, o.mirror, o.pixel, &d);
+    const TrueCornerMatch match = NearestTrueCorner(truth, o.mirror, o.pixel);
+    const double d = match.distance_px;
+    const TruthCorner* near = match.corner;
     if (!near || d > 3 || near->id != o.id || near->target != o.target) {
       ++score.wrong;
       continue;

@@ -23,7 +23,6 @@
 #include "detectors/detect_image.h"
 #include "detectors/detect_session.h"
 #include "model/io/model_file.h"
-#include "tests/detectors/nearest_truth.h"
 #include "tests/temp_dir.h"
 
 #include "tests/render_window.h"
@@ -36,7 +35,7 @@ namespace fs = std::filesystem;
 struct Rendered {
   RigParams rig;
   synthetic::Scene scene;
-  std::vector<synthetic::CornerTruth> truth;
+  std::vector<TruthCorner> truth;
   cv::Mat image;
 };
 
@@ -219,8 +218,9 @@ void ExpectHardBoards(const std::string& scene_file, const std::vector<HardBoard
     for (const auto& o : det.corners) {
       // Wrong: the nearest true corner in the ring is another one (a mis-ordered grid put
       // corners ~1 px from a neighbour's truth, a shifted one a square away).
-      double e = 0;
-      const synthetic::CornerTruth* nearest = testing::NearestTruth(truth, o.mirror, o.pixel, &e);
+      const TrueCornerMatch match = NearestTrueCorner(truth, o.mirror, o.pixel);
+      const double e = match.distance_px;
+      const TruthCorner* nearest = match.corner;
       if (!nearest || nearest->target != o.target || nearest->id != o.id) {
         ++wrong;
         ADD_FAILURE() << image.name << ": target " << o.target << " id " << o.id << " ring "

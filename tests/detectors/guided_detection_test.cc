@@ -19,7 +19,6 @@
 #include "synthetic/tag_texture.h"
 #include "detectors/detect_image.h"
 #include "model/io/model_file.h"
-#include "tests/detectors/nearest_truth.h"
 #include "tests/render_window.h"
 #include "tests/temp_dir.h"
 
@@ -38,7 +37,7 @@ struct RingScore {
 struct Case {
   RigParams rig;
   synthetic::Scene scene;
-  std::vector<synthetic::CornerTruth> truth;
+  std::vector<TruthCorner> truth;
   cv::Mat photo;
 };
 
@@ -88,8 +87,9 @@ std::array<RingScore, 2> Detect(const Case& c, const RigParams& detector_rig, bo
   for (size_t k = 0; k < det.corners.size(); ++k) {
     const CornerObservation& o = det.corners[k];
     RingScore& r = s[MirrorIndex(o.mirror) - 1];
-    double d = 0;
-    const synthetic::CornerTruth* near = omni::testing::NearestTruth(c.truth, o.mirror, o.pixel, &d);
+    const TrueCornerMatch match = NearestTrueCorner(c.truth, o.mirror, o.pixel);
+    const double d = match.distance_px;
+    const TruthCorner* near = match.corner;
     if (!near || d > 3 || near->id != o.id || near->target != o.target) {
       ++r.wrong;
       continue;

@@ -50,7 +50,7 @@ TargetSpec KalibrGrid(int rows, int cols, double tag_mm, int first_id) {
 struct Rendered {
   RigParams rig;
   synthetic::Scene scene;
-  std::vector<synthetic::CornerTruth> truth;
+  std::vector<TruthCorner> truth;
   cv::Mat image;
 };
 

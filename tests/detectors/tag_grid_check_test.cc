@@ -63,7 +63,7 @@ SceneSetup LoadScene() {
 
 // Image `index` rendered only in a window around the Kalibr grid's corners in ring kMirror.
 cv::Mat RenderGridWindow(const SceneSetup& s, int index,
-                         const std::vector<synthetic::CornerTruth>& truth) {
+                         const std::vector<TruthCorner>& truth) {
   const synthetic::SceneImage& image = s.scene.images[index];
   cv::Rect box;
   for (const auto& c : truth) {
@@ -97,7 +97,7 @@ struct Score {
 };
 
 Score ScoreRing(const std::vector<TagCornerDetection>& found,
-                const std::vector<synthetic::CornerTruth>& truth) {
+                const std::vector<TruthCorner>& truth) {
   std::map<int, Eigen::Vector2d> truth_by_id;
   for (const auto& c : truth) {
     if (c.pixel[kMirror - 1]) truth_by_id[c.id] = *c.pixel[kMirror - 1];

@@ -20,7 +20,6 @@
 #include "synthetic/tag_texture.h"
 #include "detectors/detect_image.h"
 #include "model/io/model_file.h"
-#include "tests/detectors/nearest_truth.h"
 #include "tests/temp_dir.h"
 
 #include "tests/render_window.h"
@@ -115,8 +114,9 @@ std::map<std::pair<int, int>, GridResult> RenderAndDetect(const RigParams& rig,
   }
   for (const auto& o : det.corners) {
     // Wrong: the nearest true corner in the ring is another one.
-    double e = 0;
-    const synthetic::CornerTruth* nearest = testing::NearestTruth(truth, o.mirror, o.pixel, &e);
+    const TrueCornerMatch match = NearestTrueCorner(truth, o.mirror, o.pixel);
+    const double e = match.distance_px;
+    const TruthCorner* nearest = match.corner;
     GridResult& r = results[{o.target, MirrorIndex(o.mirror)}];
     if (!nearest || nearest->target != o.target || nearest->id != o.id || e > 1.0) {
       ++r.wrong;

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
 #include <string>
 
@@ -72,6 +73,33 @@ TEST_F(StereoCli, TriangulatesTruthPixelsAndPrintsTheRangeTable) {
     if (std::sscanf(line.c_str(), "%lf %lf", &range, &rmse) == 2 && rmse < 1e-3) ++zero_rows;
   }
   EXPECT_EQ(zero_rows, 6) << out;
+  // The paper's table beside it (bench/paper_triangulation_table.csv): each range its own row.
+  ASSERT_EQ(RunOmnistereo("triangulate --model=" + kSampleDir + "big_rig_misaligned.yaml" +
+                              " --truth=" + Path("rmse/truth.yaml") + " --out=" + Path("t.csv") +
+                              " --reference_table=" + std::string(OMNI_SOURCE_DIR) +
+                              "/bench/paper_triangulation_table.csv",
+                          Path("err.txt"), &err, Path("out.txt"), &out),
+            0)
+      << err;
+  const std::map<double, std::pair<double, double>> paper = {
+      {0.25, {0.46, 0.31}}, {0.5, {1.20, 0.71}},    {1.0, {4.62, 2.55}},
+      {2.0, {14.85, 9.06}}, {4.0, {57.67, 31.34}}, {8.0, {219.09, 129.92}}};
+  int reference_rows = 0;
+  std::istringstream with_reference(out);
+  while (std::getline(with_reference, line)) {
+    double range = 0, rmse = 0, sd = 0, ref_rmse = 0, ref_sd = 0;
+    int points = 0;
+    if (std::sscanf(line.c_str(), "%lf %lf %lf %d %lf %lf", &range, &rmse, &sd, &points,
+                    &ref_rmse, &ref_sd) != 6) {
+      continue;
+    }
+    const auto it = paper.lower_bound(0.9 * range);
+    ASSERT_NE(it, paper.end()) << line;
+    EXPECT_EQ(ref_rmse, it->second.first) << line;
+    EXPECT_EQ(ref_sd, it->second.second) << line;
+    ++reference_rows;
+  }
+  EXPECT_EQ(reference_rows, 6) << out;
 }
 
 // Without --sigma_px a calibrated model's measured corner noise per ring is the pixel sigma
@@ -165,6 +193,25 @@ TEST_F(StereoCli, BadInputFailsWithOneLineAndNoOutput) {
                           Path("e"), &err),
             2);
   EXPECT_NE(err.find("format"), std::string::npos) << err;
+  EXPECT_FALSE(fs::exists(Path("t.csv")));
+  // A reference table without its columns, or with a bad row: the file and line named, no output.
+  ASSERT_EQ(RunOmnistereo("render" + model + " --scene=" + kSampleDir +
+                              "rmse_scene.yaml --no_render --out=" + Path("noise_free"),
+                          Path("e"), &err),
+            0)
+      << err;
+  { std::ofstream(Path("ref.csv")) << "range_m,rmse_mm\n1,2\n"; }
+  EXPECT_EQ(RunOmnistereo("triangulate" + model + " --truth=" + Path("noise_free/truth.yaml") +
+                              " --reference_table=" + Path("ref.csv") + " --out=" + Path("t.csv"),
+                          Path("e"), &err),
+            2);
+  EXPECT_NE(err.find("ref.csv: line 1: column 'sd_mm'"), std::string::npos) << err;
+  { std::ofstream(Path("ref.csv")) << "range_m,rmse_mm,sd_mm\n1,2,3\n-1,2,3\n"; }
+  EXPECT_EQ(RunOmnistereo("triangulate" + model + " --truth=" + Path("noise_free/truth.yaml") +
+                              " --reference_table=" + Path("ref.csv") + " --out=" + Path("t.csv"),
+                          Path("e"), &err),
+            2);
+  EXPECT_NE(err.find("ref.csv: line 3: expected range_m > 0"), std::string::npos) << err;
   EXPECT_FALSE(fs::exists(Path("t.csv")));
   // A bad method.
   EXPECT_EQ(RunOmnistereo("triangulate" + model + " --truth=" + Path("bad.yaml") +
