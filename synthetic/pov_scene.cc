@@ -164,6 +164,100 @@ std::string MountPosts(const Mount& mount) {
   return s.str();
 }
 
+// Both mirror bodies in C: the hyperboloids (with their profiles), the reflex disc, the lips and
+// the mount's posts, each body's union posed by its cam_from_mirror.
+std::string MirrorBodies(const RigParams& rig) {
+  std::ostringstream s;
+  const Pose<double> cam_from_m1 = PoseFromBlock(rig.mirror1_pose.data());
+  const Pose<double> cam_from_m2 = PoseFromBlock(rig.mirror2_pose.data());
+  const auto m1 = HyperboloidSheet<double>::Mirror1(rig.mirror1_shape[0], rig.mirror1_shape[1]);
+  const auto m2 = HyperboloidSheet<double>::Mirror2(rig.mirror2_shape[0], rig.mirror2_shape[1], rig.d);
+  const Plane<double> reflex = ReflexPlaneInMirror1(rig.reflex.data(), rig.d);
+  // Mirror 1's body: the hyperboloid from r_ref out to r_sys, the reflex disc, the blue lip.
+  // Mirror 1's surface is kept where it lies beyond the reflex plane (as RigModel assumes):
+  // plane{n, n.p} keeps (x - p).n <= 0, the side away from the camera.
+  const std::string beyond_reflex = "      plane { " +
+      Vec(reflex.normal.x(), reflex.normal.y(), reflex.normal.z()) + ", " +
+      Num(reflex.normal.dot(reflex.point)) + " }\n";
+  s << "  union {  // mirror 1 body (frame M1)\n"
+    << "  " << MirrorObject(m1, rig.profile1, 1, 0.0, rig.r_sys, beyond_reflex)
+    << "\n"
+    << "  disc { " << Vec(reflex.point.x(), reflex.point.y(), reflex.point.z()) << ", "
+    << Vec(reflex.normal.x(), reflex.normal.y(), reflex.normal.z()) << ", " << Num(rig.r_ref)
+    << " texture { MirrorFinish } }\n"
+    << "  disc { " << Vec(0, 0, rig.lip1.z) << ", <0, 0, 1>, " << Num(rig.lip1.r_outer) << ", "
+    << Num(rig.lip1.r_inner) << " " << LipTexture(rig.lip1, Mirror::kOne) << " }\n"
+    << (rig.mount.present && rig.mount.body == Mirror::kOne ? MountPosts(rig.mount) : "")
+    << "  " << Matrix(cam_from_m1.rotation, cam_from_m1.translation) << "\n  }\n";
+  s << "  union {  // mirror 2 body (frame M2), with the camera hole of radius r_cam\n"
+    << "  " << MirrorObject(m2, rig.profile2, 2, rig.r_cam, rig.r_sys)
+    << "\n"
+    << "  disc { " << Vec(0, 0, rig.lip2.z) << ", <0, 0, 1>, " << Num(rig.lip2.r_outer) << ", "
+    << Num(rig.lip2.r_inner) << " " << LipTexture(rig.lip2, Mirror::kTwo) << " }\n"
+    << (rig.mount.present && rig.mount.body == Mirror::kTwo ? MountPosts(rig.mount) : "")
+    << "  " << Matrix(cam_from_m2.rotation, cam_from_m2.translation) << "\n  }\n";
+  return s.str();
+}
+
+// One target sheet in C: a chessboard of boxes, or a box with the tag texture's PNG.
+std::string TargetObject(const TargetSheet& sheet) {
+  std::ostringstream s;
+  const TargetSpec& spec = sheet.spec;
+  const Eigen::Vector4d bounds = SheetBounds(spec);  // x0, y0, x1, y1
+  const std::string pose =
+      Matrix(sheet.cam_from_target_rotation, sheet.cam_from_target_translation);
+  if (spec.type == TargetType::kChessboard) {
+    const double sq = spec.square_mm;
+    // Squares span [-sq, cols*sq] x [-sq, rows*sq] on a white sheet (SheetBounds).
+    s << "  union {  // chessboard " << spec.rows << "x" << spec.cols << " inner corners\n"
+      << "    box { " << Vec(-sq, -sq, 0) << ", " << Vec(spec.cols * sq, spec.rows * sq, 0.5)
+      << "\n      pigment { checker rgb 0, rgb 1 scale " << Num(sq) << " translate "
+      << Vec(0, 0, 0.5 * sq) << " } finish { SelfLit } }\n"
+      << "    box { " << Vec(bounds[0], bounds[1], 0.01) << ", " << Vec(bounds[2], bounds[3], 2)
+      << " pigment { rgb 1 } finish { SelfLit } }\n"
+      << "    " << pose << "\n  }\n";
+    return s.str();
+  }
+  // image_map puts the PNG on the unit square with its top row at y = 1; the texture's top row
+  // must lie at y0 (y runs down the printed face), hence the negative y scale. No `interpolate`:
+  // every texel is a sharp square, so tag edges fall exactly on the texel boundaries.
+  const double w = bounds[2] - bounds[0], h = bounds[3] - bounds[1];
+  s << "  box {  // " << TargetTypeName(spec.type) << " " << spec.rows << "x" << spec.cols
+    << " tags\n"
+    << "    " << Vec(bounds[0], bounds[1], 0) << ", " << Vec(bounds[2], bounds[3], 0.5) << "\n"
+    << "    pigment { image_map { png \"" << sheet.texture << "\" once }\n"
+    << "      scale " << Vec(w, -h, 1) << " translate " << Vec(bounds[0], bounds[3], 0)
+    << " }\n"
+    << "    finish { SelfLit }\n"
+    << "    " << pose << "\n  }\n";
+  return s.str();
+}
+
+// The room's walls around everything (plain grey, or granite with dots for texture).
+std::string RoomObject(const SceneContent& content) {
+  std::ostringstream s;
+  if (content.room && content.room_plain) {
+    const double L = content.room_half_size_mm;
+    s << "  box { " << Vec(-L, -L, content.room_floor_mm) << ", "
+      << Vec(L, L, content.room_ceiling_mm) << " hollow\n"
+      << "    texture { pigment { rgb 0.45 } finish { SelfLit } } }\n";
+  } else if (content.room) {
+    const double L = content.room_half_size_mm;
+    const Eigen::Vector3d& o = content.room_texture_offset_mm;
+    s << "  box { " << Vec(-L, -L, content.room_floor_mm) << ", "
+      << Vec(L, L, content.room_ceiling_mm) << " hollow\n"
+      << "    texture { pigment { granite color_map { [0 rgb 0.05] [0.3 rgb <0.8, 0.5, 0.2>] "
+         "[0.6 rgb <0.2, 0.6, 0.9>] [1 rgb 0.95] } scale 400 translate "
+      << Vec(o.x(), o.y(), o.z()) << " }\n"
+      << "      finish { SelfLit } }\n"
+      << "    texture { pigment { bozo color_map { [0 rgbt 1] [0.5 rgbt 1] [0.5 rgb 0.1] "
+         "[1 rgb 0.9] } scale 60 translate " << Vec(o.x(), o.y(), o.z())
+      << " } finish { SelfLit } } }\n";
+  }
+
+  return s.str();
+}
+
 }  // namespace
 
 std::string PovSceneText(const RigParams& rig, const SceneContent& content) {
@@ -201,91 +295,16 @@ std::string PovSceneText(const RigParams& rig, const SceneContent& content) {
     << (content.draw_mirrors ? RoomLamps(rig, content) : "")
     << "union {  // everything below is in C\n";
 
-  if (content.draw_mirrors) {
-    const Pose<double> cam_from_m1 = PoseFromBlock(rig.mirror1_pose.data());
-    const Pose<double> cam_from_m2 = PoseFromBlock(rig.mirror2_pose.data());
-    const auto m1 = HyperboloidSheet<double>::Mirror1(rig.mirror1_shape[0], rig.mirror1_shape[1]);
-    const auto m2 = HyperboloidSheet<double>::Mirror2(rig.mirror2_shape[0], rig.mirror2_shape[1], rig.d);
-    const Plane<double> reflex = ReflexPlaneInMirror1(rig.reflex.data(), rig.d);
-    // Mirror 1's body: the hyperboloid from r_ref out to r_sys, the reflex disc, the blue lip.
-    // Mirror 1's surface is kept where it lies beyond the reflex plane (as RigModel assumes):
-    // plane{n, n.p} keeps (x - p).n <= 0, the side away from the camera.
-    const std::string beyond_reflex = "      plane { " +
-        Vec(reflex.normal.x(), reflex.normal.y(), reflex.normal.z()) + ", " +
-        Num(reflex.normal.dot(reflex.point)) + " }\n";
-    s << "  union {  // mirror 1 body (frame M1)\n"
-      << "  " << MirrorObject(m1, rig.profile1, 1, 0.0, rig.r_sys, beyond_reflex)
-      << "\n"
-      << "  disc { " << Vec(reflex.point.x(), reflex.point.y(), reflex.point.z()) << ", "
-      << Vec(reflex.normal.x(), reflex.normal.y(), reflex.normal.z()) << ", " << Num(rig.r_ref)
-      << " texture { MirrorFinish } }\n"
-      << "  disc { " << Vec(0, 0, rig.lip1.z) << ", <0, 0, 1>, " << Num(rig.lip1.r_outer) << ", "
-      << Num(rig.lip1.r_inner) << " " << LipTexture(rig.lip1, Mirror::kOne) << " }\n"
-      << (rig.mount.present && rig.mount.body == Mirror::kOne ? MountPosts(rig.mount) : "")
-      << "  " << Matrix(cam_from_m1.rotation, cam_from_m1.translation) << "\n  }\n";
-    s << "  union {  // mirror 2 body (frame M2), with the camera hole of radius r_cam\n"
-      << "  " << MirrorObject(m2, rig.profile2, 2, rig.r_cam, rig.r_sys)
-      << "\n"
-      << "  disc { " << Vec(0, 0, rig.lip2.z) << ", <0, 0, 1>, " << Num(rig.lip2.r_outer) << ", "
-      << Num(rig.lip2.r_inner) << " " << LipTexture(rig.lip2, Mirror::kTwo) << " }\n"
-      << (rig.mount.present && rig.mount.body == Mirror::kTwo ? MountPosts(rig.mount) : "")
-      << "  " << Matrix(cam_from_m2.rotation, cam_from_m2.translation) << "\n  }\n";
-  }
+  if (content.draw_mirrors) s << MirrorBodies(rig);
 
   for (const Marker& m : content.markers) {
     s << "  sphere { " << Vec(m.center_in_cam.x(), m.center_in_cam.y(), m.center_in_cam.z())
       << ", " << Num(m.radius_mm) << " pigment { rgb 1 } finish { SelfLit } no_shadow }\n";
   }
 
-  for (const TargetSheet& sheet : content.targets) {
-    const TargetSpec& spec = sheet.spec;
-    const Eigen::Vector4d bounds = SheetBounds(spec);  // x0, y0, x1, y1
-    const std::string pose =
-        Matrix(sheet.cam_from_target_rotation, sheet.cam_from_target_translation);
-    if (spec.type == TargetType::kChessboard) {
-      const double sq = spec.square_mm;
-      // Squares span [-sq, cols*sq] x [-sq, rows*sq] on a white sheet (SheetBounds).
-      s << "  union {  // chessboard " << spec.rows << "x" << spec.cols << " inner corners\n"
-        << "    box { " << Vec(-sq, -sq, 0) << ", " << Vec(spec.cols * sq, spec.rows * sq, 0.5)
-        << "\n      pigment { checker rgb 0, rgb 1 scale " << Num(sq) << " translate "
-        << Vec(0, 0, 0.5 * sq) << " } finish { SelfLit } }\n"
-        << "    box { " << Vec(bounds[0], bounds[1], 0.01) << ", " << Vec(bounds[2], bounds[3], 2)
-        << " pigment { rgb 1 } finish { SelfLit } }\n"
-        << "    " << pose << "\n  }\n";
-      continue;
-    }
-    // image_map puts the PNG on the unit square with its top row at y = 1; the texture's top row
-    // must lie at y0 (y runs down the printed face), hence the negative y scale. No `interpolate`:
-    // every texel is a sharp square, so tag edges fall exactly on the texel boundaries.
-    const double w = bounds[2] - bounds[0], h = bounds[3] - bounds[1];
-    s << "  box {  // " << TargetTypeName(spec.type) << " " << spec.rows << "x" << spec.cols
-      << " tags\n"
-      << "    " << Vec(bounds[0], bounds[1], 0) << ", " << Vec(bounds[2], bounds[3], 0.5) << "\n"
-      << "    pigment { image_map { png \"" << sheet.texture << "\" once }\n"
-      << "      scale " << Vec(w, -h, 1) << " translate " << Vec(bounds[0], bounds[3], 0)
-      << " }\n"
-      << "    finish { SelfLit }\n"
-      << "    " << pose << "\n  }\n";
-  }
+  for (const TargetSheet& sheet : content.targets) s << TargetObject(sheet);
 
-  if (content.room && content.room_plain) {
-    const double L = content.room_half_size_mm;
-    s << "  box { " << Vec(-L, -L, content.room_floor_mm) << ", "
-      << Vec(L, L, content.room_ceiling_mm) << " hollow\n"
-      << "    texture { pigment { rgb 0.45 } finish { SelfLit } } }\n";
-  } else if (content.room) {
-    const double L = content.room_half_size_mm;
-    const Eigen::Vector3d& o = content.room_texture_offset_mm;
-    s << "  box { " << Vec(-L, -L, content.room_floor_mm) << ", "
-      << Vec(L, L, content.room_ceiling_mm) << " hollow\n"
-      << "    texture { pigment { granite color_map { [0 rgb 0.05] [0.3 rgb <0.8, 0.5, 0.2>] "
-         "[0.6 rgb <0.2, 0.6, 0.9>] [1 rgb 0.95] } scale 400 translate "
-      << Vec(o.x(), o.y(), o.z()) << " }\n"
-      << "      finish { SelfLit } }\n"
-      << "    texture { pigment { bozo color_map { [0 rgbt 1] [0.5 rgbt 1] [0.5 rgb 0.1] "
-         "[1 rgb 0.9] } scale 60 translate " << Vec(o.x(), o.y(), o.z())
-      << " } finish { SelfLit } } }\n";
-  }
+  s << RoomObject(content);
 
   s << "  scale <1, -1, 1>  // C -> POV-Ray\n}\n";
   return s.str();

@@ -232,6 +232,119 @@ Scene ReadSceneFile(const std::string& path, const RigModel& model) {
 
 namespace {
 
+// The scene's sections, each read into `s` (the file's key names in every message).
+void ReadImageSection(const YAML::Node& img, const std::string& path, const RigModel& model,
+                      Scene* s) {
+  s->width = Int(img["width"], path, "image.width");
+  s->height = Int(img["height"], path, "image.height");
+  if (s->width <= 0 || s->height <= 0) Fail(path, "image", "expected positive width and height");
+  const RigParams& rig = model.params();
+  if (static_cast<long>(s->width) * rig.image_height != static_cast<long>(s->height) * rig.image_width) {
+    Fail(path, "image", "expected the model's aspect ratio " + std::to_string(rig.image_width) +
+                            ":" + std::to_string(rig.image_height));
+  }
+}
+
+void ReadRoomSection(const YAML::Node& room, const std::string& path, Scene* s) {
+  s->room = BoolOr(room["enabled"], path, "room.enabled", true);
+  s->room_half_size_mm = NumberOr(room["half_size"], path, "room.half_size", s->room_half_size_mm);
+  s->room_floor_mm = NumberOr(room["floor"], path, "room.floor", s->room_floor_mm);
+  s->room_ceiling_mm = NumberOr(room["ceiling"], path, "room.ceiling", s->room_ceiling_mm);
+  if (const auto texture = room["texture"]) {
+    const std::string t = texture.Scalar();
+    if (t != "granite" && t != "plain") Fail(path, "room.texture", "expected granite or plain");
+    s->room_plain = t == "plain";
+  }
+  s->room_texture_seed = SeedOr(room["texture_seed"], path, "room.texture_seed", 0);
+}
+
+// `images`: each image's name (default its number, 0001...) and its target placements.
+void ReadImagesSection(const YAML::Node& images, const std::string& path, Scene* s) {
+  for (size_t i = 0; i < images.size(); ++i) {
+    const std::string key = "images[" + std::to_string(i) + "]";
+    SceneImage image;
+    char name[32];
+    std::snprintf(name, sizeof(name), "%04d", static_cast<int>(i) + 1);
+    image.name = images[i]["name"] ? images[i]["name"].Scalar() : name;
+    for (size_t k = 0; images[i]["placements"] && k < images[i]["placements"].size(); ++k) {
+      const auto pn = images[i]["placements"][k];
+      const std::string pk = key + ".placements[" + std::to_string(k) + "]";
+      Placement p;
+      p.target = Int(pn["target"], path, pk + ".target");
+      if (p.target < 0 || p.target >= static_cast<int>(s->targets.size())) {
+        Fail(path, pk + ".target", "expected an index into targets");
+      }
+      const Eigen::Vector3d w = Vec3(pn["rotation"], path, pk + ".rotation");
+      p.cam_from_target_rotation =
+          w.norm() > 0 ? Eigen::AngleAxisd(w.norm(), w.normalized()).toRotationMatrix()
+                       : Eigen::Matrix3d::Identity();
+      p.cam_from_target_translation = Vec3(pn["translation"], path, pk + ".translation");
+      image.placements.push_back(p);
+    }
+    s->images.push_back(image);
+  }
+}
+
+// `random`: images of randomly placed targets (synthetic/scene.h AddRandomImages).
+void ReadRandomSection(const YAML::Node& r, const std::string& path, const RigModel& model,
+                       Scene* s) {
+  RandomPlacement rp;
+  // A bound, so that a typo cannot make the parser place millions of images (scripts/fuzz.sh's
+  // fuzz_scene: images 25601 took > 10 s before rendering anything); a session is ~10-50.
+  constexpr long kMaxRandomImages = 1000;
+  rp.images = static_cast<int>(WholeNumber(r["images"], path, "random.images", 0, kMaxRandomImages));
+  if (r["targets"]) {
+    rp.targets_min = Int(r["targets"][0], path, "random.targets");
+    rp.targets_max = Int(r["targets"][1], path, "random.targets");
+  }
+  if (r["range"]) {
+    rp.range_min_mm = Number(r["range"][0], path, "random.range");
+    rp.range_max_mm = Number(r["range"][1], path, "random.range");
+  }
+  if (const auto tr = r["target_ranges"]) {
+    if (!tr.IsSequence() || tr.size() != s->targets.size()) {
+      Fail(path, "random.target_ranges", "expected one [min, max] (mm) per target, " +
+                                             std::to_string(s->targets.size()) + " in all");
+    }
+    for (size_t k = 0; k < tr.size(); ++k) {
+      const std::string key = "random.target_ranges[" + std::to_string(k) + "]";
+      if (!tr[k].IsSequence() || tr[k].size() != 2) Fail(path, key, "expected [min, max] in mm");
+      const double lo = Number(tr[k][0], path, key), hi = Number(tr[k][1], path, key);
+      if (!(lo > 0 && lo <= hi)) Fail(path, key, "expected 0 < min <= max");
+      rp.target_ranges_mm.emplace_back(lo, hi);
+    }
+  }
+  rp.max_tilt_rad = NumberOr(r["max_tilt_deg"], path, "random.max_tilt_deg", 20.0) * M_PI / 180;
+  rp.seed = SeedOr(r["seed"], path, "random.seed", 1);
+  if (rp.images < 0 || rp.targets_min < 1 || rp.targets_max < rp.targets_min ||
+      rp.range_min_mm <= 0 || rp.range_max_mm < rp.range_min_mm) {
+    Fail(path, "random", "expected images >= 0, 1 <= targets[0] <= targets[1], 0 < range[0] <= range[1]");
+  }
+  std::string error;
+  if (!AddRandomImages(model, rp, s, &error)) Fail(path, "random", error);
+}
+
+// `rings`: one image of chessboards in rings at the given ranges (synthetic/scene.h AddRingImage).
+void ReadRingsSection(const YAML::Node& r, const std::string& path, const RigModel& model,
+                      Scene* s) {
+  RingPlacement rp;
+  if (!r["ranges"] || !r["ranges"].IsSequence() || r["ranges"].size() == 0) {
+    Fail(path, "rings.ranges", "expected a list of horizontal ranges in mm");
+  }
+  for (size_t i = 0; i < r["ranges"].size(); ++i) {
+    rp.ranges_mm.push_back(Number(r["ranges"][i], path, "rings.ranges"));
+    if (rp.ranges_mm.back() <= 0) Fail(path, "rings.ranges", "expected ranges > 0");
+  }
+  rp.per_range = r["per_range"] ? Int(r["per_range"], path, "rings.per_range") : 4;
+  rp.rows = r["rows"] ? Int(r["rows"], path, "rings.rows") : 4;
+  rp.cols = r["cols"] ? Int(r["cols"], path, "rings.cols") : 5;
+  rp.square_at_1m_mm = NumberOr(r["square_at_1m"], path, "rings.square_at_1m", 40.0);
+  if (rp.per_range < 1 || rp.rows < 2 || rp.cols < 2 || rp.square_at_1m_mm <= 0) {
+    Fail(path, "rings", "expected per_range >= 1, rows, cols >= 2, square_at_1m > 0");
+  }
+  AddRingImage(model, rp, s);
+}
+
 Scene ParseScene(const YAML::Node& root, const std::string& path, const RigModel& model) {
   if (!root.IsMap()) Fail(path, "format", "expected a YAML mapping with format: omnistereo-scene/1");
   for (const char* key : {"image", "render", "room", "random", "rings"}) ExpectMap(root, path, key);
@@ -240,16 +353,7 @@ Scene ParseScene(const YAML::Node& root, const std::string& path, const RigModel
     Fail(path, "format", "expected omnistereo-scene/1, got '" + format + "'");
   }
   Scene s;
-  if (const auto img = root["image"]) {
-    s.width = Int(img["width"], path, "image.width");
-    s.height = Int(img["height"], path, "image.height");
-    if (s.width <= 0 || s.height <= 0) Fail(path, "image", "expected positive width and height");
-    const RigParams& rig = model.params();
-    if (static_cast<long>(s.width) * rig.image_height != static_cast<long>(s.height) * rig.image_width) {
-      Fail(path, "image", "expected the model's aspect ratio " + std::to_string(rig.image_width) +
-                              ":" + std::to_string(rig.image_height));
-    }
-  }
+  if (const auto img = root["image"]) ReadImageSection(img, path, model, &s);
   if (const auto r = root["render"]) {
     s.antialias = BoolOr(r["antialias"], path, "render.antialias", s.antialias);
     s.noise_sigma = NumberOr(r["noise_sigma"], path, "render.noise_sigma", 0.0);
@@ -263,49 +367,14 @@ Scene ParseScene(const YAML::Node& root, const std::string& path, const RigModel
            "expected 0 with camera_effects (their full_well_e and read_noise model the sensor's noise)");
     }
   }
-  if (const auto room = root["room"]) {
-    s.room = BoolOr(room["enabled"], path, "room.enabled", true);
-    s.room_half_size_mm = NumberOr(room["half_size"], path, "room.half_size", s.room_half_size_mm);
-    s.room_floor_mm = NumberOr(room["floor"], path, "room.floor", s.room_floor_mm);
-    s.room_ceiling_mm = NumberOr(room["ceiling"], path, "room.ceiling", s.room_ceiling_mm);
-    if (const auto texture = room["texture"]) {
-      const std::string t = texture.Scalar();
-      if (t != "granite" && t != "plain") Fail(path, "room.texture", "expected granite or plain");
-      s.room_plain = t == "plain";
-    }
-    s.room_texture_seed = SeedOr(room["texture_seed"], path, "room.texture_seed", 0);
-  }
+  if (const auto room = root["room"]) ReadRoomSection(room, path, &s);
   if (const auto targets = root["targets"]) {
     if (!targets.IsSequence()) Fail(path, "targets", "expected a list of target definitions");
     for (size_t i = 0; i < targets.size(); ++i) {
       s.targets.push_back(ReadTarget(targets[i], path, "targets[" + std::to_string(i) + "]"));
     }
   }
-  if (const auto images = root["images"]) {
-    for (size_t i = 0; i < images.size(); ++i) {
-      const std::string key = "images[" + std::to_string(i) + "]";
-      SceneImage image;
-      char name[32];
-      std::snprintf(name, sizeof(name), "%04d", static_cast<int>(i) + 1);
-      image.name = images[i]["name"] ? images[i]["name"].Scalar() : name;
-      for (size_t k = 0; images[i]["placements"] && k < images[i]["placements"].size(); ++k) {
-        const auto pn = images[i]["placements"][k];
-        const std::string pk = key + ".placements[" + std::to_string(k) + "]";
-        Placement p;
-        p.target = Int(pn["target"], path, pk + ".target");
-        if (p.target < 0 || p.target >= static_cast<int>(s.targets.size())) {
-          Fail(path, pk + ".target", "expected an index into targets");
-        }
-        const Eigen::Vector3d w = Vec3(pn["rotation"], path, pk + ".rotation");
-        p.cam_from_target_rotation =
-            w.norm() > 0 ? Eigen::AngleAxisd(w.norm(), w.normalized()).toRotationMatrix()
-                         : Eigen::Matrix3d::Identity();
-        p.cam_from_target_translation = Vec3(pn["translation"], path, pk + ".translation");
-        image.placements.push_back(p);
-      }
-      s.images.push_back(image);
-    }
-  }
+  if (const auto images = root["images"]) ReadImagesSection(images, path, &s);
   if (const auto m = root["markers"]) {
     for (size_t i = 0; i < m.size(); ++i) {
       const std::string key = "markers[" + std::to_string(i) + "]";
@@ -313,60 +382,8 @@ Scene ParseScene(const YAML::Node& root, const std::string& path, const RigModel
                            Number(m[i]["radius"], path, key + ".radius")});
     }
   }
-  if (const auto r = root["random"]) {
-    RandomPlacement rp;
-    // A bound, so that a typo cannot make the parser place millions of images (scripts/fuzz.sh's
-    // fuzz_scene: images 25601 took > 10 s before rendering anything); a session is ~10-50.
-    constexpr long kMaxRandomImages = 1000;
-    rp.images = static_cast<int>(WholeNumber(r["images"], path, "random.images", 0, kMaxRandomImages));
-    if (r["targets"]) {
-      rp.targets_min = Int(r["targets"][0], path, "random.targets");
-      rp.targets_max = Int(r["targets"][1], path, "random.targets");
-    }
-    if (r["range"]) {
-      rp.range_min_mm = Number(r["range"][0], path, "random.range");
-      rp.range_max_mm = Number(r["range"][1], path, "random.range");
-    }
-    if (const auto tr = r["target_ranges"]) {
-      if (!tr.IsSequence() || tr.size() != s.targets.size()) {
-        Fail(path, "random.target_ranges", "expected one [min, max] (mm) per target, " +
-                                               std::to_string(s.targets.size()) + " in all");
-      }
-      for (size_t k = 0; k < tr.size(); ++k) {
-        const std::string key = "random.target_ranges[" + std::to_string(k) + "]";
-        if (!tr[k].IsSequence() || tr[k].size() != 2) Fail(path, key, "expected [min, max] in mm");
-        const double lo = Number(tr[k][0], path, key), hi = Number(tr[k][1], path, key);
-        if (!(lo > 0 && lo <= hi)) Fail(path, key, "expected 0 < min <= max");
-        rp.target_ranges_mm.emplace_back(lo, hi);
-      }
-    }
-    rp.max_tilt_rad = NumberOr(r["max_tilt_deg"], path, "random.max_tilt_deg", 20.0) * M_PI / 180;
-    rp.seed = SeedOr(r["seed"], path, "random.seed", 1);
-    if (rp.images < 0 || rp.targets_min < 1 || rp.targets_max < rp.targets_min ||
-        rp.range_min_mm <= 0 || rp.range_max_mm < rp.range_min_mm) {
-      Fail(path, "random", "expected images >= 0, 1 <= targets[0] <= targets[1], 0 < range[0] <= range[1]");
-    }
-    std::string error;
-    if (!AddRandomImages(model, rp, &s, &error)) Fail(path, "random", error);
-  }
-  if (const auto r = root["rings"]) {
-    RingPlacement rp;
-    if (!r["ranges"] || !r["ranges"].IsSequence() || r["ranges"].size() == 0) {
-      Fail(path, "rings.ranges", "expected a list of horizontal ranges in mm");
-    }
-    for (size_t i = 0; i < r["ranges"].size(); ++i) {
-      rp.ranges_mm.push_back(Number(r["ranges"][i], path, "rings.ranges"));
-      if (rp.ranges_mm.back() <= 0) Fail(path, "rings.ranges", "expected ranges > 0");
-    }
-    rp.per_range = r["per_range"] ? Int(r["per_range"], path, "rings.per_range") : 4;
-    rp.rows = r["rows"] ? Int(r["rows"], path, "rings.rows") : 4;
-    rp.cols = r["cols"] ? Int(r["cols"], path, "rings.cols") : 5;
-    rp.square_at_1m_mm = NumberOr(r["square_at_1m"], path, "rings.square_at_1m", 40.0);
-    if (rp.per_range < 1 || rp.rows < 2 || rp.cols < 2 || rp.square_at_1m_mm <= 0) {
-      Fail(path, "rings", "expected per_range >= 1, rows, cols >= 2, square_at_1m > 0");
-    }
-    AddRingImage(model, rp, &s);
-  }
+  if (const auto r = root["random"]) ReadRandomSection(r, path, model, &s);
+  if (const auto r = root["rings"]) ReadRingsSection(r, path, model, &s);
   if (s.images.empty() && s.markers.empty()) Fail(path, "images", "expected images, random or markers");
   if (s.images.empty()) s.images.push_back(SceneImage{"0001", {}});
   return s;
