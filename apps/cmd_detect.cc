@@ -64,8 +64,7 @@ void WriteOverlay(const std::string& path, const cv::Mat& image, const detectors
 // The intrinsics the lips alone give, against the model's. A check, not a calibration: the fit
 // puts the principal point where the mirror bodies put the lips' centres, which moves with
 // their misalignment, and f absorbs the lens's radial distortion and the bodies' axial offsets
-// (lip_intrinsics.h; measured: f -0.5 to -0.6%, principal point 5-9 px from the true one on a rig
-// misaligned by 0.3 mm and 0.3 deg).
+// (lip_intrinsics.h: f within ~0.6%, the principal point a few px off on a misaligned rig).
 void PrintLipCheck(const Observations& detections, const RigModel& model) {
   const RigParams& p = model.params();
   const auto lips = detectors::InitialIntrinsicsFromLipsOf(detections, model);
@@ -90,6 +89,51 @@ void PrintLipCheck(const Observations& detections, const RigModel& model) {
               "with targets for the model\n");
 }
 
+// One photo's progress line: its corners per ring, lip edges, time, and per target corners in
+// ring 1 / ring 2 (what a user checks each photo by).
+std::string ImageLine(const detectors::ImageReport& r, const ImageObservations& det) {
+  // Per target: corners in ring 1 / ring 2 (what a user checks each photo by).
+  std::map<int, std::array<int, 2>> per_target;
+  for (const CornerObservation& c : det.corners) ++per_target[c.target][MirrorIndex(c.mirror) - 1];
+  std::string targets;
+  for (const auto& [t, count] : per_target) {
+    targets += (targets.empty() ? "; " : ", ") + std::string("target ") + std::to_string(t) +
+               " " + std::to_string(count[0]) + " / " + std::to_string(count[1]);
+  }
+  char line[512];
+  std::snprintf(line, sizeof(line),
+                "[%zu/%zu] %s: %d corners in ring 1, %d in ring 2, %zu lip edges (%.0f ms)%s",
+                r.index + 1, r.total, r.file.c_str(), r.corners[0], r.corners[1], det.lips.size(),
+                r.ms, targets.c_str());
+  return line;
+}
+
+// The session per target: in how many photos it was found, its corners per ring.
+void PrintTargetSummary(const io::Session& session, const Observations& detections) {
+  for (size_t t = 0; t < session.targets.size(); ++t) {
+    int photos = 0, ring[2] = {0, 0};
+    for (const ImageObservations& image : detections.images) {
+      bool seen = false;
+      for (const CornerObservation& c : image.corners) {
+        if (c.target != static_cast<int>(t)) continue;
+        seen = true;
+        ++ring[MirrorIndex(c.mirror) - 1];
+      }
+      photos += seen;
+    }
+    const TargetSpec& spec = session.targets[t];
+    std::printf("  target %zu (%s): in %d of %zu photos, %d corners in ring 1, %d in ring 2%s\n",
+                t, TargetName(spec).c_str(), photos, detections.images.size(),
+                ring[0], ring[1], photos == 0 ? ": never found (check its rows/cols, size and first_id)" : "");
+  }
+}
+
+void CreateFolder(const std::string& folder, const char* flag) {
+  std::error_code ec;
+  fs::create_directories(folder, ec);
+  if (ec) throw io::InputError(std::string(flag) + " " + folder + ": cannot create the folder: " + ec.message());
+}
+
 }  // namespace
 
 int RunDetect() {
@@ -101,19 +145,15 @@ int RunDetect() {
     throw io::InputError(FLAGS_session + ": targets: [] and lips: false: nothing to detect");
   }
   // --model: another model than the session's, e.g. the calibrated one for a second pass (its
-  // rings' edges and its predictions from one ring into the other are where the rig has them:
-  // hid3 from the ideal design 89% of the corners, from the calibrated model 95%).
+  // rings' edges and its predictions from one ring into the other are where the rig has them,
+  // so guided detection finds more corners).
   const RigParams rig = io::ReadModelFile(FLAGS_model.empty() ? session.model_path : FLAGS_model);
   detectors::DetectorContext ctx(rig, session.targets, session.use_lips);
   bool nothing_read = false;
   const detectors::LipGuide guide = detectors::GuideSessionByLips(session, &ctx, &nothing_read);
   if (!nothing_read) std::printf("%s\n", detectors::GuideLine(guide).c_str());
   std::fflush(stdout);  // before the progress lines on stderr
-  if (!FLAGS_overlay.empty()) {
-    std::error_code ec;
-    fs::create_directories(FLAGS_overlay, ec);
-    if (ec) throw io::InputError("--overlay " + FLAGS_overlay + ": cannot create the folder: " + ec.message());
-  }
+  if (!FLAGS_overlay.empty()) CreateFolder(FLAGS_overlay, "--overlay");
   const fs::path out_dir = fs::absolute(FLAGS_out).parent_path();
   int bad = 0, corners = 0;
   const size_t n = session.images.size();
@@ -136,20 +176,7 @@ int RunDetect() {
                        image, ctx.layout, *det, session.targets);
         }
         det->file = RelativeTo(r.file, out_dir);
-        // Per target: corners in ring 1 / ring 2 (what a user checks each photo by).
-        std::map<int, std::array<int, 2>> per_target;
-        for (const CornerObservation& c : det->corners) ++per_target[c.target][MirrorIndex(c.mirror) - 1];
-        std::string targets;
-        for (const auto& [t, count] : per_target) {
-          targets += (targets.empty() ? "; " : ", ") + std::string("target ") + std::to_string(t) +
-                     " " + std::to_string(count[0]) + " / " + std::to_string(count[1]);
-        }
-        char line[512];
-        std::snprintf(line, sizeof(line),
-                      "[%zu/%zu] %s: %d corners in ring 1, %d in ring 2, %zu lip edges (%.0f ms)%s",
-                      r.index + 1, r.total, file, r.corners[0], r.corners[1], det->lips.size(),
-                      r.ms, targets.c_str());
-        progress.Done(line);
+        progress.Done(ImageLine(r, *det));
       });
   progress.Finish();
   const std::string note = repeated.Note(session.targets);
@@ -158,23 +185,7 @@ int RunDetect() {
   io::WriteDetectionsFile(FLAGS_out, detections);
   std::printf("%zu of %zu images used (%d skipped), %d corners, detections in %s\n",
               detections.images.size(), n, bad, corners, FLAGS_out.c_str());
-  // The session per target: in how many photos it was found, its corners per ring.
-  for (size_t t = 0; t < session.targets.size(); ++t) {
-    int photos = 0, ring[2] = {0, 0};
-    for (const ImageObservations& image : detections.images) {
-      bool seen = false;
-      for (const CornerObservation& c : image.corners) {
-        if (c.target != static_cast<int>(t)) continue;
-        seen = true;
-        ++ring[MirrorIndex(c.mirror) - 1];
-      }
-      photos += seen;
-    }
-    const TargetSpec& spec = session.targets[t];
-    std::printf("  target %zu (%s): in %d of %zu photos, %d corners in ring 1, %d in ring 2%s\n",
-                t, TargetName(spec).c_str(), photos, detections.images.size(),
-                ring[0], ring[1], photos == 0 ? ": never found (check its rows/cols, size and first_id)" : "");
-  }
+  PrintTargetSummary(session, detections);
   if (session.targets.empty()) PrintLipCheck(detections, RigModel(rig));
   return 0;
 }
