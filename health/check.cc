@@ -70,75 +70,65 @@ CheckResult CheckRig(const RigParams& stored, const std::vector<ImageEvidence>& 
                       static_cast<int>(images.size()), options);
 }
 
-CheckResult CheckSamples(const RigParams& stored, const SampleSet& set, int n_images,
-                         const CheckOptions& options) {
-  CheckResult result;
-  result.n_images = n_images;
-  const RigModel model(stored);
+namespace {
+
+// The bins as the result reports them, the sectors the matches cover and the kept samples' rms
+// per kind; the bins in `used` order.
+void SummariseBins(const SampleSet& set, const CheckOptions& options, CheckResult* result) {
   const int nb = options.azimuth_bins;
-  const std::vector<Sample>& samples = set.samples;
-  result.n_matches = set.n_matches;
-  result.n_lip_points = set.n_lip_points;
-  std::vector<const SampleBin*> used;
-  for (const SampleBin& bin : set.bins) used.push_back(&bin);
   std::vector<bool> azimuth_covered(nb, false);
-  for (const SampleBin* bin : used) {
-    const bool is_match = bin->kind == "matches";
+  for (const SampleBin& bin : set.bins) {
+    const bool is_match = bin.kind == "matches";
     ResidualBin r;
-    r.kind = bin->kind;
-    r.azimuth_deg = bin->azimuth_deg;
-    r.count = static_cast<int>(bin->members.size());
-    r.mean = bin->mean;
-    r.standard_error = bin->standard_error;
-    result.bins.push_back(r);
+    r.kind = bin.kind;
+    r.azimuth_deg = bin.azimuth_deg;
+    r.count = static_cast<int>(bin.members.size());
+    r.mean = bin.mean;
+    r.standard_error = bin.standard_error;
+    result->bins.push_back(r);
     if (is_match) {
-      ++result.match_bins;
-      azimuth_covered[AzimuthBin(bin->azimuth_deg * M_PI / 180, nb)] = true;
+      ++result->match_bins;
+      azimuth_covered[AzimuthBin(bin.azimuth_deg * M_PI / 180, nb)] = true;
     } else {
-      ++result.lip_bins;
+      ++result->lip_bins;
     }
   }
-  result.covered_azimuth_bins = static_cast<int>(std::count(azimuth_covered.begin(),
-                                                            azimuth_covered.end(), true));
+  result->covered_azimuth_bins = static_cast<int>(std::count(azimuth_covered.begin(),
+                                                             azimuth_covered.end(), true));
   double ss_gap = 0, ss_lip = 0;
   int n_gap = 0, n_lip = 0;
-  for (const Sample& s : samples) {
+  for (const Sample& s : set.samples) {
     if (!s.kept) continue;
     (s.is_match ? ss_gap : ss_lip) += s.value * s.value;
     ++(s.is_match ? n_gap : n_lip);
   }
-  result.gap_rms_px = n_gap ? std::sqrt(ss_gap / n_gap) : 0;
-  result.lip_rms_px = n_lip ? std::sqrt(ss_lip / n_lip) : 0;
+  result->gap_rms_px = n_gap ? std::sqrt(ss_gap / n_gap) : 0;
+  result->lip_rms_px = n_lip ? std::sqrt(ss_lip / n_lip) : 0;
+}
 
-  const int m = static_cast<int>(used.size());
+// The bins' derivatives by every drift coordinate (forward differences), at a subsample of each
+// bin's points; rows in set.bins' order.
+Eigen::MatrixXd BinJacobian(const RigParams& stored, const SampleSet& set,
+                            const CheckOptions& options) {
+  const RigModel model(stored);
   const auto& coordinates = DriftCoordinates();
   const int nc = static_cast<int>(coordinates.size());
-  result.dof = m;
-  const bool enough = result.n_matches >= options.min_matches &&
-                      result.covered_azimuth_bins >= options.min_match_coverage * nb;
-  if (m == 0) {
-    result.verdict = Verdict::kCannotTell;
-    result.reason = "no ring-to-ring matches and no lip edges were found";
-    return result;
-  }
-
-  // The bins' derivatives by every drift coordinate, at a subsample of each bin's points.
+  const int m = static_cast<int>(set.bins.size());
   std::vector<RigModel> moved;
   for (int c = 0; c < nc; ++c) {
     Eigen::VectorXd step(1);
     step[0] = coordinates[c].step;
     moved.emplace_back(ApplyDrift(stored, {c}, step));
   }
-  result.jacobian = Eigen::MatrixXd::Zero(m, nc);
-  result.residual.resize(m);
+  Eigen::MatrixXd jacobian = Eigen::MatrixXd::Zero(m, nc);
   cv::parallel_for_(cv::Range(0, m), [&](const cv::Range& range) {
     for (int b = range.start; b < range.end; ++b) {
-      const std::vector<int>& members = used[b]->members;
+      const std::vector<int>& members = set.bins[b].members;
       const int take = std::min<int>(options.jacobian_samples, static_cast<int>(members.size()));
       Eigen::VectorXd sum = Eigen::VectorXd::Zero(nc);
       int n = 0;
       for (int k = 0; k < take; ++k) {
-        const Sample& s = samples[members[k * members.size() / take]];
+        const Sample& s = set.samples[members[k * members.size() / take]];
         Eigen::VectorXd row(nc);
         const auto base = ResidualUnder(model, s);
         bool ok = base.has_value();
@@ -151,113 +141,160 @@ CheckResult CheckSamples(const RigParams& stored, const SampleSet& set, int n_im
         sum += row;
         ++n;
       }
-      if (n) result.jacobian.row(b) = (sum / n).transpose();
+      if (n) jacobian.row(b) = (sum / n).transpose();
     }
   });
-  Eigen::VectorXd se2(m);
-  for (int b = 0; b < m; ++b) {
-    result.residual[b] = result.bins[b].mean;
-    se2[b] = result.bins[b].standard_error * result.bins[b].standard_error;
-  }
+  return jacobian;
+}
 
-  // C = diag(se^2) + J Sigma J^T over the coordinates the stored covariance has.
-  result.bin_covariance = se2.asDiagonal();
-  if (stored.calibration && !stored.calibration->covariance.empty()) {
-    const CalibrationInfo& info = *stored.calibration;
-    const int np = static_cast<int>(info.parameters.size());
-    std::vector<int> column(np, -1);  // drift coordinate of each covariance parameter
-    for (int p = 0; p < np; ++p) {
-      const RigParameter* parameter = FindRigParameter(info.parameters[p]);
-      for (int c = 0; c < nc && parameter; ++c) {
-        if (coordinates[c].rig_parameter && coordinates[c].name == parameter->name) column[p] = c;
-      }
+// J Sigma J^T: the stored calibration's covariance carried into the bins, over the coordinates
+// it has (false, nothing added, without one).
+bool AddModelCovariance(const RigParams& stored, const Eigen::MatrixXd& jacobian,
+                        Eigen::MatrixXd* bin_covariance) {
+  if (!stored.calibration || stored.calibration->covariance.empty()) return false;
+  const auto& coordinates = DriftCoordinates();
+  const int nc = static_cast<int>(coordinates.size());
+  const CalibrationInfo& info = *stored.calibration;
+  const int np = static_cast<int>(info.parameters.size());
+  std::vector<int> column(np, -1);  // drift coordinate of each covariance parameter
+  for (int p = 0; p < np; ++p) {
+    const RigParameter* parameter = FindRigParameter(info.parameters[p]);
+    for (int c = 0; c < nc && parameter; ++c) {
+      if (coordinates[c].rig_parameter && coordinates[c].name == parameter->name) column[p] = c;
     }
-    Eigen::MatrixXd J_stored = Eigen::MatrixXd::Zero(m, np);
-    for (int p = 0; p < np; ++p) {
-      if (column[p] >= 0) J_stored.col(p) = result.jacobian.col(column[p]);
-    }
-    const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>
-        sigma(info.covariance.data(), np, np);
-    result.bin_covariance += J_stored * sigma * J_stored.transpose();
-    result.model_covariance = true;
   }
-  const Eigen::LLT<Eigen::MatrixXd> llt(result.bin_covariance);
-  const Eigen::MatrixXd L = llt.matrixL();
-  const Eigen::VectorXd r_white = L.triangularView<Eigen::Lower>().solve(result.residual);
-  result.chi2 = r_white.squaredNorm();
-  result.p_value = ChiSquareSurvival(result.chi2, m);
+  Eigen::MatrixXd J_stored = Eigen::MatrixXd::Zero(jacobian.rows(), np);
+  for (int p = 0; p < np; ++p) {
+    if (column[p] >= 0) J_stored.col(p) = jacobian.col(column[p]);
+  }
+  const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>
+      sigma(info.covariance.data(), np, np);
+  *bin_covariance += J_stored * sigma * J_stored.transpose();
+  return true;
+}
 
+// Sets the verdict where the evidence decides without naming a group: too little texture (or a
+// model that does not fit the lips), or residuals within the uncertainty. False: DRIFTED.
+bool DecidedWithoutGroups(const RigParams& stored, const CheckOptions& options,
+                          CheckResult* result) {
+  const int nb = options.azimuth_bins;
+  const bool enough = result->n_matches >= options.min_matches &&
+                      result->covered_azimuth_bins >= options.min_match_coverage * nb;
   const double f = 0.5 * (stored.camera[0] + stored.camera[1]);
-  if (!enough && result.n_lip_points > 0 && result.lip_rms_px > options.lip_misfit_per_f * f) {
-    result.verdict = Verdict::kCannotTell;
-    result.model_misfit = true;
+  if (!enough && result->n_lip_points > 0 && result->lip_rms_px > options.lip_misfit_per_f * f) {
+    result->verdict = Verdict::kCannotTell;
+    result->model_misfit = true;
     char buf[400];
     std::snprintf(buf, sizeof(buf),
                   "the model does not fit these photos: their lips lie %.1f px rms from where it "
                   "puts them (a rig it describes: under %.1f px), and under it only %d "
                   "ring-to-ring matches were found: a model of another rig or an uncalibrated "
                   "start, or a rig knocked far",
-                  result.lip_rms_px, options.lip_misfit_per_f * f, result.n_matches);
-    result.reason = buf;
-    return result;
+                  result->lip_rms_px, options.lip_misfit_per_f * f, result->n_matches);
+    result->reason = buf;
+    return true;
   }
   if (!enough) {
+    result->verdict = Verdict::kCannotTell;
+    result->reason = "too little texture seen by both rings: " + std::to_string(result->n_matches) +
+                     " matches over " + std::to_string(result->covered_azimuth_bins) + " of " +
+                     std::to_string(nb) + " azimuth sectors (needs " +
+                     std::to_string(options.min_matches) + " over " +
+                     std::to_string(static_cast<int>(std::ceil(options.min_match_coverage * nb))) +
+                     "); the lips alone cannot tell a moved rig from their own bias";
+    return true;
+  }
+  if (result->p_value >= options.significance) {
+    result->verdict = Verdict::kOk;
+    result->reason = "the matches and lips agree with the stored model within its uncertainty";
+    return true;
+  }
+  return false;
+}
+
+// One group's generalised least-squares fit of the whitened residuals.
+GroupFit FitGroup(const std::string& group, const Eigen::MatrixXd& J_white,
+                  const Eigen::VectorXd& r_white) {
+  const auto& coordinates = DriftCoordinates();
+  const int m = static_cast<int>(r_white.size());
+  const std::vector<int> cols = CoordinatesOf(group);
+  Eigen::MatrixXd A(m, cols.size());
+  Eigen::VectorXd scale(cols.size());
+  for (size_t k = 0; k < cols.size(); ++k) {
+    scale[k] = std::max(J_white.col(cols[k]).norm(), 1e-300);
+    A.col(k) = J_white.col(cols[k]) / scale[k];  // unit columns: rank by relative size
+  }
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd(A, Eigen::ComputeThinU | Eigen::ComputeThinV);
+  svd.setThreshold(1e-6);
+  GroupFit fit;
+  fit.group = group;
+  fit.bins = m;
+  fit.rank = static_cast<int>(svd.rank());
+  const Eigen::VectorXd x = svd.solve(r_white);
+  fit.chi2 = (r_white - A * x).squaredNorm();
+  fit.dof = m - fit.rank;
+  fit.p_value = ChiSquareSurvival(fit.chi2, fit.dof);
+  // Covariance of x: V S^-2 V^T over the kept singular values.
+  const Eigen::VectorXd s = svd.singularValues();
+  Eigen::MatrixXd cov = Eigen::MatrixXd::Zero(cols.size(), cols.size());
+  for (int k = 0; k < fit.rank; ++k) {
+    cov += svd.matrixV().col(k) * svd.matrixV().col(k).transpose() / (s[k] * s[k]);
+  }
+  fit.amounts.resize(cols.size());
+  fit.sigma.resize(cols.size());
+  for (size_t k = 0; k < cols.size(); ++k) {
+    fit.names.push_back(coordinates[cols[k]].name);
+    // r = observed - predicted by the stored model, so the rig moved by -x (r + J x = 0).
+    fit.amounts[k] = -x[k] / scale[k];
+    fit.sigma[k] = std::sqrt(cov(k, k)) / scale[k];
+  }
+  return fit;
+}
+
+}  // namespace
+
+CheckResult CheckSamples(const RigParams& stored, const SampleSet& set, int n_images,
+                         const CheckOptions& options) {
+  CheckResult result;
+  result.n_images = n_images;
+  result.n_matches = set.n_matches;
+  result.n_lip_points = set.n_lip_points;
+  SummariseBins(set, options, &result);
+  const int m = static_cast<int>(set.bins.size());
+  result.dof = m;
+  if (m == 0) {
     result.verdict = Verdict::kCannotTell;
-    result.reason = "too little texture seen by both rings: " + std::to_string(result.n_matches) +
-                    " matches over " + std::to_string(result.covered_azimuth_bins) + " of " +
-                    std::to_string(nb) + " azimuth sectors (needs " +
-                    std::to_string(options.min_matches) + " over " +
-                    std::to_string(static_cast<int>(std::ceil(options.min_match_coverage * nb))) +
-                    "); the lips alone cannot tell a moved rig from their own bias";
+    result.reason = "no ring-to-ring matches and no lip edges were found";
     return result;
   }
-  if (result.p_value >= options.significance) {
-    result.verdict = Verdict::kOk;
-    result.reason = "the matches and lips agree with the stored model within its uncertainty";
-    return result;
+
+  // C = diag(se^2) + J Sigma J^T over the coordinates the stored covariance has.
+  result.jacobian = BinJacobian(stored, set, options);
+  result.residual.resize(m);
+  Eigen::VectorXd se2(m);
+  for (int b = 0; b < m; ++b) {
+    result.residual[b] = result.bins[b].mean;
+    se2[b] = result.bins[b].standard_error * result.bins[b].standard_error;
   }
+  result.bin_covariance = se2.asDiagonal();
+  result.model_covariance = AddModelCovariance(stored, result.jacobian, &result.bin_covariance);
+  const Eigen::LLT<Eigen::MatrixXd> llt(result.bin_covariance);
+  const Eigen::MatrixXd L = llt.matrixL();
+  const Eigen::VectorXd r_white = L.triangularView<Eigen::Lower>().solve(result.residual);
+  result.chi2 = r_white.squaredNorm();
+  result.p_value = ChiSquareSurvival(result.chi2, m);
+  if (DecidedWithoutGroups(stored, options, &result)) return result;
   result.verdict = Verdict::kDrifted;
 
   // Which group explains the residuals: generalised least squares per group.
   const Eigen::MatrixXd J_white = L.triangularView<Eigen::Lower>().solve(result.jacobian);
   for (const std::string& group : DriftGroups()) {
-    const std::vector<int> cols = CoordinatesOf(group);
-    Eigen::MatrixXd A(m, cols.size());
-    Eigen::VectorXd scale(cols.size());
-    for (size_t k = 0; k < cols.size(); ++k) {
-      scale[k] = std::max(J_white.col(cols[k]).norm(), 1e-300);
-      A.col(k) = J_white.col(cols[k]) / scale[k];  // unit columns: rank by relative size
-    }
-    Eigen::JacobiSVD<Eigen::MatrixXd> svd(A, Eigen::ComputeThinU | Eigen::ComputeThinV);
-    svd.setThreshold(1e-6);
-    GroupFit fit;
-    fit.group = group;
-    fit.bins = m;
-    fit.rank = static_cast<int>(svd.rank());
-    const Eigen::VectorXd x = svd.solve(r_white);
-    fit.chi2 = (r_white - A * x).squaredNorm();
-    fit.dof = m - fit.rank;
-    fit.p_value = ChiSquareSurvival(fit.chi2, fit.dof);
-    // Covariance of x: V S^-2 V^T over the kept singular values.
-    const Eigen::VectorXd s = svd.singularValues();
-    Eigen::MatrixXd cov = Eigen::MatrixXd::Zero(cols.size(), cols.size());
-    for (int k = 0; k < fit.rank; ++k) {
-      cov += svd.matrixV().col(k) * svd.matrixV().col(k).transpose() / (s[k] * s[k]);
-    }
-    fit.amounts.resize(cols.size());
-    fit.sigma.resize(cols.size());
-    for (size_t k = 0; k < cols.size(); ++k) {
-      fit.names.push_back(coordinates[cols[k]].name);
-      // r = observed - predicted by the stored model, so the rig moved by -x (r + J x = 0).
-      fit.amounts[k] = -x[k] / scale[k];
-      fit.sigma[k] = std::sqrt(cov(k, k)) / scale[k];
-    }
-    result.groups.push_back(fit);
+    result.groups.push_back(FitGroup(group, J_white, r_white));
   }
   // Ranked by Schwarz's Bayesian criterion, chi^2 + rank ln(bins): a group with more coordinates
   // (the camera's ten) fits any pattern a little better, and must fit it better by more than its
-  // extra freedom to be named. (Akaike's chi^2 + 2 rank named the camera for 3 of 20 photos of a
-  // mirror 2 decentred by 0.2 mm; this criterion names mirror 2 in all 20: docs/experiments.md.)
+  // extra freedom to be named (Akaike's chi^2 + 2 rank named the camera for a mirror's move:
+  // docs/experiments.md).
   std::sort(result.groups.begin(), result.groups.end(), [](const GroupFit& a, const GroupFit& b) {
     return a.Score() < b.Score();
   });

@@ -114,6 +114,142 @@ double DataChi2PerDof(const CheckResult& check, int n_parameters) {
   return chi2 / dof;
 }
 
+// The candidates' coordinates the photos determine (calib/covariance.h on the bins' whitened
+// Jacobian); the others go to result->held with the data that would determine them.
+std::vector<int> DeterminedCoordinates(const std::vector<int>& candidates, RefineResult* result) {
+  const auto& all = DriftCoordinates();
+  const Eigen::MatrixXd J_candidates = WhitenedBinJacobian(result->before, candidates);
+  calib::RigCovarianceOptions cov_options;
+  for (int c : candidates) {
+    cov_options.nearly_unobservable_sigma.push_back(FindRigParameter(all[c].name)->unobservable_sigma);
+  }
+  const calib::RigCovariance observability = calib::RigCovarianceFromSchur(
+      J_candidates.transpose() * J_candidates, static_cast<int>(candidates.size()), cov_options);
+  std::vector<int> free;
+  for (int i : observability.observable) free.push_back(candidates[i]);
+  for (size_t i = 0; i < candidates.size(); ++i) {
+    if (std::find(observability.observable.begin(), observability.observable.end(),
+                  static_cast<int>(i)) == observability.observable.end()) {
+      const RigParameter* p = FindRigParameter(all[candidates[i]].name);
+      result->held.push_back({p->name, p->hint});
+    }
+  }
+  return free;
+}
+
+// One round's Ceres solve of the `free` coordinates from x (moves x; returns the iterations): the
+// samples were linearised at the current model, the solve moves from the stored one, so its lips'
+// phi and normals are current's (the first-order distance holds for the small moves).
+int SolveRound(const RigParams& stored, const std::vector<int>& free, const SampleSet& set,
+               int round, const RefineOptions& options, Eigen::VectorXd* x) {
+  std::vector<Sample> samples;
+  TakeSpread(set.samples, true, options.max_match_samples, &samples);
+  TakeSpread(set.samples, false, options.max_lip_samples, &samples);
+  std::vector<double> weights;
+  for (const Sample& s : samples) {
+    const auto sd = set.kind_sd.find(KindOf(s));
+    weights.push_back(sd != set.kind_sd.end() && sd->second > 0 ? 1 / sd->second : 1.0);
+  }
+  Eigen::VectorXd x_round = *x;
+  ceres::Problem problem;
+  problem.AddResidualBlock(new SessionCost(stored, free, &samples, weights), nullptr,
+                           x_round.data());
+  ceres::Solver::Options solver;
+  solver.linear_solver_type = ceres::DENSE_QR;
+  solver.max_num_iterations = options.max_iterations;
+  solver.function_tolerance = 1e-10;
+  solver.parameter_tolerance = 1e-10;
+  solver.num_threads = 1;  // the cost is parallel inside
+  solver.logging_type = ceres::SILENT;
+  struct Status : ceres::IterationCallback {
+    std::function<void(const std::string&)> f;
+    int round = 0;
+    ceres::CallbackReturnType operator()(const ceres::IterationSummary& s) override {
+      char line[128];
+      std::snprintf(line, sizeof(line), "solve %d, iteration %d, cost %.4g", round + 1,
+                    s.iteration, s.cost);
+      if (f) f(line);
+      return ceres::SOLVER_CONTINUE;
+    }
+  } callback;
+  callback.f = options.status;
+  callback.round = round;
+  solver.callbacks.push_back(&callback);
+  ceres::Solver::Summary summary;
+  ceres::Solve(solver, &problem, &summary);
+  *x = x_round;
+  return static_cast<int>(summary.iterations.size());
+}
+
+// The refined parameters' covariance from the bins at the solution (data errors only, scaled by
+// the bins' chi^2 per degree of freedom when above 1) and result->refined.
+void RefinedCovariance(const RigParams& stored, const RigParams& current,
+                       const std::vector<int>& free, RefineResult* result) {
+  const auto& all = DriftCoordinates();
+  const Eigen::MatrixXd J_free = WhitenedBinJacobian(result->after, free);
+  calib::RigCovarianceOptions free_options;
+  result->variance_factor = DataChi2PerDof(result->after, static_cast<int>(free.size()));
+  free_options.variance_factor = std::max(1.0, result->variance_factor);
+  const calib::RigCovariance cov = calib::RigCovarianceFromSchur(
+      J_free.transpose() * J_free, static_cast<int>(free.size()), free_options);
+  result->covariance = Eigen::MatrixXd::Zero(free.size(), free.size());
+  for (size_t a = 0; a < cov.observable.size(); ++a) {
+    for (size_t b = 0; b < cov.observable.size(); ++b) {
+      result->covariance(cov.observable[a], cov.observable[b]) = cov.covariance(a, b);
+    }
+  }
+  for (size_t k = 0; k < free.size(); ++k) {
+    const std::string& name = all[free[k]].name;
+    result->refined.push_back({name, *ParameterOf(stored, name), *ParameterOf(current, name),
+                               std::sqrt(std::max(0.0, result->covariance(k, k)))});
+  }
+}
+
+// The refined model's calibration: the refined values; the covariance keeps the stored entries of
+// every other parameter and takes the refinement's block for the refined ones (their
+// correlations with the others dropped: the photos measured them anew).
+CalibrationInfo RefinedCalibration(const RigParams& stored, const RigParams& current,
+                                   const RefineResult& result, size_t n_images) {
+  CalibrationInfo info = stored.calibration ? *stored.calibration : CalibrationInfo{};
+  std::vector<std::string> names = info.parameters;
+  for (const RefinedParameter& p : result.refined) {
+    bool present = false;
+    for (const std::string& n : names) present = present || FindRigParameter(n) == FindRigParameter(p.name);
+    if (!present) names.push_back(p.name);
+  }
+  const int np = static_cast<int>(names.size());
+  const int old_np = static_cast<int>(info.parameters.size());
+  Eigen::MatrixXd covariance = Eigen::MatrixXd::Zero(np, np);
+  if (static_cast<int>(info.covariance.size()) == old_np * old_np) {
+    for (int a = 0; a < old_np; ++a) {
+      for (int b = 0; b < old_np; ++b) covariance(a, b) = info.covariance[a * old_np + b];
+    }
+  }
+  const size_t n_free = result.refined.size();
+  std::vector<int> index(n_free);
+  for (size_t k = 0; k < n_free; ++k) {
+    for (int a = 0; a < np; ++a) {
+      if (FindRigParameter(names[a]) == FindRigParameter(result.refined[k].name)) index[k] = a;
+    }
+    for (int a = 0; a < np; ++a) covariance(index[k], a) = covariance(a, index[k]) = 0;
+  }
+  for (size_t k = 0; k < n_free; ++k) {
+    for (size_t l = 0; l < n_free; ++l) covariance(index[k], index[l]) = result.covariance(k, l);
+  }
+  info.parameters = names;
+  info.values.assign(np, 0);
+  info.sigma.assign(np, 0);
+  info.covariance.assign(static_cast<size_t>(np) * np, 0);
+  for (int a = 0; a < np; ++a) {
+    info.values[a] = *ParameterOf(current, names[a]);
+    info.sigma[a] = std::sqrt(std::max(0.0, covariance(a, a)));
+    for (int b = 0; b < np; ++b) info.covariance[a * np + b] = covariance(a, b);
+  }
+  info.session = "refine from " + std::to_string(n_images) + " natural image(s)" +
+                 (info.session.empty() ? "" : " of the calibration from " + info.session);
+  return info;
+}
+
 }  // namespace
 
 RefineResult RefineRig(const RigParams& stored, const std::vector<ImageEvidence>& images,
@@ -121,6 +257,9 @@ RefineResult RefineRig(const RigParams& stored, const std::vector<ImageEvidence>
   const auto t0 = std::chrono::steady_clock::now();
   auto status = [&](const std::string& now) {
     if (options.status) options.status(now);
+  };
+  auto elapsed = [&] {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   };
   RefineResult result;
   status("the check under the stored model");
@@ -138,7 +277,7 @@ RefineResult RefineRig(const RigParams& stored, const std::vector<ImageEvidence>
     if (result.before.verdict == Verdict::kOk) {
       result.rig = stored;
       result.after = result.before;
-      result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      result.seconds = elapsed();
       return result;  // nothing moved: nothing refined
     }
     result.groups.push_back(result.before.named_group);
@@ -152,24 +291,7 @@ RefineResult RefineRig(const RigParams& stored, const std::vector<ImageEvidence>
     }
   }
   if (candidates.empty()) throw RefineError("refine: no parameter group to refine");
-
-  // What the photos determine (calib/covariance.h on the bins' whitened Jacobian).
-  const Eigen::MatrixXd J_candidates = WhitenedBinJacobian(result.before, candidates);
-  calib::RigCovarianceOptions cov_options;
-  for (int c : candidates) {
-    cov_options.nearly_unobservable_sigma.push_back(FindRigParameter(all[c].name)->unobservable_sigma);
-  }
-  const calib::RigCovariance observability = calib::RigCovarianceFromSchur(
-      J_candidates.transpose() * J_candidates, static_cast<int>(candidates.size()), cov_options);
-  std::vector<int> free;
-  for (int i : observability.observable) free.push_back(candidates[i]);
-  for (size_t i = 0; i < candidates.size(); ++i) {
-    if (std::find(observability.observable.begin(), observability.observable.end(),
-                  static_cast<int>(i)) == observability.observable.end()) {
-      const RigParameter* p = FindRigParameter(all[candidates[i]].name);
-      result.held.push_back({p->name, p->hint});
-    }
-  }
+  const std::vector<int> free = DeterminedCoordinates(candidates, &result);
   if (free.empty()) {
     throw RefineError("refine: these photos determine none of the parameters of " +
                       std::to_string(candidates.size()) + " candidates");
@@ -180,111 +302,16 @@ RefineResult RefineRig(const RigParams& stored, const std::vector<ImageEvidence>
   RigParams current = stored;
   for (int round = 0; round < options.rounds; ++round) {
     if (round > 0) set = CollectSamples(RigModel(current), images, options.check);
-    std::vector<Sample> samples;
-    TakeSpread(set.samples, true, options.max_match_samples, &samples);
-    TakeSpread(set.samples, false, options.max_lip_samples, &samples);
-    std::vector<double> weights;
-    for (const Sample& s : samples) {
-      const auto sd = set.kind_sd.find(KindOf(s));
-      weights.push_back(sd != set.kind_sd.end() && sd->second > 0 ? 1 / sd->second : 1.0);
-    }
-    // The samples were linearised at `current`; the solve moves from the stored model, so its
-    // lips' phi and normals are current's (the first-order distance holds for the small moves).
-    Eigen::VectorXd x_round = x;
-    ceres::Problem problem;
-    problem.AddResidualBlock(new SessionCost(stored, free, &samples, weights), nullptr,
-                             x_round.data());
-    ceres::Solver::Options solver;
-    solver.linear_solver_type = ceres::DENSE_QR;
-    solver.max_num_iterations = options.max_iterations;
-    solver.function_tolerance = 1e-10;
-    solver.parameter_tolerance = 1e-10;
-    solver.num_threads = 1;  // the cost is parallel inside
-    solver.logging_type = ceres::SILENT;
-    struct Status : ceres::IterationCallback {
-      std::function<void(const std::string&)> f;
-      int round = 0;
-      ceres::CallbackReturnType operator()(const ceres::IterationSummary& s) override {
-        char line[128];
-        std::snprintf(line, sizeof(line), "solve %d, iteration %d, cost %.4g", round + 1,
-                      s.iteration, s.cost);
-        if (f) f(line);
-        return ceres::SOLVER_CONTINUE;
-      }
-    } callback;
-    callback.f = options.status;
-    callback.round = round;
-    solver.callbacks.push_back(&callback);
-    ceres::Solver::Summary summary;
-    ceres::Solve(solver, &problem, &summary);
-    result.iterations += static_cast<int>(summary.iterations.size());
-    x = x_round;
+    result.iterations += SolveRound(stored, free, set, round, options, &x);
     current = ApplyDrift(stored, free, x);
   }
 
-  // The covariance from the bins at the solution, data errors only.
   status("the check under the refined model");
   result.after = CheckRig(current, images, options.check);
-  const Eigen::MatrixXd J_free = WhitenedBinJacobian(result.after, free);
-  calib::RigCovarianceOptions free_options;
-  result.variance_factor = DataChi2PerDof(result.after, static_cast<int>(free.size()));
-  free_options.variance_factor = std::max(1.0, result.variance_factor);
-  const calib::RigCovariance cov = calib::RigCovarianceFromSchur(
-      J_free.transpose() * J_free, static_cast<int>(free.size()), free_options);
-  result.covariance = Eigen::MatrixXd::Zero(free.size(), free.size());
-  for (size_t a = 0; a < cov.observable.size(); ++a) {
-    for (size_t b = 0; b < cov.observable.size(); ++b) {
-      result.covariance(cov.observable[a], cov.observable[b]) = cov.covariance(a, b);
-    }
-  }
-  for (size_t k = 0; k < free.size(); ++k) {
-    const std::string& name = all[free[k]].name;
-    result.refined.push_back({name, *ParameterOf(stored, name), *ParameterOf(current, name),
-                              std::sqrt(std::max(0.0, result.covariance(k, k)))});
-  }
-
-  // The model: the refined values; its calibration's covariance keeps the stored entries of
-  // every other parameter and takes the refinement's block for the refined ones (their
-  // correlations with the others dropped: the photos measured them anew).
+  RefinedCovariance(stored, current, free, &result);
   result.rig = current;
-  CalibrationInfo info = stored.calibration ? *stored.calibration : CalibrationInfo{};
-  std::vector<std::string> names = info.parameters;
-  for (const RefinedParameter& p : result.refined) {
-    bool present = false;
-    for (const std::string& n : names) present = present || FindRigParameter(n) == FindRigParameter(p.name);
-    if (!present) names.push_back(p.name);
-  }
-  const int np = static_cast<int>(names.size());
-  const int old_np = static_cast<int>(info.parameters.size());
-  Eigen::MatrixXd covariance = Eigen::MatrixXd::Zero(np, np);
-  if (static_cast<int>(info.covariance.size()) == old_np * old_np) {
-    for (int a = 0; a < old_np; ++a) {
-      for (int b = 0; b < old_np; ++b) covariance(a, b) = info.covariance[a * old_np + b];
-    }
-  }
-  std::vector<int> index(free.size());
-  for (size_t k = 0; k < free.size(); ++k) {
-    for (int a = 0; a < np; ++a) {
-      if (FindRigParameter(names[a]) == FindRigParameter(result.refined[k].name)) index[k] = a;
-    }
-    for (int a = 0; a < np; ++a) covariance(index[k], a) = covariance(a, index[k]) = 0;
-  }
-  for (size_t k = 0; k < free.size(); ++k) {
-    for (size_t l = 0; l < free.size(); ++l) covariance(index[k], index[l]) = result.covariance(k, l);
-  }
-  info.parameters = names;
-  info.values.assign(np, 0);
-  info.sigma.assign(np, 0);
-  info.covariance.assign(static_cast<size_t>(np) * np, 0);
-  for (int a = 0; a < np; ++a) {
-    info.values[a] = *ParameterOf(current, names[a]);
-    info.sigma[a] = std::sqrt(std::max(0.0, covariance(a, a)));
-    for (int b = 0; b < np; ++b) info.covariance[a * np + b] = covariance(a, b);
-  }
-  info.session = "refine from " + std::to_string(images.size()) + " natural image(s)" +
-                 (info.session.empty() ? "" : " of the calibration from " + info.session);
-  result.rig.calibration = info;
-  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  result.rig.calibration = RefinedCalibration(stored, current, result, images.size());
+  result.seconds = elapsed();
   return result;
 }
 
