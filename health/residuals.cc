@@ -64,33 +64,41 @@ std::optional<double> ResidualUnder(const RigModel& model, const Sample& s) {
   return LipResidualUnder(model, s.lip);
 }
 
-SampleSet CollectSamples(const RigModel& model, const std::vector<ImageEvidence>& images,
-                         const CheckOptions& options) {
-  SampleSet set;
-  const int nb = options.azimuth_bins;
-  // Samples: every match, a spread subsample of each lip edge's points.
-  std::vector<Sample>& samples = set.samples;
-  double elevation_split = 0;
-  {
-    std::vector<double> elevations;
-    for (const ImageEvidence& image : images) {
-      for (const RingMatch& m : image.matches) {
-        Sample s;
-        s.pixel1 = m.pixel1;
-        s.pixel2 = m.pixel2;
-        s.bin = AzimuthBin(m.azimuth, nb) * 2;
-        s.value = m.elevation;  // for the split below
-        samples.push_back(s);
-        elevations.push_back(m.elevation);
-      }
+namespace {
+
+// Every ring-to-ring match as a sample, binned by azimuth and by elevation above or below their
+// median (bin 2 a + 0 / 1).
+void AddMatchSamples(const std::vector<ImageEvidence>& images, int nb,
+                     std::vector<Sample>* samples) {
+  const size_t first = samples->size();
+  std::vector<double> elevations;
+  for (const ImageEvidence& image : images) {
+    for (const RingMatch& m : image.matches) {
+      Sample s;
+      s.pixel1 = m.pixel1;
+      s.pixel2 = m.pixel2;
+      s.bin = AzimuthBin(m.azimuth, nb) * 2;
+      s.value = m.elevation;  // for the split below
+      samples->push_back(s);
+      elevations.push_back(m.elevation);
     }
-    if (!elevations.empty()) {
-      std::nth_element(elevations.begin(), elevations.begin() + elevations.size() / 2,
-                       elevations.end());
-      elevation_split = elevations[elevations.size() / 2];
-    }
-    for (Sample& s : samples) s.bin += s.value < elevation_split ? 0 : 1;
   }
+  double elevation_split = 0;
+  if (!elevations.empty()) {
+    std::nth_element(elevations.begin(), elevations.begin() + elevations.size() / 2,
+                     elevations.end());
+    elevation_split = elevations[elevations.size() / 2];
+  }
+  for (size_t i = first; i < samples->size(); ++i) {
+    Sample& s = (*samples)[i];
+    s.bin += s.value < elevation_split ? 0 : 1;
+  }
+}
+
+// A spread subsample of each lip edge's points (bin 1000 + the edge's id; the azimuth bin is
+// added once phi is known).
+void AddLipSamples(const std::vector<ImageEvidence>& images, const CheckOptions& options,
+                   std::vector<Sample>* samples) {
   std::map<std::pair<LipPath, LipCircle>, int> edge_ids;
   for (const ImageEvidence& image : images) {
     for (const LipEdgeObservation& edge : image.lips) {
@@ -106,35 +114,27 @@ SampleSet CollectSamples(const RigModel& model, const std::vector<ImageEvidence>
         s.lip.circle = key.second;
         s.lip.pixel = edge.points[k];
         s.bin = 1000 + id;  // the azimuth bin is added once phi is known
-        samples.push_back(s);
+        samples->push_back(s);
       }
     }
   }
-  // Residuals under the stored model (parallel: a lip point's nearest edge point takes ~0.3 ms).
-  cv::parallel_for_(cv::Range(0, static_cast<int>(samples.size())), [&](const cv::Range& range) {
-    for (int i = range.start; i < range.end; ++i) {
-      Sample& s = samples[i];
-      if (s.is_match) {
-        const auto gap = EpipolarGap(model, s.pixel1, s.pixel2, &s.w);
-        if (gap) s.value = *gap, s.valid = true;
-      } else {
-        const auto lip = LipResidual(model, s.lip.path, s.lip.circle, s.lip.pixel);
-        if (lip) s.lip = *lip, s.value = lip->value, s.valid = true;
-      }
-    }
-  });
+}
+
+// The valid samples in their bins (lip samples' bins get their azimuth here); counts in `set`.
+std::map<int, Bin> BinSamples(int nb, SampleSet* set) {
+  std::vector<Sample>& samples = set->samples;
   std::map<int, Bin> bins;
   for (size_t i = 0; i < samples.size(); ++i) {
     if (!samples[i].valid) continue;
     Sample& s = samples[i];
     if (s.is_match) {
-      ++set.n_matches;
+      ++set->n_matches;
       Bin& b = bins[s.bin];
       b.kind = "matches";
       b.azimuth_deg = (s.bin / 2 + 0.5) * 360.0 / nb;
       b.members.push_back(static_cast<int>(i));
     } else {
-      ++set.n_lip_points;
+      ++set->n_lip_points;
       const int id = s.bin - 1000;
       s.bin = 1000 + id * nb + AzimuthBin(s.lip.phi, nb);
       Bin& b = bins[s.bin];
@@ -144,9 +144,15 @@ SampleSet CollectSamples(const RigModel& model, const std::vector<ImageEvidence>
     }
   }
 
-  // Robust bin means; bins too thin to estimate are dropped. Each bin's standard error comes
-  // from the scatter about the bin means pooled over its kind (a bin of 15 lip points would
-  // otherwise estimate its own spread badly: t-distributed, chi^2 17% high).
+  return bins;
+}
+
+// Robust bin means; bins too thin to estimate are dropped. Each bin's standard error comes
+// from the scatter about the bin means pooled over its kind (a bin of 15 lip points would
+// otherwise estimate its own spread badly: t-distributed, chi^2 17% high).
+void EstimateBins(std::map<int, Bin>* bins_in, const CheckOptions& options, SampleSet* set) {
+  std::map<int, Bin>& bins = *bins_in;
+  std::vector<Sample>& samples = set->samples;
   std::vector<Bin*> used;
   std::vector<double> means;
   for (Sample& s : samples) s.kept = false;
@@ -165,7 +171,7 @@ SampleSet CollectSamples(const RigModel& model, const std::vector<ImageEvidence>
   for (size_t b = 0; b < used.size(); ++b) {
     const auto& [ss, dof] = pooled[used[b]->kind];
     const double sd = std::sqrt(ss / std::max(dof, 1));
-    set.kind_sd[used[b]->kind] = sd;
+    set->kind_sd[used[b]->kind] = sd;
     const double floor =
         used[b]->kind == "matches" ? options.match_floor_px : options.lip_floor_px;
     SampleBin bin;
@@ -174,14 +180,41 @@ SampleSet CollectSamples(const RigModel& model, const std::vector<ImageEvidence>
     bin.members = used[b]->members;
     bin.mean = means[b];
     bin.standard_error = std::hypot(sd / std::sqrt(static_cast<double>(bin.members.size())), floor);
-    set.bins.push_back(bin);
+    set->bins.push_back(bin);
   }
   // Samples of dropped bins are not kept.
   std::vector<bool> in_used(samples.size(), false);
-  for (const SampleBin& bin : set.bins) {
+  for (const SampleBin& bin : set->bins) {
     for (int i : bin.members) in_used[i] = true;
   }
   for (size_t i = 0; i < samples.size(); ++i) samples[i].kept = samples[i].kept && in_used[i];
+}
+
+}  // namespace
+
+SampleSet CollectSamples(const RigModel& model, const std::vector<ImageEvidence>& images,
+                         const CheckOptions& options) {
+  SampleSet set;
+  const int nb = options.azimuth_bins;
+  // Samples: every match, a spread subsample of each lip edge's points.
+  std::vector<Sample>& samples = set.samples;
+  AddMatchSamples(images, nb, &samples);
+  AddLipSamples(images, options, &samples);
+  // Residuals under the stored model (parallel: a lip point's nearest edge point takes ~0.3 ms).
+  cv::parallel_for_(cv::Range(0, static_cast<int>(samples.size())), [&](const cv::Range& range) {
+    for (int i = range.start; i < range.end; ++i) {
+      Sample& s = samples[i];
+      if (s.is_match) {
+        const auto gap = EpipolarGap(model, s.pixel1, s.pixel2, &s.w);
+        if (gap) s.value = *gap, s.valid = true;
+      } else {
+        const auto lip = LipResidual(model, s.lip.path, s.lip.circle, s.lip.pixel);
+        if (lip) s.lip = *lip, s.value = lip->value, s.valid = true;
+      }
+    }
+  });
+  std::map<int, Bin> bins = BinSamples(nb, &set);
+  EstimateBins(&bins, options, &set);
   return set;
 }
 
