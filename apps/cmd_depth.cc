@@ -5,8 +5,8 @@
 // sigma_mm).
 // `omnistereo depth --model M --images 'frames/*.jpg' --out DIR` (a video's frames; globs and
 // lists): one set-up (maps, ray tables) for all frames, then DIR/<image name>.ply per frame, in
-// order, with a progress line. A frame that cannot be read or is not the model's size stops the
-// run (exit 2, the file named); the frames before it are written whole, nothing of it or after.
+// order, with a progress line. A frame that cannot be read or is not the model's size is skipped
+// with a warning naming it; when no frame can be used, exit 2.
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -144,13 +144,14 @@ struct FrameTimes {
     triangulation += frame.seconds_triangulation;
     points += frame.points.size();
   }
-  void Print(size_t frames, const stereo::DenseStereo& dense, double setup_s,
+  void Print(size_t frames, size_t skipped, const stereo::DenseStereo& dense, double setup_s,
              const std::string& dir) const {
     const double n = static_cast<double>(frames);
-    std::printf("depth: %zu frames, panoramas %dx%d, %.0f points per frame; set-up %.2f s; per "
+    std::printf("depth: %zu frames%s, panoramas %dx%d, %.0f points per frame; set-up %.2f s; per "
                 "frame: remap %.1f, SGBM %.1f, triangulation %.1f ms (%.1f frames/s computing), "
                 "reading %.1f and writing %.1f ms alongside; %.1f frames/s in all -> %s/*.ply\n",
-                frames, dense.luts().geometry.width, dense.luts().geometry.height, points / n,
+                frames, skipped ? (" (" + std::to_string(skipped) + " skipped)").c_str() : "",
+                dense.luts().geometry.width, dense.luts().geometry.height, points / n,
                 setup_s, 1e3 * remap / n, 1e3 * sgbm / n, 1e3 * triangulation / n,
                 n / (remap + sgbm + triangulation), 1e3 * read / n, 1e3 * write / n, n / loop,
                 dir.c_str());
@@ -194,21 +195,24 @@ int RunDepthFrames(const RigModel& model) {
   t0 = std::chrono::steady_clock::now();
   std::future<cv::Mat> next = std::async(std::launch::async, read, size_t{0});
   std::future<void> writing;  // the last frame's cloud
+  // A frame that cannot be read (or has another size) is skipped with a warning: one bad frame of
+  // a long recording does not stop the others. Every frame bad: an error.
+  size_t computed = 0;
+  std::string first_error;
   for (size_t i = 0; i < frames.size(); ++i) {
     cv::Mat image;
     try {
       image = next.get();
     } catch (const io::InputError& e) {
-      if (writing.valid()) writing.get();  // the frames before it are whole
-      throw io::InputError(std::string(e.what()) + " (frame " + std::to_string(i + 1) + " of " +
-                           std::to_string(frames.size()) + "; " +
-                           (i == 0 ? std::string("nothing written")
-                                   : "the clouds of frames 1-" + std::to_string(i) + " are in " +
-                                         dir) + ")");
+      if (first_error.empty()) first_error = e.what();
+      if (i + 1 < frames.size()) next = std::async(std::launch::async, read, i + 1);
+      progress.Done(std::string("warning: ") + e.what() + "; skipped");
+      continue;
     }
     if (i + 1 < frames.size()) next = std::async(std::launch::async, read, i + 1);
     const stereo::DepthFrame frame = dense.Compute(image);
     times.Add(frame);
+    ++computed;
     double median_sigma = 0;
     std::vector<io::PlyPoint> cloud = Cloud(frame, &median_sigma);
     if (writing.valid()) writing.get();
@@ -223,7 +227,11 @@ int RunDepthFrames(const RigModel& model) {
   if (writing.valid()) writing.get();
   times.loop = SecondsSince(t0);
   progress.Finish();
-  times.Print(frames.size(), dense, setup_s, dir);
+  if (computed == 0) {
+    throw io::InputError("none of the " + std::to_string(frames.size()) +
+                         " frames could be used (the first: " + first_error + ")");
+  }
+  times.Print(computed, frames.size() - computed, dense, setup_s, dir);
   return 0;
 }
 

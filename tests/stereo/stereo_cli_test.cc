@@ -296,32 +296,39 @@ TEST_F(StereoCli, DepthOfFramesWritesACloudPerFrame) {
     return true;
   };
 
-  // A frame that is no image, between two good ones: stops there; f1 whole, nothing of f1b or f2.
+  // A frame that is no image, between two good ones: skipped with a warning naming it; f1 and f2
+  // written as without it.
   { std::ofstream(Path("frames/f1b.png")) << "not an image"; }
   EXPECT_EQ(RunOmnistereo("depth" + model + " --images='" + Path("frames") + "/*.png' --out=" +
                               Path("bad"),
-                          Path("e"), &err),
-            2);
-  EXPECT_NE(err.find("f1b.png: expected a readable image"), std::string::npos) << err;
-  EXPECT_TRUE(only_line(err)) << err;
+                          Path("e"), &err, Path("o"), &out),
+            0)
+      << err;
+  EXPECT_NE(err.find("warning: " + Path("frames/f1b.png") + ": expected a readable image; skipped"),
+            std::string::npos)
+      << err;
+  EXPECT_NE(out.find("2 frames (1 skipped)"), std::string::npos) << out;
   EXPECT_EQ(testing::ReadText(dir_ / "bad" / "f1.ply"), f1);
+  EXPECT_TRUE(fs::exists(dir_ / "bad" / "f2.ply"));
   EXPECT_FALSE(fs::exists(dir_ / "bad" / "f1b.ply"));
-  EXPECT_FALSE(fs::exists(dir_ / "bad" / "f2.ply"));
   EXPECT_TRUE(no_temporaries("bad"));
-  fs::remove(Path("frames/f1b.png"));
 
-  // A frame of another size.
+  // Frames of another size, or no image at all: none usable, one line naming the first, nothing
+  // written.
   cv::imwrite(Path("frames/f3.png"), cv::Mat(48, 64, CV_8UC3, cv::Scalar(90, 90, 90)));
-  EXPECT_EQ(RunOmnistereo("depth" + model + " --images=" + Path("frames/f1.png") + "," +
-                              Path("frames/f3.png") + " --out=" + Path("size"),
+  EXPECT_EQ(RunOmnistereo("depth" + model + " --images=" + Path("frames/f3.png") + "," +
+                              Path("frames/f1b.png") + " --out=" + Path("size"),
                           Path("e"), &err),
             2);
-  EXPECT_NE(err.find("f3.png: expected the model's image size 1280x960, got 64x48"),
+  EXPECT_NE(err.find("none of the 2 frames could be used (the first: " + Path("frames/f3.png") +
+                     ": expected the model's image size 1280x960, got 64x48)"),
             std::string::npos)
       << err;
   EXPECT_TRUE(only_line(err)) << err;
   EXPECT_FALSE(fs::exists(dir_ / "size" / "f3.ply"));
   EXPECT_TRUE(no_temporaries("size"));
+  fs::remove(Path("frames/f1b.png"));
+  fs::remove(Path("frames/f3.png"));
 
   // Flags: a glob matching nothing, two frames of one name, --image with --images.
   EXPECT_EQ(RunOmnistereo("depth" + model + " --images='" + Path("none") + "/*.png' --out=" +
