@@ -148,7 +148,8 @@ void RunWeightedRounds(const CalibrationOptions& options, Calibration* c,
 }
 
 // The groups' noise at the final solution (as reported, and the covariance's weights), then the
-// covariance; solved again with dist_k3 if the covariance says the session tells it apart.
+// covariance; solved again with dist_k3 if the covariance says the session tells it apart. Then
+// the notes: the camera's pointing, the profiles (FinishProfiles), the considered biases.
 void FinalCovariance(const CalibrationOptions& options, Calibration* c,
                      CalibrationResult* result) {
   auto covariance = [&] {
