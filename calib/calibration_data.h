@@ -3,12 +3,14 @@
 //   RigState        the rig's parameter blocks (what the Ceres costs point at) and the fixed data
 //                   the costs are built with (the validity bounds, relaxed for detected points)
 //   ObservationSet  the corners, the lip points and the target placements (with their poses)
-//   Refinement      which parameter groups and coordinates the solve refines, and the considered
-//                   sigmas of those it holds; changed by the profile and dist_k3 decisions
+//   Refinement      which parameter groups and coordinates the solve refines, the considered
+//                   sigmas of those it holds, the priors; changed by the profile and dist_k3
+//                   decisions
 //   Weights         each residual group's weight sigma and robust noise (variance components)
-//   ProfileState    what the profile decisions need from the start and the corners' radii
+//   ProfileState    whether the start had each profile, and the radii the corners reach
 //   CostCache       one Ceres cost per observation, built once and kept between problems
 //   CalibrationProblem  a Ceres problem over these blocks, with the losses and priors it uses
+//   CovarianceFindings  what a covariance tells the dist_k3 decision, the lip edges' sigmas
 #pragma once
 
 #include "calib/calibrate.h"
