@@ -40,7 +40,7 @@
 namespace omni::calib {
 
 // The lips enter the solve as normal points: the means of each edge's points over the images per
-// this much azimuth (calibrator_observations.cc NormalLipPoints).
+// this much azimuth (observation_set.cc NormalLipPoints).
 inline constexpr double kLipSpacingDeg = 0.25;
 
 // A calibration that cannot be done with this input (degenerate session, no matches, a diverging

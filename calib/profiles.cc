@@ -3,7 +3,7 @@
 // radial residual pattern along each mirror's radius, which shows a profile the model lacks.
 #include <algorithm>
 
-#include "calib/calibrator.h"
+#include "calib/calibration_steps.h"
 
 namespace omni::calib {
 namespace {
@@ -22,54 +22,50 @@ const ProfileShape& ShapeOf(const RigParams& rig, int m) { return m == 0 ? rig.p
 
 }  // namespace
 
-bool Calibrator::ReprojectOnMirror(const Observation& o, Eigen::Vector2d* pixel,
-                                   double* radius) const {
-  const Eigen::Vector3d point =
-      CornerInCam(placements_[o.placement].cam_from_target.data(), o.corner_in_target);
-  const RigBlocks<double> blocks = RigBlocksOf(rig_);
-  ProjectionInfo info;
-  const bool ok = o.mirror == 1 ? ProjectViaMirror1(blocks, cost_fixed_[0], point, pixel, &info)
-                                : ProjectViaMirror2(blocks, cost_fixed_[1], point, pixel, &info);
-  if (ok) *radius = info.point_on_mirror.head<2>().norm();
-  return ok;
-}
-
-void Calibrator::SetUpProfiles(const RigParams& start) {
-  const std::string& mode = options_.profile;
+ProfileState SetUpProfiles(const RigParams& start, const CalibrationOptions& options,
+                           RigParams* rig, Refinement* refined) {
+  ProfileState profiles;
+  refined->profile_sigma_mm = options.profile_sigma_mm;
+  const std::string& mode = options.profile;
   if (mode != "auto" && mode != "free" && mode != "hold" && mode != "off") {
     throw InputError("profile: expected auto, free, hold or off, got '" + mode + "'");
   }
-  if (mode != "off" && !(options_.profile_sigma_mm > 0)) {
+  if (mode != "off" && !(options.profile_sigma_mm > 0)) {
     throw InputError("profile_sigma_mm: expected a tolerance > 0 mm, got " +
-                     std::to_string(options_.profile_sigma_mm));
+                     std::to_string(options.profile_sigma_mm));
   }
   for (int m = 0; m < 2; ++m) {
-    ProfileShape& shape = m == 0 ? rig_.profile1 : rig_.profile2;
-    auto& coeffs = m == 0 ? rig_.mirror1_profile : rig_.mirror2_profile;
-    profile_given_[m] = (m == 0 ? start.profile1 : start.profile2).present;
-    profile_start_[m] = coeffs;
+    ProfileShape& shape = m == 0 ? rig->profile1 : rig->profile2;
+    auto& coeffs = m == 0 ? rig->mirror1_profile : rig->mirror2_profile;
+    profiles.given[m] = (m == 0 ? start.profile1 : start.profile2).present;
+    refined->profile_mean[m] = coeffs;
     // "off": the start's profile (if any) stays as it is, neither refined nor considered.
     if (mode == "off") continue;
     if (!shape.present) {
-      shape = DefaultProfileShape(rig_, m == 0 ? Mirror::kOne : Mirror::kTwo);
+      shape = DefaultProfileShape(*rig, m == 0 ? Mirror::kOne : Mirror::kTwo);
       coeffs.fill(0);
-      profile_start_[m] = coeffs;
+      refined->profile_mean[m] = coeffs;
     }
     // Held through the robust stages in every mode (a fine correction, freed once the rig is
     // aligned: DecideProfiles).
-    estimate_.insert(kProfileGroups[m]);
-    profile_free_[m] = false;
+    refined->groups.insert(kProfileGroups[m]);
+    refined->profile_free[m] = false;
     for (const std::string& name : BlockParameterNames(kProfileGroups[m])) {
-      options_.considered_sigma.emplace(name, options_.profile_sigma_mm);
+      refined->considered_sigma.emplace(name, options.profile_sigma_mm);
     }
   }
+  return profiles;
 }
 
-std::vector<RadialResidualBin> Calibrator::RadialPattern(int mirror, double* chi2) const {
+std::vector<RadialResidualBin> RadialPattern(const RigState& rig,
+                                             const ObservationSet& observations,
+                                             const ProfileState& profiles, int mirror,
+                                             double* chi2) {
   // The bands span the radii the corners reach (FitProfileRadiiToCorners), else the profile's.
-  const ProfileShape& shape = ShapeOf(rig_, mirror - 1);
-  const double lo = corner_radii_[mirror - 1][1] > 0 ? corner_radii_[mirror - 1][0] : shape.r_min;
-  const double hi = corner_radii_[mirror - 1][1] > 0 ? corner_radii_[mirror - 1][1] : shape.r_max;
+  const ProfileShape& shape = ShapeOf(rig.params, mirror - 1);
+  const double(&reach)[2] = profiles.corner_radii[mirror - 1];
+  const double lo = reach[1] > 0 ? reach[0] : shape.r_min;
+  const double hi = reach[1] > 0 ? reach[1] : shape.r_max;
   const double r2_lo = lo * lo, r2_hi = hi * hi;
   std::vector<RadialResidualBin> bins(kProfileBands);
   std::vector<double> sum(kProfileBands, 0), sum2(kProfileBands, 0);
@@ -77,12 +73,12 @@ std::vector<RadialResidualBin> Calibrator::RadialPattern(int mirror, double* chi
     bins[b].r_lo = std::sqrt(r2_lo + (r2_hi - r2_lo) * b / kProfileBands);
     bins[b].r_hi = std::sqrt(r2_lo + (r2_hi - r2_lo) * (b + 1) / kProfileBands);
   }
-  const Eigen::Vector2d centre(rig_.camera[2], rig_.camera[3]);
-  for (const auto& o : obs_) {
+  const Eigen::Vector2d centre(rig.params.camera[2], rig.params.camera[3]);
+  for (const auto& o : observations.corners) {
     if (o.rejected || o.mirror != mirror) continue;
     Eigen::Vector2d px;
     double r = 0;
-    if (!ReprojectOnMirror(o, &px, &r)) continue;
+    if (!ReprojectOnMirror(rig, observations, o, &px, &r)) continue;
     const double r2 = r * r;
     const int b = static_cast<int>(std::floor((r2 - r2_lo) / (r2_hi - r2_lo) * kProfileBands));
     if (b < 0 || b >= kProfileBands) continue;
@@ -108,68 +104,81 @@ std::vector<RadialResidualBin> Calibrator::RadialPattern(int mirror, double* chi
   return bins;
 }
 
-void Calibrator::FitProfileRadiiToCorners(int m) {
+namespace {
+
+// A profile's radii set to those mirror m's corners reach (the costs rebuilt with them).
+void FitProfileRadiiToCorners(int m, const ObservationSet& observations, RigState* rig,
+                              ProfileState* profiles, CostCache* costs) {
   double r_lo = HUGE_VAL, r_hi = 0;
-  for (const auto& o : obs_) {
+  for (const auto& o : observations.corners) {
     if (o.rejected || o.mirror != m + 1) continue;
     Eigen::Vector2d px;
     double r = 0;
-    if (!ReprojectOnMirror(o, &px, &r)) continue;
+    if (!ReprojectOnMirror(*rig, observations, o, &px, &r)) continue;
     r_lo = std::min(r_lo, r);
     r_hi = std::max(r_hi, r);
   }
   if (!(r_hi > r_lo + 1.0)) return;  // too few corners to say: the default radii stay
-  corner_radii_[m][0] = r_lo;
-  corner_radii_[m][1] = r_hi;
-  if (profile_given_[m]) return;  // a given profile keeps its radii
+  profiles->corner_radii[m][0] = r_lo;
+  profiles->corner_radii[m][1] = r_hi;
+  if (profiles->given[m]) return;  // a given profile keeps its radii
   // Out to the rim always: the lips' paths reflect there, and the Legendre terms grow fast
   // beyond w = 1 (a profile fitted to 35.5 mm gave 14% range errors at 2 m through the rim).
-  ProfileShape shape = ShapeOf(rig_, m);
-  shape.r_min = std::max(0.0, std::min(r_lo, rig_.r_sys - 1.0));
-  shape.r_max = rig_.r_sys;
-  (m == 0 ? rig_.profile1 : rig_.profile2) = shape;
+  ProfileShape shape = ShapeOf(rig->params, m);
+  shape.r_min = std::max(0.0, std::min(r_lo, rig->params.r_sys - 1.0));
+  shape.r_max = rig->params.r_sys;
+  (m == 0 ? rig->params.profile1 : rig->params.profile2) = shape;
   // The costs hold their own copy of the fixed data.
-  for (RigFixed* f : {&fixed_, &cost_fixed_[0], &cost_fixed_[1], &lip_fixed_[0], &lip_fixed_[1]}) {
+  for (RigFixed* f : {&rig->fixed, &rig->corner_bounds[0], &rig->corner_bounds[1],
+                      &rig->lip_bounds[0], &rig->lip_bounds[1]}) {
     (m == 0 ? f->profile1 : f->profile2) = shape;
   }
-  costs_.clear();
-  lip_costs_.clear();
+  costs->corners.clear();
+  costs->lips.clear();
 }
 
-bool Calibrator::DecideProfiles(CalibrationResult* result) {
-  if (options_.profile == "off") return false;
+}  // namespace
+
+bool DecideProfiles(const ObservationSet& observations, const CalibrationOptions& options,
+                    RigState* rig, ProfileState* profiles, Refinement* refined, CostCache* costs,
+                    CalibrationResult* result) {
+  if (options.profile == "off") return false;
   bool freed = false;
   for (int m = 0; m < 2; ++m) {
     // A profile the start did not have is laid from the smallest radius the corners reach on the
     // mirror out to its rim (its Legendre variable spans them; below them it would only
     // extrapolate). Its coefficients are zero, so the model is unchanged.
-    FitProfileRadiiToCorners(m);
+    FitProfileRadiiToCorners(m, observations, rig, profiles, costs);
     ProfileDecision& d = result->profile[m];
-    d.r_min = corner_radii_[m][1] > 0 ? corner_radii_[m][0] : ShapeOf(rig_, m).r_min;
-    d.r_max = corner_radii_[m][1] > 0 ? corner_radii_[m][1] : ShapeOf(rig_, m).r_max;
-    d.pattern_before = RadialPattern(m + 1, &d.pattern_chi2_before);
+    const double(&reach)[2] = profiles->corner_radii[m];
+    d.r_min = reach[1] > 0 ? reach[0] : ShapeOf(rig->params, m).r_min;
+    d.r_max = reach[1] > 0 ? reach[1] : ShapeOf(rig->params, m).r_max;
+    d.pattern_before = RadialPattern(*rig, observations, *profiles, m + 1, &d.pattern_chi2_before);
     d.bins = kProfileBands;
     d.bins_covered = 0;
     for (const auto& b : d.pattern_before) d.bins_covered += b.count >= kMinCornersPerBand;
-    const bool asked = options_.profile == "free" ||
-                       std::count(options_.estimate.begin(), options_.estimate.end(),
+    const bool asked = options.profile == "free" ||
+                       std::count(options.estimate.begin(), options.estimate.end(),
                                   kProfileGroups[m]);
-    if (!profile_free_[m] &&
-        (asked || (options_.profile == "auto" && d.bins_covered >= kMinBandsToFree))) {
-      profile_free_[m] = true;
+    bool& free = refined->profile_free[m];
+    if (!free && (asked || (options.profile == "auto" && d.bins_covered >= kMinBandsToFree))) {
+      free = true;
       freed = true;
     }
-    d.freed = profile_free_[m];
+    d.freed = free;
   }
   if (freed) {
-    Progress(std::string("profiles freed where the corners cover the mirror's radii: mirror 1 ") +
-             (profile_free_[0] ? "yes" : "no") + ", mirror 2 " + (profile_free_[1] ? "yes" : "no"));
+    Progress(options,
+             std::string("profiles freed where the corners cover the mirror's radii: mirror 1 ") +
+                 (refined->profile_free[0] ? "yes" : "no") + ", mirror 2 " +
+                 (refined->profile_free[1] ? "yes" : "no"));
   }
   return freed;
 }
 
-void Calibrator::FinishProfiles(CalibrationResult* result) {
-  if (options_.profile == "off") return;
+void FinishProfiles(const ObservationSet& observations, const ProfileState& profiles,
+                    const CalibrationOptions& options, RigState* rig, CalibrationResult* result) {
+  if (options.profile == "off") return;
   // What the profiles' tolerance leaves open, said where the table names it unobservable.
   std::string traded;
   for (const auto& u : result->unobservable) {
@@ -185,14 +194,14 @@ void Calibrator::FinishProfiles(CalibrationResult* result) {
                   "at the noise), so the machining tolerance (profile_sigma_mm %.3g mm) leaves "
                   "them open: projections stay determined; a measured mirror (its profile in the "
                   "starting model, a smaller profile_sigma_mm) would narrow them",
-                  traded.c_str(), options_.profile_sigma_mm);
+                  traded.c_str(), options.profile_sigma_mm);
     result->notes.push_back(buf);
   }
   for (int m = 0; m < 2; ++m) {
     ProfileDecision& d = result->profile[m];
-    d.pattern_after = RadialPattern(m + 1, &d.pattern_chi2_after);
+    d.pattern_after = RadialPattern(*rig, observations, profiles, m + 1, &d.pattern_chi2_after);
     char buf[640];
-    const double um = 1000 * options_.profile_sigma_mm;
+    const double um = 1000 * options.profile_sigma_mm;
     if (d.freed) {
       std::snprintf(buf, sizeof(buf),
                     "mirror %d's profile refined (prior sigma %.3g um per term): the corners cover "
@@ -212,7 +221,7 @@ void Calibrator::FinishProfiles(CalibrationResult* result) {
                     "the machining tolerance): the corners fill %d of %d bands of the radii they reach on it, "
                     "%.1f-%.1f mm (%d needed to refine it: targets low and high in the ring); "
                     "radial residual pattern chi^2 per band %.2g%s",
-                    m + 1, profile_given_[m] ? "starting model's profile" : "conic", um,
+                    m + 1, profiles.given[m] ? "starting model's profile" : "conic", um,
                     d.bins_covered, d.bins, d.r_min, d.r_max, kMinBandsToFree,
                     d.pattern_chi2_after,
                     d.pattern_chi2_after > kPatternChi2
@@ -223,8 +232,8 @@ void Calibrator::FinishProfiles(CalibrationResult* result) {
     }
     result->notes.push_back(buf);
     // A held zero profile is no profile: the model file stays an exact-quadric one.
-    if (!d.freed && !profile_given_[m]) {
-      (m == 0 ? rig_.profile1 : rig_.profile2).present = false;
+    if (!d.freed && !profiles.given[m]) {
+      (m == 0 ? rig->params.profile1 : rig->params.profile2).present = false;
     }
   }
 }

@@ -1,0 +1,193 @@
+// The calibration's data (calib/ only; the interface is calibrate.h): plain structs that the
+// steps of calibration_steps.h read and write, each passed to them explicitly.
+//   RigState        the rig's parameter blocks (what the Ceres costs point at) and the fixed data
+//                   the costs are built with (the validity bounds, relaxed for detected points)
+//   ObservationSet  the corners, the lip points and the target placements (with their poses)
+//   Refinement      which parameter groups and coordinates the solve refines, the considered
+//                   sigmas of those it holds, the priors; changed by the profile and dist_k3
+//                   decisions
+//   Weights         each residual group's weight sigma and robust noise (variance components)
+//   ProfileState    whether the start had each profile, and the radii the corners reach
+//   CostCache       one Ceres cost per observation, built once and kept between problems
+//   CalibrationProblem  a Ceres problem over these blocks, with the losses and priors it uses
+//   CovarianceFindings  what a covariance tells the dist_k3 decision, the lip edges' sigmas
+#pragma once
+
+#include "calib/calibrate.h"
+
+#include <ceres/ceres.h>
+
+#include <array>
+#include <cmath>
+#include <map>
+#include <memory>
+#include <set>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "calib/variance_components.h"
+#include "model/lip.h"
+#include "model/rig_model.h"
+#include "model/rig_parameters.h"
+
+namespace omni::calib {
+
+constexpr double kDeg = M_PI / 180.0;
+// Corner costs' validity bounds relaxed by this (docs/design.md, Relaxed bounds).
+constexpr double kBoundSlackMm = 2.0;
+constexpr int kRobustStageCorners = 2000;  // see SelectRobustStageCorners
+// The profile blocks of mirror 1 and mirror 2 (calib/profiles.cc).
+inline constexpr const char* kProfileGroups[2] = {"mirror1_profile", "mirror2_profile"};
+
+// The rig being solved for: its parameter blocks (params' arrays: the Ceres parameter blocks)
+// and the fixed data the costs copy when they are built.
+struct RigState {
+  RigParams params;
+  RigFixed fixed;
+  // A detected corner IS seen, so its cost only needs the validity bounds to keep the solver on
+  // the right sheet and path: per mirror path, bounds relaxed by kBoundSlackMm (StartingRig).
+  RigFixed corner_bounds[2];
+  // The lip paths of mirror 1 (direct, via_mirror1) and of mirror 2 (via_reflex, via_mirror2):
+  // bounds far relaxed (LipBounds).
+  RigFixed lip_bounds[2];
+};
+
+// The bounds a lip point's cost uses on `path`. The detector labelled each edge's path already,
+// and the lips lie at the mirrors' rims, so the rim and disc bounds would only wall the solver in
+// (an edge point whose reflection leaves the rim by a hair fails a trial step).
+inline const RigFixed& LipBounds(const RigState& rig, LipPath path) {
+  return path == LipPath::kDirect || path == LipPath::kViaMirror1 ? rig.lip_bounds[0]
+                                                                  : rig.lip_bounds[1];
+}
+
+// One corner observation: a target corner seen in one ring of one image.
+struct Observation {
+  int image = 0, target = 0, id = 0, mirror = 1;
+  int placement = -1;
+  Eigen::Vector2d pixel;
+  Eigen::Vector3d corner_in_target;
+  bool rejected = false;     // outlier or its placement failed: out for good
+  bool projectable = true;   // at the current parameters (re-checked each stage)
+  bool in_robust_stages = true;  // one of the corners the robust stages solve with
+};
+
+// One lip edge point: the image of the point at azimuth phi (unknown, refined) on a lip circle
+// along a path.
+struct LipObservation {
+  int image = 0;
+  LipPath path = LipPath::kDirect;
+  double radius = 0, z = 0;  // the circle in its mirror's body frame
+  Eigen::Vector2d pixel;
+  std::array<double, 1> phi{};  // the azimuth's parameter block
+  bool rejected = false;
+  bool unused = false;  // a detected point replaced by its bin's normal point (NormalLipPoints)
+  int members = 1;      // a normal point: the detected points it is the mean of
+  int normal = -1;      // a detected point: index of the normal point it went into
+  double across = 0;    // signed distance across the edge from the curve (InitialiseLipAzimuths)
+  bool projectable = true;
+  bool Used() const { return !rejected && !unused; }
+};
+
+// One target in one image, and its pose (refined with the rig).
+struct Placement {
+  int image = 0, target = 0;
+  std::array<double, 6> cam_from_target{};  // the pose's parameter block
+  bool failed = false;
+};
+
+// The observations: what the detections give, with the placements' poses and the lip points'
+// azimuths (refined with the rig), and the corners left out so far.
+struct ObservationSet {
+  std::vector<Observation> corners;
+  std::vector<LipObservation> lips;  // detected points, then (NormalLipPoints) the normal points
+  std::vector<Placement> placements;
+  std::vector<RejectedObservation> rejected;
+  int n_images = 0;
+};
+
+// Which observations a problem or a residual statistic takes.
+struct Selection {
+  bool corner_subset = false;  // only the robust stages' corners (in_robust_stages)
+  bool lips = false;           // the lip points too (BuildProblem; the statistics always take them)
+};
+
+// What the solve refines: the parameter groups (kRigBlocks' names) and, within them, the
+// coordinates held at their starting values; the held coordinates' considered sigmas; the priors
+// on the refined shapes and profiles.
+struct Refinement {
+  std::set<std::string> groups;  // options.estimate and the profile blocks (SetUpProfiles)
+  bool skew = false, tangential = false;
+  bool dist_k3 = false;                   // options.refine_dist_k3, or DecideDistK3
+  bool profile_free[2] = {false, false};  // each mirror's profile refined (DecideProfiles)
+  std::map<std::string, double> considered_sigma;  // options' and the held profiles'
+  std::map<std::string, ShapePrior> shape_priors;  // options.priors
+  // A freed profile's prior: the machining tolerance about the starting model's profile.
+  std::array<double, kProfileTerms> profile_mean[2] = {};
+  double profile_sigma_mm = 0;
+};
+
+// The coordinates of `group`'s block that stay at their starting values.
+std::vector<int> HeldCoordinates(const Refinement& refined, const std::string& group);
+
+// Per residual group (0: corners ring 1, 1: corners ring 2, 2: lips): the sigma each group is
+// weighted with (px; 1 until the first variance component estimate, so the robust stages weigh
+// every pixel alike) and the robust noise estimate behind the relative outlier threshold.
+struct Weights {
+  double sigma[3] = {1, 1, 1};
+  double robust_sigma[3] = {0, 0, 0};  // 0: not estimated yet (outlier_px alone)
+  std::vector<VarianceComponent> components;
+};
+
+// The profile decisions' state: whether the starting model had each mirror's profile, and the
+// radii each mirror's corners reach (FitProfileRadiiToCorners).
+struct ProfileState {
+  bool given[2] = {false, false};
+  double corner_radii[2][2] = {{0, 0}, {0, 0}};  // mm; {0, 0}: not measured
+};
+
+// One cost per corner and per lip point, built on first use with the rig's bounds of that time
+// (FitProfileRadiiToCorners clears them when it changes a profile's radii). The costs read the
+// held masks through pointers to this struct's members, so it stays where it was made.
+struct CostCache {
+  CostCache() = default;
+  CostCache(const CostCache&) = delete;
+  CostCache& operator=(const CostCache&) = delete;
+  std::vector<std::unique_ptr<ceres::CostFunction>> corners, lips;
+  // The coordinates of the camera and distortion blocks the running solve holds (bit k:
+  // coordinate k): the costs give them no Jet slot (calib/slot_autodiff.h). Set by SolveStage for
+  // its solve only; 0 otherwise, so other evaluations (the covariance) get every column.
+  uint32_t held_camera = 0, held_distortion = 0;
+};
+
+// A Ceres problem over the rig's blocks, the placements' poses and the lip azimuths
+// (BuildProblem), with the losses and prior costs it points to (the problem owns none of them;
+// the costs are the CostCache's).
+struct CalibrationProblem {
+  CalibrationProblem() : problem(ProblemOptions()) {}
+  static ceres::Problem::Options ProblemOptions() {
+    ceres::Problem::Options po;
+    po.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+    po.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+    return po;
+  }
+  std::vector<std::unique_ptr<ceres::LossFunction>> group_losses;      // per residual group
+  std::map<int, std::unique_ptr<ceres::LossFunction>> lip_losses;      // per normal point's members
+  std::vector<std::unique_ptr<ceres::CostFunction>> prior_costs;
+  ceres::Problem problem;  // after what it points to: destroyed first
+  int n_corners = 0, n_lips = 0;
+  // The corners' then the lip points' residual blocks (two pixel rows each), and the priors'.
+  std::vector<ceres::ResidualBlockId> pixel_blocks, prior_blocks;
+};
+
+// What a covariance found besides the result's sigmas: for a held dist_k3, its sigma if it were
+// freed and the largest factor by which dist_k1's and dist_k2's sigmas would grow (DecideDistK3);
+// the lip edges' considered bias sigmas (px).
+struct CovarianceFindings {
+  bool k3_evaluated = false;
+  double k3_sigma = HUGE_VAL, k3_growth = 0;
+  std::vector<double> lip_edge_sigma;
+};
+
+}  // namespace omni::calib

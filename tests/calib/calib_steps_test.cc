@@ -1,0 +1,155 @@
+// The calibration's steps on their own (calib/calibration_steps.h): the stage table names the
+// parameter table's blocks; HeldCoordinates; BuildProblem wires each corner's cost to the rig's
+// blocks and its placement's pose, and each lip point's to the rig's blocks and its azimuth.
+#include <gtest/gtest.h>
+
+#include <set>
+#include <string>
+#include <vector>
+
+#include "calib/calibration_steps.h"
+#include "tests/calib/calib_test_util.h"
+
+namespace omni::calib {
+namespace {
+
+std::vector<const Stage*> AllStages() {
+  return {&kRobustStages[0], &kRobustStages[1], &kRobustStages[2], &kReweightStage, &kFinalStage};
+}
+
+TEST(CalibSteps, TheStageTableNamesTheParameterTablesBlocks) {
+  for (const Stage* stage : AllStages()) {
+    for (const char* group : stage->groups) {
+      if (group) {
+        EXPECT_FALSE(BlockParameterNames(group).empty()) << stage->name << ": " << group;
+      }
+    }
+  }
+  for (const Stage& stage : kRobustStages) {
+    EXPECT_TRUE(stage.robust) << stage.name;
+    EXPECT_TRUE(stage.selection.corner_subset) << stage.name;
+    EXPECT_FALSE(stage.selection.lips) << stage.name;
+    EXPECT_FALSE(stage.stop.whitened) << stage.name;
+  }
+  for (const Stage* stage : {&kReweightStage, &kFinalStage}) {
+    EXPECT_FALSE(stage->robust) << stage->name;
+    EXPECT_TRUE(stage->selection.lips) << stage->name;
+    EXPECT_TRUE(stage->stop.whitened) << stage->name;
+  }
+  EXPECT_TRUE(kReweightStage.selection.corner_subset);
+  EXPECT_FALSE(kFinalStage.selection.corner_subset);
+  EXPECT_TRUE(kFinalStage.stop.answer);
+}
+
+TEST(CalibSteps, AStageRefinesItsGroupsOfThoseRefined) {
+  CalibrationOptions options;
+  options.estimate = {"camera", "mirror1_pose"};
+  const Refinement refined = RefinementOf(options);
+  EXPECT_EQ(StageGroups(kRobustStages[0], refined), std::set<std::string>({"camera"}));
+  EXPECT_EQ(StageGroups(kRobustStages[1], refined),
+            std::set<std::string>({"camera", "mirror1_pose"}));
+  EXPECT_EQ(StageGroups(kRobustStages[2], refined), refined.groups);
+  EXPECT_EQ(StageGroups(kFinalStage, refined), refined.groups);
+}
+
+TEST(CalibSteps, HeldCoordinatesFollowTheRefinement) {
+  Refinement refined = RefinementOf(CalibrationOptions());
+  auto index = [](const char* name) { return FindRigParameter(name)->index; };
+  EXPECT_EQ(HeldCoordinates(refined, "camera"), std::vector<int>({index("skew")}));
+  EXPECT_EQ(HeldCoordinates(refined, "distortion"),
+            std::vector<int>({index("dist_p1"), index("dist_p2"), index("dist_k3")}));
+  EXPECT_TRUE(HeldCoordinates(refined, "mirror1_pose").empty());
+  EXPECT_EQ(HeldCoordinates(refined, "mirror1_profile").size(), size_t{kProfileTerms});
+  refined.dist_k3 = true;
+  refined.profile_free[0] = true;
+  EXPECT_EQ(HeldCoordinates(refined, "distortion"),
+            std::vector<int>({index("dist_p1"), index("dist_p2")}));
+  EXPECT_TRUE(HeldCoordinates(refined, "mirror1_profile").empty());
+  EXPECT_EQ(HeldCoordinates(refined, "mirror2_profile").size(), size_t{kProfileTerms});
+}
+
+TEST(CalibSteps, DistK3IsFreedWhereTheCovarianceSaysTheRadiiTellItApart) {
+  const RigParams rig = testing::IdealRig();
+  std::vector<Observation> corners(1);
+  corners[0].pixel = Eigen::Vector2d(rig.camera[2] + 0.4 * rig.camera[0], rig.camera[3]);
+  CalibrationOptions options;
+  Refinement refined = RefinementOf(options);
+  CalibrationResult result;
+  CovarianceFindings findings;
+  EXPECT_FALSE(DecideDistK3(findings, rig, corners, options, &refined, &result));  // no probe
+  EXPECT_TRUE(result.notes.empty());
+  findings.k3_evaluated = true;
+  findings.k3_sigma = 0.5;
+  findings.k3_growth = 3.0;
+  EXPECT_FALSE(DecideDistK3(findings, rig, corners, options, &refined, &result));
+  EXPECT_FALSE(refined.dist_k3);
+  ASSERT_EQ(result.notes.size(), 1u);
+  EXPECT_NE(result.notes[0].find("dist_k3 held at"), std::string::npos) << result.notes[0];
+  EXPECT_NE(result.notes[0].find("r <= 0.400"), std::string::npos) << result.notes[0];
+  findings.k3_growth = 1.5;
+  EXPECT_TRUE(DecideDistK3(findings, rig, corners, options, &refined, &result));
+  EXPECT_TRUE(refined.dist_k3);
+  EXPECT_NE(result.notes.back().find("dist_k3 refined"), std::string::npos) << result.notes.back();
+  EXPECT_EQ(HeldCoordinates(refined, "distortion").size(), 2u);
+}
+
+TEST(CalibSteps, BuildProblemWiresEachObservationToTheRigsBlocks) {
+  testing::SyntheticSession session;
+  const RigParams truth = testing::SmallCleanSessionWithoutTangential(&session);
+  Observations detections = testing::NoisyDetections(session, 0.05, 7);
+  testing::AddLipDetections(truth, 0.05, 7, &detections, 36);
+  CalibrationOptions options;
+  Refinement refined = RefinementOf(options);
+  RigParams params = truth;
+  const ProfileState profiles = SetUpProfiles(truth, options, &params, &refined);
+  EXPECT_FALSE(profiles.given[0] || profiles.given[1]);
+  RigState rig = RigStateOf(params);
+  ObservationSet observations = CollectObservations(detections, session.targets, params, options);
+  ASSERT_FALSE(observations.lips.empty());
+  CostCache costs;
+  InitialisePoses(&rig, options, &observations, &costs);
+  InitialiseLipAzimuths(rig, &observations.lips);
+
+  ProblemOptions po;
+  po.groups = StageGroups(kFinalStage, refined);
+  po.selection = kFinalStage.selection;
+  const std::unique_ptr<CalibrationProblem> built =
+      BuildProblem(&rig, &observations, Weights(), refined, po, &costs);
+  ASSERT_GT(built->n_corners, 100);
+  ASSERT_GT(built->n_lips, 0);
+  ASSERT_EQ(built->pixel_blocks.size(), size_t(built->n_corners + built->n_lips));
+
+  RigParams& r = rig.params;
+  size_t k = 0;
+  for (const Observation& o : observations.corners) {
+    if (o.rejected || !o.projectable) continue;
+    double* pose = observations.placements[o.placement].cam_from_target.data();
+    const std::vector<double*> expected =
+        o.mirror == 1
+            ? std::vector<double*>{r.camera.data(), r.distortion.data(), r.mirror1_shape.data(),
+                                   r.mirror1_profile.data(), r.mirror1_pose.data(),
+                                   r.reflex.data(), pose}
+            : std::vector<double*>{r.camera.data(), r.distortion.data(), r.mirror1_pose.data(),
+                                   r.reflex.data(), r.mirror2_shape.data(),
+                                   r.mirror2_profile.data(), r.mirror2_pose.data(), pose};
+    std::vector<double*> blocks;
+    built->problem.GetParameterBlocksForResidualBlock(built->pixel_blocks[k++], &blocks);
+    ASSERT_EQ(blocks, expected) << "corner " << k;
+  }
+  for (const LipObservation& l : observations.lips) {
+    if (!l.Used() || !l.projectable) continue;
+    std::vector<double*> blocks;
+    built->problem.GetParameterBlocksForResidualBlock(built->pixel_blocks[k++], &blocks);
+    ASSERT_EQ(blocks.size(), 10u);
+    EXPECT_EQ(blocks.front(), r.camera.data());
+    EXPECT_EQ(blocks.back(), l.phi.data());
+  }
+  // What is not refined is constant: the shapes (not in estimate) and the profiles (held until
+  // DecideProfiles frees them).
+  EXPECT_TRUE(built->problem.IsParameterBlockConstant(r.mirror1_shape.data()));
+  EXPECT_TRUE(built->problem.IsParameterBlockConstant(r.mirror2_profile.data()));
+  EXPECT_FALSE(built->problem.IsParameterBlockConstant(r.mirror1_pose.data()));
+}
+
+}  // namespace
+}  // namespace omni::calib
