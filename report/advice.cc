@@ -139,7 +139,7 @@ void OutlierAdvice(const ReportInput& in, std::vector<std::string>* out) {
 // A held profile whose corners show a radial pattern along the mirror's radius, or that the
 // corners' radii could not support (calib ProfileDecision).
 void ProfileAdvice(const calib::CalibrationResult& r, std::vector<std::string>* out) {
-  constexpr double kPatternChi2 = 4.0;  // as calib/calibrator_profile.cc
+  constexpr double kPatternChi2 = 4.0;  // as calib/profiles.cc
   for (int m = 0; m < 2; ++m) {
     const calib::ProfileDecision& d = r.profile[m];
     if (d.pattern_before.empty()) continue;
