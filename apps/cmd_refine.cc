@@ -5,6 +5,7 @@
 // would determine them), and the check after; writes the refined model (atomically). With
 // --truth_model (synthetic photos) also the truth column and the projection difference from the
 // true rig at 1 m in mirror 1's body, before and after.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <sstream>
@@ -16,6 +17,7 @@
 #include "apps/common_flags.h"
 #include "apps/health_cli.h"
 #include "apps/progress.h"
+#include "health/drift.h"
 #include "health/refine.h"
 #include "model/io/model_file.h"
 #include "model/model_compare.h"
@@ -37,9 +39,11 @@ std::vector<std::string> GroupsFromFlag() {
   std::string g;
   while (std::getline(list, g, ',')) {
     if (g.empty()) continue;
-    if (g != "camera" && g != "mirror1" && g != "mirror2" && g != "reflex") {
-      throw io::InputError("--estimate: expected groups among camera, mirror1, mirror2, reflex, got '" +
-                           g + "'");
+    const std::vector<std::string>& known = health::DriftGroups();
+    if (std::find(known.begin(), known.end(), g) == known.end()) {
+      std::string among;
+      for (const std::string& k : known) among += (among.empty() ? "" : ", ") + k;
+      throw io::InputError("--estimate: expected groups among " + among + ", got '" + g + "'");
     }
     groups.push_back(g);
   }

@@ -39,6 +39,7 @@
 #include "model/lip.h"
 #include "model/model_compare.h"
 #include "model/rig_model.h"
+#include "model/rig_parameters.h"
 #include "tests/calib/calib_test_util.h"
 
 using namespace omni;
@@ -430,7 +431,7 @@ int main(int argc, char** argv) {
   }
 
   calib::CalibrationOptions options;  // the session defaults: all but the shapes, 2 threads
-  options.estimate = {"camera", "distortion", "mirror1_pose", "mirror2_pose", "reflex"};
+  options.estimate = DefaultEstimateBlocks();
   options.progress = [](const std::string& line) { std::printf("  %s\n", line.c_str()); };
   // OMNI_PROFILE=off|hold|free|auto, OMNI_PROFILE_SIGMA_MM: the mirrors' profiles (default as a
   // session's).

@@ -1,5 +1,6 @@
 #include "calib/projection_uncertainty.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include <Eigen/Eigenvalues>
@@ -8,6 +9,7 @@
 #include "model/model_compare.h"
 #include "model/rig_frames.h"
 #include "model/rig_model.h"
+#include "model/rig_parameters.h"
 
 namespace omni::calib {
 namespace {
@@ -187,13 +189,16 @@ ProjectionErrorShare ShareOfProjectionError(const CalibrationResult& result,
     error(i) = result.values(i) - *ParameterOf(truth, result.names[i]);
   }
   const BandJacobian jac = Jacobians(result.rig, result.names, steps, range_mm);
-  out.groups = {"camera", "distortion", "mirror1", "mirror2", "reflex"};
-  auto group_of = [](const std::string& name) {
-    if (name.rfind("dist_", 0) == 0) return 1;
-    if (name.rfind("mirror1.", 0) == 0 || name == "c1" || name == "k1") return 2;
-    if (name.rfind("mirror2.", 0) == 0 || name == "c2" || name == "k2") return 3;
-    if (name.rfind("reflex.", 0) == 0) return 4;
-    return 0;
+  // The table's groups (RigBlock::group) in its order.
+  for (const RigBlock& b : kRigBlocks) {
+    if (std::find(out.groups.begin(), out.groups.end(), b.group) == out.groups.end()) {
+      out.groups.push_back(b.group);
+    }
+  }
+  auto group_of = [&out](const std::string& name) {
+    const RigParameter* p = FindRigParameter(name);
+    const auto it = std::find(out.groups.begin(), out.groups.end(), p ? GroupOf(*p) : "");
+    return it == out.groups.end() ? 0 : static_cast<int>(it - out.groups.begin());
   };
   out.group_px.assign(out.groups.size(), {0, 0});
   for (int m = 0; m < 2; ++m) {

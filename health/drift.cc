@@ -1,5 +1,6 @@
 #include "health/drift.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include <Eigen/Geometry>
@@ -10,10 +11,17 @@
 namespace omni::health {
 namespace {
 
-constexpr double kRad = 1.0;
-constexpr double kTiltStep = 2e-5 * kRad;  // ~0.001 deg
-constexpr double kShiftStep = 2e-3;        // mm
-constexpr double kPixelStep = 0.02;        // px
+// The coordinates that are no rig parameters: the camera's rigid motion in its mount (not a
+// parameter of the model file but a change of both cam_from_mirror), in the camera's group.
+struct MountMode {
+  const char* name;
+  bool rotation;  // a rotation (rad) about the axis, else a translation (mm) along it
+  int axis;       // of C: 0 x, 1 y, 2 z
+};
+constexpr MountMode kMountModes[] = {{"camera.rx", true, 0},  {"camera.ry", true, 1},
+                                     {"camera.rz", true, 2},  {"camera.tx", false, 0},
+                                     {"camera.ty", false, 1}, {"camera.tz", false, 2}};
+constexpr const char* kMountGroup = kRigBlocks[kCameraBlock].group;
 
 // The tilt (rx, ry) whose rotation takes +z to `axis` (rig_frames.h: R(rx, ry, 0) e_z =
 // (ry s, -rx s, cos theta) / theta scaled: rotation about (rx, ry, 0) / theta by theta).
@@ -42,32 +50,37 @@ double MoveMirrorPose(const Eigen::Matrix3d& dR, const Eigen::Vector3d& dt, doub
 
 }  // namespace
 
+const std::vector<std::string>& DriftGroups() {
+  // The groups of the table's drift parameters (model/rig_parameters.h), in the table's order.
+  static const std::vector<std::string> groups = [] {
+    std::vector<std::string> out;
+    for (const RigParameter& p : RigParameterTable()) {
+      if (p.drift && std::find(out.begin(), out.end(), GroupOf(p)) == out.end()) {
+        out.push_back(GroupOf(p));
+      }
+    }
+    return out;
+  }();
+  return groups;
+}
+
 const std::vector<DriftCoordinate>& DriftCoordinates() {
+  // Group by group: the table's drift parameters, then the mount's modes.
   static const std::vector<DriftCoordinate> coordinates = [] {
     std::vector<DriftCoordinate> c;
-    for (const char* name : {"fx", "fy", "cx", "cy"}) c.push_back({name, "camera", kPixelStep});
-    const char* axes = "xyz";
-    for (int axis = 0; axis < 3; ++axis) {
-      c.push_back({std::string("camera.r") + axes[axis], "camera", kTiltStep, false, true, axis});
+    for (const std::string& group : DriftGroups()) {
+      for (const RigParameter& p : RigParameterTable()) {
+        if (p.drift && group == GroupOf(p)) c.push_back({p.name, group, DriftStep(p.unit)});
+      }
+      if (group != kMountGroup) continue;
+      for (const MountMode& m : kMountModes) {
+        const ParameterUnit unit = m.rotation ? ParameterUnit::kRadian : ParameterUnit::kMillimetre;
+        c.push_back({m.name, group, DriftStep(unit), false, m.rotation, m.axis});
+      }
     }
-    for (int axis = 0; axis < 3; ++axis) {
-      c.push_back({std::string("camera.t") + axes[axis], "camera", kShiftStep, false, false, axis});
-    }
-    for (const std::string mirror : {"mirror1", "mirror2"}) {
-      for (const char* key : {".rx", ".ry"}) c.push_back({mirror + key, mirror, kTiltStep});
-      for (const char* key : {".tx", ".ty", ".tz"}) c.push_back({mirror + key, mirror, kShiftStep});
-    }
-    c.push_back({"reflex.rx", "reflex", kTiltStep});
-    c.push_back({"reflex.ry", "reflex", kTiltStep});
-    c.push_back({"reflex.dz", "reflex", kShiftStep});
     return c;
   }();
   return coordinates;
-}
-
-const std::vector<std::string>& DriftGroups() {
-  static const std::vector<std::string> groups = {"camera", "mirror1", "mirror2", "reflex"};
-  return groups;
 }
 
 int DriftCoordinateIndex(const std::string& name) {

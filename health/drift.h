@@ -11,8 +11,10 @@
 //            part of that body, moves with it;
 //   mirror2  mirror 2 against the camera (mirror2.*);
 //   reflex   the reflex disc in mirror 1's body (reflex.rx, ry, dz).
-// Every coordinate is in the rig's internal units (px, rad, mm); `step` is its finite-difference
-// step, about 1% of a typical knock.
+// The rig parameters among them, their groups and their order are the parameter table's
+// (model/rig_parameters.h: RigParameter::drift, RigBlock::group); the camera's mount motion is
+// drift.cc's own. Every coordinate is in the rig's internal units (px, rad, mm); `step` is its
+// finite-difference step, about 1% of a typical knock (DriftStep of its unit).
 #pragma once
 
 #include <string>

@@ -24,66 +24,85 @@ constexpr const char* kProfileHint =
     "around the rig";
 
 using U = ParameterUnit;
+using V = RotationValley;
+using F = FileCheck;
 
 // Bounds: 20 px for the pinhole, 5 px of skew, 0.05 for a tangential coefficient, 2 mm for a
 // shape's c and 0.2 for its k, 1 deg for a tilt and 1 mm for a shift: each far beyond what an
 // assembly error or a mirror's manufacture gives. Divergence: 10 deg, 20 mm.
+// Radial powers: the pixels dist_k1, k2, k3 move at normalised radius r go as r^3, r^5, r^7.
+// Valley: the principal point, the tilts, the mirrors' lateral shifts (RotationValley). Drift: the
+// camera's pinhole (not skew) and every pose of a body and of the reflex disc. File checks: the
+// pinhole's focal lengths and the shapes' c are > 0, their k > 2 (a hyperboloid).
+//    name  block  index  flat  unit  unobservable_sigma  diverged_beyond  considerable
+//    radial_power  valley  drift  file_check  hint
 // clang-format off
 constexpr std::array<RigParameter, kRigParameterCount> kTable = {{
-    {"fx",         "camera",        0,  0, U::kPixel,      20.0,       0,         false, kCameraHint},
-    {"fy",         "camera",        1,  1, U::kPixel,      20.0,       0,         false, kCameraHint},
-    {"cx",         "camera",        2,  2, U::kPixel,      20.0,       0,         false, kCameraHint},
-    {"cy",         "camera",        3,  3, U::kPixel,      20.0,       0,         false, kCameraHint},
-    {"skew",       "camera",        4,  4, U::kPixel,      5.0,        0,         true,  kCameraHint},
-    {"dist_k1",    "distortion",    0,  5, U::kNone,       0,          0,         false, kDistortionHint},
-    {"dist_k2",    "distortion",    1,  6, U::kNone,       0,          0,         false, kDistortionHint},
-    {"dist_p1",    "distortion",    2,  7, U::kNone,       0.05,       0,         true,  kDistortionHint},
-    {"dist_p2",    "distortion",    3,  8, U::kNone,       0.05,       0,         true,  kDistortionHint},
-    {"dist_k3",    "distortion",    4,  9, U::kNone,       0,          0,         true,  kDistortionHint},
-    {"c1",         "mirror1_shape", 0, 10, U::kMillimetre, 2.0,        0,         false, kShapeHint},
-    {"k1",         "mirror1_shape", 1, 11, U::kNone,       0.2,        0,         false, kShapeHint},
-    {"c2",         "mirror2_shape", 0, 12, U::kMillimetre, 2.0,        0,         false, kShapeHint},
-    {"k2",         "mirror2_shape", 1, 13, U::kNone,       0.2,        0,         false, kShapeHint},
-    {"mirror1.rx", "mirror1_pose",  0, 14, U::kRadian,     1.0 * kRad, 10 * kRad, false, kLateralHint},
-    {"mirror1.ry", "mirror1_pose",  1, 15, U::kRadian,     1.0 * kRad, 10 * kRad, false, kLateralHint},
-    {"mirror1.tx", "mirror1_pose",  2, 16, U::kMillimetre, 1.0,        20.0,      false, kLateralHint},
-    {"mirror1.ty", "mirror1_pose",  3, 17, U::kMillimetre, 1.0,        20.0,      false, kLateralHint},
-    {"mirror1.tz", "mirror1_pose",  4, 18, U::kMillimetre, 1.0,        20.0,      false, kAxialHint},
-    {"mirror2.rx", "mirror2_pose",  0, 19, U::kRadian,     1.0 * kRad, 10 * kRad, false, kLateralHint},
-    {"mirror2.ry", "mirror2_pose",  1, 20, U::kRadian,     1.0 * kRad, 10 * kRad, false, kLateralHint},
-    {"mirror2.tx", "mirror2_pose",  2, 21, U::kMillimetre, 1.0,        20.0,      false, kLateralHint},
-    {"mirror2.ty", "mirror2_pose",  3, 22, U::kMillimetre, 1.0,        20.0,      false, kLateralHint},
-    {"mirror2.tz", "mirror2_pose",  4, 23, U::kMillimetre, 1.0,        20.0,      false, kAxialHint},
-    {"reflex.rx",  "reflex",        0, 24, U::kRadian,     1.0 * kRad, 10 * kRad, false, kReflexTiltHint},
-    {"reflex.ry",  "reflex",        1, 25, U::kRadian,     1.0 * kRad, 10 * kRad, false, kReflexTiltHint},
-    {"reflex.dz",  "reflex",        2, 26, U::kMillimetre, 1.0,        20.0,      false, kAxialHint},
+    {"fx",               "camera",          0, 0,  U::kPixel,      20.0,       0,         false, 0, V::kNone,           true,  F::kPositive,     kCameraHint},
+    {"fy",               "camera",          1, 1,  U::kPixel,      20.0,       0,         false, 0, V::kNone,           true,  F::kPositive,     kCameraHint},
+    {"cx",               "camera",          2, 2,  U::kPixel,      20.0,       0,         false, 0, V::kPrincipalPoint, true,  F::kAny,          kCameraHint},
+    {"cy",               "camera",          3, 3,  U::kPixel,      20.0,       0,         false, 0, V::kPrincipalPoint, true,  F::kAny,          kCameraHint},
+    {"skew",             "camera",          4, 4,  U::kPixel,      5.0,        0,         true,  0, V::kNone,           false, F::kAny,          kCameraHint},
+    {"dist_k1",          "distortion",      0, 5,  U::kNone,       0,          0,         false, 3, V::kNone,           false, F::kAny,          kDistortionHint},
+    {"dist_k2",          "distortion",      1, 6,  U::kNone,       0,          0,         false, 5, V::kNone,           false, F::kAny,          kDistortionHint},
+    {"dist_p1",          "distortion",      2, 7,  U::kNone,       0.05,       0,         true,  0, V::kNone,           false, F::kAny,          kDistortionHint},
+    {"dist_p2",          "distortion",      3, 8,  U::kNone,       0.05,       0,         true,  0, V::kNone,           false, F::kAny,          kDistortionHint},
+    {"dist_k3",          "distortion",      4, 9,  U::kNone,       0,          0,         true,  7, V::kNone,           false, F::kAny,          kDistortionHint},
+    {"c1",               "mirror1_shape",   0, 10, U::kMillimetre, 2.0,        0,         false, 0, V::kNone,           false, F::kPositive,     kShapeHint},
+    {"k1",               "mirror1_shape",   1, 11, U::kNone,       0.2,        0,         false, 0, V::kNone,           false, F::kHyperboloidK, kShapeHint},
+    {"c2",               "mirror2_shape",   0, 12, U::kMillimetre, 2.0,        0,         false, 0, V::kNone,           false, F::kPositive,     kShapeHint},
+    {"k2",               "mirror2_shape",   1, 13, U::kNone,       0.2,        0,         false, 0, V::kNone,           false, F::kHyperboloidK, kShapeHint},
+    {"mirror1.rx",       "mirror1_pose",    0, 14, U::kRadian,     1.0 * kRad, 10 * kRad, false, 0, V::kTilt,           true,  F::kAny,          kLateralHint},
+    {"mirror1.ry",       "mirror1_pose",    1, 15, U::kRadian,     1.0 * kRad, 10 * kRad, false, 0, V::kTilt,           true,  F::kAny,          kLateralHint},
+    {"mirror1.tx",       "mirror1_pose",    2, 16, U::kMillimetre, 1.0,        20.0,      false, 0, V::kLateralShift,   true,  F::kAny,          kLateralHint},
+    {"mirror1.ty",       "mirror1_pose",    3, 17, U::kMillimetre, 1.0,        20.0,      false, 0, V::kLateralShift,   true,  F::kAny,          kLateralHint},
+    {"mirror1.tz",       "mirror1_pose",    4, 18, U::kMillimetre, 1.0,        20.0,      false, 0, V::kNone,           true,  F::kAny,          kAxialHint},
+    {"mirror2.rx",       "mirror2_pose",    0, 19, U::kRadian,     1.0 * kRad, 10 * kRad, false, 0, V::kTilt,           true,  F::kAny,          kLateralHint},
+    {"mirror2.ry",       "mirror2_pose",    1, 20, U::kRadian,     1.0 * kRad, 10 * kRad, false, 0, V::kTilt,           true,  F::kAny,          kLateralHint},
+    {"mirror2.tx",       "mirror2_pose",    2, 21, U::kMillimetre, 1.0,        20.0,      false, 0, V::kLateralShift,   true,  F::kAny,          kLateralHint},
+    {"mirror2.ty",       "mirror2_pose",    3, 22, U::kMillimetre, 1.0,        20.0,      false, 0, V::kLateralShift,   true,  F::kAny,          kLateralHint},
+    {"mirror2.tz",       "mirror2_pose",    4, 23, U::kMillimetre, 1.0,        20.0,      false, 0, V::kNone,           true,  F::kAny,          kAxialHint},
+    {"reflex.rx",        "reflex",          0, 24, U::kRadian,     1.0 * kRad, 10 * kRad, false, 0, V::kTilt,           true,  F::kAny,          kReflexTiltHint},
+    {"reflex.ry",        "reflex",          1, 25, U::kRadian,     1.0 * kRad, 10 * kRad, false, 0, V::kTilt,           true,  F::kAny,          kReflexTiltHint},
+    {"reflex.dz",        "reflex",          2, 26, U::kMillimetre, 1.0,        20.0,      false, 0, V::kNone,           true,  F::kAny,          kAxialHint},
     // Profile coefficients (model/mirror_profile.h): half a term's peak-to-valley in mm. Beyond
     // 20 um of sigma a term is not told; beyond 0.5 mm the part is not the designed mirror.
-    {"mirror1.sag_p1",   "mirror1_profile", 0, 27, U::kMillimetre, 0.02, 0.5, true, kProfileHint},
-    {"mirror1.sag_p2",   "mirror1_profile", 1, 28, U::kMillimetre, 0.02, 0.5, true, kProfileHint},
-    {"mirror1.sag_p3",   "mirror1_profile", 2, 29, U::kMillimetre, 0.02, 0.5, true, kProfileHint},
-    {"mirror1.sag_p4",   "mirror1_profile", 3, 30, U::kMillimetre, 0.02, 0.5, true, kProfileHint},
-    {"mirror1.sag_cos2", "mirror1_profile", 4, 31, U::kMillimetre, 0.02, 0.5, true, kProfileHint},
-    {"mirror1.sag_sin2", "mirror1_profile", 5, 32, U::kMillimetre, 0.02, 0.5, true, kProfileHint},
-    {"mirror2.sag_p1",   "mirror2_profile", 0, 33, U::kMillimetre, 0.02, 0.5, true, kProfileHint},
-    {"mirror2.sag_p2",   "mirror2_profile", 1, 34, U::kMillimetre, 0.02, 0.5, true, kProfileHint},
-    {"mirror2.sag_p3",   "mirror2_profile", 2, 35, U::kMillimetre, 0.02, 0.5, true, kProfileHint},
-    {"mirror2.sag_p4",   "mirror2_profile", 3, 36, U::kMillimetre, 0.02, 0.5, true, kProfileHint},
-    {"mirror2.sag_cos2", "mirror2_profile", 4, 37, U::kMillimetre, 0.02, 0.5, true, kProfileHint},
-    {"mirror2.sag_sin2", "mirror2_profile", 5, 38, U::kMillimetre, 0.02, 0.5, true, kProfileHint},
+    {"mirror1.sag_p1",   "mirror1_profile", 0, 27, U::kMillimetre, 0.02,       0.5,       true,  0, V::kNone,           false, F::kAny,          kProfileHint},
+    {"mirror1.sag_p2",   "mirror1_profile", 1, 28, U::kMillimetre, 0.02,       0.5,       true,  0, V::kNone,           false, F::kAny,          kProfileHint},
+    {"mirror1.sag_p3",   "mirror1_profile", 2, 29, U::kMillimetre, 0.02,       0.5,       true,  0, V::kNone,           false, F::kAny,          kProfileHint},
+    {"mirror1.sag_p4",   "mirror1_profile", 3, 30, U::kMillimetre, 0.02,       0.5,       true,  0, V::kNone,           false, F::kAny,          kProfileHint},
+    {"mirror1.sag_cos2", "mirror1_profile", 4, 31, U::kMillimetre, 0.02,       0.5,       true,  0, V::kNone,           false, F::kAny,          kProfileHint},
+    {"mirror1.sag_sin2", "mirror1_profile", 5, 32, U::kMillimetre, 0.02,       0.5,       true,  0, V::kNone,           false, F::kAny,          kProfileHint},
+    {"mirror2.sag_p1",   "mirror2_profile", 0, 33, U::kMillimetre, 0.02,       0.5,       true,  0, V::kNone,           false, F::kAny,          kProfileHint},
+    {"mirror2.sag_p2",   "mirror2_profile", 1, 34, U::kMillimetre, 0.02,       0.5,       true,  0, V::kNone,           false, F::kAny,          kProfileHint},
+    {"mirror2.sag_p3",   "mirror2_profile", 2, 35, U::kMillimetre, 0.02,       0.5,       true,  0, V::kNone,           false, F::kAny,          kProfileHint},
+    {"mirror2.sag_p4",   "mirror2_profile", 3, 36, U::kMillimetre, 0.02,       0.5,       true,  0, V::kNone,           false, F::kAny,          kProfileHint},
+    {"mirror2.sag_cos2", "mirror2_profile", 4, 37, U::kMillimetre, 0.02,       0.5,       true,  0, V::kNone,           false, F::kAny,          kProfileHint},
+    {"mirror2.sag_sin2", "mirror2_profile", 5, 38, U::kMillimetre, 0.02,       0.5,       true,  0, V::kNone,           false, F::kAny,          kProfileHint},
 }};
 // clang-format on
 
-// The table agrees with kRigBlocks: each block's parameters in order, at its offset.
+constexpr bool Same(const char* x, const char* y) {
+  while (*x && *x == *y) ++x, ++y;
+  return *x == *y;
+}
+
+// The table agrees with kRigBlocks: the blocks follow each other in the flat order, each holds
+// its parameters in order at its offset; only the distortion's radial coefficients have a radial
+// power, and a model file checks only values it reads one key at a time (camera, design).
 constexpr bool TableMatchesBlocks() {
   int i = 0;
-  for (const RigBlock& b : kRigBlocks) {
+  for (int id = 0; id < kRigBlockCount; ++id) {
+    const RigBlock& b = kRigBlocks[id];
+    if (b.offset != i) return false;
     for (int k = 0; k < b.size; ++k, ++i) {
-      if (kTable[i].index != k || kTable[i].flat != b.offset + k) return false;
-      const char* x = kTable[i].block;
-      const char* y = b.name;
-      while (*x && *x == *y) ++x, ++y;
-      if (*x != *y) return false;
+      const RigParameter& p = kTable[i];
+      if (p.index != k || p.flat != b.offset + k || !Same(p.block, b.name)) return false;
+      if (p.radial_power != 0 && id != kDistortionBlock) return false;
+      if (p.file_check != FileCheck::kAny && id != kCameraBlock && id != kShape1Block &&
+          id != kShape2Block) {
+        return false;
+      }
     }
   }
   return i == kRigParameterCount;
@@ -105,19 +124,10 @@ const RigParameter* FindRigParameter(const std::string& name) {
     std::map<std::string, const RigParameter*> m;
     for (const RigParameter& p : kTable) {
       m[p.name] = &p;
-      // A model file's spellings: the section the value is written under, then its key.
-      const std::string block = p.block;
-      if (block == "camera") m["camera." + std::string(p.name)] = &p;
-      if (block == "distortion") m["camera." + std::string(p.name)] = &p;
-      if (block == "distortion") {
-        m["distortion." + std::string(p.name)] = &p;
-        m["camera.distortion." + std::string(p.name)] = &p;
+      // A model file's spellings: a map the value is (or was) written under, then its key.
+      for (const char* map : kRigBlocks[BlockOf(p)].spelled_under) {
+        if (map) m[std::string(map) + "." + p.Key()] = &p;
       }
-      if (block == "mirror1_shape") m["mirror1." + std::string(p.name)] = &p;
-      if (block == "mirror2_shape") m["mirror2." + std::string(p.name)] = &p;
-      if (block == "reflex") m["mirror1.reflex." + p.Key()] = &p;
-      if (block == "mirror1_profile") m["mirror1.profile." + p.Key()] = &p;
-      if (block == "mirror2_profile") m["mirror2.profile." + p.Key()] = &p;
     }
     return m;
   }();
@@ -132,6 +142,16 @@ const RigBlock* FindRigBlock(const std::string& name) {
   return nullptr;
 }
 
+const RigParameter* BlockParameters(RigBlockId block) { return &kTable[kRigBlocks[block].offset]; }
+
+RigBlockId BlockOf(const RigParameter& p) {
+  int id = 0;
+  while (id + 1 < kRigBlockCount && kRigBlocks[id + 1].offset <= p.flat) ++id;
+  return static_cast<RigBlockId>(id);
+}
+
+const char* GroupOf(const RigParameter& p) { return kRigBlocks[BlockOf(p)].group; }
+
 const std::vector<std::string>& BlockParameterNames(const std::string& block) {
   static const std::map<std::string, std::vector<std::string>> names = [] {
     std::map<std::string, std::vector<std::string>> m;
@@ -144,18 +164,31 @@ const std::vector<std::string>& BlockParameterNames(const std::string& block) {
 }
 
 const std::vector<std::string>& DefaultEstimateBlocks() {
-  static const std::vector<std::string> blocks = {"camera", "distortion", "mirror1_pose",
-                                                  "mirror2_pose", "reflex"};
+  static const std::vector<std::string> blocks = [] {
+    std::vector<std::string> out;
+    for (const RigBlock& b : kRigBlocks) {
+      if (b.estimated) out.push_back(b.name);
+    }
+    return out;
+  }();
   return blocks;
 }
 
-const double* BlockIn(const RigParams& rig, const std::string& block) {
-  const std::array<const double*, kRigBlocks.size()> arrays = {
+const double* BlockIn(const RigParams& rig, RigBlockId block) {
+  const std::array<const double*, kRigBlockCount> arrays = {
       rig.camera.data(),       rig.distortion.data(),   rig.mirror1_shape.data(),
       rig.mirror2_shape.data(), rig.mirror1_pose.data(), rig.mirror2_pose.data(),
       rig.reflex.data(),       rig.mirror1_profile.data(), rig.mirror2_profile.data()};
-  for (size_t i = 0; i < kRigBlocks.size(); ++i) {
-    if (block == kRigBlocks[i].name) return arrays[i];
+  return arrays[block];
+}
+
+double* BlockIn(RigParams* rig, RigBlockId block) {
+  return const_cast<double*>(BlockIn(static_cast<const RigParams&>(*rig), block));
+}
+
+const double* BlockIn(const RigParams& rig, const std::string& block) {
+  for (int id = 0; id < kRigBlockCount; ++id) {
+    if (block == kRigBlocks[id].name) return BlockIn(rig, static_cast<RigBlockId>(id));
   }
   return nullptr;
 }
@@ -166,11 +199,26 @@ double* BlockIn(RigParams* rig, const std::string& block) {
 
 const double* ParameterOf(const RigParams& rig, const std::string& name) {
   const RigParameter* p = FindRigParameter(name);
-  return p ? BlockIn(rig, p->block) + p->index : nullptr;
+  return p ? BlockIn(rig, BlockOf(*p)) + p->index : nullptr;
 }
 
 double* ParameterOf(RigParams* rig, const std::string& name) {
   return const_cast<double*>(ParameterOf(static_cast<const RigParams&>(*rig), name));
+}
+
+int RadialPower(const std::string& name) {
+  const RigParameter* p = FindRigParameter(name);
+  return p ? p->radial_power : 0;
+}
+
+double DriftStep(ParameterUnit unit) {
+  switch (unit) {
+    case ParameterUnit::kPixel: return 0.02;
+    case ParameterUnit::kRadian: return 2e-5;
+    case ParameterUnit::kMillimetre: return 2e-3;
+    case ParameterUnit::kNone: return 0;
+  }
+  return 0;
 }
 
 double DisplayValue(const RigParameter& p, double value) {

@@ -16,25 +16,12 @@ namespace {
 using Jet3 = ceres::Jet<double, 3>;
 using JetP = ceres::Jet<double, kNumModelParameters>;
 
-// Offsets of the blocks in the flat parameter order (triangulation.h).
-constexpr int kCamera = kCameraOffset, kDistortion = kDistortionOffset, kShape1 = kShape1Offset,
-              kShape2 = kShape2Offset, kPose1 = kPose1Offset, kPose2 = kPose2Offset,
-              kReflex = kReflexOffset, kProfile1 = kProfile1Offset, kProfile2 = kProfile2Offset;
-
 std::array<double, kNumModelParameters> FlatParameters(const RigParams& p) {
   std::array<double, kNumModelParameters> flat{};
-  auto put = [&](int offset, const auto& block) {
-    for (size_t i = 0; i < block.size(); ++i) flat[offset + i] = block[i];
-  };
-  put(kCamera, p.camera);
-  put(kDistortion, p.distortion);
-  put(kShape1, p.mirror1_shape);
-  put(kShape2, p.mirror2_shape);
-  put(kPose1, p.mirror1_pose);
-  put(kPose2, p.mirror2_pose);
-  put(kReflex, p.reflex);
-  put(kProfile1, p.mirror1_profile);
-  put(kProfile2, p.mirror2_profile);
+  for (int b = 0; b < kRigBlockCount; ++b) {
+    const double* block = BlockIn(p, static_cast<RigBlockId>(b));
+    for (int i = 0; i < kRigBlocks[b].size; ++i) flat[kRigBlocks[b].offset + i] = block[i];
+  }
   return flat;
 }
 
@@ -52,9 +39,10 @@ std::array<J, kNumModelParameters> JetParameters(const RigParams& p, bool seed) 
 
 template <typename J>
 RigBlocks<J> BlocksOf(const std::array<J, kNumModelParameters>& x) {
-  return RigBlocks<J>{&x[kCamera], &x[kDistortion], &x[kShape1],   &x[kPose1],
-                      &x[kReflex], &x[kShape2],     &x[kPose2],    &x[kProfile1],
-                      &x[kProfile2]};
+  auto at = [&](RigBlockId b) { return &x[BlockOffset(b)]; };
+  return RigBlocks<J>{at(kCameraBlock),   at(kDistortionBlock), at(kShape1Block),
+                      at(kPose1Block),    at(kReflexBlock),     at(kShape2Block),
+                      at(kPose2Block),    at(kProfile1Block),   at(kProfile2Block)};
 }
 
 template <typename J>
@@ -207,7 +195,7 @@ bool Triangulator::ModelPixelCovariance(const Eigen::Vector3d& point_in_cam,
     // The point fixed in M1: its place in C moves with mirror 1's pose parameters.
     const Pose<double> cam_from_mirror1 = PoseFromBlock(model_.params().mirror1_pose.data());
     const Eigen::Vector3d point_in_mirror1 = cam_from_mirror1.Inverse() * point_in_cam;
-    point = PoseFromBlock(&x[kPose1]) * point_in_mirror1.cast<JetP>();
+    point = PoseFromBlock(&x[BlockOffset(kPose1Block)]) * point_in_mirror1.cast<JetP>();
   }
   Vec2<JetP> px[2];
   if (!Path1(x, model_.fixed()).Project(model_.fixed(), point, &px[0])) return false;

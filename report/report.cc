@@ -109,14 +109,11 @@ std::string ParameterTable(const calib::CalibrationResult& r) {
 }
 
 // True for a tilt (rx, ry of a mirror or the reflex plane) or what a rotation of the camera
-// against the bodies moves with one (the principal point, the decentres).
+// against the bodies moves with one (the principal point, the decentres): the table's
+// RotationValley.
 bool InRotationValley(const std::string& name) {
-  for (const char* s : {"mirror1.rx", "mirror1.ry", "mirror2.rx", "mirror2.ry", "reflex.rx",
-                        "reflex.ry", "cx", "cy", "mirror1.tx", "mirror1.ty", "mirror2.tx",
-                        "mirror2.ty"}) {
-    if (name == s) return true;
-  }
-  return false;
+  const RigParameter* p = FindRigParameter(name);
+  return p && name == p->name && p->valley != RotationValley::kNone;
 }
 
 std::string Correlations(const calib::CalibrationResult& r) {

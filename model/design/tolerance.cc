@@ -94,8 +94,9 @@ double SagAt(const std::array<double, kProfileTerms>& c, const ProfileShape& sha
 // covariance (the difference of the sag at the two extreme points is linear in them). A mirror
 // the model holds as the exact conic has no measured profile: value 0, no sigma, UNDECIDED.
 ToleranceCheck ProfileCheck(const NamedCovariance& cov, const RigParams& rig, int m, double limit) {
-  const std::string body = m == 0 ? "mirror1" : "mirror2";
-  ToleranceCheck check{body + ".profile", "mm", 0.0, std::nullopt, limit, Verdict::kUndecided};
+  const RigParameter* terms = BlockParameters(ProfileBlock(m == 0 ? Mirror::kOne : Mirror::kTwo));
+  ToleranceCheck check{GroupOf(terms[0]) + std::string(".profile"), "mm", 0.0, std::nullopt, limit,
+                       Verdict::kUndecided};
   const ProfileShape& shape = m == 0 ? rig.profile1 : rig.profile2;
   const auto& c = m == 0 ? rig.mirror1_profile : rig.mirror2_profile;
   if (!shape.present) return check;
@@ -119,7 +120,7 @@ ToleranceCheck ProfileCheck(const NamedCovariance& cov, const RigParams& rig, in
     ProfileShape smooth = shape;
     smooth.ripple_amplitude = 0;
     // Only the refined terms carry uncertainty (held ones are not in the covariance).
-    const std::string& name = BlockParameterNames(body + "_profile")[k];
+    const std::string name = terms[k].name;
     if (!cov.Has({name})) continue;
     names.push_back(name);
     gradient.push_back(SagAt(unit, smooth, at_hi.x(), at_hi.y()) - SagAt(unit, smooth, at_lo.x(), at_lo.y()));
@@ -235,45 +236,58 @@ std::string RotationValleyNote(const ToleranceCheck& c) {
 std::vector<ToleranceCheck> CheckTolerances(const RigParams& rig, const ToleranceSpec& spec) {
   const NamedCovariance cov(rig);
   std::vector<ToleranceCheck> checks;
+  std::vector<size_t> unmeasured_profiles;  // checks of a profile the model does not carry
   for (int m = 0; m < 2; ++m) {
     const auto& pose = m == 0 ? rig.mirror1_pose : rig.mirror2_pose;
     const BodyTolerance& tol = spec.mirror[m];
-    const std::string body = m == 0 ? "mirror1" : "mirror2";
+    // rx, ry, tx, ty, tz of that mirror's pose block.
+    const RigParameter* p = BlockParameters(PoseBlock(m == 0 ? Mirror::kOne : Mirror::kTwo));
+    const std::string body = GroupOf(p[0]);
     if (tol.decentre_mm >= 0) {
-      checks.push_back(Magnitude2(cov, body + ".decentre", "mm", body + ".tx", body + ".ty",
+      checks.push_back(Magnitude2(cov, body + ".decentre", "mm", p[2].name, p[3].name,
                                   pose[2], pose[3], tol.decentre_mm));
     }
     if (tol.tilt_rad >= 0) {
-      checks.push_back(Magnitude2(cov, body + ".tilt", "rad", body + ".rx", body + ".ry", pose[0],
+      checks.push_back(Magnitude2(cov, body + ".tilt", "rad", p[0].name, p[1].name, pose[0],
                                   pose[1], tol.tilt_rad));
     }
     if (tol.axial_mm >= 0) {
-      checks.push_back(Magnitude1(cov, body + ".axial", "mm", body + ".tz", pose[4], tol.axial_mm));
+      checks.push_back(Magnitude1(cov, body + ".axial", "mm", p[4].name, pose[4], tol.axial_mm));
     }
-    if (tol.profile_pv_mm >= 0) checks.push_back(ProfileCheck(cov, rig, m, tol.profile_pv_mm));
+    if (tol.profile_pv_mm >= 0) {
+      if (!(m == 0 ? rig.profile1 : rig.profile2).present) unmeasured_profiles.push_back(checks.size());
+      checks.push_back(ProfileCheck(cov, rig, m, tol.profile_pv_mm));
+    }
   }
+  // rx, ry, dz of the reflex disc.
+  const RigParameter* reflex = BlockParameters(kReflexBlock);
   if (spec.reflex_tilt_rad >= 0) {
-    checks.push_back(Magnitude2(cov, "reflex.tilt", "rad", "reflex.rx", "reflex.ry",
-                                rig.reflex[0], rig.reflex[1], spec.reflex_tilt_rad));
+    checks.push_back(Magnitude2(cov, GroupOf(reflex[0]) + std::string(".tilt"), "rad",
+                                reflex[0].name, reflex[1].name, rig.reflex[0], rig.reflex[1],
+                                spec.reflex_tilt_rad));
   }
   if (spec.reflex_dz_mm >= 0) {
-    checks.push_back(Magnitude1(cov, "reflex.dz", "mm", "reflex.dz", rig.reflex[2],
+    checks.push_back(Magnitude1(cov, reflex[2].name, "mm", reflex[2].name, rig.reflex[2],
                                 spec.reflex_dz_mm));
   }
-  for (ToleranceCheck& c : checks) {
+  for (size_t i = 0; i < checks.size(); ++i) {
+    ToleranceCheck& c = checks[i];
     Decide(spec.confidence_sigmas, &c);
     for (const std::string& p : c.parameters) {
-      for (const char* camera : {"cx", "cy"}) {
-        const double r = cov.Correlation(p, camera);
+      // The principal point (cx, cy).
+      for (const RigParameter& camera : RigParameterTable()) {
+        if (camera.valley != RotationValley::kPrincipalPoint) continue;
+        const double r = cov.Correlation(p, camera.name);
         if (std::abs(r) > std::abs(c.valley_correlation)) {
           c.valley_correlation = r;
-          c.valley_pair = p + " ~ " + camera;
+          c.valley_pair = p + " ~ " + camera.name;
         }
       }
     }
     // A profile the model does not carry was never measured: no verdict.
-    const bool unmeasured_profile = (c.name == "mirror1.profile" && !rig.profile1.present) ||
-                                    (c.name == "mirror2.profile" && !rig.profile2.present);
+    const bool unmeasured_profile =
+        std::find(unmeasured_profiles.begin(), unmeasured_profiles.end(), i) !=
+        unmeasured_profiles.end();
     if (unmeasured_profile) c.verdict = Verdict::kUndecided;
   }
   return checks;

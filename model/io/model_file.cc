@@ -2,6 +2,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <charconv>
 #include <cmath>
@@ -22,14 +23,51 @@ namespace {
 constexpr char kFormatPrefix[] = "omnistereo-model/";
 constexpr int kFormatMajor = 1;
 
-// A parameter block's values from its map, each under its table key (model/rig_parameters.h;
-// tilts read as angles).
-void ReadBlock(const Reader& in, const YAML::Node& map, const std::string& path,
-               const std::string& block, double* values) {
-  for (const RigParameter& p : RigParameterTable()) {
-    if (block != p.block) continue;
-    values[p.index] = p.unit == ParameterUnit::kRadian ? in.Angle(map, path, p.Key().c_str())
-                                                       : in.Number(map, path, p.Key().c_str());
+// The map at `section` ("mirror1.cam_from_mirror") below `parent` (the map at the section's
+// first `start` characters), each map on the way read as one.
+YAML::Node MapAt(const Reader& in, const YAML::Node& parent, const std::string& section,
+                 size_t start = 0) {
+  const size_t dot = std::min(section.find('.', start), section.size());
+  const YAML::Node node =
+      in.Map(parent, section.substr(0, dot), section.substr(start, dot - start).c_str());
+  return dot == section.size() ? node : MapAt(in, node, section, dot + 1);
+}
+// A block's map in a model file (its table section).
+YAML::Node SectionMap(const Reader& in, const YAML::Node& root, RigBlockId block) {
+  return MapAt(in, root, kRigBlocks[block].section);
+}
+// Its key in that map's parent ("cam_from_mirror").
+std::string SectionKey(RigBlockId block) {
+  const std::string section = kRigBlocks[block].section;
+  return section.substr(section.rfind('.') + 1);
+}
+
+// One parameter's value from its block's map (`path`), under its table key: tilts read as
+// angles, and the value checked as the table says.
+double ReadParameter(const Reader& in, const YAML::Node& map, const std::string& path,
+                     const RigParameter& p) {
+  const std::string key = p.Key();
+  switch (p.file_check) {
+    case FileCheck::kPositive:
+      return in.Positive(map, path, key.c_str());
+    case FileCheck::kHyperboloidK: {
+      // [hyperboloid]: k <= 2 is no hyperboloid (the eccentricity becomes undefined or 1).
+      const double k = in.Number(map, path, key.c_str());
+      if (!(k > 2)) in.Fail(Join(path, key), "expected k > 2", Describe(map[key]));
+      return k;
+    }
+    case FileCheck::kAny:
+      break;
+  }
+  return p.unit == ParameterUnit::kRadian ? in.Angle(map, path, key.c_str())
+                                          : in.Number(map, path, key.c_str());
+}
+
+// A parameter block's values from its map, each under its table key (model/rig_parameters.h).
+void ReadBlock(const Reader& in, const YAML::Node& map, RigBlockId block, double* values) {
+  const RigParameter* p = BlockParameters(block);
+  for (int i = 0; i < kRigBlocks[block].size; ++i) {
+    values[i] = ReadParameter(in, map, kRigBlocks[block].section, p[i]);
   }
 }
 
@@ -84,12 +122,10 @@ void ReadProfile(const Reader& in, const YAML::Node& map, const std::string& pat
                 FormatDouble(rig.r_sys) + "] (the mirror's radii)",
             FormatDouble(shape->r_max));
   }
-  const std::string block = mirror == Mirror::kOne ? "mirror1_profile" : "mirror2_profile";
-  for (const RigParameter& p : RigParameterTable()) {
-    if (block == p.block) {
-      coeffs[p.index] = 0;
-      optional(p.Key().c_str(), &coeffs[p.index]);
-    }
+  const RigParameter* terms = BlockParameters(ProfileBlock(mirror));
+  for (int i = 0; i < kProfileTerms; ++i) {
+    coeffs[i] = 0;
+    optional(terms[i].Key().c_str(), &coeffs[i]);
   }
   optional("ripple_amplitude", &shape->ripple_amplitude);
   optional("ripple_period", &shape->ripple_period);
@@ -174,25 +210,23 @@ std::string MountMap(const Mount& mount) {
   return out + "]}";
 }
 
-// The blocks an ideal model holds at 0, and the maps they are written in.
-const std::pair<const char*, const char*> kMisalignmentBlocks[] = {
-    {"distortion", "camera.distortion"},
-    {"mirror1_pose", "mirror1.cam_from_mirror"},
-    {"reflex", "mirror1.reflex"},
-    {"mirror2_pose", "mirror2.cam_from_mirror"}};
-
 // kind: ideal means exactly the SVP rig: a nonzero misalignment would be silently dropped.
 void CheckIdeal(const Reader& in, const RigParams& rig) {
-  auto check = [&](double value, const std::string& key) {
-    if (value != 0) in.Fail(key, "expected 0 because kind is ideal", FormatDouble(value));
-  };
-  for (const auto& [block, path] : kMisalignmentBlocks) {
-    for (const RigParameter& p : RigParameterTable()) {
-      if (block == std::string(p.block)) check(*ParameterOf(rig, p.name), Join(path, p.Key()));
+  // The blocks an ideal model holds at 0.
+  for (RigBlockId block : {kDistortionBlock, kPose1Block, kReflexBlock, kPose2Block}) {
+    const RigParameter* p = BlockParameters(block);
+    for (int i = 0; i < kRigBlocks[block].size; ++i) {
+      const double value = BlockIn(rig, block)[i];
+      if (value != 0) {
+        in.Fail(Join(kRigBlocks[block].section, p[i].Key()), "expected 0 because kind is ideal",
+                FormatDouble(value));
+      }
     }
   }
-  if (rig.profile1.present) in.Fail("mirror1.profile", "no profile because kind is ideal", "one");
-  if (rig.profile2.present) in.Fail("mirror2.profile", "no profile because kind is ideal", "one");
+  for (RigBlockId block : {kProfile1Block, kProfile2Block}) {
+    const bool present = (block == kProfile1Block ? rig.profile1 : rig.profile2).present;
+    if (present) in.Fail(kRigBlocks[block].section, "no profile because kind is ideal", "one");
+  }
 }
 
 CalibrationInfo ReadCalibration(const Reader& in, const YAML::Node& root) {
@@ -362,20 +396,22 @@ std::vector<std::string> Nums(const std::vector<double>& values) {
 }
 
 // A parameter block as a flow map under its table keys, after `lead` ("model: radtan, ").
-std::string BlockMap(const std::string& block, const double* values, const std::string& lead = "") {
+std::string BlockMap(const RigParams& rig, RigBlockId block, const std::string& lead = "") {
   std::string out = "{" + lead;
-  for (const RigParameter& p : RigParameterTable()) {
-    if (block != p.block) continue;
-    out += (out.size() > 1 + lead.size() ? ", " : "") + p.Key() + ": " + Num(values[p.index]);
+  const RigParameter* p = BlockParameters(block);
+  for (int i = 0; i < kRigBlocks[block].size; ++i) {
+    out += (i > 0 ? ", " : "") + p[i].Key() + ": " + Num(BlockIn(rig, block)[i]);
   }
   return out + "}";
 }
 
-std::string ProfileMap(const ProfileShape& shape, const std::string& block,
-                       const double* coeffs) {
+std::string ProfileMap(const RigParams& rig, Mirror mirror) {
+  const ProfileShape& shape = mirror == Mirror::kOne ? rig.profile1 : rig.profile2;
+  const RigBlockId block = ProfileBlock(mirror);
   std::string out = "{r_min: " + Num(shape.r_min) + ", r_max: " + Num(shape.r_max);
-  for (const RigParameter& p : RigParameterTable()) {
-    if (block == p.block) out += ", " + p.Key() + ": " + Num(coeffs[p.index]);
+  const RigParameter* p = BlockParameters(block);
+  for (int i = 0; i < kRigBlocks[block].size; ++i) {
+    out += ", " + p[i].Key() + ": " + Num(BlockIn(rig, block)[i]);
   }
   if (shape.ripple_amplitude != 0) {
     out += ", ripple_amplitude: " + Num(shape.ripple_amplitude) +
@@ -430,27 +466,23 @@ RigParams ParseModelText(const std::string& text, const std::string& file) {
   rig.image_width = in.Integer(image, "image", "width", 1);
   rig.image_height = in.Integer(image, "image", "height", 1);
 
-  const YAML::Node camera = in.Map(root, "camera", "camera");
-  rig.camera[0] = in.Positive(camera, "camera", "fx");
-  rig.camera[1] = in.Positive(camera, "camera", "fy");
-  rig.camera[2] = in.Number(camera, "camera", "cx");
-  rig.camera[3] = in.Number(camera, "camera", "cy");
-  rig.camera[4] = in.Number(camera, "camera", "skew");
-  const YAML::Node dist = in.Map(camera, "camera.distortion", "distortion");
-  const std::string dist_model = in.String(dist, "camera.distortion", "model");
+  const YAML::Node camera = SectionMap(in, root, kCameraBlock);
+  ReadBlock(in, camera, kCameraBlock, rig.camera.data());
+  const YAML::Node dist = SectionMap(in, root, kDistortionBlock);
+  const std::string dist_path = kRigBlocks[kDistortionBlock].section;
+  const std::string dist_model = in.String(dist, dist_path, "model");
   if (dist_model != "radtan") {
-    in.Fail("camera.distortion.model", "expected 'radtan'", Describe(dist["model"]));
+    in.Fail(Join(dist_path, "model"), "expected 'radtan'", Describe(dist["model"]));
   }
-  ReadBlock(in, dist, "camera.distortion", "distortion", rig.distortion.data());
+  ReadBlock(in, dist, kDistortionBlock, rig.distortion.data());
 
-  const YAML::Node design = in.Map(root, "design", "design");
-  rig.mirror1_shape[0] = in.Positive(design, "design", "c1");
-  rig.mirror2_shape[0] = in.Positive(design, "design", "c2");
-  for (const auto& [name, slot] : {std::pair<const char*, double*>{"k1", &rig.mirror1_shape[1]},
-                                   std::pair<const char*, double*>{"k2", &rig.mirror2_shape[1]}}) {
-    *slot = in.Number(design, "design", name);
-    // [hyperboloid]: k <= 2 is no hyperboloid (the eccentricity becomes undefined or 1).
-    if (!(*slot > 2)) in.Fail(Join("design", name), "expected k > 2", Describe(design[name]));
+  // The shapes' c1, c2, then k1, k2, among the design's numbers.
+  const YAML::Node design = SectionMap(in, root, kShape1Block);
+  for (int i = 0; i < kRigBlocks[kShape1Block].size; ++i) {
+    for (RigBlockId block : {kShape1Block, kShape2Block}) {
+      BlockIn(&rig, block)[i] =
+          ReadParameter(in, design, kRigBlocks[block].section, BlockParameters(block)[i]);
+    }
   }
   rig.d = in.Positive(design, "design", "d");
   rig.r_sys = in.Positive(design, "design", "r_sys");
@@ -465,23 +497,20 @@ RigParams ParseModelText(const std::string& text, const std::string& file) {
   }
 
   const YAML::Node m1 = in.Map(root, "mirror1", "mirror1");
-  ReadBlock(in, in.Map(m1, "mirror1.cam_from_mirror", "cam_from_mirror"),
-            "mirror1.cam_from_mirror", "mirror1_pose", rig.mirror1_pose.data());
-  ReadBlock(in, in.Map(m1, "mirror1.reflex", "reflex"), "mirror1.reflex", "reflex",
-            rig.reflex.data());
+  ReadBlock(in, SectionMap(in, root, kPose1Block), kPose1Block, rig.mirror1_pose.data());
+  ReadBlock(in, SectionMap(in, root, kReflexBlock), kReflexBlock, rig.reflex.data());
   rig.lip1 = ReadLip(in, in.Map(m1, "mirror1.lip", "lip"), "mirror1.lip");
-  if (m1["profile"].IsDefined()) {
-    ReadProfile(in, in.Map(m1, "mirror1.profile", "profile"), "mirror1.profile", rig, Mirror::kOne,
-                &rig.profile1, rig.mirror1_profile.data());
+  if (m1[SectionKey(kProfile1Block)].IsDefined()) {
+    ReadProfile(in, SectionMap(in, root, kProfile1Block), kRigBlocks[kProfile1Block].section, rig,
+                Mirror::kOne, &rig.profile1, rig.mirror1_profile.data());
   }
 
   const YAML::Node m2 = in.Map(root, "mirror2", "mirror2");
-  ReadBlock(in, in.Map(m2, "mirror2.cam_from_mirror", "cam_from_mirror"),
-            "mirror2.cam_from_mirror", "mirror2_pose", rig.mirror2_pose.data());
+  ReadBlock(in, SectionMap(in, root, kPose2Block), kPose2Block, rig.mirror2_pose.data());
   rig.lip2 = ReadLip(in, in.Map(m2, "mirror2.lip", "lip"), "mirror2.lip");
-  if (m2["profile"].IsDefined()) {
-    ReadProfile(in, in.Map(m2, "mirror2.profile", "profile"), "mirror2.profile", rig, Mirror::kTwo,
-                &rig.profile2, rig.mirror2_profile.data());
+  if (m2[SectionKey(kProfile2Block)].IsDefined()) {
+    ReadProfile(in, SectionMap(in, root, kProfile2Block), kRigBlocks[kProfile2Block].section, rig,
+                Mirror::kTwo, &rig.profile2, rig.mirror2_profile.data());
   }
 
   if (root["mount"].IsDefined()) rig.mount = ReadMount(in, in.Map(root, "mount", "mount"), rig);
@@ -510,37 +539,36 @@ std::string ModelFileText(const RigParams& rig) {
   Line(&out, 0, "units: {length: mm, angle: rad}");
   Line(&out, 0, "image: {width: " + std::to_string(rig.image_width) +
                     ", height: " + std::to_string(rig.image_height) + "}");
-  Line(&out, 0, "camera:");
-  Line(&out, 2, "fx: " + Num(rig.camera[0]));
-  Line(&out, 2, "fy: " + Num(rig.camera[1]));
-  Line(&out, 2, "cx: " + Num(rig.camera[2]));
-  Line(&out, 2, "cy: " + Num(rig.camera[3]));
-  Line(&out, 2, "skew: " + Num(rig.camera[4]));
-  const auto& k = rig.distortion;
-  Line(&out, 2, "distortion: " + BlockMap("distortion", k.data(), "model: radtan, "));
-  Line(&out, 0, "design:", "the paper's primary parameters (mm, unitless k) and physical radii");
-  Line(&out, 2, "c1: " + Num(rig.mirror1_shape[0]));
-  Line(&out, 2, "c2: " + Num(rig.mirror2_shape[0]));
-  Line(&out, 2, "k1: " + Num(rig.mirror1_shape[1]));
-  Line(&out, 2, "k2: " + Num(rig.mirror2_shape[1]));
+  Line(&out, 0, kRigBlocks[kCameraBlock].section + std::string(":"));
+  for (int i = 0; i < kRigBlocks[kCameraBlock].size; ++i) {
+    Line(&out, 2, BlockParameters(kCameraBlock)[i].Key() + ": " + Num(rig.camera[i]));
+  }
+  Line(&out, 2, SectionKey(kDistortionBlock) + ": " + BlockMap(rig, kDistortionBlock, "model: radtan, "));
+  Line(&out, 0, kRigBlocks[kShape1Block].section + std::string(":"),
+       "the paper's primary parameters (mm, unitless k) and physical radii");
+  for (int i = 0; i < kRigBlocks[kShape1Block].size; ++i) {
+    for (RigBlockId block : {kShape1Block, kShape2Block}) {
+      Line(&out, 2, BlockParameters(block)[i].Key() + ": " + Num(BlockIn(rig, block)[i]));
+    }
+  }
   Line(&out, 2, "d: " + Num(rig.d));
   Line(&out, 2, "r_sys: " + Num(rig.r_sys));
   Line(&out, 2, "r_ref: " + Num(rig.r_ref), "radius of the planar reflex disc");
   Line(&out, 2, "r_cam: " + Num(rig.r_cam), "radius of mirror 2's central hole");
   Line(&out, 0, "mirror1:", "body of mirror 1; the reflex disc is part of it");
-  Line(&out, 2, "cam_from_mirror: " + BlockMap("mirror1_pose", rig.mirror1_pose.data()));
-  Line(&out, 2, "reflex: " + BlockMap("reflex", rig.reflex.data()),
+  Line(&out, 2, SectionKey(kPose1Block) + ": " + BlockMap(rig, kPose1Block));
+  Line(&out, 2, SectionKey(kReflexBlock) + ": " + BlockMap(rig, kReflexBlock),
        "mirror-1 frame: plane through (0,0,d/2+dz), normal exp([rx,ry,0])*(0,0,-1)");
   Line(&out, 2, "lip: " + LipMap(rig.lip1), "flat annulus, mirror-1 frame");
   if (rig.profile1.present) {
-    Line(&out, 2, "profile: " + ProfileMap(rig.profile1, "mirror1_profile", rig.mirror1_profile.data()),
+    Line(&out, 2, SectionKey(kProfile1Block) + ": " + ProfileMap(rig, Mirror::kOne),
          "sag over the conic along +z (mm): docs/formats/model.md");
   }
   Line(&out, 0, "mirror2:");
-  Line(&out, 2, "cam_from_mirror: " + BlockMap("mirror2_pose", rig.mirror2_pose.data()));
+  Line(&out, 2, SectionKey(kPose2Block) + ": " + BlockMap(rig, kPose2Block));
   Line(&out, 2, "lip: " + LipMap(rig.lip2), "flat annulus, mirror-2 frame");
   if (rig.profile2.present) {
-    Line(&out, 2, "profile: " + ProfileMap(rig.profile2, "mirror2_profile", rig.mirror2_profile.data()),
+    Line(&out, 2, SectionKey(kProfile2Block) + ": " + ProfileMap(rig, Mirror::kTwo),
          "sag over the conic along +z (mm): docs/formats/model.md");
   }
 

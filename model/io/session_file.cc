@@ -220,13 +220,24 @@ Session ReadSessionFile(const std::string& path) {
 
   if (root["priors"].IsDefined()) {
     const YAML::Node priors = root["priors"];
-    if (!IsMap(priors)) in.Fail("priors", "expected a map {mirror1_shape: {...}}", Describe(priors));
+    // The blocks a prior may be given (model/rig_parameters.h: RigBlock::prior).
+    std::vector<std::string> prior_blocks;
+    for (const RigBlock& b : kRigBlocks) {
+      if (b.prior) prior_blocks.push_back(b.name);
+    }
+    std::string choices;
+    for (size_t i = 0; i < prior_blocks.size(); ++i) {
+      choices += (i == 0 ? "" : i + 1 == prior_blocks.size() ? " or " : ", ") + prior_blocks[i];
+    }
+    if (!IsMap(priors)) {
+      in.Fail("priors", "expected a map {" + prior_blocks[0] + ": {...}}", Describe(priors));
+    }
     for (const auto& item : priors) {
       if (!item.first.IsScalar()) in.Fail("priors", "expected names as keys", Describe(item.first));
       const std::string name = item.first.Scalar();
       const std::string key = "priors." + name;
-      if (name != "mirror1_shape" && name != "mirror2_shape") {
-        in.Fail(key, "expected mirror1_shape or mirror2_shape", "'" + name + "'");
+      if (std::find(prior_blocks.begin(), prior_blocks.end(), name) == prior_blocks.end()) {
+        in.Fail(key, "expected " + choices, "'" + name + "'");
       }
       if (!IsMap(item.second)) in.Fail(key, "expected {sigma_c: mm, sigma_k: ...}", Describe(item.second));
       ShapePrior prior;

@@ -23,6 +23,31 @@ TEST(Drift, GroupsCoverEveryCoordinateOnce) {
   EXPECT_EQ(CoordinatesOf("reflex").size(), 3u);
 }
 
+// The coordinates, their groups and steps as drift.cc listed them before the table held them.
+TEST(Drift, CoordinatesInOrderWithTheirSteps) {
+  const std::vector<std::pair<std::string, double>> want = {
+      {"fx", 0.02},        {"fy", 0.02},        {"cx", 0.02},        {"cy", 0.02},
+      {"camera.rx", 2e-5}, {"camera.ry", 2e-5}, {"camera.rz", 2e-5}, {"camera.tx", 2e-3},
+      {"camera.ty", 2e-3}, {"camera.tz", 2e-3}, {"mirror1.rx", 2e-5}, {"mirror1.ry", 2e-5},
+      {"mirror1.tx", 2e-3}, {"mirror1.ty", 2e-3}, {"mirror1.tz", 2e-3}, {"mirror2.rx", 2e-5},
+      {"mirror2.ry", 2e-5}, {"mirror2.tx", 2e-3}, {"mirror2.ty", 2e-3}, {"mirror2.tz", 2e-3},
+      {"reflex.rx", 2e-5}, {"reflex.ry", 2e-5}, {"reflex.dz", 2e-3}};
+  const auto& all = DriftCoordinates();
+  ASSERT_EQ(all.size(), want.size());
+  for (size_t i = 0; i < all.size(); ++i) {
+    EXPECT_EQ(all[i].name, want[i].first);
+    EXPECT_EQ(all[i].step, want[i].second) << all[i].name;
+    const bool mount = all[i].name.rfind("camera.", 0) == 0;
+    EXPECT_EQ(all[i].rig_parameter, !mount) << all[i].name;
+    EXPECT_EQ(all[i].group, mount ? "camera" : GroupOf(*FindRigParameter(all[i].name)));
+    if (mount) {
+      EXPECT_EQ(all[i].mount_rotation, all[i].name[7] == 'r') << all[i].name;
+      EXPECT_EQ(all[i].mount_axis, all[i].name[8] - 'x') << all[i].name;
+    }
+  }
+  EXPECT_EQ(DriftGroups(), (std::vector<std::string>{"camera", "mirror1", "mirror2", "reflex"}));
+}
+
 TEST(Drift, RigParameterCoordinatesAddToTheParameter) {
   const RigParams rig = io::ReadModelFile(kSampleDir + "big_rig_misaligned.yaml");
   for (const auto& c : DriftCoordinates()) {
