@@ -287,6 +287,12 @@ void FillResult(const std::vector<TargetSpec>& targets, const Calibration& c, in
 
 }  // namespace
 
+std::map<std::string, double> DefaultConsideredSigmas() {
+  std::map<std::string, double> sigmas;
+  for (const RigParameter* p : ParametersWithRole(SolveRole::kTangential)) sigmas[p->name] = 5e-4;
+  return sigmas;
+}
+
 CalibrationResult Calibrate(const RigParams& start, const std::vector<TargetSpec>& targets,
                             const Observations& detections, const CalibrationOptions& options) {
   for (const auto& g : options.estimate) {
@@ -295,9 +301,10 @@ CalibrationResult Calibrate(const RigParams& start, const std::vector<TargetSpec
     }
   }
   if (options.estimate.empty()) {
+    std::string usual;
+    for (const std::string& g : DefaultEstimateBlocks()) usual += (usual.empty() ? "" : ", ") + g;
     throw CalibrationError("nothing to estimate: the session's estimate: names no parameter "
-                           "group (usually [camera, distortion, mirror1_pose, mirror2_pose, "
-                           "reflex])");
+                           "group (usually [" + usual + "])");
   }
   // The rig from the start (every mirror with a profile), what is refined, the observations.
   Calibration c;

@@ -51,10 +51,14 @@ class CalibrationError : public InputError {
   using InputError::InputError;
 };
 
+// The considered parameters' default sigmas: the tangential distortion (SolveRole::kTangential),
+// 5e-4 each (a decent lens has |p| of a few 1e-4; 3e-4 turns the calibrated camera frame by ~0.09
+// deg and moves the tilts along the camera-rotation valley by several noise sigmas).
+std::map<std::string, double> DefaultConsideredSigmas();
+
 struct CalibrationOptions {
   // Parameter groups to refine (blocks of model/rig_parameters.h); the others stay at the start.
-  std::vector<std::string> estimate = {"camera", "distortion", "mirror1_pose", "mirror2_pose",
-                                       "reflex"};
+  std::vector<std::string> estimate = DefaultEstimateBlocks();
   // Gaussian priors for refined mirror shapes (key mirror1_shape | mirror2_shape). A shape group
   // in `estimate` without a prior is refined freely.
   std::map<std::string, ShapePrior> priors;
@@ -69,10 +73,8 @@ struct CalibrationOptions {
   bool refine_tangential = false;
   // Considered parameters: held coordinates of refined groups (dist_p1, dist_p2, dist_k3, skew)
   // that are not known exactly; the sigma given here for their held value is carried into the
-  // covariance (calib/covariance.h). Default: the tangential distortion, 5e-4 each (a decent lens
-  // has |p| of a few 1e-4; 3e-4 turns the calibrated camera frame by ~0.09 deg and moves the
-  // tilts along the camera-rotation valley by several noise sigmas).
-  std::map<std::string, double> considered_sigma = {{"dist_p1", 5e-4}, {"dist_p2", 5e-4}};
+  // covariance (calib/covariance.h). Default: DefaultConsideredSigmas().
+  std::map<std::string, double> considered_sigma = DefaultConsideredSigmas();
   // Likewise each lip edge's detector bias (px), the same in every image (the rig does not
   // move): many images average the lips' noise but not their bias. Across the edge: the larger of
   // this and the RMS of the edge's residuals across it; the whole edge moved along u and along v:

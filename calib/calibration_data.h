@@ -39,7 +39,8 @@ constexpr double kDeg = M_PI / 180.0;
 constexpr double kBoundSlackMm = 2.0;
 constexpr int kRobustStageCorners = 2000;  // see SelectRobustStageCorners
 // The profile blocks of mirror 1 and mirror 2 (calib/profiles.cc).
-inline constexpr const char* kProfileGroups[2] = {"mirror1_profile", "mirror2_profile"};
+inline constexpr const char* kProfileGroups[2] = {kRigBlocks[kProfile1Block].name,
+                                                  kRigBlocks[kProfile2Block].name};
 
 // The rig being solved for: its parameter blocks (params' arrays: the Ceres parameter blocks)
 // and the fixed data the costs copy when they are built.

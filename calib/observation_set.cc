@@ -604,8 +604,8 @@ void CheckDegeneracy(const ObservationSet& observations, const std::vector<Targe
         std::to_string(n_params) + " unknowns; need at least 3 placements and " +
         std::to_string(n_params) + " corners (more images, or larger targets)");
   }
-  if (groups.count("mirror2_pose") || groups.count("reflex") ||
-      groups.count("mirror2_shape")) {
+  auto estimated = [&](RigBlockId block) { return groups.count(kRigBlocks[block].name) > 0; };
+  if (estimated(kPose2Block) || estimated(kReflexBlock) || estimated(kShape2Block)) {
     if (n_obs[1] < 30) {
       throw CalibrationError("too few observations in the inner ring (mirror 2): " +
                              std::to_string(n_obs[1]) +
@@ -613,7 +613,7 @@ void CheckDegeneracy(const ObservationSet& observations, const std::vector<Targe
                              "rings (the stereo region)");
     }
   }
-  if (groups.count("mirror1_pose") && n_obs[0] < 30) {
+  if (estimated(kPose1Block) && n_obs[0] < 30) {
     throw CalibrationError("too few observations in the outer ring (mirror 1): " +
                            std::to_string(n_obs[0]) + " corners");
   }

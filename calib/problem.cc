@@ -11,13 +11,14 @@ namespace omni::calib {
 
 std::vector<int> HeldCoordinates(const Refinement& refined, const std::string& group) {
   std::vector<int> held;
-  auto hold = [&](const char* name) {
-    const RigParameter* p = FindRigParameter(name);
-    if (group == p->block) held.push_back(p->index);
+  auto hold = [&](SolveRole role) {
+    for (const RigParameter* p : ParametersWithRole(role)) {
+      if (group == p->block) held.push_back(p->index);
+    }
   };
-  if (!refined.skew) hold("skew");
-  if (!refined.tangential) hold("dist_p1"), hold("dist_p2");
-  if (!refined.dist_k3) hold("dist_k3");
+  if (!refined.skew) hold(SolveRole::kSkew);
+  if (!refined.tangential) hold(SolveRole::kTangential);
+  if (!refined.dist_k3) hold(SolveRole::kHighRadial);
   for (int m = 0; m < 2; ++m) {
     if (group == kProfileGroups[m] && !refined.profile_free[m]) {
       for (int k = 0; k < kProfileTerms; ++k) held.push_back(k);
@@ -77,7 +78,9 @@ namespace {
 void AddPriors(const std::set<std::string>& groups, const Refinement& refined, RigParams* rig,
                CalibrationProblem* p) {
   // Shape priors (only where the shape is refined).
-  for (const char* shape : {"mirror1_shape", "mirror2_shape"}) {
+  for (const RigBlock& b : kRigBlocks) {
+    if (!b.prior) continue;
+    const std::string shape = b.name;
     const auto prior = refined.shape_priors.find(shape);
     if (!groups.count(shape) || prior == refined.shape_priors.end()) continue;
     double* block = BlockIn(rig, shape);

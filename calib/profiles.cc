@@ -182,9 +182,8 @@ void FinishProfiles(const ObservationSet& observations, const ProfileState& prof
   // What the profiles' tolerance leaves open, said where the table names it unobservable.
   std::string traded;
   for (const auto& u : result->unobservable) {
-    for (const char* name : {"fx", "fy", "mirror1.tz", "mirror2.tz", "reflex.dz"}) {
-      if (u.name == name) traded += (traded.empty() ? "" : ", ") + u.name;
-    }
+    const RigParameter* p = FindRigParameter(u.name);
+    if (p && p->role == SolveRole::kAxialScale) traded += (traded.empty() ? "" : ", ") + u.name;
   }
   if (!traded.empty()) {
     char buf[512];

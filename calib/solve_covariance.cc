@@ -29,13 +29,20 @@ constexpr double kDistortionBoundPx = 2.0;
 // reach r = 0.28, where freeing it grows dist_k2's sigma 3.3x and its own would be 1.7.
 constexpr double kMaxK3SigmaGrowth = 2.0;
 
-// The power of r by which the radial coefficient `name` moves a pixel at normalised radius r
-// (the pixel moves by f * k * r^power), 0 for other parameters.
-int RadialPower(const std::string& name) {
-  if (name == "dist_k1") return 3;
-  if (name == "dist_k2") return 5;
-  if (name == "dist_k3") return 7;
-  return 0;
+// The highest radial term (dist_k3: held unless DecideDistK3 frees it) and whether `name` is one
+// of the lower ones (dist_k1, dist_k2), from the table's roles and radial powers.
+const RigParameter& HighRadial() { return *ParametersWithRole(SolveRole::kHighRadial).front(); }
+bool IsLowerRadial(const std::string& name) {
+  const RigParameter* p = FindRigParameter(name);
+  return p && p->radial_power > 0 && p->role != SolveRole::kHighRadial;
+}
+// The lower radial terms' names joined by `separator` ("dist_k1, dist_k2").
+std::string LowerRadialNames(const char* separator) {
+  std::string names;
+  for (const RigParameter& p : RigParameterTable()) {
+    if (IsLowerRadial(p.name)) names += (names.empty() ? "" : separator) + std::string(p.name);
+  }
+  return names;
 }
 
 // A parameter's bound above which its sigma means "nearly unobservable" (internal units): the
@@ -99,7 +106,7 @@ Columns RigColumns(const Refinement& refined, const CalibrationOptions& options,
         result->considered_column_names.push_back(all[k]);
         c.considered_sigma.push_back(consider->second);
         considered_cols.push_back(col++);
-      } else if (all[k] == "dist_k3" && !options.refine_dist_k3) {
+      } else if (all[k] == HighRadial().name && !options.refine_dist_k3) {
         probe_col = col++;
       } else {
         still_held.push_back(static_cast<int>(k));
@@ -259,7 +266,7 @@ void ProbeDistK3(const Eigen::MatrixXd& schur_all, const Columns& c, const RigCo
   // Freed: the radial coefficients' sigmas, and dist_k3's (HUGE_VAL if it is unobservable).
   RigCovarianceOptions freed_options = options;
   freed_options.nearly_unobservable_sigma.push_back(
-      NearlyUnobservableSigma("dist_k3", rig.camera[0], outer_radius));
+      NearlyUnobservableSigma(HighRadial().name, rig.camera[0], outer_radius));
   const RigCovariance freed = RigCovarianceFromSchur(schur_all, c.n_rig + 1, freed_options);
   auto sigma_of = [&](const RigCovariance& cov, int index) {
     for (size_t i = 0; i < cov.observable.size(); ++i) {
@@ -270,7 +277,7 @@ void ProbeDistK3(const Eigen::MatrixXd& schur_all, const Columns& c, const RigCo
   findings->k3_evaluated = true;
   findings->k3_sigma = sigma_of(freed, c.n_rig);
   for (int i = 0; i < c.n_rig; ++i) {
-    if (c.names[i] != "dist_k1" && c.names[i] != "dist_k2") continue;
+    if (!IsLowerRadial(c.names[i])) continue;
     const double h = sigma_of(held, i);
     findings->k3_growth =
         std::max(findings->k3_growth, h < HUGE_VAL ? sigma_of(freed, i) / h : HUGE_VAL);
@@ -450,26 +457,32 @@ CovarianceFindings ComputeCovariance(const Weights& weights, const Refinement& r
 // mirror 1's tilt, which is C's rotation against M1. Said in words, since a table of sigmas does
 // not tell a user that C is the uncertain frame and M1 the one to measure in.
 void AddPointingNote(CalibrationResult* result) {
-  int rx = -1, ry = -1;
+  // Mirror 1's tilt: its pose block's parameters in the rotation valley (rx, ry).
+  int tilt[2] = {-1, -1};
   for (size_t i = 0; i < result->names.size(); ++i) {
-    if (result->names[i] == "mirror1.rx") rx = static_cast<int>(i);
-    if (result->names[i] == "mirror1.ry") ry = static_cast<int>(i);
+    const RigParameter* p = FindRigParameter(result->names[i]);
+    if (p && BlockOf(*p) == kPose1Block && p->valley == RotationValley::kTilt && p->index < 2) {
+      tilt[p->index] = static_cast<int>(i);
+    }
   }
+  const int rx = tilt[0], ry = tilt[1];
   if (rx < 0 || ry < 0) return;
   std::string held;
   for (const auto& c : result->considered) {
-    if (c.name == "dist_p1" || c.name == "dist_p2") held += (held.empty() ? "" : ", ") + c.name;
+    const RigParameter* p = FindRigParameter(c.name);
+    if (p && p->role == SolveRole::kTangential) held += (held.empty() ? "" : ", ") + c.name;
   }
   char buf[768];
   std::snprintf(buf, sizeof(buf),
                 "camera pointing: the camera frame's rotation against the mirror bodies is "
                 "weakly determined (it trades with the principal point and equal tilts of both "
-                "mirrors%s): sigma %.3f / %.3f deg about x / y (mirror1.rx, ry; pixel noise alone "
+                "mirrors%s): sigma %.3f / %.3f deg about x / y (%s, %s; pixel noise alone "
                 "%.3f / %.3f deg). Points in the camera frame carry it, distances and shapes do "
                 "not: measure in mirror 1's body (triangulate --frame mirror1)",
                 held.empty() ? "" : (", where the held " + held + " go").c_str(),
-                result->sigma(rx) / kDeg, result->sigma(ry) / kDeg,
-                result->noise_sigma(rx) / kDeg, result->noise_sigma(ry) / kDeg);
+                result->sigma(rx) / kDeg, result->sigma(ry) / kDeg, result->names[rx].c_str(),
+                FindRigParameter(result->names[ry])->Key().c_str(), result->noise_sigma(rx) / kDeg,
+                result->noise_sigma(ry) / kDeg);
   result->notes.push_back(buf);
 }
 
@@ -478,16 +491,19 @@ bool DecideDistK3(const CovarianceFindings& findings, const RigParams& rig,
                   Refinement* refined, CalibrationResult* result) {
   if (!findings.k3_evaluated) return false;
   const double outer = OuterRadius(rig, corners);
+  const RigParameter& k3 = HighRadial();
+  const std::string lower = LowerRadialNames(", ");
   char buf[512];
   if (findings.k3_growth <= kMaxK3SigmaGrowth) {
     refined->dist_k3 = true;
     std::snprintf(buf, sizeof(buf),
-                  "dist_k3 refined: this session's corners reach r = %.3f (normalised), where it "
-                  "is told from dist_k1, dist_k2 (their sigmas grow %.2fx with it)",
-                  outer, findings.k3_growth);
+                  "%s refined: this session's corners reach r = %.3f (normalised), where it "
+                  "is told from %s (their sigmas grow %.2fx with it)",
+                  k3.name, outer, lower.c_str(), findings.k3_growth);
   } else {
     char sigma[64] = "it would not be determined";
-    char growth[64] = "dist_k1, dist_k2 would not be determined";
+    char growth[64];
+    std::snprintf(growth, sizeof(growth), "%s would not be determined", lower.c_str());
     if (findings.k3_sigma < HUGE_VAL) {
       std::snprintf(sigma, sizeof(sigma), "its sigma would be %.3g", findings.k3_sigma);
     }
@@ -495,10 +511,11 @@ bool DecideDistK3(const CovarianceFindings& findings, const RigParams& rig,
       std::snprintf(growth, sizeof(growth), "theirs would grow %.1fx", findings.k3_growth);
     }
     std::snprintf(buf, sizeof(buf),
-                  "dist_k3 held at %g: over the radii this session's corners reach (r <= %.3f "
-                  "normalised) it is nearly a combination of dist_k1 and dist_k2 (freed, %s and "
+                  "%s held at %g: over the radii this session's corners reach (r <= %.3f "
+                  "normalised) it is nearly a combination of %s (freed, %s and "
                   "%s); corners farther out would determine it",
-                  rig.distortion[4], outer, sigma, growth);
+                  k3.name, BlockIn(rig, kDistortionBlock)[k3.index], outer,
+                  LowerRadialNames(" and ").c_str(), sigma, growth);
   }
   result->notes.push_back(buf);
   Progress(options, buf);

@@ -33,8 +33,10 @@ namespace omni::calib {
 // answer to 1e-5 sigma). A step that fails only shrinks the region.
 namespace {
 using Groups = std::array<const char*, 5>;
-constexpr Groups kPinhole = {"camera"};
-constexpr Groups kAlignment = {"camera", "distortion", "mirror1_pose", "mirror2_pose", "reflex"};
+constexpr const char* Block(RigBlockId id) { return kRigBlocks[id].name; }
+constexpr Groups kPinhole = {Block(kCameraBlock)};
+constexpr Groups kAlignment = {Block(kCameraBlock), Block(kDistortionBlock), Block(kPose1Block),
+                               Block(kPose2Block), Block(kReflexBlock)};
 constexpr Groups kEveryGroup = {};  // with all_groups: every group the Refinement names
 }  // namespace
 
@@ -205,8 +207,8 @@ StageReport SolveStage(const Stage& stage, const CalibrationOptions& options,
     }
     return m;
   };
-  costs->held_camera = mask("camera");
-  costs->held_distortion = mask("distortion");
+  costs->held_camera = mask(kRigBlocks[kCameraBlock].name);
+  costs->held_distortion = mask(kRigBlocks[kDistortionBlock].name);
   StatusCallback status(options.status, stage.name);
   if (options.status) {
     so.callbacks.push_back(&status);

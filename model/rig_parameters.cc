@@ -26,6 +26,7 @@ constexpr const char* kProfileHint =
 using U = ParameterUnit;
 using V = RotationValley;
 using F = FileCheck;
+using R = SolveRole;
 
 // Bounds: 20 px for the pinhole, 5 px of skew, 0.05 for a tangential coefficient, 2 mm for a
 // shape's c and 0.2 for its k, 1 deg for a tilt and 1 mm for a shift: each far beyond what an
@@ -33,52 +34,54 @@ using F = FileCheck;
 // Radial powers: the pixels dist_k1, k2, k3 move at normalised radius r go as r^3, r^5, r^7.
 // Valley: the principal point, the tilts, the mirrors' lateral shifts (RotationValley). Drift: the
 // camera's pinhole (not skew) and every pose of a body and of the reflex disc. File checks: the
-// pinhole's focal lengths and the shapes' c are > 0, their k > 2 (a hyperboloid).
+// pinhole's focal lengths and the shapes' c are > 0, their k > 2 (a hyperboloid). Roles: skew,
+// the tangential pair and dist_k3 are held unless asked or told; the focal lengths, the mirrors'
+// tz and the reflex dz scale the rings as a profile's power term does.
 //    name  block  index  flat  unit  unobservable_sigma  diverged_beyond  considerable
-//    radial_power  valley  drift  file_check  hint
+//    radial_power  valley  drift  file_check  role  hint
 // clang-format off
 constexpr std::array<RigParameter, kRigParameterCount> kTable = {{
-    {"fx",               "camera",          0, 0,  U::kPixel,      20.0,       0,         false, 0, V::kNone,           true,  F::kPositive,     kCameraHint},
-    {"fy",               "camera",          1, 1,  U::kPixel,      20.0,       0,         false, 0, V::kNone,           true,  F::kPositive,     kCameraHint},
-    {"cx",               "camera",          2, 2,  U::kPixel,      20.0,       0,         false, 0, V::kPrincipalPoint, true,  F::kAny,          kCameraHint},
-    {"cy",               "camera",          3, 3,  U::kPixel,      20.0,       0,         false, 0, V::kPrincipalPoint, true,  F::kAny,          kCameraHint},
-    {"skew",             "camera",          4, 4,  U::kPixel,      5.0,        0,         true,  0, V::kNone,           false, F::kAny,          kCameraHint},
-    {"dist_k1",          "distortion",      0, 5,  U::kNone,       0,          0,         false, 3, V::kNone,           false, F::kAny,          kDistortionHint},
-    {"dist_k2",          "distortion",      1, 6,  U::kNone,       0,          0,         false, 5, V::kNone,           false, F::kAny,          kDistortionHint},
-    {"dist_p1",          "distortion",      2, 7,  U::kNone,       0.05,       0,         true,  0, V::kNone,           false, F::kAny,          kDistortionHint},
-    {"dist_p2",          "distortion",      3, 8,  U::kNone,       0.05,       0,         true,  0, V::kNone,           false, F::kAny,          kDistortionHint},
-    {"dist_k3",          "distortion",      4, 9,  U::kNone,       0,          0,         true,  7, V::kNone,           false, F::kAny,          kDistortionHint},
-    {"c1",               "mirror1_shape",   0, 10, U::kMillimetre, 2.0,        0,         false, 0, V::kNone,           false, F::kPositive,     kShapeHint},
-    {"k1",               "mirror1_shape",   1, 11, U::kNone,       0.2,        0,         false, 0, V::kNone,           false, F::kHyperboloidK, kShapeHint},
-    {"c2",               "mirror2_shape",   0, 12, U::kMillimetre, 2.0,        0,         false, 0, V::kNone,           false, F::kPositive,     kShapeHint},
-    {"k2",               "mirror2_shape",   1, 13, U::kNone,       0.2,        0,         false, 0, V::kNone,           false, F::kHyperboloidK, kShapeHint},
-    {"mirror1.rx",       "mirror1_pose",    0, 14, U::kRadian,     1.0 * kRad, 10 * kRad, false, 0, V::kTilt,           true,  F::kAny,          kLateralHint},
-    {"mirror1.ry",       "mirror1_pose",    1, 15, U::kRadian,     1.0 * kRad, 10 * kRad, false, 0, V::kTilt,           true,  F::kAny,          kLateralHint},
-    {"mirror1.tx",       "mirror1_pose",    2, 16, U::kMillimetre, 1.0,        20.0,      false, 0, V::kLateralShift,   true,  F::kAny,          kLateralHint},
-    {"mirror1.ty",       "mirror1_pose",    3, 17, U::kMillimetre, 1.0,        20.0,      false, 0, V::kLateralShift,   true,  F::kAny,          kLateralHint},
-    {"mirror1.tz",       "mirror1_pose",    4, 18, U::kMillimetre, 1.0,        20.0,      false, 0, V::kNone,           true,  F::kAny,          kAxialHint},
-    {"mirror2.rx",       "mirror2_pose",    0, 19, U::kRadian,     1.0 * kRad, 10 * kRad, false, 0, V::kTilt,           true,  F::kAny,          kLateralHint},
-    {"mirror2.ry",       "mirror2_pose",    1, 20, U::kRadian,     1.0 * kRad, 10 * kRad, false, 0, V::kTilt,           true,  F::kAny,          kLateralHint},
-    {"mirror2.tx",       "mirror2_pose",    2, 21, U::kMillimetre, 1.0,        20.0,      false, 0, V::kLateralShift,   true,  F::kAny,          kLateralHint},
-    {"mirror2.ty",       "mirror2_pose",    3, 22, U::kMillimetre, 1.0,        20.0,      false, 0, V::kLateralShift,   true,  F::kAny,          kLateralHint},
-    {"mirror2.tz",       "mirror2_pose",    4, 23, U::kMillimetre, 1.0,        20.0,      false, 0, V::kNone,           true,  F::kAny,          kAxialHint},
-    {"reflex.rx",        "reflex",          0, 24, U::kRadian,     1.0 * kRad, 10 * kRad, false, 0, V::kTilt,           true,  F::kAny,          kReflexTiltHint},
-    {"reflex.ry",        "reflex",          1, 25, U::kRadian,     1.0 * kRad, 10 * kRad, false, 0, V::kTilt,           true,  F::kAny,          kReflexTiltHint},
-    {"reflex.dz",        "reflex",          2, 26, U::kMillimetre, 1.0,        20.0,      false, 0, V::kNone,           true,  F::kAny,          kAxialHint},
+    {"fx",               "camera",          0, 0,  U::kPixel,      20.0,       0,         false, 0, V::kNone,           true,  F::kPositive,     R::kAxialScale,   kCameraHint},
+    {"fy",               "camera",          1, 1,  U::kPixel,      20.0,       0,         false, 0, V::kNone,           true,  F::kPositive,     R::kAxialScale,   kCameraHint},
+    {"cx",               "camera",          2, 2,  U::kPixel,      20.0,       0,         false, 0, V::kPrincipalPoint, true,  F::kAny,          R::kPlain,        kCameraHint},
+    {"cy",               "camera",          3, 3,  U::kPixel,      20.0,       0,         false, 0, V::kPrincipalPoint, true,  F::kAny,          R::kPlain,        kCameraHint},
+    {"skew",             "camera",          4, 4,  U::kPixel,      5.0,        0,         true,  0, V::kNone,           false, F::kAny,          R::kSkew,         kCameraHint},
+    {"dist_k1",          "distortion",      0, 5,  U::kNone,       0,          0,         false, 3, V::kNone,           false, F::kAny,          R::kPlain,        kDistortionHint},
+    {"dist_k2",          "distortion",      1, 6,  U::kNone,       0,          0,         false, 5, V::kNone,           false, F::kAny,          R::kPlain,        kDistortionHint},
+    {"dist_p1",          "distortion",      2, 7,  U::kNone,       0.05,       0,         true,  0, V::kNone,           false, F::kAny,          R::kTangential,   kDistortionHint},
+    {"dist_p2",          "distortion",      3, 8,  U::kNone,       0.05,       0,         true,  0, V::kNone,           false, F::kAny,          R::kTangential,   kDistortionHint},
+    {"dist_k3",          "distortion",      4, 9,  U::kNone,       0,          0,         true,  7, V::kNone,           false, F::kAny,          R::kHighRadial,   kDistortionHint},
+    {"c1",               "mirror1_shape",   0, 10, U::kMillimetre, 2.0,        0,         false, 0, V::kNone,           false, F::kPositive,     R::kPlain,        kShapeHint},
+    {"k1",               "mirror1_shape",   1, 11, U::kNone,       0.2,        0,         false, 0, V::kNone,           false, F::kHyperboloidK, R::kPlain,        kShapeHint},
+    {"c2",               "mirror2_shape",   0, 12, U::kMillimetre, 2.0,        0,         false, 0, V::kNone,           false, F::kPositive,     R::kPlain,        kShapeHint},
+    {"k2",               "mirror2_shape",   1, 13, U::kNone,       0.2,        0,         false, 0, V::kNone,           false, F::kHyperboloidK, R::kPlain,        kShapeHint},
+    {"mirror1.rx",       "mirror1_pose",    0, 14, U::kRadian,     1.0 * kRad, 10 * kRad, false, 0, V::kTilt,           true,  F::kAny,          R::kPlain,        kLateralHint},
+    {"mirror1.ry",       "mirror1_pose",    1, 15, U::kRadian,     1.0 * kRad, 10 * kRad, false, 0, V::kTilt,           true,  F::kAny,          R::kPlain,        kLateralHint},
+    {"mirror1.tx",       "mirror1_pose",    2, 16, U::kMillimetre, 1.0,        20.0,      false, 0, V::kLateralShift,   true,  F::kAny,          R::kPlain,        kLateralHint},
+    {"mirror1.ty",       "mirror1_pose",    3, 17, U::kMillimetre, 1.0,        20.0,      false, 0, V::kLateralShift,   true,  F::kAny,          R::kPlain,        kLateralHint},
+    {"mirror1.tz",       "mirror1_pose",    4, 18, U::kMillimetre, 1.0,        20.0,      false, 0, V::kNone,           true,  F::kAny,          R::kAxialScale,   kAxialHint},
+    {"mirror2.rx",       "mirror2_pose",    0, 19, U::kRadian,     1.0 * kRad, 10 * kRad, false, 0, V::kTilt,           true,  F::kAny,          R::kPlain,        kLateralHint},
+    {"mirror2.ry",       "mirror2_pose",    1, 20, U::kRadian,     1.0 * kRad, 10 * kRad, false, 0, V::kTilt,           true,  F::kAny,          R::kPlain,        kLateralHint},
+    {"mirror2.tx",       "mirror2_pose",    2, 21, U::kMillimetre, 1.0,        20.0,      false, 0, V::kLateralShift,   true,  F::kAny,          R::kPlain,        kLateralHint},
+    {"mirror2.ty",       "mirror2_pose",    3, 22, U::kMillimetre, 1.0,        20.0,      false, 0, V::kLateralShift,   true,  F::kAny,          R::kPlain,        kLateralHint},
+    {"mirror2.tz",       "mirror2_pose",    4, 23, U::kMillimetre, 1.0,        20.0,      false, 0, V::kNone,           true,  F::kAny,          R::kAxialScale,   kAxialHint},
+    {"reflex.rx",        "reflex",          0, 24, U::kRadian,     1.0 * kRad, 10 * kRad, false, 0, V::kTilt,           true,  F::kAny,          R::kPlain,        kReflexTiltHint},
+    {"reflex.ry",        "reflex",          1, 25, U::kRadian,     1.0 * kRad, 10 * kRad, false, 0, V::kTilt,           true,  F::kAny,          R::kPlain,        kReflexTiltHint},
+    {"reflex.dz",        "reflex",          2, 26, U::kMillimetre, 1.0,        20.0,      false, 0, V::kNone,           true,  F::kAny,          R::kAxialScale,   kAxialHint},
     // Profile coefficients (model/mirror_profile.h): half a term's peak-to-valley in mm. Beyond
     // 20 um of sigma a term is not told; beyond 0.5 mm the part is not the designed mirror.
-    {"mirror1.sag_p1",   "mirror1_profile", 0, 27, U::kMillimetre, 0.02,       0.5,       true,  0, V::kNone,           false, F::kAny,          kProfileHint},
-    {"mirror1.sag_p2",   "mirror1_profile", 1, 28, U::kMillimetre, 0.02,       0.5,       true,  0, V::kNone,           false, F::kAny,          kProfileHint},
-    {"mirror1.sag_p3",   "mirror1_profile", 2, 29, U::kMillimetre, 0.02,       0.5,       true,  0, V::kNone,           false, F::kAny,          kProfileHint},
-    {"mirror1.sag_p4",   "mirror1_profile", 3, 30, U::kMillimetre, 0.02,       0.5,       true,  0, V::kNone,           false, F::kAny,          kProfileHint},
-    {"mirror1.sag_cos2", "mirror1_profile", 4, 31, U::kMillimetre, 0.02,       0.5,       true,  0, V::kNone,           false, F::kAny,          kProfileHint},
-    {"mirror1.sag_sin2", "mirror1_profile", 5, 32, U::kMillimetre, 0.02,       0.5,       true,  0, V::kNone,           false, F::kAny,          kProfileHint},
-    {"mirror2.sag_p1",   "mirror2_profile", 0, 33, U::kMillimetre, 0.02,       0.5,       true,  0, V::kNone,           false, F::kAny,          kProfileHint},
-    {"mirror2.sag_p2",   "mirror2_profile", 1, 34, U::kMillimetre, 0.02,       0.5,       true,  0, V::kNone,           false, F::kAny,          kProfileHint},
-    {"mirror2.sag_p3",   "mirror2_profile", 2, 35, U::kMillimetre, 0.02,       0.5,       true,  0, V::kNone,           false, F::kAny,          kProfileHint},
-    {"mirror2.sag_p4",   "mirror2_profile", 3, 36, U::kMillimetre, 0.02,       0.5,       true,  0, V::kNone,           false, F::kAny,          kProfileHint},
-    {"mirror2.sag_cos2", "mirror2_profile", 4, 37, U::kMillimetre, 0.02,       0.5,       true,  0, V::kNone,           false, F::kAny,          kProfileHint},
-    {"mirror2.sag_sin2", "mirror2_profile", 5, 38, U::kMillimetre, 0.02,       0.5,       true,  0, V::kNone,           false, F::kAny,          kProfileHint},
+    {"mirror1.sag_p1",   "mirror1_profile", 0, 27, U::kMillimetre, 0.02,       0.5,       true,  0, V::kNone,           false, F::kAny,          R::kPlain,        kProfileHint},
+    {"mirror1.sag_p2",   "mirror1_profile", 1, 28, U::kMillimetre, 0.02,       0.5,       true,  0, V::kNone,           false, F::kAny,          R::kPlain,        kProfileHint},
+    {"mirror1.sag_p3",   "mirror1_profile", 2, 29, U::kMillimetre, 0.02,       0.5,       true,  0, V::kNone,           false, F::kAny,          R::kPlain,        kProfileHint},
+    {"mirror1.sag_p4",   "mirror1_profile", 3, 30, U::kMillimetre, 0.02,       0.5,       true,  0, V::kNone,           false, F::kAny,          R::kPlain,        kProfileHint},
+    {"mirror1.sag_cos2", "mirror1_profile", 4, 31, U::kMillimetre, 0.02,       0.5,       true,  0, V::kNone,           false, F::kAny,          R::kPlain,        kProfileHint},
+    {"mirror1.sag_sin2", "mirror1_profile", 5, 32, U::kMillimetre, 0.02,       0.5,       true,  0, V::kNone,           false, F::kAny,          R::kPlain,        kProfileHint},
+    {"mirror2.sag_p1",   "mirror2_profile", 0, 33, U::kMillimetre, 0.02,       0.5,       true,  0, V::kNone,           false, F::kAny,          R::kPlain,        kProfileHint},
+    {"mirror2.sag_p2",   "mirror2_profile", 1, 34, U::kMillimetre, 0.02,       0.5,       true,  0, V::kNone,           false, F::kAny,          R::kPlain,        kProfileHint},
+    {"mirror2.sag_p3",   "mirror2_profile", 2, 35, U::kMillimetre, 0.02,       0.5,       true,  0, V::kNone,           false, F::kAny,          R::kPlain,        kProfileHint},
+    {"mirror2.sag_p4",   "mirror2_profile", 3, 36, U::kMillimetre, 0.02,       0.5,       true,  0, V::kNone,           false, F::kAny,          R::kPlain,        kProfileHint},
+    {"mirror2.sag_cos2", "mirror2_profile", 4, 37, U::kMillimetre, 0.02,       0.5,       true,  0, V::kNone,           false, F::kAny,          R::kPlain,        kProfileHint},
+    {"mirror2.sag_sin2", "mirror2_profile", 5, 38, U::kMillimetre, 0.02,       0.5,       true,  0, V::kNone,           false, F::kAny,          R::kPlain,        kProfileHint},
 }};
 // clang-format on
 
@@ -219,6 +222,14 @@ double DriftStep(ParameterUnit unit) {
     case ParameterUnit::kNone: return 0;
   }
   return 0;
+}
+
+std::vector<const RigParameter*> ParametersWithRole(SolveRole role) {
+  std::vector<const RigParameter*> out;
+  for (const RigParameter& p : kTable) {
+    if (p.role == role) out.push_back(&p);
+  }
+  return out;
 }
 
 double DisplayValue(const RigParameter& p, double value) {

@@ -1,10 +1,11 @@
-// The rig's 39 parameters in one table (issue 18; each mirror's profile, issue 40): the names of
+// The rig's 39 parameters in one table: the names of
 // docs/design.md's Conventions, the block each lives in (RigParams' arrays, the groups a
 // session's `estimate` names) and its index there, its place in the flat vector, its internal
 // unit, the sigma beyond which calibration calls it nearly unobservable, the value beyond any
 // assembly error, whether a session may hold it with an assumed sigma, a radial coefficient's
 // power, its part in the camera-rotation valley, whether the in-field check lets it drift, what a
-// model file requires of it, and the data that would determine it. The blocks (kRigBlocks) carry
+// model file requires of it, its role in the solve (SolveRole) and the data that would determine
+// it. The blocks (kRigBlocks) carry
 // their coarse group, the map a model file holds them in and the session's priors and default
 // estimate. Calibration, covariance, triangulation, the model and session files, the tolerance
 // check, the result tables and the health checks read it.
@@ -28,6 +29,15 @@ enum class RotationValley { kNone, kPrincipalPoint, kTilt, kLateralShift };
 
 // What a model file requires of the value (beyond a finite number).
 enum class FileCheck { kAny, kPositive, kHyperboloidK };  // -, > 0, > 2 (a hyperboloid's k)
+
+// What the calibration does with a parameter beyond refining it with its block (calib/).
+enum class SolveRole {
+  kPlain,
+  kSkew,         // held unless CalibrationOptions::refine_skew
+  kTangential,   // held (and considered) unless refine_tangential
+  kHighRadial,   // the highest radial term: held unless the session's radii tell it from the lower
+  kAxialScale,   // scales a ring's image as a mirror profile's power term does: traded with it
+};
 
 // The parameter blocks (kRigBlocks' entries, in the flat order).
 enum RigBlockId : int {
@@ -104,6 +114,7 @@ struct RigParameter {
   // DriftStep(unit)).
   bool drift;
   FileCheck file_check;  // model files
+  SolveRole role;
   const char* hint;        // the data that would determine it
   // Its key inside its block's map in a model file ("rx" of mirror1.cam_from_mirror).
   std::string Key() const;
@@ -148,6 +159,9 @@ int RadialPower(const std::string& name);
 // The finite-difference step of a drift coordinate in that unit (health/drift.h): about 1% of a
 // typical knock (0.02 px, 2e-5 rad ~ 0.001 deg, 2e-3 mm).
 double DriftStep(ParameterUnit unit);
+
+// The parameters of that role, in table order.
+std::vector<const RigParameter*> ParametersWithRole(SolveRole role);
 
 // A value in its table unit ("px", "", "mm", "deg": tilts converted from rad).
 double DisplayValue(const RigParameter& p, double value);

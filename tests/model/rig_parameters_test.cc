@@ -77,6 +77,27 @@ TEST(RigParameters, RotationValleyRadialPowersAndDrift) {
   EXPECT_EQ(RadialPower("nonsense"), 0);
 }
 
+// The roles calib/ reads instead of names: what it holds unless asked (skew, the tangential pair,
+// the highest radial term) and what a profile's power term trades with (the focal lengths, the
+// mirrors' axial offsets and the reflex plane's).
+TEST(RigParameters, SolveRoles) {
+  auto names = [](SolveRole role) {
+    std::vector<std::string> out;
+    for (const RigParameter* p : ParametersWithRole(role)) out.push_back(p->name);
+    return out;
+  };
+  EXPECT_EQ(names(SolveRole::kSkew), std::vector<std::string>({"skew"}));
+  EXPECT_EQ(names(SolveRole::kTangential), std::vector<std::string>({"dist_p1", "dist_p2"}));
+  EXPECT_EQ(names(SolveRole::kHighRadial), std::vector<std::string>({"dist_k3"}));
+  EXPECT_EQ(names(SolveRole::kAxialScale),
+            std::vector<std::string>({"fx", "fy", "mirror1.tz", "mirror2.tz", "reflex.dz"}));
+  EXPECT_EQ(names(SolveRole::kPlain).size(), 39u - 9u);
+  // Held roles are ones a session may consider (an assumed sigma for the held value).
+  for (SolveRole role : {SolveRole::kSkew, SolveRole::kTangential, SolveRole::kHighRadial}) {
+    for (const RigParameter* p : ParametersWithRole(role)) EXPECT_TRUE(p->considerable) << p->name;
+  }
+}
+
 TEST(RigParameters, BlocksOffsetsAndDefaults) {
   EXPECT_EQ(BlockOffset(kCameraBlock), 0);
   EXPECT_EQ(BlockOffset(kDistortionBlock), 5);
