@@ -25,8 +25,8 @@
 #include "apps/common_flags.h"
 #include "apps/progress.h"
 #include "apps/stereo_cli.h"
-#include "model/io/model_file.h"
-#include "model/io/ply.h"
+#include "io/model_file.h"
+#include "io/ply.h"
 #include "model/stereo/dense_stereo.h"
 
 DEFINE_int32(num_disparities, 64, "SGBM disparity range in panorama rows (multiple of 16)");

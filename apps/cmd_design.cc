@@ -12,7 +12,7 @@
 #include "model/design/optimizer.h"
 #include "model/design/sensitivity.h"
 #include "model/design/design_config.h"
-#include "model/io/model_file.h"
+#include "io/model_file.h"
 #include "model/rig_params.h"
 
 DEFINE_string(curves_out, "", "folder for the sensitivity curves of the paper's section 5.2 (CSV)");

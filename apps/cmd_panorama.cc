@@ -12,7 +12,7 @@
 #include "apps/command.h"
 #include "apps/common_flags.h"
 #include "apps/stereo_cli.h"
-#include "model/io/model_file.h"
+#include "io/model_file.h"
 #include "model/stereo/panorama.h"
 
 namespace omni::apps {

@@ -17,7 +17,7 @@
 #include "apps/health_cli.h"
 #include "apps/progress.h"
 #include "health/refine.h"
-#include "model/io/model_file.h"
+#include "io/model_file.h"
 #include "model/model_compare.h"
 #include "model/rig_parameters.h"
 

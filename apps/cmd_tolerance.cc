@@ -9,7 +9,7 @@
 #include "apps/common_flags.h"
 #include "apps/progress.h"
 #include "model/design/tolerance.h"
-#include "model/io/model_file.h"
+#include "io/model_file.h"
 #include "model/design/tolerance_file.h"
 
 namespace omni::apps {

@@ -34,7 +34,7 @@
 #include "detectors/lip_guide.h"
 #include "detectors/lip_intrinsics.h"
 #include "model/lip.h"
-#include "model/io/model_file.h"
+#include "io/model_file.h"
 
 using namespace omni;
 

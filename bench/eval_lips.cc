@@ -39,8 +39,8 @@
 #include "synthetic/scene_file.h"
 #include "detectors/lip_detector.h"
 #include "detectors/lip_intrinsics.h"
-#include "model/io/image_file.h"
-#include "model/io/model_file.h"
+#include "io/image_file.h"
+#include "io/model_file.h"
 #include "model/lip.h"
 
 using namespace omni;

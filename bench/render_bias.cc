@@ -42,7 +42,7 @@
 #include "synthetic/pov_scene.h"
 #include "synthetic/scene.h"
 #include "detectors/corner_refine.h"
-#include "model/io/model_file.h"
+#include "io/model_file.h"
 #include "model/rig_model.h"
 #include "model/target.h"
 

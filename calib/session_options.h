@@ -3,7 +3,7 @@
 #pragma once
 
 #include "calib/calibrate.h"
-#include "model/io/session_file.h"
+#include "io/session_file.h"
 
 namespace omni::calib {
 

@@ -13,7 +13,7 @@
 
 #include "detectors/apriltag_detector.h"
 #include "detectors/lip_detector.h"
-#include "model/io/file_util.h"
+#include "io/file_util.h"
 
 namespace omni::detectors {
 namespace {

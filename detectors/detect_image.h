@@ -1,7 +1,7 @@
 // Everything the detectors find in one omnidirectional image: chessboard corners, AprilTag grid
 // corners (plain tag36h11 and Kalibr AprilGrid, detectors/apriltag_detector.h) per ring, and the
 // lip band edges (detectors/lip_detector.h, colour images only), as detections-file records
-// (model/io/detections_file.h).
+// (io/detections_file.h).
 #pragma once
 
 #include <string>
@@ -15,7 +15,7 @@
 #include "detectors/ring_layout.h"
 #include "detectors/views.h"
 #include "model/observations.h"
-#include "model/io/image_file.h"
+#include "io/image_file.h"
 #include "model/rig_model.h"
 #include "model/target.h"
 

@@ -8,7 +8,7 @@
 #include <utility>
 
 #include "detectors/post_finder.h"
-#include "model/io/image_file.h"
+#include "io/image_file.h"
 
 namespace omni::detectors {
 

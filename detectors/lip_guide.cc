@@ -7,7 +7,7 @@
 
 #include "detectors/lip_detector.h"
 #include "detectors/lip_intrinsics.h"
-#include "model/io/image_file.h"
+#include "io/image_file.h"
 
 namespace omni::detectors {
 

@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "model/io/image_file.h"
+#include "io/image_file.h"
 
 namespace omni::detectors {
 namespace {

@@ -8,7 +8,7 @@
 
 #include "health/check.h"
 #include "health/ring_matches.h"
-#include "model/io/image_file.h"
+#include "io/image_file.h"
 
 namespace omni::health {
 

@@ -3,11 +3,11 @@
 
 #include <cmath>
 
-#include "model/io/yaml_reader.h"
+#include "io/yaml_reader.h"
 
 namespace omni::design {
 
-// The shared YAML reader and its errors (model/io/yaml_reader.h).
+// The shared YAML reader and its errors (io/yaml_reader.h).
 using namespace omni::io;
 namespace {
 

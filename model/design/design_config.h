@@ -17,7 +17,7 @@
 
 #include "model/camera.h"
 #include "model/design/optimizer.h"
-#include "model/io/model_file.h"
+#include "io/model_file.h"
 
 namespace omni::design {
 

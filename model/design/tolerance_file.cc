@@ -1,10 +1,10 @@
 #include "model/design/tolerance_file.h"
 
-#include "model/io/yaml_reader.h"
+#include "io/yaml_reader.h"
 
 namespace omni::design {
 
-// The shared YAML reader and its errors (model/io/yaml_reader.h).
+// The shared YAML reader and its errors (io/yaml_reader.h).
 using namespace omni::io;
 namespace {
 

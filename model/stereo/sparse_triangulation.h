@@ -1,7 +1,7 @@
 // The paper's sparse triangulation experiment (tab:rmse_triangulation_experiment): corners seen
 // in both rings are paired, triangulated (model/triangulation.h) and compared with the true
 // corners of a synthetic session (model/truth.h; the `omnistereo-truth/1` file that `render`
-// writes, read by model/io/truth_file.h), per horizontal range.
+// writes, read by io/truth_file.h), per horizontal range.
 #pragma once
 
 #include <cmath>

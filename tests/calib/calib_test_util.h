@@ -16,7 +16,7 @@
 #include "synthetic/scene.h"
 #include "synthetic/scene_file.h"
 #include "model/observations.h"
-#include "model/io/model_file.h"
+#include "io/model_file.h"
 #include "model/lip.h"
 #include "model/target.h"
 

@@ -21,7 +21,7 @@
 #include "synthetic/tag_texture.h"
 #include "detectors/apriltag_detector.h"
 #include "detectors/views.h"
-#include "model/io/model_file.h"
+#include "io/model_file.h"
 #include "tests/temp_dir.h"
 
 #include "tests/render_window.h"

@@ -15,7 +15,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "detectors/corner_refine.h"
-#include "model/io/image_file.h"
+#include "io/image_file.h"
 
 namespace omni::detectors {
 namespace {

@@ -20,8 +20,8 @@
 #include "detectors/lip_detector.h"
 #include "detectors/lip_guide.h"
 #include "detectors/lip_intrinsics.h"
-#include "model/io/image_file.h"
-#include "model/io/model_file.h"
+#include "io/image_file.h"
+#include "io/model_file.h"
 #include "tests/render_window.h"
 #include "tests/temp_dir.h"
 

@@ -13,7 +13,7 @@
 #include <opencv2/core.hpp>
 
 #include "detectors/luma_edge.h"
-#include "model/io/image_file.h"
+#include "io/image_file.h"
 
 namespace omni::detectors {
 namespace {

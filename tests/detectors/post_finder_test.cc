@@ -15,7 +15,7 @@
 #include "detectors/lip_detector.h"
 #include "detectors/lip_intrinsics.h"
 #include "detectors/post_finder.h"
-#include "model/io/model_file.h"
+#include "io/model_file.h"
 #include "synthetic/pov_scene.h"
 #include "synthetic/scene.h"
 #include "tests/temp_dir.h"

@@ -27,7 +27,7 @@
 #include "detectors/apriltag_detector.h"
 #include "detectors/tag_grid_check.h"
 #include "detectors/views.h"
-#include "model/io/model_file.h"
+#include "io/model_file.h"
 #include "tests/temp_dir.h"
 
 #include "tests/render_window.h"

@@ -7,7 +7,7 @@
 
 #include "detectors/ring_layout.h"
 #include "detectors/views.h"
-#include "model/io/model_file.h"
+#include "io/model_file.h"
 
 namespace omni::detectors {
 namespace {

@@ -7,7 +7,7 @@
 #include <gtest/gtest.h>
 
 #include "model/design/tolerance.h"
-#include "model/io/model_file.h"
+#include "io/model_file.h"
 
 namespace omni::design {
 namespace {

@@ -18,7 +18,7 @@
 
 #include <Eigen/Eigenvalues>
 
-#include "model/io/model_file.h"
+#include "io/model_file.h"
 #include "model/stereo/dense_stereo.h"
 #include "model/triangulation.h"
 #include "synthetic/scene.h"

@@ -14,7 +14,7 @@
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "model/io/model_file.h"
+#include "io/model_file.h"
 #include "tests/stereo/box_room.h"
 
 namespace omni::stereo {

@@ -12,9 +12,9 @@
 
 #include <unistd.h>
 
-#include "model/io/file_util.h"
-#include "model/io/model_file.h"
-#include "model/io/ply.h"
+#include "io/file_util.h"
+#include "io/model_file.h"
+#include "io/ply.h"
 
 namespace omni::stereo {
 namespace {

@@ -1,4 +1,4 @@
-#include "model/io/yaml_reader.h"
+#include "io/yaml_reader.h"
 
 #include <cerrno>
 #include <charconv>

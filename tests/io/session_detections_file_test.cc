@@ -5,9 +5,9 @@
 
 #include <gtest/gtest.h>
 
-#include "model/io/detections_file.h"
-#include "model/io/file_util.h"
-#include "model/io/session_file.h"
+#include "io/detections_file.h"
+#include "io/file_util.h"
+#include "io/session_file.h"
 
 namespace omni::io {
 namespace {

@@ -24,7 +24,7 @@
 #include <vector>
 
 #include "model/calibration_settings.h"
-#include "model/io/image_file.h"
+#include "io/image_file.h"
 #include "model/target.h"
 
 namespace omni::io {
@@ -36,7 +36,7 @@ struct Session {
   std::vector<TargetSpec> targets;
   bool use_lips = true;
   // `bayer: RGGB|BGGR|GRBG|GBRG`: the images are raw one-channel frames of that mosaic and are
-  // demosaiced when read (model/io/image_file.h); absent or none: images as the camera wrote them.
+  // demosaiced when read (io/image_file.h); absent or none: images as the camera wrote them.
   BayerPattern bayer = BayerPattern::kNone;
   // `tone: srgb|linear`: how the images encode light (image_file.h). Absent: srgb, as colour
   // cameras and JPEGs write, or linear for raw Bayer frames.

@@ -1,4 +1,4 @@
-#include "model/io/image_file.h"
+#include "io/image_file.h"
 
 #include <algorithm>
 #include <cctype>

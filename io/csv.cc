@@ -1,4 +1,4 @@
-#include "model/io/csv.h"
+#include "io/csv.h"
 
 #include <cerrno>
 #include <charconv>

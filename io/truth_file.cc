@@ -1,6 +1,6 @@
-#include "model/io/truth_file.h"
+#include "io/truth_file.h"
 
-#include "model/io/yaml_reader.h"
+#include "io/yaml_reader.h"
 
 namespace omni::io {
 

@@ -10,7 +10,7 @@
 
 #include <yaml-cpp/yaml.h>
 
-#include "model/io/file_util.h"
+#include "io/file_util.h"
 
 namespace omni::io {
 

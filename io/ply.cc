@@ -1,11 +1,11 @@
-#include "model/io/ply.h"
+#include "io/ply.h"
 
 #include <algorithm>
 #include <cstring>
 #include <fstream>
 #include <sstream>
 
-#include "model/io/file_util.h"
+#include "io/file_util.h"
 
 namespace omni::io {
 namespace {

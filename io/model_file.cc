@@ -1,4 +1,4 @@
-#include "model/io/model_file.h"
+#include "io/model_file.h"
 
 #include <yaml-cpp/yaml.h>
 
@@ -11,7 +11,7 @@
 #include <sstream>
 #include <sys/stat.h>
 
-#include "model/io/yaml_reader.h"
+#include "io/yaml_reader.h"
 #include "model/lip.h"
 #include "model/rig_parameters.h"
 #include "model/rig_frames.h"

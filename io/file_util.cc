@@ -1,4 +1,4 @@
-#include "model/io/file_util.h"
+#include "io/file_util.h"
 
 #include <fcntl.h>
 #include <sys/stat.h>

@@ -1,7 +1,7 @@
 // Model files (tests/data/model_example.yaml): bit-exact round trips, the shared example,
 // the derived section against an independent computation, one clear error per malformed input,
 // and atomic writes.
-#include "model/io/model_file.h"
+#include "io/model_file.h"
 
 #include <gtest/gtest.h>
 #include <sys/stat.h>
@@ -16,7 +16,7 @@
 #include <random>
 #include <utility>
 
-#include "tests/model/io_test_util.h"
+#include "tests/io/io_test_util.h"
 
 namespace omni::io {
 namespace {

@@ -1,4 +1,4 @@
-#include "model/io/session_file.h"
+#include "io/session_file.h"
 
 #include <glob.h>
 
@@ -7,7 +7,7 @@
 #include <set>
 #include <sstream>
 
-#include "model/io/yaml_reader.h"
+#include "io/yaml_reader.h"
 #include "model/rig_parameters.h"
 
 namespace omni::io {

@@ -10,7 +10,7 @@
 
 #include <opencv2/core.hpp>
 
-#include "model/io/file_util.h"
+#include "io/file_util.h"
 
 namespace omni::io {
 

@@ -7,7 +7,7 @@
 
 #include <Eigen/Core>
 
-#include "model/io/file_util.h"  // InputError, AtomicFile
+#include "io/file_util.h"  // InputError, AtomicFile
 #include "model/model_derived.h"
 #include "model/rig_params.h"
 

@@ -1,6 +1,6 @@
 // CSV point lists (docs/design.md, Conventions): columns by name, exact numbers, one-line errors with the line
 // and column, streaming across buffer boundaries, and writes that leave nothing half-written.
-#include "model/io/csv.h"
+#include "io/csv.h"
 
 #include <gtest/gtest.h>
 
@@ -12,7 +12,7 @@
 #include <limits>
 #include <random>
 
-#include "tests/model/io_test_util.h"
+#include "tests/io/io_test_util.h"
 
 namespace omni::io {
 namespace {

@@ -1,10 +1,10 @@
-#include "model/io/detections_file.h"
+#include "io/detections_file.h"
 
 #include <cmath>
 #include <limits>
 #include <sstream>
 
-#include "model/io/yaml_reader.h"
+#include "io/yaml_reader.h"
 
 namespace omni::io {
 namespace {

@@ -16,7 +16,7 @@
 #include <string_view>
 #include <vector>
 
-#include "model/io/file_util.h"  // InputError, AtomicFile
+#include "io/file_util.h"  // InputError, AtomicFile
 
 namespace omni::io {
 
