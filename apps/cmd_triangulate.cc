@@ -25,7 +25,7 @@
 #include "io/detections_file.h"
 #include "io/model_file.h"
 #include "io/truth_file.h"
-#include "model/stereo/sparse_triangulation.h"
+#include "stereo/sparse_triangulation.h"
 #include "model/triangulation.h"
 
 DEFINE_string(truth, "", "ground truth of a synthetic session (omnistereo-truth/1): print the "

@@ -28,7 +28,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "io/model_file.h"
-#include "model/stereo/dense_stereo.h"
+#include "stereo/dense_stereo.h"
 #include "synthetic/scene.h"
 
 namespace omni::stereo {

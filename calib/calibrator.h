@@ -28,7 +28,7 @@
 
 #include "calib/corner_cost.h"
 #include "calib/covariance.h"
-#include "model/pose/initial_pose.h"
+#include "pose/initial_pose.h"
 #include "calib/lip_cost.h"
 #include "calib/variance_components.h"
 #include "model/lip.h"

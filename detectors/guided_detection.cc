@@ -10,7 +10,7 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/eigen.hpp>
 
-#include "model/pose/initial_pose.h"
+#include "pose/initial_pose.h"
 #include "detectors/apriltag_detector.h"
 #include "detectors/chessboard_detector.h"
 #include "detectors/corner_refine.h"

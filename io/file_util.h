@@ -1,4 +1,4 @@
-// What every reader and writer of model/io shares: the user-facing input error, and a file that
+// What every reader and writer of io/ shares: the user-facing input error, and a file that
 // is written under a temporary name and renamed into place only when complete (docs/design.md, Conventions:
 // nothing half-written is left behind).
 #pragma once

@@ -1,4 +1,4 @@
-// The YAML reader every model/io file reader shares: each accessor knows the file and the key
+// The YAML reader every io/ file reader shares: each accessor knows the file and the key
 // path, so each error is one complete line "<file>: <key>: <expected>, got <what>" (InputError).
 #pragma once
 

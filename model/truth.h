@@ -1,7 +1,7 @@
 // What a synthetic session's truth says (the `omnistereo-truth/1` file that `render` writes beside
 // its images, synthetic/scene_file.h TruthText; read by io/truth_file.h): per image, the
 // target placements and every target corner's point in C and its exact pixel in each ring. The
-// triangulation experiment (model/stereo/sparse_triangulation.h) and `calibrate --truth_model`
+// triangulation experiment (stereo/sparse_triangulation.h) and `calibrate --truth_model`
 // compare against it.
 #pragma once
 

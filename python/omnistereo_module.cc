@@ -22,7 +22,7 @@
 #include "io/session_file.h"
 #include "model/rig_frames.h"
 #include "model/rig_model.h"
-#include "model/stereo/sparse_triangulation.h"
+#include "stereo/sparse_triangulation.h"
 #include "model/triangulation.h"
 
 namespace py = pybind11;

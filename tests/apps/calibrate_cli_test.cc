@@ -20,7 +20,7 @@
 #include "io/model_file.h"
 #include "io/session_file.h"
 #include "io/truth_file.h"
-#include "model/stereo/sparse_triangulation.h"
+#include "stereo/sparse_triangulation.h"
 #include "tests/calib/calib_test_util.h"
 #include "tests/cli_test_util.h"
 

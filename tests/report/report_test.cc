@@ -16,7 +16,7 @@
 #include <sstream>
 
 #include "calib/calibrate.h"
-#include "model/design/tolerance_file.h"
+#include "design/tolerance_file.h"
 #include "model/model_compare.h"
 #include "model/rig_model.h"
 #include "io/model_file.h"

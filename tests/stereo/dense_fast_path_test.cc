@@ -19,7 +19,7 @@
 #include <Eigen/Eigenvalues>
 
 #include "io/model_file.h"
-#include "model/stereo/dense_stereo.h"
+#include "stereo/dense_stereo.h"
 #include "model/triangulation.h"
 #include "synthetic/scene.h"
 #include "tests/stereo/box_room.h"

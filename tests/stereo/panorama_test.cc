@@ -1,7 +1,7 @@
-// Panorama look-up tables (model/stereo/panorama.h) and the PLY writer against independent
+// Panorama look-up tables (stereo/panorama.h) and the PLY writer against independent
 // checks: the model's own back projection of each LUT pixel, and the panorama position of 3D
 // points computed from the cylinder geometry.
-#include "model/stereo/panorama.h"
+#include "stereo/panorama.h"
 
 #include <gtest/gtest.h>
 

@@ -4,8 +4,8 @@
 
 #include <gtest/gtest.h>
 
-#include "model/design/optimizer.h"
-#include "model/design/sensitivity.h"
+#include "design/optimizer.h"
+#include "design/sensitivity.h"
 #include "model/hyperboloid.h"
 #include "model/ideal_analysis.h"
 

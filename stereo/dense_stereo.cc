@@ -1,4 +1,4 @@
-#include "model/stereo/dense_stereo.h"
+#include "stereo/dense_stereo.h"
 
 #include <algorithm>
 #include <chrono>

@@ -1,4 +1,4 @@
-#include "model/design/design_config.h"
+#include "design/design_config.h"
 
 
 #include <cmath>

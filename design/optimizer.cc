@@ -1,4 +1,4 @@
-#include "model/design/optimizer.h"
+#include "design/optimizer.h"
 
 #include <array>
 #include <cmath>

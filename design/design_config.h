@@ -16,7 +16,7 @@
 #include <string>
 
 #include "model/camera.h"
-#include "model/design/optimizer.h"
+#include "design/optimizer.h"
 #include "io/model_file.h"
 
 namespace omni::design {

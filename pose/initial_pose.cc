@@ -1,4 +1,4 @@
-#include "model/pose/initial_pose.h"
+#include "pose/initial_pose.h"
 
 #include <opencv2/calib3d.hpp>
 

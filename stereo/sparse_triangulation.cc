@@ -1,4 +1,4 @@
-#include "model/stereo/sparse_triangulation.h"
+#include "stereo/sparse_triangulation.h"
 
 #include <algorithm>
 #include <cmath>

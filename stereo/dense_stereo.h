@@ -31,9 +31,9 @@
 #include <opencv2/core.hpp>
 
 #include "model/rig_model.h"
-#include "model/stereo/dense_triangulation.h"
-#include "model/stereo/disparity_refine.h"  // RefineDisparity
-#include "model/stereo/panorama.h"
+#include "stereo/dense_triangulation.h"
+#include "stereo/disparity_refine.h"  // RefineDisparity
+#include "stereo/panorama.h"
 
 namespace omni::stereo {
 

@@ -1,4 +1,4 @@
-#include "model/design/tolerance.h"
+#include "design/tolerance.h"
 
 #include <algorithm>
 #include <cmath>

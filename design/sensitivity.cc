@@ -1,4 +1,4 @@
-#include "model/design/sensitivity.h"
+#include "design/sensitivity.h"
 
 #include <cmath>
 #include <cstdio>

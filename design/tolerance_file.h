@@ -10,7 +10,7 @@
 
 #include <string>
 
-#include "model/design/tolerance.h"
+#include "design/tolerance.h"
 
 namespace omni::design {
 

@@ -1,4 +1,4 @@
-// Tolerance checks and their image effect (model/design/tolerance.h).
+// Tolerance checks and their image effect (design/tolerance.h).
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -6,7 +6,7 @@
 
 #include <gtest/gtest.h>
 
-#include "model/design/tolerance.h"
+#include "design/tolerance.h"
 #include "io/model_file.h"
 
 namespace omni::design {

@@ -1,4 +1,4 @@
-#include "model/stereo/panorama.h"
+#include "stereo/panorama.h"
 
 #include <algorithm>
 #include <cmath>

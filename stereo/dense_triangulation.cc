@@ -1,4 +1,4 @@
-#include "model/stereo/dense_triangulation.h"
+#include "stereo/dense_triangulation.h"
 
 #include <algorithm>
 #include <cmath>

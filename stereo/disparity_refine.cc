@@ -1,4 +1,4 @@
-#include "model/stereo/disparity_refine.h"
+#include "stereo/disparity_refine.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,4 +1,4 @@
-#include "model/design/tolerance_file.h"
+#include "design/tolerance_file.h"
 
 #include "io/yaml_reader.h"
 
