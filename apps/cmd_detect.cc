@@ -29,7 +29,7 @@
 #include "apps/progress.h"
 #include "detectors/detect_image.h"
 #include "detectors/detect_session.h"
-#include "detectors/lip_intrinsics.h"
+#include "detectors/lips/lip_intrinsics.h"
 #include "io/detections_file.h"
 #include "io/file_util.h"
 #include "io/model_file.h"

@@ -11,8 +11,8 @@
 
 #include <opencv2/imgproc.hpp>
 
-#include "detectors/apriltag_detector.h"
-#include "detectors/lip_detector.h"
+#include "detectors/apriltag/apriltag_detector.h"
+#include "detectors/lips/lip_detector.h"
 #include "io/file_util.h"
 
 namespace omni::detectors {

@@ -7,7 +7,7 @@
 #include <set>
 #include <utility>
 
-#include "detectors/post_finder.h"
+#include "detectors/lips/post_finder.h"
 #include "io/image_file.h"
 
 namespace omni::detectors {

@@ -59,8 +59,8 @@
 
 #include <opencv2/core.hpp>
 
-#include "detectors/tag_grid_check.h"
-#include "detectors/views.h"
+#include "detectors/apriltag/tag_grid_check.h"
+#include "detectors/common/views.h"
 #include "model/observations.h"
 #include "model/rig_model.h"
 #include "model/target.h"

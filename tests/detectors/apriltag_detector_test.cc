@@ -19,8 +19,8 @@
 #include "synthetic/scene.h"
 #include "synthetic/scene_file.h"
 #include "synthetic/tag_texture.h"
-#include "detectors/apriltag_detector.h"
-#include "detectors/views.h"
+#include "detectors/apriltag/apriltag_detector.h"
+#include "detectors/common/views.h"
 #include "io/model_file.h"
 #include "tests/temp_dir.h"
 

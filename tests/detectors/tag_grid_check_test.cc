@@ -24,9 +24,9 @@
 #include "synthetic/scene.h"
 #include "synthetic/scene_file.h"
 #include "synthetic/tag_texture.h"
-#include "detectors/apriltag_detector.h"
-#include "detectors/tag_grid_check.h"
-#include "detectors/views.h"
+#include "detectors/apriltag/apriltag_detector.h"
+#include "detectors/apriltag/tag_grid_check.h"
+#include "detectors/common/views.h"
 #include "io/model_file.h"
 #include "tests/temp_dir.h"
 

@@ -5,8 +5,8 @@
 
 #include <gtest/gtest.h>
 
-#include "detectors/ring_layout.h"
-#include "detectors/views.h"
+#include "detectors/common/ring_layout.h"
+#include "detectors/common/views.h"
 #include "io/model_file.h"
 
 namespace omni::detectors {

@@ -25,7 +25,7 @@
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
 
-#include "detectors/views.h"
+#include "detectors/common/views.h"
 #include "model/target.h"
 
 namespace omni::detectors {

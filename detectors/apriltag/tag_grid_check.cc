@@ -1,4 +1,4 @@
-#include "detectors/tag_grid_check.h"
+#include "detectors/apriltag/tag_grid_check.h"
 
 #include <algorithm>
 #include <optional>

@@ -24,7 +24,7 @@
 // JPEG (4:2:0 or 4:2:2, what cameras write) keeps the sRGB luma Y' at full resolution but the
 // chroma at half: a colour edge's mix is then not the linear half-and-half one (saturated blue /
 // red bands read 0.15-0.23 px wider or narrower a side). With `chroma_halved` each point is then
-// placed on Y' (detectors/luma_edge.h: the pixels' band share from their Y', under the sensor
+// placed on Y' (detectors/lips/luma_edge.h: the pixels' band share from their Y', under the sensor
 // noise estimated from the image), wherever Y' stands luma_min_snr times above its noise (else on
 // the colour, as without). Give the file's own Y' plane as `luma` (io::ReadStoredLuma) and the
 // linear image in 16 bit: 8-bit linear levels are too coarse for a dark band's Y'.

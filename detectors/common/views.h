@@ -13,6 +13,14 @@
 // Enough sectors with overlap are made that every target in a ring's field of view fits whole
 // in some view: with `sectors` views of `horizontal_fov_deg` each, anything narrower than
 // horizontal_fov - 360/sectors degrees does.
+//
+// Pixel scales: a view pixel is not a raw pixel. By default a view has the outer ring's
+// tangential resolution at its middle radius, so the inner ring's views are upsampled (~1.7-3
+// times) and every view's blur is measured (RingView::blur_sigma, ViewBlurSigma) for the
+// detectors to scale their thresholds. Failure modes: a target wider than the overlap above fits
+// no view whole; a model far from the rig (10-20 px: lip_guide.h) shifts and bends the views,
+// which only serve to find targets; where the ring is not seen the maps hold -1 and the view is
+// invalid there.
 #pragma once
 
 #include <optional>

@@ -1,4 +1,4 @@
-#include "detectors/views.h"
+#include "detectors/common/views.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,4 +1,4 @@
-#include "detectors/saddle_points.h"
+#include "detectors/common/saddle_points.h"
 
 #include <algorithm>
 #include <array>

@@ -1,4 +1,4 @@
-#include "detectors/corner_refine.h"
+#include "detectors/common/corner_refine.h"
 
 #include <algorithm>
 #include <cmath>

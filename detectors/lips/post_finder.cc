@@ -1,4 +1,4 @@
-#include "detectors/post_finder.h"
+#include "detectors/lips/post_finder.h"
 
 #include <algorithm>
 #include <array>

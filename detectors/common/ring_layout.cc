@@ -1,4 +1,4 @@
-#include "detectors/ring_layout.h"
+#include "detectors/common/ring_layout.h"
 
 #include <algorithm>
 #include <cmath>

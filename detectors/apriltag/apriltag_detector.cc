@@ -1,4 +1,4 @@
-#include "detectors/apriltag_detector.h"
+#include "detectors/apriltag/apriltag_detector.h"
 
 #include <algorithm>
 #include <cmath>
@@ -11,10 +11,10 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "detectors/corner_refine.h"
-#include "detectors/kalibr_detector.h"
-#include "detectors/tag_pattern_fit.h"
-#include "detectors/saddle_points.h"
+#include "detectors/common/corner_refine.h"
+#include "detectors/apriltag/kalibr_detector.h"
+#include "detectors/apriltag/tag_pattern_fit.h"
+#include "detectors/common/saddle_points.h"
 
 extern "C" {
 #include <apriltag/apriltag.h>

@@ -1,4 +1,4 @@
-#include "detectors/lip_detector.h"
+#include "detectors/lips/lip_detector.h"
 
 #include <algorithm>
 #include <array>
@@ -9,7 +9,7 @@
 
 #include <Eigen/Dense>
 
-#include "detectors/luma_edge.h"
+#include "detectors/lips/luma_edge.h"
 
 namespace omni::detectors {
 namespace {
@@ -471,7 +471,7 @@ std::vector<int> ScreenCandidates(const std::vector<EdgeCandidate>& c,
   return kept;
 }
 
-// The candidates moved onto the image's luma (detectors/luma_edge.h): the sensor noise's variance
+// The candidates moved onto the image's luma (detectors/lips/luma_edge.h): the sensor noise's variance
 // estimated from every band side of the image, then each point placed where the pixels' band
 // share crosses 1/2; a point whose Y' contrast is too low for it keeps its colour crossing.
 void PlaceOnLuma(const cv::Mat& bgr, const LipDetectorOptions& options,

@@ -15,6 +15,11 @@
 // from the model's own corner, and the offset it finds is subtracted from the measured corner.
 // The model carries whatever cornerSubPix does (window weights, discrete pixels, line angles);
 // only the lines' shapes come from the image.
+//
+// Pixel scales: raw pixels; the bias it removes is a few hundredths of a pixel. Failure modes: a
+// corner with no refined neighbour along both of its lines is left uncorrected (one neighbour: a
+// straight line); a window cut by the ring's edge moves a corner 1.5-3 px (tag_grid_check.h
+// drops those).
 #pragma once
 
 #include <optional>

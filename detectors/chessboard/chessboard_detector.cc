@@ -1,4 +1,4 @@
-#include "detectors/chessboard_detector.h"
+#include "detectors/chessboard/chessboard_detector.h"
 
 #include <algorithm>
 #include <array>
@@ -9,8 +9,8 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "detectors/corner_refine.h"
-#include "detectors/saddle_points.h"
+#include "detectors/common/corner_refine.h"
+#include "detectors/common/saddle_points.h"
 
 namespace omni::detectors {
 namespace {

@@ -18,6 +18,11 @@
 // the mirror's; the lip detector separates those images.
 // Each boundary is a closed curve around `centre`, stored as its radius at evenly spaced polar
 // angles about `centre` (the curves are near-circles, star-shaped about the axis's image).
+//
+// Pixel scales: raw pixels, only as exact as the model: a design (not yet calibrated) puts the
+// boundaries 10-20 px off on a built rig (lip_guide.h). Failure modes: none of its own; a model
+// of another rig or size gives another layout (the image is checked against the model's size
+// by the callers, detect_session.h).
 #pragma once
 
 #include <cstdint>

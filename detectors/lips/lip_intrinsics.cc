@@ -1,4 +1,4 @@
-#include "detectors/lip_intrinsics.h"
+#include "detectors/lips/lip_intrinsics.h"
 
 #include <cmath>
 

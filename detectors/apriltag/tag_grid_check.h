@@ -13,13 +13,16 @@
 // are taken back into that view (RawToView), a homography is fitted by RANSAC and then least
 // squares on the corners within the tolerance, and the corner's residual is measured in RAW
 // pixels (the views magnify the inner ring 2-3 times).
+//
+// Failure modes: a target with fewer than max(5, min_corners) corners in a ring is not checked
+// (its corners are kept); a corner off by less than the tolerance stays.
 #pragma once
 
 #include <vector>
 
 #include <Eigen/Core>
 
-#include "detectors/views.h"
+#include "detectors/common/views.h"
 #include "model/rig_model.h"
 #include "model/target.h"
 

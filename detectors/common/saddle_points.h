@@ -1,13 +1,21 @@
 // Saddle points (X-junctions) of a ring view and their clusters: where chessboards and Kalibr
 // AprilGrids (whose tag corners are X-junctions, kalibr_detector.h) can be. Shared by the
 // chessboard detector (regions to search) and the tag detector (where the Kalibr quad finder runs).
+//
+// Pixel scales: view pixels throughout (views.h): 1 view px of smoothing before the Hessian, a
+// junction of at least min_contrast grey levels at the view's own measured blur
+// (RingView::blur_sigma), clusters searched within ~9.4 degrees of the view (at least 48 px).
+// Failure modes: a junction of lower contrast or blurred well beyond the ring's sharpest edges
+// gives no saddle point, so its target gets no region; textured scenery gives saddle points too,
+// and forms a region wherever min_saddles of them cluster: the detectors that search the regions
+// decide what is a target.
 #pragma once
 
 #include <vector>
 
 #include <opencv2/core.hpp>
 
-#include "detectors/views.h"
+#include "detectors/common/views.h"
 
 namespace omni::detectors {
 

@@ -35,10 +35,10 @@
 
 #include <opencv2/core.hpp>
 
-#include "detectors/kalibr_detector.h"
-#include "detectors/saddle_points.h"
-#include "detectors/tag_grid_check.h"
-#include "detectors/views.h"
+#include "detectors/apriltag/kalibr_detector.h"
+#include "detectors/common/saddle_points.h"
+#include "detectors/apriltag/tag_grid_check.h"
+#include "detectors/common/views.h"
 #include "model/observations.h"
 #include "model/rig_model.h"
 #include "model/target.h"

@@ -40,7 +40,7 @@
 
 #include <opencv2/core.hpp>
 
-#include "detectors/views.h"
+#include "detectors/common/views.h"
 #include "model/observations.h"
 #include "model/rig_model.h"
 #include "model/target.h"
@@ -64,7 +64,7 @@ struct ChessboardOptions {
   bool clean_windows = true;
   int min_clean_half = 2;
   // After the raw refinement: subtract cornerSubPix's bias on the curved images of the board's
-  // lines, predicted from the refined neighbours (detectors/corner_refine.h).
+  // lines, predicted from the refined neighbours (detectors/common/corner_refine.h).
   bool remove_curvature_bias = true;
   // After the raw refinement: each corner fitted by a blurred X-junction model
   // (corner_refine.h FitBoardJunctions; the curvature correction where it cannot be), in a

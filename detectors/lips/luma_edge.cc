@@ -1,4 +1,4 @@
-#include "detectors/luma_edge.h"
+#include "detectors/lips/luma_edge.h"
 
 #include <algorithm>
 #include <cmath>

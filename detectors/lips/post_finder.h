@@ -1,6 +1,6 @@
 // The posts of a rig's mount found in its photos (issue 39): the paper's prototype hangs mirror 1
 // over mirror 2 on thin standoffs, which every photo shows as plain radial bands at the same
-// azimuths across both rings (detectors/views.h's rings: the world seen via each mirror).
+// azimuths across both rings (detectors/common/views.h's rings: the world seen via each mirror).
 //
 // What tells a post from the scene: along a ring's elevations a post is one matte surface (its
 // profile along the ring's radius nearly flat), the scene is texture; the targets move between

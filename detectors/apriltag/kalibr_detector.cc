@@ -1,4 +1,4 @@
-#include "detectors/kalibr_detector.h"
+#include "detectors/apriltag/kalibr_detector.h"
 
 #include <algorithm>
 #include <array>

@@ -1,4 +1,4 @@
-#include "detectors/tag_pattern_fit.h"
+#include "detectors/apriltag/tag_pattern_fit.h"
 
 #include <algorithm>
 #include <array>
@@ -9,7 +9,7 @@
 #include <Eigen/Dense>
 #include <opencv2/imgproc.hpp>
 
-#include "detectors/kalibr_detector.h"
+#include "detectors/apriltag/kalibr_detector.h"
 
 namespace omni::detectors {
 namespace {
