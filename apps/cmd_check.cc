@@ -16,7 +16,7 @@
 #include "health/check.h"
 #include "health/check_file.h"
 #include "health/drift.h"
-#include "model/io/file_util.h"
+#include "io/file_util.h"
 #include "model/rig_parameters.h"
 
 namespace omni::apps {

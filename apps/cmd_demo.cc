@@ -20,8 +20,8 @@
 #include "apps/command.h"
 #include "apps/common_flags.h"
 #include "synthetic/scene.h"
-#include "model/io/model_file.h"
-#include "model/io/session_file.h"
+#include "io/model_file.h"
+#include "io/session_file.h"
 #include "model/model_compare.h"
 
 DECLARE_string(overlay);

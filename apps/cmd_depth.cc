@@ -1,5 +1,5 @@
 // `omnistereo depth --model M --image I --out DIR`: dense stereo on the panoramas
-// (model/stereo/dense_stereo.h): writes DIR/panorama1.png, DIR/panorama2.png, DIR/disparity.png
+// (stereo/dense_stereo.h): writes DIR/panorama1.png, DIR/panorama2.png, DIR/disparity.png
 // (8-bit view, brighter = nearer, black = no match), DIR/disparity16.png (16-bit, 16 x d, 0 = no
 // match; d as in dense_stereo.h: v2 = v1 - d) and DIR/cloud.ply (points in C, mm, colour, per-point
 // sigma_mm).
@@ -25,9 +25,9 @@
 #include "apps/common_flags.h"
 #include "apps/progress.h"
 #include "apps/stereo_cli.h"
-#include "model/io/model_file.h"
-#include "model/io/ply.h"
-#include "model/stereo/dense_stereo.h"
+#include "io/model_file.h"
+#include "io/ply.h"
+#include "stereo/dense_stereo.h"
 
 DEFINE_int32(num_disparities, 64, "SGBM disparity range in panorama rows (multiple of 16)");
 DEFINE_int32(block_size, 5, "SGBM block size (odd)");

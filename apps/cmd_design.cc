@@ -9,10 +9,10 @@
 
 #include "apps/command.h"
 #include "apps/common_flags.h"
-#include "model/design/optimizer.h"
-#include "model/design/sensitivity.h"
-#include "model/design/design_config.h"
-#include "model/io/model_file.h"
+#include "design/optimizer.h"
+#include "design/sensitivity.h"
+#include "design/design_config.h"
+#include "io/model_file.h"
 #include "model/rig_params.h"
 
 DEFINE_string(curves_out, "", "folder for the sensitivity curves of the paper's section 5.2 (CSV)");

@@ -29,11 +29,11 @@
 #include "apps/progress.h"
 #include "detectors/detect_image.h"
 #include "detectors/detect_session.h"
-#include "detectors/lip_intrinsics.h"
-#include "model/io/detections_file.h"
-#include "model/io/file_util.h"
-#include "model/io/model_file.h"
-#include "model/io/session_file.h"
+#include "detectors/lips/lip_intrinsics.h"
+#include "io/detections_file.h"
+#include "io/file_util.h"
+#include "io/model_file.h"
+#include "io/session_file.h"
 
 DEFINE_string(overlay, "", "folder for overlay PNGs (corners by ring, board names and ids, lip edge points, ring boundaries, a legend)");
 

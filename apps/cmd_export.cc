@@ -28,8 +28,8 @@
 #include "exports/npy.h"
 #include "exports/panorama_maps.h"
 #include "exports/ray_table.h"
-#include "model/io/file_util.h"
-#include "model/io/model_file.h"
+#include "io/file_util.h"
+#include "io/model_file.h"
 
 DEFINE_string(format, "", "export format: rays | panorama_maps | kalibr | basalt");
 DEFINE_string(dtype, "float32", "rays: element type of the table: float32 | float64");

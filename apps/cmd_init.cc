@@ -15,17 +15,17 @@
 #include "apps/command.h"
 #include "apps/common_flags.h"
 #include "detectors/detect_session.h"
-#include "detectors/lip_intrinsics.h"
-#include "detectors/post_finder.h"
-#include "detectors/views.h"
+#include "detectors/lips/lip_intrinsics.h"
+#include "detectors/lips/post_finder.h"
+#include "detectors/common/views.h"
 #include "model/mount.h"
-#include "model/design/design_config.h"
-#include "model/design/optimizer.h"
-#include "model/io/file_util.h"
-#include "model/io/image_file.h"
-#include "model/io/model_file.h"
-#include "model/io/session_file.h"
-#include "model/io/yaml_reader.h"
+#include "design/design_config.h"
+#include "design/optimizer.h"
+#include "io/file_util.h"
+#include "io/image_file.h"
+#include "io/model_file.h"
+#include "io/session_file.h"
+#include "io/yaml_reader.h"
 #include "model/rig_parameters.h"
 
 DEFINE_string(design, "big_rig", "init: the rig as designed: big_rig | small_rig (the paper's) | a "
@@ -114,7 +114,7 @@ void StartingIntrinsics(const std::vector<std::string>& images, RigParams* rig, 
               lips_only.images.size(), lips->f, lips->sigma_f, lips->cx, lips->cy, lips->n_points);
 }
 
-// The mount's posts where the first photos show them (detectors/post_finder.h): their azimuths,
+// The mount's posts where the first photos show them (detectors/lips/post_finder.h): their azimuths,
 // with the design's mount (or, without one, --post_width posts just outside the wider lip from
 // lip plane to lip plane, carried by mirror 1). Says what it found; leaves the model without a
 // mount when the photos do not show the posts asked for.

@@ -1,6 +1,6 @@
 // `omnistereo panorama --model M --image I --out DIR`: both rings unwarped into the panoramas
 // Xi_1 (DIR/panorama1.png, outer ring) and Xi_2 (DIR/panorama2.png, inner ring) through the
-// model's look-up tables [panorama_pixel_mapping_function] (model/stereo/panorama.h documents
+// model's look-up tables [panorama_pixel_mapping_function] (stereo/panorama.h documents
 // the viewpoints and the cylinder used for a non-central model).
 #include <chrono>
 #include <cstdio>
@@ -12,8 +12,8 @@
 #include "apps/command.h"
 #include "apps/common_flags.h"
 #include "apps/stereo_cli.h"
-#include "model/io/model_file.h"
-#include "model/stereo/panorama.h"
+#include "io/model_file.h"
+#include "stereo/panorama.h"
 
 namespace omni::apps {
 

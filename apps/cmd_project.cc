@@ -9,8 +9,8 @@
 
 #include "apps/command.h"
 #include "apps/common_flags.h"
-#include "model/io/csv.h"
-#include "model/io/model_file.h"
+#include "io/csv.h"
+#include "io/model_file.h"
 #include "model/rig_model.h"
 
 namespace omni::apps {

@@ -19,7 +19,7 @@
 #include "apps/progress.h"
 #include "health/drift.h"
 #include "health/refine.h"
-#include "model/io/model_file.h"
+#include "io/model_file.h"
 #include "model/model_compare.h"
 #include "model/rig_parameters.h"
 

@@ -14,7 +14,7 @@
 #include "apps/progress.h"
 #include "synthetic/render_session.h"
 #include "synthetic/scene_file.h"
-#include "model/io/model_file.h"
+#include "io/model_file.h"
 #include "model/rig_model.h"
 
 DEFINE_bool(no_render, false, "write only the ground truth, without running POV-Ray");

@@ -9,8 +9,8 @@
 
 #include "apps/command.h"
 #include "apps/common_flags.h"
-#include "model/io/file_util.h"
-#include "model/io/session_file.h"
+#include "io/file_util.h"
+#include "io/session_file.h"
 #include "print/target_sheet.h"
 #include "synthetic/tag_texture.h"
 

@@ -1,6 +1,6 @@
 // `omnistereo tolerance --model M --config tolerances.yaml`: checks a (calibrated) rig against
 // assembly tolerances, with a verdict that respects the calibration's uncertainty, and simulates
-// what parts within the tolerances do to the images (model/design/tolerance.h).
+// what parts within the tolerances do to the images (design/tolerance.h).
 #include <cmath>
 #include <cstdio>
 #include <string>
@@ -8,9 +8,9 @@
 #include "apps/command.h"
 #include "apps/common_flags.h"
 #include "apps/progress.h"
-#include "model/design/tolerance.h"
-#include "model/io/model_file.h"
-#include "model/design/tolerance_file.h"
+#include "design/tolerance.h"
+#include "io/model_file.h"
+#include "design/tolerance_file.h"
 
 namespace omni::apps {
 int RunTolerance() {

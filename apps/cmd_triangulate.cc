@@ -21,12 +21,11 @@
 
 #include "apps/command.h"
 #include "apps/common_flags.h"
-#include "model/io/csv.h"
-#include "model/io/csv.h"
-#include "model/io/detections_file.h"
-#include "model/io/model_file.h"
-#include "model/io/truth_file.h"
-#include "model/stereo/sparse_triangulation.h"
+#include "io/csv.h"
+#include "io/detections_file.h"
+#include "io/model_file.h"
+#include "io/truth_file.h"
+#include "stereo/sparse_triangulation.h"
 #include "model/triangulation.h"
 
 DEFINE_string(truth, "", "ground truth of a synthetic session (omnistereo-truth/1): print the "

@@ -1,7 +1,7 @@
 #include "apps/common_flags.h"
 
-#include "model/io/file_util.h"
-#include "model/io/session_file.h"
+#include "io/file_util.h"
+#include "io/session_file.h"
 
 DEFINE_string(model, "", "model file (omnistereo-model/1 YAML)");
 DEFINE_string(out, "", "output: model YAML (design, calibrate, refine), detections YAML (detect), "

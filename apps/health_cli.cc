@@ -8,7 +8,7 @@
 #include "apps/progress.h"
 #include "health/evidence.h"
 #include "health/ring_matches.h"
-#include "model/io/model_file.h"
+#include "io/model_file.h"
 
 DEFINE_string(tone, "srgb", "check, refine: how the photos encode light: srgb (cameras, JPEGs) | "
                             "linear (raw frames)");

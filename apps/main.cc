@@ -11,7 +11,7 @@
 #include <glog/logging.h>
 
 #include "apps/command.h"
-#include "model/io/model_file.h"
+#include "io/model_file.h"
 
 namespace omni::apps {
 namespace {

@@ -8,7 +8,7 @@
 
 #include <opencv2/imgproc.hpp>
 
-#include "detectors/views.h"
+#include "detectors/common/views.h"
 
 namespace omni::apps {
 namespace {

@@ -17,7 +17,7 @@
 
 #include <opencv2/core.hpp>
 
-#include "detectors/ring_layout.h"
+#include "detectors/common/ring_layout.h"
 #include "model/observations.h"
 #include "model/target.h"
 

@@ -10,7 +10,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "apps/common_flags.h"
-#include "model/io/file_util.h"
+#include "io/file_util.h"
 
 namespace omni::apps {
 

@@ -7,7 +7,7 @@
 #include <opencv2/core.hpp>
 
 #include "model/rig_model.h"
-#include "model/stereo/panorama.h"
+#include "stereo/panorama.h"
 
 namespace omni::apps {
 

@@ -33,9 +33,9 @@
 
 #include "calib/calibrate.h"
 #include "calib/session_options.h"
-#include "model/io/detections_file.h"
-#include "model/io/model_file.h"
-#include "model/io/session_file.h"
+#include "io/detections_file.h"
+#include "io/model_file.h"
+#include "io/session_file.h"
 #include "model/lip.h"
 #include "model/model_compare.h"
 #include "model/rig_model.h"

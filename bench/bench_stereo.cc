@@ -27,8 +27,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "model/io/model_file.h"
-#include "model/stereo/dense_stereo.h"
+#include "io/model_file.h"
+#include "stereo/dense_stereo.h"
 #include "synthetic/scene.h"
 
 namespace omni::stereo {

@@ -32,9 +32,9 @@
 #include "synthetic/scene_file.h"
 #include "detectors/detect_image.h"
 #include "detectors/lip_guide.h"
-#include "detectors/lip_intrinsics.h"
+#include "detectors/lips/lip_intrinsics.h"
 #include "model/lip.h"
-#include "model/io/model_file.h"
+#include "io/model_file.h"
 
 using namespace omni;
 

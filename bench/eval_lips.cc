@@ -37,10 +37,10 @@
 
 #include "synthetic/camera_effects.h"
 #include "synthetic/scene_file.h"
-#include "detectors/lip_detector.h"
-#include "detectors/lip_intrinsics.h"
-#include "model/io/image_file.h"
-#include "model/io/model_file.h"
+#include "detectors/lips/lip_detector.h"
+#include "detectors/lips/lip_intrinsics.h"
+#include "io/image_file.h"
+#include "io/model_file.h"
 #include "model/lip.h"
 
 using namespace omni;

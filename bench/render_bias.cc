@@ -4,12 +4,12 @@
 // settings, and by an independent oracle: the exact box-filtered pixel (S x S sub-pixel rays
 // through RigModel::Unproject, intersected with the board, averaged). cv::cornerSubPix is started
 // at the true corner (ComputeTruth) in every image with the detector's raw-refinement window
-// (detectors/chessboard_detector.cc: half = clamp(round(0.4 * side), 1, 6)); the mean radial and
+// (detectors/chessboard/chessboard_detector.cc: half = clamp(round(0.4 * side), 1, 6)); the mean radial and
 // tangential offsets per ring then split the bias into
 //   detector: cornerSubPix on the oracle image (exact pixels, no renderer involved);
 //   renderer: POV-Ray image minus oracle (same refinement, same corners).
 // Lens distortion is set to zero: the renders are compared before image_effects.
-// The refinement is the detector's (detectors/corner_refine.h: RefineCornerInRaw); the lines
+// The refinement is the detector's (detectors/common/corner_refine.h: RefineCornerInRaw); the lines
 // marked "+cc" add its curvature-bias correction (RemoveCurvatureBias from each board's refined
 // corners), as the chessboard detector does.
 //
@@ -41,8 +41,8 @@
 
 #include "synthetic/pov_scene.h"
 #include "synthetic/scene.h"
-#include "detectors/corner_refine.h"
-#include "model/io/model_file.h"
+#include "detectors/common/corner_refine.h"
+#include "io/model_file.h"
 #include "model/rig_model.h"
 #include "model/target.h"
 
@@ -288,7 +288,7 @@ struct RingStats {
   Eigen::Vector2d mean = Eigen::Vector2d::Zero();  // mean (du, dv): a constant image shift
 };
 
-// The detector's raw refinement (detectors/corner_refine.h) started at the true corners; with
+// The detector's raw refinement (detectors/common/corner_refine.h) started at the true corners; with
 // `correct` also its curvature-bias correction from each board's refined neighbours.
 std::map<int, RingStats> Measure(const Setup& s, const cv::Mat& img, int half_override, bool correct,
                                  std::vector<Eigen::Vector2d>* errors) {

@@ -1,4 +1,4 @@
-// Residuals of lip edge points (model/lip.h, detectors/lip_detector.h): an edge point is the image
+// Residuals of lip edge points (model/lip.h, detectors/lips/lip_detector.h): an edge point is the image
 // of some point on a known 3D circle (a lip's r_inner or r_outer circle in its mirror's body
 // frame) along a known optical path, at an unknown azimuth phi. Each edge point gets its own phi
 // (a 1-parameter nuisance block, eliminated like a target pose), and the residual is the pixel of

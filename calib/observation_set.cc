@@ -8,7 +8,7 @@
 
 #include "calib/calibration_steps.h"
 #include "calib/corner_cost.h"
-#include "model/pose/initial_pose.h"
+#include "pose/initial_pose.h"
 #include "model/triangulation.h"
 
 namespace omni::calib {

@@ -1,9 +1,9 @@
-// The calibration's options from a session file (model/io/session_file.h): its estimate, priors,
+// The calibration's options from a session file (io/session_file.h): its estimate, priors,
 // consider, solver and lips sections. Kept apart from calibrate.h, which reads no files.
 #pragma once
 
 #include "calib/calibrate.h"
-#include "model/io/session_file.h"
+#include "io/session_file.h"
 
 namespace omni::calib {
 

@@ -11,9 +11,9 @@
 
 #include <opencv2/imgproc.hpp>
 
-#include "detectors/apriltag_detector.h"
-#include "detectors/lip_detector.h"
-#include "model/io/file_util.h"
+#include "detectors/apriltag/apriltag_detector.h"
+#include "detectors/lips/lip_detector.h"
+#include "io/file_util.h"
 
 namespace omni::detectors {
 namespace {

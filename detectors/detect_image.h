@@ -1,7 +1,7 @@
 // Everything the detectors find in one omnidirectional image: chessboard corners, AprilTag grid
-// corners (plain tag36h11 and Kalibr AprilGrid, detectors/apriltag_detector.h) per ring, and the
-// lip band edges (detectors/lip_detector.h, colour images only), as detections-file records
-// (model/io/detections_file.h).
+// corners (plain tag36h11 and Kalibr AprilGrid, detectors/apriltag/apriltag_detector.h) per ring, and the
+// lip band edges (detectors/lips/lip_detector.h, colour images only), as detections-file records
+// (io/detections_file.h).
 #pragma once
 
 #include <string>
@@ -9,13 +9,13 @@
 
 #include <opencv2/core.hpp>
 
-#include "detectors/chessboard_detector.h"
+#include "detectors/chessboard/chessboard_detector.h"
 #include "detectors/guided_detection.h"
-#include "detectors/lip_detector.h"
-#include "detectors/ring_layout.h"
-#include "detectors/views.h"
+#include "detectors/lips/lip_detector.h"
+#include "detectors/common/ring_layout.h"
+#include "detectors/common/views.h"
 #include "model/observations.h"
-#include "model/io/image_file.h"
+#include "io/image_file.h"
 #include "model/rig_model.h"
 #include "model/target.h"
 

@@ -7,8 +7,8 @@
 #include <set>
 #include <utility>
 
-#include "detectors/post_finder.h"
-#include "model/io/image_file.h"
+#include "detectors/lips/post_finder.h"
+#include "io/image_file.h"
 
 namespace omni::detectors {
 

@@ -1,5 +1,5 @@
 // The detect loop of a whole session, shared by `detect` and `calibrate`: every image read as the
-// camera wrote it (model/io/image_file.h, demosaiced when the session names a Bayer pattern),
+// camera wrote it (io/image_file.h, demosaiced when the session names a Bayer pattern),
 // checked against the model's size, and passed to DetectImage.
 #pragma once
 
@@ -13,7 +13,7 @@
 #include "detectors/detect_image.h"
 #include "detectors/lip_guide.h"
 #include "model/observations.h"
-#include "model/io/session_file.h"
+#include "io/session_file.h"
 
 namespace omni::detectors {
 

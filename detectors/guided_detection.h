@@ -7,7 +7,7 @@
 //
 // Per target found in ring s (chessboards: their corners; tag grids: their read tags' corners;
 // at least min_seed_corners) and missing corners in ring d:
-//  1. cam_from_target from ring s's corners (model/pose CentralPoseFromRing, the model's rays);
+//  1. cam_from_target from ring s's corners (pose/initial_pose.h CentralPoseFromRing, the model's rays);
 //     projected through ring d (RigModel::Project) and taken into the view of ring d that holds
 //     most of them (RawToView): in a view the target is a homography of its plane, H0. Where
 //     ring d already has corners of the target, H0 is fitted to them instead.
@@ -59,8 +59,8 @@
 
 #include <opencv2/core.hpp>
 
-#include "detectors/tag_grid_check.h"
-#include "detectors/views.h"
+#include "detectors/apriltag/tag_grid_check.h"
+#include "detectors/common/views.h"
 #include "model/observations.h"
 #include "model/rig_model.h"
 #include "model/target.h"

@@ -5,9 +5,9 @@
 #include <optional>
 #include <utility>
 
-#include "detectors/lip_detector.h"
-#include "detectors/lip_intrinsics.h"
-#include "model/io/image_file.h"
+#include "detectors/lips/lip_detector.h"
+#include "detectors/lips/lip_intrinsics.h"
+#include "io/image_file.h"
 
 namespace omni::detectors {
 

@@ -4,7 +4,7 @@
 
 #include <Eigen/Geometry>
 
-#include "model/io/file_util.h"
+#include "io/file_util.h"
 
 namespace omni::exports {
 namespace {

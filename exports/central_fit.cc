@@ -9,8 +9,8 @@
 #include <Eigen/Geometry>
 
 #include "exports/central_models.h"
-#include "model/stereo/panorama.h"
-#include "model/stereo/sparse_triangulation.h"
+#include "stereo/panorama.h"
+#include "stereo/sparse_triangulation.h"
 
 namespace omni::exports {
 namespace {

@@ -8,7 +8,7 @@
 // non-central model (RigModel::Unproject) and the points at fit_distances_mm along its ray
 // projected by the central model; the squared pixel differences are minimised over the
 // intrinsics and the virtual camera's pose (Ceres). The start: the viewpoint at the ring's
-// focus (model/stereo/panorama.h), z along the mirror axis (towards the directions whose pixels
+// focus (stereo/panorama.h), z along the mirror axis (towards the directions whose pixels
 // lie inward), x turned so that azimuth matches the pixel's polar angle; a ring whose azimuth
 // runs against the polar angle (one reflection more or fewer than the other) gets fy < 0.
 // The double sphere starts from the unified fit (xi = 0 is the unified model with

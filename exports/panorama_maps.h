@@ -1,5 +1,5 @@
 // The panorama maps export (issue 20): the cv::remap look-up tables of both rings' panoramas,
-// the same ones `panorama` and `depth` use (model/stereo/panorama.h), with the tables that turn
+// the same ones `panorama` and `depth` use (stereo/panorama.h), with the tables that turn
 // a panorama row into an elevation and a column into an azimuth, so that any stereo matcher can
 // run on the rectified pair (epipolar lines are the panorama columns).
 //
@@ -17,7 +17,7 @@
 
 #include "exports/npy.h"
 #include "model/rig_model.h"
-#include "model/stereo/panorama.h"
+#include "stereo/panorama.h"
 
 namespace omni::exports {
 

@@ -4,7 +4,7 @@
 
 #include <opencv2/core.hpp>
 
-#include "model/stereo/sparse_triangulation.h"
+#include "stereo/sparse_triangulation.h"
 
 
 namespace omni::exports {

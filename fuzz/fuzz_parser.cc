@@ -12,14 +12,14 @@
 #include <string>
 #include <vector>
 
-#include "model/io/csv.h"
-#include "model/design/design_config.h"
-#include "model/io/detections_file.h"
-#include "model/io/file_util.h"
-#include "model/io/model_file.h"
-#include "model/io/ply.h"
-#include "model/io/session_file.h"
-#include "model/design/tolerance_file.h"
+#include "io/csv.h"
+#include "design/design_config.h"
+#include "io/detections_file.h"
+#include "io/file_util.h"
+#include "io/model_file.h"
+#include "io/ply.h"
+#include "io/session_file.h"
+#include "design/tolerance_file.h"
 #include "model/rig_model.h"
 #include "synthetic/scene_file.h"
 

@@ -2,7 +2,7 @@
 
 #include <sstream>
 
-#include "model/io/file_util.h"
+#include "io/file_util.h"
 
 namespace omni::health {
 

@@ -3,7 +3,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "detectors/detect_image.h"
-#include "detectors/lip_detector.h"
+#include "detectors/lips/lip_detector.h"
 
 namespace omni::health {
 

@@ -8,13 +8,13 @@
 
 #include "health/check.h"
 #include "health/ring_matches.h"
-#include "model/io/image_file.h"
+#include "io/image_file.h"
 
 namespace omni::health {
 
 // `image` as io::ReadImage gives it (8/16-bit grey or BGR, the model's size); `tone` how it
 // encodes light; `chroma_halved` whether `file` is a JPEG with subsampled chroma (the lips are
-// then placed on its own luma plane, detectors/lip_detector.h). Grey images give matches but no
+// then placed on its own luma plane, detectors/lips/lip_detector.h). Grey images give matches but no
 // lips.
 ImageEvidence CollectEvidence(const cv::Mat& image, const std::string& file,
                               const RingMatcher& matcher, const RigModel& model,

@@ -8,7 +8,7 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
 
-#include "model/stereo/dense_stereo.h"
+#include "stereo/dense_stereo.h"
 
 namespace omni::health {
 namespace {

@@ -3,7 +3,7 @@
 // A point of the scene seen in both rings must satisfy the rig's geometry: its ring-2 image lies
 // on the epipolar curve of its ring-1 ray. To test that, a match must NOT be sought along that
 // curve only (it would then lie on it by construction). So: the panoramas and SGBM's disparity
-// along the columns (model/stereo/dense_stereo.h) under the stored model give each reference
+// along the columns (stereo/dense_stereo.h) under the stored model give each reference
 // feature of Xi_1 a starting match in Xi_2; a pyramidal Lucas-Kanade track from Xi_1 to Xi_2
 // started there is free in both directions, so a rig that has moved since its calibration shows
 // as a sideways (azimuthal) offset of the match. A match is kept if the track converged, stayed

@@ -1,4 +1,4 @@
-// Settings of the calibration's solve that a session file carries (model/io/session_file.h reads
+// Settings of the calibration's solve that a session file carries (io/session_file.h reads
 // them, calib/calibrate.h uses them): kept here so that neither depends on the other.
 #pragma once
 

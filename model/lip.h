@@ -176,7 +176,7 @@ bool ProjectLipEdge(const RigBlocks<T>& b, const RigFixed& fixed, LipPath path, 
 // The residual of one lip edge point observed at `observed`, as the image of the band edge at
 // azimuth phi (ProjectLipEdge) minus the observation; false where the path does not see the
 // point. The one lip residual: the calibration's (calib/lip_cost.h, every block free) and the
-// lip-only intrinsics' (detectors/lip_intrinsics.cc, f and the principal point free).
+// lip-only intrinsics' (detectors/lips/lip_intrinsics.cc, f and the principal point free).
 template <typename T>
 bool LipEdgeResidual(const RigBlocks<T>& b, const RigFixed& fixed, LipPath path, const T& radius,
                      const T& lip_z, const T& phi, double disc_radius_mm,

@@ -1,6 +1,6 @@
 // What the detectors find in an image, and what the calibration and triangulation use: target
 // corners per ring, and lip edge points labelled with the lip circle and the optical path they
-// image (model/lip.h). The detections file (model/io/detections_file.h) reads and writes these
+// image (model/lip.h). The detections file (io/detections_file.h) reads and writes these
 // and checks them; everything else takes them typed.
 #pragma once
 

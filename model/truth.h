@@ -1,8 +1,8 @@
 // What a synthetic session's truth says (the `omnistereo-truth/1` file that `render` writes beside
-// its images, synthetic/scene_file.h TruthText; read by model/io/truth_file.h; computed by
+// its images, synthetic/scene_file.h TruthText; read by io/truth_file.h; computed by
 // synthetic/scene.h ComputeTruth): per image, the target placements and every target corner's
 // point in C and its exact pixel in each ring. `calibrate --truth`, the triangulation experiment
-// (model/stereo/sparse_triangulation.h), bench/eval_detectors and the detector tests compare
+// (stereo/sparse_triangulation.h), bench/eval_detectors and the detector tests compare
 // detections with it through one matcher, NearestTrueCorner.
 #pragma once
 

@@ -9,8 +9,8 @@
 #include <Eigen/Core>
 
 #include "model/input_error.h"
-#include "model/io/file_util.h"
-#include "model/io/session_file.h"
+#include "io/file_util.h"
+#include "io/session_file.h"
 #include "synthetic/tag_texture.h"
 
 namespace omni::print {

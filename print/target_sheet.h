@@ -5,7 +5,7 @@
 //
 // The page: the target's pattern (its black cells) centred in the printable area (the page's
 // white margins are its quiet zone), portrait unless only landscape holds it; below it, in the bottom margin, the
-// target in words, its session entry (model/io/session_file.h TargetEntryText) and a 100 mm
+// target in words, its session entry (io/session_file.h TargetEntryText) and a 100 mm
 // scale bar with 10 mm ticks to check the printer's scale. Every length is in mm from the page's
 // top-left corner.
 #pragma once

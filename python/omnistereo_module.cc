@@ -17,12 +17,12 @@
 
 #include "detectors/detect_image.h"
 #include "detectors/detect_session.h"
-#include "model/io/detections_file.h"
-#include "model/io/model_file.h"
-#include "model/io/session_file.h"
+#include "io/detections_file.h"
+#include "io/model_file.h"
+#include "io/session_file.h"
 #include "model/rig_frames.h"
 #include "model/rig_model.h"
-#include "model/stereo/sparse_triangulation.h"
+#include "stereo/sparse_triangulation.h"
 #include "model/triangulation.h"
 
 namespace py = pybind11;

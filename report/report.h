@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "calib/calibrate.h"
-#include "model/design/tolerance.h"
+#include "design/tolerance.h"
 #include "model/observations.h"
 #include "model/target.h"
 

@@ -21,7 +21,7 @@
 
 #include <opencv2/core.hpp>
 
-#include "model/io/image_file.h"
+#include "io/image_file.h"
 #include "model/rig_params.h"
 
 namespace omni::synthetic {

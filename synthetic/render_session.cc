@@ -17,8 +17,8 @@
 #include "synthetic/pov_scene.h"
 #include "synthetic/scene_file.h"
 #include "synthetic/tag_texture.h"
-#include "model/io/file_util.h"
-#include "model/io/model_file.h"
+#include "io/file_util.h"
+#include "io/model_file.h"
 #include "model/rig_model.h"
 #include "model/rig_parameters.h"
 

@@ -6,7 +6,7 @@
 #include <string>
 
 #include "synthetic/scene.h"
-#include "model/io/session_file.h"
+#include "io/session_file.h"
 #include "model/rig_params.h"
 
 namespace omni::synthetic {

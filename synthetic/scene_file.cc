@@ -8,7 +8,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include "synthetic/tag_texture.h"
-#include "model/io/file_util.h"
+#include "io/file_util.h"
 
 namespace omni::synthetic {
 namespace {
@@ -72,7 +72,7 @@ unsigned SeedOr(const YAML::Node& node, const std::string& file, const std::stri
               : d;
 }
 
-// One entry of `targets:` with the session file's keys (model/io/session_file.h):
+// One entry of `targets:` with the session file's keys (io/session_file.h):
 // {type: chessboard, rows, cols, square} | {type: apriltag_grid, family: tag36h11, rows, cols,
 // tag_size, spacing, first_id} | {type: kalibr_aprilgrid, rows, cols, tag_size, spacing, first_id}.
 TargetSpec ReadTarget(const YAML::Node& node, const std::string& file, const std::string& key) {

@@ -9,7 +9,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "model/io/file_util.h"
+#include "io/file_util.h"
 
 namespace omni::synthetic {
 namespace {

@@ -15,12 +15,12 @@
 
 #include "calib/calibrate.h"
 #include "calib/session_options.h"
-#include "model/io/detections_file.h"
-#include "model/io/file_util.h"
-#include "model/io/model_file.h"
-#include "model/io/session_file.h"
-#include "model/io/truth_file.h"
-#include "model/stereo/sparse_triangulation.h"
+#include "io/detections_file.h"
+#include "io/file_util.h"
+#include "io/model_file.h"
+#include "io/session_file.h"
+#include "io/truth_file.h"
+#include "stereo/sparse_triangulation.h"
 #include "tests/calib/calib_test_util.h"
 #include "tests/cli_test_util.h"
 

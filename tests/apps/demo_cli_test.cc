@@ -19,7 +19,7 @@
 
 #include <gtest/gtest.h>
 
-#include "model/io/model_file.h"
+#include "io/model_file.h"
 #include "model/model_compare.h"
 #include "tests/calib/calib_test_util.h"
 #include "tests/cli_test_util.h"

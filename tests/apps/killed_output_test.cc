@@ -1,7 +1,7 @@
 // Outputs are whole or absent (issue 21 item 5): `omnistereo detect` and `render` killed by
 // SIGTERM or SIGKILL at several moments of their run leave no partial detections, truth, session
 // or image file at an output's name (every writer goes through a temporary file and a rename,
-// model/io/file_util.h). Each run is checked against the invariant whatever it had reached; the
+// io/file_util.h). Each run is checked against the invariant whatever it had reached; the
 // unkilled run shows the outputs the killed ones are compared with.
 #include <fcntl.h>
 #include <signal.h>
@@ -20,8 +20,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <yaml-cpp/yaml.h>
 
-#include "model/io/detections_file.h"
-#include "model/io/session_file.h"
+#include "io/detections_file.h"
+#include "io/session_file.h"
 #include "tests/temp_dir.h"
 
 namespace omni {

@@ -14,8 +14,8 @@
 
 #include <gtest/gtest.h>
 
-#include "model/io/csv.h"
-#include "model/io/model_file.h"
+#include "io/csv.h"
+#include "io/model_file.h"
 #include "model/rig_model.h"
 #include "tests/model/rig_test_util.h"
 

@@ -4,8 +4,8 @@
 #include <gtest/gtest.h>
 
 #include "calib/calibrate.h"
-#include "model/io/file_util.h"
-#include "model/io/model_file.h"
+#include "io/file_util.h"
+#include "io/model_file.h"
 #include "tests/calib/calib_test_util.h"
 
 namespace omni::calib {

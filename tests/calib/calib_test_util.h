@@ -16,7 +16,7 @@
 #include "synthetic/scene.h"
 #include "synthetic/scene_file.h"
 #include "model/observations.h"
-#include "model/io/model_file.h"
+#include "io/model_file.h"
 #include "model/lip.h"
 #include "model/target.h"
 
@@ -113,7 +113,7 @@ inline Observations NoisyDetections(const SyntheticSession& s, double noise_px, 
   return d;
 }
 
-// Lip edge points the detector would report (detectors/lip_detector.h's rule, without an image):
+// Lip edge points the detector would report (detectors/lips/lip_detector.h's rule, without an image):
 // per azimuth, a coloured band's outer (inner) edge is the outermost (innermost) image of its
 // lip's circles over the band's paths (blue: direct + via_mirror1; red: via_reflex +
 // via_mirror2), kept where no other (circle, path) image lies within 1.5 px. Exact pixels from

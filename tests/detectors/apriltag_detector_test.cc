@@ -19,9 +19,9 @@
 #include "synthetic/scene.h"
 #include "synthetic/scene_file.h"
 #include "synthetic/tag_texture.h"
-#include "detectors/apriltag_detector.h"
-#include "detectors/views.h"
-#include "model/io/model_file.h"
+#include "detectors/apriltag/apriltag_detector.h"
+#include "detectors/common/views.h"
+#include "io/model_file.h"
 #include "tests/temp_dir.h"
 
 #include "tests/render_window.h"

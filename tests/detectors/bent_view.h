@@ -12,7 +12,7 @@
 #include <Eigen/Dense>
 #include <opencv2/imgproc.hpp>
 
-#include "detectors/views.h"
+#include "detectors/common/views.h"
 
 namespace omni::detectors::testing {
 

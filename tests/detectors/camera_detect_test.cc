@@ -18,7 +18,7 @@
 #include "synthetic/camera_effects.h"
 #include "synthetic/scene.h"
 #include "detectors/detect_image.h"
-#include "model/io/model_file.h"
+#include "io/model_file.h"
 #include "tests/render_window.h"
 #include "tests/temp_dir.h"
 

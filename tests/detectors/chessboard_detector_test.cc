@@ -22,7 +22,7 @@
 #include "synthetic/scene_file.h"
 #include "detectors/detect_image.h"
 #include "detectors/detect_session.h"
-#include "model/io/model_file.h"
+#include "io/model_file.h"
 #include "tests/temp_dir.h"
 
 #include "tests/render_window.h"

@@ -1,4 +1,4 @@
-// The curvature-bias correction of the raw corner refinement (detectors/corner_refine.h) against
+// The curvature-bias correction of the raw corner refinement (detectors/common/corner_refine.h) against
 // an independent oracle: chessboards seen through a strong analytic radial warp (their rows and
 // columns image as curves, as through the mirrors), every pixel box-filtered exactly (8 x 8
 // sub-pixel samples of the warp where an edge crosses it), the true corners by Newton's method
@@ -14,8 +14,8 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "detectors/corner_refine.h"
-#include "model/io/image_file.h"
+#include "detectors/common/corner_refine.h"
+#include "io/image_file.h"
 
 namespace omni::detectors {
 namespace {

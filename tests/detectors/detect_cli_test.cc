@@ -14,8 +14,8 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "synthetic/image_effects.h"
-#include "model/io/detections_file.h"
-#include "model/io/model_file.h"
+#include "io/detections_file.h"
+#include "io/model_file.h"
 #include "tests/render_window.h"
 #include "tests/cli_test_util.h"
 #include "tests/temp_dir.h"

@@ -18,7 +18,7 @@
 #include "synthetic/scene_file.h"
 #include "synthetic/tag_texture.h"
 #include "detectors/detect_image.h"
-#include "model/io/model_file.h"
+#include "io/model_file.h"
 #include "tests/render_window.h"
 #include "tests/temp_dir.h"
 

@@ -17,11 +17,11 @@
 #include "synthetic/pov_scene.h"
 #include "synthetic/scene_file.h"
 #include "detectors/detect_session.h"
-#include "detectors/lip_detector.h"
+#include "detectors/lips/lip_detector.h"
 #include "detectors/lip_guide.h"
-#include "detectors/lip_intrinsics.h"
-#include "model/io/image_file.h"
-#include "model/io/model_file.h"
+#include "detectors/lips/lip_intrinsics.h"
+#include "io/image_file.h"
+#include "io/model_file.h"
 #include "tests/render_window.h"
 #include "tests/temp_dir.h"
 
@@ -298,7 +298,7 @@ std::map<LipPath, double> SignedOffsets(const cv::Mat& image, const RigParams& t
 
 // JPEG keeps the chroma at half resolution in sRGB: placed on the colour, the dark navy band's
 // edges move 0.15-0.2 px (narrower against the strips' black). Placed on the file's own luma Y'
-// as DetectImage does (detectors/luma_edge.h: per-pixel band shares, the side colours measured
+// as DetectImage does (detectors/lips/luma_edge.h: per-pixel band shares, the side colours measured
 // where their Y' is, the sensor noise's lift of a dark band's Y' modelled with its variance
 // estimated from the image), every edge is within a few hundredths of a pixel on average.
 // Without the noise model (variance 0) the navy edges move 0.05-0.1 px (docs/experiments.md).

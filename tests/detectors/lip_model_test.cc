@@ -7,7 +7,7 @@
 
 #include <ceres/jet.h>
 
-#include "model/io/model_file.h"
+#include "io/model_file.h"
 #include "model/lip.h"
 
 namespace omni {

@@ -1,4 +1,4 @@
-// Edge placement on a JPEG's luma (detectors/luma_edge.h): the noise expectations against Monte
+// Edge placement on a JPEG's luma (detectors/lips/luma_edge.h): the noise expectations against Monte
 // Carlo, and a dark band's blurred edge through a camera's noise and sRGB encoding (the band's
 // true radius known exactly) placed without the bias the noise gives a noise-free Y' curve.
 #include <gtest/gtest.h>
@@ -12,8 +12,8 @@
 
 #include <opencv2/core.hpp>
 
-#include "detectors/luma_edge.h"
-#include "model/io/image_file.h"
+#include "detectors/lips/luma_edge.h"
+#include "io/image_file.h"
 
 namespace omni::detectors {
 namespace {

@@ -1,4 +1,4 @@
-// The mount's posts found in photos (detectors/post_finder.h) on POV-Ray renders of the paper's
+// The mount's posts found in photos (detectors/lips/post_finder.h) on POV-Ray renders of the paper's
 // prototype (big_rig_prototype.yaml: three 3 mm posts at 41.5 mm, azimuths 90 / 210 / 330 deg in
 // mirror 1's body) in a textured room, at 640x480: the oracle is the mount the renderer drew.
 // The same room without the posts finds none.
@@ -12,10 +12,10 @@
 #include <opencv2/imgproc.hpp>
 
 #include "detectors/detect_image.h"
-#include "detectors/lip_detector.h"
-#include "detectors/lip_intrinsics.h"
-#include "detectors/post_finder.h"
-#include "model/io/model_file.h"
+#include "detectors/lips/lip_detector.h"
+#include "detectors/lips/lip_intrinsics.h"
+#include "detectors/lips/post_finder.h"
+#include "io/model_file.h"
 #include "synthetic/pov_scene.h"
 #include "synthetic/scene.h"
 #include "tests/temp_dir.h"

@@ -3,7 +3,7 @@
 
 #include <vector>
 
-#include "detectors/saddle_points.h"
+#include "detectors/common/saddle_points.h"
 
 namespace omni::detectors {
 namespace {

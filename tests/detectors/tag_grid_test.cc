@@ -19,7 +19,7 @@
 #include "synthetic/scene.h"
 #include "synthetic/tag_texture.h"
 #include "detectors/detect_image.h"
-#include "model/io/model_file.h"
+#include "io/model_file.h"
 #include "tests/temp_dir.h"
 
 #include "tests/render_window.h"

@@ -9,8 +9,8 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
-#include "detectors/kalibr_detector.h"
-#include "detectors/tag_pattern_fit.h"
+#include "detectors/apriltag/kalibr_detector.h"
+#include "detectors/apriltag/tag_pattern_fit.h"
 #include "model/target.h"
 #include "tests/detectors/bent_view.h"
 

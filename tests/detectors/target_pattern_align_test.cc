@@ -12,7 +12,7 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
-#include "detectors/tag_pattern_fit.h"
+#include "detectors/apriltag/tag_pattern_fit.h"
 #include "model/target.h"
 #include "synthetic/tag_texture.h"
 #include "tests/detectors/bent_view.h"

@@ -5,9 +5,9 @@
 
 #include <gtest/gtest.h>
 
-#include "detectors/ring_layout.h"
-#include "detectors/views.h"
-#include "model/io/model_file.h"
+#include "detectors/common/ring_layout.h"
+#include "detectors/common/views.h"
+#include "io/model_file.h"
 
 namespace omni::detectors {
 namespace {

@@ -11,8 +11,8 @@
 #include <filesystem>
 #include <fstream>
 
-#include "model/io/model_file.h"
-#include "model/io/yaml_reader.h"
+#include "io/model_file.h"
+#include "io/yaml_reader.h"
 #include "model/rig_parameters.h"
 #include "tests/cli_test_util.h"
 #include "tests/temp_dir.h"

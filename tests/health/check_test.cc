@@ -9,7 +9,7 @@
 
 #include "health/check.h"
 #include "health/drift.h"
-#include "model/io/model_file.h"
+#include "io/model_file.h"
 #include "model/lip.h"
 
 namespace omni::health {

@@ -5,7 +5,7 @@
 #include <random>
 
 #include "health/consistency.h"
-#include "model/io/model_file.h"
+#include "io/model_file.h"
 #include "model/lip.h"
 
 namespace omni::health {

@@ -5,7 +5,7 @@
 #include <Eigen/Geometry>
 
 #include "health/drift.h"
-#include "model/io/model_file.h"
+#include "io/model_file.h"
 #include "model/model_derived.h"
 #include "model/rig_parameters.h"
 

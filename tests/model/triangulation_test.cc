@@ -13,7 +13,7 @@
 #include <Eigen/Eigenvalues>
 
 #include "model/ideal_analysis.h"
-#include "model/io/model_file.h"
+#include "io/model_file.h"
 #include "tests/model/rig_test_util.h"
 
 namespace omni {

@@ -1,7 +1,7 @@
 // The printable targets' PNGs (print/target_sheet.h) are detected by the reference libraries and
 // by our own tag readers at every id, at the size that was asked: chessboards by OpenCV's
 // findChessboardCornersSB, plain tag36h11 grids by libapriltag, Kalibr AprilGrids (2-bit border)
-// by OpenCV's aruco with markerBorderBits = 2, tag grids also by detectors/kalibr_detector.h.
+// by OpenCV's aruco with markerBorderBits = 2, tag grids also by detectors/apriltag/kalibr_detector.h.
 #include <algorithm>
 #include <cmath>
 #include <set>
@@ -15,7 +15,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "detectors/kalibr_detector.h"
+#include "detectors/apriltag/kalibr_detector.h"
 #include "print/target_sheet.h"
 
 namespace omni {

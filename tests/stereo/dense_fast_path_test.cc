@@ -18,8 +18,8 @@
 
 #include <Eigen/Eigenvalues>
 
-#include "model/io/model_file.h"
-#include "model/stereo/dense_stereo.h"
+#include "io/model_file.h"
+#include "stereo/dense_stereo.h"
 #include "model/triangulation.h"
 #include "synthetic/scene.h"
 #include "tests/stereo/box_room.h"

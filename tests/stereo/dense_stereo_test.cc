@@ -1,7 +1,7 @@
-// Dense stereo (model/stereo/dense_stereo.h) on an image of a known scene: a box room with a
+// Dense stereo (stereo/dense_stereo.h) on an image of a known scene: a box room with a
 // smooth random texture (box_room.h). The point cloud is compared with the box's true surface
 // (an oracle independent of the panoramas, SGBM and the triangulation).
-#include "model/stereo/dense_stereo.h"
+#include "stereo/dense_stereo.h"
 
 #include <gtest/gtest.h>
 
@@ -14,7 +14,7 @@
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "model/io/model_file.h"
+#include "io/model_file.h"
 #include "tests/stereo/box_room.h"
 
 namespace omni::stereo {

@@ -1,7 +1,7 @@
-// Panorama look-up tables (model/stereo/panorama.h) and the PLY writer against independent
+// Panorama look-up tables (stereo/panorama.h) and the PLY writer against independent
 // checks: the model's own back projection of each LUT pixel, and the panorama position of 3D
 // points computed from the cylinder geometry.
-#include "model/stereo/panorama.h"
+#include "stereo/panorama.h"
 
 #include <gtest/gtest.h>
 
@@ -12,9 +12,9 @@
 
 #include <unistd.h>
 
-#include "model/io/file_util.h"
-#include "model/io/model_file.h"
-#include "model/io/ply.h"
+#include "io/file_util.h"
+#include "io/model_file.h"
+#include "io/ply.h"
 
 namespace omni::stereo {
 namespace {

@@ -17,8 +17,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "model/io/csv.h"
-#include "model/io/model_file.h"
+#include "io/csv.h"
+#include "io/model_file.h"
 #include "tests/cli_test_util.h"
 
 namespace omni {

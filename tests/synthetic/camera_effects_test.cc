@@ -15,8 +15,8 @@
 
 #include "synthetic/camera_effects.h"
 #include "synthetic/scene_file.h"
-#include "model/io/image_file.h"
-#include "model/io/model_file.h"
+#include "io/image_file.h"
+#include "io/model_file.h"
 #include "model/rig_model.h"
 
 namespace omni::synthetic {

@@ -13,8 +13,8 @@
 #include <yaml-cpp/yaml.h>
 
 #include "model/camera.h"
-#include "model/io/model_file.h"
-#include "model/io/session_file.h"
+#include "io/model_file.h"
+#include "io/session_file.h"
 #include "tests/cli_test_util.h"
 #include "model/rig_model.h"
 

@@ -17,7 +17,7 @@
 #include "synthetic/pov_scene.h"
 #include "synthetic/scene.h"
 #include "synthetic/tag_texture.h"
-#include "model/io/model_file.h"
+#include "io/model_file.h"
 #include "model/rig_model.h"
 #include "tests/render_window.h"
 

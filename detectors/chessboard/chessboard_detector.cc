@@ -1,0 +1,894 @@
+#include "detectors/chessboard/chessboard_detector.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <numeric>
+#include <optional>
+
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "detectors/common/corner_refine.h"
+#include "detectors/common/saddle_points.h"
+
+namespace omni::detectors {
+namespace {
+
+SaddleOptions Saddles(const ChessboardOptions& o) {
+  SaddleOptions s;
+  s.sigma = o.saddle_sigma;
+  s.min_contrast = o.saddle_min_contrast;
+  s.balance = o.saddle_balance;
+  s.min_saddles = o.min_saddles;
+  return s;
+}
+
+// The lattice extent of the board around the most central of a region's X-junctions `p`: they
+// are given integer grid coordinates by growing from it, each step predicted from the step its
+// parent took in that direction (a perspective grid changes slowly from corner to corner) and
+// accepted within 0.3 of a step. Returns the extents (n_a, n_b) along the two grid directions,
+// (0 if no grid grows), the grid's size and box. Used only to choose which pattern to search for first (a search
+// for a wrong pattern costs 5-50 times a successful one); the finders decide.
+struct GridExtent {
+  int a = 0, b = 0;   // extents along the two grid directions (0: no grid)
+  int count = 0;      // X-junctions in the grid
+  cv::Rect box;       // their bounding box (view pixels)
+  std::vector<cv::Point2f> points;  // the grid's X-junctions (view pixels)
+  std::vector<cv::Point> coords;    // their grid coordinates, from (0, 0) to (a - 1, b - 1)
+};
+
+GridExtent GrowGrid(const std::vector<cv::Point2f>& p, double spacing, int seed) {
+  const int n = static_cast<int>(p.size());
+  const auto nearest = [&](const cv::Point2f& at, double within, const std::vector<int>& taken) {
+    int best = -1;
+    double best_d = within;
+    for (int i = 0; i < n; ++i) {
+      const double d = cv::norm(p[i] - at);
+      if (d < best_d && taken[i] < 0) {
+        best_d = d;
+        best = i;
+      }
+    }
+    return best;
+  };
+  // The seed's two grid steps: its nearest neighbour and the nearest one roughly across it.
+  std::vector<int> none(n, -1);
+  none[seed] = 0;
+  const int a = nearest(p[seed], 1.6 * spacing, none);
+  if (a < 0) return {};
+  const cv::Point2f step_a = p[a] - p[seed];
+  int b = -1;
+  double best_b = 1.6 * spacing;
+  for (int i = 0; i < n; ++i) {
+    if (i == seed || i == a) continue;
+    const cv::Point2f d = p[i] - p[seed];
+    const double len = cv::norm(d);
+    const double cosine = std::abs(d.dot(step_a)) / (len * cv::norm(step_a) + 1e-9);
+    if (cosine < 0.5 && len < best_b) {
+      best_b = len;
+      b = i;
+    }
+  }
+  if (b < 0) return {};
+  // Breadth-first growth: grid coordinates and the two local steps of each assigned point.
+  std::vector<int> order(n, -1);
+  std::vector<cv::Point> coord(n);
+  std::vector<std::array<cv::Point2f, 2>> steps(n);
+  std::vector<int> queue{seed};
+  order[seed] = 0;
+  steps[seed] = {step_a, p[b] - p[seed]};
+  int min_a = 0, max_a = 0, min_b = 0, max_b = 0;
+  for (size_t q = 0; q < queue.size(); ++q) {
+    const int i = queue[q];
+    for (int dir = 0; dir < 4; ++dir) {
+      const int axis = dir / 2;
+      const float sign = dir % 2 ? -1.f : 1.f;
+      const cv::Point2f step = sign * steps[i][axis];
+      const int j = nearest(p[i] + step, 0.3 * cv::norm(step), order);
+      if (j < 0) continue;
+      order[j] = static_cast<int>(queue.size());
+      queue.push_back(j);
+      coord[j] = coord[i] + (axis == 0 ? cv::Point(dir % 2 ? -1 : 1, 0) : cv::Point(0, dir % 2 ? -1 : 1));
+      steps[j] = steps[i];
+      steps[j][axis] = sign * (p[j] - p[i]);
+      min_a = std::min(min_a, coord[j].x);
+      max_a = std::max(max_a, coord[j].x);
+      min_b = std::min(min_b, coord[j].y);
+      max_b = std::max(max_b, coord[j].y);
+    }
+  }
+  GridExtent out;
+  out.a = max_a - min_a + 1;
+  out.b = max_b - min_b + 1;
+  out.count = static_cast<int>(queue.size());
+  for (int i : queue) {
+    out.points.push_back(p[i]);
+    out.coords.push_back(coord[i] - cv::Point(min_a, min_b));
+  }
+  out.box = cv::boundingRect(out.points);
+  return out;
+}
+
+// The grid grown from the junction nearest the region's centroid; where that seed's steps are
+// wrong (a stray junction beside the board, or a neighbour the saddle test missed), growth stops
+// after a few points, so the next-nearest seeds are tried too (at most 5) and the largest grid
+// wins. realistic camera, RMSE scene through the ideal rig: a ring-2 board's 22 junctions grew to
+// 5 from the centroid's seed, which ruled out every pattern search (see SearchRegion).
+GridExtent MeasureGrid(const std::vector<cv::Point2f>& p, double spacing) {
+  const int n = static_cast<int>(p.size());
+  if (n < 4) return {};
+  cv::Point2f centroid(0, 0);
+  for (const auto& q : p) centroid += q * (1.0f / n);
+  std::vector<int> seeds(n);
+  for (int i = 0; i < n; ++i) seeds[i] = i;
+  std::sort(seeds.begin(), seeds.end(), [&](int a, int b) {
+    return cv::norm(p[a] - centroid) < cv::norm(p[b] - centroid);
+  });
+  GridExtent best;
+  for (int k = 0; k < std::min(n, 5); ++k) {
+    GridExtent grid = GrowGrid(p, spacing, seeds[k]);
+    if (grid.count > best.count) best = std::move(grid);
+    if (2 * best.count > n) break;  // the seed's grid holds most junctions: the usual case
+  }
+  return best;
+}
+
+
+
+// Index permutations of a rows x cols grid that a board's symmetry allows: 180-degree turns,
+// and for square boards 90-degree turns and transposes; mirror images are filtered later by
+// handedness. perm[new_id] = old index.
+std::vector<std::vector<int>> Relabellings(int rows, int cols) {
+  std::vector<std::vector<int>> out;
+  for (int transpose = 0; transpose < (rows == cols ? 2 : 1); ++transpose) {
+    for (int flip_r = 0; flip_r < 2; ++flip_r) {
+      for (int flip_c = 0; flip_c < 2; ++flip_c) {
+        std::vector<int> perm(rows * cols);
+        for (int r = 0; r < rows; ++r) {
+          for (int c = 0; c < cols; ++c) {
+            int rr = flip_r ? rows - 1 - r : r, cc = flip_c ? cols - 1 - c : c;
+            if (transpose) std::swap(rr, cc);
+            perm[r * cols + c] = rr * cols + cc;
+          }
+        }
+        out.push_back(perm);
+      }
+    }
+  }
+  return out;
+}
+
+// Chooses ids for corners found as a rows x cols grid in a view (see the header's rule: +x to
+// the viewer's left, i.e. view -x; +y up, i.e. view -y; proper handedness).
+// Returns perm with oriented[id] = found[perm[id]]; empty if no relabelling is proper.
+std::vector<int> Orient(const std::vector<cv::Point2f>& found, int rows, int cols) {
+  std::vector<int> best;
+  double best_score = -1e9;
+  for (const auto& perm : Relabellings(rows, cols)) {
+    Eigen::Vector2d dc = Eigen::Vector2d::Zero(), dr = Eigen::Vector2d::Zero();
+    for (int r = 0; r < rows; ++r) {
+      for (int c = 0; c + 1 < cols; ++c) {
+        const cv::Point2f d = found[perm[r * cols + c + 1]] - found[perm[r * cols + c]];
+        dc += Eigen::Vector2d(d.x, d.y);
+      }
+    }
+    for (int r = 0; r + 1 < rows; ++r) {
+      for (int c = 0; c < cols; ++c) {
+        const cv::Point2f d = found[perm[(r + 1) * cols + c]] - found[perm[r * cols + c]];
+        dr += Eigen::Vector2d(d.x, d.y);
+      }
+    }
+    if (dc.x() * dr.y() - dc.y() * dr.x() <= 0) continue;  // a mirror image
+    const double score = -dc.normalized().x() - dr.normalized().y();
+    if (score > best_score) {
+      best_score = score;
+      best = perm;
+    }
+  }
+  return best;
+}
+
+// True if the region lies more centrally in the neighbouring view (views of one ring are evenly
+// spaced in azimuth and overlap) and fits whole in it: it is then searched there only.
+bool BetterInNeighbour(const RingView& view, const cv::Rect& rect, size_t sectors) {
+  const double step = 2 * M_PI / sectors;
+  const double half_fov = std::atan(0.5 * view.width / view.f);
+  // The region's azimuth range from its two sides: the middle of its pixel columns lies farther
+  // from the view's centre than the middle of its angles (tan), and a board midway between two
+  // views then looked better in the other one from both sides (detector_eval_scene 0006: three
+  // inner-ring boards at 3.5 m never searched). Near a tie both views search it (kTie); the
+  // duplicate is removed later.
+  // Taken on the region's middle row: the views look up or down at their ring's elevation, so
+  // a column is not one azimuth, and at the view's middle row a region near the ring's edge
+  // looked farther out than it is in both neighbouring views (realistic_scene 0002: a 5x6
+  // board in ring 2 at the tie between two views was searched in neither).
+  const double row = rect.y + 0.5 * rect.height;
+  const auto azimuth_at = [&](double x) {
+    const Eigen::Vector3d ray = view.RayInCam(Eigen::Vector2d(x, row));
+    return std::atan2(ray.y(), ray.x());
+  };
+  const double left = azimuth_at(rect.x), right = azimuth_at(rect.x + rect.width);
+  const double span = std::remainder(right - left, 2 * M_PI);
+  const double offset =
+      std::abs(std::remainder(left + 0.5 * span - view.azimuth, 2 * M_PI));
+  constexpr double kTie = 0.02;
+  return offset > 0.5 * step + kTie && (step - offset) + 0.5 * std::abs(span) < half_fov - 0.02;
+}
+
+// The view's pixels inside the ring (`edge_margin_rad` = 0) or at least `edge_margin_rad` from
+// its edges. Ring 1's images end in a dark rim band inside the ring's modelled edge (5-7 view
+// pixels = 0.02 rad wide in the calibration_scene_tags renders, ring 2 none): a board square's
+// corner next to it reads as an X-junction like the dark invalid area would (image 0015: three
+// "junctions" read on the rim beyond the top side of a 6x7 board in ring 1 made the
+// whole-board test refuse it; 0 of 42 corners found). So the whole-board test, where a false
+// junction refuses a whole board, reads only the pixels away from the edge; the junction grid,
+// where a junction by the edge is a corner to report, reads all of the ring (with the margin
+// there the demo's board 0008/2, cut by the ring's edge, lost 3 of its 40 corners).
+cv::Mat RingPixels(const RingView& view, double edge_margin_rad) {
+  cv::Mat trusted = view.map_x >= 0;
+  const int margin = static_cast<int>(std::ceil(edge_margin_rad * view.f));
+  if (margin > 0) {
+    cv::erode(trusted, trusted, cv::getStructuringElement(cv::MORPH_RECT, {2 * margin + 1, 2 * margin + 1}),
+              cv::Point(-1, -1), 1, cv::BORDER_CONSTANT, cv::Scalar(255));
+  }
+  return trusted;
+}
+
+// Whether the view shows an X-junction (two dark and two bright sectors alternating) at `p`,
+// read on a circle of `radius` pixels; nullopt if part of the circle is outside the `trusted`
+// pixels (RingPixels) or the view (the dark invalid area and the rim would add sectors). The Hessian saddle test cannot tell this from
+// the corner of a single square (an L-corner has the same balanced Hessian at its tip), the
+// circle can: an L-corner has one dark sector, an X-junction two.
+std::optional<bool> IsXJunction(const RingView& view, const cv::Mat& trusted, const cv::Point2f& p,
+                                double radius) {
+  constexpr int kSamples = 24;
+  radius = std::max(2.0, radius);
+  const cv::Mat& grey = view.image;
+  std::array<float, kSamples> v;
+  for (int k = 0; k < kSamples; ++k) {
+    const double a = 2 * M_PI * k / kSamples;
+    const float x = p.x + static_cast<float>(radius * std::cos(a));
+    const float y = p.y + static_cast<float>(radius * std::sin(a));
+    if (x < 0 || y < 0 || x > grey.cols - 2 || y > grey.rows - 2) return std::nullopt;
+    const int x0 = static_cast<int>(x), y0 = static_cast<int>(y);
+    for (int dy = 0; dy <= 1; ++dy) {
+      for (int dx = 0; dx <= 1; ++dx) {
+        if (!trusted.at<uchar>(y0 + dy, x0 + dx)) return std::nullopt;
+      }
+    }
+    const float fx = x - x0, fy = y - y0;
+    v[k] = (1 - fy) * ((1 - fx) * grey.at<uchar>(y0, x0) + fx * grey.at<uchar>(y0, x0 + 1)) +
+           fy * ((1 - fx) * grey.at<uchar>(y0 + 1, x0) + fx * grey.at<uchar>(y0 + 1, x0 + 1));
+  }
+  const auto [lo, hi] = std::minmax_element(v.begin(), v.end());
+  if (*hi - *lo < 40) return false;
+  const float mid = 0.5f * (*lo + *hi);
+  int changes = 0;
+  for (int k = 0; k < kSamples; ++k) changes += (v[k] > mid) != (v[(k + 1) % kSamples] > mid);
+  return changes == 4;
+}
+
+// The junction grid as a rows x cols corner list in row-major order: the last resort where
+// both OpenCV finders fail on a board the saddle detector saw (demo image 0008: a board whose
+// white margin is cut by the ring's edge, lost by both finders on sharper renders), and the way
+// a board cut by a ring boundary still gives its visible corners. Grid points may be missing
+// only where the ring or the view hides them: their place, predicted by the homography of the
+// grid found, must be too near the edge for the X-junction test (a missing point that the view
+// shows whole means an occlusion or a miss, and the board is refused). So the grid's extents may
+// fall short of the pattern's by one row or column, hidden along one side; when either side
+// could hide it the ids are ambiguous and the board is refused. Missing points get the
+// prediction and `filled` marks them: they help check and orient the board and are never
+// reported (their refinement windows would take in the ring's edge). Ids are left to Orient and
+// the same whole-board and homography checks as the finders' grids.
+bool GridFromJunctions(const RingView& view, const cv::Mat& in_ring, const GridExtent& grid, double spacing, int rows,
+                       int cols, std::vector<cv::Point2f>* corners, std::vector<bool>* filled) {
+  const int n = rows * cols;
+  if (grid.count > n || 4 * grid.count < 3 * n) return false;
+  int solutions = 0;
+  for (int transpose = 0; transpose < 2; ++transpose) {
+    const int extent_c = transpose ? grid.b : grid.a, extent_r = transpose ? grid.a : grid.b;
+    const int short_c = cols - extent_c, short_r = rows - extent_r;
+    if (short_c < 0 || short_r < 0 || short_c + short_r > 1) continue;
+    // The hidden row or column before (shift 1) or after (shift 0) the grid found.
+    for (int shift = 0; shift <= short_c + short_r; ++shift) {
+      std::vector<cv::Point2f> out(n, cv::Point2f(0, 0));
+      std::vector<bool> missing(n, true);
+      std::vector<cv::Point2f> at_grid, at_view;
+      bool ok = true;
+      for (size_t i = 0; i < grid.points.size() && ok; ++i) {
+        const int c = (transpose ? grid.coords[i].y : grid.coords[i].x) + (short_c ? shift : 0);
+        const int r = (transpose ? grid.coords[i].x : grid.coords[i].y) + (short_r ? shift : 0);
+        const int k = r * cols + c;
+        ok = missing[k];
+        missing[k] = false;
+        out[k] = grid.points[i];
+        at_grid.emplace_back(static_cast<float>(c), static_cast<float>(r));
+        at_view.push_back(grid.points[i]);
+      }
+      if (!ok) continue;
+      if (grid.count < n) {
+        const cv::Mat h = cv::findHomography(at_grid, at_view, 0);
+        if (h.empty()) continue;
+        std::vector<cv::Point2f> at, predicted;
+        for (int k = 0; k < n; ++k) {
+          if (missing[k]) at.emplace_back(static_cast<float>(k % cols), static_cast<float>(k / cols));
+        }
+        cv::perspectiveTransform(at, predicted, h);
+        for (int k = 0, j = 0; k < n && ok; ++k) {
+          if (!missing[k]) continue;
+          out[k] = predicted[j++];
+          ok = !IsXJunction(view, in_ring, out[k], 0.35 * spacing).has_value();  // hidden
+        }
+      }
+      if (!ok) continue;
+      ++solutions;
+      *corners = out;
+      *filled = missing;
+    }
+  }
+  return solutions == 1;
+}
+
+// True if a grid of rows x cols corners found in a view (`corners` row-major in view pixels) is
+// a whole board and not part of a larger one: one grid step beyond each side lies the board's
+// outer square corners, which must not be X-junctions: where most of a side's extrapolated
+// points that the view sees are X-junctions, the grid goes on (the corner finders, the sector
+// one especially, accept a sub-grid of a larger board, which would give a smaller target's ids
+// to another board's corners). Points outside the ring or the view are unknown (a board whose
+// outer squares are cut by a ring boundary is still found).
+bool GridIsWholeBoard(const RingView& view, const cv::Mat& trusted,
+                      const std::vector<cv::Point2f>& corners, int rows,
+                      int cols) {
+  if (rows < 2 || cols < 2) return true;
+  const auto at = [&](int r, int c) { return corners[r * cols + c]; };
+  // Each side: (edge corner, its inner neighbour) pairs.
+  std::vector<std::vector<std::pair<cv::Point2f, cv::Point2f>>> sides(4);
+  for (int c = 0; c < cols; ++c) {
+    sides[0].emplace_back(at(0, c), at(1, c));
+    sides[1].emplace_back(at(rows - 1, c), at(rows - 2, c));
+  }
+  for (int r = 0; r < rows; ++r) {
+    sides[2].emplace_back(at(r, 0), at(r, 1));
+    sides[3].emplace_back(at(r, cols - 1), at(r, cols - 2));
+  }
+  for (const auto& side : sides) {
+    int junctions = 0, seen = 0;
+    for (const auto& [edge, inner] : side) {
+      const std::optional<bool> x = IsXJunction(view, trusted, 2 * edge - inner, 0.35 * cv::norm(edge - inner));
+      if (!x) continue;  // beyond the ring or the view: unknown
+      ++seen;
+      junctions += *x ? 1 : 0;
+    }
+    // A lone junction beyond a side is no evidence of a larger board: the ring's dark rim next
+    // to a square's corner passes the circle test too (calibration_scene_tags image 0003).
+    if (junctions >= 2 && 2 * junctions > seen) return false;
+  }
+  return true;
+}
+
+// The refined corners of one board must lie on the board's image: in a view the board is a
+// plane seen by a pinhole (a homography of the target's grid, exact to 0.01 px for the views'
+// rays at 0.5-2 m, measured on ComputeTruth corners), and every corner must sit on its own grid
+// point. The corner finders can return a grid in which some rows or columns are mis-ordered (on
+// the inner ring's 2-3 px squares near 2 m: neighbouring ids swapped, each ~1 px from a true
+// corner); such corners are a large fraction of a square off the grid's homography. Refined raw
+// corners are taken back into the view (exact back-projection), a homography is fitted to them
+// by RANSAC and the board is refused unless (nearly) all corners fit it: a detector that
+// guesses gives wrong ids, which the calibration cannot tell from data. Single outliers in a
+// board that otherwise fits are dropped. Returns false to refuse the whole board.
+bool GridFitsBoard(const RingView& view, const RigModel& model, int cols,
+                   const ChessboardOptions& options, BoardDetection* board) {
+  const size_t n = board->ids.size();
+  if (n < 4) return false;
+  std::vector<cv::Point2f> grid, in_view;
+  for (size_t i = 0; i < n; ++i) {
+    const auto p = view.RawToView(model, board->raw_pixels[i]);
+    if (!p) return false;
+    grid.emplace_back(static_cast<float>(board->ids[i] % cols), static_cast<float>(board->ids[i] / cols));
+    in_view.emplace_back(static_cast<float>(p->x()), static_cast<float>(p->y()));
+  }
+  // The square side in the view from the corners' grid neighbours (median).
+  std::vector<double> sides;
+  for (size_t i = 0; i < n; ++i) {
+    for (size_t j = i + 1; j < n; ++j) {
+      if (std::abs(grid[i].x - grid[j].x) + std::abs(grid[i].y - grid[j].y) == 1) {
+        sides.push_back(cv::norm(in_view[i] - in_view[j]));
+      }
+    }
+  }
+  if (sides.empty()) return false;
+  std::nth_element(sides.begin(), sides.begin() + sides.size() / 2, sides.end());
+  const double side = sides[sides.size() / 2];
+  // RANSAC with a loose tolerance finds the board's homography among mis-ordered corners; the
+  // test itself is in raw pixels (the views magnify the inner ring 2-3 times): the homography's
+  // prediction mapped to the raw image must lie within max_grid_residual_px of the refined
+  // corner. A corner on a neighbouring saddle is a square (>= 2.5 raw px) off, a mis-ordered
+  // one ~1 px, one pulled by the ring's edge 0.7-1 px; good ones < 0.3 px.
+  cv::Mat inlier_mask;
+  cv::Mat h = cv::findHomography(grid, in_view, cv::RANSAC, options.max_grid_ransac_squares * side,
+                                 inlier_mask, 500, 0.999);
+  if (h.empty()) return false;
+  std::vector<cv::Point2f> grid_in, view_in;
+  for (size_t i = 0; i < n; ++i) {
+    if (inlier_mask.at<uchar>(static_cast<int>(i))) {
+      grid_in.push_back(grid[i]);
+      view_in.push_back(in_view[i]);
+    }
+  }
+  // Least squares on the inliers, then again on the corners within the test's tolerance (corners
+  // biased by the ring's edge pull a fit that includes them).
+  std::vector<bool> keep(n);
+  size_t kept = 0;
+  for (int round = 0; round < 3; ++round) {
+    if (grid_in.size() < 4) return false;
+    h = cv::findHomography(grid_in, view_in, 0);
+    if (h.empty()) return false;
+    std::vector<cv::Point2f> predicted;
+    cv::perspectiveTransform(grid, predicted, h);
+    kept = 0;
+    grid_in.clear();
+    view_in.clear();
+    for (size_t i = 0; i < n; ++i) {
+      const auto raw = view.ViewToRaw(Eigen::Vector2d(predicted[i].x, predicted[i].y));
+      keep[i] = raw && (*raw - board->raw_pixels[i]).norm() <= options.max_grid_residual_px;
+      if (!keep[i]) continue;
+      ++kept;
+      grid_in.push_back(grid[i]);
+      view_in.push_back(in_view[i]);
+    }
+  }
+  if (kept < 4 || static_cast<double>(kept) < options.min_grid_inlier_fraction * n) return false;
+  BoardDetection out = *board;
+  out.ids.clear();
+  out.view_pixels.clear();
+  out.raw_pixels.clear();
+  for (size_t i = 0; i < n; ++i) {
+    if (!keep[i]) continue;
+    out.ids.push_back(board->ids[i]);
+    out.view_pixels.push_back(board->view_pixels[i]);
+    out.raw_pixels.push_back(board->raw_pixels[i]);
+  }
+  *board = std::move(out);
+  return true;
+}
+
+// The region of a view as a crop for the corner finders, padded to the region's full size
+// where it runs off the view and with the view's invalid pixels (outside the ring) set to mid
+// grey: a board whose white margin is cut by the ring's edge then still has separable outer
+// squares (against black they merge, and the finders fail near a crop border).
+cv::Mat RegionCrop(const RingView& view, const Region& region) {
+  const cv::Rect inside = region.full & cv::Rect(0, 0, view.width, view.height);
+  cv::Mat crop(region.full.size(), CV_8U, cv::Scalar(128));
+  const cv::Rect dst(inside.tl() - region.full.tl(), inside.size());
+  view.image(inside).copyTo(crop(dst));
+  crop(dst).setTo(128, view.map_x(inside) < 0);
+  return crop;
+}
+
+// One rows x cols grid in a crop by finder 0 or 1. The classic finder (quadrilaterals of a
+// thresholded image) is fast but loses boards whose squares merge with a busy background in the
+// threshold; the sector-based finder (findChessboardCornersSB, a Radon-like corner response and
+// grid growing) finds those at about ten times the cost, so it only runs where the classic one
+// failed or its grid was refused.
+bool FindGrid(const cv::Mat& crop, const TargetSpec& spec, int finder,
+              std::vector<cv::Point2f>* corners) {
+  const cv::Size pattern(spec.cols, spec.rows);
+  const size_t n = static_cast<size_t>(spec.rows * spec.cols);
+  corners->clear();
+  const bool found = finder == 0
+      ? cv::findChessboardCorners(crop, pattern, *corners,
+                                  cv::CALIB_CB_ADAPTIVE_THRESH | cv::CALIB_CB_NORMALIZE_IMAGE)
+      : cv::findChessboardCornersSB(crop, pattern, *corners,
+                                    cv::CALIB_CB_NORMALIZE_IMAGE | cv::CALIB_CB_EXHAUSTIVE);
+  return found && corners->size() == n;
+}
+
+// A grid found in a region's crop made into a board: refined in the view, checked to be a whole
+// board, labelled by the id rule, mapped to the raw image, refined there, checked against the
+// board's homography. nullopt if any check refuses it. `filled` (empty: none) marks grid points
+// that the ring or view hides (GridFromJunctions): they take part in the whole-board test and
+// the orientation only.
+std::optional<BoardDetection> MakeBoard(const cv::Mat& raw_grey, const RingView& view,
+                                        const cv::Mat& trusted,
+                                        const RigModel& model, const TargetSpec& spec,
+                                        const Region& region, std::vector<cv::Point2f> corners,
+                                        std::vector<bool> filled, const ChessboardOptions& options) {
+  filled.resize(corners.size(), false);
+  const cv::Point2f origin(static_cast<float>(region.full.x), static_cast<float>(region.full.y));
+  BoardDetection board;
+  // A window of about a third of a square: the corner finders' initial corners are up to a
+  // few view pixels off in the blurrier (upsampled) inner-ring views, beyond the reach of a
+  // fixed 5x5 window.
+  const int half = std::clamp(static_cast<int>(0.35 * region.spacing), 2, 8);
+  std::vector<cv::Point2f> seen;
+  for (size_t i = 0; i < corners.size(); ++i) {
+    cv::Point2f& c = corners[i];
+    c += origin;
+    if (filled[i]) continue;
+    if (c.x < half + 1 || c.y < half + 1 || c.x > view.width - half - 2 || c.y > view.height - half - 2) {
+      return std::nullopt;
+    }
+    seen.push_back(c);
+  }
+  cv::cornerSubPix(view.image, seen, cv::Size(half, half), cv::Size(-1, -1),
+                   cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 20, 1e-3));
+  for (size_t i = 0, k = 0; i < corners.size(); ++i) {
+    if (!filled[i]) corners[i] = seen[k++];
+  }
+  if (!GridIsWholeBoard(view, trusted, corners, spec.rows, spec.cols)) return std::nullopt;
+  const std::vector<int> perm = Orient(corners, spec.rows, spec.cols);
+  if (perm.empty()) return std::nullopt;
+  std::vector<cv::Point2f> oriented(perm.size());
+  for (size_t i = 0; i < perm.size(); ++i) oriented[i] = corners[perm[i]];
+  board.mirror = view.mirror;
+  Eigen::Vector2d centre = Eigen::Vector2d::Zero();
+  std::vector<std::optional<Eigen::Vector2d>> raw(oriented.size());
+  for (size_t i = 0; i < oriented.size(); ++i) {
+    const Eigen::Vector2d vp(oriented[i].x, oriented[i].y);
+    centre += vp / oriented.size();
+    if (!filled[perm[i]]) raw[i] = view.ViewToRawExact(model, vp);
+  }
+  board.off_centre = (centre - Eigen::Vector2d(view.cx, view.cy)).norm();
+  // Refined raw corners by id (nullopt: hidden, or refused by the refinement) and their windows.
+  std::vector<std::optional<Eigen::Vector2d>> refined(oriented.size());
+  std::vector<int> halves(oriented.size(), 1);
+  std::vector<double> sides(oriented.size(), 0);
+  for (size_t i = 0; i < oriented.size(); ++i) {
+    if (!raw[i]) continue;
+    Eigen::Vector2d pixel = *raw[i];
+    if (options.refine_in_raw) {
+      // The local square side in the raw image from the grid neighbours.
+      const int r = static_cast<int>(i) / spec.cols, c = static_cast<int>(i) % spec.cols;
+      double side = 1e9;
+      for (auto [dr, dc] : {std::pair{0, 1}, {0, -1}, {1, 0}, {-1, 0}}) {
+        const int rr = r + dr, cc = c + dc;
+        if (rr < 0 || cc < 0 || rr >= spec.rows || cc >= spec.cols) continue;
+        const auto& q = raw[rr * spec.cols + cc];
+        if (q) side = std::min(side, (*q - *raw[i]).norm());
+      }
+      // A window of 0.55 squares (half-width): the more of the four squares' edges it holds, the
+      // less the demosaicing's phase-dependent errors and the noise move the corner
+      // (realistic_scene ring 2 chessboards: 0.4 squares 0.140 px mean, 0.55: 0.099; clean
+      // 0.058 -> 0.049; 0.7 reaches the next corners: 0.17). 3x3 on squares under 3 px (the inner
+      // ring near 2 m at 960x720): a 5x5 one there spans neighbouring corners and pulled a third
+      // of them about 1 px off (demo image 0007), which the grid check then refused; at 3-3.75 px
+      // (inner-ring near boards, radially squeezed) 5x5 keeps them (realistic_scene 0011).
+      const int raw_half =
+          side < 3.0 ? 1 : std::clamp(static_cast<int>(std::lround(0.55 * side)), 2, 8);
+      const Eigen::Vector2d before = pixel;
+      if (!RefineCornerInRaw(raw_grey, raw_half, &pixel)) continue;
+      // The views are exact only for points at their distance_mm: on the non-central rig a
+      // near board's mapped corner is off by a few pixels (1.5-3 px measured in ring 1 at
+      // 0.6 m), while a wrong saddle would be a whole square away.
+      const double max_shift =
+          std::max(options.max_refine_shift_px, options.max_refine_shift_squares * side);
+      if ((pixel - before).norm() > max_shift) continue;
+      halves[i] = raw_half;
+      sides[i] = side;
+    }
+    refined[i] = pixel;
+  }
+  // Windows that reach past the corner's own four squares (a board cut by the ring's rim or
+  // lip, its sheet's edge) pulled whole edge rows 0.5-0.9 px off, coherently, which the grid
+  // check cannot see: such corners are refined again in a window that leaves the foreign edge
+  // out, or dropped.
+  if (options.refine_in_raw && options.clean_windows) {
+    KeepWindowsOnTheirSquares(raw_grey, spec.rows, spec.cols, sides, options.min_clean_half,
+                              &halves, &refined, view.RawBlurAt(centre));
+  }
+  // The board's lines from its refined corners, before any is corrected.
+  if (options.refine_in_raw && options.fit_junctions) {
+    FitBoardJunctions(raw_grey, spec.rows, spec.cols, sides, halves, options.junction_window_squares,
+                      &refined);
+  } else if (options.refine_in_raw && options.remove_curvature_bias) {
+    RemoveCurvatureBias(spec.rows, spec.cols, halves, &refined);
+  }
+  for (size_t i = 0; i < oriented.size(); ++i) {
+    if (!refined[i]) continue;
+    board.ids.push_back(static_cast<int>(i));
+    board.view_pixels.emplace_back(oriented[i].x, oriented[i].y);
+    board.raw_pixels.push_back(*refined[i]);
+  }
+  if (!GridFitsBoard(view, model, spec.cols, options, &board)) return std::nullopt;
+  return board;
+}
+
+// The boards in one region of a view. Only the patterns whose rows x cols match the extent of
+// the region's X-junction grid are searched when any does (the board's outer square corners pass
+// the saddle test but are not X-junctions), else those that can hold the grid, nearest first.
+// Pass 0 runs the fast classic finder, pass 1 the junction grid, pass 2 the sector finder where
+// the region's saddle points allow more boards than were found (a failed sector search costs
+// ~60-80 ms, a failed classic one ~10 ms, a successful one 2-20 ms: measured on the demo's
+// 960x720 renders).
+std::vector<BoardDetection> SearchRegion(const cv::Mat& raw_grey, const RingView& view,
+                                         const cv::Mat& in_ring, const cv::Mat& trusted,
+                                         const RigModel& model, const std::vector<TargetSpec>& targets,
+                                         const std::vector<int>& patterns, const Region& region,
+                                         size_t sectors, const ChessboardOptions& options) {
+  std::vector<cv::Point2f> junctions;
+  for (const auto& q : region.points) {
+    if (IsXJunction(view, in_ring, q, 0.35 * region.spacing).value_or(false)) junctions.push_back(q);
+  }
+  const GridExtent grid = MeasureGrid(junctions, region.spacing);
+  std::vector<BoardDetection> found;
+  // A board cut by the view's side lies whole in the neighbouring view and is searched there
+  // (the region's box may be too large to tell, when background saddles join it; the grid's
+  // box tells).
+  if (2 * grid.count > region.saddles && BetterInNeighbour(view, grid.box, sectors)) return found;
+  const auto near = [&](int t, int tolerance) {
+    const int r = targets[t].rows, c = targets[t].cols;
+    return (std::abs(r - grid.a) <= tolerance && std::abs(c - grid.b) <= tolerance) ||
+           (std::abs(r - grid.b) <= tolerance && std::abs(c - grid.a) <= tolerance);
+  };
+  const auto matches = [&](int t) { return near(t, 0); };
+  const bool any_match = std::any_of(patterns.begin(), patterns.end(), matches);
+  // Whether the grid fits in the pattern with at most one extra row or column (a background
+  // junction); beyond that the grid cannot be this pattern's board.
+  const auto holds = [&](int t) {
+    const int r = targets[t].rows, c = targets[t].cols;
+    return (grid.a <= r + 1 && grid.b <= c + 1) || (grid.b <= r + 1 && grid.a <= c + 1);
+  };
+  // Without an exact match the patterns nearest the grid's extent go first (larger first among
+  // equals, as `patterns`): a failed classic search costs 10-25 ms per pattern.
+  std::vector<int> order = patterns;
+  const auto distance = [&](int t) {
+    const int r = targets[t].rows, c = targets[t].cols;
+    return std::min(std::abs(r - grid.a) + std::abs(c - grid.b),
+                    std::abs(r - grid.b) + std::abs(c - grid.a));
+  };
+  std::stable_sort(order.begin(), order.end(),
+                   [&](int a, int b) { return distance(a) < distance(b); });
+  cv::Mat crop = RegionCrop(view, region);
+  int found_here = 0;
+  // The searches, cheapest first: per pattern the classic finder, then the region's own
+  // X-junction grid (~1 ms; it finds the boards cut by a ring's edge that both OpenCV finders
+  // lose: calibration_scene_tags 0006, where the failed sector searches and classic ones for
+  // the other patterns cost 160 ms before it); the sector-based finder after all of them.
+  enum Finder { kClassic, kJunctions, kSector };
+  std::vector<std::pair<Finder, int>> searches;
+  for (int t : order) {
+    searches.emplace_back(kClassic, t);
+    if (options.sector_fallback) searches.emplace_back(kJunctions, t);
+  }
+  for (int t : order) {
+    if (options.sector_fallback) searches.emplace_back(kSector, t);
+  }
+  for (const auto& [finder, t] : searches) {
+    {
+      if (any_match && !matches(t)) continue;
+      const TargetSpec& spec = targets[t];
+      const int n = spec.rows * spec.cols;
+      // Without an exact match: not where the junction grid holds under half the pattern's
+      // corners (tag grids' bits make saddle regions too: searching them cost ~500 ms per
+      // 1280x960 image) or more rows or columns than the pattern has (plus one), and the sector
+      // finder only for patterns within one row or column of the grid (some junctions missed,
+      // or one extra from the background).
+      if (!any_match && (2 * grid.count < n || !holds(t))) continue;
+      if (finder == kSector && !any_match && !near(t, 1)) continue;
+      // Too few saddles for the pattern, unless half its junctions already form a grid it holds
+      // (an underexposed, vignetted board loses a third of its saddles under the threshold:
+      // the harsh preset's 0.55 m board at 1280x960; the classic finder reads its squares).
+      if (n > 1.3 * region.saddles + 2 && 2 * grid.count < n) continue;
+      // Stop at the number of boards the region's saddle points allow (boards bring some extra
+      // saddles at their sheet edges).
+      const int expected = std::clamp(static_cast<int>(region.saddles / (1.5 * n) + 0.5), 1,
+                                      options.max_boards_per_region);
+      while (found_here < expected) {
+        std::vector<cv::Point2f> corners;
+        std::vector<bool> filled;
+        if (finder == kJunctions) {
+          // Junctions are in view pixels; the crop's origin is added back in MakeBoard.
+          if (found_here > 0 ||
+              !GridFromJunctions(view, in_ring, grid, region.spacing, spec.rows, spec.cols, &corners, &filled)) {
+            break;
+          }
+          for (auto& c : corners) c -= cv::Point2f(region.full.tl());
+        } else if (!FindGrid(crop, spec, finder == kClassic ? 0 : 1, &corners)) {
+          break;
+        }
+        std::optional<BoardDetection> board =
+            MakeBoard(raw_grey, view, trusted, model, spec, region, corners, filled, options);
+        // A grid the classic finder or the junctions got wrong (refused: mis-ordered, not a
+        // whole board) is left for the next finder; one the sector finder got wrong is hidden
+        // and counted so that it is not found again.
+        if (!board && finder != kSector) break;
+        ++found_here;
+        // Hide this grid from the next search in the region.
+        std::vector<cv::Point> pts, hull;
+        for (const auto& c : corners) pts.emplace_back(cvRound(c.x), cvRound(c.y));
+        cv::convexHull(pts, hull);
+        cv::fillConvexPoly(crop, hull, cv::Scalar(128));
+        cv::polylines(crop, hull, true, cv::Scalar(128),
+                      std::max(3, static_cast<int>(2.5 * region.spacing)));
+        if (!board) continue;
+        board->target = t;
+        found.push_back(std::move(*board));
+      }
+    }
+  }
+  return found;
+}
+
+}  // namespace
+
+std::vector<BoardDetection> DropRepeatedPlacements(std::vector<BoardDetection> kept,
+                                                   const std::vector<TargetSpec>& targets,
+                                                   std::vector<int>* repeated_sheets) {
+  // A sheet shows each of its corners once per ring: a smaller placement that repeats ids of a
+  // larger one, beyond the number of sheets printed with the pattern, is a false board (a partial
+  // grid of junctions on a Kalibr grid's corner squares next to the true board: hid3 0003, 4
+  // corners 60-100 px off). Parts of one board with no id in common (an occluder between them)
+  // both stay.
+  std::stable_sort(kept.begin(), kept.end(), [](const BoardDetection& a, const BoardDetection& b) {
+    return a.ids.size() > b.ids.size();
+  });
+  std::vector<BoardDetection> placed;
+  for (auto& b : kept) {
+    int sheets = 0, repeated = 0;
+    for (const TargetSpec& t : targets) {
+      sheets += t.type == TargetType::kChessboard && t.rows == targets[b.target].rows &&
+                t.cols == targets[b.target].cols;
+    }
+    for (const auto& k : placed) {
+      if (k.target != b.target || k.mirror != b.mirror) continue;
+      repeated += std::any_of(b.ids.begin(), b.ids.end(), [&](int id) {
+        return std::find(k.ids.begin(), k.ids.end(), id) != k.ids.end();
+      });
+    }
+    if (repeated < sheets) {
+      placed.push_back(std::move(b));
+    } else if (repeated_sheets &&
+               2 * b.ids.size() >= static_cast<size_t>(targets[b.target].rows * targets[b.target].cols)) {
+      repeated_sheets->push_back(b.target);
+    }
+  }
+  return placed;
+}
+
+void SpreadCopiesOverTheirTargets(const RigModel& model, const std::vector<TargetSpec>& targets,
+                                  std::vector<BoardDetection>* boards) {
+  // The azimuth (about C's z) of a copy's mean ray direction; NaN where no corner unprojects.
+  const auto azimuth = [&](const BoardDetection& b) {
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    for (const Eigen::Vector2d& px : b.raw_pixels) {
+      if (const auto ray = model.Unproject(px)) sum += ray->ray.direction;
+    }
+    return sum.head<2>().norm() > 0 ? std::atan2(sum.y(), sum.x()) : std::nan("");
+  };
+  const auto angle_between = [](double a, double b) {
+    return std::abs(std::remainder(a - b, 2 * M_PI));
+  };
+  for (size_t first = 0; first < targets.size(); ++first) {
+    const TargetSpec& spec = targets[first];
+    if (spec.type != TargetType::kChessboard) continue;
+    std::vector<int> siblings;  // the targets printed with this pattern, the first first
+    for (size_t t = 0; t < targets.size(); ++t) {
+      if (targets[t].type == TargetType::kChessboard && targets[t].rows == spec.rows &&
+          targets[t].cols == spec.cols) {
+        siblings.push_back(static_cast<int>(t));
+      }
+    }
+    if (siblings.size() < 2 || siblings[0] != static_cast<int>(first)) continue;
+    // Ring 1's copies in order of azimuth take the siblings in turn; each of ring 2's copies
+    // takes the target of ring 1's copy nearest in azimuth not yet paired, else the next free.
+    std::vector<std::pair<double, BoardDetection*>> ring[2];
+    for (BoardDetection& b : *boards) {
+      if (b.target == static_cast<int>(first)) ring[MirrorIndex(b.mirror) - 1].emplace_back(azimuth(b), &b);
+    }
+    std::sort(ring[0].begin(), ring[0].end(),
+              [](const auto& a, const auto& b) { return a.first < b.first; });
+    size_t next = 0;
+    std::vector<std::pair<double, int>> taken;  // (azimuth, target) of ring 1's copies
+    for (auto& [az, b] : ring[0]) {
+      if (next >= siblings.size()) break;
+      b->target = siblings[next++];
+      taken.emplace_back(az, b->target);
+    }
+    std::vector<bool> paired(taken.size(), false);
+    for (auto& [az, b] : ring[1]) {
+      int best = -1;
+      for (size_t k = 0; k < taken.size(); ++k) {
+        if (paired[k] || std::isnan(az) || std::isnan(taken[k].first)) continue;
+        if (best < 0 || angle_between(az, taken[k].first) < angle_between(az, taken[best].first)) {
+          best = static_cast<int>(k);
+        }
+      }
+      if (best >= 0) {
+        paired[best] = true;
+        b->target = taken[best].second;
+      } else if (next < siblings.size()) {
+        b->target = siblings[next++];
+      }
+    }
+  }
+}
+
+std::vector<BoardDetection> DetectChessboardBoards(const cv::Mat& raw_grey,
+                                                   const std::vector<RingView>& views,
+                                                   const RigModel& model,
+                                                   const std::vector<TargetSpec>& targets,
+                                                   const ChessboardOptions& options,
+                                                   std::vector<int>* repeated) {
+  // Distinct patterns, larger first (a smaller pattern must not claim part of a larger board).
+  std::vector<int> patterns;
+  for (size_t t = 0; t < targets.size(); ++t) {
+    if (targets[t].type != TargetType::kChessboard) continue;
+    bool seen = false;
+    for (int p : patterns) {
+      seen = seen || (targets[p].rows == targets[t].rows && targets[p].cols == targets[t].cols);
+    }
+    if (!seen) patterns.push_back(static_cast<int>(t));
+  }
+  std::sort(patterns.begin(), patterns.end(), [&](int a, int b) {
+    return targets[a].rows * targets[a].cols > targets[b].rows * targets[b].cols;
+  });
+  std::vector<BoardDetection> boards;
+  if (patterns.empty()) return boards;
+
+  for (size_t vi = 0; vi < views.size(); ++vi) {
+    const RingView& view = views[vi];
+    const cv::Mat in_ring = RingPixels(view, 0), trusted = RingPixels(view, options.edge_margin_rad);
+    for (const Region& region : Regions(SaddlePoints(view, Saddles(options)), view.image.size(), Saddles(options), view.f)) {
+      if (BetterInNeighbour(view, region.rect, views.size() / 2)) continue;
+      for (BoardDetection& board : SearchRegion(raw_grey, view, in_ring, trusted, model, targets, patterns, region,
+                                                        views.size() / 2, options)) {
+        board.view = static_cast<int>(vi);
+        boards.push_back(std::move(board));
+      }
+    }
+  }
+
+  // One board seen in two overlapping views: keep the view it is most central in. A smaller
+  // pattern found on corners of a larger one (a sub-grid, e.g. where the larger board runs out
+  // of one view) is dropped whatever its view: larger patterns first.
+  std::sort(boards.begin(), boards.end(), [&](const BoardDetection& a, const BoardDetection& b) {
+    const size_t na = a.ids.size() > 0 ? targets[a.target].rows * targets[a.target].cols : 0;
+    const size_t nb = b.ids.size() > 0 ? targets[b.target].rows * targets[b.target].cols : 0;
+    return na != nb ? na > nb : a.off_centre < b.off_centre;
+  });
+  std::vector<BoardDetection> kept;
+  for (auto& b : boards) {
+    bool duplicate = false;
+    for (const auto& k : kept) {
+      if (k.mirror != b.mirror) continue;
+      for (size_t i = 0; i < b.ids.size() && !duplicate; ++i) {
+        for (size_t j = 0; j < k.ids.size(); ++j) {
+          if ((b.raw_pixels[i] - k.raw_pixels[j]).norm() < 2.0) {
+            duplicate = true;
+            break;
+          }
+        }
+      }
+      if (duplicate) break;
+    }
+    if (!duplicate) kept.push_back(std::move(b));
+  }
+  std::vector<BoardDetection> placed = DropRepeatedPlacements(std::move(kept), targets, repeated);
+  SpreadCopiesOverTheirTargets(model, targets, &placed);
+  return placed;
+}
+
+std::vector<CornerObservation> DetectChessboards(const cv::Mat& raw_grey,
+                                                     const std::vector<RingView>& views,
+                                                     const RigModel& model,
+                                                     const std::vector<TargetSpec>& targets,
+                                                     const ChessboardOptions& options,
+                                                     std::vector<int>* repeated) {
+  std::vector<CornerObservation> out;
+  for (const BoardDetection& b :
+       DetectChessboardBoards(raw_grey, views, model, targets, options, repeated)) {
+    for (size_t i = 0; i < b.ids.size(); ++i) {
+      CornerObservation o;
+      o.target = b.target;
+      o.id = b.ids[i];
+      o.mirror = b.mirror;
+      o.pixel = b.raw_pixels[i];
+      out.push_back(o);
+    }
+  }
+  return out;
+}
+
+}  // namespace omni::detectors
+

@@ -1,0 +1,170 @@
+#include "detectors/common/saddle_points.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <numeric>
+
+#include <opencv2/imgproc.hpp>
+
+namespace omni::detectors {
+
+// Saddle points of the view: local maxima of Ixy^2 - Ixx Iyy (positive where the Hessian is
+// indefinite, i.e. at X-junctions) above the strength of a saddle of `min_contrast` grey levels.
+std::vector<cv::Point2f> SaddlePoints(const RingView& view, const SaddleOptions& options) {
+  const double blur = view.blur_sigma.value_or(-1);
+  RingView::SaddleCache& cache = view.saddle_cache;
+  if (cache.image_data != nullptr && cache.image_data == view.image.data &&
+      cache.image_size == view.image.size() &&
+      cache.sigma == options.sigma && cache.min_contrast == options.min_contrast &&
+      cache.balance == options.balance && cache.blur == blur) {
+    return cache.points;
+  }
+  cache = {};
+  cv::Mat f, ixx, iyy, ixy;
+  view.image.convertTo(f, CV_32F);
+  cv::GaussianBlur(f, f, cv::Size(0, 0), options.sigma);
+  cv::Sobel(f, ixx, CV_32F, 2, 0, 3);
+  cv::Sobel(f, iyy, CV_32F, 0, 2, 3);
+  cv::Sobel(f, ixy, CV_32F, 1, 1, 3);
+  // -det(H), kept only where the saddle is balanced (|trace| small against sqrt(-det)): an
+  // X-junction's Hessian is [[a, b], [b, -a]]; blobs and edges of texture are not. Not next to
+  // the view's invalid area (its edge is a strong false feature). One pass, no temporaries: this
+  // runs on every view several times per image.
+  // (A view cut to a crop keeps its whole view's mask: made afresh then.)
+  const cv::Mat valid_inner = view.valid_for_saddles.size() == view.map_x.size()
+                                  ? view.valid_for_saddles
+                                  : SaddleValidMask(view.map_x);
+  const float balance2 = static_cast<float>(options.balance * options.balance);
+  cv::Mat response(f.size(), CV_32F);
+  for (int y = 0; y < f.rows; ++y) {
+    const float* xx = ixx.ptr<float>(y);
+    const float* yy = iyy.ptr<float>(y);
+    const float* xy = ixy.ptr<float>(y);
+    const uchar* valid = valid_inner.ptr<uchar>(y);
+    float* r = response.ptr<float>(y);
+    for (int x = 0; x < f.cols; ++x) {
+      const float det = xy[x] * xy[x] - xx[x] * yy[x];
+      const float trace = xx[x] + yy[x];
+      r[x] = valid[x] && !(trace * trace > balance2 * det) ? det : 0.0f;
+    }
+  }
+  // An ideal saddle of contrast C blurred by sigma has Ixy = C / (pi sigma^2); the 3x3 Sobel
+  // second derivatives carry a gain of 4 each. The view's own blur adds in quadrature (at least
+  // 0.7 px: the sharpest a render's anti-aliasing and the view's resampling leave).
+  const double blur2 = view.blur_sigma ? *view.blur_sigma * *view.blur_sigma : 0.5;
+  const double s2 = options.sigma * options.sigma + std::max(0.5, blur2);
+  const double ixy_min = 4.0 * options.min_contrast / (M_PI * s2);
+  const float threshold = static_cast<float>(ixy_min * ixy_min);
+  // Local maxima over 5x5 (clipped at the view's border), tested only where the response passes
+  // the threshold: a 5x5 dilation of the whole response was a seventh of this function.
+  std::vector<cv::Point2f> points;
+  for (int y = 0; y < response.rows; ++y) {
+    const float* r = response.ptr<float>(y);
+    for (int x = 0; x < response.cols; ++x) {
+      if (!(r[x] > threshold)) continue;
+      bool peak = true;
+      for (int yy = std::max(0, y - 2); peak && yy <= std::min(response.rows - 1, y + 2); ++yy) {
+        const float* n = response.ptr<float>(yy);
+        for (int xx = std::max(0, x - 2); xx <= std::min(response.cols - 1, x + 2); ++xx) {
+          if (n[xx] > r[x]) {
+            peak = false;
+            break;
+          }
+        }
+      }
+      if (peak) points.emplace_back(x, y);
+    }
+  }
+  if (!view.image.empty()) {
+    cache = {view.image.data, view.image.size(), options.sigma, options.min_contrast,
+             options.balance, blur, points};
+  }
+  return points;
+}
+
+namespace {
+int Find(std::vector<int>& parent, int i) {
+  while (parent[i] != i) i = parent[i] = parent[parent[i]];
+  return i;
+}
+
+}  // namespace
+
+// Groups saddle points into candidate board regions: a point links to another closer than 1.25
+// times the smaller of their 4th-nearest-neighbour distances (a grid corner's 4th neighbour is at
+// most 2 squares away; neighbouring boards are at least 3 squares apart with their margins).
+std::vector<Region> Regions(const std::vector<cv::Point2f>& points, const cv::Size& size,
+                            const SaddleOptions& options, double view_f) {
+  const int n = static_cast<int>(points.size());
+  // Buckets of kCell pixels; neighbours are searched within kReach buckets: ~9.4 degrees of the
+  // view (48 px at the 293 px/rad of a 1280x960 image's views, never less), so that a near
+  // board's squares link at any resolution (at 5 MP a 35 mm square at 0.4 m is ~60 view px).
+  constexpr int kReach = 3;
+  const int kCell = std::max(16, static_cast<int>(std::lround(0.164 * view_f / kReach)));
+  const int bw = size.width / kCell + 1, bh = size.height / kCell + 1;
+  std::vector<std::vector<int>> buckets(bw * bh);
+  for (int i = 0; i < n; ++i) {
+    buckets[static_cast<int>(points[i].y) / kCell * bw + static_cast<int>(points[i].x) / kCell].push_back(i);
+  }
+  auto for_neighbours = [&](int i, auto&& fn) {
+    const int bx = static_cast<int>(points[i].x) / kCell, by = static_cast<int>(points[i].y) / kCell;
+    for (int y = std::max(0, by - kReach); y <= std::min(bh - 1, by + kReach); ++y) {
+      for (int x = std::max(0, bx - kReach); x <= std::min(bw - 1, bx + kReach); ++x) {
+        for (int j : buckets[y * bw + x]) {
+          if (j != i) fn(j, std::hypot(points[i].x - points[j].x, points[i].y - points[j].y));
+        }
+      }
+    }
+  };
+  std::vector<double> nn4(n), nn1(n);
+  for (int i = 0; i < n; ++i) {
+    std::array<double, 4> b;
+    b.fill(kCell * kReach);
+    for_neighbours(i, [&](int, double d) {
+      if (d < b[3]) {
+        b[3] = d;
+        std::sort(b.begin(), b.end());
+      }
+    });
+    nn4[i] = b[3];
+    nn1[i] = b[0];
+  }
+  std::vector<int> parent(n);
+  std::iota(parent.begin(), parent.end(), 0);
+  for (int i = 0; i < n; ++i) {
+    for_neighbours(i, [&](int j, double d) {
+      if (d <= 1.25 * std::min(nn4[i], nn4[j])) parent[Find(parent, i)] = Find(parent, j);
+    });
+  }
+  std::vector<std::vector<int>> members(n);
+  for (int i = 0; i < n; ++i) members[Find(parent, i)].push_back(i);
+  std::vector<Region> regions;
+  for (const auto& m : members) {
+    if (static_cast<int>(m.size()) < options.min_saddles) continue;
+    std::vector<double> spacing;
+    float x0 = 1e9f, y0 = 1e9f, x1 = -1e9f, y1 = -1e9f;
+    for (int i : m) {
+      spacing.push_back(nn1[i]);
+      x0 = std::min(x0, points[i].x);
+      y0 = std::min(y0, points[i].y);
+      x1 = std::max(x1, points[i].x);
+      y1 = std::max(y1, points[i].y);
+    }
+    std::nth_element(spacing.begin(), spacing.begin() + spacing.size() / 2, spacing.end());
+    Region r;
+    r.saddles = static_cast<int>(m.size());
+    for (int i : m) r.points.push_back(points[i]);
+    r.spacing = spacing[spacing.size() / 2];
+    // The outer squares and a quiet zone lie about 1.5 squares beyond the inner corners; the
+    // corner finder needs some background beyond them too.
+    const int margin = static_cast<int>(std::ceil(2.5 * r.spacing + 8));
+    r.full = cv::Rect(cv::Point(static_cast<int>(x0) - margin, static_cast<int>(y0) - margin),
+                      cv::Point(static_cast<int>(x1) + margin + 1, static_cast<int>(y1) + margin + 1));
+    r.rect = r.full & cv::Rect(0, 0, size.width, size.height);
+    regions.push_back(r);
+  }
+  return regions;
+}
+
+}  // namespace omni::detectors

@@ -1,0 +1,56 @@
+// Saddle points (X-junctions) of a ring view and their clusters: where chessboards and Kalibr
+// AprilGrids (whose tag corners are X-junctions, kalibr_detector.h) can be. Shared by the
+// chessboard detector (regions to search) and the tag detector (where the Kalibr quad finder runs).
+//
+// Pixel scales: view pixels throughout (views.h): 1 view px of smoothing before the Hessian, a
+// junction of at least min_contrast grey levels at the view's own measured blur
+// (RingView::blur_sigma), clusters searched within ~9.4 degrees of the view (at least 48 px).
+// Failure modes: a junction of lower contrast or blurred well beyond the ring's sharpest edges
+// gives no saddle point, so its target gets no region; textured scenery gives saddle points too,
+// and forms a region wherever min_saddles of them cluster: the detectors that search the regions
+// decide what is a target.
+#pragma once
+
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "detectors/common/views.h"
+
+namespace omni::detectors {
+
+struct SaddleOptions {
+  double sigma = 1.0;           // view pixels: smoothing before the Hessian
+  // Grey levels across a corner for a saddle point to count, at the view's own blur
+  // (ViewBlurSigma): a blurred X-junction's response falls as 1 / (sigma^2 + blur^2)^2, and the
+  // inner ring's views (upsampled ~1.7x) of a defocused, demosaiced camera image are 2-2.5 view
+  // px blurred against ~0.9 in the outer ring of a clean render.
+  double min_contrast = 125;
+  double balance = 0.5;         // |trace H| <= balance * sqrt(-det H) at a saddle point
+  int min_saddles = 4;          // a cluster with fewer saddle points is not a region
+};
+
+struct Region {
+  cv::Rect rect;      // in view pixels, inside the view
+  cv::Rect full;      // the same before clipping to the view
+  int saddles = 0;
+  double spacing = 0; // median nearest-neighbour distance of its saddle points (~ square side)
+  std::vector<cv::Point2f> points;  // its saddle points
+};
+
+// Saddle points of the view: local maxima of Ixy^2 - Ixx Iyy (positive where the Hessian is
+// indefinite, i.e. at X-junctions) above the strength of a saddle of `min_contrast` grey levels
+// at the view's blur (RingView::blur_sigma), not next to the view's invalid area. Kept in
+// view.saddle_cache: asked again with the same options for the same image, returns that.
+std::vector<cv::Point2f> SaddlePoints(const RingView& view, const SaddleOptions& options);
+
+
+
+// Groups saddle points into candidate regions: a point links to another closer than 1.25 times
+// the smaller of their 4th-nearest-neighbour distances, searched within ~9.4 degrees of a view
+// of `view_f` pixels per radian (at least 48 px). Each region's box has a margin of 2.5 spacings
+// + 8 px beyond its outermost points.
+std::vector<Region> Regions(const std::vector<cv::Point2f>& points, const cv::Size& size,
+                            const SaddleOptions& options, double view_f);
+
+}  // namespace omni::detectors

@@ -1,0 +1,270 @@
+#include "detectors/common/views.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <opencv2/imgproc.hpp>
+
+#include "model/ideal_analysis.h"
+
+namespace omni::detectors {
+namespace {
+
+double Deg(double deg) { return deg * M_PI / 180.0; }
+
+// The outer ring's tangential resolution (pixels per radian of azimuth) at its middle elevation:
+// the radius of that circle in the image, from the ideal model [m1].
+double OuterRingPixelsPerRad(const IdealModel& ideal, const FieldOfView& fov) {
+  const double elevation = 0.5 * (fov.theta1_min + fov.theta1_max);
+  const Eigen::Vector3d point =
+      ideal.Focus1() + 1000.0 * Eigen::Vector3d(std::cos(elevation), 0, std::sin(elevation));
+  Eigen::Vector2d pixel;
+  if (!ideal.Project(point, Mirror::kOne, &pixel)) return ideal.cam.fx * 0.2;
+  return std::hypot(pixel.x() - ideal.cam.cx, (pixel.y() - ideal.cam.cy) * ideal.cam.fx / ideal.cam.fy);
+}
+
+RingView MakeView(const RigModel& model, Mirror mirror, double azimuth, double elevation_lo,
+                  double elevation_hi, double pixels_per_rad, const ViewOptions& options) {
+  RingView v;
+  v.mirror = mirror;
+  v.azimuth = azimuth;
+  v.elevation = 0.5 * (elevation_lo + elevation_hi);
+  v.distance_mm = options.distance_mm;
+  const RigParams& rig = model.params();
+  v.viewpoint_in_cam = mirror == Mirror::kOne
+      ? Focus1InCam(rig.mirror1_pose.data(), rig.mirror1_shape.data())
+      : Focus2InCam(rig.mirror2_pose.data(), rig.mirror2_shape.data(), rig.d);
+  const Eigen::Vector3d forward(std::cos(v.elevation) * std::cos(azimuth),
+                                std::cos(v.elevation) * std::sin(azimuth), std::sin(v.elevation));
+  const Eigen::Vector3d right = forward.cross(Eigen::Vector3d::UnitZ()).normalized();
+  const Eigen::Vector3d down = forward.cross(right);
+  v.cam_from_view.col(0) = right;
+  v.cam_from_view.col(1) = down;
+  v.cam_from_view.col(2) = forward;
+  v.f = pixels_per_rad;
+  const double half_h = std::tan(0.5 * Deg(options.horizontal_fov_deg));
+  const double half_v = std::tan(0.5 * (elevation_hi - elevation_lo));
+  v.width = 2 * static_cast<int>(std::ceil(v.f * half_h));
+  v.height = 2 * static_cast<int>(std::ceil(v.f * half_v));
+  v.cx = 0.5 * (v.width - 1);
+  v.cy = 0.5 * (v.height - 1);
+
+  // Exact projections on a grid of nodes, bilinear inside cells whose four nodes are valid,
+  // exact per pixel in the others (ring boundaries).
+  const int step = std::max(1, options.grid_step);
+  const int nx = (v.width - 1) / step + 2, ny = (v.height - 1) / step + 2;
+  std::vector<std::optional<Eigen::Vector2d>> nodes(nx * ny);
+  for (int j = 0; j < ny; ++j) {
+    for (int i = 0; i < nx; ++i) {
+      nodes[j * nx + i] = v.ViewToRawExact(model, Eigen::Vector2d(i * step, j * step));
+    }
+  }
+  v.map_x.create(v.height, v.width, CV_32F);
+  v.map_y.create(v.height, v.width, CV_32F);
+  for (int y = 0; y < v.height; ++y) {
+    const int j = y / step;
+    const double ty = static_cast<double>(y - j * step) / step;
+    float* mx = v.map_x.ptr<float>(y);
+    float* my = v.map_y.ptr<float>(y);
+    for (int x = 0; x < v.width; ++x) {
+      const int i = x / step;
+      const double tx = static_cast<double>(x - i * step) / step;
+      const auto& n00 = nodes[j * nx + i];
+      const auto& n10 = nodes[j * nx + i + 1];
+      const auto& n01 = nodes[(j + 1) * nx + i];
+      const auto& n11 = nodes[(j + 1) * nx + i + 1];
+      std::optional<Eigen::Vector2d> raw;
+      if (n00 && n10 && n01 && n11) {
+        raw = (1 - ty) * ((1 - tx) * *n00 + tx * *n10) + ty * ((1 - tx) * *n01 + tx * *n11);
+      } else if (n00 || n10 || n01 || n11) {
+        raw = v.ViewToRawExact(model, Eigen::Vector2d(x, y));
+      }
+      const bool inside = raw && raw->x() >= 0 && raw->y() >= 0 &&
+                          raw->x() <= rig.image_width - 1 && raw->y() <= rig.image_height - 1;
+      mx[x] = inside ? static_cast<float>(raw->x()) : -1.f;
+      my[x] = inside ? static_cast<float>(raw->y()) : -1.f;
+    }
+  }
+  cv::convertMaps(v.map_x, v.map_y, v.map_fixed, v.map_interp, CV_16SC2);
+  v.valid_for_blur = BlurValidMask(v.map_x);
+  v.valid_for_saddles = SaddleValidMask(v.map_x);
+  return v;
+}
+
+}  // namespace
+
+Eigen::Vector3d RingView::RayInCam(const Eigen::Vector2d& view_pixel) const {
+  return (cam_from_view * Eigen::Vector3d((view_pixel.x() - cx) / f, (view_pixel.y() - cy) / f, 1))
+      .normalized();
+}
+
+std::optional<Eigen::Vector2d> RingView::ViewPixelOfDirection(const Eigen::Vector3d& dir_in_cam) const {
+  const Eigen::Vector3d d = cam_from_view.transpose() * dir_in_cam;
+  if (!(d.z() > 1e-9)) return std::nullopt;
+  return Eigen::Vector2d(cx + f * d.x() / d.z(), cy + f * d.y() / d.z());
+}
+
+std::optional<Eigen::Vector2d> RingView::ViewToRaw(const Eigen::Vector2d& view_pixel) const {
+  const double x = view_pixel.x(), y = view_pixel.y();
+  if (!(x >= 0 && y >= 0 && x <= width - 1 && y <= height - 1)) return std::nullopt;
+  const int i = std::min(static_cast<int>(x), width - 2), j = std::min(static_cast<int>(y), height - 2);
+  const double tx = x - i, ty = y - j;
+  Eigen::Vector2d out = Eigen::Vector2d::Zero();
+  for (int dj = 0; dj < 2; ++dj) {
+    for (int di = 0; di < 2; ++di) {
+      const float u = map_x.at<float>(j + dj, i + di), w = map_y.at<float>(j + dj, i + di);
+      if (u < 0) return std::nullopt;
+      out += (di ? tx : 1 - tx) * (dj ? ty : 1 - ty) * Eigen::Vector2d(u, w);
+    }
+  }
+  return out;
+}
+
+std::optional<Eigen::Vector2d> RingView::ViewToRawExact(const RigModel& model,
+                                                        const Eigen::Vector2d& view_pixel) const {
+  return model.Project(viewpoint_in_cam + distance_mm * RayInCam(view_pixel), mirror);
+}
+
+std::optional<Eigen::Vector2d> RingView::RawToView(const RigModel& model,
+                                                   const Eigen::Vector2d& raw_pixel) const {
+  const auto ray = model.Unproject(raw_pixel);
+  if (!ray || ray->mirror != mirror) return std::nullopt;
+  // The point on the ray at distance_mm from the viewpoint.
+  const Eigen::Vector3d o = ray->ray.origin - viewpoint_in_cam;
+  const double b = ray->ray.direction.dot(o), c = o.squaredNorm() - distance_mm * distance_mm;
+  if (b * b - c < 0) return std::nullopt;
+  const Eigen::Vector3d point = o + (-b + std::sqrt(b * b - c)) * ray->ray.direction;
+  auto pixel = ViewPixelOfDirection(point.normalized());
+  if (!pixel || pixel->x() < 0 || pixel->y() < 0 || pixel->x() > width - 1 || pixel->y() > height - 1) {
+    return std::nullopt;
+  }
+  return pixel;
+}
+
+double RingView::RawBlurAt(const Eigen::Vector2d& view_pixel) const {
+  if (!blur_sigma) return 0;
+  const auto c = ViewToRaw(view_pixel);
+  const auto x = ViewToRaw(view_pixel + Eigen::Vector2d(2, 0));
+  const auto y = ViewToRaw(view_pixel + Eigen::Vector2d(0, 2));
+  if (!c || !x || !y) return 0;
+  const double det = std::abs((*x - *c).x() * (*y - *c).y() - (*x - *c).y() * (*y - *c).x()) / 4;
+  return *blur_sigma * std::sqrt(det);
+}
+
+std::vector<RingView> MakeRingViews(const RigModel& model, const ViewOptions& options) {
+  const IdealModel ideal = model.params().Ideal();
+  const FieldOfView fov = ComputeFieldOfView(model.params().Design(), ideal.r_ref, ideal.r_cam);
+  const double pixels_per_rad =
+      options.pixels_per_rad > 0 ? options.pixels_per_rad : OuterRingPixelsPerRad(ideal, fov);
+  const double margin = Deg(options.elevation_margin_deg);
+  std::vector<RingView> views;
+  for (Mirror mirror : {Mirror::kOne, Mirror::kTwo}) {
+    double lo = (mirror == Mirror::kOne ? std::min(fov.theta1_min, fov.theta1_max)
+                                        : std::min(fov.theta2_min, fov.theta2_max)) - margin;
+    double hi = (mirror == Mirror::kOne ? std::max(fov.theta1_min, fov.theta1_max)
+                                        : std::max(fov.theta2_min, fov.theta2_max)) + margin;
+    const double cap = Deg(options.max_vertical_fov_deg);
+    if (hi - lo > cap) {  // keep the part nearest the horizon, where targets are
+      const double centre = std::clamp(0.0, lo + 0.5 * cap, hi - 0.5 * cap);
+      lo = centre - 0.5 * cap;
+      hi = centre + 0.5 * cap;
+    }
+    for (int k = 0; k < options.sectors; ++k) {
+      views.push_back(MakeView(model, mirror, 2 * M_PI * k / options.sectors, lo, hi,
+                               pixels_per_rad, options));
+    }
+  }
+  return views;
+}
+
+cv::Mat ToGrey(const cv::Mat& raw) {
+  cv::Mat grey;
+  if (raw.channels() == 3) {
+    cv::cvtColor(raw, grey, cv::COLOR_BGR2GRAY);
+  } else if (raw.channels() == 4) {
+    cv::cvtColor(raw, grey, cv::COLOR_BGRA2GRAY);
+  } else {
+    grey = raw;
+  }
+  if (grey.depth() != CV_8U) {
+    cv::Mat g8;
+    grey.convertTo(g8, CV_8U, grey.depth() == CV_16U ? 1.0 / 257.0 : 1.0);
+    grey = g8;
+  }
+  return grey;
+}
+
+cv::Mat BlurValidMask(const cv::Mat& map_x) {
+  cv::Mat valid;  // the 13 x 13 window must not reach the view's black outside
+  cv::erode(map_x >= 0, valid, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(13, 13)));
+  return valid;
+}
+
+cv::Mat SaddleValidMask(const cv::Mat& map_x) {
+  cv::Mat valid;  // not next to the view's invalid area (its edge is a strong false feature)
+  cv::erode(map_x >= 0, valid, cv::Mat(), cv::Point(-1, -1), 3);
+  return valid;
+}
+
+std::optional<double> ViewBlurSigma(const cv::Mat& view_image, const cv::Mat& map_x) {
+  return BlurWhereValid(view_image, BlurValidMask(map_x));
+}
+
+std::optional<double> BlurWhereValid(const cv::Mat& view_image, const cv::Mat& valid) {
+  CV_Assert(view_image.type() == CV_8U);
+  cv::Mat gx, gy, hi, lo;
+  cv::Sobel(view_image, gx, CV_16S, 1, 0, 3);
+  cv::Sobel(view_image, gy, CV_16S, 0, 1, 3);
+  const cv::Mat box = cv::getStructuringElement(cv::MORPH_RECT, cv::Size(13, 13));
+  cv::dilate(view_image, hi, box);
+  cv::erode(view_image, lo, box);
+  // Every second pixel of every second row: the percentile does not need them all.
+  std::vector<float> ratio;
+  for (int y = 0; y < view_image.rows; y += 2) {
+    const uchar *h = hi.ptr<uchar>(y), *l = lo.ptr<uchar>(y), *ok = valid.ptr<uchar>(y);
+    const int16_t *dx = gx.ptr<int16_t>(y), *dy = gy.ptr<int16_t>(y);
+    for (int x = 0; x < view_image.cols; x += 2) {
+      const int contrast = h[x] - l[x];
+      if (!ok[x] || contrast < 60) continue;
+      // The 3x3 Sobel's gain is 8.
+      ratio.push_back(std::hypot(static_cast<float>(dx[x]), static_cast<float>(dy[x])) /
+                      (8.0f * static_cast<float>(contrast)));
+    }
+  }
+  if (ratio.size() < 200) return std::nullopt;
+  const auto k = ratio.begin() + static_cast<long>(0.98 * (ratio.size() - 1));
+  std::nth_element(ratio.begin(), k, ratio.end());
+  // A step of contrast C blurred by s has a peak gradient C / (sqrt(2 pi) s).
+  const double measured = 1.0 / (std::sqrt(2 * M_PI) * *k);
+  return std::sqrt(std::max(0.0, measured * measured - 0.5));
+}
+
+void RenderViews(const cv::Mat& raw, std::vector<RingView>* views) {
+  const cv::Mat grey = ToGrey(raw);
+  for (RingView& v : *views) {
+    cv::remap(grey, v.image, v.map_fixed, v.map_interp, cv::INTER_LINEAR, cv::BORDER_CONSTANT,
+              cv::Scalar(0));
+    v.saddle_cache = {};
+  }
+  // One blur per ring (its views agree within ~5%): the median over its views that show enough
+  // edges (every view: a scene may show edges in a few views only).
+  for (Mirror mirror : {Mirror::kOne, Mirror::kTwo}) {
+    std::vector<double> measured;
+    for (const RingView& v : *views) {
+      if (v.mirror != mirror) continue;
+      const cv::Mat valid =
+          v.valid_for_blur.size() == v.map_x.size() ? v.valid_for_blur : BlurValidMask(v.map_x);
+      if (const auto b = BlurWhereValid(v.image, valid)) measured.push_back(*b);
+    }
+    std::optional<double> ring_blur;
+    if (!measured.empty()) {
+      std::nth_element(measured.begin(), measured.begin() + measured.size() / 2, measured.end());
+      ring_blur = measured[measured.size() / 2];
+    }
+    for (RingView& v : *views) {
+      if (v.mirror == mirror) v.blur_sigma = ring_blur;
+    }
+  }
+}
+
+}  // namespace omni::detectors
