@@ -1,5 +1,5 @@
 // `omnistereo check --model M --images I[,I...] [--out check.yaml]`: does the stored calibration
-// still describe the rig? (issue 22; health/check.h). Prints the evidence, the statistic with
+// still describe the rig? (health/check.h). Prints the evidence, the statistic with
 // its expected distribution, and the verdict; exit code 0 OK, 3 DRIFTED, 4 CANNOT TELL (2: bad
 // input). --out writes the same as YAML (omnistereo-check/1).
 #include <chrono>

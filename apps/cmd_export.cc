@@ -1,4 +1,4 @@
-// `omnistereo export --model M --format F --out PATH` (issue 20): model data for programs that
+// `omnistereo export --model M --format F --out PATH`: model data for programs that
 // do not link this library.
 //   rays           PATH.npy: the ray table (exports/ray_table.h), --frame cam|mirror1,
 //                  --dtype float32|float64

@@ -1,5 +1,5 @@
 // `omnistereo init --images 'DIR/*.jpg' --design big_rig|small_rig|FILE --targets '[...]'
-// --out session.yaml` (issue 23): a session for a built rig's photos. Reads the images' size
+// --out session.yaml`: a session for a built rig's photos. Reads the images' size
 // (all must agree), picks the starting model (the design at that size; its intrinsics from the
 // lips when the first images show them, else from the image size), lists the images and writes
 // the session with comments, and the starting model beside it (start_model.yaml). Nothing is

@@ -1,6 +1,6 @@
 // `omnistereo refine --model M --images I[,I...] --out refined.yaml [--estimate groups]
 // [--truth_model T]`: target-free refinement of what moved since the calibration, from photos of
-// any textured scene (issue 22; health/refine.h). Prints the check before, the parameters
+// any textured scene (health/refine.h). Prints the check before, the parameters
 // refined (before, after, change, sigma) and those the photos cannot determine (held, with what
 // would determine them), and the check after; writes the refined model (atomically). With
 // --truth_model (synthetic photos) also the truth column and the projection difference from the

@@ -1,6 +1,6 @@
 // `omnistereo target --type chessboard|apriltag_grid|kalibr_aprilgrid --rows R --cols C
 // --size MM [--spacing S --first_id N] --out file.pdf|.svg|.png [--paper A4 --dpi 300]`
-// (issue 23): a printable target at its exact physical size (print/target_sheet.h), its session
+//: a printable target at its exact physical size (print/target_sheet.h), its session
 // entry printed on stdout and on the sheet.
 #include <cstdio>
 #include <string>

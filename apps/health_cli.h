@@ -1,4 +1,4 @@
-// What `check` and `refine` share (issue 22): the stored model, the photos of --image/--images
+// What `check` and `refine` share: the stored model, the photos of --image/--images
 // read as the camera wrote them (--bayer, --tone), and their evidence (health/evidence.h).
 #pragma once
 

@@ -1,4 +1,4 @@
-// Progress of a long step on stderr (issue 19): on a terminal, one status line updated in place
+// Progress of a long step on stderr: on a terminal, one status line updated in place
 // under the step's own lines: "render 5/16, 75 s, about 165 s left" for a step of counted items,
 // "calibrate: stage alignment, iteration 12, 4 s" for a step of stages (total 0). When stderr is
 // not a terminal (a log file, a pipe, CI) the step's own lines only, plain, no control codes.

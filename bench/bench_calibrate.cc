@@ -1,5 +1,5 @@
-// Speed and memory of the calibration solve (issue #6: a 20-image session of ~10k corner
-// observations in <= 5 s wall on 2 cores, peak memory <= 1 GB; issue 17: <= 2 s). A timed run,
+// Speed and memory of the calibration solve (a 20-image session of ~10k corner
+// observations in <= 5 s wall on 2 cores, peak memory <= 1 GB; then <= 2 s). A timed run,
 // not a Google Benchmark loop (one solve is seconds): the misaligned big rig's exact corners from
 // synthetic's fast path plus 0.1 px noise, lips as the detector reports them, the ideal
 // design as the start, the session's default solver options (2 threads).
@@ -7,7 +7,7 @@
 // values_out.txt (optional): one line per refined parameter "name value sigma" (internal units),
 // to compare two builds' answers (a speed change must not move them by more than ~0.1 sigma).
 //
-// Scene mode (issue 17's big, near session: <= 10 s wall for 24 images):
+// Scene mode (a big, near session: <= 10 s wall for 24 images):
 //   bench_calibrate SCENE.yaml RIG.yaml [corner_noise_px=0.05] [lip_profiles=360] [values_out.txt]
 // the scene file's placements through RIG (the truth) on the fast path, exact corners plus
 // Gaussian noise, lips from the truth with 0.03 px noise (lip_profiles 0: none), started from
@@ -46,7 +46,7 @@ using namespace omni;
 
 namespace {
 
-// Monte Carlo mode (issue 17: the sigmas within 20% on a realistic-preset session):
+// Monte Carlo mode (the sigmas within 20% on a realistic-preset session):
 //   bench_calibrate montecarlo SESSION.yaml DETECTIONS.yaml [solves=50] [workers=2]
 // calibrates the session's real detections once (from the session's model, its options): the
 // reference R0. Then each of `solves` synthetic sessions keeps exactly the observations R0 used,

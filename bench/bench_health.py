@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Timed, counted run of the in-field health check and the target-free refinement (issue 22).
+"""Timed, counted run of the in-field health check and the target-free refinement.
 
 usage: /usr/bin/python3 bench/bench_health.py [--out DIR] [--trials N] [--jobs J]
        (from the repository, after the build: uses build/apps/omnistereo)

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Timed run of the Python module (issue 20's target: 1e6 points projected in <= 0.5 s).
+"""Timed run of the Python module (target: 1e6 points projected in <= 0.5 s).
 
 usage: PYTHONPATH=build/python /usr/bin/python3 bench/bench_python.py [MODEL]
 Projects 1e6 points 0.3-8 m around the rig via each mirror, back-projects 1e6 pixels and

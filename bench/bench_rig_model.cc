@@ -60,7 +60,7 @@ void BM_RigProjectDouble(benchmark::State& state) {
 }
 BENCHMARK(BM_RigProjectDouble);
 
-// Machined mirrors (issue 40): every profile term and a ripple on both mirrors. Target: >= 1 M
+// Machined mirrors: every profile term and a ripple on both mirrors. Target: >= 1 M
 // projections / s per core.
 RigParams ProfiledRig() {
   RigParams rig = MisalignedRig();

@@ -1,6 +1,5 @@
-// 3D sensing speed (issues #7, #38): dense depth per frame (remap, SGBM, sub-pixel refinement +
-// triangulation), set-up excluded (DenseStereo built once), in the three configurations of
-// issue 38, on 1 and 2 threads:
+// 3D sensing speed: dense depth per frame (remap, SGBM, sub-pixel refinement + triangulation),
+// set-up excluded (DenseStereo built once), in three configurations, on 1 and 2 threads:
 //   BM_DepthFrame/0: a 1280x960 frame, 1280-wide panoramas (1280 x 435), 64 disparities;
 //   BM_DepthFrame/1: the same frame, 2048-wide panoramas, 64 disparities;
 //   BM_DepthFrame/2: a 5 MP webcam frame (2592x1944) at its full angular resolution (2592-wide

@@ -157,7 +157,7 @@ int main(int argc, char** argv) {
   std::map<std::pair<int, int>, Bin> by_kind;  // (target type, mirror), all ranges
   std::map<std::pair<int, int>, Bin> guided_by_kind;  // the same, guided corners only
   // The same for corners whose nearest other corner of their target in their ring is at least
-  // kSpacedPx away (true pixels): issue 17's recall applies to junctions resolved that far apart.
+  // kSpacedPx away (true pixels): the recall target applies to junctions resolved that far apart.
   const double kSpacedPx = 4.0;
   std::map<std::pair<int, int>, Bin> spaced_by_kind;
   // Issue 39's acceptance: whole targets (one placement in one ring) whose junctions are at least

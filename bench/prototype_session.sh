@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Timed CLI run of the paper's prototype as a user photographs it (issue 39): the 10-photo
+# Timed CLI run of the paper's prototype as a user photographs it: the 10-photo
 # 5 MP session of sample_configs/prototype_scene.yaml (webcam preset, three posts), rendered once
 # into DIR (~45 s per frame per POV-Ray process; kept for later runs), then followed as
 # docs/guide.md says: init --posts 3, detect, calibrate. Prints each step's wall and CPU time and

@@ -328,11 +328,9 @@ CalibrationResult Calibrate(const RigParams& start, const std::vector<TargetSpec
   // The lip edge points enter now, not in the robust stages: there every pixel weighed alike,
   // and tens of thousands of lip points (correlated along each edge and over the images, and
   // biased where the detector reports a band edge on the wrong curve) outweighed a few thousand
-  // corners: on issue 17's near session (2821 corners, 55924 lip points) the alignment stage ran
-  // 100 iterations to 4.8 px and the re-weighting then rejected 1115 corners; corners alone
-  // converge there in 17 iterations to 0.155 px. So the corners solve the rig, the azimuths of
-  // the lip points are found at that rig, and the lips come in with the weight their own
-  // residuals give them.
+  // corners and pulled the rig off them (docs/experiments.md). So the corners solve the rig, the
+  // azimuths of the lip points are found at that rig, and the lips come in with the weight their
+  // own residuals give them.
   if (!c.observations.lips.empty()) {
     InitialiseLipAzimuths(c.rig, &c.observations.lips);
     NormalLipPoints(options, &c.observations.lips);

@@ -92,7 +92,7 @@ struct CalibrationOptions {
   // profile acts on (ProfileCoverage); otherwise held and considered with that sigma. "free":
   // always freed; "hold": always held and considered. A profile of microns bends rays by
   // milliradians: held at the conic, it hides in the mirrors' heights and the focal length while
-  // the residuals stay at the noise (issue 40: 10 um moved both tz by 3 mm at 10 sigma).
+  // the residuals stay at the noise (10 um moved both tz by 3 mm at 10 sigma).
   std::string profile = "auto";
   // A machined mirror's profile tolerance: the sigma of each term (half its peak-to-valley), mm.
   double profile_sigma_mm = 0.002;

@@ -235,11 +235,10 @@ std::vector<std::vector<size_t>> AzimuthBins(const std::vector<LipObservation>& 
 // (its sagitta over 0.25 deg is ~1e-6 px), and their mean keeps what they say across the edge
 // (white noise averages as over the points; a detector's bias, the same in every image, stays
 // what it is) while the solve carries one residual and one azimuth instead of one per image:
-// issue 17's near session 55924 points -> ~2500 normal points, the lips were ~80% of the solve's
-// time. A bin's mean is taken over the points within 5 robust sigmas (the edge's MAD about its
-// bins' medians) of its median offset across the edge, so a point on the wrong curve in a few
-// images does not drag it; each normal point's residual group weight then comes from the
-// variance components as before.
+// ~2500 normal points instead of ~56k lip points on a near session (docs/experiments.md). A bin's
+// mean is taken over the points within 5 robust sigmas (the edge's MAD about its bins' medians)
+// of its median offset across the edge, so a point on the wrong curve in a few images does not
+// drag it; each normal point's residual group weight then comes from the variance components.
 void NormalLipPoints(const CalibrationOptions& options, std::vector<LipObservation>* lip_points) {
   std::vector<LipObservation>& lips = *lip_points;
   std::map<std::pair<int, double>, std::vector<size_t>> edges;

@@ -1,4 +1,4 @@
-// Each mirror's profile in the calibration (issue 40): held and considered, or freed with a
+// Each mirror's profile in the calibration: held and considered, or freed with a
 // manufacturing-tolerance prior where the corners cover the radii it acts on; and the corners'
 // radial residual pattern along each mirror's radius, which shows a profile the model lacks.
 #include <algorithm>

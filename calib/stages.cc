@@ -224,7 +224,7 @@ StageReport SolveStage(const Stage& stage, const CalibrationOptions& options,
   // Worse: the solver's own cost rose (it never accepts such a step; a cost that fails to
   // evaluate at the end would show here), or the corners' RMS rose by more than 2%: the corners
   // are what the rig is calibrated from, and a stage that trades them for other residuals has
-  // been pulled off by them (issue 17: lip points on the wrong curve took a stage from 0.56 to
+  // been pulled off by them (lip points on the wrong curve took a stage from 0.56 to
   // 1.38 px). Such a stage is undone and said so; the calibration goes on from where it began.
   const bool worse = summary.final_cost > summary.initial_cost ||
                      report.final_rms_px > 1.02 * report.initial_rms_px + 1e-3;

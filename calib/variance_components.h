@@ -1,4 +1,4 @@
-// Per-group noise estimation for the calibration (issue #6, "honest sigmas"): the corners of
+// Per-group noise estimation for the calibration ("honest sigmas"): the corners of
 // ring 1, the corners of ring 2 and the lip edge points have different noise (detector, blur of
 // each ring, anti-aliased lip edges), so one posterior variance factor for all of them lets the
 // most numerous group (the lips, ~10k points) set the scale of everyone's sigma. Each group g gets

@@ -87,7 +87,7 @@ ImageEffect SimulateImageEffect(const RigParams& nominal, const ToleranceSpec& s
                                 double range_mm, unsigned seed,
                                 const std::function<void(int, int)>& progress = {});
 
-// What machining accuracy a rig needs (issue 40): `samples` random smooth profiles on both
+// What machining accuracy a rig needs: `samples` random smooth profiles on both
 // mirrors, each of peak-to-valley `pv_mm`, and what they do to points the nominal rig sees in
 // both rings: the 95th percentile of the pixel shift at 1 m per ring, and of the relative range
 // error at 2 m of a point triangulated with the nominal model from the machined rig's pixels.

@@ -1,4 +1,4 @@
-// Guided detection across rings (issue 17): a target identified in one ring gives its pose, the
+// Guided detection across rings: a target identified in one ring gives its pose, the
 // pose predicts its junctions in the other ring, and they are looked for there without
 // decoding. For the inner ring's small tags (about 2 raw px per bit: too small to read) and
 // chessboards that one ring's finders lose (cut by a ring's edge, near boards), whose corners

@@ -1,4 +1,4 @@
-// The central approximations (central_fit.h) in other packages' calibration files (issue 20):
+// The central approximations (central_fit.h) in other packages' calibration files:
 //  - Kalibr's camchain YAML: cam0 = ring 1 (mirror 1, outer), cam1 = ring 2 (mirror 2, inner),
 //    camera_model omni, intrinsics [xi, fu, fv, pu, pv], distortion_model radtan,
 //    distortion_coeffs [k1, k2, r1, r2], resolution [w, h]; T_cn_cnm1 (cam1 from cam0) and

@@ -1,4 +1,4 @@
-// Central approximations of the calibrated non-central rig, one per ring (issue 20), for the
+// Central approximations of the calibrated non-central rig, one per ring, for the
 // packages that only know central cameras (Kalibr, basalt, OpenVINS, VINS): each ring becomes a
 // virtual central camera with its own pose in the rig frame and the unified (Kalibr omni+radtan)
 // or double-sphere (basalt ds) intrinsics (central_models.h), fitted by least squares in pixels

@@ -1,4 +1,4 @@
-// Central camera models of other packages, as those packages define them (issue 20), templated
+// Central camera models of other packages, as those packages define them, templated
 // for Ceres: the fits (central_fit.h) and their evaluation use these, and the tests re-project
 // the written files with their own Python copies of the same published formulas.
 //

@@ -1,4 +1,4 @@
-// The panorama maps export (issue 20): the cv::remap look-up tables of both rings' panoramas,
+// The panorama maps export: the cv::remap look-up tables of both rings' panoramas,
 // the same ones `panorama` and `depth` use (stereo/panorama.h), with the tables that turn
 // a panorama row into an elevation and a column into an azimuth, so that any stereo matcher can
 // run on the rectified pair (epipolar lines are the panorama columns).

@@ -1,4 +1,4 @@
-// The ray table export (issue 20): for every pixel of the image and each ring, the back-projected
+// The ray table export: for every pixel of the image and each ring, the back-projected
 // ray of the calibrated (non-central) model, so that other programs can triangulate without our
 // library.
 //

@@ -1,4 +1,4 @@
-// The in-field health check (issue 22): does a stored calibration still describe the rig, and if
+// The in-field health check: does a stored calibration still describe the rig, and if
 // not, which group moved? From images of whatever scene the rig sees, no target needed.
 //
 // Evidence per image (health/evidence.h, collected by apps/health_cli.cc): ring-to-ring matches of

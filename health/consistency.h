@@ -1,4 +1,4 @@
-// What a stored model says about one image of the natural scene (the in-field check, issue 22):
+// What a stored model says about one image of the natural scene (the in-field check):
 // how far each ring-to-ring match and each lip edge point lies from where the model puts it.
 // Both are signed, so a rig that moved shows as a pattern over the azimuth, not as noise.
 #pragma once

@@ -1,6 +1,6 @@
 // The ways a calibrated rig can move after its calibration (a knock, a crash), as small changes
 // of the stored model: what the in-field check fits to name the group that moved, and what the
-// target-free refinement estimates (issue 22).
+// target-free refinement estimates.
 //
 // Groups:
 //   camera   the camera against both mirrors: its intrinsics fx, fy, cx, cy (a lens knocked or

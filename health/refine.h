@@ -1,4 +1,4 @@
-// Target-free refinement from natural images (issue 22, `omnistereo refine`): re-estimate what
+// Target-free refinement from natural images (`omnistereo refine`): re-estimate what
 // moved since the calibration from what check.h measures, with covariance.
 //
 // What the natural scene determines: the ring-to-ring matches fix the geometry of mirror 2 and

@@ -1,4 +1,4 @@
-// Natural-feature matches between the two rings of one image (the in-field check, issue 22).
+// Natural-feature matches between the two rings of one image (the in-field check).
 //
 // A point of the scene seen in both rings must satisfy the rig's geometry: its ring-2 image lies
 // on the epipolar curve of its ring-1 ray. To test that, a match must NOT be sought along that

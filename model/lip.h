@@ -132,7 +132,7 @@ bool ProjectLipPoint(const RigBlocks<T>& b, const RigFixed& fixed, LipPath path,
 // What bounds a lip band at an edge point (ProjectLipEdge).
 enum class LipBound { kCircle, kReflexRim };
 
-// The band edge a lip circle gives along a path, with the occlusion followed (issue #17): the
+// The band edge a lip circle gives along a path, with the occlusion followed: the
 // image of the point at azimuth phi on the circle (ProjectLipPoint) where the path sees it, and
 // where the reflex disc's rim hides it (via_reflex: the camera ray to the point's mirror image
 // crosses the reflex plane more than disc_radius_mm from the disc's centre) the image of the rim

@@ -1,4 +1,4 @@
-// A machined mirror's profile error: a smooth sag correction on top of the conic (issue 40).
+// A machined mirror's profile error: a smooth sag correction on top of the conic.
 //
 // A CNC-machined mirror is not an exact hyperboloid. Its surface in the mirror's body frame is
 //   z(x, y) = Z(r) + sag(x, y),   r = sqrt(x^2 + y^2)

@@ -1,4 +1,4 @@
-// The mount that holds a built rig together (issue 39): the paper's prototype hangs mirror 1 over
+// The mount that holds a built rig together: the paper's prototype hangs mirror 1 over
 // mirror 2 on three thin standoffs instead of a glass tube. Each post is a square prism of side
 // `width` standing parallel to the body's axis at distance `radius` from it, one face towards the
 // axis, from z_min to z_max, in the body frame of the mirror it is fixed in (`body`, mirror 1 by

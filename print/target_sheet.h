@@ -1,4 +1,4 @@
-// Printable calibration targets (issue 23): a target drawn at its exact physical size on a
+// Printable calibration targets: a target drawn at its exact physical size on a
 // sheet of paper, as PDF (cairo), SVG (text) or PNG (cairo, at a stated dpi), from the same
 // texture the renderer maps onto its targets (synthetic/tag_texture.h SheetTexture), so that
 // what is printed is what the detectors are tested on.

@@ -1,4 +1,4 @@
-// The `omnistereo` Python module (issue 20): the calibrated non-central model for Python users,
+// The `omnistereo` Python module: the calibrated non-central model for Python users,
 // vectorised over numpy arrays (the loops run in C++, in parallel, without the GIL), plus the
 // detectors and the files a calibration reads and writes. The maths is the library's: RigModel
 // (projection, back-projection), Triangulator (midpoint / refined point with covariance),

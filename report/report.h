@@ -1,4 +1,4 @@
-// The calibration report (issue 19): DIR/index.html with its images beside it, self-contained
+// The calibration report: DIR/index.html with its images beside it, self-contained
 // (no external URL, no script), viewable offline in any browser. What a user needs to judge a
 // calibration at a glance: the verdict and residuals per ring against the noise, the parameter
 // table with sigmas, where the corners were (coverage), where the model is trustworthy

@@ -90,7 +90,7 @@ std::optional<CameraEffects> CameraPreset(const std::string& name) {
     return e;
   }
   if (name == "webcam") {
-    // The paper's prototype camera (a 5-megapixel USB webcam, 2592x1944, MJPEG; issue 39): the
+    // The paper's prototype camera (a 5-megapixel USB webcam, 2592x1944, MJPEG): the
     // harsh chain's blur scaled by the pixel size (2.025x the pixels of 1280x960 across), small
     // pixels' noise, its JPEG at quality 80. The image size is the scene's (image:).
     e.defocus_sigma_px[0] = 1.8;

@@ -1,4 +1,4 @@
-// The posts of a rig's mount found in its photos (issue 39): the paper's prototype hangs mirror 1
+// The posts of a rig's mount found in its photos: the paper's prototype hangs mirror 1
 // over mirror 2 on thin standoffs, which every photo shows as plain radial bands at the same
 // azimuths across both rings (detectors/common/views.h's rings: the world seen via each mirror).
 //
