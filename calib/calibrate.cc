@@ -287,6 +287,25 @@ void FillResult(const std::vector<TargetSpec>& targets, const Calibration& c, in
 
 }  // namespace
 
+std::string CalibrationOptions::Check() const {
+  for (const auto& g : estimate) {
+    if (BlockParameterNames(g).empty()) return "estimate: unknown parameter group '" + g + "'";
+  }
+  if (estimate.empty()) {
+    std::string usual;
+    for (const std::string& g : DefaultEstimateBlocks()) usual += (usual.empty() ? "" : ", ") + g;
+    return "nothing to estimate: the session's estimate: names no parameter group (usually [" +
+           usual + "])";
+  }
+  if (profile != "auto" && profile != "free" && profile != "hold" && profile != "off") {
+    return "profile: expected auto, free, hold or off, got '" + profile + "'";
+  }
+  if (profile != "off" && !(profile_sigma_mm > 0)) {
+    return "profile_sigma_mm: expected a tolerance > 0 mm, got " + std::to_string(profile_sigma_mm);
+  }
+  return "";
+}
+
 std::map<std::string, double> DefaultConsideredSigmas() {
   std::map<std::string, double> sigmas;
   for (const RigParameter* p : ParametersWithRole(SolveRole::kTangential)) sigmas[p->name] = 5e-4;
@@ -295,17 +314,7 @@ std::map<std::string, double> DefaultConsideredSigmas() {
 
 CalibrationResult Calibrate(const RigParams& start, const std::vector<TargetSpec>& targets,
                             const Observations& detections, const CalibrationOptions& options) {
-  for (const auto& g : options.estimate) {
-    if (BlockParameterNames(g).empty()) {
-      throw InputError("estimate: unknown parameter group '" + g + "'");
-    }
-  }
-  if (options.estimate.empty()) {
-    std::string usual;
-    for (const std::string& g : DefaultEstimateBlocks()) usual += (usual.empty() ? "" : ", ") + g;
-    throw CalibrationError("nothing to estimate: the session's estimate: names no parameter "
-                           "group (usually [" + usual + "])");
-  }
+  if (const std::string error = options.Check(); !error.empty()) throw CalibrationError(error);
   // The rig from the start (every mirror with a profile), what is refined, the observations.
   Calibration c;
   c.refined = RefinementOf(options);

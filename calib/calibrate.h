@@ -115,6 +115,10 @@ struct CalibrationOptions {
   // What the solve is doing now ("stage alignment, iteration 12, rms 0.412 px"), called per
   // solver iteration for a terminal's status line (apps/progress.h); may be empty.
   std::function<void(const std::string&)> status;
+
+  // Empty if the options are consistent, else what is wrong, naming the session key: an estimate
+  // naming an unknown group or none, an unknown profile mode, a profile tolerance <= 0.
+  std::string Check() const;
 };
 
 // One observation that was left out of the final solve, and why.

@@ -27,13 +27,7 @@ ProfileState SetUpProfiles(const RigParams& start, const CalibrationOptions& opt
   ProfileState profiles;
   refined->profile_sigma_mm = options.profile_sigma_mm;
   const std::string& mode = options.profile;
-  if (mode != "auto" && mode != "free" && mode != "hold" && mode != "off") {
-    throw InputError("profile: expected auto, free, hold or off, got '" + mode + "'");
-  }
-  if (mode != "off" && !(options.profile_sigma_mm > 0)) {
-    throw InputError("profile_sigma_mm: expected a tolerance > 0 mm, got " +
-                     std::to_string(options.profile_sigma_mm));
-  }
+  // The mode and the tolerance are valid (CalibrationOptions::Check, in Calibrate).
   for (int m = 0; m < 2; ++m) {
     ProfileShape& shape = m == 0 ? rig->profile1 : rig->profile2;
     auto& coeffs = m == 0 ? rig->mirror1_profile : rig->mirror2_profile;

@@ -150,6 +150,116 @@ std::vector<TargetSpec> ParseTargetList(const std::string& text, const std::stri
   return targets;
 }
 
+namespace {
+
+// The camera's image keys: the Bayer pattern of raw frames and the tone curve.
+void ReadImageKeys(const Reader& in, const YAML::Node& root, Session* session) {
+  if (root["bayer"].IsDefined()) {
+    const YAML::Node bayer = root["bayer"];
+    const auto pattern = ParseBayerPattern(bayer.IsScalar() ? bayer.Scalar() : "?");
+    if (!pattern) in.Fail("bayer", "expected RGGB, BGGR, GRBG, GBRG or none", Describe(bayer));
+    session->bayer = *pattern;
+    if (session->bayer != BayerPattern::kNone) session->tone = ToneCurve::kLinear;
+  }
+  if (root["tone"].IsDefined()) {
+    const YAML::Node tone = root["tone"];
+    const auto curve = ParseToneCurve(tone.IsScalar() ? tone.Scalar() : "?");
+    if (!curve) in.Fail("tone", "expected srgb (colour cameras, JPEG) or linear (raw frames, gamma off)", Describe(tone));
+    session->tone = *curve;
+  }
+}
+
+// `estimate`: the parameter groups (blocks) to refine, each once; the table's default without it.
+void ReadEstimate(const Reader& in, const YAML::Node& root, Session* session) {
+  if (root["estimate"].IsDefined()) {
+    session->estimate = in.Strings(root, "", "estimate");
+    if (session->estimate.empty()) {
+      std::string usual;
+      for (const std::string& g : DefaultEstimateBlocks()) usual += (usual.empty() ? "" : ", ") + g;
+      in.Fail("estimate", "expected at least one parameter group (usually [" + usual + "])",
+              "an empty list");
+    }
+    std::set<std::string> seen;
+    for (std::size_t i = 0; i < session->estimate.size(); ++i) {
+      const std::string& g = session->estimate[i];
+      const auto& known = EstimableGroups();
+      if (std::find(known.begin(), known.end(), g) == known.end()) {
+        std::string choices;
+        for (const auto& k : known) choices += (choices.empty() ? "" : ", ") + k;
+        in.Fail("estimate[" + std::to_string(i) + "]", "expected one of " + choices,
+                Describe(root["estimate"][i]));
+      }
+      if (!seen.insert(g).second) in.Fail("estimate[" + std::to_string(i) + "]", "expected each group once", "'" + g + "' twice");
+    }
+  } else {
+    session->estimate = DefaultEstimateBlocks();
+  }
+
+}
+
+// `priors`: a manufacturing prior per block that may take one (RigBlock::prior).
+void ReadPriors(const Reader& in, const YAML::Node& root, Session* session) {
+  if (root["priors"].IsDefined()) {
+    const YAML::Node priors = root["priors"];
+    // The blocks a prior may be given (model/rig_parameters.h: RigBlock::prior).
+    std::vector<std::string> prior_blocks;
+    for (const RigBlock& b : kRigBlocks) {
+      if (b.prior) prior_blocks.push_back(b.name);
+    }
+    std::string choices;
+    for (size_t i = 0; i < prior_blocks.size(); ++i) {
+      choices += (i == 0 ? "" : i + 1 == prior_blocks.size() ? " or " : ", ") + prior_blocks[i];
+    }
+    if (!IsMap(priors)) {
+      in.Fail("priors", "expected a map {" + prior_blocks[0] + ": {...}}", Describe(priors));
+    }
+    for (const auto& item : priors) {
+      if (!item.first.IsScalar()) in.Fail("priors", "expected names as keys", Describe(item.first));
+      const std::string name = item.first.Scalar();
+      const std::string key = "priors." + name;
+      if (std::find(prior_blocks.begin(), prior_blocks.end(), name) == prior_blocks.end()) {
+        in.Fail(key, "expected " + choices, "'" + name + "'");
+      }
+      if (!IsMap(item.second)) in.Fail(key, "expected {sigma_c: mm, sigma_k: ...}", Describe(item.second));
+      ShapePrior prior;
+      prior.sigma_c = in.Positive(item.second, key, "sigma_c");
+      prior.sigma_k = in.Positive(item.second, key, "sigma_k");
+      session->priors[name] = prior;
+    }
+  }
+}
+
+// `consider`: an assumed sigma for held parameters a session may consider
+// (RigParameter::considerable).
+void ReadConsider(const Reader& in, const YAML::Node& root, Session* session) {
+  if (root["consider"].IsDefined()) {
+    const YAML::Node consider = root["consider"];
+    if (!IsMap(consider)) {
+      const std::string example = ParametersWithRole(SolveRole::kTangential).front()->name;
+      in.Fail("consider", "expected a map {" + example + ": sigma, ...}", Describe(consider));
+    }
+    session->consider.emplace();
+    for (const auto& item : consider) {
+      if (!item.first.IsScalar()) in.Fail("consider", "expected names as keys", Describe(item.first));
+      const std::string name = item.first.Scalar();
+      const std::string key = "consider." + name;
+      const RigParameter* p = FindRigParameter(name);
+      if (!p || !p->considerable || name != p->name) {
+        std::string choices;
+        for (const RigParameter& c : RigParameterTable()) {
+          if (c.considerable) choices += (choices.empty() ? "" : ", ") + std::string(c.name);
+        }
+        in.Fail(key, "expected one of " + choices, "'" + name + "'");
+      }
+      const double sigma = in.Number(item.second, key);
+      if (!(sigma >= 0)) in.Fail(key, "expected a sigma >= 0", Describe(item.second));
+      (*session->consider)[name] = sigma;
+    }
+  }
+}
+
+}  // namespace
+
 Session ReadSessionFile(const std::string& path) {
   const YAML::Node root = LoadYamlFile(path, "session file");
   const Reader in(path);
@@ -182,91 +292,10 @@ Session ReadSessionFile(const std::string& path) {
   if (root["profile_sigma_mm"].IsDefined()) {
     session.profile_sigma_mm = in.Positive(root, "", "profile_sigma_mm");
   }
-  if (root["bayer"].IsDefined()) {
-    const YAML::Node bayer = root["bayer"];
-    const auto pattern = ParseBayerPattern(bayer.IsScalar() ? bayer.Scalar() : "?");
-    if (!pattern) in.Fail("bayer", "expected RGGB, BGGR, GRBG, GBRG or none", Describe(bayer));
-    session.bayer = *pattern;
-    if (session.bayer != BayerPattern::kNone) session.tone = ToneCurve::kLinear;
-  }
-  if (root["tone"].IsDefined()) {
-    const YAML::Node tone = root["tone"];
-    const auto curve = ParseToneCurve(tone.IsScalar() ? tone.Scalar() : "?");
-    if (!curve) in.Fail("tone", "expected srgb (colour cameras, JPEG) or linear (raw frames, gamma off)", Describe(tone));
-    session.tone = *curve;
-  }
-
-  if (root["estimate"].IsDefined()) {
-    session.estimate = in.Strings(root, "", "estimate");
-    if (session.estimate.empty()) {
-      in.Fail("estimate", "expected at least one parameter group (usually [camera, distortion, "
-              "mirror1_pose, mirror2_pose, reflex])", "an empty list");
-    }
-    std::set<std::string> seen;
-    for (std::size_t i = 0; i < session.estimate.size(); ++i) {
-      const std::string& g = session.estimate[i];
-      const auto& known = EstimableGroups();
-      if (std::find(known.begin(), known.end(), g) == known.end()) {
-        std::string choices;
-        for (const auto& k : known) choices += (choices.empty() ? "" : ", ") + k;
-        in.Fail("estimate[" + std::to_string(i) + "]", "expected one of " + choices,
-                Describe(root["estimate"][i]));
-      }
-      if (!seen.insert(g).second) in.Fail("estimate[" + std::to_string(i) + "]", "expected each group once", "'" + g + "' twice");
-    }
-  } else {
-    session.estimate = DefaultEstimateBlocks();
-  }
-
-  if (root["priors"].IsDefined()) {
-    const YAML::Node priors = root["priors"];
-    // The blocks a prior may be given (model/rig_parameters.h: RigBlock::prior).
-    std::vector<std::string> prior_blocks;
-    for (const RigBlock& b : kRigBlocks) {
-      if (b.prior) prior_blocks.push_back(b.name);
-    }
-    std::string choices;
-    for (size_t i = 0; i < prior_blocks.size(); ++i) {
-      choices += (i == 0 ? "" : i + 1 == prior_blocks.size() ? " or " : ", ") + prior_blocks[i];
-    }
-    if (!IsMap(priors)) {
-      in.Fail("priors", "expected a map {" + prior_blocks[0] + ": {...}}", Describe(priors));
-    }
-    for (const auto& item : priors) {
-      if (!item.first.IsScalar()) in.Fail("priors", "expected names as keys", Describe(item.first));
-      const std::string name = item.first.Scalar();
-      const std::string key = "priors." + name;
-      if (std::find(prior_blocks.begin(), prior_blocks.end(), name) == prior_blocks.end()) {
-        in.Fail(key, "expected " + choices, "'" + name + "'");
-      }
-      if (!IsMap(item.second)) in.Fail(key, "expected {sigma_c: mm, sigma_k: ...}", Describe(item.second));
-      ShapePrior prior;
-      prior.sigma_c = in.Positive(item.second, key, "sigma_c");
-      prior.sigma_k = in.Positive(item.second, key, "sigma_k");
-      session.priors[name] = prior;
-    }
-  }
-  if (root["consider"].IsDefined()) {
-    const YAML::Node consider = root["consider"];
-    if (!IsMap(consider)) in.Fail("consider", "expected a map {dist_p1: sigma, ...}", Describe(consider));
-    session.consider.emplace();
-    for (const auto& item : consider) {
-      if (!item.first.IsScalar()) in.Fail("consider", "expected names as keys", Describe(item.first));
-      const std::string name = item.first.Scalar();
-      const std::string key = "consider." + name;
-      const RigParameter* p = FindRigParameter(name);
-      if (!p || !p->considerable || name != p->name) {
-        std::string choices;
-        for (const RigParameter& c : RigParameterTable()) {
-          if (c.considerable) choices += (choices.empty() ? "" : ", ") + std::string(c.name);
-        }
-        in.Fail(key, "expected one of " + choices, "'" + name + "'");
-      }
-      const double sigma = in.Number(item.second, key);
-      if (!(sigma >= 0)) in.Fail(key, "expected a sigma >= 0", Describe(item.second));
-      (*session.consider)[name] = sigma;
-    }
-  }
+  ReadImageKeys(in, root, &session);
+  ReadEstimate(in, root, &session);
+  ReadPriors(in, root, &session);
+  ReadConsider(in, root, &session);
   if (root["solver"].IsDefined()) ReadSolver(in, root["solver"], &session.solver);
   return session;
 }

@@ -17,6 +17,24 @@ std::vector<const Stage*> AllStages() {
   return {&kRobustStages[0], &kRobustStages[1], &kRobustStages[2], &kReweightStage, &kFinalStage};
 }
 
+// The options' Check(): the session keys named, the defaults fine.
+TEST(CalibSteps, OptionsCheckNamesTheSessionKey) {
+  CalibrationOptions o;
+  EXPECT_EQ(o.Check(), "");
+  o.estimate = {"camera", "mirror3_pose"};
+  EXPECT_EQ(o.Check(), "estimate: unknown parameter group 'mirror3_pose'");
+  o.estimate.clear();
+  EXPECT_EQ(o.Check().rfind("nothing to estimate", 0), 0u) << o.Check();
+  o = CalibrationOptions();
+  o.profile = "sometimes";
+  EXPECT_EQ(o.Check(), "profile: expected auto, free, hold or off, got 'sometimes'");
+  o.profile = "auto";
+  o.profile_sigma_mm = 0;
+  EXPECT_EQ(o.Check().rfind("profile_sigma_mm: expected", 0), 0u) << o.Check();
+  o.profile = "off";  // no tolerance needed without a profile
+  EXPECT_EQ(o.Check(), "");
+}
+
 TEST(CalibSteps, TheStageTableNamesTheParameterTablesBlocks) {
   for (const Stage* stage : AllStages()) {
     for (const char* group : stage->groups) {
