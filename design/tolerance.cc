@@ -57,12 +57,23 @@ class NamedCovariance {
   int n_ = 0;
 };
 
+// A check of `value` against `limit`, no sigma yet, UNDECIDED.
+ToleranceCheck UndecidedCheck(const std::string& name, const std::string& unit, double value,
+                              double limit) {
+  ToleranceCheck check;
+  check.name = name;
+  check.unit = unit;
+  check.value = value;
+  check.limit = limit;
+  return check;
+}
+
 // |(x, y)| and its first-order sigma; at the origin the gradient is undefined, so the larger
 // principal sigma of (x, y) is used.
 ToleranceCheck Magnitude2(const NamedCovariance& cov, const std::string& name,
                           const std::string& unit, const std::string& px, const std::string& py,
                           double x, double y, double limit) {
-  ToleranceCheck check{name, unit, std::hypot(x, y), std::nullopt, limit, Verdict::kUndecided};
+  ToleranceCheck check = UndecidedCheck(name, unit, std::hypot(x, y), limit);
   check.parameters = {px, py};
   check.components = {x, y};
   if (cov.Has({px, py})) {
@@ -77,7 +88,7 @@ ToleranceCheck Magnitude2(const NamedCovariance& cov, const std::string& name,
 
 ToleranceCheck Magnitude1(const NamedCovariance& cov, const std::string& name,
                           const std::string& unit, const std::string& p, double x, double limit) {
-  ToleranceCheck check{name, unit, std::abs(x), std::nullopt, limit, Verdict::kUndecided};
+  ToleranceCheck check = UndecidedCheck(name, unit, std::abs(x), limit);
   check.parameters = {p};
   check.components = {x};
   if (cov.Has({p})) check.sigma = cov.Sigma({p}, {1.0});
@@ -95,8 +106,8 @@ double SagAt(const std::array<double, kProfileTerms>& c, const ProfileShape& sha
 // the model holds as the exact conic has no measured profile: value 0, no sigma, UNDECIDED.
 ToleranceCheck ProfileCheck(const NamedCovariance& cov, const RigParams& rig, int m, double limit) {
   const RigParameter* terms = BlockParameters(ProfileBlock(m == 0 ? Mirror::kOne : Mirror::kTwo));
-  ToleranceCheck check{GroupOf(terms[0]) + std::string(".profile"), "mm", 0.0, std::nullopt, limit,
-                       Verdict::kUndecided};
+  ToleranceCheck check =
+      UndecidedCheck(GroupOf(terms[0]) + std::string(".profile"), "mm", 0.0, limit);
   const ProfileShape& shape = m == 0 ? rig.profile1 : rig.profile2;
   const auto& c = m == 0 ? rig.mirror1_profile : rig.mirror2_profile;
   if (!shape.present) return check;
