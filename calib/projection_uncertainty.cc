@@ -92,9 +92,11 @@ BandJacobian Jacobians(const RigParams& rig, const std::vector<std::string>& nam
 
 double Step(const std::string& name, double sigma) {
   // A tenth of a sigma where it is known (the pixels are linear far beyond that); otherwise a
-  // small fixed step in the parameter's unit.
+  // small fixed step in the parameter's unit: 1e-5 for a body's pose, the reflex plane and the
+  // profiles (rad, mm), 1e-4 for the camera, the distortion and the shapes.
   if (sigma > 0) return 0.1 * sigma;
-  return name.find('.') != std::string::npos ? 1e-5 : 1e-4;
+  const RigParameter* p = FindRigParameter(name);
+  return p && BlockOf(*p) >= kPose1Block ? 1e-5 : 1e-4;
 }
 
 }  // namespace
