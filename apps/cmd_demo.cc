@@ -19,10 +19,10 @@
 
 #include "apps/command.h"
 #include "apps/common_flags.h"
-#include "synthetic/scene.h"
 #include "io/model_file.h"
 #include "io/session_file.h"
 #include "model/model_compare.h"
+#include "synthetic/scene.h"
 
 DECLARE_string(overlay);
 DECLARE_string(truth_model);

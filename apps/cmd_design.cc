@@ -9,9 +9,9 @@
 
 #include "apps/command.h"
 #include "apps/common_flags.h"
+#include "design/design_config.h"
 #include "design/optimizer.h"
 #include "design/sensitivity.h"
-#include "design/design_config.h"
 #include "io/model_file.h"
 #include "model/rig_params.h"
 

@@ -12,10 +12,10 @@
 #include "apps/command.h"
 #include "apps/common_flags.h"
 #include "apps/progress.h"
-#include "synthetic/render_session.h"
-#include "synthetic/scene_file.h"
 #include "io/model_file.h"
 #include "model/rig_model.h"
+#include "synthetic/render_session.h"
+#include "synthetic/scene_file.h"
 
 DEFINE_bool(no_render, false, "write only the ground truth, without running POV-Ray");
 DEFINE_int32(jobs, 2, "images rendered at the same time (POV-Ray processes)");

@@ -9,8 +9,8 @@
 #include "apps/common_flags.h"
 #include "apps/progress.h"
 #include "design/tolerance.h"
-#include "io/model_file.h"
 #include "design/tolerance_file.h"
+#include "io/model_file.h"
 
 namespace omni::apps {
 int RunTolerance() {

@@ -25,8 +25,8 @@
 #include "io/detections_file.h"
 #include "io/model_file.h"
 #include "io/truth_file.h"
-#include "stereo/sparse_triangulation.h"
 #include "model/triangulation.h"
+#include "stereo/sparse_triangulation.h"
 
 DEFINE_string(truth, "", "ground truth of a synthetic session (omnistereo-truth/1): print the "
                          "RMSE table by range; without --detections, triangulate its pixels");

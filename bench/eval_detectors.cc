@@ -27,14 +27,14 @@
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgcodecs.hpp>
 
-#include "synthetic/camera_effects.h"
-#include "synthetic/scene.h"
-#include "synthetic/scene_file.h"
 #include "detectors/detect_image.h"
 #include "detectors/lip_guide.h"
 #include "detectors/lips/lip_intrinsics.h"
-#include "model/lip.h"
 #include "io/model_file.h"
+#include "model/lip.h"
+#include "synthetic/camera_effects.h"
+#include "synthetic/scene.h"
+#include "synthetic/scene_file.h"
 
 using namespace omni;
 

@@ -35,13 +35,13 @@
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgcodecs.hpp>
 
-#include "synthetic/camera_effects.h"
-#include "synthetic/scene_file.h"
 #include "detectors/lips/lip_detector.h"
 #include "detectors/lips/lip_intrinsics.h"
 #include "io/image_file.h"
 #include "io/model_file.h"
 #include "model/lip.h"
+#include "synthetic/camera_effects.h"
+#include "synthetic/scene_file.h"
 
 using namespace omni;
 

@@ -39,12 +39,12 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "synthetic/pov_scene.h"
-#include "synthetic/scene.h"
 #include "detectors/common/corner_refine.h"
 #include "io/model_file.h"
 #include "model/rig_model.h"
 #include "model/target.h"
+#include "synthetic/pov_scene.h"
+#include "synthetic/scene.h"
 
 namespace omni {
 namespace {

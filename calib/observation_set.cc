@@ -8,8 +8,8 @@
 
 #include "calib/calibration_steps.h"
 #include "calib/corner_cost.h"
-#include "pose/initial_pose.h"
 #include "model/triangulation.h"
+#include "pose/initial_pose.h"
 
 namespace omni::calib {
 

@@ -15,9 +15,9 @@
 
 #include <string>
 
-#include "model/camera.h"
 #include "design/optimizer.h"
 #include "io/model_file.h"
+#include "model/camera.h"
 
 namespace omni::design {
 

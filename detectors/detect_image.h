@@ -10,12 +10,12 @@
 #include <opencv2/core.hpp>
 
 #include "detectors/chessboard/chessboard_detector.h"
-#include "detectors/guided_detection.h"
-#include "detectors/lips/lip_detector.h"
 #include "detectors/common/ring_layout.h"
 #include "detectors/common/views.h"
-#include "model/observations.h"
+#include "detectors/guided_detection.h"
+#include "detectors/lips/lip_detector.h"
 #include "io/image_file.h"
+#include "model/observations.h"
 #include "model/rig_model.h"
 #include "model/target.h"
 

@@ -12,8 +12,8 @@
 
 #include "detectors/detect_image.h"
 #include "detectors/lip_guide.h"
-#include "model/observations.h"
 #include "io/session_file.h"
+#include "model/observations.h"
 
 namespace omni::detectors {
 

@@ -10,13 +10,13 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/eigen.hpp>
 
-#include "pose/initial_pose.h"
 #include "detectors/apriltag/apriltag_detector.h"
+#include "detectors/apriltag/kalibr_detector.h"
+#include "detectors/apriltag/tag_pattern_fit.h"
 #include "detectors/chessboard/chessboard_detector.h"
 #include "detectors/common/corner_refine.h"
-#include "detectors/apriltag/kalibr_detector.h"
 #include "detectors/common/saddle_points.h"
-#include "detectors/apriltag/tag_pattern_fit.h"
+#include "pose/initial_pose.h"
 
 namespace omni::detectors {
 namespace {

@@ -12,14 +12,14 @@
 #include <string>
 #include <vector>
 
-#include "io/csv.h"
 #include "design/design_config.h"
+#include "design/tolerance_file.h"
+#include "io/csv.h"
 #include "io/detections_file.h"
 #include "io/file_util.h"
 #include "io/model_file.h"
 #include "io/ply.h"
 #include "io/session_file.h"
-#include "design/tolerance_file.h"
 #include "model/rig_model.h"
 #include "synthetic/scene_file.h"
 

@@ -14,8 +14,8 @@
 
 #include "io/yaml_reader.h"
 #include "model/lip.h"
-#include "model/rig_parameters.h"
 #include "model/rig_frames.h"
+#include "model/rig_parameters.h"
 
 namespace omni::io {
 namespace {

@@ -23,8 +23,8 @@
 #include <string>
 #include <vector>
 
-#include "model/calibration_settings.h"
 #include "io/image_file.h"
+#include "model/calibration_settings.h"
 #include "model/target.h"
 
 namespace omni::io {

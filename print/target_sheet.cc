@@ -8,9 +8,9 @@
 
 #include <Eigen/Core>
 
-#include "model/input_error.h"
 #include "io/file_util.h"
 #include "io/session_file.h"
+#include "model/input_error.h"
 #include "synthetic/tag_texture.h"
 
 namespace omni::print {

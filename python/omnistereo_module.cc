@@ -22,8 +22,8 @@
 #include "io/session_file.h"
 #include "model/rig_frames.h"
 #include "model/rig_model.h"
-#include "stereo/sparse_triangulation.h"
 #include "model/triangulation.h"
+#include "stereo/sparse_triangulation.h"
 
 namespace py = pybind11;
 

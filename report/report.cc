@@ -8,8 +8,8 @@
 #include <sstream>
 
 #include "calib/projection_uncertainty.h"
-#include "model/input_error.h"
 #include "io/file_util.h"
+#include "model/input_error.h"
 #include "model/model_compare.h"
 #include "model/rig_model.h"
 #include "model/rig_parameters.h"

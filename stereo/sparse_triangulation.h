@@ -13,8 +13,8 @@
 #include <Eigen/Core>
 
 #include "model/observations.h"
-#include "model/truth.h"
 #include "model/triangulation.h"
+#include "model/truth.h"
 
 namespace omni::stereo {
 

@@ -7,8 +7,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "synthetic/image_effects.h"
 #include "model/rig_frames.h"
+#include "synthetic/image_effects.h"
 
 namespace omni::synthetic {
 

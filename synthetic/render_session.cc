@@ -12,15 +12,15 @@
 
 #include <opencv2/imgcodecs.hpp>
 
+#include "io/file_util.h"
+#include "io/model_file.h"
+#include "model/rig_model.h"
+#include "model/rig_parameters.h"
 #include "synthetic/camera_effects.h"
 #include "synthetic/image_effects.h"
 #include "synthetic/pov_scene.h"
 #include "synthetic/scene_file.h"
 #include "synthetic/tag_texture.h"
-#include "io/file_util.h"
-#include "io/model_file.h"
-#include "model/rig_model.h"
-#include "model/rig_parameters.h"
 
 namespace omni::synthetic {
 namespace {

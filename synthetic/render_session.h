@@ -5,9 +5,9 @@
 #include <functional>
 #include <string>
 
-#include "synthetic/scene.h"
 #include "io/session_file.h"
 #include "model/rig_params.h"
+#include "synthetic/scene.h"
 
 namespace omni::synthetic {
 

@@ -5,9 +5,9 @@
 
 #include <Eigen/Geometry>
 
-#include "synthetic/tag_texture.h"
 #include "model/ideal_analysis.h"
 #include "model/rig_frames.h"
+#include "synthetic/tag_texture.h"
 
 namespace omni::synthetic {
 namespace {

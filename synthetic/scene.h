@@ -9,11 +9,11 @@
 
 #include <Eigen/Core>
 
-#include "synthetic/camera_effects.h"
-#include "synthetic/pov_scene.h"
 #include "model/rig_model.h"
 #include "model/target.h"
 #include "model/truth.h"
+#include "synthetic/camera_effects.h"
+#include "synthetic/pov_scene.h"
 
 namespace omni::synthetic {
 

@@ -7,8 +7,8 @@
 #include <Eigen/Geometry>
 #include <yaml-cpp/yaml.h>
 
-#include "synthetic/tag_texture.h"
 #include "io/file_util.h"
+#include "synthetic/tag_texture.h"
 
 namespace omni::synthetic {
 namespace {

@@ -13,9 +13,9 @@
 
 #include <gtest/gtest.h>
 
+#include "model/rig_params.h"
 #include "synthetic/pov_scene.h"
 #include "synthetic/scene.h"
-#include "model/rig_params.h"
 #include "tests/temp_dir.h"
 
 namespace omni::testing {

@@ -11,9 +11,9 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "detectors/common/corner_refine.h"
 #include "detectors/apriltag/kalibr_detector.h"
 #include "detectors/apriltag/tag_pattern_fit.h"
+#include "detectors/common/corner_refine.h"
 #include "detectors/common/saddle_points.h"
 
 extern "C" {

@@ -36,8 +36,8 @@
 #include <opencv2/core.hpp>
 
 #include "detectors/apriltag/kalibr_detector.h"
-#include "detectors/common/saddle_points.h"
 #include "detectors/apriltag/tag_grid_check.h"
+#include "detectors/common/saddle_points.h"
 #include "detectors/common/views.h"
 #include "model/observations.h"
 #include "model/rig_model.h"

@@ -42,8 +42,8 @@
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
 
-#include "model/observations.h"
 #include "model/lip.h"
+#include "model/observations.h"
 #include "model/rig_model.h"
 
 namespace omni::detectors {

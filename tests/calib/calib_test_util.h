@@ -13,12 +13,12 @@
 #include <vector>
 
 #include "calib/calibrate.h"
-#include "synthetic/scene.h"
-#include "synthetic/scene_file.h"
-#include "model/observations.h"
 #include "io/model_file.h"
 #include "model/lip.h"
+#include "model/observations.h"
 #include "model/target.h"
+#include "synthetic/scene.h"
+#include "synthetic/scene_file.h"
 
 #ifndef OMNI_SOURCE_DIR
 #error "OMNI_SOURCE_DIR must name the source tree"

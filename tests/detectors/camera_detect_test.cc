@@ -15,10 +15,10 @@
 
 #include <opencv2/imgcodecs.hpp>
 
-#include "synthetic/camera_effects.h"
-#include "synthetic/scene.h"
 #include "detectors/detect_image.h"
 #include "io/model_file.h"
+#include "synthetic/camera_effects.h"
+#include "synthetic/scene.h"
 #include "tests/render_window.h"
 #include "tests/temp_dir.h"
 

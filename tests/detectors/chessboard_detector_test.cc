@@ -15,14 +15,14 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
-#include "synthetic/image_effects.h"
-#include "synthetic/pov_scene.h"
-#include "synthetic/tag_texture.h"
-#include "synthetic/scene.h"
-#include "synthetic/scene_file.h"
 #include "detectors/detect_image.h"
 #include "detectors/detect_session.h"
 #include "io/model_file.h"
+#include "synthetic/image_effects.h"
+#include "synthetic/pov_scene.h"
+#include "synthetic/scene.h"
+#include "synthetic/scene_file.h"
+#include "synthetic/tag_texture.h"
 #include "tests/temp_dir.h"
 
 #include "tests/render_window.h"

@@ -13,11 +13,11 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 
-#include "synthetic/image_effects.h"
 #include "io/detections_file.h"
 #include "io/model_file.h"
-#include "tests/render_window.h"
+#include "synthetic/image_effects.h"
 #include "tests/cli_test_util.h"
+#include "tests/render_window.h"
 #include "tests/temp_dir.h"
 
 namespace omni {

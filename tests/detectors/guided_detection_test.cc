@@ -13,12 +13,12 @@
 
 #include <opencv2/imgcodecs.hpp>
 
+#include "detectors/detect_image.h"
+#include "io/model_file.h"
 #include "synthetic/camera_effects.h"
 #include "synthetic/scene.h"
 #include "synthetic/scene_file.h"
 #include "synthetic/tag_texture.h"
-#include "detectors/detect_image.h"
-#include "io/model_file.h"
 #include "tests/render_window.h"
 #include "tests/temp_dir.h"
 

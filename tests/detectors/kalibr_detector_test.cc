@@ -18,15 +18,15 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "detectors/apriltag/apriltag_detector.h"
+#include "detectors/apriltag/kalibr_detector.h"
+#include "detectors/common/views.h"
+#include "io/model_file.h"
 #include "synthetic/image_effects.h"
 #include "synthetic/pov_scene.h"
 #include "synthetic/scene.h"
 #include "synthetic/scene_file.h"
 #include "synthetic/tag_texture.h"
-#include "detectors/apriltag/apriltag_detector.h"
-#include "detectors/apriltag/kalibr_detector.h"
-#include "detectors/common/views.h"
-#include "io/model_file.h"
 #include "tests/temp_dir.h"
 
 #include "tests/render_window.h"

@@ -12,16 +12,16 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "detectors/detect_session.h"
+#include "detectors/lip_guide.h"
+#include "detectors/lips/lip_detector.h"
+#include "detectors/lips/lip_intrinsics.h"
+#include "io/image_file.h"
+#include "io/model_file.h"
 #include "synthetic/camera_effects.h"
 #include "synthetic/image_effects.h"
 #include "synthetic/pov_scene.h"
 #include "synthetic/scene_file.h"
-#include "detectors/detect_session.h"
-#include "detectors/lips/lip_detector.h"
-#include "detectors/lip_guide.h"
-#include "detectors/lips/lip_intrinsics.h"
-#include "io/image_file.h"
-#include "io/model_file.h"
 #include "tests/render_window.h"
 #include "tests/temp_dir.h"
 

@@ -14,12 +14,12 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "detectors/detect_image.h"
+#include "io/model_file.h"
 #include "synthetic/image_effects.h"
 #include "synthetic/pov_scene.h"
 #include "synthetic/scene.h"
 #include "synthetic/tag_texture.h"
-#include "detectors/detect_image.h"
-#include "io/model_file.h"
 #include "tests/temp_dir.h"
 
 #include "tests/render_window.h"

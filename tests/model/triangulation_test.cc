@@ -12,8 +12,8 @@
 
 #include <Eigen/Eigenvalues>
 
-#include "model/ideal_analysis.h"
 #include "io/model_file.h"
+#include "model/ideal_analysis.h"
 #include "tests/model/rig_test_util.h"
 
 namespace omni {

@@ -17,9 +17,9 @@
 
 #include "calib/calibrate.h"
 #include "design/tolerance_file.h"
+#include "io/model_file.h"
 #include "model/model_compare.h"
 #include "model/rig_model.h"
-#include "io/model_file.h"
 #include "report/report.h"
 #include "tests/calib/calib_test_util.h"
 #include "tests/report/browser_check.h"

@@ -19,8 +19,8 @@
 #include <Eigen/Eigenvalues>
 
 #include "io/model_file.h"
-#include "stereo/dense_stereo.h"
 #include "model/triangulation.h"
+#include "stereo/dense_stereo.h"
 #include "synthetic/scene.h"
 #include "tests/stereo/box_room.h"
 

@@ -13,11 +13,11 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "synthetic/camera_effects.h"
-#include "synthetic/scene_file.h"
 #include "io/image_file.h"
 #include "io/model_file.h"
 #include "model/rig_model.h"
+#include "synthetic/camera_effects.h"
+#include "synthetic/scene_file.h"
 
 namespace omni::synthetic {
 namespace {

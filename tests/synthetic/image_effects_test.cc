@@ -9,10 +9,10 @@
 
 #include <opencv2/imgproc.hpp>
 
-#include "synthetic/image_effects.h"
 #include "model/camera.h"
 #include "model/ideal_model.h"
 #include "model/rig_params.h"
+#include "synthetic/image_effects.h"
 
 namespace omni {
 namespace {

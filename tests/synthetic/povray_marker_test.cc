@@ -9,11 +9,11 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "synthetic/image_effects.h"
-#include "synthetic/pov_scene.h"
 #include "model/ideal_model.h"
 #include "model/rig_model.h"
 #include "model/rig_params.h"
+#include "synthetic/image_effects.h"
+#include "synthetic/pov_scene.h"
 
 namespace omni {
 namespace {

@@ -12,11 +12,11 @@
 #include <opencv2/imgcodecs.hpp>
 #include <yaml-cpp/yaml.h>
 
-#include "model/camera.h"
 #include "io/model_file.h"
 #include "io/session_file.h"
-#include "tests/cli_test_util.h"
+#include "model/camera.h"
 #include "model/rig_model.h"
+#include "tests/cli_test_util.h"
 
 namespace omni {
 namespace {

@@ -13,12 +13,12 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "io/model_file.h"
+#include "model/rig_model.h"
 #include "synthetic/image_effects.h"
 #include "synthetic/pov_scene.h"
 #include "synthetic/scene.h"
 #include "synthetic/tag_texture.h"
-#include "io/model_file.h"
-#include "model/rig_model.h"
 #include "tests/render_window.h"
 
 namespace omni {

@@ -13,8 +13,8 @@
 #include <opencv2/aruco.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "synthetic/tag_texture.h"
 #include "model/target.h"
+#include "synthetic/tag_texture.h"
 
 namespace omni {
 namespace {
