@@ -31,7 +31,10 @@ constexpr double kMaxK3SigmaGrowth = 2.0;
 
 // The highest radial term (dist_k3: held unless DecideDistK3 frees it) and whether `name` is one
 // of the lower ones (dist_k1, dist_k2), from the table's roles and radial powers.
-const RigParameter& HighRadial() { return *ParametersWithRole(SolveRole::kHighRadial).front(); }
+const RigParameter& HighRadial() {
+  static const RigParameter& k3 = *ParametersWithRole(SolveRole::kHighRadial).front();
+  return k3;
+}
 bool IsLowerRadial(const std::string& name) {
   const RigParameter* p = FindRigParameter(name);
   return p && p->radial_power > 0 && p->role != SolveRole::kHighRadial;
