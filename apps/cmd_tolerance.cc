@@ -1,6 +1,7 @@
 // `omnistereo tolerance --model M --config tolerances.yaml`: checks a (calibrated) rig against
 // assembly tolerances, with a verdict that respects the calibration's uncertainty, and simulates
 // what parts within the tolerances do to the images (design/tolerance.h).
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <string>
@@ -25,7 +26,10 @@ int RunTolerance() {
   std::printf("Tolerance check of %s (%s; verdicts at +-%.1f sigma)\n", FLAGS_model.c_str(),
               calibrated ? "calibrated, with covariance" : "no covariance: values alone",
               tol.spec.confidence_sigmas);
-  std::printf("  %-18s %12s %10s %10s  %s\n", "quantity", "value", "sigma", "limit", "verdict");
+  // The quantity column as wide as its longest name (18 for the camera-frame checks alone).
+  int width = 18;
+  for (const auto& c : checks) width = std::max(width, static_cast<int>(c.name.size()));
+  std::printf("  %-*s %12s %10s %10s  %s\n", width, "quantity", "value", "sigma", "limit", "verdict");
   int counts[3] = {0, 0, 0};
   for (const auto& c : checks) {
     const bool deg = c.unit == "rad";
@@ -33,7 +37,7 @@ int RunTolerance() {
     const char* unit = deg ? "deg" : "mm";
     char sigma[32] = "-";
     if (c.sigma) std::snprintf(sigma, sizeof sigma, "%.4f", *c.sigma * k);
-    std::printf("  %-18s %8.4f %-3s %10s %10.4f  %s\n", c.name.c_str(), c.value * k, unit, sigma,
+    std::printf("  %-*s %8.4f %-3s %10s %10.4f  %s\n", width, c.name.c_str(), c.value * k, unit, sigma,
                 c.limit * k, design::VerdictName(c.verdict));
     ++counts[static_cast<int>(c.verdict)];
     for (const std::string& line : {design::Correction(c), design::RotationValleyNote(c)}) {

@@ -6,6 +6,8 @@
 #include <map>
 #include <random>
 
+#include "design/named_covariance.h"
+#include "design/rig_body.h"
 #include "model/model_compare.h"
 #include "model/rig_model.h"
 #include "model/rig_parameters.h"
@@ -13,49 +15,6 @@
 
 namespace omni::design {
 namespace {
-
-// The covariance of named parameters, if the model carries one.
-class NamedCovariance {
- public:
-  explicit NamedCovariance(const RigParams& rig) {
-    if (!rig.calibration) return;
-    const CalibrationInfo& c = *rig.calibration;
-    const size_t n = c.parameters.size();
-    if (c.covariance.size() != n * n) return;
-    for (size_t i = 0; i < n; ++i) index_[c.parameters[i]] = static_cast<int>(i);
-    cov_ = &c.covariance;
-    n_ = static_cast<int>(n);
-  }
-  bool Has(const std::vector<std::string>& names) const {
-    if (!cov_) return false;
-    return std::all_of(names.begin(), names.end(),
-                       [&](const std::string& s) { return index_.count(s) > 0; });
-  }
-  // sigma of g . x over the named parameters.
-  double Sigma(const std::vector<std::string>& names, const std::vector<double>& g) const {
-    double var = 0;
-    for (size_t a = 0; a < names.size(); ++a) {
-      for (size_t b = 0; b < names.size(); ++b) {
-        var += g[a] * g[b] * (*cov_)[index_.at(names[a]) * n_ + index_.at(names[b])];
-      }
-    }
-    return std::sqrt(std::max(0.0, var));
-  }
-  // The correlation of two named parameters (0 when either is missing or has no variance).
-  double Correlation(const std::string& a, const std::string& b) const {
-    if (!Has({a, b})) return 0;
-    const auto at = [&](const std::string& p, const std::string& q) {
-      return (*cov_)[index_.at(p) * n_ + index_.at(q)];
-    };
-    const double scale = std::sqrt(at(a, a) * at(b, b));
-    return scale > 0 ? at(a, b) / scale : 0;
-  }
-
- private:
-  std::map<std::string, int> index_;
-  const std::vector<double>* cov_ = nullptr;
-  int n_ = 0;
-};
 
 // A check of `value` against `limit`, no sigma yet, UNDECIDED.
 ToleranceCheck UndecidedCheck(const std::string& name, const std::string& unit, double value,
@@ -192,6 +151,9 @@ const char* VerdictName(Verdict verdict) {
 
 std::string Correction(const ToleranceCheck& c) {
   if (c.verdict != Verdict::kFail) return "";
+  // In the camera-rotation valley no move of a part can be told from the camera's turn.
+  if (std::abs(c.valley_correlation) > kRotationValleyCorrelation) return "";
+  if (c.frame == "mirror1") return RigBodyCorrection(c);
   const bool deg = c.unit == "rad";
   const double k = deg ? 180.0 / M_PI : 1.0;
   const char* unit = deg ? "deg" : "mm";
@@ -281,6 +243,7 @@ std::vector<ToleranceCheck> CheckTolerances(const RigParams& rig, const Toleranc
     checks.push_back(Magnitude1(cov, reflex[2].name, "mm", reflex[2].name, rig.reflex[2],
                                 spec.reflex_dz_mm));
   }
+  for (ToleranceCheck& c : CheckRigBody(rig, spec.rig_body, cov)) checks.push_back(std::move(c));
   for (size_t i = 0; i < checks.size(); ++i) {
     ToleranceCheck& c = checks[i];
     Decide(spec.confidence_sigmas, &c);

@@ -26,8 +26,19 @@ struct BodyTolerance {
   double decentre_mm = -1, tilt_rad = -1, axial_mm = -1;
   double profile_pv_mm = -1;  // machining: the profile's peak-to-valley
 };
+// The parts against each other (design/rig_body.h): mirror 2 and the camera against mirror 1's
+// axis. -1: not toleranced.
+struct RigBodyTolerance {
+  double mirror2_decentre_mm = -1, mirror2_tilt_rad = -1, mirror2_spacing_mm = -1;
+  double camera_decentre_mm = -1, camera_tilt_rad = -1;
+  bool Any() const {
+    return mirror2_decentre_mm >= 0 || mirror2_tilt_rad >= 0 || mirror2_spacing_mm >= 0 ||
+           camera_decentre_mm >= 0 || camera_tilt_rad >= 0;
+  }
+};
 struct ToleranceSpec {
-  BodyTolerance mirror[2];
+  BodyTolerance mirror[2];  // each mirror against the camera (its pose in C)
+  RigBodyTolerance rig_body;
   double reflex_tilt_rad = -1, reflex_dz_mm = -1;
   double confidence_sigmas = 2.0;  // a verdict must hold at value +- this many sigma
 };
@@ -52,6 +63,9 @@ struct ToleranceCheck {
   // it with the principal point, so the calibration cannot separate it from the camera's rotation.
   double valley_correlation = 0;
   std::string valley_pair;
+  // The frame the quantity is measured in: "camera" (a mirror's pose in C, the reflex in M1 as
+  // before) or "mirror1" (design/rig_body.h: the parts against mirror 1's axis).
+  std::string frame = "camera";
 };
 constexpr double kRotationValleyCorrelation = 0.99;
 
@@ -61,7 +75,8 @@ constexpr double kRotationValleyCorrelation = 0.99;
 // covariance the verdict compares the value alone (and says so by an empty sigma).
 std::vector<ToleranceCheck> CheckTolerances(const RigParams& rig, const ToleranceSpec& spec);
 
-// For a FAIL (else empty): by how much the part is beyond its limit and the smallest move that
+// For a FAIL (else empty; also empty in the camera-rotation valley, where no move of a part can be
+// told from the camera's turn: RotationValleyNote says so): by how much the part is beyond its limit and the smallest move that
 // brings it back, against the direction its signed components point in; C's axes: +x image
 // right, +y image down, +z from the camera towards the mirrors. E.g. "(mirror1.tx, mirror1.ty)
 // is (+0.311, -0.205) mm, |.| 0.373 beyond 0.300 by 0.073: move mirror1 by (-0.061, +0.040) mm

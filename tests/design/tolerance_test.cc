@@ -189,7 +189,8 @@ TEST(ToleranceTest, FailSaysWhichWayAndTheValleyIsNamed) {
   EXPECT_EQ(checks[0].valley_pair, "mirror1.rx ~ cy");
   EXPECT_GT(checks[0].valley_correlation, 0.999);
   EXPECT_NE(RotationValleyNote(checks[0]).find("camera-rotation valley"), std::string::npos);
-  EXPECT_NE(Correction(checks[0]).find("turn mirror1 back by"), std::string::npos);
+  // In the valley no move is advised: turning mirror 1 cannot be told from turning the camera.
+  EXPECT_EQ(Correction(checks[0]), "");
   EXPECT_LT(std::abs(checks[1].valley_correlation), 0.99);  // tz
   EXPECT_EQ(RotationValleyNote(checks[1]), "");
 }
