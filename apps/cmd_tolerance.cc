@@ -9,6 +9,7 @@
 #include "apps/command.h"
 #include "apps/common_flags.h"
 #include "apps/progress.h"
+#include "design/decide_photos.h"
 #include "design/tolerance.h"
 #include "design/tolerance_file.h"
 #include "io/model_file.h"
@@ -48,6 +49,22 @@ int RunTolerance() {
               counts[2] ? " (undecided: the limit lies within the uncertainty; more calibration "
                           "images at more ranges and azimuths would decide)"
                         : "");
+  // For each undecided check of a calibrated model: the photos that would decide it, simulated
+  // through the model (design/decide_photos.h).
+  if (calibrated && counts[2] > 0) {
+    const auto photos = design::PhotosThatDecide(rig, checks, tol.spec.confidence_sigmas);
+    if (!photos.empty()) {
+      std::printf("Photos that would decide (simulated through the calibrated model, each chosen to "
+                  "lower the sigma most; first order):\n");
+    }
+    for (const design::DecidingPhotos& d : photos) {
+      const auto check = std::find_if(checks.begin(), checks.end(),
+                                      [&](const auto& c) { return c.name == d.check; });
+      const bool deg = check->unit == "rad";
+      std::printf("  %s: %s\n", d.check.c_str(),
+                  d.Describe(deg ? "deg" : "mm", deg ? 180.0 / M_PI : 1.0).c_str());
+    }
+  }
   if (tol.simulate_samples > 0) {
     design::ImageEffect effect;
     {

@@ -101,6 +101,8 @@ ToleranceCheck MakeCheck(const Labelled& l, const QuantityVector& q, const Eigen
   }
   // In the valley when one of its components is (as the camera-frame checks test each of
   // their parameters): the magnitude's own gradient mixes the components.
+  c.gradient_names = names;
+  c.gradient = g;
   for (int i = 0; i < l.size; ++i) {
     const std::vector<double> gi = gradient_of(Eigen::VectorXd::Unit(l.size, i));
     for (const RigParameter& p : RigParameterTable()) {

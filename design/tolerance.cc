@@ -36,10 +36,14 @@ ToleranceCheck Magnitude2(const NamedCovariance& cov, const std::string& name,
   check.parameters = {px, py};
   check.components = {x, y};
   if (cov.Has({px, py})) {
+    check.gradient_names = {px, py};
     if (check.value > 1e-12) {
-      check.sigma = cov.Sigma({px, py}, {x / check.value, y / check.value});
+      check.gradient = {x / check.value, y / check.value};
+      check.sigma = cov.Sigma({px, py}, check.gradient);
     } else {
       check.sigma = std::max(cov.Sigma({px}, {1.0}), cov.Sigma({py}, {1.0}));
+      check.gradient = cov.Sigma({px}, {1.0}) >= cov.Sigma({py}, {1.0}) ? std::vector<double>{1, 0}
+                                                                         : std::vector<double>{0, 1};
     }
   }
   return check;
@@ -50,7 +54,11 @@ ToleranceCheck Magnitude1(const NamedCovariance& cov, const std::string& name,
   ToleranceCheck check = UndecidedCheck(name, unit, std::abs(x), limit);
   check.parameters = {p};
   check.components = {x};
-  if (cov.Has({p})) check.sigma = cov.Sigma({p}, {1.0});
+  if (cov.Has({p})) {
+    check.sigma = cov.Sigma({p}, {1.0});
+    check.gradient_names = {p};
+    check.gradient = {x >= 0 ? 1.0 : -1.0};
+  }
   return check;
 }
 
@@ -95,7 +103,11 @@ ToleranceCheck ProfileCheck(const NamedCovariance& cov, const RigParams& rig, in
     names.push_back(name);
     gradient.push_back(SagAt(unit, smooth, at_hi.x(), at_hi.y()) - SagAt(unit, smooth, at_lo.x(), at_lo.y()));
   }
-  if (!names.empty()) check.sigma = cov.Sigma(names, gradient);
+  if (!names.empty()) {
+    check.sigma = cov.Sigma(names, gradient);
+    check.gradient_names = names;
+    check.gradient = gradient;
+  }
   return check;
 }
 

@@ -66,6 +66,10 @@ struct ToleranceCheck {
   // The frame the quantity is measured in: "camera" (a mirror's pose in C, the reflex in M1 as
   // before) or "mirror1" (design/rig_body.h: the parts against mirror 1's axis).
   std::string frame = "camera";
+  // The linearisation behind `sigma`: d value / d parameter over the covariance's named
+  // parameters (sigma^2 = g' C g); what the photos that would decide it are predicted with.
+  std::vector<std::string> gradient_names;
+  std::vector<double> gradient;
 };
 constexpr double kRotationValleyCorrelation = 0.99;
 
