@@ -112,7 +112,8 @@ void PrintCornerNoiseCheck(const calib::CalibrationResult& result, const Observa
                            const std::string& truth_path) {
   const Truth truth = io::ReadTruthFile(truth_path);
   std::set<std::tuple<int, int, int, int>> rejected;
-  for (const auto& r : result.rejected) rejected.emplace(r.image, r.target, r.id, r.mirror);
+  for (const auto& r : result.residuals.rejected)
+    rejected.emplace(r.image, r.target, r.id, r.mirror);
   double squared[2] = {0, 0};
   int count[2] = {0, 0}, unmatched = 0;
   for (size_t i = 0; i < detections.images.size(); ++i) {
@@ -142,8 +143,8 @@ void PrintCornerNoiseCheck(const calib::CalibrationResult& result, const Observa
     if (count[m] == 0) continue;
     const double true_rms = std::sqrt(squared[m] / count[m]);
     std::printf("  ring %d: %.4f px vs %.4f px over %d corners: ratio %.2f\n", m + 1,
-                result.per_mirror_rms_px[m], true_rms, count[m],
-                result.per_mirror_rms_px[m] / true_rms);
+                result.residuals.per_mirror_rms_px[m], true_rms, count[m],
+                result.residuals.per_mirror_rms_px[m] / true_rms);
   }
   if (unmatched > 0) std::printf("  (%d detected corners have no true counterpart)\n", unmatched);
 }
@@ -200,8 +201,8 @@ void WriteReport(const calib::CalibrationResult& result, const Observations& det
   in.solve_seconds = seconds;
   in.range_mm = FLAGS_report_range_mm;
   if (!FLAGS_tolerances.empty()) {
-    in.tolerances =
-        design::CheckTolerances(result.rig, design::ReadToleranceFile(FLAGS_tolerances).spec);
+    in.tolerances = design::CheckTolerances(result.estimate.rig,
+                                            design::ReadToleranceFile(FLAGS_tolerances).spec);
   }
   std::string index;
   {
@@ -232,9 +233,9 @@ void CheckSameDataset(const CalibrationInfo& info, const Observations& detection
 // and stays there; a parameter that moves by more than one of its sigmas means other data.
 void CheckSolveStayed(const CalibrationInfo& info, const calib::CalibrationResult& result) {
   for (size_t i = 0; i < info.parameters.size() && i < info.sigma.size(); ++i) {
-    for (size_t j = 0; j < result.names.size(); ++j) {
-      if (result.names[j] != info.parameters[i] || !(info.sigma[i] > 0)) continue;
-      const double moved = std::abs(result.values(j) - info.values[i]) / info.sigma[i];
+    for (size_t j = 0; j < result.estimate.names.size(); ++j) {
+      if (result.estimate.names[j] != info.parameters[i] || !(info.sigma[i] > 0)) continue;
+      const double moved = std::abs(result.estimate.values(j) - info.values[i]) / info.sigma[i];
       if (moved > 1.0) {
         char buf[160];
         std::snprintf(buf, sizeof buf, "%s moved %.1f sigma when solved again", 
@@ -253,7 +254,7 @@ void CheckSolveStayed(const CalibrationInfo& info, const calib::CalibrationResul
 void PrintLeftOut(const calib::CalibrationResult& result, const Observations& detections,
                   const std::vector<TargetSpec>& targets) {
   std::map<int, std::pair<int, std::set<int>>> per_target;  // target -> (count, images)
-  for (const auto& r : result.rejected) {
+  for (const auto& r : result.residuals.rejected) {
     std::printf("left out: image %d (%s) target %d corner %d ring %d at (%.2f, %.2f): %s",
                 r.image, detections.images[r.image].file.c_str(), r.target, r.id, r.mirror,
                 r.pixel.x(), r.pixel.y(), r.reason.c_str());
@@ -264,7 +265,7 @@ void PrintLeftOut(const calib::CalibrationResult& result, const Observations& de
     images.insert(r.image);
   }
   if (per_target.empty()) return;
-  std::printf("left out %zu corner observation(s):", result.rejected.size());
+  std::printf("left out %zu corner observation(s):", result.residuals.rejected.size());
   const char* separator = " ";
   for (const auto& [t, entry] : per_target) {
     const std::string name = t >= 0 && t < static_cast<int>(targets.size())
@@ -280,7 +281,7 @@ void PrintLeftOut(const calib::CalibrationResult& result, const Observations& de
 // With the true rig known (synthetic sessions): the projection difference at 1 m, each group's
 // share of it, and the parameter error against the covariance.
 void PrintTruthShare(const calib::CalibrationResult& result, const RigParams& truth) {
-  PrintTruthProjection(truth, result.rig);
+  PrintTruthProjection(truth, result.estimate.rig);
   const calib::ProjectionErrorShare share = calib::ShareOfProjectionError(result, truth, 1000);
   std::printf("  linearised, points in mirror 1's body: ring 1 %.3f px, ring 2 %.3f px; with "
               "one group's error alone:", share.total_px[0], share.total_px[1]);
@@ -312,10 +313,8 @@ int RunCalibrate() {
   double seconds = 0;
   calib::CalibrationResult result = CalibrateWithProgress(start, session, detections, &seconds);
 
-  CalibrationInfo& info = *result.rig.calibration;
-  info.session = FLAGS_session;
-  info.tool_version = std::string("omnistereo ") + OMNISTEREO_VERSION;
-  info.date = UtcNow();
+  result.estimate.rig.calibration = calib::CalibrationInfoOf(
+      result, {FLAGS_session, std::string("omnistereo ") + OMNISTEREO_VERSION, UtcNow()});
 
   std::optional<RigParams> truth;
   if (!FLAGS_truth_model.empty()) truth = io::ReadModelFile(FLAGS_truth_model);
@@ -323,8 +322,8 @@ int RunCalibrate() {
   PrintLeftOut(result, detections, session.targets);
   if (!FLAGS_truth.empty()) PrintCornerNoiseCheck(result, detections, FLAGS_truth);
   std::printf("solved in %.2f s (%s); %zu target placements in %zu images\n", seconds,
-              result.converged ? "converged" : "NOT converged", result.placements.size(),
-              detections.images.size());
+              result.solve.converged ? "converged" : "NOT converged",
+              result.residuals.placements.size(), detections.images.size());
   const calib::ProjectionUncertainty predicted = calib::PredictProjectionUncertainty(result, 1000);
   std::printf("projection uncertainty at 1 m (from the covariance: the expected RMS difference "
               "from the true rig over the stereo band)\n");
@@ -342,7 +341,7 @@ int RunCalibrate() {
     detections_path = (out.parent_path() / (out.stem().string() + "_detections.yaml")).string();
     io::WriteDetectionsFile(detections_path, detections);
   }
-  io::WriteModelFile(FLAGS_out, result.rig);
+  io::WriteModelFile(FLAGS_out, result.estimate.rig);
   std::printf("calibrated model written to %s\n", FLAGS_out.c_str());
   if (FLAGS_detections.empty()) std::printf("the detections it was calibrated from: %s\n", detections_path.c_str());
   if (!FLAGS_report.empty()) {

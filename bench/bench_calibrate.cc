@@ -55,7 +55,7 @@ namespace {
 // moved to the nearest point of R0's band edge (model/lip.h DistanceToLipEdgeImage) with R0's
 // lip RMS across the edge as the per-axis sigma. Each is solved from R0's rig (its own session
 // options, one thread per solve, `workers` solves at a time). Per parameter: the spread of the
-// solves against the mean predicted pixel-noise sigma (CalibrationResult::noise_sigma, the
+// solves against the mean predicted pixel-noise sigma (CalibrationUncertainty::noise_sigma, the
 // covariance without the considered parameters' share: the synthetic noise is white and
 // unbiased, p1 = p2 = 0 held exactly), and the bias; then the spread's chi^2 against the solves'
 // mean noise covariance (pseudo-inverse of its Jacobi-scaled form, so the camera-rotation valley's
@@ -83,19 +83,21 @@ void Report(const calib::CalibrationResult& result, const RigParams& truth, doub
   std::printf("images %d, corner observations %zu, lip edge points %zu, threads %d\n", images,
               corners, lip_points, threads);
   std::printf("solve: %.2f s wall, %.2f s CPU (%s), rms %.3f px over %d observations\n", wall_s,
-              cpu_s, result.converged ? "converged" : "NOT converged", result.rms_px,
-              result.n_observations);
+              cpu_s, result.solve.converged ? "converged" : "NOT converged",
+              result.residuals.rms_px, result.residuals.n_observations);
   std::printf("peak memory (whole process, max RSS): %.1f MB\n", usage.ru_maxrss / 1024.0);
   std::printf("%s", calib::ResultTable(result, &truth).c_str());
   double worst = 0;
   std::string worst_name;
-  for (size_t i = 0; i < result.names.size(); ++i) {
-    if (!testing::IsMisalignment(result.names[i]) || !(result.sigma(i) > 0)) continue;
-    const double z = std::abs(result.values(i) - testing::TruthValue(truth, result.names[i])) /
-                     result.sigma(i);
-    if (z > worst) worst = z, worst_name = result.names[i];
+  for (size_t i = 0; i < result.estimate.names.size(); ++i) {
+    if (!testing::IsMisalignment(result.estimate.names[i]) || !(result.uncertainty.sigma(i) > 0))
+      continue;
+    const double z =
+        std::abs(result.estimate.values(i) - testing::TruthValue(truth, result.estimate.names[i])) /
+        result.uncertainty.sigma(i);
+    if (z > worst) worst = z, worst_name = result.estimate.names[i];
   }
-  const RigModel true_model(truth), calibrated(result.rig);
+  const RigModel true_model(truth), calibrated(result.estimate.rig);
   const ProjectionDifference m1 = CompareProjectionsInMirror1(true_model, calibrated, 1000);
   const ProjectionDifference cam = CompareProjections(true_model, calibrated, 1000);
   std::printf("worst misalignment |value-truth|/sigma %.2f (%s); projection at 1 m RMS: mirror 1's "
@@ -105,8 +107,9 @@ void Report(const calib::CalibrationResult& result, const RigParams& truth, doub
   if (values_out) {
     std::ofstream out(values_out);
     out.precision(17);
-    for (size_t i = 0; i < result.names.size(); ++i) {
-      out << result.names[i] << " " << result.values(i) << " " << result.sigma(i) << "\n";
+    for (size_t i = 0; i < result.estimate.names.size(); ++i) {
+      out << result.estimate.names[i] << " " << result.estimate.values(i) << " "
+          << result.uncertainty.sigma(i) << "\n";
     }
   }
 }
@@ -148,11 +151,11 @@ struct ExactSession {
 
 ExactSession ExactOf(const calib::CalibrationResult& r0, const std::vector<TargetSpec>& targets,
                      const Observations& detections) {
-  const RigModel model(r0.rig);
+  const RigModel model(r0.estimate.rig);
   std::map<std::pair<int, int>, const calib::TargetPlacementEstimate*> pose;
-  for (const auto& p : r0.placements) pose[{p.image, p.target}] = &p;
+  for (const auto& p : r0.residuals.placements) pose[{p.image, p.target}] = &p;
   std::map<std::tuple<int, int, int, int>, bool> rejected;
-  for (const auto& o : r0.rejected) rejected[{o.image, o.target, o.id, o.mirror}] = true;
+  for (const auto& o : r0.residuals.rejected) rejected[{o.image, o.target, o.id, o.mirror}] = true;
   ExactSession out;
   out.detections.session = detections.session;
   for (int i = 0; i < static_cast<int>(detections.images.size()); ++i) {
@@ -231,19 +234,20 @@ int RunMonteCarlo(int argc, char** argv) {
   calib::CalibrationOptions options = calib::OptionsFromSession(session);
   const auto t0 = std::chrono::steady_clock::now();
   const calib::CalibrationResult r0 = calib::Calibrate(start, session.targets, detections, options);
-  std::printf("reference R0 (the session's detections): %.1f s wall, rms %.4f px over %d corners, "
-              "%d lip points (%d normal points), lips rms %.4f px\n",
-              std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),
-              r0.rms_px, r0.n_observations, r0.n_lip_points, r0.n_lip_normal_points,
-              r0.lip_rms_px);
+  std::printf(
+      "reference R0 (the session's detections): %.1f s wall, rms %.4f px over %d corners, "
+      "%d lip points (%d normal points), lips rms %.4f px\n",
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),
+      r0.residuals.rms_px, r0.residuals.n_observations, r0.residuals.n_lip_points,
+      r0.residuals.n_lip_normal_points, r0.residuals.lip_rms_px);
   double corner_sigma[2] = {0, 0};
-  for (const auto& g : r0.variance_components) {
+  for (const auto& g : r0.uncertainty.variance_components) {
     std::printf("  R0 %-15s s %.4f px per axis, correlation factor %.2f, weighted as %.4f px\n",
                 g.group.c_str(), g.sigma_px, g.correlation_factor, g.weight_sigma_px);
     if (g.group == "corners ring 1") corner_sigma[0] = g.sigma_px;
     if (g.group == "corners ring 2") corner_sigma[1] = g.sigma_px;
   }
-  const double lip_sigma = options.use_lips ? r0.lip_rms_px : 0.0;
+  const double lip_sigma = options.use_lips ? r0.residuals.lip_rms_px : 0.0;
   const ExactSession exact = ExactOf(r0, session.targets, detections);
   std::printf("synthetic sessions: %d / %d corners (rings 1 / 2) at %.4f / %.4f px per axis, %d lip "
               "points at %.4f px per axis (%d farther than 1 px from R0's edge left out); %d "
@@ -261,7 +265,7 @@ int RunMonteCarlo(int argc, char** argv) {
     for (int k = first; k < solves; k += workers) {
       const auto ts = std::chrono::steady_clock::now();
       try {
-        results[k] = calib::Calibrate(r0.rig, session.targets,
+        results[k] = calib::Calibrate(r0.estimate.rig, session.targets,
                                       Noisy(exact, corner_sigma, lip_sigma, 1000 + k), options);
       } catch (const std::exception& e) {
         errors[k] = e.what();
@@ -279,21 +283,22 @@ int RunMonteCarlo(int argc, char** argv) {
   // noise may tell the synthetic sessions more than R0's own, e.g. dist_k3 freed).
   std::map<std::vector<std::string>, int> lists;
   for (int k = 0; k < solves; ++k) {
-    if (errors[k].empty()) ++lists[results[k].names];
+    if (errors[k].empty()) ++lists[results[k].estimate.names];
   }
-  std::vector<std::string> names = r0.names;
+  std::vector<std::string> names = r0.estimate.names;
   int most = 0;
   for (const auto& [list, count] : lists) {
     if (count > most) most = count, names = list;
   }
-  if (names != r0.names) {
+  if (names != r0.estimate.names) {
     std::printf("the solves' observable parameters differ from R0's:");
     for (const auto& name : names) {
-      if (std::find(r0.names.begin(), r0.names.end(), name) == r0.names.end()) {
+      if (std::find(r0.estimate.names.begin(), r0.estimate.names.end(), name) ==
+          r0.estimate.names.end()) {
         std::printf(" +%s", name.c_str());
       }
     }
-    for (const auto& name : r0.names) {
+    for (const auto& name : r0.estimate.names) {
       if (std::find(names.begin(), names.end(), name) == names.end()) {
         std::printf(" -%s", name.c_str());
       }
@@ -304,7 +309,7 @@ int RunMonteCarlo(int argc, char** argv) {
   for (int k = 0; k < solves; ++k) {
     if (!errors[k].empty()) {
       std::printf("solve %d failed: %s\n", k, errors[k].c_str());
-    } else if (results[k].names != names) {
+    } else if (results[k].estimate.names != names) {
       std::printf("solve %d: other parameters observable than the others' (left out)\n", k);
     } else {
       good.push_back(k);
@@ -317,7 +322,7 @@ int RunMonteCarlo(int argc, char** argv) {
   {
     std::map<std::string, std::pair<double, double>> groups;  // mean s, mean tau
     for (int k : good) {
-      for (const auto& g : results[k].variance_components) {
+      for (const auto& g : results[k].uncertainty.variance_components) {
         groups[g.group].first += g.sigma_px / n;
         groups[g.group].second += g.correlation_factor / n;
       }
@@ -329,12 +334,12 @@ int RunMonteCarlo(int argc, char** argv) {
   }
   const int p = static_cast<int>(names.size());
   Eigen::VectorXd reference(p);  // R0's value of each parameter
-  for (int i = 0; i < p; ++i) reference(i) = *ParameterOf(r0.rig, names[i]);
+  for (int i = 0; i < p; ++i) reference(i) = *ParameterOf(r0.estimate.rig, names[i]);
   Eigen::MatrixXd x(n, p);
   Eigen::VectorXd predicted = Eigen::VectorXd::Zero(p);
   for (int a = 0; a < n; ++a) {
-    x.row(a) = results[good[a]].values.transpose();
-    predicted += results[good[a]].noise_sigma / n;
+    x.row(a) = results[good[a]].estimate.values.transpose();
+    predicted += results[good[a]].uncertainty.noise_sigma / n;
   }
   const Eigen::VectorXd mean = x.colwise().mean().transpose();
   const Eigen::MatrixXd d = x.rowwise() - mean.transpose();
@@ -360,12 +365,13 @@ int RunMonteCarlo(int argc, char** argv) {
   Eigen::MatrixXd noise_cov = Eigen::MatrixXd::Zero(p, p);
   for (int a = 0; a < n; ++a) {
     const calib::CalibrationResult& r = results[good[a]];
-    Eigen::MatrixXd c = r.covariance;
-    if (r.considered_sensitivity.cols() == r.considered_column_sigma.size() &&
-        r.considered_sensitivity.rows() == p) {
-      c -= r.considered_sensitivity *
-           r.considered_column_sigma.array().square().matrix().asDiagonal() *
-           r.considered_sensitivity.transpose();
+    Eigen::MatrixXd c = r.uncertainty.covariance;
+    if (r.uncertainty.considered_sensitivity.cols() ==
+            r.uncertainty.considered_column_sigma.size() &&
+        r.uncertainty.considered_sensitivity.rows() == p) {
+      c -= r.uncertainty.considered_sensitivity *
+           r.uncertainty.considered_column_sigma.array().square().matrix().asDiagonal() *
+           r.uncertainty.considered_sensitivity.transpose();
     }
     noise_cov += c / n;
   }

@@ -70,7 +70,7 @@ void RunRobustStages(const CalibrationOptions& options, Calibration* c,
   for (const Stage& stage : kRobustStages) {
     const std::set<std::string> groups = StageGroups(stage, c->refined);
     if (groups.empty() || groups == done) continue;
-    result->stages.push_back(Solve(stage, options, c));
+    result->solve.stages.push_back(Solve(stage, options, c));
     done = groups;
   }
 }
@@ -142,7 +142,7 @@ void RunWeightedRounds(const CalibrationOptions& options, Calibration* c,
     if (n > 0) Progress(options, "rejected " + std::to_string(n) + " outlier(s)");
     Progress(options, WeightsLine(c->weights));
     full_rounds += !subset;
-    result->stages.push_back(Solve(subset ? kReweightStage : kFinalStage, options, c));
+    result->solve.stages.push_back(Solve(subset ? kReweightStage : kFinalStage, options, c));
     std::copy(c->weights.sigma, c->weights.sigma + 3, solved_weights);
   }
 }
@@ -162,12 +162,12 @@ void FinalCovariance(const CalibrationOptions& options, Calibration* c,
   CovarianceFindings findings = covariance();
   if (DecideDistK3(findings, c->rig.params, c->observations.corners, options, &c->refined,
                    result)) {
-    result->stages.push_back(Solve(kFinalStage, options, c));
+    result->solve.stages.push_back(Solve(kFinalStage, options, c));
     findings = covariance();
   }
   AddPointingNote(result);
   FinishProfiles(c->observations, c->profiles, options, &c->rig, result);
-  if (result->lip_edges_considered > 0) {
+  if (result->uncertainty.lip_edges_considered > 0) {
     std::string sigmas;
     for (double s : findings.lip_edge_sigma) {
       char one[32];
@@ -180,18 +180,18 @@ void FinalCovariance(const CalibrationOptions& options, Calibration* c,
                   "carried into the sigmas: across the edge sigma %s px (at least %.3g, or the RMS "
                   "of the edge's residuals across it if larger), the whole edge's move along u and "
                   "v %.3g px",
-                  result->lip_edges_considered, sigmas.c_str(), options.lip_edge_bias_sigma_px,
-                  options.lip_edge_bias_sigma_px);
-    result->notes.push_back(buf);
+                  result->uncertainty.lip_edges_considered, sigmas.c_str(),
+                  options.lip_edge_bias_sigma_px, options.lip_edge_bias_sigma_px);
+    result->solve.notes.push_back(buf);
   }
-  if (result->corner_offsets_considered > 0) {
+  if (result->uncertainty.corner_offsets_considered > 0) {
     char buf[320];
     std::snprintf(buf, sizeof(buf),
                   "corners: a detector offset common to each ring's corners, the same in every "
                   "image, is carried into the sigmas: sigma %.3g px per axis (many corners average "
                   "their noise, not such an offset; the reflex tilt reads it most)",
                   options.corner_offset_sigma_px);
-    result->notes.push_back(buf);
+    result->solve.notes.push_back(buf);
   }
 }
 
@@ -199,18 +199,18 @@ void FinalCovariance(const CalibrationOptions& options, Calibration* c,
 // edge from the calibrated curve, over the points whose normal point stayed in the solve) the
 // lips; throws if too few corners remain.
 void ResidualStatistics(const CalibrationOptions& options, Calibration* c,
-                        CalibrationResult* result) {
+                        CalibrationResiduals* residuals) {
   ObservationSet& obs = c->observations;
   for (const auto& o : obs.corners) {
     if (!o.rejected && !o.projectable) {
       obs.rejected.push_back({o.image, o.target, o.id, o.mirror, o.pixel, 0.0, "not projectable"});
     }
   }
-  result->rms_px = CornerRms(c->rig, obs, 0, &result->n_observations);
-  result->per_mirror_rms_px[0] = CornerRms(c->rig, obs, 1, nullptr);
-  result->per_mirror_rms_px[1] = CornerRms(c->rig, obs, 2, nullptr);
+  residuals->rms_px = CornerRms(c->rig, obs, 0, &residuals->n_observations);
+  residuals->per_mirror_rms_px[0] = CornerRms(c->rig, obs, 1, nullptr);
+  residuals->per_mirror_rms_px[1] = CornerRms(c->rig, obs, 2, nullptr);
   if (!obs.lips.empty()) {
-    LipRms(c->rig, obs.lips, &result->n_lip_normal_points);
+    LipRms(c->rig, obs.lips, &residuals->n_lip_normal_points);
     InitialiseLipAzimuths(c->rig, &obs.lips);
     double ssr = 0;
     int detected = 0;
@@ -219,26 +219,29 @@ void ResidualStatistics(const CalibrationOptions& options, Calibration* c,
       ++detected;
       if (l.normal < 0 || !obs.lips[l.normal].Used() || !l.projectable) continue;
       ssr += l.across * l.across;
-      ++result->n_lip_points;
+      ++residuals->n_lip_points;
     }
-    result->lip_rms_px = result->n_lip_points ? std::sqrt(ssr / result->n_lip_points) : 0.0;
-    result->n_lip_rejected = detected - result->n_lip_points;
+    residuals->lip_rms_px =
+        residuals->n_lip_points ? std::sqrt(ssr / residuals->n_lip_points) : 0.0;
+    residuals->n_lip_rejected = detected - residuals->n_lip_points;
   }
   const int n_total = static_cast<int>(obs.corners.size());
-  if (result->n_observations < n_total / 2) {
+  if (residuals->n_observations < n_total / 2) {
     throw CalibrationError("the solve diverged or the model does not fit: only " +
-                           std::to_string(result->n_observations) + " of " +
+                           std::to_string(residuals->n_observations) + " of " +
                            std::to_string(n_total) + " observations remain within " +
                            std::to_string(options.solver.outlier_px) + " px");
   }
 }
 
-// The result's placements, corner residuals, and the rig with its calibration record.
-void FillResult(const std::vector<TargetSpec>& targets, const Calibration& c, int n_outliers,
+// The result's placements, corner residuals, the data solved, and the rig with its calibration
+// record.
+void FillResult(const std::vector<TargetSpec>& targets, const Calibration& c,
                 CalibrationResult* result) {
   const ObservationSet& obs = c.observations;
-  result->variance_components = c.weights.components;
-  result->rejected = obs.rejected;
+  CalibrationResiduals& residuals = result->residuals;
+  result->uncertainty.variance_components = c.weights.components;
+  residuals.rejected = obs.rejected;
   for (const auto& p : obs.placements) {
     if (p.failed) continue;
     TargetPlacementEstimate e;
@@ -247,42 +250,23 @@ void FillResult(const std::vector<TargetSpec>& targets, const Calibration& c, in
     e.rotation = Eigen::Vector3d(p.cam_from_target[0], p.cam_from_target[1], p.cam_from_target[2]);
     e.translation =
         Eigen::Vector3d(p.cam_from_target[3], p.cam_from_target[4], p.cam_from_target[5]);
-    result->placements.push_back(e);
+    residuals.placements.push_back(e);
   }
   for (const auto& o : obs.corners) {
     Eigen::Vector2d projected;
     if (o.rejected || !Reproject(c.rig, obs, o, &projected)) continue;
-    result->residuals.push_back({o.image, o.target, o.id, o.mirror, o.pixel, projected - o.pixel});
+    residuals.corners.push_back({o.image, o.target, o.id, o.mirror, o.pixel, projected - o.pixel});
   }
   for (const auto& o : obs.corners) {
     if (o.rejected || !o.projectable) continue;
-    for (auto& e : result->placements) {
+    for (auto& e : residuals.placements) {
       if (e.image == o.image && e.target == o.target) ++e.observations[o.mirror - 1];
     }
   }
-  CalibrationInfo info;
-  info.parameters = result->names;
-  info.values.assign(result->values.data(), result->values.data() + result->values.size());
-  info.sigma.assign(result->sigma.data(), result->sigma.data() + result->sigma.size());
-  const int m = static_cast<int>(result->names.size());
-  for (int i = 0; i < m; ++i) {
-    for (int j = 0; j < m; ++j) info.covariance.push_back(result->covariance(i, j));
-  }
-  info.rms_px = result->rms_px;
-  info.n_observations = result->n_observations;
-  info.n_outliers = n_outliers;
-  info.per_mirror_rms_px = {result->per_mirror_rms_px[0], result->per_mirror_rms_px[1]};
-  info.images = obs.n_images;
-  info.n_rejected = static_cast<int>(result->rejected.size()) + result->n_lip_rejected;
-  info.n_lip_points = result->n_lip_points;
-  info.lip_rms_px = result->lip_rms_px;
-  for (const auto& u : result->unobservable) {
-    info.unobservable.push_back(u.name);
-    info.unobservable_hints.push_back(u.hint);
-  }
-  info.targets = TargetsDescription(targets);
-  result->rig = c.rig.params;
-  result->rig.calibration = info;
+  result->solve.images = obs.n_images;
+  result->solve.targets = TargetsDescription(targets);
+  result->estimate.rig = c.rig.params;
+  result->estimate.rig.calibration = CalibrationInfoOf(*result);
 }
 
 }  // namespace
@@ -347,17 +331,47 @@ CalibrationResult Calibrate(const RigParams& start, const std::vector<TargetSpec
   RunWeightedRounds(options, &c, &result);
   FinalCovariance(options, &c, &result);
 
-  int n_outliers = 0;
-  for (const auto& r : c.observations.rejected) n_outliers += r.reason == "outlier";
-  ResidualStatistics(options, &c, &result);
+  ResidualStatistics(options, &c, &result.residuals);
   CheckTargetScales(c.rig.params, c.observations, targets, options);
-  result.converged = result.stages.back().converged;
-  if (!result.converged) {
+  result.solve.converged = result.solve.stages.back().converged;
+  if (!result.solve.converged) {
     Progress(options, "warning: the final stage did not converge in " +
                           std::to_string(options.solver.max_iterations) + " iterations");
   }
-  FillResult(targets, c, n_outliers, &result);
+  FillResult(targets, c, &result);
   return result;
+}
+
+CalibrationInfo CalibrationInfoOf(const CalibrationResult& result,
+                                  const CalibrationProvenance& provenance) {
+  const CalibrationEstimate& estimate = result.estimate;
+  const CalibrationUncertainty& uncertainty = result.uncertainty;
+  const CalibrationResiduals& residuals = result.residuals;
+  CalibrationInfo info;
+  info.parameters = estimate.names;
+  info.values.assign(estimate.values.data(), estimate.values.data() + estimate.values.size());
+  info.sigma.assign(uncertainty.sigma.data(), uncertainty.sigma.data() + uncertainty.sigma.size());
+  const int m = static_cast<int>(estimate.names.size());
+  for (int i = 0; i < m; ++i) {
+    for (int j = 0; j < m; ++j) info.covariance.push_back(uncertainty.covariance(i, j));
+  }
+  info.rms_px = residuals.rms_px;
+  info.n_observations = residuals.n_observations;
+  for (const auto& r : residuals.rejected) info.n_outliers += r.reason == "outlier";
+  info.per_mirror_rms_px = {residuals.per_mirror_rms_px[0], residuals.per_mirror_rms_px[1]};
+  info.n_rejected = static_cast<int>(residuals.rejected.size()) + residuals.n_lip_rejected;
+  info.n_lip_points = residuals.n_lip_points;
+  info.lip_rms_px = residuals.lip_rms_px;
+  for (const auto& u : uncertainty.unobservable) {
+    info.unobservable.push_back(u.name);
+    info.unobservable_hints.push_back(u.hint);
+  }
+  info.session = provenance.session;
+  info.images = result.solve.images;
+  info.targets = result.solve.targets;
+  info.tool_version = provenance.tool_version;
+  info.date = provenance.date;
+  return info;
 }
 
 std::string TargetsDescription(const std::vector<TargetSpec>& targets) {

@@ -66,7 +66,7 @@ struct CalibrationOptions {
   bool refine_skew = false;     // the camera's skew is held at its starting value unless asked
   // dist_k3: refined if true; otherwise held unless the session's corners reach radii where it
   // is told from dist_k1, dist_k2 (decided after the solve from the covariance: freeing it may
-  // at most double their sigmas; the rings' narrow radii usually hold it). result.notes says.
+  // at most double their sigmas; the rings' narrow radii usually hold it). result.solve.notes says.
   bool refine_dist_k3 = false;
   // dist_p1, dist_p2: held by default: over the rings' radii tangential distortion is nearly the
   // image of a rotation of the camera against the mirror bodies (sigma(cx) grew 5x with them free).
@@ -186,11 +186,18 @@ struct UnobservableParameter {
   std::string hint;
 };
 
-struct CalibrationResult {
-  RigParams rig;  // the calibrated model (kind noncentral), rig.calibration filled
+// The calibrated rig and its refined parameters.
+struct CalibrationEstimate {
+  RigParams rig;  // the calibrated model (kind noncentral), rig.calibration = CalibrationInfoOf
   // Rig parameters that were refined, in covariance order (names as in rig.calibration).
   std::vector<std::string> names;
-  Eigen::VectorXd values, sigma;  // internal units: px, unitless, rad, mm
+  Eigen::VectorXd values;  // internal units: px, unitless, rad, mm
+};
+
+// How sure the estimate is: the refined parameters' covariance (in the order of
+// CalibrationEstimate::names), what went into it, and what the data cannot tell.
+struct CalibrationUncertainty {
+  Eigen::VectorXd sigma;  // internal units: px, unitless, rad, mm
   Eigen::MatrixXd covariance, correlation;
   // The sigmas from the pixel noise alone (without the considered parameters' share).
   Eigen::VectorXd noise_sigma;
@@ -208,15 +215,11 @@ struct CalibrationResult {
   // the lip edges' biases, the rings' corner offsets (calib/projection_uncertainty.h), and the
   // sigma assumed for each.
   Eigen::MatrixXd considered_sensitivity;
-  Eigen::VectorXd considered_column_sigma;  // lip edges whose bias (lip_edge_bias_sigma_px) is considered
+  Eigen::VectorXd considered_column_sigma;
   // One name per considered column: the held parameter's, "lip <path> r <radius> across|u|v",
   // "corners ring <1|2> u|v".
   std::vector<std::string> considered_column_names;
   std::vector<UnobservableParameter> unobservable;  // named, never given a number
-  // What a user of the model should know about this calibration, one sentence each (printed
-  // under the table): dist_k3 held or refined and why, the camera's pointing against the mirror
-  // bodies, the lips' considered bias.
-  std::vector<std::string> notes;
   // Every refined parameter (observable or not) and the eigen-decomposition of the
   // Jacobi-scaled (unit-diagonal) Schur complement over them, eigenvalues ascending: the
   // weakest directions of the data (a near-gauge shows as a tiny eigenvalue).
@@ -230,6 +233,10 @@ struct CalibrationResult {
   // as the groups' weights (calib/variance_components.h); the covariance is the inverse of the
   // normal matrix weighted with them.
   std::vector<VarianceComponent> variance_components;
+};
+
+// How the calibrated rig fits the observations of the final solve.
+struct CalibrationResiduals {
   double rms_px = 0;
   double per_mirror_rms_px[2] = {0, 0};
   int n_observations = 0;  // corners used in the final solve
@@ -238,16 +245,50 @@ struct CalibrationResult {
   // The normal points the used ones went into (their means over the images per azimuth bin of
   // each edge, calibrate.cc): the lip residuals of the solve.
   int n_lip_normal_points = 0;
-  double lip_rms_px = 0;   // of the used detected points' distances across the edge
-  int n_parameters = 0;    // rig + pose parameters of the final solve
+  double lip_rms_px = 0;  // of the used detected points' distances across the edge
   std::vector<RejectedObservation> rejected;
-  std::vector<CornerResidual> residuals;  // every corner of the final solve
-  std::vector<StageReport> stages;
+  std::vector<CornerResidual> corners;  // every corner of the final solve
   std::vector<TargetPlacementEstimate> placements;
   // Each mirror's profile: freed or held, and the radial residual pattern (index 0: mirror 1).
   ProfileDecision profile[2];
-  bool converged = false;
 };
+
+// How the solve went: its stages, and what a user should know about it.
+struct SolveReport {
+  std::vector<StageReport> stages;
+  bool converged = false;
+  int n_parameters = 0;  // rig + pose parameters of the final solve
+  // What a user of the model should know about this calibration, one sentence each (printed
+  // under the table): dist_k3 held or refined and why, the camera's pointing against the mirror
+  // bodies, the lips' considered bias.
+  std::vector<std::string> notes;
+  // The data solved: the detections' image count and the session's targets in words
+  // (TargetsDescription), as the model file's dataset records them.
+  int images = 0;
+  std::string targets;
+};
+
+// What Calibrate returns: the estimate, how sure it is, how it fits the observations, and how the
+// solve went. The model file's `calibration:` section is derived from it (CalibrationInfoOf).
+struct CalibrationResult {
+  CalibrationEstimate estimate;
+  CalibrationUncertainty uncertainty;
+  CalibrationResiduals residuals;
+  SolveReport solve;
+};
+
+// Where a calibration came from, beyond what the result knows (the model file's dataset session,
+// tool_version, date): the command fills them; Calibrate leaves them empty.
+struct CalibrationProvenance {
+  std::string session;
+  std::string tool_version;
+  std::string date;
+};
+
+// The model file's `calibration:` section of a result: every field derived from it (and the
+// provenance), so the model file says what the result says.
+CalibrationInfo CalibrationInfoOf(const CalibrationResult& result,
+                                  const CalibrationProvenance& provenance = {});
 
 // Calibrates from detections (pixels of target corners per image and ring). `targets` are the
 // session's targets (detections refer to them by index). Throws CalibrationError for degenerate

@@ -164,7 +164,7 @@ CovarianceFindings ComputeCovariance(const Weights& weights, const Refinement& r
                                      ObservationSet* observations, CostCache* costs,
                                      CalibrationResult* result);
 // After ComputeCovariance: frees dist_k3 when the session's radii tell it from dist_k1, dist_k2
-// (true: solve again); otherwise it stays held. Says which in result->notes.
+// (true: solve again); otherwise it stays held. Says which in result->solve.notes.
 bool DecideDistK3(const CovarianceFindings& findings, const RigParams& rig,
                   const std::vector<Observation>& corners, const CalibrationOptions& options,
                   Refinement* refined, CalibrationResult* result);

@@ -143,7 +143,7 @@ bool DecideProfiles(const ObservationSet& observations, const CalibrationOptions
     // mirror out to its rim (its Legendre variable spans them; below them it would only
     // extrapolate). Its coefficients are zero, so the model is unchanged.
     FitProfileRadiiToCorners(m, observations, rig, profiles, costs);
-    ProfileDecision& d = result->profile[m];
+    ProfileDecision& d = result->residuals.profile[m];
     const double(&reach)[2] = profiles->corner_radii[m];
     d.r_min = reach[1] > 0 ? reach[0] : ShapeOf(rig->params, m).r_min;
     d.r_max = reach[1] > 0 ? reach[1] : ShapeOf(rig->params, m).r_max;
@@ -175,7 +175,7 @@ void FinishProfiles(const ObservationSet& observations, const ProfileState& prof
   if (options.profile == "off") return;
   // What the profiles' tolerance leaves open, said where the table names it unobservable.
   std::string traded;
-  for (const auto& u : result->unobservable) {
+  for (const auto& u : result->uncertainty.unobservable) {
     const RigParameter* p = FindRigParameter(u.name);
     if (p && p->role == SolveRole::kAxialScale) traded += (traded.empty() ? "" : ", ") + u.name;
   }
@@ -188,10 +188,10 @@ void FinishProfiles(const ObservationSet& observations, const ProfileState& prof
                   "them open: projections stay determined; a measured mirror (its profile in the "
                   "starting model, a smaller profile_sigma_mm) would narrow them",
                   traded.c_str(), options.profile_sigma_mm);
-    result->notes.push_back(buf);
+    result->solve.notes.push_back(buf);
   }
   for (int m = 0; m < 2; ++m) {
-    ProfileDecision& d = result->profile[m];
+    ProfileDecision& d = result->residuals.profile[m];
     d.pattern_after = RadialPattern(*rig, observations, profiles, m + 1, &d.pattern_chi2_after);
     char buf[640];
     const double um = 1000 * options.profile_sigma_mm;
@@ -223,7 +223,7 @@ void FinishProfiles(const ObservationSet& observations, const ProfileState& prof
                           "radius"
                         : "");
     }
-    result->notes.push_back(buf);
+    result->solve.notes.push_back(buf);
     // A held zero profile is no profile: the model file stays an exact-quadric one.
     if (!d.freed && !profiles.given[m]) {
       (m == 0 ? rig->params.profile1 : rig->params.profile2).present = false;

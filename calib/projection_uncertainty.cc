@@ -104,32 +104,33 @@ double Step(const std::string& name, double sigma) {
 std::vector<PointUncertainty> ProjectionUncertaintyMap(const CalibrationResult& result,
                                                        double range_mm) {
   std::vector<PointUncertainty> out;
-  const int n = static_cast<int>(result.names.size());
+  const int n = static_cast<int>(result.estimate.names.size());
   if (n == 0) return out;
   // Columns: the refined parameters, then the named considered ones (their direct effect).
-  std::vector<std::string> names = result.names;
+  std::vector<std::string> names = result.estimate.names;
   std::vector<double> steps;
-  for (int i = 0; i < n; ++i) steps.push_back(Step(names[i], result.sigma(i)));
-  for (const auto& c : result.considered) {
+  for (int i = 0; i < n; ++i) steps.push_back(Step(names[i], result.uncertainty.sigma(i)));
+  for (const auto& c : result.uncertainty.considered) {
     names.push_back(c.name);
     steps.push_back(Step(c.name, c.sigma));
   }
-  const BandJacobian jac = Jacobians(result.rig, names, steps, range_mm);
+  const BandJacobian jac = Jacobians(result.estimate.rig, names, steps, range_mm);
   out.resize(jac.points.size());
   for (size_t p = 0; p < jac.points.size(); ++p) {
     out[p].point_in_cam = jac.points[p].point_in_cam;
     out[p].pixel[0] = jac.points[p].pixel[0];
     out[p].pixel[1] = jac.points[p].pixel[1];
   }
-  const int n_named = static_cast<int>(result.considered.size());
-  const int n_columns = static_cast<int>(result.considered_column_sigma.size());
-  const bool considered = result.considered_sensitivity.cols() == n_columns && n_columns > 0;
+  const int n_named = static_cast<int>(result.uncertainty.considered.size());
+  const int n_columns = static_cast<int>(result.uncertainty.considered_column_sigma.size());
+  const bool considered =
+      result.uncertainty.considered_sensitivity.cols() == n_columns && n_columns > 0;
   // Covariance without the considered share, rebuilt from the sensitivity.
-  Eigen::MatrixXd noise = result.covariance;
+  Eigen::MatrixXd noise = result.uncertainty.covariance;
   for (int c = 0; considered && c < n_columns; ++c) {
-    const Eigen::VectorXd s = result.considered_sensitivity.col(c);
-    noise -= result.considered_column_sigma(c) * result.considered_column_sigma(c) * s *
-             s.transpose();
+    const Eigen::VectorXd s = result.uncertainty.considered_sensitivity.col(c);
+    noise -= result.uncertainty.considered_column_sigma(c) *
+             result.uncertainty.considered_column_sigma(c) * s * s.transpose();
   }
   for (int f = 0; f < 2; ++f) {
     for (int m = 0; m < 2; ++m) {
@@ -144,10 +145,10 @@ std::vector<PointUncertainty> ProjectionUncertaintyMap(const CalibrationResult& 
         (f == 0 ? out[p].noise_in_mirror1_px : out[p].noise_in_cam_px)[m] = std::sqrt(v);
       }
       for (int c = 0; considered && c < n_columns; ++c) {
-        Eigen::VectorXd effect = j * result.considered_sensitivity.col(c);
+        Eigen::VectorXd effect = j * result.uncertainty.considered_sensitivity.col(c);
         if (c < n_named) effect += j_all.col(n + c);
-        variance += result.considered_column_sigma(c) * result.considered_column_sigma(c) *
-                    effect.cwiseAbs2();
+        variance += result.uncertainty.considered_column_sigma(c) *
+                    result.uncertainty.considered_column_sigma(c) * effect.cwiseAbs2();
       }
       for (size_t p = 0; p < out.size(); ++p) {
         const double v = std::max(variance(2 * p) + variance(2 * p + 1), 0.0);
@@ -182,15 +183,15 @@ ProjectionUncertainty PredictProjectionUncertainty(const CalibrationResult& resu
 ProjectionErrorShare ShareOfProjectionError(const CalibrationResult& result,
                                             const RigParams& truth, double range_mm) {
   ProjectionErrorShare out;
-  const int n = static_cast<int>(result.names.size());
+  const int n = static_cast<int>(result.estimate.names.size());
   if (n == 0) return out;
   std::vector<double> steps;
   Eigen::VectorXd error(n);
   for (int i = 0; i < n; ++i) {
-    steps.push_back(Step(result.names[i], result.sigma(i)));
-    error(i) = result.values(i) - *ParameterOf(truth, result.names[i]);
+    steps.push_back(Step(result.estimate.names[i], result.uncertainty.sigma(i)));
+    error(i) = result.estimate.values(i) - *ParameterOf(truth, result.estimate.names[i]);
   }
-  const BandJacobian jac = Jacobians(result.rig, result.names, steps, range_mm);
+  const BandJacobian jac = Jacobians(result.estimate.rig, result.estimate.names, steps, range_mm);
   // The table's groups (RigBlock::group) in its order.
   for (const RigBlock& b : kRigBlocks) {
     if (std::find(out.groups.begin(), out.groups.end(), b.group) == out.groups.end()) {
@@ -211,7 +212,7 @@ ProjectionErrorShare ShareOfProjectionError(const CalibrationResult& result,
     for (size_t g = 0; g < out.groups.size(); ++g) {
       Eigen::VectorXd part = Eigen::VectorXd::Zero(n);
       for (int i = 0; i < n; ++i) {
-        if (group_of(result.names[i]) == static_cast<int>(g)) part(i) = error(i);
+        if (group_of(result.estimate.names[i]) == static_cast<int>(g)) part(i) = error(i);
       }
       out.group_px[g][m] = std::sqrt((j * part).squaredNorm() / points);
     }
@@ -219,9 +220,11 @@ ProjectionErrorShare ShareOfProjectionError(const CalibrationResult& result,
   // Mahalanobis distance over the observable parameters, on the correlation matrix (Jacobi
   // scaled: px, rad and mm compare) with a pseudo-inverse (the camera-rotation valley makes it
   // nearly singular).
-  const Eigen::VectorXd scale = result.covariance.diagonal().cwiseMax(1e-300).cwiseSqrt();
-  const Eigen::MatrixXd correlation =
-      scale.cwiseInverse().asDiagonal() * result.covariance * scale.cwiseInverse().asDiagonal();
+  const Eigen::VectorXd scale =
+      result.uncertainty.covariance.diagonal().cwiseMax(1e-300).cwiseSqrt();
+  const Eigen::MatrixXd correlation = scale.cwiseInverse().asDiagonal() *
+                                      result.uncertainty.covariance *
+                                      scale.cwiseInverse().asDiagonal();
   Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(correlation);
   const Eigen::VectorXd projected =
       eig.eigenvectors().transpose() * error.cwiseQuotient(scale);

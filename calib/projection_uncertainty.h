@@ -23,10 +23,11 @@ struct ProjectionUncertainty {
   int points = 0;
 };
 
-// The linearised projection difference of `result.rig` from `truth` (parameter error
+// The linearised projection difference of `result.estimate.rig` from `truth` (parameter error
 // value - truth over the refined parameters), points held in M1: per ring, in total and with
 // only one parameter group's error (camera, distortion, mirror1, mirror2, reflex), plus the
-// Mahalanobis distance of the whole error (chi^2 with result.names.size() degrees of freedom).
+// Mahalanobis distance of the whole error (chi^2 with result.estimate.names.size() degrees of
+// freedom).
 struct ProjectionErrorShare {
   double total_px[2] = {0, 0};
   std::vector<std::string> groups;
@@ -47,7 +48,7 @@ struct PointUncertainty {
   Eigen::Vector2d pixel[2];  // via mirror 1, mirror 2 (at the calibrated model)
   double in_mirror1_px[2] = {0, 0};
   double in_cam_px[2] = {0, 0};
-  // From the pixel noise alone (CalibrationResult::noise_sigma's share, without the considered
+  // From the pixel noise alone (CalibrationUncertainty::noise_sigma's share, without the considered
   // parameters'): what repeating the session with fresh noise would scatter.
   double noise_in_mirror1_px[2] = {0, 0};
   double noise_in_cam_px[2] = {0, 0};

@@ -105,8 +105,8 @@ Columns RigColumns(const Refinement& refined, const CalibrationOptions& options,
         c.values.push_back(block[k]);
         refined_cols.push_back(col++);
       } else if (consider != refined.considered_sigma.end() && consider->second > 0) {
-        result->considered.push_back({all[k], block[k], consider->second});
-        result->considered_column_names.push_back(all[k]);
+        result->uncertainty.considered.push_back({all[k], block[k], consider->second});
+        result->uncertainty.considered_column_names.push_back(all[k]);
         c.considered_sigma.push_back(consider->second);
         considered_cols.push_back(col++);
       } else if (all[k] == HighRadial().name && !options.refine_dist_k3) {
@@ -218,7 +218,7 @@ int LipEdgeColumns(const ObservationSet& observations, const RigParams& rig,
     columns->considered_sigma.push_back(options.lip_edge_bias_sigma_px);
     columns->considered_sigma.push_back(options.lip_edge_bias_sigma_px);
     for (const char* what : {" across", " u", " v"}) {
-      result->considered_column_names.push_back(edge_names[e] + what);
+      result->uncertainty.considered_column_names.push_back(edge_names[e] + what);
     }
   }
   return static_cast<int>(edge_column.size());
@@ -245,8 +245,8 @@ int CornerOffsetColumns(const ObservationSet& observations, const CalibrationOpt
     n_offsets += 2;
     for (const char* axis : {"u", "v"}) {
       columns->considered_sigma.push_back(options.corner_offset_sigma_px);
-      result->considered_column_names.push_back("corners ring " + std::to_string(ring + 1) + " " +
-                                                axis);
+      result->uncertainty.considered_column_names.push_back("corners ring " +
+                                                            std::to_string(ring + 1) + " " + axis);
     }
   }
   int row = 0;
@@ -289,30 +289,30 @@ void ProbeDistK3(const Eigen::MatrixXd& schur_all, const Columns& c, const RigCo
 
 // The result's names, values, sigmas, covariance and correlation from `cov`.
 void FillCovarianceResult(const RigCovariance& cov, const Columns& c, CalibrationResult* result) {
-  result->refined_names = c.names;
-  result->schur_eigenvalues = cov.eigenvalues;
-  result->schur_eigenvectors = cov.eigenvectors;
-  result->names.clear();
-  result->values.resize(cov.observable.size());
+  result->uncertainty.refined_names = c.names;
+  result->uncertainty.schur_eigenvalues = cov.eigenvalues;
+  result->uncertainty.schur_eigenvectors = cov.eigenvectors;
+  result->estimate.names.clear();
+  result->estimate.values.resize(cov.observable.size());
   for (size_t i = 0; i < cov.observable.size(); ++i) {
-    result->names.push_back(c.names[cov.observable[i]]);
-    result->values(i) = c.values[cov.observable[i]];
+    result->estimate.names.push_back(c.names[cov.observable[i]]);
+    result->estimate.values(i) = c.values[cov.observable[i]];
   }
   for (int i : cov.unobservable) {
-    result->unobservable.push_back({c.names[i], FindRigParameter(c.names[i])->hint});
+    result->uncertainty.unobservable.push_back({c.names[i], FindRigParameter(c.names[i])->hint});
   }
-  result->covariance = cov.covariance;
-  result->considered_sensitivity = cov.considered_sensitivity;
-  result->considered_column_sigma =
+  result->uncertainty.covariance = cov.covariance;
+  result->uncertainty.considered_sensitivity = cov.considered_sensitivity;
+  result->uncertainty.considered_column_sigma =
       Eigen::Map<const Eigen::VectorXd>(c.considered_sigma.data(), c.considered_sigma.size());
-  result->sigma = cov.covariance.diagonal().cwiseMax(0.0).cwiseSqrt();
-  result->noise_sigma = cov.noise_covariance.diagonal().cwiseMax(0.0).cwiseSqrt();
-  const int m = static_cast<int>(result->sigma.size());
-  result->correlation = Eigen::MatrixXd::Identity(m, m);
+  result->uncertainty.sigma = cov.covariance.diagonal().cwiseMax(0.0).cwiseSqrt();
+  result->uncertainty.noise_sigma = cov.noise_covariance.diagonal().cwiseMax(0.0).cwiseSqrt();
+  const int m = static_cast<int>(result->uncertainty.sigma.size());
+  result->uncertainty.correlation = Eigen::MatrixXd::Identity(m, m);
   for (int i = 0; i < m; ++i) {
     for (int j = 0; j < m; ++j) {
-      const double d = result->sigma(i) * result->sigma(j);
-      if (d > 0) result->correlation(i, j) = result->covariance(i, j) / d;
+      const double d = result->uncertainty.sigma(i) * result->uncertainty.sigma(j);
+      if (d > 0) result->uncertainty.correlation(i, j) = result->uncertainty.covariance(i, j) / d;
     }
   }
 }
@@ -395,10 +395,10 @@ CovarianceFindings ComputeCovariance(const Weights& weights, const Refinement& r
   po.selection.lips = true;
   const std::unique_ptr<CalibrationProblem> built =
       BuildProblem(rig, observations, weights, refined, po, costs);
-  result->values.resize(0);
-  result->considered.clear();
-  result->considered_column_names.clear();
-  result->unobservable.clear();
+  result->estimate.values.resize(0);
+  result->uncertainty.considered.clear();
+  result->uncertainty.considered_column_names.clear();
+  result->uncertainty.unobservable.clear();
   CovarianceFindings findings;
 
   std::vector<int> nuisance_sizes;
@@ -417,8 +417,8 @@ CovarianceFindings ComputeCovariance(const Weights& weights, const Refinement& r
   const int n_prior = static_cast<int>(built->prior_blocks.size());
   const int n_params = c.n_rig + 6 * c.n_poses + n_lips;
   const int dof = 2 * (n_obs + n_lips) + n_prior - n_params;
-  result->n_parameters = n_params;
-  result->variance_factor = dof > 0 ? ssr_weighted / dof : 1.0;
+  result->solve.n_parameters = n_params;
+  result->uncertainty.variance_factor = dof > 0 ? ssr_weighted / dof : 1.0;
 
   // The detector's biases as considered columns after the held coordinates: the lip edges', then
   // the corner rings'.
@@ -428,7 +428,7 @@ CovarianceFindings ComputeCovariance(const Weights& weights, const Refinement& r
     const int edges = LipEdgeColumns(*observations, rig->params, options, residuals, row_weight,
                                      2 * n_obs, c.n_rig + c.n_probe + c.n_considered, &triplets,
                                      &c, &findings.lip_edge_sigma, result);
-    result->lip_edges_considered = edges;
+    result->uncertainty.lip_edges_considered = edges;
     n_edges = 3 * edges;
   }
   int n_offsets = 0;
@@ -436,7 +436,7 @@ CovarianceFindings ComputeCovariance(const Weights& weights, const Refinement& r
     n_offsets = CornerOffsetColumns(*observations, options, row_weight,
                                     c.n_rig + c.n_probe + c.n_considered + n_edges, &triplets, &c,
                                     result);
-    result->corner_offsets_considered = n_offsets;
+    result->uncertainty.corner_offsets_considered = n_offsets;
   }
   const int n_extra = n_edges + n_offsets;
   for (int r = 0; r < crs.num_rows; ++r) {
@@ -462,8 +462,8 @@ CovarianceFindings ComputeCovariance(const Weights& weights, const Refinement& r
 void AddPointingNote(CalibrationResult* result) {
   // Mirror 1's tilt: its pose block's parameters in the rotation valley (rx, ry).
   int tilt[2] = {-1, -1};
-  for (size_t i = 0; i < result->names.size(); ++i) {
-    const RigParameter* p = FindRigParameter(result->names[i]);
+  for (size_t i = 0; i < result->estimate.names.size(); ++i) {
+    const RigParameter* p = FindRigParameter(result->estimate.names[i]);
     if (p && BlockOf(*p) == kPose1Block && p->valley == RotationValley::kTilt && p->index < 2) {
       tilt[p->index] = static_cast<int>(i);
     }
@@ -471,7 +471,7 @@ void AddPointingNote(CalibrationResult* result) {
   const int rx = tilt[0], ry = tilt[1];
   if (rx < 0 || ry < 0) return;
   std::string held;
-  for (const auto& c : result->considered) {
+  for (const auto& c : result->uncertainty.considered) {
     const RigParameter* p = FindRigParameter(c.name);
     if (p && p->role == SolveRole::kTangential) held += (held.empty() ? "" : ", ") + c.name;
   }
@@ -483,10 +483,12 @@ void AddPointingNote(CalibrationResult* result) {
                 "%.3f / %.3f deg). Points in the camera frame carry it, distances and shapes do "
                 "not: measure in mirror 1's body (triangulate --frame mirror1)",
                 held.empty() ? "" : (", where the held " + held + " go").c_str(),
-                result->sigma(rx) / kDeg, result->sigma(ry) / kDeg, result->names[rx].c_str(),
-                FindRigParameter(result->names[ry])->Key().c_str(), result->noise_sigma(rx) / kDeg,
-                result->noise_sigma(ry) / kDeg);
-  result->notes.push_back(buf);
+                result->uncertainty.sigma(rx) / kDeg, result->uncertainty.sigma(ry) / kDeg,
+                result->estimate.names[rx].c_str(),
+                FindRigParameter(result->estimate.names[ry])->Key().c_str(),
+                result->uncertainty.noise_sigma(rx) / kDeg,
+                result->uncertainty.noise_sigma(ry) / kDeg);
+  result->solve.notes.push_back(buf);
 }
 
 bool DecideDistK3(const CovarianceFindings& findings, const RigParams& rig,
@@ -520,7 +522,7 @@ bool DecideDistK3(const CovarianceFindings& findings, const RigParams& rig,
                   k3.name, BlockIn(rig, kDistortionBlock)[k3.index], outer,
                   LowerRadialNames(" and ").c_str(), sigma, growth);
   }
-  result->notes.push_back(buf);
+  result->solve.notes.push_back(buf);
   Progress(options, buf);
   return refined->dist_k3;
 }

@@ -34,7 +34,7 @@ std::optional<double> RayElevation(const RigModel& model, const Eigen::Vector2d&
 }
 
 void CoverageAdvice(const ReportInput& in, std::vector<std::string>* out) {
-  const RigModel model(in.result->rig);
+  const RigModel model(in.result->estimate.rig);
   const std::vector<BandPoint> band = StereoBandPoints(model, 1000);
   for (int m = 1; m <= 2; ++m) {
     double lo = 1e9, hi = -1e9;
@@ -45,7 +45,7 @@ void CoverageAdvice(const ReportInput& in, std::vector<std::string>* out) {
       }
     }
     std::vector<double> elevation, azimuth;
-    for (const auto& r : in.result->residuals) {
+    for (const auto& r : in.result->residuals.corners) {
       if (r.mirror != m) continue;
       const auto ray = model.Unproject(r.pixel);
       if (!ray) continue;
@@ -108,7 +108,7 @@ void CoverageAdvice(const ReportInput& in, std::vector<std::string>* out) {
 // 0.1-0.4 px for plain tags in the inner ring) are not named here.
 void OutlierAdvice(const ReportInput& in, std::vector<std::string>* out) {
   std::map<std::pair<int, int>, std::vector<double>> outliers;  // (image, target) -> px
-  for (const auto& r : in.result->rejected) {
+  for (const auto& r : in.result->residuals.rejected) {
     if (r.reason == "outlier") outliers[{r.image, r.target}].push_back(r.residual_px);
   }
   for (auto& [key, residuals] : outliers) {
@@ -141,7 +141,7 @@ void OutlierAdvice(const ReportInput& in, std::vector<std::string>* out) {
 void ProfileAdvice(const calib::CalibrationResult& r, std::vector<std::string>* out) {
   constexpr double kPatternChi2 = 4.0;  // as calib/profiles.cc
   for (int m = 0; m < 2; ++m) {
-    const calib::ProfileDecision& d = r.profile[m];
+    const calib::ProfileDecision& d = r.residuals.profile[m];
     if (d.pattern_before.empty()) continue;
     char buf[400];
     if (d.freed) {
@@ -198,7 +198,7 @@ void SessionAdvice(const ReportInput& in, std::vector<std::string>* out) {
   }
   // Per target: the RMS of its residuals against the median target's.
   std::map<int, std::pair<double, int>> per_target;  // target -> (sum of squares, count)
-  for (const calib::CornerResidual& r : in.result->residuals) {
+  for (const calib::CornerResidual& r : in.result->residuals.corners) {
     auto& [ss, n] = per_target[r.target];
     ss += r.residual.squaredNorm();
     ++n;
@@ -227,13 +227,13 @@ void SessionAdvice(const ReportInput& in, std::vector<std::string>* out) {
 
 std::vector<std::string> Advice(const ReportInput& in) {
   std::vector<std::string> out;
-  if (!in.result->converged) {
+  if (!in.result->solve.converged) {
     out.push_back("the final stage did not converge: raise solver.max_iterations in the session "
                   "or start from a model nearer the rig");
   }
   CoverageAdvice(in, &out);
   OutlierAdvice(in, &out);
-  for (const auto& u : in.result->unobservable) {
+  for (const auto& u : in.result->uncertainty.unobservable) {
     out.push_back(u.name + " is not determined by this session: " + u.hint);
   }
   ProfileAdvice(*in.result, &out);

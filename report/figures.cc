@@ -20,7 +20,7 @@ namespace {
 // The first readable frame, darkened and grey (colour drawings stand out on it), or a dark
 // canvas of the model's size.
 cv::Mat Canvas(const ReportInput& in) {
-  const RigParams& rig = in.result->rig;
+  const RigParams& rig = in.result->estimate.rig;
   for (const std::string& path : in.image_paths) {
     cv::Mat image = cv::imread(path, cv::IMREAD_GRAYSCALE);
     if (image.empty() || image.cols != rig.image_width || image.rows != rig.image_height) continue;
@@ -66,10 +66,10 @@ double Percentile(std::vector<double> v, double q) {
 std::string ResidualVectors(const std::string& dir, const ReportInput& in, std::string* note) {
   cv::Mat canvas = Canvas(in);
   std::vector<double> sizes;
-  for (const auto& r : in.result->residuals) sizes.push_back(r.residual.norm());
+  for (const auto& r : in.result->residuals.corners) sizes.push_back(r.residual.norm());
   const double p95 = std::max(Percentile(sizes, 0.95), 1e-6);
   const double scale = 15.0 / p95;  // the 95th percentile drawn 15 px long
-  for (const auto& r : in.result->residuals) {
+  for (const auto& r : in.result->residuals.corners) {
     const cv::Point2d from(r.pixel.x(), r.pixel.y());
     const cv::Point2d to = from + scale * cv::Point2d(r.residual.x(), r.residual.y());
     cv::arrowedLine(canvas, from, to, Ramp(r.residual.norm() / (2 * p95)), 1, cv::LINE_AA, 0, 0.3);
@@ -84,12 +84,12 @@ std::string ResidualVectors(const std::string& dir, const ReportInput& in, std::
 
 std::string CoverageImage(const std::string& dir, const ReportInput& in, std::string* note) {
   cv::Mat canvas = Canvas(in);
-  for (const auto& r : in.result->residuals) {
+  for (const auto& r : in.result->residuals.corners) {
     cv::circle(canvas, {static_cast<int>(std::lround(r.pixel.x())),
                         static_cast<int>(std::lround(r.pixel.y()))},
                1, r.mirror == 1 ? cv::Scalar(80, 220, 80) : cv::Scalar(255, 120, 255), -1);
   }
-  for (const auto& r : in.result->rejected) {
+  for (const auto& r : in.result->residuals.rejected) {
     cv::drawMarker(canvas, {static_cast<int>(std::lround(r.pixel.x())),
                             static_cast<int>(std::lround(r.pixel.y()))},
                    {0, 0, 255}, cv::MARKER_TILTED_CROSS, 9, 2);
@@ -102,7 +102,7 @@ std::string CoverageImage(const std::string& dir, const ReportInput& in, std::st
 std::string ResidualHistograms(const std::string& dir, const ReportInput& in, std::string* note) {
   std::vector<std::vector<double>> rows[2];
   double sum2[2] = {0, 0};
-  for (const auto& r : in.result->residuals) {
+  for (const auto& r : in.result->residuals.corners) {
     const int m = r.mirror - 1;
     rows[m].push_back({r.residual.x()});
     rows[m].push_back({r.residual.y()});
@@ -142,7 +142,7 @@ std::vector<std::vector<double>> RmsByGroup(const ReportInput& in, int n, GroupO
     sum2[m].assign(n, 0);
     count[m].assign(n, 0);
   }
-  for (const auto& r : in.result->residuals) {
+  for (const auto& r : in.result->residuals.corners) {
     const int g = group_of(r);
     if (g < 0 || g >= n) continue;
     sum2[r.mirror - 1][g] += r.residual.squaredNorm();
@@ -213,7 +213,7 @@ std::string PerTargetRms(const std::string& dir, const ReportInput& in, std::str
 }
 
 std::string CoverageAngles(const std::string& dir, const ReportInput& in, std::string* note) {
-  const RigModel model(in.result->rig);
+  const RigModel model(in.result->estimate.rig);
   std::vector<std::vector<double>> corners[2], band[2];
   auto angles = [&](const Eigen::Vector2d& pixel) -> std::optional<std::vector<double>> {
     const auto ray = model.Unproject(pixel);
@@ -222,7 +222,7 @@ std::string CoverageAngles(const std::string& dir, const ReportInput& in, std::s
     return std::vector<double>{std::atan2(d.y(), d.x()) * 180 / M_PI,
                                std::atan2(d.z(), d.head<2>().norm()) * 180 / M_PI};
   };
-  for (const auto& r : in.result->residuals) {
+  for (const auto& r : in.result->residuals.corners) {
     if (const auto a = angles(r.pixel)) corners[r.mirror - 1].push_back(*a);
   }
   for (const BandPoint& p : StereoBandPoints(model, 1000)) {
@@ -253,7 +253,7 @@ std::string CoverageAngles(const std::string& dir, const ReportInput& in, std::s
 std::vector<std::string> OutlierThumbnails(const std::string& dir, const ReportInput& in,
                                            int count) {
   std::map<int, std::vector<Eigen::Vector2d>> by_image;
-  for (const auto& r : in.result->rejected) by_image[r.image].push_back(r.pixel);
+  for (const auto& r : in.result->residuals.rejected) by_image[r.image].push_back(r.pixel);
   std::vector<std::pair<int, int>> order;  // (count, image)
   for (const auto& [image, pixels] : by_image) {
     order.push_back({static_cast<int>(pixels.size()), image});

@@ -50,25 +50,25 @@ std::string Summary(const ReportInput& in) {
   const calib::CalibrationResult& r = *in.result;
   std::ostringstream out;
   int used[2] = {0, 0};
-  for (const auto& c : r.residuals) ++used[c.mirror - 1];
+  for (const auto& c : r.residuals.corners) ++used[c.mirror - 1];
   int left_out[2] = {0, 0};
-  for (const auto& c : r.rejected) ++left_out[std::clamp(c.mirror, 1, 2) - 1];
-  const double worst = std::max(r.per_mirror_rms_px[0], r.per_mirror_rms_px[1]);
-  out << "<p class=\"verdict\">" << (r.converged ? "Converged" : "NOT converged")
-      << ": " << r.n_observations << " corners in " << in.observations->images.size()
-      << " images, reprojection RMS " << Format("%.3f", r.rms_px) << " px (worst ring "
-      << Format("%.3f", worst) << " px), " << r.names.size() << " parameters refined, "
-      << r.unobservable.size() << " not determined; solved in " << Format("%.2f", in.solve_seconds)
-      << " s.</p>\n";
+  for (const auto& c : r.residuals.rejected) ++left_out[std::clamp(c.mirror, 1, 2) - 1];
+  const double worst = std::max(r.residuals.per_mirror_rms_px[0], r.residuals.per_mirror_rms_px[1]);
+  out << "<p class=\"verdict\">" << (r.solve.converged ? "Converged" : "NOT converged") << ": "
+      << r.residuals.n_observations << " corners in " << in.observations->images.size()
+      << " images, reprojection RMS " << Format("%.3f", r.residuals.rms_px) << " px (worst ring "
+      << Format("%.3f", worst) << " px), " << r.estimate.names.size() << " parameters refined, "
+      << r.uncertainty.unobservable.size() << " not determined; solved in "
+      << Format("%.2f", in.solve_seconds) << " s.</p>\n";
   out << "<table><tr><th>residual group</th><th>used</th><th>left out</th><th>RMS (px)</th>"
          "<th>noise sigma per axis (px)</th></tr>\n";
-  for (const auto& v : r.variance_components) {
+  for (const auto& v : r.uncertainty.variance_components) {
     int ring = v.group == "corners ring 1" ? 1 : v.group == "corners ring 2" ? 2 : 0;
     out << "<tr><td>" << Escape(v.group) << "</td><td>" << v.count << "</td><td>"
-        << (ring ? std::to_string(left_out[ring - 1]) : std::to_string(r.n_lip_rejected))
+        << (ring ? std::to_string(left_out[ring - 1]) : std::to_string(r.residuals.n_lip_rejected))
         << "</td><td>"
-        << Format("%.3f", ring ? r.per_mirror_rms_px[ring - 1] : r.lip_rms_px) << "</td><td>"
-        << Format("%.3f", v.sigma_px) << "</td></tr>\n";
+        << Format("%.3f", ring ? r.residuals.per_mirror_rms_px[ring - 1] : r.residuals.lip_rms_px)
+        << "</td><td>" << Format("%.3f", v.sigma_px) << "</td></tr>\n";
   }
   out << "</table>\n";
   return out.str();
@@ -77,32 +77,34 @@ std::string Summary(const ReportInput& in) {
 std::string ParameterTable(const calib::CalibrationResult& r) {
   std::ostringstream out;
   out << "<table><tr><th>parameter</th><th>value</th><th>sigma</th><th>unit</th></tr>\n";
-  for (size_t i = 0; i < r.names.size(); ++i) {
-    const RigParameter* p = FindRigParameter(r.names[i]);
-    const double value = p ? DisplayValue(*p, r.values(i)) : r.values(i);
-    const double sigma = p ? std::abs(DisplayValue(*p, r.sigma(i))) : r.sigma(i);
-    out << "<tr><td>" << Escape(r.names[i]) << "</td><td>" << Format("%.6g", value) << "</td><td>"
-        << Format("%.3g", sigma) << "</td><td>" << (p ? DisplayUnit(*p) : "") << "</td></tr>\n";
+  for (size_t i = 0; i < r.estimate.names.size(); ++i) {
+    const RigParameter* p = FindRigParameter(r.estimate.names[i]);
+    const double value = p ? DisplayValue(*p, r.estimate.values(i)) : r.estimate.values(i);
+    const double sigma =
+        p ? std::abs(DisplayValue(*p, r.uncertainty.sigma(i))) : r.uncertainty.sigma(i);
+    out << "<tr><td>" << Escape(r.estimate.names[i]) << "</td><td>" << Format("%.6g", value)
+        << "</td><td>" << Format("%.3g", sigma) << "</td><td>" << (p ? DisplayUnit(*p) : "")
+        << "</td></tr>\n";
   }
   out << "</table>\n";
-  if (!r.considered.empty()) {
+  if (!r.uncertainty.considered.empty()) {
     out << "<p>Held but not known exactly (their sigma is carried into the table's):";
-    for (const auto& c : r.considered) {
+    for (const auto& c : r.uncertainty.considered) {
       out << " " << Escape(c.name) << " = " << Format("%.3g", c.value) << " &plusmn; "
           << Format("%.3g", c.sigma) << ";";
     }
     out << "</p>\n";
   }
-  if (!r.unobservable.empty()) {
+  if (!r.uncertainty.unobservable.empty()) {
     out << "<p>Not determined (held, no number given):</p><ul>\n";
-    for (const auto& u : r.unobservable) {
+    for (const auto& u : r.uncertainty.unobservable) {
       out << "<li>" << Escape(u.name) << ": " << Escape(u.hint) << "</li>\n";
     }
     out << "</ul>\n";
   }
-  if (!r.notes.empty()) {
+  if (!r.solve.notes.empty()) {
     out << "<ul>\n";
-    for (const auto& n : r.notes) out << "<li>" << Escape(n) << "</li>\n";
+    for (const auto& n : r.solve.notes) out << "<li>" << Escape(n) << "</li>\n";
     out << "</ul>\n";
   }
   return out.str();
@@ -122,10 +124,10 @@ std::string Correlations(const calib::CalibrationResult& r) {
     size_t i, j;
   };
   std::vector<Pair> pairs;
-  const size_t n = r.names.size();
-  if (static_cast<size_t>(r.correlation.rows()) != n) return "";
+  const size_t n = r.estimate.names.size();
+  if (static_cast<size_t>(r.uncertainty.correlation.rows()) != n) return "";
   for (size_t i = 0; i < n; ++i) {
-    for (size_t j = i + 1; j < n; ++j) pairs.push_back({r.correlation(i, j), i, j});
+    for (size_t j = i + 1; j < n; ++j) pairs.push_back({r.uncertainty.correlation(i, j), i, j});
   }
   std::sort(pairs.begin(), pairs.end(),
             [](const Pair& a, const Pair& b) { return std::abs(a.value) > std::abs(b.value); });
@@ -133,9 +135,10 @@ std::string Correlations(const calib::CalibrationResult& r) {
   out << "<table><tr><th>parameters</th><th>correlation</th><th></th></tr>\n";
   for (size_t k = 0; k < std::min<size_t>(10, pairs.size()); ++k) {
     const Pair& p = pairs[k];
-    const bool valley = InRotationValley(r.names[p.i]) && InRotationValley(r.names[p.j]);
-    out << "<tr><td>" << Escape(r.names[p.i]) << " ~ " << Escape(r.names[p.j]) << "</td><td>"
-        << Format("%+.3f", p.value) << "</td><td>"
+    const bool valley =
+        InRotationValley(r.estimate.names[p.i]) && InRotationValley(r.estimate.names[p.j]);
+    out << "<tr><td>" << Escape(r.estimate.names[p.i]) << " ~ " << Escape(r.estimate.names[p.j])
+        << "</td><td>" << Format("%+.3f", p.value) << "</td><td>"
         << (valley ? "the camera-rotation valley: turning C against the mirror bodies moves "
                      "these together"
                    : "")
@@ -147,7 +150,7 @@ std::string Correlations(const calib::CalibrationResult& r) {
 
 std::string LeftOut(const ReportInput& in) {
   std::map<std::pair<int, std::string>, int> count;  // (image, reason)
-  for (const auto& r : in.result->rejected) ++count[{r.image, r.reason}];
+  for (const auto& r : in.result->residuals.rejected) ++count[{r.image, r.reason}];
   if (count.empty()) return "<p>No corner was left out.</p>\n";
   std::ostringstream out;
   out << "<table><tr><th>image</th><th>reason</th><th>corners</th></tr>\n";
@@ -167,12 +170,12 @@ std::string LeftOut(const ReportInput& in) {
 // (model/triangulation.h with the calibration's covariance), at the corners' estimated noise:
 // the RMS over the band of sqrt(trace Sigma), in total and the model's part alone.
 std::string TriangulationTable(const calib::CalibrationResult& r) {
-  const RigModel model(r.rig);
+  const RigModel model(r.estimate.rig);
   const Triangulator triangulator(model);
   TriangulationOptions options;
   options.reference = ReferenceBody::kMirror1;
   options.model_covariance = true;
-  for (const auto& v : r.variance_components) {
+  for (const auto& v : r.uncertainty.variance_components) {
     if (v.group == "corners ring 1") options.sigma_px = v.sigma_px;
     if (v.group == "corners ring 2") options.sigma_px_ring2 = v.sigma_px;
   }
@@ -260,7 +263,7 @@ std::string ProfileSection(const calib::CalibrationResult& r) {
   std::ostringstream out;
   bool any = false;
   for (int m = 0; m < 2; ++m) {
-    const calib::ProfileDecision& d = r.profile[m];
+    const calib::ProfileDecision& d = r.residuals.profile[m];
     if (d.pattern_before.empty()) continue;
     any = true;
     out << "<h3>Mirror " << m + 1 << "</h3>\n<p>Profile " << (d.freed ? "refined" : "held (its tolerance carried into the sigmas)")
@@ -331,29 +334,32 @@ std::string WriteReport(const std::string& dir, const ReportInput& in) {
   if (advice.empty()) html << "<p>Nothing stands out: the session covers both rings.</p>\n";
   html << "<ul>\n";
   for (const auto& a : advice) html << "<li>" << Escape(a) << "</li>\n";
-  html << "</ul>\n<h2>Parameters</h2>\n" << ParameterTable(*in.result)
-       << "<h2>Residuals</h2>\n"
+  html << "</ul>\n<h2>Parameters</h2>\n"
+       << ParameterTable(*in.result) << "<h2>Residuals</h2>\n"
        << Figure(histograms, note[2], "residual coordinates per ring against a Gaussian")
        << Figure(vectors, note[0], "residual vectors over the image")
        << Figure(per_image, note[3], "residual RMS per image")
-       << Figure(per_target, note[6], "residual RMS per target")
-       << "<h2>Mirror profiles</h2>\n" << ProfileSection(*in.result)
-       << "<h2>Mount</h2>\n" << MountSection(in.result->rig)
-       << "<h2>Coverage</h2>\n"
+       << Figure(per_target, note[6], "residual RMS per target") << "<h2>Mirror profiles</h2>\n"
+       << ProfileSection(*in.result) << "<h2>Mount</h2>\n"
+       << MountSection(in.result->estimate.rig) << "<h2>Coverage</h2>\n"
        << Figure(angles, note[7], "where the corners' rays point, per ring")
        << Figure(coverage, note[1], "where corners were seen (every image)")
        << "<h2>Projection uncertainty</h2>\n<p>From the covariance: the RMS over the stereo band "
        << "at 1 m of the predicted sigma of projection, points held in mirror 1's body, is "
        << Format("%.3f", at_1m.in_mirror1_px[0]) << " px in ring 1 and "
-       << Format("%.3f", at_1m.in_mirror1_px[1]) << " px in ring 2 (points held in C: "
-       << Format("%.3f", at_1m.in_cam_px[0]) << " / " << Format("%.3f", at_1m.in_cam_px[1])
-       << " px).</p>\n"
+       << Format("%.3f", at_1m.in_mirror1_px[1])
+       << " px in ring 2 (points held in C: " << Format("%.3f", at_1m.in_cam_px[0]) << " / "
+       << Format("%.3f", at_1m.in_cam_px[1]) << " px).</p>\n"
        << Figure(near, note[4], "sigma of projection at 1 m")
-       << Figure(far, note[5], "sigma of projection at " + Format("%.2f", in.range_mm / 1000) + " m")
-       << "<h2>Triangulation uncertainty</h2>\n" << TriangulationTable(*in.result)
-       << (in.tolerances.empty() ? "" : "<h2>Assembly tolerances</h2>\n" + Tolerances(in.tolerances))
-       << "<h2>Strongest correlations</h2>\n" << Correlations(*in.result)
-       << "<h2>Left out</h2>\n" << LeftOut(in);
+       << Figure(far, note[5],
+                 "sigma of projection at " + Format("%.2f", in.range_mm / 1000) + " m")
+       << "<h2>Triangulation uncertainty</h2>\n"
+       << TriangulationTable(*in.result)
+       << (in.tolerances.empty() ? ""
+                                 : "<h2>Assembly tolerances</h2>\n" + Tolerances(in.tolerances))
+       << "<h2>Strongest correlations</h2>\n"
+       << Correlations(*in.result) << "<h2>Left out</h2>\n"
+       << LeftOut(in);
   for (const std::string& t : thumbnails) {
     html << Figure(t, "", "left-out corners (red crosses) in image " +
                               t.substr(9, t.size() - 13));

@@ -126,15 +126,16 @@ TEST_F(CalibrateCli, WritesTheLibrarysCalibration) {
   const calib::CalibrationResult library =
       calib::Calibrate(testing::IdealRig(), session_->targets, *detections_, options);
   const CalibrationInfo& info = *written.calibration;
-  ASSERT_EQ(info.parameters, library.names);
+  ASSERT_EQ(info.parameters, library.estimate.names);
   for (size_t i = 0; i < info.parameters.size(); ++i) {
-    const double sigma = library.sigma(i);
-    EXPECT_NEAR(info.values[i], library.values(i), 1e-3 * sigma + 1e-9) << info.parameters[i];
+    const double sigma = library.uncertainty.sigma(i);
+    EXPECT_NEAR(info.values[i], library.estimate.values(i), 1e-3 * sigma + 1e-9)
+        << info.parameters[i];
     EXPECT_NEAR(info.sigma[i], sigma, 1e-3 * sigma + 1e-12) << info.parameters[i];
     EXPECT_NE(out.find(info.parameters[i]), std::string::npos) << info.parameters[i];
   }
-  EXPECT_EQ(info.n_observations, library.n_observations);
-  EXPECT_NEAR(info.rms_px, library.rms_px, 1e-6);
+  EXPECT_EQ(info.n_observations, library.residuals.n_observations);
+  EXPECT_NEAR(info.rms_px, library.residuals.rms_px, 1e-6);
   EXPECT_NE(out.find("calibrated model written to"), std::string::npos) << out;
 }
 

@@ -16,8 +16,8 @@ namespace omni::calib {
 namespace {
 
 int Column(const CalibrationResult& r, const std::string& name) {
-  for (size_t c = 0; c < r.considered_column_names.size(); ++c) {
-    if (r.considered_column_names[c] == name) return static_cast<int>(c);
+  for (size_t c = 0; c < r.uncertainty.considered_column_names.size(); ++c) {
+    if (r.uncertainty.considered_column_names[c] == name) return static_cast<int>(c);
   }
   ADD_FAILURE() << "no considered column " << name;
   return -1;
@@ -37,20 +37,21 @@ void ExpectMoveAsPredicted(const RigParams& truth, const std::vector<TargetSpec>
   options.profile = "off";
   const CalibrationResult a = Calibrate(truth, targets, detections, options);
   const CalibrationResult b = Calibrate(truth, targets, moved, options);
-  ASSERT_EQ(a.names, b.names);
-  ASSERT_EQ(a.considered_column_names.size(), static_cast<size_t>(a.considered_column_sigma.size()));
+  ASSERT_EQ(a.estimate.names, b.estimate.names);
+  ASSERT_EQ(a.uncertainty.considered_column_names.size(),
+            static_cast<size_t>(a.uncertainty.considered_column_sigma.size()));
   const int c0 = Column(a, column + " u");
   ASSERT_EQ(Column(a, column + " v"), c0 + 1);
   int moved_beyond_noise = 0;
-  for (size_t i = 0; i < a.names.size(); ++i) {
-    const double predicted = a.considered_sensitivity(i, c0) * offset.x() +
-                             a.considered_sensitivity(i, c0 + 1) * offset.y();
-    const double solved = b.values(i) - a.values(i);
+  for (size_t i = 0; i < a.estimate.names.size(); ++i) {
+    const double predicted = a.uncertainty.considered_sensitivity(i, c0) * offset.x() +
+                             a.uncertainty.considered_sensitivity(i, c0 + 1) * offset.y();
+    const double solved = b.estimate.values(i) - a.estimate.values(i);
     std::printf("%s: %-12s solved %+.3e predicted %+.3e (noise sigma %.3e)\n", column.c_str(),
-                a.names[i].c_str(), solved, predicted, a.noise_sigma(i));
-    EXPECT_NEAR(solved, predicted, 0.1 * std::abs(predicted) + 0.05 * a.noise_sigma(i))
-        << column << " " << a.names[i];
-    moved_beyond_noise += std::abs(predicted) > a.noise_sigma(i);
+                a.estimate.names[i].c_str(), solved, predicted, a.uncertainty.noise_sigma(i));
+    EXPECT_NEAR(solved, predicted, 0.1 * std::abs(predicted) + 0.05 * a.uncertainty.noise_sigma(i))
+        << column << " " << a.estimate.names[i];
+    moved_beyond_noise += std::abs(predicted) > a.uncertainty.noise_sigma(i);
   }
   EXPECT_GE(moved_beyond_noise, 1) << column;
 }
@@ -78,17 +79,19 @@ TEST(CalibConsidered, CornerOffsetSensitivityMatchesSolvingAgain) {
   // coverage decision may differ between the two solves).
   options.profile = "off";
   const CalibrationResult a = Calibrate(truth, session.targets, detections, options);
-  EXPECT_EQ(a.corner_offsets_considered, 4);
-  EXPECT_DOUBLE_EQ(a.considered_column_sigma(Column(a, "corners ring 2 u")),
+  EXPECT_EQ(a.uncertainty.corner_offsets_considered, 4);
+  EXPECT_DOUBLE_EQ(a.uncertainty.considered_column_sigma(Column(a, "corners ring 2 u")),
                    options.corner_offset_sigma_px);
-  for (size_t i = 0; i < a.names.size(); ++i) {
+  for (size_t i = 0; i < a.estimate.names.size(); ++i) {
     double share = 0;
-    for (int c = 0; c < a.considered_column_sigma.size(); ++c) {
-      share += std::pow(a.considered_sensitivity(i, c) * a.considered_column_sigma(c), 2);
+    for (int c = 0; c < a.uncertainty.considered_column_sigma.size(); ++c) {
+      share += std::pow(
+          a.uncertainty.considered_sensitivity(i, c) * a.uncertainty.considered_column_sigma(c), 2);
     }
-    EXPECT_NEAR(a.sigma(i) * a.sigma(i), a.noise_sigma(i) * a.noise_sigma(i) + share,
-                1e-6 * a.sigma(i) * a.sigma(i))
-        << a.names[i];
+    EXPECT_NEAR(a.uncertainty.sigma(i) * a.uncertainty.sigma(i),
+                a.uncertainty.noise_sigma(i) * a.uncertainty.noise_sigma(i) + share,
+                1e-6 * a.uncertainty.sigma(i) * a.uncertainty.sigma(i))
+        << a.estimate.names[i];
   }
 }
 

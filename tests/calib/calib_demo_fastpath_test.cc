@@ -62,10 +62,10 @@ FastPathRun SolveDemoFastPath(const RigParams& truth_rig) {
 
   const RigModel true_model(truth);
   const ProjectionDifference before = CompareProjections(true_model, RigModel(ideal), 1000);
-  run.plain = CompareProjections(true_model, RigModel(run.result.rig), 1000);
-  run.aligned =
-      CompareProjectionsUpToRotation(true_model, RigModel(run.result.rig), 1000, &run.rotation);
-  run.in_mirror1 = CompareProjectionsInMirror1(true_model, RigModel(run.result.rig), 1000);
+  run.plain = CompareProjections(true_model, RigModel(run.result.estimate.rig), 1000);
+  run.aligned = CompareProjectionsUpToRotation(true_model, RigModel(run.result.estimate.rig), 1000,
+                                               &run.rotation);
+  run.in_mirror1 = CompareProjectionsInMirror1(true_model, RigModel(run.result.estimate.rig), 1000);
   std::fprintf(stderr,
                "projection difference at 1 m over %d band points: ideal %.3f / %.3f px, "
                "calibrated %.4f / %.4f px RMS (ring 1 / ring 2); up to a rotation of the camera "
@@ -75,17 +75,17 @@ FastPathRun SolveDemoFastPath(const RigParams& truth_rig) {
                run.aligned.rms_px[1], run.in_mirror1.rms_px[0], run.in_mirror1.rms_px[1]);
 
   const CalibrationResult& result = run.result;
-  EXPECT_TRUE(result.converged);
+  EXPECT_TRUE(result.solve.converged);
   // 2-D residual RMS of corners with 0.1 px per axis: sqrt(2) * 0.1 less the fitted share.
   for (int m = 0; m < 2; ++m) {
-    EXPECT_NEAR(result.per_mirror_rms_px[m], std::sqrt(2.0) * kNoisePx,
+    EXPECT_NEAR(result.residuals.per_mirror_rms_px[m], std::sqrt(2.0) * kNoisePx,
                 0.2 * std::sqrt(2.0) * kNoisePx);
   }
   int n_misalignment = 0;
-  for (size_t i = 0; i < result.names.size(); ++i) {
-    if (IsMisalignment(result.names[i])) ++n_misalignment;
+  for (size_t i = 0; i < result.estimate.names.size(); ++i) {
+    if (IsMisalignment(result.estimate.names[i])) ++n_misalignment;
   }
-  for (const auto& u : result.unobservable) {
+  for (const auto& u : result.uncertainty.unobservable) {
     EXPECT_FALSE(IsMisalignment(u.name)) << u.name << " named unobservable";
   }
   EXPECT_EQ(n_misalignment, 13);
@@ -95,12 +95,13 @@ FastPathRun SolveDemoFastPath(const RigParams& truth_rig) {
 
 // Every misalignment parameter within 3 of the given sigmas of the truth.
 void ExpectMisalignmentWithin3Sigma(const FastPathRun& run, const Eigen::VectorXd& sigma) {
-  for (size_t i = 0; i < run.result.names.size(); ++i) {
-    const std::string& name = run.result.names[i];
+  for (size_t i = 0; i < run.result.estimate.names.size(); ++i) {
+    const std::string& name = run.result.estimate.names[i];
     if (!IsMisalignment(name)) continue;
     const double t = testing::TruthValue(run.truth, name);
-    EXPECT_LT(std::abs(run.result.values(i) - t), 3 * sigma(i))
-        << name << " = " << run.result.values(i) << " truth " << t << " sigma " << sigma(i);
+    EXPECT_LT(std::abs(run.result.estimate.values(i) - t), 3 * sigma(i))
+        << name << " = " << run.result.estimate.values(i) << " truth " << t << " sigma "
+        << sigma(i);
   }
 }
 
@@ -112,7 +113,7 @@ TEST(CalibDemoFastPath, LensWithoutTangentialDistortion) {
   RigParams truth = testing::MisalignedRig();
   truth.distortion[2] = truth.distortion[3] = 0;
   const FastPathRun run = SolveDemoFastPath(truth);
-  ExpectMisalignmentWithin3Sigma(run, run.result.noise_sigma);
+  ExpectMisalignmentWithin3Sigma(run, run.result.uncertainty.noise_sigma);
   EXPECT_LE(run.plain.rms_px[0], 0.1);
   EXPECT_LE(run.plain.rms_px[1], 0.1);
 }
@@ -128,8 +129,8 @@ TEST(CalibDemoFastPath, LensWithoutTangentialDistortion) {
 // deg rotation, 0.23 / 0.12 px plain.
 TEST(CalibDemoFastPath, IdealStartProjectsLikeTheTruth) {
   const FastPathRun run = SolveDemoFastPath(testing::MisalignedRig());
-  ExpectMisalignmentWithin3Sigma(run, run.result.sigma);
-  ASSERT_EQ(run.result.considered.size(), 2u);
+  ExpectMisalignmentWithin3Sigma(run, run.result.uncertainty.sigma);
+  ASSERT_EQ(run.result.uncertainty.considered.size(), 2u);
   EXPECT_LE(run.aligned.rms_px[0], 0.1);
   EXPECT_LE(run.aligned.rms_px[1], 0.1);
   EXPECT_LT(run.rotation.norm(), 0.2 * M_PI / 180);

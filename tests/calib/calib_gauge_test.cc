@@ -15,16 +15,18 @@ namespace omni::calib {
 namespace {
 
 void PrintWeakest(const CalibrationResult& r, int count) {
-  const double largest = r.schur_eigenvalues.maxCoeff();
-  for (int k = 0; k < std::min<int>(count, r.schur_eigenvalues.size()); ++k) {
-    std::fprintf(stderr, "eigenvalue/largest %.3e:", r.schur_eigenvalues(k) / largest);
-    std::vector<int> idx(r.refined_names.size());
+  const double largest = r.uncertainty.schur_eigenvalues.maxCoeff();
+  for (int k = 0; k < std::min<int>(count, r.uncertainty.schur_eigenvalues.size()); ++k) {
+    std::fprintf(stderr, "eigenvalue/largest %.3e:", r.uncertainty.schur_eigenvalues(k) / largest);
+    std::vector<int> idx(r.uncertainty.refined_names.size());
     std::iota(idx.begin(), idx.end(), 0);
     std::sort(idx.begin(), idx.end(), [&](int a, int b) {
-      return std::abs(r.schur_eigenvectors(a, k)) > std::abs(r.schur_eigenvectors(b, k));
+      return std::abs(r.uncertainty.schur_eigenvectors(a, k)) >
+             std::abs(r.uncertainty.schur_eigenvectors(b, k));
     });
     for (int j = 0; j < 6; ++j) {
-      std::fprintf(stderr, " %s %+.2f", r.refined_names[idx[j]].c_str(), r.schur_eigenvectors(idx[j], k));
+      std::fprintf(stderr, " %s %+.2f", r.uncertainty.refined_names[idx[j]].c_str(),
+                   r.uncertainty.schur_eigenvectors(idx[j], k));
     }
     std::fprintf(stderr, "\n");
   }
@@ -67,9 +69,10 @@ TEST(CalibGauge, NoExactGaugeOnlyWeakDirections) {
   };
   for (const Case& c : cases) {
     const CalibrationResult r = Analyse(c.truth, c.groups, c.lips);
-    std::fprintf(stderr, "--- %s (rms %.2e px)\n", c.what, r.rms_px);
+    std::fprintf(stderr, "--- %s (rms %.2e px)\n", c.what, r.residuals.rms_px);
     PrintWeakest(r, 3);
-    const double ratio = r.schur_eigenvalues(0) / r.schur_eigenvalues.maxCoeff();
+    const double ratio =
+        r.uncertainty.schur_eigenvalues(0) / r.uncertainty.schur_eigenvalues.maxCoeff();
     // Far above round-off: weak data, not a gauge of the parameterisation.
     EXPECT_GT(ratio, 1e-10) << c.what;
   }

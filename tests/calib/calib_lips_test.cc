@@ -16,8 +16,8 @@ namespace omni::calib {
 namespace {
 
 double SigmaOf(const CalibrationResult& r, const std::string& name) {
-  for (size_t i = 0; i < r.names.size(); ++i) {
-    if (r.names[i] == name) return r.sigma(i);
+  for (size_t i = 0; i < r.estimate.names.size(); ++i) {
+    if (r.estimate.names[i] == name) return r.uncertainty.sigma(i);
   }
   return INFINITY;  // named unobservable
 }
@@ -64,26 +64,34 @@ TEST(CalibLips, LipsPinFocalLengthDistortionAndHeights) {
   const CalibrationResult from_truth = Calibrate(truth, session.targets, with_lips, options);
   std::fprintf(stderr, "--- corners + lips, from the truth\n%s",
                ResultTable(from_truth, &truth).c_str());
-  for (size_t p = 0; p < with.placements.size() && p < from_truth.placements.size(); ++p) {
-    std::fprintf(stderr, "placement %zu (image %d target %d, %d+%d corners): rotation differs by %.3f deg, translation by %.1f mm\n", p,
-                 with.placements[p].image, with.placements[p].target,
-                 with.placements[p].observations[0], with.placements[p].observations[1],
-                 (with.placements[p].rotation - from_truth.placements[p].rotation).norm() * 180 / M_PI,
-                 (with.placements[p].translation - from_truth.placements[p].translation).norm());
+  for (size_t p = 0;
+       p < with.residuals.placements.size() && p < from_truth.residuals.placements.size(); ++p) {
+    std::fprintf(
+        stderr,
+        "placement %zu (image %d target %d, %d+%d corners): rotation differs by %.3f deg, "
+        "translation by %.1f mm\n",
+        p, with.residuals.placements[p].image, with.residuals.placements[p].target,
+        with.residuals.placements[p].observations[0], with.residuals.placements[p].observations[1],
+        (with.residuals.placements[p].rotation - from_truth.residuals.placements[p].rotation)
+                .norm() *
+            180 / M_PI,
+        (with.residuals.placements[p].translation - from_truth.residuals.placements[p].translation)
+            .norm());
   }
-  EXPECT_EQ(with.n_lip_points, n_lip_points * static_cast<int>(with_lips.images.size()));
+  EXPECT_EQ(with.residuals.n_lip_points, n_lip_points * static_cast<int>(with_lips.images.size()));
   // Two residuals and one free azimuth per point: the along-edge noise is absorbed, so the RMS
   // of the 2-D residual is ~ one axis' sigma.
-  EXPECT_NEAR(with.lip_rms_px, 0.3, 0.03);
-  EXPECT_LT(with.unobservable.size(), without.unobservable.size());
+  EXPECT_NEAR(with.residuals.lip_rms_px, 0.3, 0.03);
+  EXPECT_LT(with.uncertainty.unobservable.size(), without.uncertainty.unobservable.size());
   for (const char* name : {"fx", "fy", "mirror1.tz", "mirror2.tz", "dist_k1"}) {
     std::fprintf(stderr, "sigma %-11s corners only %.4g  with lips %.4g\n", name,
                  SigmaOf(without, name), SigmaOf(with, name));
     EXPECT_LT(SigmaOf(with, name), 0.5 * SigmaOf(without, name)) << name;
   }
-  for (size_t i = 0; i < from_truth.names.size(); ++i) {
-    const double t = testing::TruthValue(truth, from_truth.names[i]);
-    EXPECT_LT(std::abs(from_truth.values(i) - t), 3 * from_truth.sigma(i)) << from_truth.names[i];
+  for (size_t i = 0; i < from_truth.estimate.names.size(); ++i) {
+    const double t = testing::TruthValue(truth, from_truth.estimate.names[i]);
+    EXPECT_LT(std::abs(from_truth.estimate.values(i) - t), 3 * from_truth.uncertainty.sigma(i))
+        << from_truth.estimate.names[i];
   }
 }
 

@@ -24,13 +24,13 @@ TEST(CalibModelFile, CalibrationSectionRoundTrip) {
   testing::AddLipDetections(truth, 0.3, 7, &d, 90);
   d.images[0].corners[0].pixel += Eigen::Vector2d(25, 0);  // one outlier
   const CalibrationResult result = Calibrate(testing::IdealRig(), session.targets, d, {});
-  ASSERT_TRUE(result.rig.calibration);
-  const CalibrationInfo& a = *result.rig.calibration;
+  ASSERT_TRUE(result.estimate.rig.calibration);
+  const CalibrationInfo& a = *result.estimate.rig.calibration;
   EXPECT_GE(a.n_rejected, 1);
   EXPECT_GT(a.n_lip_points, 0);
-  EXPECT_EQ(a.unobservable.size(), result.unobservable.size());
+  EXPECT_EQ(a.unobservable.size(), result.uncertainty.unobservable.size());
 
-  const std::string text = io::ModelFileText(result.rig);
+  const std::string text = io::ModelFileText(result.estimate.rig);
   const RigParams back = io::ParseModelText(text, "calibrated.yaml");
   ASSERT_TRUE(back.calibration);
   const CalibrationInfo& b = *back.calibration;
@@ -46,7 +46,7 @@ TEST(CalibModelFile, CalibrationSectionRoundTrip) {
   }
 
   // Hints that do not match the names: one line naming the field.
-  RigParams bad = result.rig;
+  RigParams bad = result.estimate.rig;
   bad.calibration->unobservable = {"fx"};
   bad.calibration->unobservable_hints = {"a", "b"};
   try {

@@ -4,7 +4,7 @@
 // is the only error), solved again and again with fresh Gaussian noise of known sigma on the
 // corners (0.1 px) and the lip edge points (0.03 px). The spread of each misalignment parameter
 // over the solves must match the sigma the calibration predicts from the pixel noise
-// (CalibrationResult::noise_sigma: Schur-complement covariance with per-group weights) within
+// (CalibrationUncertainty::noise_sigma: Schur-complement covariance with per-group weights) within
 // 20%, and the solves must be unbiased.
 //
 // Sampling: with N solves the sd of a spread / predicted ratio is about 1 / sqrt(2 N): 7% at the
@@ -56,10 +56,10 @@ TEST(CalibMonteCarlo, PredictedSigmaMatchesSpread) {
 
   std::map<std::string, std::vector<double>> values, sigmas;
   for (const auto& r : results) {
-    ASSERT_EQ(r.noise_sigma.size(), r.sigma.size());
-    for (size_t i = 0; i < r.names.size(); ++i) {
-      values[r.names[i]].push_back(r.values(i));
-      sigmas[r.names[i]].push_back(r.noise_sigma(i));
+    ASSERT_EQ(r.uncertainty.noise_sigma.size(), r.uncertainty.sigma.size());
+    for (size_t i = 0; i < r.estimate.names.size(); ++i) {
+      values[r.estimate.names[i]].push_back(r.estimate.values(i));
+      sigmas[r.estimate.names[i]].push_back(r.uncertainty.noise_sigma(i));
     }
   }
   int compared = 0;
@@ -89,7 +89,7 @@ TEST(CalibMonteCarlo, PredictedSigmaMatchesSpread) {
   ASSERT_GE(map.size(), 10u);
   const RigModel true_model(truth);
   const Pose<double> mirror1_from_cam0 =
-      PoseFromBlock(results[0].rig.mirror1_pose.data()).Inverse();
+      PoseFromBlock(results[0].estimate.rig.mirror1_pose.data()).Inverse();
   // Points spread over the band (every 20th of the map) where every solve projects them in both
   // rings (the band's edges move with the solves), up to 10.
   int sampled = 0;
@@ -103,8 +103,9 @@ TEST(CalibMonteCarlo, PredictedSigmaMatchesSpread) {
           true_model.Project(PoseFromBlock(truth.mirror1_pose.data()) * in_mirror1, mirror);
       double sum2 = 0;
       for (const auto& r : results) {
-        const auto px = RigModel(r.rig).Project(
-            PoseFromBlock(r.rig.mirror1_pose.data()) * in_mirror1, mirror);
+        const auto px =
+            RigModel(r.estimate.rig)
+                .Project(PoseFromBlock(r.estimate.rig.mirror1_pose.data()) * in_mirror1, mirror);
         everywhere &= px.has_value() && truth_px.has_value();
         if (!everywhere) break;
         sum2 += (*px - *truth_px).squaredNorm();

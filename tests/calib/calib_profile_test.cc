@@ -69,15 +69,15 @@ Outcome RunCalibration(const RigParams& truth, const std::string& profile) {
   Outcome out;
   out.result = Calibrate(IdealRig(), session.targets, detections, options);
   std::fprintf(stderr, "profile: %s\n%s", profile.c_str(), ResultTable(out.result, &truth).c_str());
-  for (size_t i = 0; i < out.result.names.size(); ++i) {
-    const std::string& name = out.result.names[i];
+  for (size_t i = 0; i < out.result.estimate.names.size(); ++i) {
+    const std::string& name = out.result.estimate.names[i];
     if (!testing::IsMisalignment(name) || name.find(".sag_") != std::string::npos) continue;
-    const double z = std::abs(out.result.values(i) - testing::TruthValue(truth, name)) /
-                     out.result.sigma(i);
+    const double z = std::abs(out.result.estimate.values(i) - testing::TruthValue(truth, name)) /
+                     out.result.uncertainty.sigma(i);
     if (z > out.worst_sigmas) out.worst_sigmas = z, out.worst = name;
   }
   const ProjectionDifference d =
-      CompareProjectionsInMirror1(RigModel(truth), RigModel(out.result.rig), 1000.0);
+      CompareProjectionsInMirror1(RigModel(truth), RigModel(out.result.estimate.rig), 1000.0);
   out.m1_rms_px[0] = d.rms_px[0];
   out.m1_rms_px[1] = d.rms_px[1];
   const ProjectionUncertainty predicted = PredictProjectionUncertainty(out.result, 1000.0);
@@ -105,9 +105,9 @@ TEST(CalibProfile, HeldOutOfTheModelTheProfileErrorIsConfidentlyWrong) {
 // makes it, and the session says so instead of being wrong.
 TEST(CalibProfile, FreedTheMisalignmentsHoldAndTheUncertaintyIsHonest) {
   const Outcome out = RunCalibration(ProfiledTruth(0.010), "free");
-  EXPECT_TRUE(out.result.profile[0].freed);
-  EXPECT_TRUE(out.result.profile[1].freed);
-  EXPECT_TRUE(out.result.rig.profile1.present);
+  EXPECT_TRUE(out.result.residuals.profile[0].freed);
+  EXPECT_TRUE(out.result.residuals.profile[1].freed);
+  EXPECT_TRUE(out.result.estimate.rig.profile1.present);
   EXPECT_LT(out.worst_sigmas, 3.0) << out.worst;
   for (int m = 0; m < 2; ++m) EXPECT_LT(out.m1_rms_px[m], 2.5 * out.predicted_px[m]) << m;
 }
@@ -128,7 +128,7 @@ TEST(CalibProfile, ARippleShowsInTheRadialPattern) {
   truth.profile1.ripple_period = 6.0;
   for (const char* mode : {"hold", "auto"}) {
     const Outcome out = RunCalibration(truth, mode);
-    const ProfileDecision& d = out.result.profile[0];
+    const ProfileDecision& d = out.result.residuals.profile[0];
     for (size_t b = 0; b < d.pattern_after.size(); ++b) {
       std::fprintf(stderr, "%s: r %.1f-%.1f mm  n %4d  mean radial residual %+.4f +- %.4f px\n",
                    mode, d.pattern_after[b].r_lo, d.pattern_after[b].r_hi, d.pattern_after[b].count,
@@ -136,13 +136,14 @@ TEST(CalibProfile, ARippleShowsInTheRadialPattern) {
     }
     EXPECT_GT(d.pattern_chi2_after, 4.0) << mode;
     bool said = false;
-    for (const auto& note : out.result.notes) said |= note.find("mirror 1's profile") != std::string::npos;
+    for (const auto& note : out.result.solve.notes)
+      said |= note.find("mirror 1's profile") != std::string::npos;
     EXPECT_TRUE(said) << mode;
   }
   // The exact quadrics leave no pattern.
   const Outcome exact = RunCalibration(MisalignedRig(), "hold");
-  EXPECT_LT(exact.result.profile[0].pattern_chi2_after, 4.0);
-  EXPECT_LT(exact.result.profile[1].pattern_chi2_after, 4.0);
+  EXPECT_LT(exact.result.residuals.profile[0].pattern_chi2_after, 4.0);
+  EXPECT_LT(exact.result.residuals.profile[1].pattern_chi2_after, 4.0);
 }
 
 // Monte Carlo over pixel noise and the prior (issue 40's acceptance): the small clean session of
@@ -200,9 +201,10 @@ TEST(CalibProfile, MonteCarloConfirmsTheSigmasWithTheProfileFreed) {
   for (int k = 0; k < solves; ++k) EXPECT_TRUE(failures[k].empty()) << "solve " << k << ": " << failures[k];
   std::map<std::string, std::vector<double>> errors, sigmas;
   for (const auto& r : results) {
-    for (size_t i = 0; i < r.names.size(); ++i) {
-      errors[r.names[i]].push_back(r.values(i) - testing::TruthValue(truth, r.names[i]));
-      sigmas[r.names[i]].push_back(r.noise_sigma(i));
+    for (size_t i = 0; i < r.estimate.names.size(); ++i) {
+      errors[r.estimate.names[i]].push_back(r.estimate.values(i) -
+                                            testing::TruthValue(truth, r.estimate.names[i]));
+      sigmas[r.estimate.names[i]].push_back(r.uncertainty.noise_sigma(i));
     }
   }
   double sum_ratio2 = 0;

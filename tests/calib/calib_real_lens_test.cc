@@ -35,14 +35,14 @@ RigParams RealLensRig() {
 }
 
 double SigmaOf(const CalibrationResult& r, const std::string& name) {
-  for (size_t i = 0; i < r.names.size(); ++i) {
-    if (r.names[i] == name) return r.sigma(i);
+  for (size_t i = 0; i < r.estimate.names.size(); ++i) {
+    if (r.estimate.names[i] == name) return r.uncertainty.sigma(i);
   }
   return NAN;
 }
 
 bool HasNote(const CalibrationResult& r, const std::string& start) {
-  for (const auto& note : r.notes) {
+  for (const auto& note : r.solve.notes) {
     if (note.rfind(start, 0) == 0) return true;
   }
   return false;
@@ -74,9 +74,10 @@ RealLensRun SolveRealLens(const RigParams& lens_rig, double noise_px) {
 
   const RigModel true_model(truth);
   run.ideal = CompareProjections(true_model, RigModel(ideal), 1000);
-  run.plain = CompareProjections(true_model, RigModel(run.result.rig), 1000);
-  CompareProjectionsUpToRotation(true_model, RigModel(run.result.rig), 1000, &run.rotation);
-  run.in_mirror1 = CompareProjectionsInMirror1(true_model, RigModel(run.result.rig), 1000);
+  run.plain = CompareProjections(true_model, RigModel(run.result.estimate.rig), 1000);
+  CompareProjectionsUpToRotation(true_model, RigModel(run.result.estimate.rig), 1000,
+                                 &run.rotation);
+  run.in_mirror1 = CompareProjectionsInMirror1(true_model, RigModel(run.result.estimate.rig), 1000);
   std::fprintf(stderr,
                "projection difference at 1 m over %d band points (ring 1 / ring 2): ideal start "
                "%.3f / %.3f px; calibrated in C %.4f / %.4f px (frame rotation %.4f deg), in "
@@ -88,28 +89,29 @@ RealLensRun SolveRealLens(const RigParams& lens_rig, double noise_px) {
   const CalibrationResult& result = run.result;
   // The start is far: a solve that stayed there, or lost the lens, fails everything below.
   EXPECT_GT(run.ideal.rms_px[0], 5.0);
-  EXPECT_TRUE(result.converged);
-  EXPECT_TRUE(result.rejected.empty());  // exact pixels + Gaussian noise: no outliers
+  EXPECT_TRUE(result.solve.converged);
+  EXPECT_TRUE(result.residuals.rejected.empty());  // exact pixels + Gaussian noise: no outliers
   // 2-D residual RMS of corners with noise_px per axis: sqrt(2) * noise_px less the fitted share.
   for (int m = 0; m < 2; ++m) {
-    EXPECT_NEAR(result.per_mirror_rms_px[m], std::sqrt(2.0) * noise_px,
+    EXPECT_NEAR(result.residuals.per_mirror_rms_px[m], std::sqrt(2.0) * noise_px,
                 0.2 * std::sqrt(2.0) * noise_px);
   }
   int n_checked = 0;
-  for (size_t i = 0; i < result.names.size(); ++i) {
-    const std::string& name = result.names[i];
+  for (size_t i = 0; i < result.estimate.names.size(); ++i) {
+    const std::string& name = result.estimate.names[i];
     if (!testing::IsMisalignment(name) && name != "dist_k1" && name != "dist_k2") continue;
     ++n_checked;
     const double t = testing::TruthValue(truth, name);
-    EXPECT_LT(std::abs(result.values(i) - t), 3 * result.sigma(i))
-        << name << " = " << result.values(i) << " truth " << t << " sigma " << result.sigma(i);
+    EXPECT_LT(std::abs(result.estimate.values(i) - t), 3 * result.uncertainty.sigma(i))
+        << name << " = " << result.estimate.values(i) << " truth " << t << " sigma "
+        << result.uncertainty.sigma(i);
   }
   EXPECT_EQ(n_checked, 15);  // 13 misalignment parameters, dist_k1, dist_k2: none unobservable
   // The rings reach r = 0.28 (normalised): dist_k3 is held and the output says why; and it says
   // that the camera frame's pointing is uncertain (the camera-rotation valley).
   EXPECT_TRUE(HasNote(result, "dist_k3 held at 0"));
   EXPECT_TRUE(HasNote(result, "camera pointing"));
-  EXPECT_EQ(result.rig.distortion[4], 0.0);
+  EXPECT_EQ(result.estimate.rig.distortion[4], 0.0);
   return run;
 }
 

@@ -44,18 +44,18 @@ TEST(CalibRecovery, MisalignedRigWithinThreeSigma) {
   std::fprintf(stderr, "solve %.2f s\n%s", std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),
                ResultTable(result, &truth).c_str());
 
-  EXPECT_TRUE(result.converged);
+  EXPECT_TRUE(result.solve.converged);
   // The camera's rotation against the mirror bodies is nearly a gauge (it shows as a principal
   // point shift plus second-order terms), so cx, cy and the mirror tilts may be named as nearly
   // unobservable at this noise; whatever is reported must hold.
-  for (const auto& u : result.unobservable) EXPECT_FALSE(u.hint.empty()) << u.name;
+  for (const auto& u : result.uncertainty.unobservable) EXPECT_FALSE(u.hint.empty()) << u.name;
   // RMS of 2-D residuals with sigma per axis: sqrt(2) sigma, less the fitted parameters' share.
-  EXPECT_NEAR(result.rms_px, std::sqrt(2.0) * noise_px, 0.2 * std::sqrt(2.0) * noise_px);
-  for (size_t i = 0; i < result.names.size(); ++i) {
-    const double t = testing::TruthValue(truth, result.names[i]);
-    EXPECT_LT(std::abs(result.values(i) - t), 3 * result.sigma(i))
-        << result.names[i] << " = " << result.values(i) << " truth " << t << " sigma "
-        << result.sigma(i);
+  EXPECT_NEAR(result.residuals.rms_px, std::sqrt(2.0) * noise_px, 0.2 * std::sqrt(2.0) * noise_px);
+  for (size_t i = 0; i < result.estimate.names.size(); ++i) {
+    const double t = testing::TruthValue(truth, result.estimate.names[i]);
+    EXPECT_LT(std::abs(result.estimate.values(i) - t), 3 * result.uncertainty.sigma(i))
+        << result.estimate.names[i] << " = " << result.estimate.values(i) << " truth " << t
+        << " sigma " << result.uncertainty.sigma(i);
   }
 }
 
@@ -73,11 +73,12 @@ TEST(CalibRecovery, DistortedRigNamesWhatItCannotDetermine) {
   const CalibrationResult result = Calibrate(IdealRig(), session.targets,
                                              testing::NoisyDetections(session, 0.3, 5), {});
   std::fprintf(stderr, "%s", ResultTable(result, &truth).c_str());
-  EXPECT_FALSE(result.unobservable.empty());
-  for (const auto& u : result.unobservable) EXPECT_FALSE(u.hint.empty()) << u.name;
-  for (size_t i = 0; i < result.names.size(); ++i) {
-    const double t = testing::TruthValue(truth, result.names[i]);
-    EXPECT_LT(std::abs(result.values(i) - t), 3 * result.sigma(i)) << result.names[i];
+  EXPECT_FALSE(result.uncertainty.unobservable.empty());
+  for (const auto& u : result.uncertainty.unobservable) EXPECT_FALSE(u.hint.empty()) << u.name;
+  for (size_t i = 0; i < result.estimate.names.size(); ++i) {
+    const double t = testing::TruthValue(truth, result.estimate.names[i]);
+    EXPECT_LT(std::abs(result.estimate.values(i) - t), 3 * result.uncertainty.sigma(i))
+        << result.estimate.names[i];
   }
 }
 

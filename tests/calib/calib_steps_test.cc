@@ -95,19 +95,21 @@ TEST(CalibSteps, DistK3IsFreedWhereTheCovarianceSaysTheRadiiTellItApart) {
   CalibrationResult result;
   CovarianceFindings findings;
   EXPECT_FALSE(DecideDistK3(findings, rig, corners, options, &refined, &result));  // no probe
-  EXPECT_TRUE(result.notes.empty());
+  EXPECT_TRUE(result.solve.notes.empty());
   findings.k3_evaluated = true;
   findings.k3_sigma = 0.5;
   findings.k3_growth = 3.0;
   EXPECT_FALSE(DecideDistK3(findings, rig, corners, options, &refined, &result));
   EXPECT_FALSE(refined.dist_k3);
-  ASSERT_EQ(result.notes.size(), 1u);
-  EXPECT_NE(result.notes[0].find("dist_k3 held at"), std::string::npos) << result.notes[0];
-  EXPECT_NE(result.notes[0].find("r <= 0.400"), std::string::npos) << result.notes[0];
+  ASSERT_EQ(result.solve.notes.size(), 1u);
+  EXPECT_NE(result.solve.notes[0].find("dist_k3 held at"), std::string::npos)
+      << result.solve.notes[0];
+  EXPECT_NE(result.solve.notes[0].find("r <= 0.400"), std::string::npos) << result.solve.notes[0];
   findings.k3_growth = 1.5;
   EXPECT_TRUE(DecideDistK3(findings, rig, corners, options, &refined, &result));
   EXPECT_TRUE(refined.dist_k3);
-  EXPECT_NE(result.notes.back().find("dist_k3 refined"), std::string::npos) << result.notes.back();
+  EXPECT_NE(result.solve.notes.back().find("dist_k3 refined"), std::string::npos)
+      << result.solve.notes.back();
   EXPECT_EQ(HeldCoordinates(refined, "distortion").size(), 2u);
 }
 

@@ -85,8 +85,9 @@ TEST(Report, PageIsSelfContainedAndEveryImageIsWritten) {
   fs::remove_all(dir);
   ReportInput in = InputOf(s);
   in.tolerances = design::CheckTolerances(
-      s.result.rig,
-      design::ReadToleranceFile(std::string(OMNI_SOURCE_DIR) + "/sample_configs/tolerances.yaml").spec);
+      s.result.estimate.rig,
+      design::ReadToleranceFile(std::string(OMNI_SOURCE_DIR) + "/sample_configs/tolerances.yaml")
+          .spec);
   const std::string index = WriteReport(dir, in);
   const std::string html = Read(index);
   ASSERT_FALSE(html.empty());
@@ -120,8 +121,9 @@ TEST(Report, PageIsSelfContainedAndEveryImageIsWritten) {
   {
     ReportInput posts = InputOf(s);
     calib::CalibrationResult with_mount = s.result;
-    with_mount.rig.mount = io::ReadModelFile(std::string(OMNI_SOURCE_DIR) +
-                                             "/sample_configs/big_rig_prototype.yaml").mount;
+    with_mount.estimate.rig.mount =
+        io::ReadModelFile(std::string(OMNI_SOURCE_DIR) + "/sample_configs/big_rig_prototype.yaml")
+            .mount;
     posts.result = &with_mount;
     const std::string page = Read(WriteReport(dir + "_posts", posts));
     EXPECT_NE(page.find("3 posts of 3.0 mm at 41.5 mm from the axis of mirror 1's body"), std::string::npos);
@@ -172,7 +174,7 @@ TEST(Report, AdviceNamesWhatThePageShows) {
   undecided.verdict = design::Verdict::kUndecided;
   in.tolerances = {fail, undecided};
   calib::CalibrationResult worse = s.result;
-  for (auto& r : worse.residuals) {
+  for (auto& r : worse.residuals.corners) {
     if (r.target == 0) r.residual *= 5;
   }
   in.result = &worse;
