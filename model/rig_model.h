@@ -4,7 +4,8 @@
 // distortion it equals IdealModel (ideal_model.h) to rounding.
 //
 // Forward projection exists ONCE per optical path, templated on the scalar (double, ceres::Jet),
-// as free functions over the raw parameter blocks of RigParams (COLMAP style), so that Ceres
+// as free functions over the raw parameter blocks of RigParams (COLMAP style; a RigBlocks bundle
+// indexed by RigBlockId, each block's coordinates named in rig_blocks.h), so that Ceres
 // differentiates the very code that the rest of the program runs:
 //   camera[5]        fx, fy, cx, cy, skew
 //   distortion[5]    dist_k1, dist_k2, dist_p1, dist_p2, dist_k3
