@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "model/rig_model.h"
+#include "model/rig_parameters.h"
 #include "model/rig_params.h"
 
 namespace omni {
@@ -21,8 +22,8 @@ RigParams MisalignedRig() {
   RigParams rig = MakeIdealRig(DesignParams{123.488, 241.803, 5.7319, 9.7443, 233.684, 37.0}, 7.0,
                                Pinhole<double>{1450, 1450, 639.5, 479.5, 0}, 1280, 960);
   rig.kind = ModelKind::kNoncentral;
-  rig.camera[2] += 3.2;
-  rig.camera[3] -= 2.1;
+  rig.camera[kCx] += 3.2;
+  rig.camera[kCy] -= 2.1;
   rig.distortion = {-0.06, 0.012, 1e-4, -1e-4, -0.002};
   rig.mirror1_pose = {0.7 * kDeg, -0.4 * kDeg, 0.6, -0.8, 0.9};
   rig.mirror2_pose = {-0.9 * kDeg, 0.5 * kDeg, -0.7, 0.4, -0.6};
@@ -137,7 +138,11 @@ void BM_RigProjectJet(benchmark::State& state) {
   fill(rig.mirror1_pose);   // x[14..18]
   fill(rig.mirror2_pose);   // x[19..23]
   fill(rig.reflex);         // x[24..26]
-  const RigBlocks<J> blocks{&x[0], &x[5], &x[10], &x[14], &x[24], &x[12], &x[19]};
+  RigBlocks<J> blocks;  // the profile blocks nullptr: exact conics
+  for (RigBlockId b : {kCameraBlock, kDistortionBlock, kShape1Block, kShape2Block, kPose1Block,
+                       kPose2Block, kReflexBlock}) {
+    blocks[b] = &x[BlockOffset(b)];
+  }
   Vec2<J> px;
   for (auto _ : state) {
     for (const auto& s : samples) {
@@ -194,14 +199,16 @@ BENCHMARK(BM_IdealUnprojectSamePixels);
 // Reprojection residuals as a calibration would write them (one per observation, the point a
 // parameter block of its own), evaluated with Jacobians by ceres::Problem::Evaluate.
 struct Mirror1Residual {
+  static constexpr std::array<RigBlockId, 5> kBlocks = {kCameraBlock, kDistortionBlock,
+                                                        kShape1Block, kPose1Block, kReflexBlock};
   Eigen::Vector2d observed;
   RigFixed fixed;
   template <typename T>
   bool operator()(const T* camera, const T* distortion, const T* shape, const T* pose,
                   const T* reflex, const T* point, T* residual) const {
     Vec2<T> px;
-    if (!ProjectViaMirror1(RigBlocks<T>{camera, distortion, shape, pose, reflex, nullptr, nullptr},
-                           fixed,
+    const T* blocks[] = {camera, distortion, shape, pose, reflex};
+    if (!ProjectViaMirror1(RigBlocks<T>(kBlocks, blocks), fixed,
                            Vec3<T>(point[0], point[1], point[2]), &px)) {
       return false;
     }
@@ -211,14 +218,16 @@ struct Mirror1Residual {
   }
 };
 struct Mirror2Residual {
+  static constexpr std::array<RigBlockId, 6> kBlocks = {
+      kCameraBlock, kDistortionBlock, kPose1Block, kReflexBlock, kShape2Block, kPose2Block};
   Eigen::Vector2d observed;
   RigFixed fixed;
   template <typename T>
   bool operator()(const T* camera, const T* distortion, const T* pose1, const T* reflex,
                   const T* shape, const T* pose2, const T* point, T* residual) const {
     Vec2<T> px;
-    if (!ProjectViaMirror2(RigBlocks<T>{camera, distortion, nullptr, pose1, reflex, shape, pose2},
-                           fixed,
+    const T* blocks[] = {camera, distortion, pose1, reflex, shape, pose2};
+    if (!ProjectViaMirror2(RigBlocks<T>(kBlocks, blocks), fixed,
                            Vec3<T>(point[0], point[1], point[2]), &px)) {
       return false;
     }

@@ -70,8 +70,8 @@ const char* kKindNames[] = {"chessboard", "apriltag", "kalibr"};  // by TargetTy
 // true lens distortion (what part of the focal-length error the distortion makes).
 void LipsReport(const RigParams& truth, const RigParams& nominal,
                 const std::vector<LipEdgeObservation>& edges, int n_images) {
-  const double f_true = 0.5 * (truth.camera[0] + truth.camera[1]);
-  const Eigen::Vector2d pp(truth.camera[2], truth.camera[3]);
+  const double f_true = 0.5 * (truth.camera[kFx] + truth.camera[kFy]);
+  const Eigen::Vector2d pp(truth.camera[kCx], truth.camera[kCy]);
   const detectors::LipReferencePoints ref = detectors::LipReferencePointsOf(truth);
   struct Ref {
     const char* name;
@@ -83,8 +83,8 @@ void LipsReport(const RigParams& truth, const RigParams& nominal,
                       {"lip2_centre_in_reflex", ref.lip2_centre_in_reflex},
                       {"axis2_in_reflex", ref.axis2_in_reflex}};
   std::printf("lips (%d images, %zu labelled edges): true f %.3f pp (%.3f, %.3f); nominal pp "
-              "(%.3f, %.3f)\n", n_images, edges.size(), f_true, pp.x(), pp.y(), nominal.camera[2],
-              nominal.camera[3]);
+              "(%.3f, %.3f)\n", n_images, edges.size(), f_true, pp.x(), pp.y(), nominal.camera[kCx],
+              nominal.camera[kCy]);
   for (const Ref& r : refs) {
     std::printf("lips ref %-22s (%.3f, %.3f), minus true pp (%+.3f, %+.3f) = %.3f px\n", r.name,
                 r.pixel.x(), r.pixel.y(), r.pixel.x() - pp.x(), r.pixel.y() - pp.y(),

@@ -159,7 +159,7 @@ int main(int argc, char** argv) {
           ++s.no_truth;
           continue;
         }
-        const Eigen::Vector2d pp(truth_params.camera[2], truth_params.camera[3]);
+        const Eigen::Vector2d pp(truth_params.camera[kCx], truth_params.camera[kCy]);
         s.distances.push_back(d);
         s.signed_sum += (p - pp).norm() > (q - pp).norm() ? d : -d;
         azimuth_signed.push_back({std::atan2(p.y() - pp.y(), p.x() - pp.x()),
@@ -218,7 +218,7 @@ int main(int argc, char** argv) {
                 truth_params.image_width, truth_params.image_height, sum / cpu_ms.size(),
                 Percentile(cpu_ms, 1.0));
   }
-  const double f_true = 0.5 * (truth_params.camera[0] + truth_params.camera[1]);
+  const double f_true = 0.5 * (truth_params.camera[kFx] + truth_params.camera[kFy]);
   for (const auto& [name, prior] : {std::pair<const char*, const RigModel*>{"nominal", &nominal},
                                     std::pair<const char*, const RigModel*>{"true rig", &truth}}) {
     const auto est = detectors::InitialIntrinsicsFromLips(all_edges, *prior);
@@ -228,7 +228,7 @@ int main(int argc, char** argv) {
     }
     std::printf("lip-only fit from the %s model: f %.3f (%+.3f%%), pp - true (%+.3f, %+.3f) px, "
                 "rms %.3f px, %d points\n", name, est->f, 100 * (est->f / f_true - 1),
-                est->cx - truth_params.camera[2], est->cy - truth_params.camera[3], est->rms_px,
+                est->cx - truth_params.camera[kCx], est->cy - truth_params.camera[kCy], est->rms_px,
                 est->n_points);
   }
   return 0;

@@ -71,7 +71,7 @@ struct Setup {
 
 Eigen::Vector2d PinholeProject(const RigParams& rig, const Eigen::Vector3d& p) {
   const double x = p.x() / p.z(), y = p.y() / p.z();
-  return {rig.camera[0] * x + rig.camera[4] * y + rig.camera[2], rig.camera[1] * y + rig.camera[3]};
+  return {rig.camera[kFx] * x + rig.camera[kSkew] * y + rig.camera[kCx], rig.camera[kFy] * y + rig.camera[kCy]};
 }
 
 Setup MakeSetup(const RigParams& rig_in, bool direct) {
@@ -200,8 +200,8 @@ cv::Mat RenderOracle(const Setup& s, int samples, int parity) {
   }
   const RigModel model(s.rig);
   cv::Mat img(s.rig.image_height, s.rig.image_width, CV_8UC1, cv::Scalar(0));
-  const double fx = s.rig.camera[0], fy = s.rig.camera[1], cx = s.rig.camera[2], cy = s.rig.camera[3],
-               skew = s.rig.camera[4];
+  const double fx = s.rig.camera[kFx], fy = s.rig.camera[kFy], cx = s.rig.camera[kCx], cy = s.rig.camera[kCy],
+               skew = s.rig.camera[kSkew];
   for (const Window& w : s.windows) {
     for (int v = w.box.y; v < w.box.y + w.box.height; ++v) {
       for (int u = w.box.x; u < w.box.x + w.box.width; ++u) {
@@ -293,7 +293,7 @@ struct RingStats {
 std::map<int, RingStats> Measure(const Setup& s, const cv::Mat& img, int half_override, bool correct,
                                  std::vector<Eigen::Vector2d>* errors) {
   std::map<int, RingStats> stats;
-  const double cx = s.rig.camera[2], cy = s.rig.camera[3];
+  const double cx = s.rig.camera[kCx], cy = s.rig.camera[kCy];
   errors->assign(s.corners.size(), Eigen::Vector2d(NAN, NAN));
   // Refined corners per board (placement, ring), row-major by id as the detector holds them.
   std::map<std::pair<int, int>, std::vector<std::optional<Eigen::Vector2d>>> grids;
@@ -362,7 +362,7 @@ void ReportDiff(const std::string& name, const Setup& s, const std::vector<Eigen
     const Corner& c = s.corners[i];
     const Eigen::Vector2d e = a[i] - b[i];
     const Eigen::Vector2d r =
-        Eigen::Vector2d(c.truth.x() - s.rig.camera[2], c.truth.y() - s.rig.camera[3]).normalized();
+        Eigen::Vector2d(c.truth.x() - s.rig.camera[kCx], c.truth.y() - s.rig.camera[kCy]).normalized();
     RingStats& x = st[c.ring];
     ++x.n;
     x.radial += e.dot(r);
@@ -420,7 +420,7 @@ void CurvatureModel(const Setup& s, const std::vector<Eigen::Vector2d>& errors, 
                                        : std::clamp(static_cast<int>(std::lround(0.4 * c.side)), 1, 6);
     const Eigen::Vector2d m = -half * half * k_sum;
     pairs.emplace_back(errors[i], m);
-    radials.push_back(Eigen::Vector2d(c.truth.x() - s.rig.camera[2], c.truth.y() - s.rig.camera[3]).normalized());
+    radials.push_back(Eigen::Vector2d(c.truth.x() - s.rig.camera[kCx], c.truth.y() - s.rig.camera[kCy]).normalized());
     rings.push_back(c.ring);
     em += errors[i].dot(m);
     mm += m.squaredNorm();

@@ -10,7 +10,10 @@ namespace omni::calib {
 
 Refinement RefinementOf(const CalibrationOptions& options) {
   Refinement refined;
-  refined.groups.insert(options.estimate.begin(), options.estimate.end());
+  for (const std::string& name : options.estimate) {
+    const RigBlock* block = FindRigBlock(name);  // the names are checked (CalibrationOptions)
+    if (block) refined.groups.set(block - kRigBlocks.data());
+  }
   refined.skew = options.refine_skew;
   refined.tangential = options.refine_tangential;
   refined.dist_k3 = options.refine_dist_k3;
@@ -23,26 +26,31 @@ Refinement RefinementOf(const CalibrationOptions& options) {
 RigState RigStateOf(const RigParams& params) {
   RigState rig;
   rig.params = params;
-  rig.fixed = FixedOf(params);
+  const RigFixed fixed = FixedOf(params);
+  rig.fixed = std::make_shared<const RigFixed>(fixed);
   // Corners: bounds relaxed by kBoundSlackMm (mirror 1: larger rim, smaller disc; mirror 2: larger
   // rim, smaller hole, larger disc), so a corner near a ring's edge does not fail a trial step
   // while the parameters are still off. A detected point is seen: the mount's posts would only
   // wall trial steps in.
-  rig.corner_bounds[0] = rig.corner_bounds[1] = rig.fixed;
-  for (RigFixed& f : rig.corner_bounds) f.mount.present = false;
-  for (RigFixed& f : rig.corner_bounds) f.r_sys += kBoundSlackMm;
-  rig.corner_bounds[0].r_ref = std::max(0.0, rig.fixed.r_ref - kBoundSlackMm);
-  rig.corner_bounds[0].reflex_side_slack = kBoundSlackMm;
-  rig.corner_bounds[1].r_ref += kBoundSlackMm;
-  rig.corner_bounds[1].r_cam = std::max(0.0, rig.fixed.r_cam - kBoundSlackMm);
+  RigFixed corner[2] = {fixed, fixed};
+  for (RigFixed& f : corner) f.mount.present = false;
+  for (RigFixed& f : corner) f.r_sys += kBoundSlackMm;
+  corner[0].r_ref = std::max(0.0, fixed.r_ref - kBoundSlackMm);
+  corner[0].reflex_side_slack = kBoundSlackMm;
+  corner[1].r_ref += kBoundSlackMm;
+  corner[1].r_cam = std::max(0.0, fixed.r_cam - kBoundSlackMm);
   // Lips: far relaxed (LipBounds).
   constexpr double kLipSlackMm = 30.0;
-  rig.lip_bounds[0] = rig.lip_bounds[1] = rig.fixed;
-  for (RigFixed& f : rig.lip_bounds) f.mount.present = false;
-  for (RigFixed& f : rig.lip_bounds) f.r_sys += kLipSlackMm;
-  rig.lip_bounds[0].r_ref = 0;  // direct, via_mirror1: no occlusion by the disc
-  rig.lip_bounds[1].r_ref += kLipSlackMm;
-  rig.lip_bounds[1].r_cam = 0;
+  RigFixed lip[2] = {fixed, fixed};
+  for (RigFixed& f : lip) f.mount.present = false;
+  for (RigFixed& f : lip) f.r_sys += kLipSlackMm;
+  lip[0].r_ref = 0;  // direct, via_mirror1: no occlusion by the disc
+  lip[1].r_ref += kLipSlackMm;
+  lip[1].r_cam = 0;
+  for (int m = 0; m < 2; ++m) {
+    rig.corner_bounds[m] = std::make_shared<const RigFixed>(corner[m]);
+    rig.lip_bounds[m] = std::make_shared<const RigFixed>(lip[m]);
+  }
   return rig;
 }
 
@@ -66,10 +74,10 @@ StageReport Solve(const Stage& stage, const CalibrationOptions& options, Calibra
 void RunRobustStages(const CalibrationOptions& options, Calibration* c,
                      CalibrationResult* result) {
   SelectRobustStageCorners(&c->observations.corners);
-  std::set<std::string> done;
+  RigBlockSet done;
   for (const Stage& stage : kRobustStages) {
-    const std::set<std::string> groups = StageGroups(stage, c->refined);
-    if (groups.empty() || groups == done) continue;
+    const RigBlockSet groups = StageGroups(stage, c->refined);
+    if (groups.none() || groups == done) continue;
     result->solve.stages.push_back(Solve(stage, options, c));
     done = groups;
   }
@@ -317,7 +325,7 @@ CalibrationResult Calibrate(const RigParams& start, const std::vector<TargetSpec
   CalibrationResult result;
   RunRobustStages(options, &c, &result);
   // Each mirror's profile: freed where the corners cover its radii (profiles.cc).
-  DecideProfiles(c.observations, options, &c.rig, &c.profiles, &c.refined, &c.costs, &result);
+  DecideProfiles(c.observations, options, &c.rig, &c.profiles, &c.refined, &result);
   // The lip edge points enter now, not in the robust stages: there every pixel weighed alike,
   // and tens of thousands of lip points (correlated along each edge and over the images, and
   // biased where the detector reports a band edge on the wrong curve) outweighed a few thousand

@@ -8,7 +8,7 @@
 //                   decisions
 //   Weights         each residual group's weight sigma and robust noise (variance components)
 //   ProfileState    whether the start had each profile, and the radii the corners reach
-//   CostCache       one Ceres cost per observation, built once and kept between problems
+//   CostCache       one Ceres cost per observation and use, built once and kept between problems
 //   CalibrationProblem  a Ceres problem over these blocks, with the losses and priors it uses
 //   CovarianceFindings  what a covariance tells the dist_k3 decision, the lip edges' sigmas
 #pragma once
@@ -27,6 +27,7 @@
 
 #include <Eigen/Core>
 
+#include "calib/rig_cost.h"
 #include "calib/variance_components.h"
 #include "model/lip.h"
 #include "model/rig_model.h"
@@ -39,26 +40,27 @@ constexpr double kDeg = M_PI / 180.0;
 constexpr double kBoundSlackMm = 2.0;
 constexpr int kRobustStageCorners = 2000;  // see SelectRobustStageCorners
 // The profile blocks of mirror 1 and mirror 2 (calib/profiles.cc).
-inline constexpr const char* kProfileGroups[2] = {kRigBlocks[kProfile1Block].name,
-                                                  kRigBlocks[kProfile2Block].name};
+inline constexpr RigBlockId kProfileGroups[2] = {kProfile1Block, kProfile2Block};
 
 // The rig being solved for: its parameter blocks (params' arrays: the Ceres parameter blocks)
-// and the fixed data the costs copy when they are built.
+// and the fixed data its costs share. The fixed data is immutable once made: a change (a
+// profile's radii fitted to the corners) makes new data, and the costs built with the old are
+// built anew when next used (CostCache).
 struct RigState {
   RigParams params;
-  RigFixed fixed;
+  std::shared_ptr<const RigFixed> fixed;
   // A detected corner IS seen, so its cost only needs the validity bounds to keep the solver on
-  // the right sheet and path: per mirror path, bounds relaxed by kBoundSlackMm (StartingRig).
-  RigFixed corner_bounds[2];
+  // the right sheet and path: per mirror path, bounds relaxed by kBoundSlackMm (RigStateOf).
+  std::shared_ptr<const RigFixed> corner_bounds[2];
   // The lip paths of mirror 1 (direct, via_mirror1) and of mirror 2 (via_reflex, via_mirror2):
   // bounds far relaxed (LipBounds).
-  RigFixed lip_bounds[2];
+  std::shared_ptr<const RigFixed> lip_bounds[2];
 };
 
 // The bounds a lip point's cost uses on `path`. The detector labelled each edge's path already,
 // and the lips lie at the mirrors' rims, so the rim and disc bounds would only wall the solver in
 // (an edge point whose reflection leaves the rim by a hair fails a trial step).
-inline const RigFixed& LipBounds(const RigState& rig, LipPath path) {
+inline const std::shared_ptr<const RigFixed>& LipBounds(const RigState& rig, LipPath path) {
   return path == LipPath::kDirect || path == LipPath::kViaMirror1 ? rig.lip_bounds[0]
                                                                   : rig.lip_bounds[1];
 }
@@ -70,7 +72,7 @@ struct Observation {
   Eigen::Vector2d pixel;
   Eigen::Vector3d corner_in_target;
   bool rejected = false;     // outlier or its placement failed: out for good
-  bool projectable = true;   // at the current parameters (re-checked each stage)
+  bool projectable = true;   // at the current parameters (MarkProjectable, before each problem)
   bool in_robust_stages = true;  // one of the corners the robust stages solve with
 };
 
@@ -87,7 +89,7 @@ struct LipObservation {
   int members = 1;      // a normal point: the detected points it is the mean of
   int normal = -1;      // a detected point: index of the normal point it went into
   double across = 0;    // signed distance across the edge from the curve (InitialiseLipAzimuths)
-  bool projectable = true;
+  bool projectable = true;  // as for a corner
   bool Used() const { return !rejected && !unused; }
 };
 
@@ -114,11 +116,11 @@ struct Selection {
   bool lips = false;           // the lip points too (BuildProblem; the statistics always take them)
 };
 
-// What the solve refines: the parameter groups (kRigBlocks' names) and, within them, the
-// coordinates held at their starting values; the held coordinates' considered sigmas; the priors
-// on the refined shapes and profiles.
+// What the solve refines: the parameter groups (blocks) and, within them, the coordinates held
+// at their starting values; the held coordinates' considered sigmas; the priors on the refined
+// shapes and profiles.
 struct Refinement {
-  std::set<std::string> groups;  // options.estimate and the profile blocks (SetUpProfiles)
+  RigBlockSet groups;  // options.estimate and the profile blocks (SetUpProfiles)
   bool skew = false, tangential = false;
   bool dist_k3 = false;                   // options.refine_dist_k3, or DecideDistK3
   bool profile_free[2] = {false, false};  // each mirror's profile refined (DecideProfiles)
@@ -130,7 +132,7 @@ struct Refinement {
 };
 
 // The coordinates of `group`'s block that stay at their starting values.
-std::vector<int> HeldCoordinates(const Refinement& refined, const std::string& group);
+std::vector<int> HeldCoordinates(const Refinement& refined, RigBlockId group);
 
 // Per residual group (0: corners ring 1, 1: corners ring 2, 2: lips): the sigma each group is
 // weighted with (px; 1 until the first variance component estimate, so the robust stages weigh
@@ -148,18 +150,19 @@ struct ProfileState {
   double corner_radii[2][2] = {{0, 0}, {0, 0}};  // mm; {0, 0}: not measured
 };
 
-// One cost per corner and per lip point, built on first use with the rig's bounds of that time
-// (FitProfileRadiiToCorners clears them when it changes a profile's radii). The costs read the
-// held masks through pointers to this struct's members, so it stays where it was made.
+// One cost per corner and per lip point for each set of held coordinates a problem is built with
+// (ProblemOptions::held: the costs give them no Jet slot, calib/slot_autodiff.h; none for the
+// covariance, which needs every column), built on first use with the rig's fixed data of that
+// time and built anew when the rig's fixed data has been replaced since.
 struct CostCache {
-  CostCache() = default;
-  CostCache(const CostCache&) = delete;
-  CostCache& operator=(const CostCache&) = delete;
-  std::vector<std::unique_ptr<ceres::CostFunction>> corners, lips;
-  // The coordinates of the camera and distortion blocks the running solve holds (bit k:
-  // coordinate k): the costs give them no Jet slot (calib/slot_autodiff.h). Set by SolveStage for
-  // its solve only; 0 otherwise, so other evaluations (the covariance) get every column.
-  uint32_t held_camera = 0, held_distortion = 0;
+  struct Cost {
+    std::shared_ptr<const RigFixed> fixed;  // what it was built with
+    std::unique_ptr<ceres::CostFunction> cost;
+  };
+  struct Costs {
+    std::vector<Cost> corners, lips;
+  };
+  std::map<BlockMasks, Costs> by_held;
 };
 
 // A Ceres problem over the rig's blocks, the placements' poses and the lip azimuths

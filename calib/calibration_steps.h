@@ -54,7 +54,7 @@ ObservationSet CollectObservations(const Observations& detections,
 void InitialisePoses(RigState* rig, const CalibrationOptions& options,
                      ObservationSet* observations, CostCache* costs);
 void CheckDegeneracy(const ObservationSet& observations, const std::vector<TargetSpec>& targets,
-                     const std::set<std::string>& groups, const CalibrationOptions& options);
+                     const RigBlockSet& groups, const CalibrationOptions& options);
 // Throws where a target's size (square, tag_size) is off by more than
 // options.max_target_scale_error from what the rig's stereo measures of it.
 void CheckTargetScales(const RigParams& rig, const ObservationSet& observations,
@@ -80,24 +80,36 @@ double OuterRadius(const RigParams& rig, const std::vector<Observation>& corners
 
 // ---- The problem (problem.cc) ----
 
-// Corner i's cost (built once into costs->corners) and lip point i's.
+// The coordinates a solve over `groups` holds by a subset manifold, per block (a block held
+// whole is constant and left at 0): the Jacobian columns its costs need not compute.
+BlockMasks HeldColumns(const RigBlockSet& groups, const Refinement& refined);
+// Corner i's cost and lip point i's for a problem whose solve holds `held` (built once into
+// costs, and anew once the rig's fixed data has changed).
 ceres::CostFunction* CornerCost(const RigState& rig, const Observation& corner, size_t i,
-                                CostCache* costs);
+                                const BlockMasks& held, CostCache* costs);
 ceres::CostFunction* LipCost(const RigState& rig, const LipObservation& lip, size_t i,
-                             CostCache* costs);
+                             const BlockMasks& held, CostCache* costs);
 // Corner i's residual over the rig's blocks and its placement's pose.
-ceres::ResidualBlockId AddCornerResidual(size_t i, ceres::LossFunction* loss, RigState* rig,
+ceres::ResidualBlockId AddCornerResidual(size_t i, ceres::LossFunction* loss,
+                                         const BlockMasks& held, RigState* rig,
                                          ObservationSet* observations, CostCache* costs,
                                          ceres::Problem* problem);
 
 struct ProblemOptions {
-  std::set<std::string> groups;  // the blocks refined (their held coordinates aside); the
-                                 // others constant
+  RigBlockSet groups;  // the blocks refined (their held coordinates aside); the others constant
   ceres::LossFunction* loss = nullptr;  // the robust loss, or nullptr: least squares
   Selection selection;
+  // The costs leave out the Jacobian columns of the coordinates the solve holds (HeldColumns; a
+  // subset manifold drops them anyway); false: every column (the covariance's considered ones).
+  bool held_without_columns = false;
 };
-// Every selected observation that projects (its `projectable` updated), each group's residuals
-// weighted with 1 / weights.sigma^2; the priors on the refined shapes and freed profiles.
+// Each selected observation's `projectable` at the current parameters: the step before
+// BuildProblem (which reads it and changes no observation).
+void MarkProjectable(const RigState& rig, const Selection& selection,
+                     ObservationSet* observations);
+// Every selected observation that is projectable (MarkProjectable), each group's residuals
+// weighted with 1 / weights.sigma^2; the priors on the refined shapes and freed profiles. The
+// rig's and the observations' blocks are the problem's parameter blocks (a solve changes them).
 std::unique_ptr<CalibrationProblem> BuildProblem(RigState* rig, ObservationSet* observations,
                                                  const Weights& weights,
                                                  const Refinement& refined,
@@ -120,9 +132,9 @@ struct StopRule {
 // One solve of the calibration: the groups it refines, the loss, the observations, the stop rule.
 struct Stage {
   const char* name;
-  // Parameter groups (kRigBlocks' names) refined, of those the Refinement names; all of them
-  // when all_groups.
-  std::array<const char*, 5> groups;
+  // Parameter groups (blocks) refined, of those the Refinement names; all of them when
+  // all_groups.
+  RigBlockSet groups;
   bool all_groups;
   bool robust;  // options.solver.loss; else weighted least squares
   Selection selection;
@@ -137,7 +149,7 @@ extern const Stage kRobustStages[3];
 extern const Stage kReweightStage, kFinalStage;
 
 // The groups `stage` refines.
-std::set<std::string> StageGroups(const Stage& stage, const Refinement& refined);
+RigBlockSet StageGroups(const Stage& stage, const Refinement& refined);
 // Solves `stage` from the current values; undoes it if it ends worse (StageReport::undone).
 StageReport SolveStage(const Stage& stage, const CalibrationOptions& options,
                        const Weights& weights, const Refinement& refined, RigState* rig,
@@ -181,7 +193,7 @@ std::vector<RadialResidualBin> RadialPattern(const RigState& rig,
 // Frees each mirror's profile where options.profile and the corners' radial coverage say so
 // (fitting a profile's radii to its corners first); true if one was freed.
 bool DecideProfiles(const ObservationSet& observations, const CalibrationOptions& options,
-                    RigState* rig, ProfileState* profiles, Refinement* refined, CostCache* costs,
+                    RigState* rig, ProfileState* profiles, Refinement* refined,
                     CalibrationResult* result);
 // The result's notes on the profiles after the solve; a held zero profile dropped from the rig.
 void FinishProfiles(const ObservationSet& observations, const ProfileState& profiles,

@@ -11,10 +11,14 @@
 #include <ceres/rotation.h>
 #include <ceres/sized_cost_function.h>
 
+#include <array>
 #include <cstdint>
+#include <memory>
+#include <utility>
 
 #include <Eigen/Core>
 
+#include "calib/rig_cost.h"
 #include "calib/slot_autodiff.h"
 #include "model/rig_model.h"
 
@@ -29,71 +33,80 @@ Vec3<T> CornerInCam(const T* cam_from_target, const Eigen::Vector3d& corner_in_t
                  rotated[2] + cam_from_target[5]);
 }
 
-// The pixel residual of a point in C through mirror 1 (outer ring): blocks camera, distortion,
-// mirror1_shape, mirror1_profile, mirror1_pose, reflex, point_in_cam (3). The reflex block only
-// decides validity on this path (the disc's occlusion): no derivative. The profile block is read
-// only where fixed.profile1 is present.
+// The residual of a pixel: projected minus observed.
+template <typename T>
+bool PixelResidual(bool valid, const Vec2<T>& pixel, const Eigen::Vector2d& observed, T* residual) {
+  if (!valid) return false;
+  residual[0] = pixel.x() - T(observed.x());
+  residual[1] = pixel.y() - T(observed.y());
+  return true;
+}
+
+// The pixel residual of a point in C through mirror 1 (outer ring): over the rig blocks kBlocks
+// (in that order), then point_in_cam (3). The reflex block only decides validity on this path
+// (the disc's occlusion): no derivative. The profile block is read only where the fixed data's
+// profile1 is present.
 struct Mirror1PointResidual {
+  static constexpr std::array<RigBlockId, 6> kBlocks = {
+      kCameraBlock, kDistortionBlock, kShape1Block, kProfile1Block, kPose1Block, kReflexBlock};
+  static constexpr RigBlockSet kDifferentiable = BlockSetOf(
+      {kCameraBlock, kDistortionBlock, kShape1Block, kProfile1Block, kPose1Block});
   Eigen::Vector2d observed;
-  RigFixed fixed;
-  static constexpr uint32_t kNoDerivative[7] = {0, 0, 0, 0, 0, 0b111, 0};
+  std::shared_ptr<const RigFixed> fixed;
 
   template <typename T>
-  bool operator()(const T* camera, const T* distortion, const T* mirror1_shape,
-                  const T* mirror1_profile, const T* mirror1_pose, const T* reflex,
-                  const T* point_in_cam, T* residual) const {
+  bool operator()(T const* const* blocks, T* residual) const {
+    const T* point = blocks[kBlocks.size()];
     Vec2<T> pixel;
-    const RigBlocks<T> blocks{camera,  distortion, mirror1_shape,   mirror1_pose,
-                              reflex,  nullptr,    nullptr,         mirror1_profile,
-                              nullptr};
-    if (!ProjectViaMirror1(blocks, fixed,
-                           Vec3<T>(point_in_cam[0], point_in_cam[1], point_in_cam[2]), &pixel)) {
-      return false;
-    }
-    residual[0] = pixel.x() - T(observed.x());
-    residual[1] = pixel.y() - T(observed.y());
-    return true;
+    const bool valid = ProjectViaMirror1(RigBlocks<T>(kBlocks, blocks), *fixed,
+                                         Vec3<T>(point[0], point[1], point[2]), &pixel);
+    return PixelResidual(valid, pixel, observed, residual);
   }
 };
 
-// Through mirror 2 and the reflex disc (inner ring): blocks camera, distortion, mirror1_pose,
-// reflex, mirror2_shape, mirror2_profile, mirror2_pose, point_in_cam (3) (the reflex disc is part
-// of mirror 1's body, so mirror 1's pose moves it).
+// Through mirror 2 and the reflex disc (inner ring): over kBlocks, then point_in_cam (3) (the
+// reflex disc is part of mirror 1's body, so mirror 1's pose moves it).
 struct Mirror2PointResidual {
+  static constexpr std::array<RigBlockId, 7> kBlocks = {
+      kCameraBlock, kDistortionBlock, kPose1Block,   kReflexBlock,
+      kShape2Block, kProfile2Block,   kPose2Block};
+  static constexpr RigBlockSet kDifferentiable =
+      BlockSetOf({kCameraBlock, kDistortionBlock, kPose1Block, kReflexBlock, kShape2Block,
+                  kProfile2Block, kPose2Block});
   Eigen::Vector2d observed;
-  RigFixed fixed;
-  static constexpr uint32_t kNoDerivative[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+  std::shared_ptr<const RigFixed> fixed;
 
   template <typename T>
-  bool operator()(const T* camera, const T* distortion, const T* mirror1_pose, const T* reflex,
-                  const T* mirror2_shape, const T* mirror2_profile, const T* mirror2_pose,
-                  const T* point_in_cam, T* residual) const {
+  bool operator()(T const* const* blocks, T* residual) const {
+    const T* point = blocks[kBlocks.size()];
     Vec2<T> pixel;
-    const RigBlocks<T> blocks{camera,        distortion,   nullptr, mirror1_pose,   reflex,
-                              mirror2_shape, mirror2_pose, nullptr, mirror2_profile};
-    if (!ProjectViaMirror2(blocks, fixed,
-                           Vec3<T>(point_in_cam[0], point_in_cam[1], point_in_cam[2]), &pixel)) {
-      return false;
-    }
-    residual[0] = pixel.x() - T(observed.x());
-    residual[1] = pixel.y() - T(observed.y());
-    return true;
+    const bool valid = ProjectViaMirror2(RigBlocks<T>(kBlocks, blocks), *fixed,
+                                         Vec3<T>(point[0], point[1], point[2]), &pixel);
+    return PixelResidual(valid, pixel, observed, residual);
   }
 };
 
-// A corner's residual over the rig blocks and its target pose cam_from_target (6): the point
-// residual at point_in_cam = CornerInCam(pose), differentiated with 3 Jet slots for the point
-// instead of 6 for the pose (the chain rule with d point / d pose, a 3 x 6 Jacobian in double).
-// held_camera / held_distortion: see calib/slot_autodiff.h.
-template <typename PointResidual, int... kRigBlockSizes>
-class CornerCostFunction final : public ceres::SizedCostFunction<2, kRigBlockSizes..., 6> {
+// A corner's residual over the rig blocks PointResidual::kBlocks and its target pose
+// cam_from_target (6): the point residual at point_in_cam = CornerInCam(pose), differentiated
+// with 3 Jet slots for the point instead of 6 for the pose (the chain rule with d point / d pose,
+// a 3 x 6 Jacobian in double). `held`: the rig coordinates the solve it is built for holds
+// (calib/slot_autodiff.h).
+template <typename PointResidual,
+          typename Seq = std::make_index_sequence<PointResidual::kBlocks.size()>>
+class CornerCostFunction;
+template <typename PointResidual, size_t... I>
+class CornerCostFunction<PointResidual, std::index_sequence<I...>> final
+    : public ceres::SizedCostFunction<2, kRigBlocks[PointResidual::kBlocks[I]].size..., 6> {
  public:
-  static constexpr int kNumRig = sizeof...(kRigBlockSizes);
-  using Inner = SlotAutoDiffCostFunction<PointResidual, 2, kRigBlockSizes..., 3>;
+  static constexpr int kNumRig = sizeof...(I);
+  using Inner = RigSlotCost<PointResidual, 2, 3>;
 
   CornerCostFunction(const PointResidual& residual, const Eigen::Vector3d& corner_in_target,
-                     const uint32_t* held_camera, const uint32_t* held_distortion)
-      : inner_(residual, Masks(), HeldMasks(held_camera, held_distortion)),
+                     const BlockMasks& held)
+      : inner_(residual,
+               InListOrder<kNumRig + 1>(PointResidual::kBlocks,
+                                        NoDerivativeOutside(PointResidual::kDifferentiable)),
+               InListOrder<kNumRig + 1>(PointResidual::kBlocks, held)),
         corner_in_target_(corner_in_target) {}
 
   bool Evaluate(double const* const* parameters, double* residuals,
@@ -140,77 +153,43 @@ class CornerCostFunction final : public ceres::SizedCostFunction<2, kRigBlockSiz
   }
 
  private:
-  static typename Inner::Masks Masks() {
-    typename Inner::Masks m{};
-    for (int i = 0; i < kNumRig; ++i) m[i] = PointResidual::kNoDerivative[i];
-    return m;
-  }
-  static typename Inner::HeldMasks HeldMasks(const uint32_t* camera, const uint32_t* distortion) {
-    typename Inner::HeldMasks h{};
-    h[0] = camera;  // blocks 0 and 1 of every corner residual
-    h[1] = distortion;
-    return h;
-  }
-
   Inner inner_;
   Eigen::Vector3d corner_in_target_;
 };
 
-// The corner residuals over the target pose (the definition; Create gives the fast
-// CornerCostFunction of the same value and derivatives, tests/calib/slot_autodiff_test.cc).
-// Outer ring: blocks camera, distortion, mirror1_shape, mirror1_profile, mirror1_pose, reflex,
-// cam_from_target.
-struct Mirror1CornerCost {
+// The corner residual over the rig blocks of PointResidual and the target pose (the definition,
+// e.g. for ceres::DynamicAutoDiffCostFunction; Create gives the fast CornerCostFunction of the
+// same value and derivatives, tests/calib/slot_autodiff_test.cc).
+template <typename PointResidual>
+struct TargetCornerCost {
+  static constexpr auto kBlocks = PointResidual::kBlocks;  // then cam_from_target (6)
   Eigen::Vector2d observed;
   Eigen::Vector3d corner_in_target;
-  RigFixed fixed;
+  std::shared_ptr<const RigFixed> fixed;
 
   template <typename T>
-  bool operator()(const T* camera, const T* distortion, const T* mirror1_shape,
-                  const T* mirror1_profile, const T* mirror1_pose, const T* reflex,
-                  const T* cam_from_target, T* residual) const {
-    const Vec3<T> point = CornerInCam(cam_from_target, corner_in_target);
-    return Mirror1PointResidual{observed, fixed}(camera, distortion, mirror1_shape,
-                                                 mirror1_profile, mirror1_pose, reflex,
-                                                 point.data(), residual);
+  bool operator()(T const* const* blocks, T* residual) const {
+    const Vec3<T> point = CornerInCam(blocks[kBlocks.size()], corner_in_target);
+    const T* with_point[kBlocks.size() + 1];
+    for (size_t i = 0; i < kBlocks.size(); ++i) with_point[i] = blocks[i];
+    with_point[kBlocks.size()] = point.data();
+    return PointResidual{observed, fixed}(with_point, residual);
   }
 
+  // `held`: see CornerCostFunction (none: every Jacobian column).
   static ceres::CostFunction* Create(const Eigen::Vector2d& observed,
                                      const Eigen::Vector3d& corner_in_target,
-                                     const RigFixed& fixed,
-                                     const uint32_t* held_camera = nullptr,
-                                     const uint32_t* held_distortion = nullptr) {
-    return new CornerCostFunction<Mirror1PointResidual, 5, 5, 2, kProfileTerms, 5, 3>(
-        Mirror1PointResidual{observed, fixed}, corner_in_target, held_camera, held_distortion);
+                                     std::shared_ptr<const RigFixed> fixed,
+                                     const BlockMasks& held = {}) {
+    return new CornerCostFunction<PointResidual>(PointResidual{observed, std::move(fixed)},
+                                                 corner_in_target, held);
   }
 };
-
-// Inner ring: blocks camera, distortion, mirror1_pose, reflex, mirror2_shape, mirror2_profile,
-// mirror2_pose, cam_from_target.
-struct Mirror2CornerCost {
-  Eigen::Vector2d observed;
-  Eigen::Vector3d corner_in_target;
-  RigFixed fixed;
-
-  template <typename T>
-  bool operator()(const T* camera, const T* distortion, const T* mirror1_pose, const T* reflex,
-                  const T* mirror2_shape, const T* mirror2_profile, const T* mirror2_pose,
-                  const T* cam_from_target, T* residual) const {
-    const Vec3<T> point = CornerInCam(cam_from_target, corner_in_target);
-    return Mirror2PointResidual{observed, fixed}(camera, distortion, mirror1_pose, reflex,
-                                                 mirror2_shape, mirror2_profile, mirror2_pose,
-                                                 point.data(), residual);
-  }
-
-  static ceres::CostFunction* Create(const Eigen::Vector2d& observed,
-                                     const Eigen::Vector3d& corner_in_target,
-                                     const RigFixed& fixed,
-                                     const uint32_t* held_camera = nullptr,
-                                     const uint32_t* held_distortion = nullptr) {
-    return new CornerCostFunction<Mirror2PointResidual, 5, 5, 5, 3, 2, kProfileTerms, 5>(
-        Mirror2PointResidual{observed, fixed}, corner_in_target, held_camera, held_distortion);
-  }
-};
+// Outer ring: camera, distortion, mirror1_shape, mirror1_profile, mirror1_pose, reflex,
+// cam_from_target. Inner ring: camera, distortion, mirror1_pose, reflex, mirror2_shape,
+// mirror2_profile, mirror2_pose, cam_from_target.
+using Mirror1CornerCost = TargetCornerCost<Mirror1PointResidual>;
+using Mirror2CornerCost = TargetCornerCost<Mirror2PointResidual>;
 
 // Gaussian prior on one coordinate of a block: (x - mean) / sigma.
 struct ScalarPriorCost {

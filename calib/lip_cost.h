@@ -19,65 +19,65 @@
 
 #include <array>
 #include <cstdint>
+#include <memory>
+#include <utility>
 
 #include <Eigen/Core>
 
+#include "calib/rig_cost.h"
 #include "calib/slot_autodiff.h"
 #include "model/lip.h"
 
 namespace omni::calib {
 
-// Blocks: camera, distortion, mirror1_shape, mirror1_pose, reflex, mirror2_shape, mirror2_pose,
-// mirror1_profile, mirror2_profile, phi (1). Each path uses only some of them (NoDerivative); held_camera / held_distortion as in
-// corner_cost.h.
+// Over the rig blocks kBlocks (every block: each path uses only some of them, the others get no
+// derivative), then phi (1). `held` as in corner_cost.h.
 struct LipPointCost {
+  static constexpr std::array<RigBlockId, 9> kBlocks = {
+      kCameraBlock, kDistortionBlock, kShape1Block,   kPose1Block,   kReflexBlock,
+      kShape2Block, kPose2Block,      kProfile1Block, kProfile2Block};
   Eigen::Vector2d observed;
   LipPath path;
   double radius, lip_z;  // the circle in its mirror's body frame (mm)
-  RigFixed fixed;
+  std::shared_ptr<const RigFixed> fixed;
   double disc_radius_mm = 0;  // the reflex disc's rim that clips via_reflex bands (0: none)
 
   template <typename T>
-  bool operator()(const T* camera, const T* distortion, const T* mirror1_shape,
-                  const T* mirror1_pose, const T* reflex, const T* mirror2_shape,
-                  const T* mirror2_pose, const T* mirror1_profile, const T* mirror2_profile,
-                  const T* phi, T* residual) const {
-    const RigBlocks<T> blocks{camera,        distortion,   mirror1_shape,   mirror1_pose,
-                              reflex,        mirror2_shape, mirror2_pose,   mirror1_profile,
-                              mirror2_profile};
-    return LipEdgeResidual(blocks, fixed, path, T(radius), T(lip_z), phi[0], disc_radius_mm,
-                           observed, residual);
+  bool operator()(T const* const* blocks, T* residual) const {
+    const T* phi = blocks[kBlocks.size()];
+    return LipEdgeResidual(RigBlocks<T>(kBlocks, blocks), *fixed, path, T(radius), T(lip_z),
+                           phi[0], disc_radius_mm, observed, residual);
   }
 
-  using CostFunction = SlotAutoDiffCostFunction<LipPointCost, 2, 5, 5, 2, 5, 3, 2, 5,
-                                                kProfileTerms, kProfileTerms, 1>;
+  using CostFunction = RigSlotCost<LipPointCost, 2, 1>;
 
-  // The blocks a path's pixel does not depend on differentiably: unused ones, and the reflex
+  // The blocks a path's pixel depends on differentiably: not the unused ones, nor the reflex
   // plane where it only decides validity (direct: the disc's back; via_mirror1: its occlusion).
-  static std::array<uint32_t, 10> NoDerivative(LipPath path) {
-    constexpr uint32_t kAll = 0b111111;
+  static RigBlockSet Differentiable(LipPath path) {
     switch (path) {
-      case LipPath::kDirect:  // camera, distortion, mirror1_pose (the lip's place)
-        return {0, 0, kAll, 0, kAll, kAll, kAll, kAll, kAll, 0};
-      case LipPath::kViaMirror1:  // + mirror1_shape, mirror1_profile
-        return {0, 0, 0, 0, kAll, kAll, kAll, 0, kAll, 0};
-      case LipPath::kViaReflex:  // camera, distortion, mirror1_pose + reflex (the plane), mirror2_pose
-        return {0, 0, kAll, 0, 0, kAll, 0, kAll, kAll, 0};
+      case LipPath::kDirect:  // the lip's place
+        return BlockSetOf({kCameraBlock, kDistortionBlock, kPose1Block});
+      case LipPath::kViaMirror1:
+        return BlockSetOf(
+            {kCameraBlock, kDistortionBlock, kShape1Block, kPose1Block, kProfile1Block});
+      case LipPath::kViaReflex:  // the plane, the lip's place
+        return BlockSetOf(
+            {kCameraBlock, kDistortionBlock, kPose1Block, kReflexBlock, kPose2Block});
       case LipPath::kViaMirror2:
-        return {0, 0, kAll, 0, 0, 0, 0, kAll, 0, 0};
+        return BlockSetOf({kCameraBlock, kDistortionBlock, kPose1Block, kReflexBlock,
+                           kShape2Block, kPose2Block, kProfile2Block});
     }
     return {};
   }
 
   static ceres::CostFunction* Create(const Eigen::Vector2d& observed, LipPath path, double radius,
-                                     double lip_z, const RigFixed& fixed,
-                                     const uint32_t* held_camera = nullptr,
-                                     const uint32_t* held_distortion = nullptr,
-                                     double disc_radius_mm = 0) {
+                                     double lip_z, std::shared_ptr<const RigFixed> fixed,
+                                     const BlockMasks& held = {}, double disc_radius_mm = 0) {
+    constexpr size_t kAll = kBlocks.size() + 1;
     return new CostFunction(
-        LipPointCost{observed, path, radius, lip_z, fixed, disc_radius_mm}, NoDerivative(path),
-        {held_camera, held_distortion, nullptr, nullptr, nullptr, nullptr, nullptr, nullptr,
-         nullptr, nullptr});
+        LipPointCost{observed, path, radius, lip_z, std::move(fixed), disc_radius_mm},
+        InListOrder<kAll>(kBlocks, NoDerivativeOutside(Differentiable(path))),
+        InListOrder<kAll>(kBlocks, held));
   }
 };
 

@@ -135,7 +135,7 @@ void InitialiseLipAzimuths(const RigState& rig, std::vector<LipObservation>* lip
   constexpr int kSamples = 1440;
   std::map<std::pair<int, double>, std::vector<std::pair<double, Eigen::Vector2d>>> curves;
   const RigBlocks<double> blocks = RigBlocksOf(rig.params);
-  const Eigen::Vector2d centre(rig.params.camera[2], rig.params.camera[3]);
+  const Eigen::Vector2d centre(rig.params.camera[kCx], rig.params.camera[kCy]);
   for (LipObservation& l : *lips) {
     auto key = std::make_pair(static_cast<int>(l.path), l.radius);
     auto it = curves.find(key);
@@ -144,9 +144,8 @@ void InitialiseLipAzimuths(const RigState& rig, std::vector<LipObservation>* lip
       for (int k = 0; k < kSamples; ++k) {
         const double phi = 2 * M_PI * k / kSamples;
         Eigen::Vector2d px;
-        if (ProjectLipEdge(blocks, LipBounds(rig, l.path), l.path, l.radius, l.z, phi,
-                           rig.fixed.r_ref,
-                           &px) &&
+        if (ProjectLipEdge(blocks, *LipBounds(rig, l.path), l.path, l.radius, l.z, phi,
+                           rig.fixed->r_ref, &px) &&
             px.allFinite()) {
           curve.emplace_back(phi, px);
         }
@@ -329,8 +328,8 @@ void SelectRobustStageCorners(std::vector<Observation>* corners) {
 
 bool ReprojectLip(const RigState& rig, const LipObservation& lip, Eigen::Vector2d* pixel) {
   // The band edge with the occlusion by the disc's rim followed (model/lip.h ProjectLipEdge).
-  return ProjectLipEdge(RigBlocksOf(rig.params), LipBounds(rig, lip.path), lip.path, lip.radius,
-                        lip.z, lip.phi[0], rig.fixed.r_ref, pixel) &&
+  return ProjectLipEdge(RigBlocksOf(rig.params), *LipBounds(rig, lip.path), lip.path, lip.radius,
+                        lip.z, lip.phi[0], rig.fixed->r_ref, pixel) &&
          pixel->allFinite();
 }
 
@@ -354,8 +353,8 @@ bool Reproject(const RigState& rig, const ObservationSet& observations, const Ob
       CornerInCam(observations.placements[obs.placement].cam_from_target.data(),
                   obs.corner_in_target);
   const RigBlocks<double> blocks = RigBlocksOf(rig.params);
-  return obs.mirror == 1 ? ProjectViaMirror1(blocks, rig.corner_bounds[0], point, pixel)
-                         : ProjectViaMirror2(blocks, rig.corner_bounds[1], point, pixel);
+  return obs.mirror == 1 ? ProjectViaMirror1(blocks, *rig.corner_bounds[0], point, pixel)
+                         : ProjectViaMirror2(blocks, *rig.corner_bounds[1], point, pixel);
 }
 
 bool ReprojectOnMirror(const RigState& rig, const ObservationSet& observations,
@@ -365,8 +364,8 @@ bool ReprojectOnMirror(const RigState& rig, const ObservationSet& observations,
   const RigBlocks<double> blocks = RigBlocksOf(rig.params);
   ProjectionInfo info;
   const bool ok = o.mirror == 1
-                      ? ProjectViaMirror1(blocks, rig.corner_bounds[0], point, pixel, &info)
-                      : ProjectViaMirror2(blocks, rig.corner_bounds[1], point, pixel, &info);
+                      ? ProjectViaMirror1(blocks, *rig.corner_bounds[0], point, pixel, &info)
+                      : ProjectViaMirror2(blocks, *rig.corner_bounds[1], point, pixel, &info);
   if (ok) *radius = info.point_on_mirror.head<2>().norm();
   return ok;
 }
@@ -389,8 +388,8 @@ double OuterRadius(const RigParams& rig, const std::vector<Observation>& corners
   double outer = 0;
   for (const auto& o : corners) {
     if (o.rejected || !o.projectable) continue;
-    outer = std::max(outer, std::hypot((o.pixel.x() - rig.camera[2]) / rig.camera[0],
-                                       (o.pixel.y() - rig.camera[3]) / rig.camera[1]));
+    outer = std::max(outer, std::hypot((o.pixel.x() - rig.camera[kCx]) / rig.camera[kFx],
+                                       (o.pixel.y() - rig.camera[kCy]) / rig.camera[kFy]));
   }
   return outer;
 }
@@ -453,11 +452,11 @@ bool PosePlacement(size_t p, const RigModel& start, RigState* rig, ObservationSe
     Eigen::Vector2d px;
     if (!obs[i].in_robust_stages || !Reproject(*rig, *observations, obs[i], &px)) continue;
     ++n;
-    AddCornerResidual(i, &loss, rig, observations, costs, &problem);
+    AddCornerResidual(i, &loss, BlockMasks{}, rig, observations, costs, &problem);
   }
   if (n < 4) return false;
-  for (const RigBlock& b : kRigBlocks) {
-    double* block = BlockIn(&rig->params, b.name);
+  for (int b = 0; b < kRigBlockCount; ++b) {
+    double* block = BlockIn(&rig->params, static_cast<RigBlockId>(b));
     if (problem.HasParameterBlock(block)) problem.SetParameterBlockConstant(block);
   }
   ceres::Solver::Options so;
@@ -478,7 +477,7 @@ void InitialisePoses(RigState* rig, const CalibrationOptions& options,
   SelectRobustStageCorners(&observations->corners);
   // Created here, read by the threads.
   for (size_t i = 0; i < observations->corners.size(); ++i) {
-    CornerCost(*rig, observations->corners[i], i, costs);
+    CornerCost(*rig, observations->corners[i], i, BlockMasks{}, costs);
   }
   // Each placement is posed on its own (its observations, its pose block, the rig constant), so
   // the placements are shared out to the solver's threads.
@@ -572,7 +571,7 @@ void CheckTargetScales(const RigParams& rig, const ObservationSet& observations,
 }
 
 void CheckDegeneracy(const ObservationSet& observations, const std::vector<TargetSpec>& targets,
-                     const std::set<std::string>& groups, const CalibrationOptions& options) {
+                     const RigBlockSet& groups, const CalibrationOptions& options) {
   const std::vector<Placement>& placements = observations.placements;
   int n_placements = 0;
   std::vector<double> ranges, azimuths;
@@ -593,7 +592,7 @@ void CheckDegeneracy(const ObservationSet& observations, const std::vector<Targe
     if (!o.rejected) ++n_obs[o.mirror - 1];
   }
   int n_rig = 0;
-  for (const auto& g : groups) n_rig += static_cast<int>(BlockParameterNames(g).size());
+  for (int b = 0; b < kRigBlockCount; ++b) n_rig += groups[b] ? kRigBlocks[b].size : 0;
   const int n_params = n_rig + 6 * n_placements;
   const int n_residuals = 2 * (n_obs[0] + n_obs[1]);
   if (n_placements < 3 || n_residuals < 2 * n_params) {
@@ -603,7 +602,7 @@ void CheckDegeneracy(const ObservationSet& observations, const std::vector<Targe
         std::to_string(n_params) + " unknowns; need at least 3 placements and " +
         std::to_string(n_params) + " corners (more images, or larger targets)");
   }
-  auto estimated = [&](RigBlockId block) { return groups.count(kRigBlocks[block].name) > 0; };
+  auto estimated = [&](RigBlockId block) { return groups[block]; };
   if (estimated(kPose2Block) || estimated(kReflexBlock) || estimated(kShape2Block)) {
     if (n_obs[1] < 30) {
       throw CalibrationError("too few observations in the inner ring (mirror 2): " +

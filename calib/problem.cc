@@ -9,11 +9,11 @@
 
 namespace omni::calib {
 
-std::vector<int> HeldCoordinates(const Refinement& refined, const std::string& group) {
+std::vector<int> HeldCoordinates(const Refinement& refined, RigBlockId group) {
   std::vector<int> held;
   auto hold = [&](SolveRole role) {
     for (const RigParameter* p : ParametersWithRole(role)) {
-      if (group == p->block) held.push_back(p->index);
+      if (BlockOf(*p) == group) held.push_back(p->index);
     }
   };
   if (!refined.skew) hold(SolveRole::kSkew);
@@ -27,75 +27,107 @@ std::vector<int> HeldCoordinates(const Refinement& refined, const std::string& g
   return held;
 }
 
-ceres::CostFunction* CornerCost(const RigState& rig, const Observation& o, size_t i,
-                                CostCache* costs) {
-  if (costs->corners.size() <= i) costs->corners.resize(i + 1);
-  if (!costs->corners[i]) {
-    costs->corners[i].reset(
-        o.mirror == 1 ? Mirror1CornerCost::Create(o.pixel, o.corner_in_target,
-                                                  rig.corner_bounds[0], &costs->held_camera,
-                                                  &costs->held_distortion)
-                      : Mirror2CornerCost::Create(o.pixel, o.corner_in_target,
-                                                  rig.corner_bounds[1], &costs->held_camera,
-                                                  &costs->held_distortion));
+BlockMasks HeldColumns(const RigBlockSet& groups, const Refinement& refined) {
+  BlockMasks held{};
+  for (int b = 0; b < kRigBlockCount; ++b) {
+    const RigBlockId id = static_cast<RigBlockId>(b);
+    const std::vector<int> coordinates = HeldCoordinates(refined, id);
+    // A block outside the groups or held whole is constant: Ceres asks no Jacobian of it.
+    if (!groups[id] || static_cast<int>(coordinates.size()) == kRigBlocks[id].size) continue;
+    for (int k : coordinates) held[id] |= 1u << k;
   }
-  return costs->corners[i].get();
+  return held;
+}
+
+namespace {
+
+// The cost in `slot`, built by `make` with `fixed` unless it was built with that already.
+template <typename Make>
+ceres::CostFunction* CachedCost(std::vector<CostCache::Cost>* costs, size_t i,
+                                const std::shared_ptr<const RigFixed>& fixed, const Make& make) {
+  if (costs->size() <= i) costs->resize(i + 1);
+  CostCache::Cost& slot = (*costs)[i];
+  if (!slot.cost || slot.fixed != fixed) {
+    slot.cost.reset(make());
+    slot.fixed = fixed;
+  }
+  return slot.cost.get();
+}
+
+}  // namespace
+
+ceres::CostFunction* CornerCost(const RigState& rig, const Observation& o, size_t i,
+                                const BlockMasks& held, CostCache* costs) {
+  const std::shared_ptr<const RigFixed>& fixed = rig.corner_bounds[o.mirror - 1];
+  return CachedCost(&costs->by_held[held].corners, i, fixed, [&] {
+    return o.mirror == 1 ? Mirror1CornerCost::Create(o.pixel, o.corner_in_target, fixed, held)
+                         : Mirror2CornerCost::Create(o.pixel, o.corner_in_target, fixed, held);
+  });
 }
 
 ceres::CostFunction* LipCost(const RigState& rig, const LipObservation& l, size_t i,
-                             CostCache* costs) {
-  if (costs->lips.size() <= i) costs->lips.resize(i + 1);
-  if (!costs->lips[i]) {
-    costs->lips[i].reset(LipPointCost::Create(l.pixel, l.path, l.radius, l.z,
-                                              LipBounds(rig, l.path), &costs->held_camera,
-                                              &costs->held_distortion, rig.fixed.r_ref));
-  }
-  return costs->lips[i].get();
+                             const BlockMasks& held, CostCache* costs) {
+  const std::shared_ptr<const RigFixed>& fixed = LipBounds(rig, l.path);
+  return CachedCost(&costs->by_held[held].lips, i, fixed, [&] {
+    return LipPointCost::Create(l.pixel, l.path, l.radius, l.z, fixed, held, rig.fixed->r_ref);
+  });
 }
 
-ceres::ResidualBlockId AddCornerResidual(size_t i, ceres::LossFunction* loss, RigState* rig,
+ceres::ResidualBlockId AddCornerResidual(size_t i, ceres::LossFunction* loss,
+                                         const BlockMasks& held, RigState* rig,
                                          ObservationSet* observations, CostCache* costs,
                                          ceres::Problem* problem) {
   const Observation& o = observations->corners[i];
-  ceres::CostFunction* cost = CornerCost(*rig, o, i, costs);
+  ceres::CostFunction* cost = CornerCost(*rig, o, i, held, costs);
   double* pose = observations->placements[o.placement].cam_from_target.data();
-  RigParams& r = rig->params;
-  // The blocks in the order of calib/corner_cost.h's residuals.
   if (o.mirror == 1) {
-    return problem->AddResidualBlock(cost, loss, r.camera.data(), r.distortion.data(),
-                                     r.mirror1_shape.data(), r.mirror1_profile.data(),
-                                     r.mirror1_pose.data(), r.reflex.data(), pose);
+    auto blocks = ParameterBlocks(Mirror1CornerCost::kBlocks, &rig->params, pose);
+    return problem->AddResidualBlock(cost, loss, blocks.data(), static_cast<int>(blocks.size()));
   }
-  return problem->AddResidualBlock(cost, loss, r.camera.data(), r.distortion.data(),
-                                   r.mirror1_pose.data(), r.reflex.data(), r.mirror2_shape.data(),
-                                   r.mirror2_profile.data(), r.mirror2_pose.data(), pose);
+  auto blocks = ParameterBlocks(Mirror2CornerCost::kBlocks, &rig->params, pose);
+  return problem->AddResidualBlock(cost, loss, blocks.data(), static_cast<int>(blocks.size()));
+}
+
+void MarkProjectable(const RigState& rig, const Selection& selection,
+                     ObservationSet* observations) {
+  for (Observation& o : observations->corners) {
+    if (o.rejected || (selection.corner_subset && !o.in_robust_stages)) continue;
+    Eigen::Vector2d px;
+    o.projectable = Reproject(rig, *observations, o, &px);
+  }
+  if (!selection.lips) return;
+  for (LipObservation& l : observations->lips) {
+    if (!l.Used()) continue;
+    Eigen::Vector2d px;
+    l.projectable = ReprojectLip(rig, l, &px);
+  }
 }
 
 namespace {
 
 // The priors on the refined shapes (options' priors) and on the freed profiles (the machining
 // tolerance about the starting model's profile), each added as a residual block of its own.
-void AddPriors(const std::set<std::string>& groups, const Refinement& refined, RigParams* rig,
+void AddPriors(const RigBlockSet& groups, const Refinement& refined, RigParams* rig,
                CalibrationProblem* p) {
   // Shape priors (only where the shape is refined).
-  for (const RigBlock& b : kRigBlocks) {
+  for (int id = 0; id < kRigBlockCount; ++id) {
+    const RigBlock& b = kRigBlocks[id];
     if (!b.prior) continue;
-    const std::string shape = b.name;
-    const auto prior = refined.shape_priors.find(shape);
-    if (!groups.count(shape) || prior == refined.shape_priors.end()) continue;
-    double* block = BlockIn(rig, shape);
+    const auto prior = refined.shape_priors.find(b.name);
+    if (!groups[id] || prior == refined.shape_priors.end()) continue;
+    double* block = BlockIn(rig, static_cast<RigBlockId>(id));
     const double sigmas[2] = {prior->second.sigma_c, prior->second.sigma_k};
     for (int k = 0; k < 2; ++k) {
       if (!(sigmas[k] > 0)) continue;
       p->prior_costs.emplace_back(new ceres::AutoDiffCostFunction<ScalarPriorCost, 1, 2>(
-          new ScalarPriorCost{k, block[k], sigmas[k]}));
+          new ScalarPriorCost{k, block[k], sigmas[k]}));  // k: kShapeC, kShapeK
       p->prior_blocks.push_back(
           p->problem.AddResidualBlock(p->prior_costs.back().get(), nullptr, block));
     }
   }
   // Freed profiles: the machining tolerance as a prior around the starting model's profile.
   for (int m = 0; m < 2; ++m) {
-    if (!groups.count(kProfileGroups[m]) || !refined.profile_free[m]) continue;
+    if (!groups[kProfileGroups[m]] || !refined.profile_free[m]) continue;
     double* block = BlockIn(rig, kProfileGroups[m]);
     for (int k = 0; k < kProfileTerms; ++k) {
       p->prior_costs.emplace_back(
@@ -109,14 +141,15 @@ void AddPriors(const std::set<std::string>& groups, const Refinement& refined, R
 
 // The rig's blocks outside `groups`, or held whole, constant; a block's held coordinates held by
 // a subset manifold.
-void HoldRigCoordinates(const std::set<std::string>& groups, const Refinement& refined,
+void HoldRigCoordinates(const RigBlockSet& groups, const Refinement& refined,
                         RigParams* rig, ceres::Problem* problem) {
-  for (const RigBlock& b : kRigBlocks) {
-    const std::string g = b.name;
+  for (int id = 0; id < kRigBlockCount; ++id) {
+    const RigBlock& b = kRigBlocks[id];
+    const RigBlockId g = static_cast<RigBlockId>(id);
     double* block = BlockIn(rig, g);
     if (!problem->HasParameterBlock(block)) continue;
     const std::vector<int> held = HeldCoordinates(refined, g);
-    if (!groups.count(g) || static_cast<int>(held.size()) == b.size) {
+    if (!groups[g] || static_cast<int>(held.size()) == b.size) {
       problem->SetParameterBlockConstant(block);
     } else if (!held.empty()) {
       problem->SetManifold(block, new ceres::SubsetManifold(b.size, held));
@@ -150,29 +183,26 @@ std::unique_ptr<CalibrationProblem> BuildProblem(RigState* rig, ObservationSet* 
     }
     return slot.get();
   };
+  const BlockMasks held =
+      options.held_without_columns ? HeldColumns(options.groups, refined) : BlockMasks{};
   // The corners: each over the rig's blocks and its placement's pose (AddCornerResidual).
   for (size_t i = 0; i < observations->corners.size(); ++i) {
-    Observation& o = observations->corners[i];
+    const Observation& o = observations->corners[i];
     if (o.rejected || (options.selection.corner_subset && !o.in_robust_stages)) continue;
-    Eigen::Vector2d px;
-    o.projectable = Reproject(*rig, *observations, o, &px);
     if (!o.projectable) continue;
-    p.pixel_blocks.push_back(AddCornerResidual(i, group_loss[o.mirror - 1], rig, observations,
-                                               costs, &p.problem));
+    p.pixel_blocks.push_back(AddCornerResidual(i, group_loss[o.mirror - 1], held, rig,
+                                               observations, costs, &p.problem));
     ++p.n_corners;
   }
   // The lip points: each over the rig's blocks and its azimuth (calib/lip_cost.h's order).
   RigParams& r = rig->params;
   for (size_t i = 0; i < (options.selection.lips ? observations->lips.size() : 0); ++i) {
     LipObservation& l = observations->lips[i];
-    if (!l.Used()) continue;
-    Eigen::Vector2d px;
-    l.projectable = ReprojectLip(*rig, l, &px);
-    if (!l.projectable) continue;
-    p.pixel_blocks.push_back(p.problem.AddResidualBlock(
-        LipCost(*rig, l, i, costs), lip_loss(l.members), r.camera.data(), r.distortion.data(),
-        r.mirror1_shape.data(), r.mirror1_pose.data(), r.reflex.data(), r.mirror2_shape.data(),
-        r.mirror2_pose.data(), r.mirror1_profile.data(), r.mirror2_profile.data(), l.phi.data()));
+    if (!l.Used() || !l.projectable) continue;
+    auto blocks = ParameterBlocks(LipPointCost::kBlocks, &r, l.phi.data());
+    p.pixel_blocks.push_back(p.problem.AddResidualBlock(LipCost(*rig, l, i, held, costs),
+                                                        lip_loss(l.members), blocks.data(),
+                                                        static_cast<int>(blocks.size())));
     ++p.n_lips;
   }
   AddPriors(options.groups, refined, &r, &p);

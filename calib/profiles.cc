@@ -42,9 +42,9 @@ ProfileState SetUpProfiles(const RigParams& start, const CalibrationOptions& opt
     }
     // Held through the robust stages in every mode (a fine correction, freed once the rig is
     // aligned: DecideProfiles).
-    refined->groups.insert(kProfileGroups[m]);
+    refined->groups.set(kProfileGroups[m]);
     refined->profile_free[m] = false;
-    for (const std::string& name : BlockParameterNames(kProfileGroups[m])) {
+    for (const std::string& name : BlockParameterNames(kRigBlocks[kProfileGroups[m]].name)) {
       refined->considered_sigma.emplace(name, options.profile_sigma_mm);
     }
   }
@@ -67,7 +67,7 @@ std::vector<RadialResidualBin> RadialPattern(const RigState& rig,
     bins[b].r_lo = std::sqrt(r2_lo + (r2_hi - r2_lo) * b / kProfileBands);
     bins[b].r_hi = std::sqrt(r2_lo + (r2_hi - r2_lo) * (b + 1) / kProfileBands);
   }
-  const Eigen::Vector2d centre(rig.params.camera[2], rig.params.camera[3]);
+  const Eigen::Vector2d centre(rig.params.camera[kCx], rig.params.camera[kCy]);
   for (const auto& o : observations.corners) {
     if (o.rejected || o.mirror != mirror) continue;
     Eigen::Vector2d px;
@@ -100,9 +100,10 @@ std::vector<RadialResidualBin> RadialPattern(const RigState& rig,
 
 namespace {
 
-// A profile's radii set to those mirror m's corners reach (the costs rebuilt with them).
+// A profile's radii set to those mirror m's corners reach (the rig's fixed data made anew with
+// them: the costs are rebuilt with it when next used, CostCache).
 void FitProfileRadiiToCorners(int m, const ObservationSet& observations, RigState* rig,
-                              ProfileState* profiles, CostCache* costs) {
+                              ProfileState* profiles) {
   double r_lo = HUGE_VAL, r_hi = 0;
   for (const auto& o : observations.corners) {
     if (o.rejected || o.mirror != m + 1) continue;
@@ -122,19 +123,19 @@ void FitProfileRadiiToCorners(int m, const ObservationSet& observations, RigStat
   shape.r_min = std::max(0.0, std::min(r_lo, rig->params.r_sys - 1.0));
   shape.r_max = rig->params.r_sys;
   (m == 0 ? rig->params.profile1 : rig->params.profile2) = shape;
-  // The costs hold their own copy of the fixed data.
-  for (RigFixed* f : {&rig->fixed, &rig->corner_bounds[0], &rig->corner_bounds[1],
-                      &rig->lip_bounds[0], &rig->lip_bounds[1]}) {
-    (m == 0 ? f->profile1 : f->profile2) = shape;
+  for (std::shared_ptr<const RigFixed>* f : {&rig->fixed, &rig->corner_bounds[0],
+                                              &rig->corner_bounds[1], &rig->lip_bounds[0],
+                                              &rig->lip_bounds[1]}) {
+    auto changed = std::make_shared<RigFixed>(**f);
+    (m == 0 ? changed->profile1 : changed->profile2) = shape;
+    *f = std::move(changed);
   }
-  costs->corners.clear();
-  costs->lips.clear();
 }
 
 }  // namespace
 
 bool DecideProfiles(const ObservationSet& observations, const CalibrationOptions& options,
-                    RigState* rig, ProfileState* profiles, Refinement* refined, CostCache* costs,
+                    RigState* rig, ProfileState* profiles, Refinement* refined,
                     CalibrationResult* result) {
   if (options.profile == "off") return false;
   bool freed = false;
@@ -142,7 +143,7 @@ bool DecideProfiles(const ObservationSet& observations, const CalibrationOptions
     // A profile the start did not have is laid from the smallest radius the corners reach on the
     // mirror out to its rim (its Legendre variable spans them; below them it would only
     // extrapolate). Its coefficients are zero, so the model is unchanged.
-    FitProfileRadiiToCorners(m, observations, rig, profiles, costs);
+    FitProfileRadiiToCorners(m, observations, rig, profiles);
     ProfileDecision& d = result->residuals.profile[m];
     const double(&reach)[2] = profiles->corner_radii[m];
     d.r_min = reach[1] > 0 ? reach[0] : ShapeOf(rig->params, m).r_min;
@@ -153,7 +154,7 @@ bool DecideProfiles(const ObservationSet& observations, const CalibrationOptions
     for (const auto& b : d.pattern_before) d.bins_covered += b.count >= kMinCornersPerBand;
     const bool asked = options.profile == "free" ||
                        std::count(options.estimate.begin(), options.estimate.end(),
-                                  kProfileGroups[m]);
+                                  kRigBlocks[kProfileGroups[m]].name);
     bool& free = refined->profile_free[m];
     if (!free && (asked || (options.profile == "auto" && d.bins_covered >= kMinBandsToFree))) {
       free = true;

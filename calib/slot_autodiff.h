@@ -7,11 +7,13 @@
 //  - that the residual depends on differentiably (`no_derivative`: blocks that only decide
 //    validity, like the reflex plane on mirror 1's path, or that a lip path does not use),
 //  - and that the solver does not hold (`held`: coordinates a SubsetManifold keeps at their
-//    value; read at evaluation time, so the owner can change them between solves).
+//    value in the solve the cost is built for; a cost for another use, e.g. the covariance's
+//    considered columns, is built with none held).
 // Jacobian columns without a slot are written as zeros: exact for `no_derivative`, and for
 // `held` ones Ceres multiplies them by a zero column of the manifold's plus-Jacobian anyway.
 // The Jet size is picked per evaluation from a few compiled sizes (the smallest that fits).
-// The functor is the same templated operator() ceres::AutoDiffCostFunction takes.
+// The functor's templated operator() takes the blocks as an array, as
+// ceres::DynamicAutoDiffCostFunction's does: (T const* const* blocks, T* residuals).
 #pragma once
 
 #include <ceres/jet.h>
@@ -31,20 +33,19 @@ class SlotAutoDiffCostFunction final
   static constexpr int kNumBlocks = sizeof...(kBlockSizes);
   static constexpr int kMaxSlots = (kBlockSizes + ...);
   using Masks = std::array<uint32_t, kNumBlocks>;          // bit k: coordinate k of the block
-  using HeldMasks = std::array<const uint32_t*, kNumBlocks>;  // nullptr: none held
 
-  SlotAutoDiffCostFunction(Functor functor, const Masks& no_derivative, const HeldMasks& held)
+  SlotAutoDiffCostFunction(Functor functor, const Masks& no_derivative, const Masks& held)
       : functor_(std::move(functor)), no_derivative_(no_derivative), held_(held) {}
 
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override {
-    if (!jacobians) return Call(parameters, residuals, std::make_index_sequence<kNumBlocks>());
+    if (!jacobians) return functor_(parameters, residuals);
     Masks active{};
     int n_active = 0;
     for (int i = 0; i < kNumBlocks; ++i) {
       if (!jacobians[i]) continue;
       const uint32_t all = (1u << kSizes[i]) - 1;
-      active[i] = all & ~no_derivative_[i] & ~(held_[i] ? *held_[i] : 0u);
+      active[i] = all & ~no_derivative_[i] & ~held_[i];
       n_active += __builtin_popcount(active[i]);
     }
     if (n_active <= 4) return EvaluateJet<4>(parameters, residuals, jacobians, active);
@@ -61,11 +62,6 @@ class SlotAutoDiffCostFunction final
  private:
   static constexpr int kSizes[kNumBlocks] = {kBlockSizes...};
   static constexpr int kMaxBlockSize = std::max({kBlockSizes...});
-
-  template <typename T, size_t... I>
-  bool Call(T const* const* blocks, T* residuals, std::index_sequence<I...>) const {
-    return functor_(blocks[I]..., residuals);
-  }
 
   template <int N>
   bool EvaluateJet(double const* const* parameters, double* residuals, double** jacobians,
@@ -85,7 +81,7 @@ class SlotAutoDiffCostFunction final
         blocks[i] = storage[i];
       }
       Jet out[kNumResiduals];
-      if (!Call(blocks, out, std::make_index_sequence<kNumBlocks>())) return false;
+      if (!functor_(blocks, out)) return false;
       for (int r = 0; r < kNumResiduals; ++r) residuals[r] = out[r].a;
       slot = 0;
       for (int i = 0; i < kNumBlocks; ++i) {
@@ -104,7 +100,7 @@ class SlotAutoDiffCostFunction final
 
   Functor functor_;
   Masks no_derivative_;
-  HeldMasks held_;
+  Masks held_;
 };
 
 }  // namespace omni::calib

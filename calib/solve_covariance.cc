@@ -89,12 +89,12 @@ Columns RigColumns(const Refinement& refined, const CalibrationOptions& options,
   std::vector<int> refined_cols, considered_cols;  // Ceres' column of each, in order
   int probe_col = -1;
   int col = 0;
-  for (const RigBlock& b : kRigBlocks) {
-    const std::string g = b.name;
+  for (int id = 0; id < kRigBlockCount; ++id) {
+    const RigBlockId g = static_cast<RigBlockId>(id);
     double* block = BlockIn(rig, g);
-    if (!refined.groups.count(g) || !problem->HasParameterBlock(block)) continue;
+    if (!refined.groups[g] || !problem->HasParameterBlock(block)) continue;
     evaluated->push_back(block);
-    const auto& all = BlockParameterNames(g);
+    const auto& all = BlockParameterNames(kRigBlocks[g].name);
     const std::vector<int> held_coords = HeldCoordinates(refined, g);
     std::vector<int> still_held;
     for (size_t k = 0; k < all.size(); ++k) {
@@ -174,7 +174,7 @@ int LipEdgeColumns(const ObservationSet& observations, const RigParams& rig,
                    std::vector<double>* edge_sigma, CalibrationResult* result) {
   std::map<std::pair<int, double>, int> edge_column;  // (path, circle radius) -> column
   std::vector<std::pair<double, int>> edge_ssr;         // per column: across-edge SSR, count
-  const Eigen::Vector2d centre(rig.camera[2], rig.camera[3]);
+  const Eigen::Vector2d centre(rig.camera[kCx], rig.camera[kCy]);
   int row = first_row;
   for (const auto& l : observations.lips) {
     if (!l.Used() || !l.projectable) continue;
@@ -269,7 +269,7 @@ void ProbeDistK3(const Eigen::MatrixXd& schur_all, const Columns& c, const RigCo
   // Freed: the radial coefficients' sigmas, and dist_k3's (HUGE_VAL if it is unobservable).
   RigCovarianceOptions freed_options = options;
   freed_options.nearly_unobservable_sigma.push_back(
-      NearlyUnobservableSigma(HighRadial().name, rig.camera[0], outer_radius));
+      NearlyUnobservableSigma(HighRadial().name, rig.camera[kFx], outer_radius));
   const RigCovariance freed = RigCovarianceFromSchur(schur_all, c.n_rig + 1, freed_options);
   auto sigma_of = [&](const RigCovariance& cov, int index) {
     for (size_t i = 0; i < cov.observable.size(); ++i) {
@@ -365,7 +365,7 @@ RigCovariance CovarianceOf(const Eigen::SparseMatrix<double, Eigen::RowMajor>& j
   const double outer_radius = OuterRadius(rig, corners);
   for (const auto& name : c.names) {
     co.nearly_unobservable_sigma.push_back(
-        NearlyUnobservableSigma(name, rig.camera[0], outer_radius));
+        NearlyUnobservableSigma(name, rig.camera[kFx], outer_radius));
   }
   const int n_front = c.n_rig + c.n_probe + static_cast<int>(c.considered_sigma.size());
   const Eigen::MatrixXd schur_all = RigSchurComplement(jacobian, n_front, nuisance_sizes);
@@ -393,6 +393,7 @@ CovarianceFindings ComputeCovariance(const Weights& weights, const Refinement& r
   ProblemOptions po;
   po.groups = refined.groups;
   po.selection.lips = true;
+  MarkProjectable(*rig, po.selection, observations);
   const std::unique_ptr<CalibrationProblem> built =
       BuildProblem(rig, observations, weights, refined, po, costs);
   result->estimate.values.resize(0);

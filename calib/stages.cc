@@ -32,12 +32,10 @@ namespace omni::calib {
 // the region grew x3 per step (final rounds 8 + 6 iterations; with these 3 + 1 and the same
 // answer to 1e-5 sigma). A step that fails only shrinks the region.
 namespace {
-using Groups = std::array<const char*, 5>;
-constexpr const char* Block(RigBlockId id) { return kRigBlocks[id].name; }
-constexpr Groups kPinhole = {Block(kCameraBlock)};
-constexpr Groups kAlignment = {Block(kCameraBlock), Block(kDistortionBlock), Block(kPose1Block),
-                               Block(kPose2Block), Block(kReflexBlock)};
-constexpr Groups kEveryGroup = {};  // with all_groups: every group the Refinement names
+constexpr RigBlockSet kPinhole = BlockSetOf({kCameraBlock});
+constexpr RigBlockSet kAlignment =
+    BlockSetOf({kCameraBlock, kDistortionBlock, kPose1Block, kPose2Block, kReflexBlock});
+constexpr RigBlockSet kEveryGroup = {};  // with all_groups: every group the Refinement names
 }  // namespace
 
 // clang-format off
@@ -54,13 +52,8 @@ const Stage kFinalStage =
     {"final",     kEveryGroup, true,  false, {false, true},  {0, 1e8, true,  true}};
 // clang-format on
 
-std::set<std::string> StageGroups(const Stage& stage, const Refinement& refined) {
-  if (stage.all_groups) return refined.groups;
-  std::set<std::string> out;
-  for (const char* g : stage.groups) {
-    if (g && refined.groups.count(g)) out.insert(g);
-  }
-  return out;
+RigBlockSet StageGroups(const Stage& stage, const Refinement& refined) {
+  return stage.all_groups ? refined.groups : stage.groups & refined.groups;
 }
 
 namespace {
@@ -118,8 +111,8 @@ ceres::Solver::Options SolverOptions(const Stage& stage, const CalibrationOption
   for (auto& l : observations->lips) {
     if (problem.HasParameterBlock(l.phi.data())) ordering->AddElementToGroup(l.phi.data(), 0);
   }
-  for (const RigBlock& b : kRigBlocks) {
-    double* block = BlockIn(rig, b.name);
+  for (int b = 0; b < kRigBlockCount; ++b) {
+    double* block = BlockIn(rig, static_cast<RigBlockId>(b));
     if (problem.HasParameterBlock(block)) ordering->AddElementToGroup(block, 1);
   }
   so.linear_solver_ordering.reset(ordering);
@@ -191,6 +184,8 @@ StageReport SolveStage(const Stage& stage, const CalibrationOptions& options,
   po.groups = StageGroups(stage, refined);
   po.loss = loss.get();
   po.selection = stage.selection;
+  po.held_without_columns = true;
+  MarkProjectable(*rig, po.selection, observations);
   const std::unique_ptr<CalibrationProblem> built =
       BuildProblem(rig, observations, weights, refined, po, costs);
   ceres::Problem& problem = built->problem;
@@ -200,15 +195,6 @@ StageReport SolveStage(const Stage& stage, const CalibrationOptions& options,
   report.initial_rms_px = CornerRms(*rig, *observations, 0, nullptr);
 
   ceres::Solver::Options so = SolverOptions(stage, options, &rig->params, observations, problem);
-  auto mask = [&](const std::string& group) {
-    uint32_t m = 0;
-    if (po.groups.count(group)) {
-      for (int k : HeldCoordinates(refined, group)) m |= 1u << k;
-    }
-    return m;
-  };
-  costs->held_camera = mask(kRigBlocks[kCameraBlock].name);
-  costs->held_distortion = mask(kRigBlocks[kDistortionBlock].name);
   StatusCallback status(options.status, stage.name);
   if (options.status) {
     so.callbacks.push_back(&status);
@@ -216,7 +202,6 @@ StageReport SolveStage(const Stage& stage, const CalibrationOptions& options,
   }
   ceres::Solver::Summary summary;
   ceres::Solve(so, &problem, &summary);
-  costs->held_camera = costs->held_distortion = 0;
   report.iterations = static_cast<int>(summary.iterations.size()) - 1;
   report.converged = summary.termination_type == ceres::CONVERGENCE;
   report.termination = summary.message;
@@ -303,7 +288,7 @@ void EstimateVarianceComponents(const RigState& rig, const ObservationSet& obser
     ++per_placement[o.placement][g];
   }
   std::vector<LipResidual> lip_residuals;
-  const Eigen::Vector2d centre(rig.params.camera[2], rig.params.camera[3]);
+  const Eigen::Vector2d centre(rig.params.camera[kCx], rig.params.camera[kCy]);
   for (const auto& l : observations.lips) {
     Eigen::Vector2d px;
     if (!l.Used() || !ReprojectLip(rig, l, &px)) continue;
@@ -326,9 +311,10 @@ void EstimateVarianceComponents(const RigState& rig, const ObservationSet& obser
     for (int g = 0; g < 2; ++g) pose_share[g] += 6.0 * c[g] / total;
   }
   int n_rig = 0;
-  for (const auto& g : refined.groups) {
-    n_rig += static_cast<int>(BlockParameterNames(g).size()) -
-             static_cast<int>(HeldCoordinates(refined, g).size());
+  for (int b = 0; b < kRigBlockCount; ++b) {
+    const RigBlockId g = static_cast<RigBlockId>(b);
+    if (!refined.groups[g]) continue;
+    n_rig += kRigBlocks[g].size - static_cast<int>(HeldCoordinates(refined, g).size());
   }
   const double rows_total = 2.0 * (count[0] + count[1] + count[2]);
   const char* names[3] = {"corners ring 1", "corners ring 2", "lips"};
@@ -366,10 +352,11 @@ void CheckDiverged(const RigParams& rig) {
                              "target definitions (square size)");
     }
   }
-  for (int i = 0; i < 5; ++i) {
-    if (!std::isfinite(rig.camera[i]) || !std::isfinite(rig.distortion[i])) {
-      throw CalibrationError("the solve diverged: the camera parameters are not finite");
-    }
+  for (double v : rig.camera) {
+    if (!std::isfinite(v)) throw CalibrationError("the solve diverged: the camera parameters are not finite");
+  }
+  for (double v : rig.distortion) {
+    if (!std::isfinite(v)) throw CalibrationError("the solve diverged: the camera parameters are not finite");
   }
 }
 

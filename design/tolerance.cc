@@ -227,17 +227,17 @@ std::vector<ToleranceCheck> CheckTolerances(const RigParams& rig, const Toleranc
     const BodyTolerance& tol = spec.mirror[m];
     // rx, ry, tx, ty, tz of that mirror's pose block.
     const RigParameter* p = BlockParameters(PoseBlock(m == 0 ? Mirror::kOne : Mirror::kTwo));
-    const std::string body = GroupOf(p[0]);
+    const std::string body = GroupOf(p[kRx]);
     if (tol.decentre_mm >= 0) {
-      checks.push_back(Magnitude2(cov, body + ".decentre", "mm", p[2].name, p[3].name,
-                                  pose[2], pose[3], tol.decentre_mm));
+      checks.push_back(Magnitude2(cov, body + ".decentre", "mm", p[kTx].name, p[kTy].name,
+                                  pose[kTx], pose[kTy], tol.decentre_mm));
     }
     if (tol.tilt_rad >= 0) {
-      checks.push_back(Magnitude2(cov, body + ".tilt", "rad", p[0].name, p[1].name, pose[0],
-                                  pose[1], tol.tilt_rad));
+      checks.push_back(Magnitude2(cov, body + ".tilt", "rad", p[kRx].name, p[kRy].name, pose[kRx],
+                                  pose[kRy], tol.tilt_rad));
     }
     if (tol.axial_mm >= 0) {
-      checks.push_back(Magnitude1(cov, body + ".axial", "mm", p[4].name, pose[4], tol.axial_mm));
+      checks.push_back(Magnitude1(cov, body + ".axial", "mm", p[kTz].name, pose[kTz], tol.axial_mm));
     }
     if (tol.profile_pv_mm >= 0) {
       if (!(m == 0 ? rig.profile1 : rig.profile2).present) unmeasured_profiles.push_back(checks.size());
@@ -247,12 +247,12 @@ std::vector<ToleranceCheck> CheckTolerances(const RigParams& rig, const Toleranc
   // rx, ry, dz of the reflex disc.
   const RigParameter* reflex = BlockParameters(kReflexBlock);
   if (spec.reflex_tilt_rad >= 0) {
-    checks.push_back(Magnitude2(cov, GroupOf(reflex[0]) + std::string(".tilt"), "rad",
-                                reflex[0].name, reflex[1].name, rig.reflex[0], rig.reflex[1],
+    checks.push_back(Magnitude2(cov, GroupOf(reflex[kReflexRx]) + std::string(".tilt"), "rad",
+                                reflex[kReflexRx].name, reflex[kReflexRy].name, rig.reflex[kReflexRx], rig.reflex[kReflexRy],
                                 spec.reflex_tilt_rad));
   }
   if (spec.reflex_dz_mm >= 0) {
-    checks.push_back(Magnitude1(cov, reflex[2].name, "mm", reflex[2].name, rig.reflex[2],
+    checks.push_back(Magnitude1(cov, reflex[kReflexDz].name, "mm", reflex[kReflexDz].name, rig.reflex[kReflexDz],
                                 spec.reflex_dz_mm));
   }
   for (ToleranceCheck& c : CheckRigBody(rig, spec.rig_body, cov)) checks.push_back(std::move(c));
@@ -298,16 +298,16 @@ ImageEffect SimulateImageEffect(const RigParams& nominal, const ToleranceSpec& s
       const BodyTolerance& tol = spec.mirror[m];
       const Eigen::Vector2d tilt = InDisc(rng, limit(tol.tilt_rad));
       const Eigen::Vector2d decentre = InDisc(rng, limit(tol.decentre_mm));
-      pose[0] += tilt.x();
-      pose[1] += tilt.y();
-      pose[2] += decentre.x();
-      pose[3] += decentre.y();
-      pose[4] += InRange(rng, limit(tol.axial_mm));
+      pose[kRx] += tilt.x();
+      pose[kRy] += tilt.y();
+      pose[kTx] += decentre.x();
+      pose[kTy] += decentre.y();
+      pose[kTz] += InRange(rng, limit(tol.axial_mm));
     }
     const Eigen::Vector2d reflex_tilt = InDisc(rng, limit(spec.reflex_tilt_rad));
-    rig.reflex[0] += reflex_tilt.x();
-    rig.reflex[1] += reflex_tilt.y();
-    rig.reflex[2] += InRange(rng, limit(spec.reflex_dz_mm));
+    rig.reflex[kReflexRx] += reflex_tilt.x();
+    rig.reflex[kReflexRy] += reflex_tilt.y();
+    rig.reflex[kReflexDz] += InRange(rng, limit(spec.reflex_dz_mm));
     for (int m = 0; m < 2; ++m) {
       const double pv = spec.mirror[m].profile_pv_mm;
       if (!(pv > 0)) continue;

@@ -55,9 +55,9 @@ LipGuide GuideByLips(const std::vector<GuideImage>& images, DetectorContext* ctx
                      const LipGuideOptions& options) {
   const RigParams& rig = ctx->model.params();
   LipGuide guide;
-  guide.f_before = 0.5 * (rig.camera[0] + rig.camera[1]);
-  guide.pp_before = Eigen::Vector2d(rig.camera[2], rig.camera[3]);
-  guide.reflex_before = guide.reflex_after = Eigen::Vector2d(rig.reflex[0], rig.reflex[1]);
+  guide.f_before = 0.5 * (rig.camera[kFx] + rig.camera[kFy]);
+  guide.pp_before = Eigen::Vector2d(rig.camera[kCx], rig.camera[kCy]);
+  guide.reflex_before = guide.reflex_after = Eigen::Vector2d(rig.reflex[kReflexRx], rig.reflex[kReflexRy]);
   for (const GuideImage& one : images) {
     guide.images += one.image.channels() >= 3 && one.image.cols == rig.image_width &&
                     one.image.rows == rig.image_height;
@@ -75,8 +75,8 @@ LipGuide GuideByLips(const std::vector<GuideImage>& images, DetectorContext* ctx
   if (!holds(search)) {
     for (double scale : options.f_scan) {
       RigParams scaled = rig;
-      scaled.camera[0] *= scale;
-      scaled.camera[1] *= scale;
+      scaled.camera[kFx] *= scale;
+      scaled.camera[kFy] *= scale;
       LipSearch candidate = SearchLips(images, RigModel(scaled), ctx->tone);
       if (holds(candidate) && (!holds(search) || candidate.fit->n_points > search.fit->n_points)) {
         search = std::move(candidate);
@@ -92,9 +92,9 @@ LipGuide GuideByLips(const std::vector<GuideImage>& images, DetectorContext* ctx
       (std::abs(search.fit->f / guide.f_before - 1) > options.min_f_change ||
        (Eigen::Vector2d(search.fit->cx, search.fit->cy) - guide.pp_before).norm() > options.min_pp_move_px)) {
     RigParams refit = rig;
-    refit.camera[0] = refit.camera[1] = search.fit->f;
-    refit.camera[2] = search.fit->cx;
-    refit.camera[3] = search.fit->cy;
+    refit.camera[kFx] = refit.camera[kFy] = search.fit->f;
+    refit.camera[kCx] = search.fit->cx;
+    refit.camera[kCy] = search.fit->cy;
     LipSearch again = SearchLips(images, RigModel(refit), ctx->tone);
     if (holds(again) && again.fit->n_points >= search.fit->n_points) search = std::move(again);
   }
@@ -133,11 +133,11 @@ LipGuide GuideByLips(const std::vector<GuideImage>& images, DetectorContext* ctx
     return guide;
   }
   RigParams corrected = rig;
-  corrected.camera[0] = corrected.camera[1] = lips->f;
-  corrected.camera[2] = lips->cx;
-  corrected.camera[3] = lips->cy;
-  corrected.reflex[0] = guide.reflex_after.x();
-  corrected.reflex[1] = guide.reflex_after.y();
+  corrected.camera[kFx] = corrected.camera[kFy] = lips->f;
+  corrected.camera[kCx] = lips->cx;
+  corrected.camera[kCy] = lips->cy;
+  corrected.reflex[kReflexRx] = guide.reflex_after.x();
+  corrected.reflex[kReflexRy] = guide.reflex_after.y();
   ctx->SetModel(corrected);
   guide.applied = true;
   return guide;

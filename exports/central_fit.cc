@@ -222,7 +222,7 @@ std::array<CentralRing, 2> FitCentral(const RigModel& model, CentralModel kind,
       stereo::FramesOf(model.params(), options.frame, nullptr).out_from_cam;
   const stereo::PanoramaGeometry geometry = stereo::MakePanoramaGeometry(model, {});
   const Eigen::Vector3d axis = rig_from_cam.rotation * geometry.cam_from_cylinder.col(2);
-  const Eigen::Vector2d principal(model.params().camera[2], model.params().camera[3]);
+  const Eigen::Vector2d principal(model.params().camera[kCx], model.params().camera[kCy]);
   std::array<CentralRing, 2> rings;
   for (int m = 0; m < 2; ++m) {
     const Mirror mirror = m == 0 ? Mirror::kOne : Mirror::kTwo;

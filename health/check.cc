@@ -180,7 +180,7 @@ bool DecidedWithoutGroups(const RigParams& stored, const CheckOptions& options,
   const int nb = options.azimuth_bins;
   const bool enough = result->n_matches >= options.min_matches &&
                       result->covered_azimuth_bins >= options.min_match_coverage * nb;
-  const double f = 0.5 * (stored.camera[0] + stored.camera[1]);
+  const double f = 0.5 * (stored.camera[kFx] + stored.camera[kFy]);
   if (!enough && result->n_lip_points > 0 && result->lip_rms_px > options.lip_misfit_per_f * f) {
     result->verdict = Verdict::kCannotTell;
     result->model_misfit = true;

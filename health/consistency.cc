@@ -80,7 +80,7 @@ std::optional<LipPointResidual> LipResidual(const RigModel& model, LipPath path,
   }
   const Eigen::Vector2d t = (a - b).normalized();
   r.normal = Eigen::Vector2d(-t.y(), t.x());
-  const Eigen::Vector2d outward = nearest - Eigen::Vector2d(rig.camera[2], rig.camera[3]);
+  const Eigen::Vector2d outward = nearest - Eigen::Vector2d(rig.camera[kCx], rig.camera[kCy]);
   if (r.normal.dot(outward) < 0) r.normal = -r.normal;
   r.value = (pixel - nearest).dot(r.normal);
   return r;

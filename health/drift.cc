@@ -37,12 +37,12 @@ Eigen::Vector2d TiltOfAxis(const Eigen::Vector3d& axis) {
 // mirror's pose block [rx, ry, tx, ty, tz]; returns the spin about the body's axis that the
 // block cannot hold (rad), for the reflex tilt of mirror 1.
 double MoveMirrorPose(const Eigen::Matrix3d& dR, const Eigen::Vector3d& dt, double* pose) {
-  const Eigen::Matrix3d R = RotationFromTilt(pose[0], pose[1]);
+  const Eigen::Matrix3d R = RotationFromTilt(pose[kRx], pose[kRy]);
   const Eigen::Matrix3d moved = dR * R;
   const Eigen::Vector2d tilt = TiltOfAxis(moved.col(2));
-  const Eigen::Vector3d t = dR * Eigen::Vector3d(pose[2], pose[3], pose[4]) + dt;
-  pose[0] = tilt.x(), pose[1] = tilt.y();
-  pose[2] = t.x(), pose[3] = t.y(), pose[4] = t.z();
+  const Eigen::Vector3d t = dR * Eigen::Vector3d(pose[kTx], pose[kTy], pose[kTz]) + dt;
+  pose[kRx] = tilt.x(), pose[kRy] = tilt.y();
+  pose[kTx] = t.x(), pose[kTy] = t.y(), pose[kTz] = t.z();
   // moved = R(tilt) * Rz(spin): the body's old axes seen in its new spin-free frame.
   const Eigen::Matrix3d spin = RotationFromTilt(tilt.x(), tilt.y()).transpose() * moved;
   return std::atan2(spin(1, 0), spin(0, 0));
@@ -125,10 +125,10 @@ RigParams ApplyDrift(const RigParams& rig, const std::vector<int>& coordinates,
     MoveMirrorPose(dR, translation, moved.mirror2_pose.data());
     // The reflex normal is given in mirror 1's body; the body's new frame is its old one turned
     // by -spin about the axis, so the normal's coordinates turn by +spin.
-    const Eigen::Vector3d normal = RotationFromTilt(moved.reflex[0], moved.reflex[1]) *
+    const Eigen::Vector3d normal = RotationFromTilt(moved.reflex[kReflexRx], moved.reflex[kReflexRy]) *
                                    Eigen::Vector3d(0, 0, 1);
     const Eigen::Vector2d tilt = TiltOfAxis(Eigen::AngleAxisd(spin1, Eigen::Vector3d::UnitZ()) * normal);
-    moved.reflex[0] = tilt.x(), moved.reflex[1] = tilt.y();
+    moved.reflex[kReflexRx] = tilt.x(), moved.reflex[kReflexRy] = tilt.y();
   }
   return moved;
 }

@@ -5,6 +5,7 @@
 
 #include <cmath>
 
+#include "model/rig_blocks.h"
 #include "model/types.h"
 
 namespace omni {
@@ -60,11 +61,12 @@ bool Undistort(const RadTan<double>& dist, const Eigen::Vector2d& distorted,
 // dist_p2, dist_k3] of rig_params.h as the models above.
 template <typename T>
 Pinhole<T> PinholeFromBlock(const T* camera) {
-  return Pinhole<T>{camera[0], camera[1], camera[2], camera[3], camera[4]};
+  return Pinhole<T>{camera[kFx], camera[kFy], camera[kCx], camera[kCy], camera[kSkew]};
 }
 template <typename T>
 RadTan<T> RadTanFromBlock(const T* distortion) {
-  return RadTan<T>{distortion[0], distortion[1], distortion[2], distortion[3], distortion[4]};
+  return RadTan<T>{distortion[kDistK1], distortion[kDistK2], distortion[kDistP1],
+                   distortion[kDistP2], distortion[kDistK3]};
 }
 
 // The pixel of a point (or direction) in C in front of the camera (z > 0): its normalised

@@ -83,7 +83,7 @@ namespace {
 template <typename Curve>
 double DistanceToCurve(const RigParams& rig, const Curve& curve, const Eigen::Vector2d& pixel,
                        Eigen::Vector2d* nearest, double* nearest_phi) {
-  double phi = std::atan2(pixel.y() - rig.camera[3], pixel.x() - rig.camera[2]);
+  double phi = std::atan2(pixel.y() - rig.camera[kCy], pixel.x() - rig.camera[kCx]);
   double best = 1e9;
   for (double step : {1e-2, 5e-4, 2e-5, 1e-6}) {
     double best_phi = phi;

@@ -63,8 +63,8 @@ bool ProjectLipDirect(const RigBlocks<T>& b, const RigFixed& fixed, const Vec3<T
   if (!(ScalarPart(point_in_cam.z()) > 0)) return false;
   // The reflex plane in C in double: validity only.
   double pose_d[5], reflex_d[3];
-  for (int i = 0; i < 5; ++i) pose_d[i] = ScalarPart(b.mirror1_pose[i]);
-  for (int i = 0; i < 3; ++i) reflex_d[i] = ScalarPart(b.reflex[i]);
+  for (int i = 0; i < 5; ++i) pose_d[i] = ScalarPart(b[kPose1Block][i]);
+  for (int i = 0; i < 3; ++i) reflex_d[i] = ScalarPart(b[kReflexBlock][i]);
   const Plane<double> plane_in_cam = ReflexPlaneInCam(pose_d, reflex_d, fixed.d);
   const Eigen::Vector3d plane_point = plane_in_cam.point;
   const Eigen::Vector3d plane_normal = plane_in_cam.normal;
@@ -75,8 +75,8 @@ bool ProjectLipDirect(const RigBlocks<T>& b, const RigFixed& fixed, const Vec3<T
     const Eigen::Vector3d crossing = camera_side / (camera_side - point_side) * p;
     if ((crossing - plane_point).squaredNorm() <= fixed.r_ref * fixed.r_ref) return false;
   }
-  *pixel = PixelOfPointInCam(PinholeFromBlock(b.camera), RadTanFromBlock(b.distortion),
-                             point_in_cam);
+  *pixel = PixelOfPointInCam(PinholeFromBlock(b[kCameraBlock]),
+                             RadTanFromBlock(b[kDistortionBlock]), point_in_cam);
   return true;
 }
 
@@ -89,7 +89,7 @@ bool ProjectLipDirect(const RigBlocks<T>& b, const RigFixed& fixed, const Vec3<T
 template <typename T>
 bool ProjectLipViaReflex(const RigBlocks<T>& b, const RigFixed& fixed, const Vec3<T>& point_in_cam,
                          Vec2<T>* pixel, double* disc_margin_mm = nullptr) {
-  const Plane<T> plane = ReflexPlaneInCam(b.mirror1_pose, b.reflex, T(fixed.d));
+  const Plane<T> plane = ReflexPlaneInCam(b[kPose1Block], b[kReflexBlock], T(fixed.d));
   const T camera_side = -plane.point.dot(plane.normal);
   const T point_side = (point_in_cam - plane.point).dot(plane.normal);
   if (!(ScalarPart(camera_side) > 0) || !(ScalarPart(point_side) > 0)) return false;
@@ -102,8 +102,8 @@ bool ProjectLipViaReflex(const RigBlocks<T>& b, const RigFixed& fixed, const Vec
   const double margin = fixed.r_ref - (crossing - ScalarPart(plane.point)).norm();
   if (disc_margin_mm) *disc_margin_mm = margin;
   if (!(margin >= 0)) return false;
-  *pixel = PixelOfPointInCam(PinholeFromBlock(b.camera), RadTanFromBlock(b.distortion),
-                             image_in_cam);
+  *pixel = PixelOfPointInCam(PinholeFromBlock(b[kCameraBlock]),
+                             RadTanFromBlock(b[kDistortionBlock]), image_in_cam);
   return true;
 }
 
@@ -114,7 +114,7 @@ template <typename T>
 bool ProjectLipPoint(const RigBlocks<T>& b, const RigFixed& fixed, LipPath path, const T& radius,
                      const T& lip_z, const T& phi, Vec2<T>* pixel,
                      double* disc_margin_mm = nullptr) {
-  const T* owner_pose = LipOwner(path) == Mirror::kOne ? b.mirror1_pose : b.mirror2_pose;
+  const T* owner_pose = b[PoseBlock(LipOwner(path))];
   const Vec3<T> point_in_cam = LipPointInCam(owner_pose, radius, lip_z, phi);
   switch (path) {
     case LipPath::kDirect:
@@ -152,8 +152,8 @@ bool ProjectLipEdge(const RigBlocks<T>& b, const RigFixed& fixed, LipPath path, 
   if (path != LipPath::kViaReflex || !(disc_radius_mm > 0)) {
     return ProjectLipPoint(b, fixed, path, radius, lip_z, phi, pixel);
   }
-  const Vec3<T> point_in_cam = LipPointInCam(b.mirror2_pose, radius, lip_z, phi);
-  const Plane<T> plane = ReflexPlaneInCam(b.mirror1_pose, b.reflex, T(fixed.d));
+  const Vec3<T> point_in_cam = LipPointInCam(b[kPose2Block], radius, lip_z, phi);
+  const Plane<T> plane = ReflexPlaneInCam(b[kPose1Block], b[kReflexBlock], T(fixed.d));
   const T camera_side = -plane.point.dot(plane.normal);
   const T point_side = (point_in_cam - plane.point).dot(plane.normal);
   if (!(ScalarPart(camera_side) > 0) || !(ScalarPart(point_side) > 0)) return false;
@@ -169,7 +169,8 @@ bool ProjectLipEdge(const RigBlocks<T>& b, const RigFixed& fixed, LipPath path, 
     if (bound) *bound = LipBound::kReflexRim;
   }
   if (!(ScalarPart(crossing.z()) > 0)) return false;
-  *pixel = PixelOfPointInCam(PinholeFromBlock(b.camera), RadTanFromBlock(b.distortion), crossing);
+  *pixel = PixelOfPointInCam(PinholeFromBlock(b[kCameraBlock]), RadTanFromBlock(b[kDistortionBlock]),
+                             crossing);
   return true;
 }
 

@@ -8,6 +8,7 @@
 
 #include <cmath>
 
+#include "model/rig_blocks.h"
 #include "model/types.h"
 
 namespace omni {
@@ -61,7 +62,7 @@ struct Pose {
 // cam_from_mirror from a pose block [rx, ry, tx, ty, tz].
 template <typename T>
 Pose<T> PoseFromBlock(const T* block) {
-  return Pose<T>{RotationFromTilt(block[0], block[1]), Vec3<T>(block[2], block[3], block[4])};
+  return Pose<T>{RotationFromTilt(block[kRx], block[kRy]), Vec3<T>(block[kTx], block[kTy], block[kTz])};
 }
 
 // A plane through `point` with unit `normal`: {x : normal . (x - point) = 0}.
@@ -74,8 +75,9 @@ struct Plane {
 // The reflex plane in mirror 1's body frame from the reflex block [rx, ry, dz].
 template <typename T>
 Plane<T> ReflexPlaneInMirror1(const T* reflex_block, const T& d) {
-  const Mat3<T> R = RotationFromTilt(reflex_block[0], reflex_block[1]);
-  return Plane<T>{Vec3<T>(T(0), T(0), d / T(2) + reflex_block[2]), R * Vec3<T>(T(0), T(0), T(-1))};
+  const Mat3<T> R = RotationFromTilt(reflex_block[kReflexRx], reflex_block[kReflexRy]);
+  return Plane<T>{Vec3<T>(T(0), T(0), d / T(2) + reflex_block[kReflexDz]),
+                  R * Vec3<T>(T(0), T(0), T(-1))};
 }
 
 // The reflex plane in C: the disc is part of mirror 1's body (cam_from_mirror1 from its pose
@@ -91,7 +93,7 @@ Plane<T> ReflexPlaneInCam(const T* mirror1_pose, const T* reflex_block, const T&
 // plane's point + R(rx, ry) (r_ref cos t, r_ref sin t, 0), the disc tilted with its plane.
 template <typename T>
 Vec3<T> ReflexRimInMirror1(const T* reflex_block, const T& d, const T& r_ref, const T& t) {
-  const Mat3<T> R = RotationFromTilt(reflex_block[0], reflex_block[1]);
+  const Mat3<T> R = RotationFromTilt(reflex_block[kReflexRx], reflex_block[kReflexRy]);
   return ReflexPlaneInMirror1(reflex_block, d).point +
          R * Vec3<T>(r_ref * cos(t), r_ref * sin(t), T(0));
 }
@@ -100,11 +102,11 @@ Vec3<T> ReflexRimInMirror1(const T* reflex_block, const T& d, const T& r_ref, co
 // f1 = (0, 0, c1) and f2 = (0, 0, d - c2) (ideal_model.h) carried by each mirror's pose block.
 template <typename T>
 Vec3<T> Focus1InCam(const T* mirror1_pose, const T* mirror1_shape) {
-  return PoseFromBlock(mirror1_pose) * Vec3<T>(T(0), T(0), mirror1_shape[0]);
+  return PoseFromBlock(mirror1_pose) * Vec3<T>(T(0), T(0), mirror1_shape[kShapeC]);
 }
 template <typename T>
 Vec3<T> Focus2InCam(const T* mirror2_pose, const T* mirror2_shape, const T& d) {
-  return PoseFromBlock(mirror2_pose) * Vec3<T>(T(0), T(0), d - mirror2_shape[0]);
+  return PoseFromBlock(mirror2_pose) * Vec3<T>(T(0), T(0), d - mirror2_shape[kShapeC]);
 }
 
 // Mirror a point in a plane.

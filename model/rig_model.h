@@ -4,7 +4,8 @@
 // distortion it equals IdealModel (ideal_model.h) to rounding.
 //
 // Forward projection exists ONCE per optical path, templated on the scalar (double, ceres::Jet),
-// as free functions over the raw parameter blocks of RigParams (COLMAP style), so that Ceres
+// as free functions over the raw parameter blocks of RigParams (COLMAP style; a RigBlocks bundle
+// indexed by RigBlockId, each block's coordinates named in rig_blocks.h), so that Ceres
 // differentiates the very code that the rest of the program runs:
 //   camera[5]        fx, fy, cx, cy, skew
 //   distortion[5]    dist_k1, dist_k2, dist_p1, dist_p2, dist_k3
@@ -126,15 +127,17 @@ struct Mirror1Path {
 
   // Reads camera, distortion, mirror1_shape, mirror1_profile, mirror1_pose, reflex.
   static Mirror1Path FromBlocks(const RigBlocks<T>& b, const RigFixed& fixed) {
-    Mirror1Path p{PinholeFromBlock(b.camera),
-                  RadTanFromBlock(b.distortion),
-                  MirrorSurface<T>(HyperboloidSheet<T>::Mirror1(b.mirror1_shape[0], b.mirror1_shape[1]),
-                                   fixed.profile1, b.mirror1_profile),
+    const T* shape = b[kShape1Block];
+    Mirror1Path p{PinholeFromBlock(b[kCameraBlock]),
+                  RadTanFromBlock(b[kDistortionBlock]),
+                  MirrorSurface<T>(HyperboloidSheet<T>::Mirror1(shape[kShapeC], shape[kShapeK]),
+                                   fixed.profile1, b[kProfile1Block]),
                   Pose<T>{},
-                  PoseFromBlock(b.mirror1_pose),
+                  PoseFromBlock(b[kPose1Block]),
                   Plane<double>{}};
-    const double reflex_d[3] = {ScalarPart(b.reflex[0]), ScalarPart(b.reflex[1]),
-                                ScalarPart(b.reflex[2])};
+    const T* reflex = b[kReflexBlock];
+    const double reflex_d[3] = {ScalarPart(reflex[kReflexRx]), ScalarPart(reflex[kReflexRy]),
+                                ScalarPart(reflex[kReflexDz])};
     p.reflex_in_mirror = ReflexPlaneInMirror1(reflex_d, fixed.d);
     p.mirror_from_cam = p.cam_from_mirror.Inverse();
     return p;
@@ -195,14 +198,15 @@ struct Mirror2Path {
 
   // Reads camera, distortion, mirror1_pose, reflex, mirror2_shape, mirror2_profile, mirror2_pose.
   static Mirror2Path FromBlocks(const RigBlocks<T>& b, const RigFixed& fixed) {
-    const Plane<T> reflex_in_cam = ReflexPlaneInCam(b.mirror1_pose, b.reflex, T(fixed.d));
-    Mirror2Path p{PinholeFromBlock(b.camera),
-                  RadTanFromBlock(b.distortion),
+    const Plane<T> reflex_in_cam = ReflexPlaneInCam(b[kPose1Block], b[kReflexBlock], T(fixed.d));
+    const T* shape = b[kShape2Block];
+    Mirror2Path p{PinholeFromBlock(b[kCameraBlock]),
+                  RadTanFromBlock(b[kDistortionBlock]),
                   MirrorSurface<T>(
-                      HyperboloidSheet<T>::Mirror2(b.mirror2_shape[0], b.mirror2_shape[1], T(fixed.d)),
-                      fixed.profile2, b.mirror2_profile),
+                      HyperboloidSheet<T>::Mirror2(shape[kShapeC], shape[kShapeK], T(fixed.d)),
+                      fixed.profile2, b[kProfile2Block]),
                   Pose<T>{},
-                  PoseFromBlock(b.mirror2_pose),
+                  PoseFromBlock(b[kPose2Block]),
                   reflex_in_cam,
                   MirrorPoint(reflex_in_cam, Vec3<T>(T(0), T(0), T(0)))};
     p.mirror_from_cam = p.cam_from_mirror.Inverse();

@@ -112,6 +112,32 @@ constexpr bool TableMatchesBlocks() {
 }
 static_assert(TableMatchesBlocks(), "kTable and kRigBlocks disagree");
 
+// The named coordinates (rig_blocks.h) are the table's: each constant indexes its name.
+constexpr bool Names(RigBlockId block, int index, const char* name) {
+  return Same(kTable[kRigBlocks[block].offset + index].name, name);
+}
+static_assert(Names(kCameraBlock, kFx, "fx") && Names(kCameraBlock, kFy, "fy") &&
+              Names(kCameraBlock, kCx, "cx") && Names(kCameraBlock, kCy, "cy") &&
+              Names(kCameraBlock, kSkew, "skew"));
+static_assert(Names(kDistortionBlock, kDistK1, "dist_k1") &&
+              Names(kDistortionBlock, kDistK2, "dist_k2") &&
+              Names(kDistortionBlock, kDistP1, "dist_p1") &&
+              Names(kDistortionBlock, kDistP2, "dist_p2") &&
+              Names(kDistortionBlock, kDistK3, "dist_k3"));
+static_assert(Names(kShape1Block, kShapeC, "c1") && Names(kShape1Block, kShapeK, "k1") &&
+              Names(kShape2Block, kShapeC, "c2") && Names(kShape2Block, kShapeK, "k2"));
+static_assert(Names(kPose1Block, kRx, "mirror1.rx") && Names(kPose1Block, kRy, "mirror1.ry") &&
+              Names(kPose1Block, kTx, "mirror1.tx") && Names(kPose1Block, kTy, "mirror1.ty") &&
+              Names(kPose1Block, kTz, "mirror1.tz") && Names(kPose2Block, kRx, "mirror2.rx") &&
+              Names(kPose2Block, kTz, "mirror2.tz"));
+static_assert(Names(kReflexBlock, kReflexRx, "reflex.rx") &&
+              Names(kReflexBlock, kReflexRy, "reflex.ry") &&
+              Names(kReflexBlock, kReflexDz, "reflex.dz"));
+static_assert(Names(kProfile1Block, kSagP1, "mirror1.sag_p1") &&
+              Names(kProfile1Block, kSagP4, "mirror1.sag_p4") &&
+              Names(kProfile1Block, kSagCos2, "mirror1.sag_cos2") &&
+              Names(kProfile2Block, kSagSin2, "mirror2.sag_sin2"));
+
 }  // namespace
 
 std::string RigParameter::Key() const {
@@ -177,13 +203,7 @@ const std::vector<std::string>& DefaultEstimateBlocks() {
   return blocks;
 }
 
-const double* BlockIn(const RigParams& rig, RigBlockId block) {
-  const std::array<const double*, kRigBlockCount> arrays = {
-      rig.camera.data(),       rig.distortion.data(),   rig.mirror1_shape.data(),
-      rig.mirror2_shape.data(), rig.mirror1_pose.data(), rig.mirror2_pose.data(),
-      rig.reflex.data(),       rig.mirror1_profile.data(), rig.mirror2_profile.data()};
-  return arrays[block];
-}
+const double* BlockIn(const RigParams& rig, RigBlockId block) { return RigBlocksOf(rig)[block]; }
 
 double* BlockIn(RigParams* rig, RigBlockId block) {
   return const_cast<double*>(BlockIn(static_cast<const RigParams&>(*rig), block));

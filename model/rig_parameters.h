@@ -39,20 +39,6 @@ enum class SolveRole {
   kAxialScale,   // scales a ring's image as a mirror profile's power term does: traded with it
 };
 
-// The parameter blocks (kRigBlocks' entries, in the flat order).
-enum RigBlockId : int {
-  kCameraBlock,
-  kDistortionBlock,
-  kShape1Block,
-  kShape2Block,
-  kPose1Block,
-  kPose2Block,
-  kReflexBlock,
-  kProfile1Block,
-  kProfile2Block,
-  kRigBlockCount
-};
-
 // A parameter block of RigParams, in the flat order.
 struct RigBlock {
   const char* name;     // "camera", "distortion", "mirror1_shape", ... (a session's `estimate`)
@@ -87,12 +73,6 @@ inline constexpr int kRigParameterCount = 39;
 
 // A block's first parameter in the flat vector, for code that indexes the flat vector.
 constexpr int BlockOffset(RigBlockId block) { return kRigBlocks[block].offset; }
-// Each mirror's blocks.
-constexpr RigBlockId ShapeBlock(Mirror m) { return m == Mirror::kOne ? kShape1Block : kShape2Block; }
-constexpr RigBlockId PoseBlock(Mirror m) { return m == Mirror::kOne ? kPose1Block : kPose2Block; }
-constexpr RigBlockId ProfileBlock(Mirror m) {
-  return m == Mirror::kOne ? kProfile1Block : kProfile2Block;
-}
 
 struct RigParameter {
   const char* name;   // docs/design.md, Conventions: "fx", "dist_k1", "c1", "mirror1.rx", "reflex.dz"

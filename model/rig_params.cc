@@ -25,10 +25,17 @@ RigParams MakeIdealRig(const DesignParams& theta, double r_cam, const Pinhole<do
 }
 
 RigBlocks<double> RigBlocksOf(const RigParams& rig) {
-  return RigBlocks<double>{rig.camera.data(),       rig.distortion.data(), rig.mirror1_shape.data(),
-                           rig.mirror1_pose.data(), rig.reflex.data(),     rig.mirror2_shape.data(),
-                           rig.mirror2_pose.data(), rig.mirror1_profile.data(),
-                           rig.mirror2_profile.data()};
+  RigBlocks<double> b;
+  b[kCameraBlock] = rig.camera.data();
+  b[kDistortionBlock] = rig.distortion.data();
+  b[kShape1Block] = rig.mirror1_shape.data();
+  b[kShape2Block] = rig.mirror2_shape.data();
+  b[kPose1Block] = rig.mirror1_pose.data();
+  b[kPose2Block] = rig.mirror2_pose.data();
+  b[kReflexBlock] = rig.reflex.data();
+  b[kProfile1Block] = rig.mirror1_profile.data();
+  b[kProfile2Block] = rig.mirror2_profile.data();
+  return b;
 }
 
 ProfileShape DefaultProfileShape(const RigParams& rig, Mirror mirror) {

@@ -12,6 +12,7 @@
 #include "model/ideal_model.h"
 #include "model/mirror_profile.h"
 #include "model/mount.h"
+#include "model/rig_blocks.h"
 
 namespace omni {
 
@@ -77,32 +78,34 @@ struct RigParams {
   Pinhole<double> Intrinsics() const { return PinholeFromBlock(camera.data()); }
   RadTan<double> Distortion() const { return RadTanFromBlock(distortion.data()); }
   DesignParams Design() const {
-    return DesignParams{mirror1_shape[0], mirror2_shape[0], mirror1_shape[1], mirror2_shape[1], d,
-                        r_sys};
+    return DesignParams{mirror1_shape[kShapeC], mirror2_shape[kShapeC], mirror1_shape[kShapeK],
+                        mirror2_shape[kShapeK], d, r_sys};
   }
   // The SVP model with the same design and intrinsics (misalignment and distortion dropped).
   IdealModel Ideal() const {
-    return IdealModel{mirror1_shape[0], mirror2_shape[0], mirror1_shape[1], mirror2_shape[1], d,
-                      r_sys,            r_ref,            r_cam,            Intrinsics()};
+    return IdealModel{mirror1_shape[kShapeC], mirror2_shape[kShapeC], mirror1_shape[kShapeK],
+                      mirror2_shape[kShapeK], d, r_sys, r_ref, r_cam, Intrinsics()};
   }
 };
 
 // The raw parameter blocks one projection reads (pointers into RigParams-like storage, double
-// or Ceres jets): every optical path (rig_model.h, lip.h) takes this one bundle. A path leaves
-// the blocks it does not use unread, so a caller may pass nullptr for them (the mirror-1 path
-// reads neither mirror2 block).
+// or Ceres jets), indexed by RigBlockId: every optical path (rig_model.h, lip.h) takes this one
+// bundle. A path leaves the blocks it does not use unread, so a caller may leave them nullptr
+// (the mirror-1 path reads neither mirror2 block); a profile block left nullptr is the exact conic.
 template <typename T>
-struct RigBlocks {
-  const T* camera;
-  const T* distortion;
-  const T* mirror1_shape;
-  const T* mirror1_pose;
-  const T* reflex;
-  const T* mirror2_shape;
-  const T* mirror2_pose;
-  // The profile blocks; nullptr (as a shorter initialiser list leaves them): the exact conic.
-  const T* mirror1_profile = nullptr;
-  const T* mirror2_profile = nullptr;
+class RigBlocks {
+ public:
+  RigBlocks() { blocks_.fill(nullptr); }
+  // blocks[i] as block ids[i] (a cost's parameter list, in its order); the others nullptr.
+  template <size_t N>
+  RigBlocks(const std::array<RigBlockId, N>& ids, const T* const* blocks) : RigBlocks() {
+    for (size_t i = 0; i < N; ++i) blocks_[ids[i]] = blocks[i];
+  }
+  const T* operator[](RigBlockId id) const { return blocks_[id]; }
+  const T*& operator[](RigBlockId id) { return blocks_[id]; }
+
+ private:
+  std::array<const T*, kRigBlockCount> blocks_;
 };
 // The blocks of a RigParams.
 RigBlocks<double> RigBlocksOf(const RigParams& rig);

@@ -39,10 +39,11 @@ std::array<J, kNumModelParameters> JetParameters(const RigParams& p, bool seed) 
 
 template <typename J>
 RigBlocks<J> BlocksOf(const std::array<J, kNumModelParameters>& x) {
-  auto at = [&](RigBlockId b) { return &x[BlockOffset(b)]; };
-  return RigBlocks<J>{at(kCameraBlock),   at(kDistortionBlock), at(kShape1Block),
-                      at(kPose1Block),    at(kReflexBlock),     at(kShape2Block),
-                      at(kPose2Block),    at(kProfile1Block),   at(kProfile2Block)};
+  RigBlocks<J> blocks;
+  for (int b = 0; b < kRigBlockCount; ++b) {
+    blocks[static_cast<RigBlockId>(b)] = &x[BlockOffset(static_cast<RigBlockId>(b))];
+  }
+  return blocks;
 }
 
 template <typename J>

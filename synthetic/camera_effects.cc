@@ -163,7 +163,7 @@ cv::Mat Defocus(const cv::Mat& image, const RigParams& rig, const double sigma[2
 
 void Vignette(cv::Mat* image, const RigParams& rig, double v) {
   if (v <= 0) return;
-  const double cx = rig.camera[2], cy = rig.camera[3];
+  const double cx = rig.camera[kCx], cy = rig.camera[kCy];
   const double corner2 = std::max({cx * cx + cy * cy,
                                    std::pow(rig.image_width - 1 - cx, 2) + cy * cy,
                                    cx * cx + std::pow(rig.image_height - 1 - cy, 2),

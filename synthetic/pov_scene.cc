@@ -137,7 +137,7 @@ std::string RoomLamps(const RigParams& rig, const SceneContent& content) {
   for (int ring = 0; ring < 2; ++ring) {
     const double lamp_z = 0.5 * (ring == 0 ? content.room_floor_mm : content.room_ceiling_mm);
     const double lip_z =
-        ring == 0 ? rig.lip1.z + rig.mirror1_pose[4] : rig.lip2.z + rig.mirror2_pose[4];
+        ring == 0 ? rig.lip1.z + rig.mirror1_pose[kTz] : rig.lip2.z + rig.mirror2_pose[kTz];
     // Each lamp lights the lip at cos = height / distance to the lamp.
     const double cos_incidence = std::abs(lamp_z - lip_z) / std::hypot(radius, lamp_z - lip_z);
     const double intensity = (kLipIlluminance - kLipAmbient) / (kLamps * cos_incidence);
@@ -170,8 +170,8 @@ std::string MirrorBodies(const RigParams& rig) {
   std::ostringstream s;
   const Pose<double> cam_from_m1 = PoseFromBlock(rig.mirror1_pose.data());
   const Pose<double> cam_from_m2 = PoseFromBlock(rig.mirror2_pose.data());
-  const auto m1 = HyperboloidSheet<double>::Mirror1(rig.mirror1_shape[0], rig.mirror1_shape[1]);
-  const auto m2 = HyperboloidSheet<double>::Mirror2(rig.mirror2_shape[0], rig.mirror2_shape[1], rig.d);
+  const auto m1 = HyperboloidSheet<double>::Mirror1(rig.mirror1_shape[kShapeC], rig.mirror1_shape[kShapeK]);
+  const auto m2 = HyperboloidSheet<double>::Mirror2(rig.mirror2_shape[kShapeC], rig.mirror2_shape[kShapeK], rig.d);
   const Plane<double> reflex = ReflexPlaneInMirror1(rig.reflex.data(), rig.d);
   // Mirror 1's body: the hyperboloid from r_ref out to r_sys, the reflex disc, the blue lip.
   // Mirror 1's surface is kept where it lies beyond the reflex plane (as RigModel assumes):
@@ -261,8 +261,8 @@ std::string RoomObject(const SceneContent& content) {
 }  // namespace
 
 std::string PovSceneText(const RigParams& rig, const SceneContent& content) {
-  const double fx = rig.camera[0], fy = rig.camera[1], cx = rig.camera[2], cy = rig.camera[3],
-               skew = rig.camera[4];
+  const double fx = rig.camera[kFx], fy = rig.camera[kFy], cx = rig.camera[kCx], cy = rig.camera[kCy],
+               skew = rig.camera[kSkew];
   const double W = rig.image_width, H = rig.image_height;
   // Camera vectors (see the header): right = W/fx, up = (s H/(fx fy), H/fy), direction (a, b, 1).
   const double up_x = skew * H / (fx * fy), up_y = H / fy, right_x = W / fx;
@@ -281,11 +281,11 @@ std::string PovSceneText(const RigParams& rig, const SceneContent& content) {
     << "#declare SelfLit = finish { ambient 0 diffuse 0 emission 1 }\n"
     << "#declare LipPaint = finish { ambient " << Num(kLipAmbient) << " diffuse 1 emission 0 }\n"
     << (content.draw_mirrors && rig.profile1.present
-            ? ProfileFunctions(HyperboloidSheet<double>::Mirror1(rig.mirror1_shape[0], rig.mirror1_shape[1]),
+            ? ProfileFunctions(HyperboloidSheet<double>::Mirror1(rig.mirror1_shape[kShapeC], rig.mirror1_shape[kShapeK]),
                                rig.profile1, rig.mirror1_profile.data(), 1)
             : "")
     << (content.draw_mirrors && rig.profile2.present
-            ? ProfileFunctions(HyperboloidSheet<double>::Mirror2(rig.mirror2_shape[0], rig.mirror2_shape[1], rig.d),
+            ? ProfileFunctions(HyperboloidSheet<double>::Mirror2(rig.mirror2_shape[kShapeC], rig.mirror2_shape[kShapeK], rig.d),
                                rig.profile2, rig.mirror2_profile.data(), 2)
             : "")
     << "camera { perspective location <0, 0, 0>\n"

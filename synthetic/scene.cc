@@ -83,8 +83,8 @@ RigParams RigAtImageSize(const RigParams& rig, int width, int height) {
   const double s = static_cast<double>(width) / rig.image_width;
   out.image_width = width;
   out.image_height = height;
-  out.camera = {s * rig.camera[0], s * rig.camera[1], s * (rig.camera[2] + 0.5) - 0.5,
-                s * (rig.camera[3] + 0.5) - 0.5, s * rig.camera[4]};
+  out.camera = {s * rig.camera[kFx], s * rig.camera[kFy], s * (rig.camera[kCx] + 0.5) - 0.5,
+                s * (rig.camera[kCy] + 0.5) - 0.5, s * rig.camera[kSkew]};
   return out;
 }
 

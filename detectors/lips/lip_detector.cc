@@ -150,7 +150,7 @@ class LipPrediction {
  public:
   LipPrediction(const RigModel& model, const LipDetectorOptions& options) : params_(model.params()) {
     const RigParams& rig = model.params();
-    const Eigen::Vector2d centre(rig.camera[2], rig.camera[3]);
+    const Eigen::Vector2d centre(rig.camera[kCx], rig.camera[kCy]);
     const RigBlocks<double> blocks = RigBlocksOf(rig);
     for (Mirror owner : {Mirror::kOne, Mirror::kTwo}) {
       const std::array<LipPath, 2> paths =
@@ -622,7 +622,7 @@ std::vector<LipEdgeFit> DetectLipEdges(const cv::Mat& raw_bgr, const RigModel& m
   const RigParams& rig = model.params();
   LipDetectorOptions options = options_in;
   if (options.search_px <= 0) {
-    options.search_px = std::max(20.0, kLipSearchPerFocal * 0.5 * (rig.camera[0] + rig.camera[1]));
+    options.search_px = std::max(20.0, kLipSearchPerFocal * 0.5 * (rig.camera[kFx] + rig.camera[kFy]));
   }
   if (raw_bgr.empty() || (raw_bgr.type() != CV_8UC3 && raw_bgr.type() != CV_16UC3) ||
       raw_bgr.cols != rig.image_width ||

@@ -6,6 +6,7 @@
 
 #include "model/lip.h"
 #include "model/rig_frames.h"
+#include "model/rig_parameters.h"
 
 namespace omni::detectors {
 namespace {
@@ -19,27 +20,23 @@ struct LipPointResidual {
   template <typename T>
   bool operator()(const T* intrinsics, const T* reflex_tilt, const T* phi, T* residual) const {
     const RigParams& rig = model->params();
-    const T camera[5] = {intrinsics[0], intrinsics[0], intrinsics[1], intrinsics[2], T(0)};
-    T distortion[5], shape1[2], shape2[2], pose1[5], pose2[5], reflex[3];
-    for (int i = 0; i < 5; ++i) {
-      distortion[i] = T(rig.distortion[i]);
-      pose1[i] = T(rig.mirror1_pose[i]);
-      pose2[i] = T(rig.mirror2_pose[i]);
+    // Every block at its nominal value (constants), then the coordinates refined here.
+    T flat[kRigParameterCount];
+    RigBlocks<T> blocks;
+    for (int b = 0; b < kRigBlockCount; ++b) {
+      const RigBlockId id = static_cast<RigBlockId>(b);
+      T* block = flat + BlockOffset(id);
+      for (int i = 0; i < kRigBlocks[id].size; ++i) block[i] = T(BlockIn(rig, id)[i]);
+      blocks[id] = block;
     }
-    for (int i = 0; i < 2; ++i) {
-      shape1[i] = T(rig.mirror1_shape[i]);
-      shape2[i] = T(rig.mirror2_shape[i]);
-    }
-    reflex[0] = reflex_tilt[0];
-    reflex[1] = reflex_tilt[1];
-    reflex[2] = T(rig.reflex[2]);
-    T profile1[kProfileTerms], profile2[kProfileTerms];
-    for (int i = 0; i < kProfileTerms; ++i) {
-      profile1[i] = T(rig.mirror1_profile[i]);
-      profile2[i] = T(rig.mirror2_profile[i]);
-    }
-    const RigBlocks<T> blocks{camera, distortion, shape1,   pose1,   reflex,
-                              shape2, pose2,      profile1, profile2};
+    T* camera = flat + BlockOffset(kCameraBlock);
+    camera[kFx] = camera[kFy] = intrinsics[0];
+    camera[kCx] = intrinsics[1];
+    camera[kCy] = intrinsics[2];
+    camera[kSkew] = T(0);
+    T* reflex = flat + BlockOffset(kReflexBlock);
+    reflex[kReflexRx] = reflex_tilt[0];
+    reflex[kReflexRy] = reflex_tilt[1];
     return LipEdgeResidual(blocks, model->fixed(), path, T(radius), T(LipOf(rig, path).z), phi[0],
                            model->fixed().r_ref, pixel, residual);
   }
@@ -52,8 +49,9 @@ struct LipPointResidual {
 
 // Distortion-free pinhole pixel of a point or direction (z > 0) in C.
 Eigen::Vector2d Pinhole(const RigParams& rig, const Eigen::Vector3d& p) {
-  return Eigen::Vector2d(rig.camera[0] * p.x() / p.z() + rig.camera[4] * p.y() / p.z() + rig.camera[2],
-                         rig.camera[1] * p.y() / p.z() + rig.camera[3]);
+  const auto& c = rig.camera;
+  return Eigen::Vector2d(c[kFx] * p.x() / p.z() + c[kSkew] * p.y() / p.z() + c[kCx],
+                         c[kFy] * p.y() / p.z() + c[kCy]);
 }
 
 }  // namespace
@@ -90,8 +88,9 @@ std::optional<LipIntrinsics> InitialIntrinsicsFromLips(const std::vector<LipEdge
                                                        const RigModel& nominal,
                                                        bool fit_reflex_tilt) {
   const RigParams& rig = nominal.params();
-  double intrinsics[3] = {0.5 * (rig.camera[0] + rig.camera[1]), rig.camera[2], rig.camera[3]};
-  double reflex_tilt[2] = {rig.reflex[0], rig.reflex[1]};
+  double intrinsics[3] = {0.5 * (rig.camera[kFx] + rig.camera[kFy]), rig.camera[kCx],
+                          rig.camera[kCy]};
+  double reflex_tilt[2] = {rig.reflex[kReflexRx], rig.reflex[kReflexRy]};
   struct Point {
     LipPath path;
     double radius;

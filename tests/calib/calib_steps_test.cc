@@ -37,11 +37,8 @@ TEST(CalibSteps, OptionsCheckNamesTheSessionKey) {
 
 TEST(CalibSteps, TheStageTableNamesTheParameterTablesBlocks) {
   for (const Stage* stage : AllStages()) {
-    for (const char* group : stage->groups) {
-      if (group) {
-        EXPECT_FALSE(BlockParameterNames(group).empty()) << stage->name << ": " << group;
-      }
-    }
+    // A stage refines named groups of the table, or all the Refinement names.
+    EXPECT_NE(stage->groups.none(), !stage->all_groups) << stage->name;
   }
   for (const Stage& stage : kRobustStages) {
     EXPECT_TRUE(stage.robust) << stage.name;
@@ -63,9 +60,8 @@ TEST(CalibSteps, AStageRefinesItsGroupsOfThoseRefined) {
   CalibrationOptions options;
   options.estimate = {"camera", "mirror1_pose"};
   const Refinement refined = RefinementOf(options);
-  EXPECT_EQ(StageGroups(kRobustStages[0], refined), std::set<std::string>({"camera"}));
-  EXPECT_EQ(StageGroups(kRobustStages[1], refined),
-            std::set<std::string>({"camera", "mirror1_pose"}));
+  EXPECT_EQ(StageGroups(kRobustStages[0], refined), BlockSetOf({kCameraBlock}));
+  EXPECT_EQ(StageGroups(kRobustStages[1], refined), BlockSetOf({kCameraBlock, kPose1Block}));
   EXPECT_EQ(StageGroups(kRobustStages[2], refined), refined.groups);
   EXPECT_EQ(StageGroups(kFinalStage, refined), refined.groups);
 }
@@ -73,23 +69,30 @@ TEST(CalibSteps, AStageRefinesItsGroupsOfThoseRefined) {
 TEST(CalibSteps, HeldCoordinatesFollowTheRefinement) {
   Refinement refined = RefinementOf(CalibrationOptions());
   auto index = [](const char* name) { return FindRigParameter(name)->index; };
-  EXPECT_EQ(HeldCoordinates(refined, "camera"), std::vector<int>({index("skew")}));
-  EXPECT_EQ(HeldCoordinates(refined, "distortion"),
+  EXPECT_EQ(HeldCoordinates(refined, kCameraBlock), std::vector<int>({index("skew")}));
+  EXPECT_EQ(HeldCoordinates(refined, kDistortionBlock),
             std::vector<int>({index("dist_p1"), index("dist_p2"), index("dist_k3")}));
-  EXPECT_TRUE(HeldCoordinates(refined, "mirror1_pose").empty());
-  EXPECT_EQ(HeldCoordinates(refined, "mirror1_profile").size(), size_t{kProfileTerms});
+  EXPECT_TRUE(HeldCoordinates(refined, kPose1Block).empty());
+  EXPECT_EQ(HeldCoordinates(refined, kProfile1Block).size(), size_t{kProfileTerms});
+  // The solve's held columns: those of the blocks it refines in part; none of a block held whole.
+  refined.groups.set(kProfile1Block);
+  const BlockMasks held = HeldColumns(refined.groups, refined);
+  EXPECT_EQ(held[kCameraBlock], 1u << index("skew"));
+  EXPECT_EQ(held[kDistortionBlock],
+            (1u << index("dist_p1")) | (1u << index("dist_p2")) | (1u << index("dist_k3")));
+  EXPECT_EQ(held[kProfile1Block], 0u);
   refined.dist_k3 = true;
   refined.profile_free[0] = true;
-  EXPECT_EQ(HeldCoordinates(refined, "distortion"),
+  EXPECT_EQ(HeldCoordinates(refined, kDistortionBlock),
             std::vector<int>({index("dist_p1"), index("dist_p2")}));
-  EXPECT_TRUE(HeldCoordinates(refined, "mirror1_profile").empty());
-  EXPECT_EQ(HeldCoordinates(refined, "mirror2_profile").size(), size_t{kProfileTerms});
+  EXPECT_TRUE(HeldCoordinates(refined, kProfile1Block).empty());
+  EXPECT_EQ(HeldCoordinates(refined, kProfile2Block).size(), size_t{kProfileTerms});
 }
 
 TEST(CalibSteps, DistK3IsFreedWhereTheCovarianceSaysTheRadiiTellItApart) {
   const RigParams rig = testing::IdealRig();
   std::vector<Observation> corners(1);
-  corners[0].pixel = Eigen::Vector2d(rig.camera[2] + 0.4 * rig.camera[0], rig.camera[3]);
+  corners[0].pixel = Eigen::Vector2d(rig.camera[kCx] + 0.4 * rig.camera[kFx], rig.camera[kCy]);
   CalibrationOptions options;
   Refinement refined = RefinementOf(options);
   CalibrationResult result;
@@ -110,7 +113,7 @@ TEST(CalibSteps, DistK3IsFreedWhereTheCovarianceSaysTheRadiiTellItApart) {
   EXPECT_TRUE(refined.dist_k3);
   EXPECT_NE(result.solve.notes.back().find("dist_k3 refined"), std::string::npos)
       << result.solve.notes.back();
-  EXPECT_EQ(HeldCoordinates(refined, "distortion").size(), 2u);
+  EXPECT_EQ(HeldCoordinates(refined, kDistortionBlock).size(), 2u);
 }
 
 TEST(CalibSteps, BuildProblemWiresEachObservationToTheRigsBlocks) {
@@ -133,6 +136,7 @@ TEST(CalibSteps, BuildProblemWiresEachObservationToTheRigsBlocks) {
   ProblemOptions po;
   po.groups = StageGroups(kFinalStage, refined);
   po.selection = kFinalStage.selection;
+  MarkProjectable(rig, po.selection, &observations);
   const std::unique_ptr<CalibrationProblem> built =
       BuildProblem(&rig, &observations, Weights(), refined, po, &costs);
   ASSERT_GT(built->n_corners, 100);

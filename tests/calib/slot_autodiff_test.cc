@@ -1,8 +1,8 @@
-// calib/slot_autodiff.h against the oracle ceres::AutoDiffCostFunction over the same functors
+// calib/slot_autodiff.h against the oracle ceres::DynamicAutoDiffCostFunction over the same functors
 // (corner costs through each mirror, lip costs along every path) on the misaligned big rig: the
 // same residuals and Jacobians, including the columns the slot version writes as zeros without
 // differentiating (blocks declared no-derivative, held coordinates, constant blocks).
-#include <ceres/autodiff_cost_function.h>
+#include <ceres/dynamic_autodiff_cost_function.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -17,6 +17,17 @@
 
 namespace omni::calib {
 namespace {
+
+// The oracle: plain automatic differentiation of `functor` over its rig blocks, then `extra`
+// nuisance blocks of the given sizes.
+template <typename Functor>
+std::unique_ptr<ceres::CostFunction> Plain(Functor* functor, std::vector<int> extra) {
+  auto* cost = new ceres::DynamicAutoDiffCostFunction<Functor, 4>(functor);
+  for (RigBlockId b : Functor::kBlocks) cost->AddParameterBlock(kRigBlocks[b].size);
+  for (int size : extra) cost->AddParameterBlock(size);
+  cost->SetNumResiduals(2);
+  return std::unique_ptr<ceres::CostFunction>(cost);
+}
 
 // Evaluates `cost` with Jacobians for the blocks whose `want` is true (others nullptr).
 struct Evaluation {
@@ -77,10 +88,10 @@ class SlotAutoDiffTest : public ::testing::Test {
     rig_.profile2 = DefaultProfileShape(rig_, Mirror::kTwo);
     rig_.mirror1_profile = {0.004, -0.002, 0.001, 0.0005, 0.001, -0.0008};
     rig_.mirror2_profile = {-0.003, 0.002, -0.001, 0.0004, -0.0006, 0.0009};
-    fixed_ = FixedOf(rig_);
+    fixed_ = std::make_shared<const RigFixed>(FixedOf(rig_));
   }
   RigParams rig_;
-  RigFixed fixed_;
+  std::shared_ptr<const RigFixed> fixed_;
 };
 
 TEST_F(SlotAutoDiffTest, CornerCostsMatchPlainAutoDiff) {
@@ -99,15 +110,16 @@ TEST_F(SlotAutoDiffTest, CornerCostsMatchPlainAutoDiff) {
         const auto pixel = model.Project(point_in_cam, mirror);
         if (!pixel) continue;
         const Eigen::Vector2d observed = *pixel + Eigen::Vector2d(0.3, -0.2);
-        uint32_t held_camera = 0b10000, held_distortion = 0b11100;  // skew; p1, p2, k3
-        std::unique_ptr<ceres::CostFunction> plain, slot;
+        BlockMasks held_masks{};
+        held_masks[kCameraBlock] = 0b10000;  // skew
+        held_masks[kDistortionBlock] = 0b11100;  // p1, p2, k3
+        std::unique_ptr<ceres::CostFunction> plain, slot, slot_none_held;
         std::vector<double*> blocks;
         int n_nonzero = 0;
         if (mirror == Mirror::kOne) {
-          plain.reset(new ceres::AutoDiffCostFunction<Mirror1CornerCost, 2, 5, 5, 2, 6, 5, 3, 6>(
-              new Mirror1CornerCost{observed, corner_in_target, fixed_}));
-          slot.reset(Mirror1CornerCost::Create(observed, corner_in_target, fixed_, &held_camera,
-                                               &held_distortion));
+          plain = Plain(new Mirror1CornerCost{observed, corner_in_target, fixed_}, {6});
+          slot.reset(Mirror1CornerCost::Create(observed, corner_in_target, fixed_, held_masks));
+          slot_none_held.reset(Mirror1CornerCost::Create(observed, corner_in_target, fixed_));
           blocks = {rig_.camera.data(),       rig_.distortion.data(),
                     rig_.mirror1_shape.data(), rig_.mirror1_profile.data(),
                     rig_.mirror1_pose.data(),  rig_.reflex.data(), pose};
@@ -117,10 +129,9 @@ TEST_F(SlotAutoDiffTest, CornerCostsMatchPlainAutoDiff) {
           ExpectSame(*plain, *slot, blocks, {true, true, false, false, true, true, true},
                      {0b10000, 0b11100, 0, 0, 0, 0, 0}, &n_nonzero);
         } else {
-          plain.reset(new ceres::AutoDiffCostFunction<Mirror2CornerCost, 2, 5, 5, 5, 3, 2, 6, 5, 6>(
-              new Mirror2CornerCost{observed, corner_in_target, fixed_}));
-          slot.reset(Mirror2CornerCost::Create(observed, corner_in_target, fixed_, &held_camera,
-                                               &held_distortion));
+          plain = Plain(new Mirror2CornerCost{observed, corner_in_target, fixed_}, {6});
+          slot.reset(Mirror2CornerCost::Create(observed, corner_in_target, fixed_, held_masks));
+          slot_none_held.reset(Mirror2CornerCost::Create(observed, corner_in_target, fixed_));
           blocks = {rig_.camera.data(),        rig_.distortion.data(), rig_.mirror1_pose.data(),
                     rig_.reflex.data(),        rig_.mirror2_shape.data(),
                     rig_.mirror2_profile.data(), rig_.mirror2_pose.data(), pose};
@@ -129,17 +140,9 @@ TEST_F(SlotAutoDiffTest, CornerCostsMatchPlainAutoDiff) {
           ExpectSame(*plain, *slot, blocks, {true, true, true, true, false, false, true, true},
                      {0b10000, 0b11100, 0, 0, 0, 0, 0, 0}, &n_nonzero);
         }
-        // The held masks are read at evaluation time.
-        held_camera = held_distortion = 0;
-        ExpectSame(*plain, *slot, blocks, std::vector<bool>(blocks.size(), true),
+        // Built with none held: every column.
+        ExpectSame(*plain, *slot_none_held, blocks, std::vector<bool>(blocks.size(), true),
                    std::vector<uint32_t>(blocks.size(), 0), &n_nonzero);
-        held_camera = 0b10000;
-        held_distortion = 0b11100;
-        std::vector<uint32_t> held(blocks.size(), 0);
-        held[0] = held_camera;
-        held[1] = held_distortion;
-        ExpectSame(*plain, *slot, blocks, std::vector<bool>(blocks.size(), true), held,
-                   &n_nonzero);
         EXPECT_GT(n_nonzero, 40);  // the comparison saw real derivatives
         ++checked[MirrorIndex(mirror) - 1];
       }
@@ -154,14 +157,15 @@ TEST_F(SlotAutoDiffTest, LipCostsMatchPlainAutoDiffOnEveryPath) {
   for (LipPath path :
        {LipPath::kDirect, LipPath::kViaMirror1, LipPath::kViaReflex, LipPath::kViaMirror2}) {
     // The calibration's relaxed bounds for lip residuals (lips lie at the mirrors' rims).
-    RigFixed lip_fixed = fixed_;
-    lip_fixed.r_sys += 30;
+    RigFixed relaxed = *fixed_;
+    relaxed.r_sys += 30;
     if (LipOwner(path) == Mirror::kOne) {
-      lip_fixed.r_ref = 0;
+      relaxed.r_ref = 0;
     } else {
-      lip_fixed.r_ref += 30;
-      lip_fixed.r_cam = 0;
+      relaxed.r_ref += 30;
+      relaxed.r_cam = 0;
     }
+    const auto lip_fixed = std::make_shared<const RigFixed>(relaxed);
     int checked = 0;
     for (LipCircle circle : {LipCircle::kInner, LipCircle::kOuter}) {
       const Lip& lip = LipOf(rig_, path);
@@ -171,24 +175,27 @@ TEST_F(SlotAutoDiffTest, LipCostsMatchPlainAutoDiffOnEveryPath) {
         if (!pixel) continue;
         const Eigen::Vector2d observed = *pixel + Eigen::Vector2d(-0.2, 0.25);
         double phi[1] = {phi0};
-        uint32_t held_camera = 0b10000, held_distortion = 0b11100;
-        ceres::AutoDiffCostFunction<LipPointCost, 2, 5, 5, 2, 5, 3, 2, 5, 6, 6, 1> plain(
-            new LipPointCost{observed, path, radius, lip.z, lip_fixed});
-        std::unique_ptr<ceres::CostFunction> slot(LipPointCost::Create(
-            observed, path, radius, lip.z, lip_fixed, &held_camera, &held_distortion));
+        BlockMasks held_masks{};
+        held_masks[kCameraBlock] = 0b10000;
+        held_masks[kDistortionBlock] = 0b11100;
+        const std::unique_ptr<ceres::CostFunction> plain =
+            Plain(new LipPointCost{observed, path, radius, lip.z, lip_fixed}, {1});
+        std::unique_ptr<ceres::CostFunction> slot(
+            LipPointCost::Create(observed, path, radius, lip.z, lip_fixed, held_masks));
+        std::unique_ptr<ceres::CostFunction> slot_none_held(
+            LipPointCost::Create(observed, path, radius, lip.z, lip_fixed));
         const std::vector<double*> blocks = {
             rig_.camera.data(),        rig_.distortion.data(),   rig_.mirror1_shape.data(),
             rig_.mirror1_pose.data(),  rig_.reflex.data(),       rig_.mirror2_shape.data(),
             rig_.mirror2_pose.data(), rig_.mirror1_profile.data(), rig_.mirror2_profile.data(),
             phi};
         int n_nonzero = 0;
-        ExpectSame(plain, *slot, blocks, std::vector<bool>(10, true),
+        ExpectSame(*plain, *slot, blocks, std::vector<bool>(10, true),
                    {0b10000, 0b11100, 0, 0, 0, 0, 0, 0, 0, 0}, &n_nonzero);
-        ExpectSame(plain, *slot, blocks,
+        ExpectSame(*plain, *slot, blocks,
                    {true, true, false, true, true, false, true, false, false, true},
                    {0b10000, 0b11100, 0, 0, 0, 0, 0, 0, 0, 0}, &n_nonzero);
-        held_camera = held_distortion = 0;
-        ExpectSame(plain, *slot, blocks, std::vector<bool>(10, true),
+        ExpectSame(*plain, *slot_none_held, blocks, std::vector<bool>(10, true),
                    std::vector<uint32_t>(10, 0), &n_nonzero);
         EXPECT_GT(n_nonzero, 20) << LipPathName(path);
         ++checked;

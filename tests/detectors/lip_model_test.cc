@@ -9,6 +9,7 @@
 
 #include "io/model_file.h"
 #include "model/lip.h"
+#include "tests/model/rig_test_util.h"
 
 namespace omni {
 namespace {
@@ -187,21 +188,10 @@ TEST(LipModel, ViaReflexRimEdgeJetDerivativeMatchesFiniteDifferences) {
                                           "/sample_configs/big_rig_large_reflex.yaml");
   const RigModel model(rig);
   const double phi = M_PI;  // the rim hides the outer circle there
-  Jet camera[5], dist[5], s1[2], s2[2], p1[5], p2[5], reflex[3];
-  for (int i = 0; i < 5; ++i) {
-    camera[i] = Jet(rig.camera[i]);
-    dist[i] = Jet(rig.distortion[i]);
-    p1[i] = Jet(rig.mirror1_pose[i]);
-    p2[i] = Jet(rig.mirror2_pose[i]);
-  }
-  for (int i = 0; i < 2; ++i) {
-    s1[i] = Jet(rig.mirror1_shape[i]);
-    s2[i] = Jet(rig.mirror2_shape[i]);
-  }
-  for (int i = 0; i < 3; ++i) reflex[i] = Jet(rig.reflex[i]);
-  reflex[0] = Jet(rig.reflex[0], 0);
-  p1[2] = Jet(rig.mirror1_pose[2], 1);
-  const RigBlocks<Jet> blocks{camera, dist, s1, p1, reflex, s2, p2};
+  auto x = testing::FlatConstants<Jet>(rig);
+  x[BlockOffset(kReflexBlock) + kReflexRx].v[0] = 1;
+  x[BlockOffset(kPose1Block) + kTx].v[1] = 1;
+  const RigBlocks<Jet> blocks = testing::BlocksOver(x);
   Vec2<Jet> pixel;
   LipBound bound;
   ASSERT_TRUE(ProjectLipEdge(blocks, model.fixed(), LipPath::kViaReflex, Jet(rig.lip2.r_outer),
@@ -211,8 +201,8 @@ TEST(LipModel, ViaReflexRimEdgeJetDerivativeMatchesFiniteDifferences) {
   for (int k = 0; k < 3; ++k) {
     RigParams plus = rig, minus = rig;
     double phi_p = phi, phi_m = phi;
-    if (k == 0) { plus.reflex[0] += h[k]; minus.reflex[0] -= h[k]; }
-    if (k == 1) { plus.mirror1_pose[2] += h[k]; minus.mirror1_pose[2] -= h[k]; }
+    if (k == 0) { plus.reflex[kReflexRx] += h[k]; minus.reflex[kReflexRx] -= h[k]; }
+    if (k == 1) { plus.mirror1_pose[kTx] += h[k]; minus.mirror1_pose[kTx] -= h[k]; }
     if (k == 2) { phi_p += h[k]; phi_m -= h[k]; }
     Eigen::Vector2d a, b;
     ASSERT_TRUE(ProjectLipEdge(RigBlocksOf(plus), model.fixed(), LipPath::kViaReflex,
@@ -233,22 +223,11 @@ TEST(LipModel, JetDerivativeMatchesFiniteDifferences) {
     const double phi = 0.3;
     const Lip& lip = LipOf(rig, path);
     // d pixel / d (fx, cx, phi) by Jets.
-    Jet camera[5], dist[5], s1[2], s2[2], p1[5], p2[5], reflex[3];
-    for (int i = 0; i < 5; ++i) {
-      camera[i] = Jet(rig.camera[i]);
-      dist[i] = Jet(rig.distortion[i]);
-      p1[i] = Jet(rig.mirror1_pose[i]);
-      p2[i] = Jet(rig.mirror2_pose[i]);
-    }
-    for (int i = 0; i < 2; ++i) {
-      s1[i] = Jet(rig.mirror1_shape[i]);
-      s2[i] = Jet(rig.mirror2_shape[i]);
-    }
-    for (int i = 0; i < 3; ++i) reflex[i] = Jet(rig.reflex[i]);
-    camera[0] = Jet(rig.camera[0], 0);
-    camera[2] = Jet(rig.camera[2], 1);
+    auto x = testing::FlatConstants<Jet>(rig);
+    x[BlockOffset(kCameraBlock) + kFx].v[0] = 1;
+    x[BlockOffset(kCameraBlock) + kCx].v[1] = 1;
     const Jet phi_jet(phi, 2);
-    const RigBlocks<Jet> blocks{camera, dist, s1, p1, reflex, s2, p2};
+    const RigBlocks<Jet> blocks = testing::BlocksOver(x);
     Vec2<Jet> pixel;
     ASSERT_TRUE(ProjectLipPoint(blocks, model.fixed(), path, Jet(lip.r_outer), Jet(lip.z), phi_jet, &pixel));
     // Finite differences in double.

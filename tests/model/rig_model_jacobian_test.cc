@@ -34,7 +34,10 @@ constexpr int kNumBlocks = sizeof(kBlocks) / sizeof(kBlocks[0]);
 template <typename T>
 bool Evaluate(Mirror mirror, const T* x, const RigFixed& fixed, Vec2<T>* pixel) {
   const Vec3<T> point(x[0], x[1], x[2]);
-  const RigBlocks<T> blocks{x + 3, x + 8, x + 13, x + 17, x + 27, x + 15, x + 22, x + 30, x + 36};
+  RigBlocks<T> blocks;  // after the point, the blocks in the table's flat order (kBlocks)
+  for (int b = 0; b < kRigBlockCount; ++b) {
+    blocks[static_cast<RigBlockId>(b)] = x + 3 + BlockOffset(static_cast<RigBlockId>(b));
+  }
   return mirror == Mirror::kOne ? ProjectViaMirror1(blocks, fixed, point, pixel)
                                 : ProjectViaMirror2(blocks, fixed, point, pixel);
 }

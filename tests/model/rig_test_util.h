@@ -1,17 +1,39 @@
 // Rigs and grids shared by the non-central model tests.
 #pragma once
 
+#include <array>
 #include <cmath>
 #include <random>
 #include <vector>
 
 #include "model/rig_model.h"
+#include "model/rig_parameters.h"
 #include "model/rig_params.h"
 #include "tests/model/test_rigs.h"
 
 namespace omni::testing {
 
 constexpr double kRigDeg = M_PI / 180.0;
+
+// Every parameter of `rig` as a constant of type T (e.g. a Jet), flat in the table's order.
+template <typename T>
+std::array<T, kRigParameterCount> FlatConstants(const RigParams& rig) {
+  std::array<T, kRigParameterCount> x;
+  for (int b = 0; b < kRigBlockCount; ++b) {
+    const RigBlockId id = static_cast<RigBlockId>(b);
+    for (int k = 0; k < kRigBlocks[id].size; ++k) x[BlockOffset(id) + k] = T(BlockIn(rig, id)[k]);
+  }
+  return x;
+}
+// The blocks over a flat parameter vector (FlatConstants).
+template <typename T>
+RigBlocks<T> BlocksOver(const std::array<T, kRigParameterCount>& x) {
+  RigBlocks<T> blocks;
+  for (int b = 0; b < kRigBlockCount; ++b) {
+    blocks[static_cast<RigBlockId>(b)] = x.data() + BlockOffset(static_cast<RigBlockId>(b));
+  }
+  return blocks;
+}
 
 // The nominal big rig, r_cam = 7 mm, 1280 x 960.
 inline RigParams BigRigParams() {
