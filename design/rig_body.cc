@@ -124,7 +124,7 @@ RigBodyQuantities RigBodyQuantitiesOf(const RigParams& rig) {
   const Pose<double> cam_from_m2 = PoseFromBlock(rig.mirror2_pose.data());
   const Pose<double> m1_from_cam = cam_from_m1.Inverse();
   const Mat3<double> m1_from_m2 = m1_from_cam.rotation * cam_from_m2.rotation;
-  const double c2 = rig.mirror2_shape[0], k2 = rig.mirror2_shape[1];
+  const double c2 = rig.mirror2_shape[kShapeC], k2 = rig.mirror2_shape[kShapeK];
   const double vertex2 = HyperboloidSheet<double>::Mirror2(c2, k2, rig.d).VertexZ();
   const Eigen::Vector3d vertex2_in_m1 = m1_from_cam * (cam_from_m2 * Eigen::Vector3d(0, 0, vertex2));
   const Eigen::Vector3d axis2_in_m1 = m1_from_m2 * Eigen::Vector3d::UnitZ();

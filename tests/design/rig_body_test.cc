@@ -48,8 +48,8 @@ TEST(RigBody, QuantitiesOfAMirror2PoseAgainstAnAlignedMirror1) {
   RigParams rig = BigRig();
   rig.mirror2_pose = {0.004, -0.003, 0.21, -0.12, 0.15};
   const RigBodyQuantities q = RigBodyQuantitiesOf(rig);
-  const double vertex = HyperboloidSheet<double>::Mirror2(rig.mirror2_shape[0],
-                                                           rig.mirror2_shape[1], rig.d).VertexZ();
+  const double vertex = HyperboloidSheet<double>::Mirror2(rig.mirror2_shape[kShapeC],
+                                                           rig.mirror2_shape[kShapeK], rig.d).VertexZ();
   const Eigen::Matrix3d r = Tilt(0.004, -0.003);
   const Eigen::Vector3d v = r * Eigen::Vector3d(0, 0, vertex) + Eigen::Vector3d(0.21, -0.12, 0.15);
   EXPECT_NEAR(q.mirror2_decentre_mm.x(), v.x(), 1e-12);
