@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <set>
 #include <map>
+#include <optional>
 #include <string>
 #include <tuple>
 
@@ -21,13 +22,13 @@
 
 #include "apps/command.h"
 #include "apps/common_flags.h"
+#include "apps/detect_cli.h"
 #include "apps/progress.h"
 #include "calib/calibrate.h"
 #include "calib/projection_uncertainty.h"
 #include "calib/session_options.h"
 #include "design/tolerance.h"
 #include "design/tolerance_file.h"
-#include "detectors/detect_image.h"
 #include "detectors/detect_session.h"
 #include "io/detections_file.h"
 #include "io/model_file.h"
@@ -57,37 +58,18 @@ std::string UtcNow() {
   return buf;
 }
 
+// The session detected as `detect` does, with each image's line naming its corners per ring.
 Observations DetectSession(const io::Session& session, const RigParams& start) {
-  detectors::DetectorContext ctx(start, session.targets, session.use_lips);
-  bool nothing_read = false;
-  const detectors::LipGuide guide = detectors::GuideSessionByLips(session, &ctx, &nothing_read);
-  if (!nothing_read) std::printf("%s\n", detectors::GuideLine(guide).c_str());
-  std::fflush(stdout);  // before the progress lines on stderr
-  detectors::RepeatedSheets repeated;
-  ProgressLine progress("detect", static_cast<int>(session.images.size()));
-  Observations detections = detectors::DetectSession(
-      session, &ctx, [&](const detectors::ImageReport& r, const cv::Mat&, ImageObservations*) {
-        repeated.Add(r);
-        for (size_t k = 0; k < r.warnings.size(); ++k) {
-          const std::string line = "warning: " + r.file + ": " + r.warnings[k] +
-                                   (r.skipped ? "; skipped" : "");
-          if (r.skipped && k + 1 == r.warnings.size()) {
-            progress.Done(line);
-          } else {
-            progress.Print(line);
-          }
-        }
-        if (!r.skipped) {
-          char line[512];
-          std::snprintf(line, sizeof(line), "[%zu/%zu] %s: %d corners in ring 1, %d in ring 2 (%.0f ms)",
-                        r.index + 1, r.total, r.file.c_str(), r.corners[0], r.corners[1], r.ms);
-          progress.Done(line);
-        }
-      });
-  progress.Finish();
-  const std::string note = repeated.Note(session.targets);
-  if (!note.empty()) std::fprintf(stderr, "warning: %s: %s\n", FLAGS_session.c_str(), note.c_str());
-  return detections;
+  std::optional<ProgressLine> progress;
+  detectors::SessionDetectOptions options;
+  options.image_detail = false;
+  const detectors::SessionDetection found = detectors::DetectSessionReported(
+      session, start, options, ProgressHooks("detect", session.images.size(), &progress));
+  if (progress) progress->Finish();
+  if (!found.repeated_note.empty()) {
+    std::fprintf(stderr, "warning: %s: %s\n", FLAGS_session.c_str(), found.repeated_note.c_str());
+  }
+  return found.detections;
 }
 
 // The calibration with its stages' lines on stderr and, on a terminal, a status line (stage,
@@ -340,7 +322,8 @@ int RunCalibrate() {
     namespace fs = std::filesystem;
     const fs::path out(FLAGS_out);
     detections_path = (out.parent_path() / (out.stem().string() + "_detections.yaml")).string();
-    io::WriteDetectionsFile(detections_path, detections);
+    io::WriteDetectionsFile(detections_path,
+                            io::WithPathsRelativeToFile(detections, detections_path));
   }
   io::WriteModelFile(FLAGS_out, result.rig);
   std::printf("calibrated model written to %s\n", FLAGS_out.c_str());

@@ -97,9 +97,10 @@ void StartingIntrinsics(const std::vector<std::string>& images, RigParams* rig, 
   rig->image_height = height;
   io::Session lips_only;
   lips_only.images.assign(images.begin(), images.begin() + std::min<size_t>(3, images.size()));
-  detectors::DetectorContext ctx(*rig, {}, true);
-  const Observations found = detectors::DetectSession(lips_only, &ctx);
-  const auto lips = detectors::InitialIntrinsicsFromLipsOf(found, ctx.model);
+  detectors::SessionDetectOptions options;
+  options.guide_by_lips = false;  // the lips alone, from the design's shape at this size
+  const Observations found = detectors::DetectSessionReported(lips_only, *rig, options).detections;
+  const auto lips = detectors::InitialIntrinsicsFromLipsOf(found, RigModel(*rig));
   if (!lips) {
     std::printf("intrinsics from the image size (f %.1f px, principal point at the centre): no "
                 "lips found in the first photos (check `color:` of the lips in %s)\n",

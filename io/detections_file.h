@@ -14,5 +14,9 @@ Observations ReadDetectionsFile(const std::string& path);
 std::string DetectionsText(const Observations& detections);
 // Atomic write.
 void WriteDetectionsFile(const std::string& path, const Observations& detections);
+// The detections as a file at `path` names them: each image's file and the session relative to
+// that file's folder where they lie below it (else as given), so that the file is read the
+// same from any working folder (`report` finds the session, `calibrate --report` the images).
+Observations WithPathsRelativeToFile(Observations detections, const std::string& path);
 
 }  // namespace omni::io
