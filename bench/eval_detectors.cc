@@ -24,6 +24,8 @@
 #include <string>
 #include <vector>
 
+#include <malloc.h>
+
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgcodecs.hpp>
 
@@ -129,6 +131,10 @@ int main(int argc, char** argv) {
     return 2;
   }
   cv::setNumThreads(1);
+  // The allocator as `omnistereo` sets it (apps/main.cc): image buffers kept on the heap for the
+  // next image, so that the time per image is the command's.
+  mallopt(M_MMAP_THRESHOLD, 32 << 20);
+  mallopt(M_TRIM_THRESHOLD, 256 << 20);
   const RigParams rig = io::ReadModelFile(argv[1]);
   const RigModel model(rig);
   const RigParams nominal = argc == 5 ? io::ReadModelFile(argv[4]) : rig;
