@@ -14,7 +14,6 @@
 // --model M detects with M instead of the session's model (a second pass from the calibrated model).
 #include <cstdio>
 #include <filesystem>
-#include <optional>
 #include <string>
 #include <vector>
 
@@ -69,25 +68,18 @@ int RunDetect() {
   // so guided detection finds more corners).
   const RigParams rig = io::ReadModelFile(FLAGS_model.empty() ? session.model_path : FLAGS_model);
   if (!FLAGS_overlay.empty()) CreateFolder(FLAGS_overlay, "--overlay");
-  const size_t n = session.images.size();
-  std::optional<ProgressLine> progress;
-  detectors::SessionDetectHooks hooks = ProgressHooks("detect", n, &progress);
+  decltype(detectors::SessionDetectHooks::detected) overlay;
   if (!FLAGS_overlay.empty()) {
-    hooks.detected = [&](const detectors::ImageReport& r, const cv::Mat& image,
-                         const ImageObservations& det, const detectors::RingLayout& layout) {
+    overlay = [&](const detectors::ImageReport& r, const cv::Mat& image,
+                  const ImageObservations& det, const detectors::RingLayout& layout) {
       WriteOverlay((fs::path(FLAGS_overlay) / (fs::path(r.file).stem().string() + ".png")).string(),
                    image, layout, det, session.targets);
     };
   }
-  const detectors::SessionDetection found =
-      detectors::DetectSessionReported(session, rig, {}, hooks);
-  if (progress) progress->Finish();
-  if (!found.repeated_note.empty()) {
-    std::fprintf(stderr, "warning: %s: %s\n", FLAGS_session.c_str(), found.repeated_note.c_str());
-  }
+  const detectors::SessionDetection found = DetectOnTerminal(session, rig, {}, overlay);
   io::WriteDetectionsFile(FLAGS_out, io::WithPathsRelativeToFile(found.detections, FLAGS_out));
   std::printf("%zu of %zu images used (%zu skipped), %d corners, detections in %s\n",
-              found.detections.images.size(), n, found.skipped, found.corners, FLAGS_out.c_str());
+              found.detections.images.size(), session.images.size(), found.skipped, found.corners, FLAGS_out.c_str());
   std::printf("%s", detectors::TargetSummary(session.targets, found.detections).c_str());
   if (session.targets.empty()) {
     std::printf("%s", detectors::LipsOnlyCheck(found.detections, RigModel(rig)).c_str());

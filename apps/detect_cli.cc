@@ -1,21 +1,34 @@
 #include "apps/detect_cli.h"
 
 #include <cstdio>
+#include <optional>
 #include <string>
+
+#include "apps/progress.h"
 
 namespace omni::apps {
 
-detectors::SessionDetectHooks ProgressHooks(const char* what, size_t images,
-                                            std::optional<ProgressLine>* progress) {
+detectors::SessionDetection DetectOnTerminal(
+    const io::Session& session, const RigParams& rig,
+    const detectors::SessionDetectOptions& options,
+    const decltype(detectors::SessionDetectHooks::detected)& detected) {
+  std::optional<ProgressLine> progress;
   detectors::SessionDetectHooks hooks;
-  hooks.before_images = [what, images, progress](const std::string& guide_line) {
+  hooks.before_images = [&](const std::string& guide_line) {
     if (!guide_line.empty()) std::printf("%s\n", guide_line.c_str());
     std::fflush(stdout);  // before the progress lines on stderr
-    progress->emplace(what, static_cast<int>(images));
+    progress.emplace("detect", static_cast<int>(session.images.size()));
   };
-  hooks.warning = [progress](const std::string& line) { (*progress)->Print(line); };
-  hooks.image_done = [progress](const std::string& line) { (*progress)->Done(line); };
-  return hooks;
+  hooks.warning = [&](const std::string& line) { progress->Print(line); };
+  hooks.image_done = [&](const std::string& line) { progress->Done(line); };
+  hooks.detected = detected;
+  detectors::SessionDetection found =
+      detectors::DetectSessionReported(session, rig, options, hooks);
+  progress->Finish();
+  if (!found.repeated_note.empty()) {
+    std::fprintf(stderr, "warning: %s: %s\n", session.path.c_str(), found.repeated_note.c_str());
+  }
+  return found;
 }
 
 }  // namespace omni::apps

@@ -184,4 +184,22 @@ Observations WithPathsRelativeToFile(Observations detections, const std::string&
   return detections;
 }
 
+std::vector<std::string> ImagePathsOf(const Observations& detections, const std::string& path,
+                                      const std::vector<std::string>& fallback) {
+  std::vector<std::string> out;
+  const fs::path base = fs::path(path).parent_path();
+  for (size_t i = 0; i < detections.images.size(); ++i) {
+    const std::string& file = detections.images[i].file;
+    std::string found = i < fallback.size() ? fallback[i] : file;
+    for (const fs::path& candidate : {fs::path(file), base / file}) {
+      if (fs::is_regular_file(candidate)) {
+        found = candidate.string();
+        break;
+      }
+    }
+    out.push_back(found);
+  }
+  return out;
+}
+
 }  // namespace omni::io
