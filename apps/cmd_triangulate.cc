@@ -20,6 +20,7 @@
 
 #include "apps/command.h"
 #include "apps/common_flags.h"
+#include "apps/stereo_cli.h"
 #include "io/csv.h"
 #include "io/detections_file.h"
 #include "io/model_file.h"
@@ -51,14 +52,10 @@ DEFINE_bool(model_covariance, false, "add the calibrated model's parameter covar
 namespace omni::apps {
 namespace {
 
-void RequireFlag(const std::string& value, const char* flag, const char* what) {
-  if (value.empty()) throw io::InputError(std::string("--") + flag + ": expected " + what);
-}
-
 // The flags as triangulation options; throws io::InputError naming the flag.
 TriangulationOptions OptionsFromFlags() {
-  RequireFlag(FLAGS_model, "model", "a model file (omnistereo-model/1)");
-  RequireFlag(FLAGS_out, "out", "the output CSV path");
+  RequireStereoFlag(FLAGS_model, "model", "a model file (omnistereo-model/1)");
+  RequireStereoFlag(FLAGS_out, "out", "the output CSV path");
   if (FLAGS_detections.empty() && FLAGS_truth.empty()) {
     throw io::InputError("--detections: expected a detections file (omnistereo-detections/1), "
                          "or --truth to triangulate the truth's pixels");
