@@ -13,12 +13,18 @@ namespace {
 
 // printf appended to *out.
 void Append(std::string* out, const char* format, ...) {
-  char buf[1024];
-  va_list args;
+  va_list args, size_args;
   va_start(args, format);
-  std::vsnprintf(buf, sizeof buf, format, args);
+  va_copy(size_args, args);
+  const int n = std::vsnprintf(nullptr, 0, format, size_args);
+  va_end(size_args);
+  if (n > 0) {
+    const size_t old = out->size();
+    out->resize(old + n + 1);
+    std::vsnprintf(out->data() + old, n + 1, format, args);
+    out->resize(old + n);
+  }
   va_end(args);
-  *out += buf;
 }
 
 int RangeBin(double range_mm) {
