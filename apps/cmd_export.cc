@@ -11,7 +11,6 @@
 //                  as PATH-without-extension_residual.png)
 // An uncalibrated model (no calibration: section) is refused unless --allow_uncalibrated: an
 // export of the design is not the user's rig. Files are written whole or not at all.
-#include <cmath>
 #include <cstdio>
 #include <string>
 
@@ -25,6 +24,7 @@
 #include "apps/stereo_cli.h"
 #include "exports/camchain.h"
 #include "exports/central_fit.h"
+#include "exports/central_report.h"
 #include "exports/npy.h"
 #include "exports/panorama_maps.h"
 #include "exports/ray_table.h"
@@ -87,27 +87,14 @@ int ExportPanoramaMaps(const RigModel& model) {
   return 0;
 }
 
-// Both rings' residual maps side by side in one colour image over the frame: blue 0 px, red at
-// the larger ring maximum; the scale is printed and drawn as a colour bar (top right).
+// Both rings' residual maps in one colour image over the frame (exports::BothResidualMaps): blue
+// 0 px, red at the larger ring maximum; the scale is printed and drawn as a colour bar (top right).
 void WriteResidualMap(const std::array<exports::CentralRing, 2>& rings, const std::string& path,
                       double distance_mm, double* scale_px) {
-  // The maps are NaN off their ring (OpenCV's comparisons do not single NaN out: by hand).
-  cv::Mat both(rings[0].residual_map.size(), CV_32F, cv::Scalar(0));
-  cv::Mat seen(both.size(), CV_8U, cv::Scalar(0));
-  for (const auto& ring : rings) {
-    for (int v = 0; v < both.rows; ++v) {
-      for (int u = 0; u < both.cols; ++u) {
-        const float e = ring.residual_map.at<float>(v, u);
-        if (std::isnan(e)) continue;
-        both.at<float>(v, u) = e;
-        seen.at<uchar>(v, u) = 255;
-      }
-    }
-  }
-  double lo = 0, hi = 0;
-  cv::minMaxIdx(both, &lo, &hi, nullptr, nullptr, seen);
-  *scale_px = hi > 0 ? hi : 1;
-  cv::Mat scaled, colour;
+  cv::Mat seen, scaled, colour;
+  double max_px = 0;
+  const cv::Mat both = exports::BothResidualMaps(rings, &seen, &max_px);
+  *scale_px = max_px > 0 ? max_px : 1;
   both.convertTo(scaled, CV_8U, 255.0 / *scale_px);
   cv::applyColorMap(scaled, colour, cv::COLORMAP_JET);
   colour.setTo(cv::Scalar(0, 0, 0), ~seen);
@@ -138,16 +125,8 @@ int ExportCentral(const RigModel& model, exports::CentralModel kind) {
     std::remove(FLAGS_out.c_str());
     throw;
   }
-  std::printf("%s approximation of each ring (central, fitted to the non-central model):\n",
-              exports::CentralModelName(kind));
-  for (const auto& ring : rings) {
-    const int m = ring.mirror == Mirror::kOne ? 1 : 2;
-    for (const auto& r : ring.residuals) {
-      std::printf("  ring %d at %.2f m: RMS %.4f px, max %.4f px over %d pixels%s\n", m,
-                  r.distance_mm / 1000, r.rms_px, r.max_px, r.pixels,
-                  r.not_projected ? " (some not projectable)" : "");
-    }
-  }
+  std::printf("%s approximation of each ring (central, fitted to the non-central model):\n%s",
+              exports::CentralModelName(kind), exports::ResidualLines(rings).c_str());
   std::printf("written to %s; residual map at %.0f m (blue 0 .. red %.3f px) %s\n",
               FLAGS_out.c_str(), options.map_distance_mm / 1000, scale, map_path.c_str());
   return 0;

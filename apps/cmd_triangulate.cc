@@ -14,19 +14,20 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <random>
 #include <string>
 
 #include <gflags/gflags.h>
 
 #include "apps/command.h"
 #include "apps/common_flags.h"
+#include "apps/stereo_cli.h"
 #include "io/csv.h"
 #include "io/detections_file.h"
 #include "io/model_file.h"
 #include "io/truth_file.h"
 #include "model/triangulation.h"
 #include "stereo/sparse_triangulation.h"
+#include "stereo/triangulation_inputs.h"
 
 DEFINE_string(truth, "", "ground truth of a synthetic session (omnistereo-truth/1): print the "
                          "RMSE table by range; without --detections, triangulate its pixels");
@@ -51,14 +52,10 @@ DEFINE_bool(model_covariance, false, "add the calibrated model's parameter covar
 namespace omni::apps {
 namespace {
 
-void RequireFlag(const std::string& value, const char* flag, const char* what) {
-  if (value.empty()) throw io::InputError(std::string("--") + flag + ": expected " + what);
-}
-
 // The flags as triangulation options; throws io::InputError naming the flag.
 TriangulationOptions OptionsFromFlags() {
-  RequireFlag(FLAGS_model, "model", "a model file (omnistereo-model/1)");
-  RequireFlag(FLAGS_out, "out", "the output CSV path");
+  RequireStereoFlag(FLAGS_model, "model", "a model file (omnistereo-model/1)");
+  RequireStereoFlag(FLAGS_out, "out", "the output CSV path");
   if (FLAGS_detections.empty() && FLAGS_truth.empty()) {
     throw io::InputError("--detections: expected a detections file (omnistereo-detections/1), "
                          "or --truth to triangulate the truth's pixels");
@@ -101,35 +98,19 @@ RigParams TrueRig(const Truth& truth) {
 }
 
 // The corner pairs: from --detections (paired by the model), or the truth's pixels plus noise.
-struct Pairs {
-  std::vector<stereo::CornerPair> pairs;
-  std::vector<std::string> image_names;
-  long observations = 0;
-};
-Pairs ReadPairs(const Triangulator& triangulator, const std::optional<Truth>& truth) {
-  Pairs out;
+stereo::SessionPairs ReadPairs(const Triangulator& triangulator, const std::optional<Truth>& truth) {
   if (FLAGS_detections.empty()) {
-    std::mt19937 rng(static_cast<unsigned>(FLAGS_seed));
-    out.pairs = stereo::TruthPairs(*truth, FLAGS_noise_px, &rng, FLAGS_noise_px_ring2);
-    for (const auto& image : truth->images) out.image_names.push_back(image.file);
-    out.observations = 2 * static_cast<long>(out.pairs.size());
-    return out;
+    return stereo::PairsOfTruth(*truth, FLAGS_noise_px, FLAGS_noise_px_ring2,
+                                static_cast<unsigned>(FLAGS_seed));
   }
   const Observations detections = io::ReadDetectionsFile(FLAGS_detections);
-  for (int i = 0; i < static_cast<int>(detections.images.size()); ++i) {
-    const auto& image = detections.images[i];
-    out.image_names.push_back(image.file);
-    out.observations += static_cast<long>(image.corners.size());
-    const auto image_pairs = stereo::PairCorners(triangulator, i, image.corners);
-    out.pairs.insert(out.pairs.end(), image_pairs.begin(), image_pairs.end());
-  }
   if (truth && truth->images.size() != detections.images.size()) {
     throw io::InputError(FLAGS_truth + ": images: expected " +
                          std::to_string(detections.images.size()) +
                          " images as in the detections file, got " +
                          std::to_string(truth->images.size()));
   }
-  return out;
+  return stereo::PairsOfDetections(triangulator, detections);
 }
 
 void WriteCsv(const stereo::SessionTriangulation& result,
@@ -198,11 +179,8 @@ int RunTriangulate() {
   // sqrt(2) sigma per axis): the 1 px default made sigmas ~10x those the session measured.
   std::string sigma_source;
   if (gflags::GetCommandLineFlagInfoOrDie("sigma_px").is_default &&
-      gflags::GetCommandLineFlagInfoOrDie("sigma_px_ring2").is_default && rig.calibration &&
-      rig.calibration->per_mirror_rms_px.size() == 2 && rig.calibration->per_mirror_rms_px[0] > 0 &&
-      rig.calibration->per_mirror_rms_px[1] > 0) {
-    options.sigma_px = rig.calibration->per_mirror_rms_px[0] / std::sqrt(2.0);
-    options.sigma_px_ring2 = rig.calibration->per_mirror_rms_px[1] / std::sqrt(2.0);
+      gflags::GetCommandLineFlagInfoOrDie("sigma_px_ring2").is_default &&
+      stereo::MeasuredCornerNoise(rig, &options.sigma_px, &options.sigma_px_ring2)) {
     sigma_source = ", the model's measured corner noise";
   }
   const Triangulator triangulator{RigModel(rig)};
@@ -224,7 +202,7 @@ int RunTriangulate() {
   const stereo::OutputFrames frames =
       stereo::FramesOf(rig, options.reference, true_rig ? &*true_rig : nullptr);
 
-  const Pairs pairs = ReadPairs(triangulator, truth);
+  const stereo::SessionPairs pairs = ReadPairs(triangulator, truth);
   const stereo::SessionTriangulation result = stereo::TriangulatePairs(
       triangulator, pairs.pairs, options, frames, truth ? &*truth : nullptr);
   if (result.points.empty()) {

@@ -7,6 +7,12 @@
 // values_out.txt (optional): one line per refined parameter "name value sigma" (internal units),
 // to compare two builds' answers (a speed change must not move them by more than ~0.1 sigma).
 //
+// Monte Carlo mode (the sigmas within 20% on a realistic-preset session; calib/monte_carlo.h):
+//   bench_calibrate montecarlo SESSION.yaml DETECTIONS.yaml [solves=50] [workers=2]
+// calibrates the session's real detections once (from the session's model, its options): the
+// reference R0, whose variance components are printed; then `solves` synthetic sessions from it,
+// each solved with its own session options, one thread per solve, `workers` solves at a time.
+//
 // Scene mode (a big, near session: <= 10 s wall for 24 images):
 //   bench_calibrate SCENE.yaml RIG.yaml [corner_noise_px=0.05] [lip_profiles=360] [values_out.txt]
 // the scene file's placements through RIG (the truth) on the fast path, exact corners plus
@@ -22,45 +28,23 @@
 #include <cstdlib>
 #include <fstream>
 #include <ctime>
-#include <map>
-#include <random>
 #include <string>
-#include <thread>
-
-#include <Eigen/Eigenvalues>
 
 #include <glog/logging.h>
 
 #include "calib/calibrate.h"
+#include "calib/monte_carlo.h"
 #include "calib/session_options.h"
 #include "io/detections_file.h"
 #include "io/model_file.h"
 #include "io/session_file.h"
-#include "model/lip.h"
 #include "model/model_compare.h"
 #include "model/rig_model.h"
-#include "model/rig_parameters.h"
 #include "tests/calib/calib_test_util.h"
 
 using namespace omni;
 
 namespace {
-
-// Monte Carlo mode (the sigmas within 20% on a realistic-preset session):
-//   bench_calibrate montecarlo SESSION.yaml DETECTIONS.yaml [solves=50] [workers=2]
-// calibrates the session's real detections once (from the session's model, its options): the
-// reference R0. Then each of `solves` synthetic sessions keeps exactly the observations R0 used,
-// each replaced by its value under R0 plus white Gaussian noise of the group's measured sigma:
-// corners projected from R0's target poses with R0's per-ring sigma per axis, lip edge points
-// moved to the nearest point of R0's band edge (model/lip.h DistanceToLipEdgeImage) with R0's
-// lip RMS across the edge as the per-axis sigma. Each is solved from R0's rig (its own session
-// options, one thread per solve, `workers` solves at a time). Per parameter: the spread of the
-// solves against the mean predicted pixel-noise sigma (CalibrationUncertainty::noise_sigma, the
-// covariance without the considered parameters' share: the synthetic noise is white and
-// unbiased, p1 = p2 = 0 held exactly), and the bias; then the spread's chi^2 against the solves'
-// mean noise covariance (pseudo-inverse of its Jacobi-scaled form, so the camera-rotation valley's
-// near-gauge counts by its own eigenvalue): mean d^T C^+ d over the solves, ~rank if the
-// covariance's shape is right too. R0's own variance components are printed beside.
 
 // RIG's ideal design: what a user starts from (sample_configs/big_rig_ideal.yaml's camera).
 RigParams IdealDesignOf(const RigParams& rig, int width, int height) {
@@ -75,9 +59,25 @@ RigParams IdealDesignOf(const RigParams& rig, int width, int height) {
   return ideal;
 }
 
-void Report(const calib::CalibrationResult& result, const RigParams& truth, double wall_s,
-            double cpu_s, int images, size_t corners, size_t lip_points, int threads,
-            const char* values_out) {
+// Solves from `start` (its stages' lines on stdout), then the time, memory, the parameter table
+// against the truth, the worst misalignment in sigmas and the projection difference at 1 m;
+// values_out (may be null): "name value sigma" per refined parameter.
+void SolveAndReport(const RigParams& start, const std::vector<TargetSpec>& targets,
+                    const Observations& detections, calib::CalibrationOptions options,
+                    const RigParams& truth, int images, const char* values_out) {
+  size_t corners = 0, lip_points = 0;
+  for (const auto& image : detections.images) {
+    corners += image.corners.size();
+    for (const auto& lip : image.lips) lip_points += lip.points.size();
+  }
+  options.progress = [](const std::string& line) { std::printf("  %s\n", line.c_str()); };
+  const auto t0 = std::chrono::steady_clock::now();
+  const std::clock_t cpu0 = std::clock();
+  const calib::CalibrationResult result = calib::Calibrate(start, targets, detections, options);
+  const double wall_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const double cpu_s = static_cast<double>(std::clock() - cpu0) / CLOCKS_PER_SEC;
+  const int threads = options.solver.threads;
   rusage usage{};
   getrusage(RUSAGE_SELF, &usage);
   std::printf("images %d, corner observations %zu, lip edge points %zu, threads %d\n", images,
@@ -122,102 +122,10 @@ int RunScene(int argc, char** argv) {
   const RigParams truth = testing::MakeSceneSession(truth_rig, argv[1], &session);
   Observations detections = testing::NoisyDetections(session, corner_noise, 3);
   if (lip_profiles > 0) testing::AddLipDetections(truth, 0.03, 4, &detections, lip_profiles);
-  size_t corners = 0, lip_points = 0;
-  for (const auto& image : detections.images) {
-    corners += image.corners.size();
-    for (const auto& lip : image.lips) lip_points += lip.points.size();
-  }
-  calib::CalibrationOptions options;
-  options.progress = [](const std::string& line) { std::printf("  %s\n", line.c_str()); };
-  const auto t0 = std::chrono::steady_clock::now();
-  const std::clock_t cpu0 = std::clock();
-  const calib::CalibrationResult result = calib::Calibrate(
-      IdealDesignOf(truth, session.scene.width, session.scene.height), session.targets,
-      detections, options);
-  const double wall_s =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  const double cpu_s = static_cast<double>(std::clock() - cpu0) / CLOCKS_PER_SEC;
-  Report(result, truth, wall_s, cpu_s, static_cast<int>(detections.images.size()), corners,
-         lip_points, options.solver.threads, argc > 5 ? argv[5] : nullptr);
+  SolveAndReport(IdealDesignOf(truth, session.scene.width, session.scene.height), session.targets,
+                 detections, calib::CalibrationOptions(), truth,
+                 static_cast<int>(detections.images.size()), argc > 5 ? argv[5] : nullptr);
   return 0;
-}
-
-// R0's exact value of every observation it used: corners from its target poses, lip points on
-// its band edges. Noise is added per solve (Noisy).
-struct ExactSession {
-  Observations detections;  // exact pixels; lips keep their edge labels
-  int corners[2] = {0, 0}, lip_points = 0, lip_dropped = 0;
-};
-
-ExactSession ExactOf(const calib::CalibrationResult& r0, const std::vector<TargetSpec>& targets,
-                     const Observations& detections) {
-  const RigModel model(r0.estimate.rig);
-  std::map<std::pair<int, int>, const calib::TargetPlacementEstimate*> pose;
-  for (const auto& p : r0.residuals.placements) pose[{p.image, p.target}] = &p;
-  std::map<std::tuple<int, int, int, int>, bool> rejected;
-  for (const auto& o : r0.residuals.rejected) rejected[{o.image, o.target, o.id, o.mirror}] = true;
-  ExactSession out;
-  out.detections.session = detections.session;
-  for (int i = 0; i < static_cast<int>(detections.images.size()); ++i) {
-    const ImageObservations& in = detections.images[i];
-    ImageObservations image;
-    image.file = in.file;
-    image.width = in.width;
-    image.height = in.height;
-    for (const auto& o : in.corners) {
-      const auto it = pose.find({i, o.target});
-      if (it == pose.end() || rejected.count({i, o.target, o.id, MirrorIndex(o.mirror)})) continue;
-      const Eigen::Vector3d& w = it->second->rotation;
-      const Eigen::Matrix3d r = w.norm() > 0
-                                    ? Eigen::AngleAxisd(w.norm(), w / w.norm()).toRotationMatrix()
-                                    : Eigen::Matrix3d::Identity();
-      const Eigen::Vector3d point =
-          r * CornerInTarget(targets[o.target], o.id) + it->second->translation;
-      const auto px = model.Project(point, o.mirror);
-      if (!px) continue;
-      CornerObservation exact = o;
-      exact.pixel = *px;
-      image.corners.push_back(exact);
-      ++out.corners[MirrorIndex(o.mirror) - 1];
-    }
-    for (const auto& edge : in.lips) {
-      if (!edge.path || !edge.circle) continue;
-      const LipPath path = *edge.path;
-      const LipCircle circle = *edge.circle;
-      LipEdgeObservation exact = edge;
-      exact.points.clear();
-      for (const auto& p : edge.points) {
-        Eigen::Vector2d nearest;
-        // Points R0 could have left out as outliers (a few robust sigmas) are left out here too.
-        if (DistanceToLipEdgeImage(model, path, circle, p, &nearest) <= 1.0) {
-          exact.points.push_back(nearest);
-        } else {
-          ++out.lip_dropped;
-        }
-      }
-      out.lip_points += static_cast<int>(exact.points.size());
-      if (!exact.points.empty()) image.lips.push_back(exact);
-    }
-    out.detections.images.push_back(image);
-  }
-  return out;
-}
-
-Observations Noisy(const ExactSession& exact, const double corner_sigma_px[2],
-                     double lip_sigma_px, unsigned seed) {
-  std::mt19937 rng(seed);
-  std::normal_distribution<double> unit(0.0, 1.0);
-  Observations d = exact.detections;
-  for (auto& image : d.images) {
-    for (auto& o : image.corners) {
-      const double s = corner_sigma_px[MirrorIndex(o.mirror) - 1];
-      o.pixel += s * Eigen::Vector2d(unit(rng), unit(rng));
-    }
-    for (auto& edge : image.lips) {
-      for (auto& p : edge.points) p += lip_sigma_px * Eigen::Vector2d(unit(rng), unit(rng));
-    }
-  }
-  return d;
 }
 
 int RunMonteCarlo(int argc, char** argv) {
@@ -248,164 +156,19 @@ int RunMonteCarlo(int argc, char** argv) {
     if (g.group == "corners ring 2") corner_sigma[1] = g.sigma_px;
   }
   const double lip_sigma = options.use_lips ? r0.residuals.lip_rms_px : 0.0;
-  const ExactSession exact = ExactOf(r0, session.targets, detections);
+  const calib::ExactSession exact = calib::ExactOf(r0, session.targets, detections);
   std::printf("synthetic sessions: %d / %d corners (rings 1 / 2) at %.4f / %.4f px per axis, %d lip "
               "points at %.4f px per axis (%d farther than 1 px from R0's edge left out); %d "
               "solves from R0's rig, %d at a time, one thread each\n",
               exact.corners[0], exact.corners[1], corner_sigma[0], corner_sigma[1],
               exact.lip_points, lip_sigma, exact.lip_dropped, solves, workers);
-
   options.progress = nullptr;
   options.solver.threads = 1;
-  std::vector<calib::CalibrationResult> results(solves);
-  std::vector<std::string> errors(solves);
-  std::vector<double> seconds(solves, 0);
-  const auto t1 = std::chrono::steady_clock::now();
-  auto run = [&](int first) {
-    for (int k = first; k < solves; k += workers) {
-      const auto ts = std::chrono::steady_clock::now();
-      try {
-        results[k] = calib::Calibrate(r0.estimate.rig, session.targets,
-                                      Noisy(exact, corner_sigma, lip_sigma, 1000 + k), options);
-      } catch (const std::exception& e) {
-        errors[k] = e.what();
-      }
-      seconds[k] = std::chrono::duration<double>(std::chrono::steady_clock::now() - ts).count();
-    }
-  };
-  std::vector<std::thread> pool;
-  for (int w = 1; w < workers; ++w) pool.emplace_back(run, w);
-  run(0);
-  for (auto& t : pool) t.join();
-  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
-
-  // Per parameter over the solves with the most common list of observable parameters (white lip
-  // noise may tell the synthetic sessions more than R0's own, e.g. dist_k3 freed).
-  std::map<std::vector<std::string>, int> lists;
-  for (int k = 0; k < solves; ++k) {
-    if (errors[k].empty()) ++lists[results[k].estimate.names];
-  }
-  std::vector<std::string> names = r0.estimate.names;
-  int most = 0;
-  for (const auto& [list, count] : lists) {
-    if (count > most) most = count, names = list;
-  }
-  if (names != r0.estimate.names) {
-    std::printf("the solves' observable parameters differ from R0's:");
-    for (const auto& name : names) {
-      if (std::find(r0.estimate.names.begin(), r0.estimate.names.end(), name) ==
-          r0.estimate.names.end()) {
-        std::printf(" +%s", name.c_str());
-      }
-    }
-    for (const auto& name : r0.estimate.names) {
-      if (std::find(names.begin(), names.end(), name) == names.end()) {
-        std::printf(" -%s", name.c_str());
-      }
-    }
-    std::printf("\n");
-  }
-  std::vector<int> good;
-  for (int k = 0; k < solves; ++k) {
-    if (!errors[k].empty()) {
-      std::printf("solve %d failed: %s\n", k, errors[k].c_str());
-    } else if (results[k].estimate.names != names) {
-      std::printf("solve %d: other parameters observable than the others' (left out)\n", k);
-    } else {
-      good.push_back(k);
-    }
-  }
-  const int n = static_cast<int>(good.size());
-  std::printf("%d of %d solves used, %.1f s wall (%.1f s per solve on one thread)\n", n, solves,
-              wall, [&] { double s = 0; for (double x : seconds) s += x; return s / solves; }());
-  if (n < 2) return 1;
-  {
-    std::map<std::string, std::pair<double, double>> groups;  // mean s, mean tau
-    for (int k : good) {
-      for (const auto& g : results[k].uncertainty.variance_components) {
-        groups[g.group].first += g.sigma_px / n;
-        groups[g.group].second += g.correlation_factor / n;
-      }
-    }
-    for (const auto& [name, v] : groups) {
-      std::printf("  solves' %-15s mean s %.4f px per axis, correlation factor %.2f\n",
-                  name.c_str(), v.first, v.second);
-    }
-  }
-  const int p = static_cast<int>(names.size());
-  Eigen::VectorXd reference(p);  // R0's value of each parameter
-  for (int i = 0; i < p; ++i) reference(i) = *ParameterOf(r0.estimate.rig, names[i]);
-  Eigen::MatrixXd x(n, p);
-  Eigen::VectorXd predicted = Eigen::VectorXd::Zero(p);
-  for (int a = 0; a < n; ++a) {
-    x.row(a) = results[good[a]].estimate.values.transpose();
-    predicted += results[good[a]].uncertainty.noise_sigma / n;
-  }
-  const Eigen::VectorXd mean = x.colwise().mean().transpose();
-  const Eigen::MatrixXd d = x.rowwise() - mean.transpose();
-  const Eigen::VectorXd spread = (d.array().square().colwise().sum() / (n - 1)).sqrt().transpose();
-  std::printf("%-14s %14s %12s %12s %7s %12s\n", "parameter", "R0 value", "spread", "predicted",
-              "ratio", "bias/spread");
-  double worst = 0;
-  std::string worst_name;
-  for (int i = 0; i < p; ++i) {
-    const double ratio = spread(i) / predicted(i);
-    const double bias = (mean(i) - reference(i)) / spread(i);
-    std::printf("%-14s %14.6g %12.4g %12.4g %7.3f %12.2f\n", names[i].c_str(), reference(i),
-                spread(i), predicted(i), ratio, bias);
-    if (std::abs(ratio - 1) > worst) worst = std::abs(ratio - 1), worst_name = names[i];
-  }
-  std::printf("ratio sd from sampling alone ~ 1/sqrt(2 n) = %.3f; worst |ratio - 1| %.3f (%s)\n",
-              1 / std::sqrt(2.0 * n), worst, worst_name.c_str());
-
-  // chi^2 of the spread against the predicted pixel-noise covariance (each solve's covariance
-  // minus its considered share, averaged over the solves: R0's own would weigh the lips by the
-  // real session's correlation factor, the synthetic white lip noise gives ~1), Jacobi-scaled,
-  // pseudo-inverse at 1e-10 of the largest eigenvalue.
-  Eigen::MatrixXd noise_cov = Eigen::MatrixXd::Zero(p, p);
-  for (int a = 0; a < n; ++a) {
-    const calib::CalibrationResult& r = results[good[a]];
-    Eigen::MatrixXd c = r.uncertainty.covariance;
-    if (r.uncertainty.considered_sensitivity.cols() ==
-            r.uncertainty.considered_column_sigma.size() &&
-        r.uncertainty.considered_sensitivity.rows() == p) {
-      c -= r.uncertainty.considered_sensitivity *
-           r.uncertainty.considered_column_sigma.array().square().matrix().asDiagonal() *
-           r.uncertainty.considered_sensitivity.transpose();
-    }
-    noise_cov += c / n;
-  }
-  const Eigen::VectorXd scale = noise_cov.diagonal().cwiseMax(1e-300).cwiseSqrt();
-  std::printf("mean noise covariance: sqrt(diagonal) / mean noise_sigma in %.4f .. %.4f\n",
-              scale.cwiseQuotient(predicted).minCoeff(), scale.cwiseQuotient(predicted).maxCoeff());
-  const Eigen::MatrixXd scaled = scale.cwiseInverse().asDiagonal() * noise_cov *
-                                 scale.cwiseInverse().asDiagonal();
-  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(scaled);
-  const double tol = 1e-10 * eig.eigenvalues().maxCoeff();
-  int rank = 0;
-  double chi2 = 0;
-  Eigen::VectorXd per_direction = Eigen::VectorXd::Zero(p);
-  for (int a = 0; a < n; ++a) {
-    const Eigen::VectorXd z = eig.eigenvectors().transpose() *
-                              (d.row(a).transpose().cwiseQuotient(scale));
-    for (int k = 0; k < p; ++k) {
-      if (eig.eigenvalues()(k) <= tol) continue;
-      per_direction(k) += z(k) * z(k) / eig.eigenvalues()(k) / (n - 1);
-    }
-  }
-  for (int k = 0; k < p; ++k) {
-    if (eig.eigenvalues()(k) <= tol) continue;
-    ++rank;
-    chi2 += per_direction(k);
-  }
-  std::printf("chi^2 of the spread against the predicted noise covariance: %.2f per solve for %d "
-              "directions (expected %d; sampling sd ~%.2f)\n", chi2, rank, rank,
-              std::sqrt(2.0 * rank / n));
-  std::printf("per eigen-direction (Jacobi-scaled eigenvalue ascending: variance ratio): ");
-  for (int k = 0; k < p; ++k) {
-    if (eig.eigenvalues()(k) > tol) std::printf("%.2g:%.2f ", eig.eigenvalues()(k), per_direction(k));
-  }
-  std::printf("\n");
+  const calib::MonteCarloSolves runs = calib::SolveNoisySessions(
+      r0, session.targets, exact, corner_sigma, lip_sigma, options, solves, workers);
+  int used = 0;
+  std::printf("%s", calib::MonteCarloSummary(r0, runs, &used).c_str());
+  if (used < 2) return 1;
   return 0;
 }
 
@@ -430,27 +193,13 @@ int main(int argc, char** argv) {
        testing::Chessboard(6, 11, 50.0), testing::Chessboard(9, 12, 35.0)});
   Observations detections = testing::NoisyDetections(session, 0.1, 3);
   testing::AddLipDetections(testing::MisalignedRig(), 0.05, 4, &detections, 360);
-  size_t corners = 0, lip_points = 0;
-  for (const auto& image : detections.images) {
-    corners += image.corners.size();
-    for (const auto& lip : image.lips) lip_points += lip.points.size();
-  }
-
   calib::CalibrationOptions options;  // the session defaults: all but the shapes, 2 threads
   options.estimate = DefaultEstimateBlocks();
-  options.progress = [](const std::string& line) { std::printf("  %s\n", line.c_str()); };
   // OMNI_PROFILE=off|hold|free|auto, OMNI_PROFILE_SIGMA_MM: the mirrors' profiles (default as a
   // session's).
   if (const char* profile = std::getenv("OMNI_PROFILE")) options.profile = profile;
   if (const char* sigma = std::getenv("OMNI_PROFILE_SIGMA_MM")) options.profile_sigma_mm = std::atof(sigma);
-  const auto t0 = std::chrono::steady_clock::now();
-  std::clock_t cpu0 = std::clock();
-  const calib::CalibrationResult result =
-      calib::Calibrate(testing::IdealRig(), session.targets, detections, options);
-  const double wall_s =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  const double cpu_s = static_cast<double>(std::clock() - cpu0) / CLOCKS_PER_SEC;
-  Report(result, testing::MisalignedRig(), wall_s, cpu_s, random.images, corners, lip_points,
-         options.solver.threads, argc > 3 ? argv[3] : nullptr);
+  SolveAndReport(testing::IdealRig(), session.targets, detections, options,
+                 testing::MisalignedRig(), random.images, argc > 3 ? argv[3] : nullptr);
   return 0;
 }

@@ -4,10 +4,7 @@
 #include <iterator>
 #include <set>
 #include <string>
-#include <mutex>
 #include <utility>
-
-#include <malloc.h>
 
 #include <opencv2/imgproc.hpp>
 
@@ -35,20 +32,6 @@ LipDetectorOptions LipOptionsFor(const cv::Mat& image, bool chroma_halved, const
 }
 
 namespace {
-
-// Detection makes and frees full-view buffers (views, derivatives, masks) dozens of times per
-// image. glibc serves blocks over its mmap threshold (128 KiB, raised only as such blocks are
-// freed) from fresh pages and hands them back when freed, so every image page-faulted them in
-// again: 25% of detection's CPU (perf, realistic_scene: 180 -> 135 ms per 1280x960 image).
-// Blocks up to 32 MiB (a 4k colour frame in float is 100 MiB) now come from the heap and stay
-// there for the next image; the heap is trimmed only above 256 MiB free. Once per process.
-void KeepImageBuffersForReuse() {
-  static std::once_flag once;
-  std::call_once(once, [] {
-    mallopt(M_MMAP_THRESHOLD, 32 << 20);
-    mallopt(M_TRIM_THRESHOLD, 256 << 20);
-  });
-}
 
 // "30-37, 40" from a set of ids.
 std::string IdRanges(const std::set<int>& ids) {
@@ -87,9 +70,7 @@ DetectorContext::DetectorContext(const RigParams& rig, std::vector<TargetSpec> t
       layout(ComputeRingLayout(model)),
       views(MakeRingViews(model, view_options)),
       targets(std::move(target_specs)),
-      use_lips(lips) {
-  KeepImageBuffersForReuse();
-}
+      use_lips(lips) {}
 
 void DetectorContext::SetModel(const RigParams& rig) {
   model = RigModel(rig);

@@ -1,12 +1,15 @@
 #include "detectors/detect_session.h"
 
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <map>
 #include <optional>
 #include <set>
 #include <utility>
 
+#include "detectors/lips/lip_intrinsics.h"
 #include "detectors/lips/post_finder.h"
 #include "io/image_file.h"
 
@@ -177,6 +180,118 @@ Observations DetectSession(const io::Session& session, DetectorContext* ctx,
                          first_unreadable + ")");
   }
   return detections;
+}
+
+std::string ImageLine(const ImageReport& report, const ImageObservations& detections,
+                      bool detail) {
+  char line[512];
+  if (!detail) {
+    std::snprintf(line, sizeof(line), "[%zu/%zu] %s: %d corners in ring 1, %d in ring 2 (%.0f ms)",
+                  report.index + 1, report.total, report.file.c_str(), report.corners[0],
+                  report.corners[1], report.ms);
+    return line;
+  }
+  std::map<int, std::array<int, 2>> per_target;
+  for (const CornerObservation& c : detections.corners) {
+    ++per_target[c.target][MirrorIndex(c.mirror) - 1];
+  }
+  std::string targets;
+  for (const auto& [t, count] : per_target) {
+    targets += (targets.empty() ? "; " : ", ") + std::string("target ") + std::to_string(t) +
+               " " + std::to_string(count[0]) + " / " + std::to_string(count[1]);
+  }
+  std::snprintf(line, sizeof(line),
+                "[%zu/%zu] %s: %d corners in ring 1, %d in ring 2, %zu lip edges (%.0f ms)%s",
+                report.index + 1, report.total, report.file.c_str(), report.corners[0],
+                report.corners[1], detections.lips.size(), report.ms, targets.c_str());
+  return line;
+}
+
+SessionDetection DetectSessionReported(const io::Session& session, const RigParams& rig,
+                                       const SessionDetectOptions& options,
+                                       const SessionDetectHooks& hooks) {
+  DetectorContext ctx(rig, session.targets, session.use_lips);
+  std::string guide_line;
+  if (options.guide_by_lips) {
+    bool nothing_read = false;
+    const LipGuide guide = GuideSessionByLips(session, &ctx, &nothing_read);
+    if (!nothing_read) guide_line = GuideLine(guide);
+  }
+  if (hooks.before_images) hooks.before_images(guide_line);
+  SessionDetection out;
+  RepeatedSheets repeated;
+  out.detections = DetectSession(
+      session, &ctx, [&](const ImageReport& r, const cv::Mat& image, ImageObservations* det) {
+        repeated.Add(r);
+        // An unreadable image has its one warning, the reason (DetectSession).
+        if (r.skipped) {
+          ++out.skipped;
+          if (hooks.image_done) {
+            hooks.image_done("warning: " + r.file + ": " + r.warnings.front() + "; skipped");
+          }
+          return;
+        }
+        if (hooks.warning) {
+          for (const auto& w : r.warnings) hooks.warning("warning: " + r.file + ": " + w);
+        }
+        out.corners += r.corners[0] + r.corners[1];
+        if (hooks.detected) hooks.detected(r, image, *det, ctx.layout);
+        if (hooks.image_done) hooks.image_done(ImageLine(r, *det, options.image_detail));
+      });
+  out.repeated_note = repeated.Note(session.targets);
+  return out;
+}
+
+std::string TargetSummary(const std::vector<TargetSpec>& targets, const Observations& detections) {
+  std::string out;
+  for (size_t t = 0; t < targets.size(); ++t) {
+    int photos = 0, ring[2] = {0, 0};
+    for (const ImageObservations& image : detections.images) {
+      bool seen = false;
+      for (const CornerObservation& c : image.corners) {
+        if (c.target != static_cast<int>(t)) continue;
+        seen = true;
+        ++ring[MirrorIndex(c.mirror) - 1];
+      }
+      photos += seen;
+    }
+    char line[512];
+    std::snprintf(line, sizeof line,
+                  "  target %zu (%s): in %d of %zu photos, %d corners in ring 1, %d in ring 2%s\n",
+                  t, TargetName(targets[t]).c_str(), photos, detections.images.size(), ring[0],
+                  ring[1],
+                  photos == 0 ? ": never found (check its rows/cols, size and first_id)" : "");
+    out += line;
+  }
+  return out;
+}
+
+std::string LipsOnlyCheck(const Observations& detections, const RigModel& model) {
+  const RigParams& p = model.params();
+  const auto lips = InitialIntrinsicsFromLipsOf(detections, model);
+  char line[1024];
+  if (!lips) {
+    size_t edges = 0;
+    for (const auto& image : detections.images) edges += image.lips.size();
+    std::snprintf(line, sizeof line,
+                  "lips only: too few lip edge points for an intrinsics check (%zu edges found): "
+                  "check the lips' paints (color:) in the model file and the overlays\n",
+                  edges);
+    return line;
+  }
+  const double f_model = 0.5 * (p.camera[0] + p.camera[1]);
+  std::snprintf(line, sizeof line,
+                "lips only: f %.1f px (sigma %.2f; the model's %.1f: %+.2f%%), principal point "
+                "(%.1f, %.1f) px (sigma %.2f, %.2f; the model's (%.1f, %.1f)), rms %.3f px over %d "
+                "edge points\n",
+                lips->f, lips->sigma_f, f_model, 100 * (lips->f / f_model - 1), lips->cx, lips->cy,
+                lips->sigma_cx, lips->sigma_cy, p.camera[2], p.camera[3], lips->rms_px,
+                lips->n_points);
+  return std::string(line) +
+         "  a check, not a calibration: from the design as the model, the lips put the "
+         "principal point where the mirror bodies put the lips' centres (a few px from it on "
+         "a misaligned rig) and f within ~0.6% (lens distortion, axial offsets); calibrate "
+         "with targets for the model\n";
 }
 
 }  // namespace omni::detectors

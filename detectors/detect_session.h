@@ -1,6 +1,8 @@
-// The detect loop of a whole session, shared by `detect` and `calibrate`: every image read as the
-// camera wrote it (io/image_file.h, demosaiced when the session names a Bayer pattern),
-// checked against the model's size, and passed to DetectImage.
+// The detect loop of a whole session: every image read as the camera wrote it (io/image_file.h,
+// demosaiced when the session names a Bayer pattern), checked against the model's size, and
+// passed to DetectImage. DetectSessionReported is the session's detection as the commands run it
+// (`detect`, `calibrate` without --detections, `init`'s look at the first photos, the demo): the
+// lip guide, the loop, each image's line and warnings, the session's summary.
 #pragma once
 
 #include <functional>
@@ -71,5 +73,61 @@ class RepeatedSheets {
 
 Observations DetectSession(const io::Session& session, DetectorContext* ctx,
                              const ImageCallback& on_image = nullptr);
+
+// One image's progress line: "[i/n] file: A corners in ring 1, B in ring 2 (T ms)"; with
+// `detail` also its lip edges (before the time) and, after it, the corners per target in
+// ring 1 / ring 2 (what a user checks each photo by).
+std::string ImageLine(const ImageReport& report, const ImageObservations& detections, bool detail);
+
+struct SessionDetectOptions {
+  // The lip guide (GuideSessionByLips) before the loop; off for a look at a few photos for the
+  // lips alone (`init`'s starting intrinsics).
+  bool guide_by_lips = true;
+  // Each image's line with its lip edges and corners per target (ImageLine's detail).
+  bool image_detail = true;
+};
+
+// Where DetectSessionReported's lines go (none set: it says nothing). Lines have no newline.
+struct SessionDetectHooks {
+  // After the guide, before the first image: the guide's line (GuideLine), empty when the guide
+  // did not run or read none of the session's images (each image then reports itself).
+  std::function<void(const std::string& guide_line)> before_images;
+  // A line between images: a warning about the image that follows it.
+  std::function<void(const std::string& line)> warning;
+  // An image done: its ImageLine, or for a skipped image its warning.
+  std::function<void(const std::string& line)> image_done;
+  // An image detected (not skipped), before its line: the image as read, its detections (file
+  // as listed) and the ring layout they were found with (an overlay).
+  std::function<void(const ImageReport& report, const cv::Mat& image,
+                     const ImageObservations& detections, const RingLayout& layout)>
+      detected;
+};
+
+struct SessionDetection {
+  Observations detections;  // files and session as the session lists them
+  size_t skipped = 0;       // unreadable images left out
+  int corners = 0;          // over every image and ring
+  // RepeatedSheets::Note for the session (empty when no sheet was seen twice in a ring).
+  std::string repeated_note;
+};
+
+// The session detected with the model `rig` (the session's or another: a second pass from the
+// calibrated one). Warnings read "warning: FILE: what" ("; skipped" for an unreadable image).
+// Throws as DetectSession does.
+SessionDetection DetectSessionReported(const io::Session& session, const RigParams& rig,
+                                       const SessionDetectOptions& options = {},
+                                       const SessionDetectHooks& hooks = {});
+
+// Per target of the session, one line: "  target T (name): in P of N photos, A corners in ring 1,
+// B in ring 2" (with what to check when it was never found); newline-terminated.
+std::string TargetSummary(const std::vector<TargetSpec>& targets, const Observations& detections);
+
+// A lips-only session's check: the intrinsics the lips alone give against the model's, with what
+// the check is worth (or why there was none); newline-terminated lines. A check, not a
+// calibration: the fit puts the principal point where the mirror bodies put the lips' centres,
+// which moves with their misalignment, and f absorbs the lens's radial distortion and the
+// bodies' axial offsets (lips/lip_intrinsics.h: f within ~0.6%, the principal point a few px
+// off on a misaligned rig).
+std::string LipsOnlyCheck(const Observations& detections, const RigModel& model);
 
 }  // namespace omni::detectors

@@ -1,6 +1,7 @@
 #include "io/detections_file.h"
 
 #include <cmath>
+#include <filesystem>
 #include <limits>
 #include <sstream>
 
@@ -11,6 +12,17 @@ namespace {
 
 constexpr char kFormatPrefix[] = "omnistereo-detections/";
 constexpr int kFormatMajor = 1;
+
+namespace fs = std::filesystem;
+
+// `path` relative to `base_dir` when it lies below it, else as given.
+std::string RelativeTo(const std::string& path, const fs::path& base_dir) {
+  std::error_code ec;
+  const fs::path abs = fs::absolute(path, ec), base = fs::absolute(base_dir, ec);
+  const fs::path rel = abs.lexically_normal().lexically_relative(base.lexically_normal());
+  if (rel.empty() || *rel.begin() == "..") return path;
+  return rel.string();
+}
 
 int IntegerAt(const Reader& in, const YAML::Node& row, std::size_t i, const std::string& key,
               int min) {
@@ -163,6 +175,31 @@ std::string DetectionsText(const Observations& d) {
 
 void WriteDetectionsFile(const std::string& path, const Observations& detections) {
   WriteFileAtomically(path, DetectionsText(detections));
+}
+
+Observations WithPathsRelativeToFile(Observations detections, const std::string& path) {
+  const fs::path folder = fs::absolute(path).parent_path();
+  for (ImageObservations& image : detections.images) image.file = RelativeTo(image.file, folder);
+  detections.session = RelativeTo(detections.session, folder);
+  return detections;
+}
+
+std::vector<std::string> ImagePathsOf(const Observations& detections, const std::string& path,
+                                      const std::vector<std::string>& fallback) {
+  std::vector<std::string> out;
+  const fs::path base = fs::path(path).parent_path();
+  for (size_t i = 0; i < detections.images.size(); ++i) {
+    const std::string& file = detections.images[i].file;
+    std::string found = i < fallback.size() ? fallback[i] : file;
+    for (const fs::path& candidate : {fs::path(file), base / file}) {
+      if (fs::is_regular_file(candidate)) {
+        found = candidate.string();
+        break;
+      }
+    }
+    out.push_back(found);
+  }
+  return out;
 }
 
 }  // namespace omni::io

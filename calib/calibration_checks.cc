@@ -1,0 +1,106 @@
+#include "calib/calibration_checks.h"
+
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <set>
+#include <tuple>
+#include <utility>
+
+namespace omni::calib {
+
+CornerNoise CornerNoiseAgainstTruth(const CalibrationResult& result,
+                                    const Observations& detections, const Truth& truth) {
+  std::set<std::tuple<int, int, int, int>> rejected;
+  for (const auto& r : result.residuals.rejected) rejected.emplace(r.image, r.target, r.id, r.mirror);
+  const auto base = [](const std::string& f) { return f.substr(f.find_last_of('/') + 1); };
+  double squared[2] = {0, 0};
+  CornerNoise out;
+  for (size_t i = 0; i < detections.images.size(); ++i) {
+    const TruthImage* image = nullptr;
+    for (const auto& t : truth.images) {
+      if (base(t.file) == base(detections.images[i].file)) image = &t;
+    }
+    for (const auto& c : detections.images[i].corners) {
+      if (rejected.count({static_cast<int>(i), c.target, c.id, MirrorIndex(c.mirror)})) continue;
+      const TrueCornerMatch match = NearestTrueCorner(
+          image ? image->corners : std::vector<TruthCorner>{}, c.mirror, c.pixel, HUGE_VAL,
+          [&](const TruthCorner& t) { return t.target == c.target && t.id == c.id; });
+      if (!match.corner) {
+        ++out.unmatched;
+        continue;
+      }
+      squared[MirrorIndex(c.mirror) - 1] += match.distance_px * match.distance_px;
+      ++out.count[MirrorIndex(c.mirror) - 1];
+    }
+  }
+  for (int m = 0; m < 2; ++m) {
+    if (out.count[m] > 0) out.true_rms_px[m] = std::sqrt(squared[m] / out.count[m]);
+  }
+  return out;
+}
+
+std::string LeftOutText(const CalibrationResult& result, const Observations& detections,
+                        const std::vector<TargetSpec>& targets) {
+  std::string out;
+  char buf[512];
+  std::map<int, std::pair<int, std::set<int>>> per_target;  // target -> (count, images)
+  for (const auto& r : result.residuals.rejected) {
+    std::snprintf(buf, sizeof buf, "left out: image %d (%s) target %d corner %d ring %d at (%.2f, %.2f): %s",
+                  r.image, detections.images[r.image].file.c_str(), r.target, r.id, r.mirror,
+                  r.pixel.x(), r.pixel.y(), r.reason.c_str());
+    out += buf;
+    if (r.residual_px > 0) {
+      std::snprintf(buf, sizeof buf, " (%.2f px)", r.residual_px);
+      out += buf;
+    }
+    out += "\n";
+    auto& [count, images] = per_target[r.target];
+    ++count;
+    images.insert(r.image);
+  }
+  if (per_target.empty()) return out;
+  std::snprintf(buf, sizeof buf, "left out %zu corner observation(s):", result.residuals.rejected.size());
+  out += buf;
+  const char* separator = " ";
+  for (const auto& [t, entry] : per_target) {
+    const std::string name = t >= 0 && t < static_cast<int>(targets.size())
+                                 ? TargetName(targets[t])
+                                 : std::string("?");
+    std::snprintf(buf, sizeof buf, "%starget %d (%s) %d in %zu photo(s)", separator, t,
+                  name.c_str(), entry.first, entry.second.size());
+    out += buf;
+    separator = ", ";
+  }
+  return out + "\n";
+}
+
+std::string DatasetMismatch(const CalibrationInfo& info, const Observations& detections,
+                            const std::vector<TargetSpec>& targets) {
+  const std::string described = TargetsDescription(targets);
+  const int images = static_cast<int>(detections.images.size());
+  if ((info.images > 0 && info.images != images) ||
+      (!info.targets.empty() && info.targets != described)) {
+    return "its calibration: dataset: has " + std::to_string(info.images) + " images of " +
+           info.targets + "; these have " + std::to_string(images) + " images of " + described;
+  }
+  return "";
+}
+
+std::string MovedWhenSolvedAgain(const CalibrationInfo& info, const CalibrationResult& result) {
+  for (size_t i = 0; i < info.parameters.size() && i < info.sigma.size(); ++i) {
+    for (size_t j = 0; j < result.estimate.names.size(); ++j) {
+      if (result.estimate.names[j] != info.parameters[i] || !(info.sigma[i] > 0)) continue;
+      const double moved = std::abs(result.estimate.values(j) - info.values[i]) / info.sigma[i];
+      if (moved > 1.0) {
+        char buf[160];
+        std::snprintf(buf, sizeof buf, "%s moved %.1f sigma when solved again",
+                      info.parameters[i].c_str(), moved);
+        return buf;
+      }
+    }
+  }
+  return "";
+}
+
+}  // namespace omni::calib

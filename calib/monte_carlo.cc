@@ -1,0 +1,274 @@
+#include "calib/monte_carlo.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdarg>
+#include <cstdio>
+#include <map>
+#include <random>
+#include <thread>
+#include <tuple>
+
+#include <Eigen/Eigenvalues>
+
+#include "model/lip.h"
+#include "model/rig_model.h"
+#include "model/rig_parameters.h"
+
+namespace omni::calib {
+namespace {
+
+// printf appended to *out.
+void Append(std::string* out, const char* format, ...) {
+  va_list args, size_args;
+  va_start(args, format);
+  va_copy(size_args, args);
+  const int n = std::vsnprintf(nullptr, 0, format, size_args);
+  va_end(size_args);
+  if (n > 0) {
+    const size_t old = out->size();
+    out->resize(old + n + 1);
+    std::vsnprintf(out->data() + old, n + 1, format, args);
+    out->resize(old + n);
+  }
+  va_end(args);
+}
+
+}  // namespace
+
+ExactSession ExactOf(const CalibrationResult& r0, const std::vector<TargetSpec>& targets,
+                     const Observations& detections) {
+  const RigModel model(r0.estimate.rig);
+  std::map<std::pair<int, int>, const TargetPlacementEstimate*> pose;
+  for (const auto& p : r0.residuals.placements) pose[{p.image, p.target}] = &p;
+  std::map<std::tuple<int, int, int, int>, bool> rejected;
+  for (const auto& o : r0.residuals.rejected) rejected[{o.image, o.target, o.id, o.mirror}] = true;
+  ExactSession out;
+  out.detections.session = detections.session;
+  for (int i = 0; i < static_cast<int>(detections.images.size()); ++i) {
+    const ImageObservations& in = detections.images[i];
+    ImageObservations image;
+    image.file = in.file;
+    image.width = in.width;
+    image.height = in.height;
+    for (const auto& o : in.corners) {
+      const auto it = pose.find({i, o.target});
+      if (it == pose.end() || rejected.count({i, o.target, o.id, MirrorIndex(o.mirror)})) continue;
+      const Eigen::Vector3d& w = it->second->rotation;
+      const Eigen::Matrix3d r = w.norm() > 0
+                                    ? Eigen::AngleAxisd(w.norm(), w / w.norm()).toRotationMatrix()
+                                    : Eigen::Matrix3d::Identity();
+      const Eigen::Vector3d point =
+          r * CornerInTarget(targets[o.target], o.id) + it->second->translation;
+      const auto px = model.Project(point, o.mirror);
+      if (!px) continue;
+      CornerObservation exact = o;
+      exact.pixel = *px;
+      image.corners.push_back(exact);
+      ++out.corners[MirrorIndex(o.mirror) - 1];
+    }
+    for (const auto& edge : in.lips) {
+      if (!edge.path || !edge.circle) continue;
+      const LipPath path = *edge.path;
+      const LipCircle circle = *edge.circle;
+      LipEdgeObservation exact = edge;
+      exact.points.clear();
+      for (const auto& p : edge.points) {
+        Eigen::Vector2d nearest;
+        // Points R0 could have left out as outliers (a few robust sigmas) are left out here too.
+        if (DistanceToLipEdgeImage(model, path, circle, p, &nearest) <= 1.0) {
+          exact.points.push_back(nearest);
+        } else {
+          ++out.lip_dropped;
+        }
+      }
+      out.lip_points += static_cast<int>(exact.points.size());
+      if (!exact.points.empty()) image.lips.push_back(exact);
+    }
+    out.detections.images.push_back(image);
+  }
+  return out;
+}
+
+Observations Noisy(const ExactSession& exact, const double corner_sigma_px[2],
+                     double lip_sigma_px, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> unit(0.0, 1.0);
+  Observations d = exact.detections;
+  for (auto& image : d.images) {
+    for (auto& o : image.corners) {
+      const double s = corner_sigma_px[MirrorIndex(o.mirror) - 1];
+      o.pixel += s * Eigen::Vector2d(unit(rng), unit(rng));
+    }
+    for (auto& edge : image.lips) {
+      for (auto& p : edge.points) p += lip_sigma_px * Eigen::Vector2d(unit(rng), unit(rng));
+    }
+  }
+  return d;
+}
+
+MonteCarloSolves SolveNoisySessions(const CalibrationResult& r0,
+                                    const std::vector<TargetSpec>& targets,
+                                    const ExactSession& exact, const double corner_sigma_px[2],
+                                    double lip_sigma_px, const CalibrationOptions& options,
+                                    int solves, int workers) {
+  MonteCarloSolves out;
+  out.results.resize(solves);
+  out.errors.resize(solves);
+  out.seconds.assign(solves, 0);
+  const auto t1 = std::chrono::steady_clock::now();
+  auto run = [&](int first) {
+    for (int k = first; k < solves; k += workers) {
+      const auto ts = std::chrono::steady_clock::now();
+      try {
+        out.results[k] = Calibrate(r0.estimate.rig, targets,
+                                   Noisy(exact, corner_sigma_px, lip_sigma_px, 1000 + k), options);
+      } catch (const std::exception& e) {
+        out.errors[k] = e.what();
+      }
+      out.seconds[k] = std::chrono::duration<double>(std::chrono::steady_clock::now() - ts).count();
+    }
+  };
+  std::vector<std::thread> pool;
+  for (int w = 1; w < workers; ++w) pool.emplace_back(run, w);
+  run(0);
+  for (auto& t : pool) t.join();
+  out.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
+  return out;
+}
+
+std::string MonteCarloSummary(const CalibrationResult& r0, const MonteCarloSolves& solves,
+                              int* used) {
+  std::string out;
+  const int count = static_cast<int>(solves.results.size());
+  // Per parameter over the solves with the most common list of observable parameters (white lip
+  // noise may tell the synthetic sessions more than R0's own, e.g. dist_k3 freed).
+  std::map<std::vector<std::string>, int> lists;
+  for (int k = 0; k < count; ++k) {
+    if (solves.errors[k].empty()) ++lists[solves.results[k].estimate.names];
+  }
+  std::vector<std::string> names = r0.estimate.names;
+  int most = 0;
+  for (const auto& [list, count] : lists) {
+    if (count > most) most = count, names = list;
+  }
+  if (names != r0.estimate.names) {
+    Append(&out, "the solves' observable parameters differ from R0's:");
+    for (const auto& name : names) {
+      if (std::find(r0.estimate.names.begin(), r0.estimate.names.end(), name) == r0.estimate.names.end()) {
+        Append(&out, " +%s", name.c_str());
+      }
+    }
+    for (const auto& name : r0.estimate.names) {
+      if (std::find(names.begin(), names.end(), name) == names.end()) {
+        Append(&out, " -%s", name.c_str());
+      }
+    }
+    Append(&out, "\n");
+  }
+  std::vector<int> good;
+  for (int k = 0; k < count; ++k) {
+    if (!solves.errors[k].empty()) {
+      Append(&out, "solve %d failed: %s\n", k, solves.errors[k].c_str());
+    } else if (solves.results[k].estimate.names != names) {
+      Append(&out, "solve %d: other parameters observable than the others' (left out)\n", k);
+    } else {
+      good.push_back(k);
+    }
+  }
+  const int n = static_cast<int>(good.size());
+  Append(&out, "%d of %d solves used, %.1f s wall (%.1f s per solve on one thread)\n", n, count,
+         solves.wall_s, [&] { double s = 0; for (double x : solves.seconds) s += x; return s / count; }());
+  *used = n;
+  if (n < 2) return out;
+  {
+    std::map<std::string, std::pair<double, double>> groups;  // mean s, mean tau
+    for (int k : good) {
+      for (const auto& g : solves.results[k].uncertainty.variance_components) {
+        groups[g.group].first += g.sigma_px / n;
+        groups[g.group].second += g.correlation_factor / n;
+      }
+    }
+    for (const auto& [name, v] : groups) {
+      Append(&out, "  solves' %-15s mean s %.4f px per axis, correlation factor %.2f\n",
+                  name.c_str(), v.first, v.second);
+    }
+  }
+  const int p = static_cast<int>(names.size());
+  Eigen::VectorXd reference(p);  // R0's value of each parameter
+  for (int i = 0; i < p; ++i) reference(i) = *ParameterOf(r0.estimate.rig, names[i]);
+  Eigen::MatrixXd x(n, p);
+  Eigen::VectorXd predicted = Eigen::VectorXd::Zero(p);
+  for (int a = 0; a < n; ++a) {
+    x.row(a) = solves.results[good[a]].estimate.values.transpose();
+    predicted += solves.results[good[a]].uncertainty.noise_sigma / n;
+  }
+  const Eigen::VectorXd mean = x.colwise().mean().transpose();
+  const Eigen::MatrixXd d = x.rowwise() - mean.transpose();
+  const Eigen::VectorXd spread = (d.array().square().colwise().sum() / (n - 1)).sqrt().transpose();
+  Append(&out, "%-14s %14s %12s %12s %7s %12s\n", "parameter", "R0 value", "spread", "predicted",
+              "ratio", "bias/spread");
+  double worst = 0;
+  std::string worst_name;
+  for (int i = 0; i < p; ++i) {
+    const double ratio = spread(i) / predicted(i);
+    const double bias = (mean(i) - reference(i)) / spread(i);
+    Append(&out, "%-14s %14.6g %12.4g %12.4g %7.3f %12.2f\n", names[i].c_str(), reference(i),
+                spread(i), predicted(i), ratio, bias);
+    if (std::abs(ratio - 1) > worst) worst = std::abs(ratio - 1), worst_name = names[i];
+  }
+  Append(&out, "ratio sd from sampling alone ~ 1/sqrt(2 n) = %.3f; worst |ratio - 1| %.3f (%s)\n",
+              1 / std::sqrt(2.0 * n), worst, worst_name.c_str());
+
+  // chi^2 of the spread against the predicted pixel-noise covariance (each solve's covariance
+  // minus its considered share, averaged over the solves: R0's own would weigh the lips by the
+  // real session's correlation factor, the synthetic white lip noise gives ~1), Jacobi-scaled,
+  // pseudo-inverse at 1e-10 of the largest eigenvalue.
+  Eigen::MatrixXd noise_cov = Eigen::MatrixXd::Zero(p, p);
+  for (int a = 0; a < n; ++a) {
+    const CalibrationResult& r = solves.results[good[a]];
+    Eigen::MatrixXd c = r.uncertainty.covariance;
+    if (r.uncertainty.considered_sensitivity.cols() == r.uncertainty.considered_column_sigma.size() &&
+        r.uncertainty.considered_sensitivity.rows() == p) {
+      c -= r.uncertainty.considered_sensitivity *
+           r.uncertainty.considered_column_sigma.array().square().matrix().asDiagonal() *
+           r.uncertainty.considered_sensitivity.transpose();
+    }
+    noise_cov += c / n;
+  }
+  const Eigen::VectorXd scale = noise_cov.diagonal().cwiseMax(1e-300).cwiseSqrt();
+  Append(&out, "mean noise covariance: sqrt(diagonal) / mean noise_sigma in %.4f .. %.4f\n",
+              scale.cwiseQuotient(predicted).minCoeff(), scale.cwiseQuotient(predicted).maxCoeff());
+  const Eigen::MatrixXd scaled = scale.cwiseInverse().asDiagonal() * noise_cov *
+                                 scale.cwiseInverse().asDiagonal();
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(scaled);
+  const double tol = 1e-10 * eig.eigenvalues().maxCoeff();
+  int rank = 0;
+  double chi2 = 0;
+  Eigen::VectorXd per_direction = Eigen::VectorXd::Zero(p);
+  for (int a = 0; a < n; ++a) {
+    const Eigen::VectorXd z = eig.eigenvectors().transpose() *
+                              (d.row(a).transpose().cwiseQuotient(scale));
+    for (int k = 0; k < p; ++k) {
+      if (eig.eigenvalues()(k) <= tol) continue;
+      per_direction(k) += z(k) * z(k) / eig.eigenvalues()(k) / (n - 1);
+    }
+  }
+  for (int k = 0; k < p; ++k) {
+    if (eig.eigenvalues()(k) <= tol) continue;
+    ++rank;
+    chi2 += per_direction(k);
+  }
+  Append(&out, "chi^2 of the spread against the predicted noise covariance: %.2f per solve for %d "
+              "directions (expected %d; sampling sd ~%.2f)\n", chi2, rank, rank,
+              std::sqrt(2.0 * rank / n));
+  Append(&out, "per eigen-direction (Jacobi-scaled eigenvalue ascending: variance ratio): ");
+  for (int k = 0; k < p; ++k) {
+    if (eig.eigenvalues()(k) > tol) Append(&out, "%.2g:%.2f ", eig.eigenvalues()(k), per_direction(k));
+  }
+  Append(&out, "\n");
+  return out;
+}
+
+}  // namespace omni::calib

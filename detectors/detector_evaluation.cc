@@ -1,0 +1,279 @@
+#include "detectors/detector_evaluation.h"
+
+#include <algorithm>
+#include <array>
+#include <cstdarg>
+#include <cstdio>
+
+#include "detectors/lips/lip_intrinsics.h"
+#include "model/rig_model.h"
+
+namespace omni::detectors {
+namespace {
+
+// printf appended to *out.
+void Append(std::string* out, const char* format, ...) {
+  va_list args, size_args;
+  va_start(args, format);
+  va_copy(size_args, args);
+  const int n = std::vsnprintf(nullptr, 0, format, size_args);
+  va_end(size_args);
+  if (n > 0) {
+    const size_t old = out->size();
+    out->resize(old + n + 1);
+    std::vsnprintf(out->data() + old, n + 1, format, args);
+    out->resize(old + n);
+  }
+  va_end(args);
+}
+
+int RangeBin(double range_mm) {
+  const double edges[] = {500, 1000, 2000};
+  int b = 0;
+  while (b < 3 && range_mm >= edges[b]) ++b;
+  return b;
+}
+const char* kRangeNames[] = {"0.3-0.5 m", "0.5-1 m", "1-2 m", "2-4 m"};
+const char* kKindNames[] = {"chessboard", "apriltag", "kalibr"};  // by TargetType
+
+// The recall target applies to junctions resolved this far apart: corners whose nearest other
+// corner of their target in their ring is at least kSpacedPx away (true pixels), and whole
+// targets (one placement in one ring) whose junctions are kResolvedPx apart (the median over its
+// corners of the nearest other corner).
+constexpr double kSpacedPx = 4.0;
+constexpr double kResolvedPx = 6.0;
+constexpr double kMatchPx = 3.0;
+
+double Mean(const std::vector<double>& v) {
+  double mean = 0;
+  for (double e : v) mean += e / std::max<size_t>(1, v.size());
+  return mean;
+}
+
+}  // namespace
+
+double Percentile(std::vector<double> v, double p) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  return v[std::min(v.size() - 1, static_cast<size_t>(p * (v.size() - 1) + 0.5))];
+}
+
+const char* DetectorEvaluation::CsvHeader() {
+  return "image,target,kind,id,mirror,range_mm,u,v,true_u,true_v,guided,found\n";
+}
+
+std::vector<std::string> DetectorEvaluation::AddImage(const std::string& name,
+                                                      const ImageObservations& det,
+                                                      const std::vector<bool>& guided,
+                                                      const std::vector<TruthCorner>& truth,
+                                                      std::string* csv) {
+  std::vector<std::string> lines;
+  std::string line;
+  const auto kind_of = [&](int target) { return static_cast<int>(targets_[target].type); };
+  std::vector<bool> truth_found(truth.size() * 2, false);
+  for (size_t k = 0; k < det.corners.size(); ++k) {
+    const CornerObservation& o = det.corners[k];
+    Bin* guided_bin = guided[k] ? &guided_by_kind_[{kind_of(o.target), MirrorIndex(o.mirror)}] : nullptr;
+    // The nearest visible true corner in the same ring.
+    const TrueCornerMatch match = NearestTrueCorner(truth, o.mirror, o.pixel);
+    const double best = match.distance_px;
+    const int best_i = match.corner ? static_cast<int>(match.corner - truth.data()) : -1;
+    const double range = best_i >= 0 ? truth[best_i].point_in_cam.head<2>().norm() : 0;
+    Bin& bin = bins_[{MirrorIndex(o.mirror), RangeBin(range)}];
+    // Targets with the same rows x cols cannot be told apart in an image (the detector reports
+    // the first): the target is right if its pattern is.
+    const auto same_pattern = [&](int a, int b) {
+      return targets_[a].rows == targets_[b].rows && targets_[a].cols == targets_[b].cols;
+    };
+    if (best_i < 0 || best > kMatchPx || truth[best_i].id != o.id ||
+        !same_pattern(truth[best_i].target, o.target)) {
+      ++bin.wrong;
+      if (guided_bin) ++guided_bin->wrong;
+      line.clear();
+      Append(&line, "%s: wrong%s: target %d id %d mirror %d at (%.1f, %.1f): nearest truth "
+             "target %d id %d at %.2f px", name.c_str(), guided_bin ? " (guided)" : "", o.target,
+             o.id, MirrorIndex(o.mirror), o.pixel.x(), o.pixel.y(),
+             best_i >= 0 ? truth[best_i].target : -1, best_i >= 0 ? truth[best_i].id : -1, best);
+      lines.push_back(line);
+      continue;
+    }
+    bin.errors.push_back(best);
+    if (guided_bin) guided_bin->errors.push_back(best);
+    if (csv) {
+      const Eigen::Vector2d& t = *truth[best_i].pixel[MirrorIndex(o.mirror) - 1];
+      Append(csv, "%s,%d,%s,%d,%d,%.1f,%.4f,%.4f,%.4f,%.4f,%d,1\n", name.c_str(), o.target,
+             kKindNames[kind_of(o.target)], o.id, MirrorIndex(o.mirror), range, o.pixel.x(),
+             o.pixel.y(), t.x(), t.y(), guided_bin ? 1 : 0);
+    }
+    if (best > 0.5) {  // right id but far off: named, like wrong ids, to find the cause
+      line.clear();
+      Append(&line, "%s: off: target %d id %d mirror %d at (%.1f, %.1f): %.2f px from truth",
+             name.c_str(), o.target, o.id, MirrorIndex(o.mirror), o.pixel.x(), o.pixel.y(), best);
+      lines.push_back(line);
+    }
+    by_kind_[{kind_of(o.target), MirrorIndex(o.mirror)}].errors.push_back(best);
+    truth_found[2 * best_i + MirrorIndex(o.mirror) - 1] = true;
+  }
+  // (target, mirror) -> visible, found, range: to name the boards that were missed.
+  std::map<std::pair<int, int>, std::array<double, 3>> boards;
+  std::map<std::pair<int, int>, std::vector<double>> nearest_by_board;
+  for (size_t i = 0; i < truth.size(); ++i) {
+    for (int m = 1; m <= 2; ++m) {
+      if (!truth[i].pixel[m - 1]) continue;
+      const bool found = truth_found[2 * i + m - 1];
+      Bin& bin = bins_[{m, RangeBin(truth[i].point_in_cam.head<2>().norm())}];
+      ++bin.visible;
+      if (found) ++bin.found;
+      if (csv && !found) {  // a missed corner: its true pixel only
+        const Eigen::Vector2d& t = *truth[i].pixel[m - 1];
+        Append(csv, "%s,%d,%s,%d,%d,%.1f,,,%.4f,%.4f,0,0\n", name.c_str(), truth[i].target,
+               kKindNames[kind_of(truth[i].target)], truth[i].id, m,
+               truth[i].point_in_cam.head<2>().norm(), t.x(), t.y());
+      }
+      Bin& kind = by_kind_[{kind_of(truth[i].target), m}];
+      ++kind.visible;
+      if (found) ++kind.found;
+      double nearest = 1e9;
+      for (size_t j = 0; j < truth.size(); ++j) {
+        if (j != i && truth[j].target == truth[i].target && truth[j].pixel[m - 1]) {
+          nearest = std::min(nearest, (*truth[j].pixel[m - 1] - *truth[i].pixel[m - 1]).norm());
+        }
+      }
+      if (nearest >= kSpacedPx) {
+        Bin& spaced = spaced_by_kind_[{kind_of(truth[i].target), m}];
+        ++spaced.visible;
+        if (found) ++spaced.found;
+      }
+      nearest_by_board[{truth[i].target, m}].push_back(nearest);
+      auto& b = boards[{truth[i].target, m}];
+      b[0] += 1;
+      b[1] += found ? 1 : 0;
+      b[2] = truth[i].point_in_cam.head<2>().norm();
+    }
+  }
+  for (const auto& [key, b] : boards) {
+    if (Percentile(nearest_by_board[key], 0.5) >= kResolvedPx) {
+      resolved_by_ring_[key.second].visible += static_cast<int>(b[0]);
+      resolved_by_ring_[key.second].found += static_cast<int>(b[1]);
+    }
+    if (b[1] < b[0]) {
+      line.clear();
+      Append(&line, "%s: missed: target %d ring %d at %.2f m: %.0f of %.0f visible corners found",
+             name.c_str(), key.first, key.second, b[2] / 1000, b[1], b[0]);
+      lines.push_back(line);
+    }
+  }
+  return lines;
+}
+
+std::string DetectorEvaluation::Tables() const {
+  std::string out;
+  Append(&out, "%-6s %-10s %8s %8s %8s %8s %8s %6s\n", "ring", "range", "visible", "found",
+         "found%", "mean_px", "p99_px", "wrong");
+  const auto row = [&](const std::string& ring, const char* range, const Bin& bin) {
+    Append(&out, "%-6s %-10s %8d %8d %7.1f%% %8.4f %8.4f %6d\n", ring.c_str(), range, bin.visible,
+           bin.found, 100.0 * bin.found / std::max(1, bin.visible), Mean(bin.errors),
+           Percentile(bin.errors, 0.99), bin.wrong);
+  };
+  Bin all;
+  for (int m = 1; m <= 2; ++m) {
+    Bin ring;
+    for (int b = 0; b < 4; ++b) {
+      auto it = bins_.find({m, b});
+      if (it == bins_.end()) continue;
+      const Bin& bin = it->second;
+      row(std::to_string(m), kRangeNames[b], bin);
+      for (Bin* t : {&ring, &all}) {
+        t->errors.insert(t->errors.end(), bin.errors.begin(), bin.errors.end());
+        t->visible += bin.visible;
+        t->found += bin.found;
+        t->wrong += bin.wrong;
+      }
+    }
+    row(std::to_string(m), "all", ring);
+  }
+  row("both", "all", all);
+  // The same per kind of target (wrong ids are counted in the range table only).
+  for (const auto& [key, bin] : by_kind_) {
+    Append(&out, "%-6d %-10s %8d %8zu %7.1f%% %8.4f %8.4f\n", key.second, kKindNames[key.first],
+           bin.visible, bin.errors.size(), 100.0 * bin.found / std::max(1, bin.visible),
+           Mean(bin.errors), Percentile(bin.errors, 0.99));
+  }
+  Append(&out, "corners at least %.0f px from their target's other corners in the ring:\n",
+         kSpacedPx);
+  for (const auto& [key, bin] : spaced_by_kind_) {
+    Append(&out, "%-6d %-10s %8d %8d %7.1f%%\n", key.second, kKindNames[key.first], bin.visible,
+           bin.found, 100.0 * bin.found / std::max(1, bin.visible));
+  }
+  Append(&out, "targets whose junctions are at least %.0f px apart (median nearest) in the ring:\n",
+         kResolvedPx);
+  for (const auto& [ring, bin] : resolved_by_ring_) {
+    Append(&out, "%-6d %-10s %8d %8d %7.1f%%\n", ring, "resolved", bin.visible, bin.found,
+           100.0 * bin.found / std::max(1, bin.visible));
+  }
+  // Guided corners alone (guided_detection.h): how many, their error and wrong ids.
+  Append(&out, "guided corners (across rings):\n%-6s %-10s %8s %8s %8s %6s\n", "ring", "kind",
+         "found", "mean_px", "p99_px", "wrong");
+  for (const auto& [key, bin] : guided_by_kind_) {
+    Append(&out, "%-6d %-10s %8zu %8.4f %8.4f %6d\n", key.second, kKindNames[key.first],
+           bin.errors.size(), Mean(bin.errors), Percentile(bin.errors, 0.99), bin.wrong);
+  }
+  return out;
+}
+
+std::string LipIntrinsicsAgainstTruth(const RigParams& truth, const RigParams& nominal,
+                                      const std::vector<LipEdgeObservation>& edges, int n_images) {
+  std::string out;
+  const double f_true = 0.5 * (truth.camera[0] + truth.camera[1]);
+  const Eigen::Vector2d pp(truth.camera[2], truth.camera[3]);
+  const LipReferencePoints ref = LipReferencePointsOf(truth);
+  struct Ref {
+    const char* name;
+    Eigen::Vector2d pixel;
+  };
+  const Ref refs[] = {{"axis1", ref.axis1},
+                      {"axis2", ref.axis2},
+                      {"lip1_centre", ref.lip1_centre},
+                      {"lip2_centre_in_reflex", ref.lip2_centre_in_reflex},
+                      {"axis2_in_reflex", ref.axis2_in_reflex}};
+  Append(&out, "lips (%d images, %zu labelled edges): true f %.3f pp (%.3f, %.3f); nominal pp "
+         "(%.3f, %.3f)\n", n_images, edges.size(), f_true, pp.x(), pp.y(), nominal.camera[2],
+         nominal.camera[3]);
+  for (const Ref& r : refs) {
+    Append(&out, "lips ref %-22s (%.3f, %.3f), minus true pp (%+.3f, %+.3f) = %.3f px\n", r.name,
+           r.pixel.x(), r.pixel.y(), r.pixel.x() - pp.x(), r.pixel.y() - pp.y(),
+           (r.pixel - pp).norm());
+  }
+  RigParams nominal_true_lens = nominal;
+  nominal_true_lens.distortion = truth.distortion;
+  struct Fit {
+    const char* name;
+    const RigParams* prior;
+    int mirror;  // 0: all edges
+  };
+  const Fit fits[] = {{"all", &nominal, 0},
+                      {"mirror1_edges", &nominal, 1},
+                      {"mirror2_edges", &nominal, 2},
+                      {"all_true_lens", &nominal_true_lens, 0}};
+  for (const Fit& fit : fits) {
+    std::vector<LipEdgeObservation> used;
+    for (const LipEdgeObservation& e : edges) {
+      if (fit.mirror == 0 || MirrorIndex(e.mirror) == fit.mirror) used.push_back(e);
+    }
+    const auto est = InitialIntrinsicsFromLips(used, RigModel(*fit.prior));
+    if (!est) {
+      Append(&out, "lips fit %-14s: failed (%zu edges)\n", fit.name, used.size());
+      continue;
+    }
+    const Eigen::Vector2d c(est->cx, est->cy);
+    Append(&out, "lips fit %-14s: f %.3f (%+.3f%%) pp (%.3f, %.3f) rms %.3f px, %d points; "
+           "minus true pp (%+.3f, %+.3f) = %.3f px", fit.name, est->f, 100 * (est->f / f_true - 1),
+           c.x(), c.y(), est->rms_px, est->n_points, c.x() - pp.x(), c.y() - pp.y(),
+           (c - pp).norm());
+    for (const Ref& r : refs) Append(&out, "; %s %.3f", r.name, (c - r.pixel).norm());
+    out += " px\n";
+  }
+  return out;
+}
+
+}  // namespace omni::detectors

@@ -1,0 +1,65 @@
+// The detectors judged against a synthetic session's exact truth (bench/eval_detectors): per
+// ring and per horizontal range of the corner from the axis, the corner error (mean, 99th
+// percentile), the fraction of truly visible corners found and the wrong ids; the same per kind
+// of target, for well-spaced corners, for resolved targets and for the corners guided detection
+// found; and the lip-only intrinsics against the true rig. The truth is each image's true corners
+// (model/truth.h, synthetic::ComputeTruth), matched by pixels alone (NearestTrueCorner).
+#pragma once
+
+#include <map>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "model/observations.h"
+#include "model/rig_params.h"
+#include "model/target.h"
+#include "model/truth.h"
+
+namespace omni::detectors {
+
+class DetectorEvaluation {
+ public:
+  explicit DetectorEvaluation(std::vector<TargetSpec> targets) : targets_(std::move(targets)) {}
+
+  // One image's detections (`guided`: per corner, found by guided detection) against its true
+  // corners. Returns the lines worth a look, one each: wrong ids, right ids far off (> 0.5 px)
+  // and the boards missed in part. *csv_rows (may be null) gets every matched corner and every
+  // missed visible one (CsvHeader's columns).
+  std::vector<std::string> AddImage(const std::string& name, const ImageObservations& detections,
+                                    const std::vector<bool>& guided,
+                                    const std::vector<TruthCorner>& truth,
+                                    std::string* csv_rows = nullptr);
+
+  static const char* CsvHeader();
+  // The tables, newline-terminated.
+  std::string Tables() const;
+
+ private:
+  struct Bin {
+    std::vector<double> errors;
+    int visible = 0, found = 0, wrong = 0;
+  };
+  std::vector<TargetSpec> targets_;
+  std::map<std::pair<int, int>, Bin> bins_;            // (mirror, range bin)
+  std::map<std::pair<int, int>, Bin> by_kind_;         // (target type, mirror), all ranges
+  std::map<std::pair<int, int>, Bin> guided_by_kind_;  // the same, guided corners only
+  std::map<std::pair<int, int>, Bin> spaced_by_kind_;  // corners kSpacedPx from their target's others
+  std::map<int, Bin> resolved_by_ring_;                // targets resolved (kResolvedPx), per ring
+};
+
+// The value at fraction p (0..1) of the sorted values (the nearest rank); 0 when empty.
+double Percentile(std::vector<double> values, double p);
+
+// The lip-only principal point against what the TRUE rig fixes. Lips are fixed to the mirror
+// bodies, so with a nominal (coaxial) model a lip-only fit cannot tell a tilt of the camera
+// against the bodies from a principal-point shift (lips/lip_intrinsics.h): the fit should put the
+// principal point where the bodies put the lips' centres, not at the true one (reference points:
+// LipReferencePointsOf). Fits: all labelled edges, mirror-1 edges only (direct, via_mirror1: one
+// body), mirror-2 edges only (via_mirror2: mirror 2 and the reflex plane), and all edges from the
+// nominal with the true lens distortion (what part of the focal-length error the distortion
+// makes). Newline-terminated lines.
+std::string LipIntrinsicsAgainstTruth(const RigParams& truth, const RigParams& nominal,
+                                      const std::vector<LipEdgeObservation>& edges, int n_images);
+
+}  // namespace omni::detectors
