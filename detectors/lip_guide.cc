@@ -33,7 +33,7 @@ struct LipSearch {
 };
 
 LipSearch SearchLips(const std::vector<GuideImage>& images, const RigModel& model,
-                     io::ToneCurve tone) {
+                     io::ToneCurve tone, LipPredictionCache* cache) {
   LipSearch search;
   const RigParams& rig = model.params();
   for (const GuideImage& one : images) {
@@ -42,7 +42,8 @@ LipSearch SearchLips(const std::vector<GuideImage>& images, const RigModel& mode
       continue;
     }
     const std::vector<LipEdgeObservation> found = DetectLips(
-        LipInput(io::LinearImage(image, tone)), model, LipOptionsFor(image, one.chroma_halved, one.luma));
+        LipInput(io::LinearImage(image, tone)), model, LipOptionsFor(image, one.chroma_halved, one.luma),
+        cache);
     search.edges.insert(search.edges.end(), found.begin(), found.end());
   }
   search.fit = InitialIntrinsicsFromLips(search.edges, model, /*fit_reflex_tilt=*/true);
@@ -66,7 +67,7 @@ LipGuide GuideByLips(const std::vector<GuideImage>& images, DetectorContext* ctx
     guide.why_not = "no colour image to find the lips in";
     return guide;
   }
-  LipSearch search = SearchLips(images, ctx->model, ctx->tone);
+  LipSearch search = SearchLips(images, ctx->model, ctx->tone, &ctx->lip_prediction);
   // A model whose f is several percent off (the design's f at another camera's size) predicts
   // the lips beyond the detector's search (+-1.4% of f: about +-4% of f in the lips' radii): the
   // lips are looked for again with f scaled in steps within that reach, and the search that
@@ -77,7 +78,7 @@ LipGuide GuideByLips(const std::vector<GuideImage>& images, DetectorContext* ctx
       RigParams scaled = rig;
       scaled.camera[0] *= scale;
       scaled.camera[1] *= scale;
-      LipSearch candidate = SearchLips(images, RigModel(scaled), ctx->tone);
+      LipSearch candidate = SearchLips(images, RigModel(scaled), ctx->tone, &ctx->lip_prediction);
       if (holds(candidate) && (!holds(search) || candidate.fit->n_points > search.fit->n_points)) {
         search = std::move(candidate);
         guide.f_scanned = scale;
@@ -95,7 +96,7 @@ LipGuide GuideByLips(const std::vector<GuideImage>& images, DetectorContext* ctx
     refit.camera[0] = refit.camera[1] = search.fit->f;
     refit.camera[2] = search.fit->cx;
     refit.camera[3] = search.fit->cy;
-    LipSearch again = SearchLips(images, RigModel(refit), ctx->tone);
+    LipSearch again = SearchLips(images, RigModel(refit), ctx->tone, &ctx->lip_prediction);
     if (holds(again) && again.fit->n_points >= search.fit->n_points) search = std::move(again);
   }
   const std::vector<LipEdgeObservation>& edges = search.edges;
