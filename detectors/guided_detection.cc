@@ -1028,7 +1028,7 @@ std::string GuidedOptions::Check() const {
   }
   if (!(pattern_below_gap_px >= 0)) return OptionError("pattern_below_gap_px", "a gap >= 0 view px", pattern_below_gap_px);
   if (min_kept < 1) return OptionError("min_kept", "at least 1 corner", min_kept);
-  return "";
+  return NestedOptionError("grid_check", grid_check.Check());
 }
 
 std::vector<CornerObservation> GuidedCorners(const cv::Mat& raw_grey,

@@ -3,8 +3,10 @@
 #include <cmath>
 #include <cstdio>
 #include <optional>
+#include <stdexcept>
 #include <utility>
 
+#include "detectors/common/option_check.h"
 #include "detectors/lips/lip_detector.h"
 #include "detectors/lips/lip_intrinsics.h"
 #include "io/image_file.h"
@@ -52,8 +54,24 @@ LipSearch SearchLips(const std::vector<GuideImage>& images, const RigModel& mode
 
 }  // namespace
 
+std::string LipGuideOptions::Check() const {
+  if (!(min_f_change > 0)) return OptionError("min_f_change", "a fraction > 0 of f", min_f_change);
+  if (!(min_pp_move_px > 0)) return OptionError("min_pp_move_px", "a move > 0 px", min_pp_move_px);
+  if (!(min_inner_move_px > 0)) return OptionError("min_inner_move_px", "a move > 0 px", min_inner_move_px);
+  if (!(max_f_change > min_f_change)) {
+    return OptionError("max_f_change", "a fraction of f above min_f_change", max_f_change);
+  }
+  if (!(max_move_per_f > 0)) return OptionError("max_move_per_f", "a fraction > 0 of f", max_move_per_f);
+  if (!(max_rms_px > 0)) return OptionError("max_rms_px", "an rms > 0 px", max_rms_px);
+  for (double s : f_scan) {
+    if (!(s > 0.5 && s < 2)) return OptionError("f_scan", "scales of f in (0.5, 2)", s);
+  }
+  return "";
+}
+
 LipGuide GuideByLips(const std::vector<GuideImage>& images, DetectorContext* ctx,
                      const LipGuideOptions& options) {
+  if (const std::string error = options.Check(); !error.empty()) throw std::invalid_argument(error);
   const RigParams& rig = ctx->model.params();
   LipGuide guide;
   guide.f_before = 0.5 * (rig.camera[0] + rig.camera[1]);

@@ -1141,6 +1141,13 @@ std::string TagDetectorOptions::Check() const {
   if (!(kalibr_retry_max_residual_px > 0)) {
     return OptionError("kalibr_retry_max_residual_px", "a tolerance > 0 px", kalibr_retry_max_residual_px);
   }
+  if (const std::string error = NestedOptionError("kalibr_saddles", kalibr_saddles.Check()); !error.empty()) {
+    return error;
+  }
+  if (const std::string error = NestedOptionError("grid_check_options", grid_check_options.Check());
+      !error.empty()) {
+    return error;
+  }
   return NestedOptionError("kalibr", kalibr.Check());
 }
 

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <cstdio>
 #include <memory>
 #include <random>
 #include <stdexcept>
@@ -11,6 +10,7 @@
 #include <Eigen/Dense>
 
 #include "detectors/lips/luma_edge.h"
+#include "io/file_util.h"
 
 namespace omni::detectors {
 namespace {
@@ -625,9 +625,7 @@ bool FitEllipseRobust(const std::vector<Eigen::Vector2d>& points, const LipDetec
 
 // "<field>: expected <what>, got <value>" (the lips do not link detectors/common's OptionError).
 std::string LipOptionError(const std::string& field, const std::string& expected, double got) {
-  char value[32];
-  std::snprintf(value, sizeof value, "%g", got);
-  return field + ": expected " + expected + ", got " + value;
+  return field + ": expected " + expected + ", got " + io::FormatDouble(got);
 }
 
 std::string LipDetectorOptions::Check() const {

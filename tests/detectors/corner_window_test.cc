@@ -5,12 +5,16 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 
 #include "detectors/apriltag/apriltag_detector.h"
 #include "detectors/chessboard/chessboard_detector.h"
 #include "detectors/common/corner_window.h"
+#include "detectors/common/saddle_points.h"
 #include "detectors/common/views.h"
 #include "detectors/guided_detection.h"
+#include "detectors/lip_guide.h"
+#include "detectors/lips/post_finder.h"
 #include "io/model_file.h"
 
 namespace omni::detectors {
@@ -73,9 +77,24 @@ TEST(DetectorOptions, DefaultsPassTheirChecksAndBadValuesAreNamed) {
   tags = TagDetectorOptions();
   tags.kalibr_region_pad_deg = -1;
   EXPECT_EQ(tags.Check(), "kalibr_region_pad_deg: expected an angle >= 0 degrees, got -1");
+  tags = TagDetectorOptions();
+  tags.kalibr_saddles.sigma = 0;
+  EXPECT_EQ(tags.Check(), "kalibr_saddles.sigma: expected a smoothing > 0 view px, got 0");
   GuidedOptions guided;
   guided.max_prediction_error_deg = 0;
   EXPECT_EQ(guided.Check(), "max_prediction_error_deg: expected an angle > 0 degrees, got 0");
+  guided = GuidedOptions();
+  guided.grid_check.min_corners = 3;
+  EXPECT_EQ(guided.Check(), "grid_check.min_corners: expected at least 4 corners (a homography), got 3");
+  EXPECT_EQ(SaddleOptions().Check(), "");
+  EXPECT_EQ(LipGuideOptions().Check(), "");
+  LipGuideOptions guide;
+  guide.f_scan = {0.96, 3};
+  EXPECT_EQ(guide.Check(), "f_scan: expected scales of f in (0.5, 2), got 3");
+  EXPECT_EQ(PostFinderOptions().Check(), "");
+  PostFinderOptions posts;
+  posts.elevations = 0;
+  EXPECT_EQ(posts.Check(), "elevations: expected at least 1 sample, got 0");
 }
 
 }  // namespace
