@@ -122,7 +122,8 @@ ImageObservations DetectImage(const cv::Mat& image, DetectorContext* ctx,
   }
   if (ctx->use_lips) {
     if (image.channels() >= 3) {
-      out.lips = DetectLips(LipInput(linear), ctx->model, LipOptionsFor(image, ctx->chroma_halved, ctx->luma));
+      out.lips = DetectLips(LipInput(linear), ctx->model, LipOptionsFor(image, ctx->chroma_halved, ctx->luma),
+                           &ctx->lip_prediction);
     } else if (warnings) {
       warnings->push_back("grey image: the coloured lips cannot be detected");
     }

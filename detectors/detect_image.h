@@ -46,6 +46,8 @@ struct DetectorContext {
   cv::Mat luma;
   ChessboardOptions chessboard;
   GuidedOptions guided;  // corners of targets found in one ring looked for in the other
+  // The lip detector's prediction for the model, made on the session's first colour image.
+  LipPredictionCache lip_prediction;
 };
 
 // Detects the context's targets in `image` (BGR or grey, 8 or 16 bit, the model's size, encoded

@@ -5,6 +5,7 @@
 #include <map>
 #include <optional>
 #include <set>
+#include <stdexcept>
 
 #include <Eigen/Geometry>
 #include <opencv2/calib3d.hpp>
@@ -15,6 +16,8 @@
 #include "detectors/apriltag/tag_pattern_fit.h"
 #include "detectors/chessboard/chessboard_detector.h"
 #include "detectors/common/corner_refine.h"
+#include "detectors/common/corner_window.h"
+#include "detectors/common/option_check.h"
 #include "detectors/common/saddle_points.h"
 #include "pose/initial_pose.h"
 
@@ -315,10 +318,9 @@ std::vector<CornerObservation> KalibrBeyondTheView(const cv::Mat& raw_grey, cons
     const Eigen::Vector2d next = corner_of((k + 1) % 4), previous = corner_of((k + 3) % 4);
     const double side_raw = std::min((next - predicted).norm(), (previous - predicted).norm());
     Eigen::Vector2d start;
-    if (!RefineSaddleCorner(raw_grey, predicted, static_cast<int>(std::lround(0.15 * side_raw)), 0.2 * side_raw,
-                            &start) ||
+    if (!RefineSaddleCorner(raw_grey, predicted, TagCornerHalfWindow(side_raw), 0.2 * side_raw, &start) ||
         !IsKalibrXJunction(raw_grey, start, (next - predicted).normalized(), (previous - predicted).normalized(),
-                           std::max(1.5, 0.12 * side_raw), tag_options.kalibr.min_contrast)) {
+                           XJunctionProbe(side_raw), tag_options.kalibr.min_contrast)) {
       continue;
     }
     const auto line = [&](int other) -> std::optional<LocalLine> {
@@ -412,7 +414,8 @@ std::optional<Prediction> PredictInRing(const GuideInputs& in) {
     }
     out.h0 = FitHomography(p, q, 0, 0);
     if (raw_span <= 0) return std::nullopt;
-    out.radius = options.max_prediction_error_px * view_span / raw_span;
+    const double max_error_px = options.max_prediction_error_deg * CameraPixelsPerDegree(in.model.params());
+    out.radius = max_error_px * view_span / raw_span;
   }
   if (out.h0.empty()) return std::nullopt;
   return out;
@@ -698,8 +701,8 @@ std::map<int, Eigen::Vector2d> RefineChessboardCorners(const GuideInputs& in, Al
       if (const auto q = a.RawOf(in.lattice, rr * target.cols + cc)) side = std::min(side, (*q - *start).norm());
     }
     if (side > 1e8) continue;
-    // The per-ring detector's window (chessboard_detector.cc MakeBoard): 0.55 squares.
-    const int half = side < 3.0 ? 1 : std::clamp(static_cast<int>(std::lround(0.55 * side)), 2, 8);
+    // The per-ring detector's window (corner_window.h): 0.55 squares.
+    const int half = ChessboardHalfWindow(side, CameraPixelsPerDegree(in.model.params()));
     Eigen::Vector2d pixel = *start;
     if (!is_own && !RefineCornerInRaw(in.raw_grey, half, &pixel)) continue;
     if ((pixel - *start).norm() > std::max(1.5, 0.3 * side)) continue;
@@ -792,14 +795,14 @@ std::map<int, Eigen::Vector2d> RefineKalibrCorners(const GuideInputs& in, Aligne
     }
     Eigen::Vector2d in_view;
     if (!RefineSaddleCorner(view.image, Apply(h, lattice.corners[i].plane),
-                            static_cast<int>(std::lround(0.15 * side_view)), 0.1 * side_view, &in_view)) {
+                            TagCornerHalfWindow(side_view), 0.1 * side_view, &in_view)) {
       continue;
     }
     const auto pixel = view.ViewToRaw(in_view);
     if (!pixel) continue;
     const double side_raw = std::min((*next - *raw).norm(), (*previous - *raw).norm());
     if (!IsKalibrXJunction(in.raw_grey, *pixel, (*next - *raw).normalized(), (*previous - *raw).normalized(),
-                           std::max(1.5, 0.12 * side_raw), kalibr.min_contrast)) {
+                           XJunctionProbe(side_raw), kalibr.min_contrast)) {
       continue;
     }
     const Eigen::Vector2d corner = *pixel;
@@ -998,12 +1001,43 @@ std::vector<CornerObservation> GuideTarget(const GuideInputs& in) {
 
 }  // namespace
 
+std::string GuidedOptions::Check() const {
+  if (min_seed_corners < 1) return OptionError("min_seed_corners", "at least 1 corner", min_seed_corners);
+  if (!(max_prediction_error_deg > 0)) {
+    return OptionError("max_prediction_error_deg", "an angle > 0 degrees", max_prediction_error_deg);
+  }
+  if (!(saddle_min_contrast > 0)) return OptionError("saddle_min_contrast", "grey levels > 0", saddle_min_contrast);
+  if (!(match_fraction > 0 && match_fraction < 0.5)) {
+    return OptionError("match_fraction", "a fraction in (0, 0.5) of the junctions' spacing", match_fraction);
+  }
+  if (min_matched < 1) return OptionError("min_matched", "at least 1 junction", min_matched);
+  if (min_margin < 0) return OptionError("min_margin", "a junction count >= 0", min_margin);
+  if (!(min_margin_fraction >= 0 && min_margin_fraction <= 1)) {
+    return OptionError("min_margin_fraction", "a fraction in [0, 1]", min_margin_fraction);
+  }
+  if (!(max_extension_fraction >= 0)) {
+    return OptionError("max_extension_fraction", "a fraction >= 0", max_extension_fraction);
+  }
+  if (!(min_polarity_agreement >= 0 && min_polarity_agreement <= 1)) {
+    return OptionError("min_polarity_agreement", "a fraction in [0, 1]", min_polarity_agreement);
+  }
+  if (alignments_refined < 1) return OptionError("alignments_refined", "at least 1", alignments_refined);
+  if (!(pattern_search_px > 0)) return OptionError("pattern_search_px", "a search > 0 view px", pattern_search_px);
+  if (!(pattern_when_found_below >= 0)) {
+    return OptionError("pattern_when_found_below", "a fraction >= 0", pattern_when_found_below);
+  }
+  if (!(pattern_below_gap_px >= 0)) return OptionError("pattern_below_gap_px", "a gap >= 0 view px", pattern_below_gap_px);
+  if (min_kept < 1) return OptionError("min_kept", "at least 1 corner", min_kept);
+  return NestedOptionError("grid_check", grid_check.Check());
+}
+
 std::vector<CornerObservation> GuidedCorners(const cv::Mat& raw_grey,
                                                  const std::vector<RingView>& views,
                                                  const RigModel& model,
                                                  const std::vector<TargetSpec>& targets,
                                                  const std::vector<CornerObservation>& found,
                                                  const GuidedOptions& options) {
+  if (const std::string error = options.Check(); !error.empty()) throw std::invalid_argument(error);
   std::vector<CornerObservation> out;
   if (!options.enabled) return out;
   cv::Mat raw_grey32;  // CV_32F, made once, when a target is first guided

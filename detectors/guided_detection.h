@@ -46,7 +46,8 @@
 // alignment would give every corner a wrong id, so where any check is in doubt nothing is kept.
 //
 // Scale and failure modes, in short: the seed ring needs min_seed_corners (6) corners of the
-// target; the prediction may be off by max_prediction_error_px (30 raw px, scaled into the view);
+// target; the prediction may be off by max_prediction_error_deg (1.18 degrees of the camera's
+// view: 30 raw px at 1280x960, scaled into the view);
 // saddles align only junctions at least ~3 view px apart (match_fraction 0.3 of their spacing >= 1
 // px), smaller or more blurred tag grids go to the pattern alignment (gap under
 // pattern_below_gap_px, 10 view px). It returns nothing for a target whose alignment is ambiguous
@@ -55,6 +56,7 @@
 // chessboard; fewer than min_kept (4) checked corners from the other ring alone are dropped.
 #pragma once
 
+#include <string>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -70,8 +72,10 @@ namespace omni::detectors {
 struct GuidedOptions {
   bool enabled = true;
   int min_seed_corners = 6;          // corners of the target in the seeding ring
-  // How far (raw px) the model's prediction may be off: the translation search radius.
-  double max_prediction_error_px = 30;
+  // How far the model's prediction may be off: the translation search radius, in degrees of the
+  // camera's view (CameraPixelsPerDegree; a tilt turns rays by an angle): 30 raw px at the big
+  // rig's 1280x960, 22.5 at 960x720, 61 at 2592x1944.
+  double max_prediction_error_deg = 1.1841;
   // Saddle points count from this contrast (grey levels; SaddlePoints): lower than the per-ring
   // detectors' 125, the lattice is the evidence here.
   double saddle_min_contrast = 50;
@@ -91,7 +95,7 @@ struct GuidedOptions {
   int alignments_refined = 6;  // best distinct translations refined to homographies
   // Tag grids the saddle points cannot align: their whole printed pattern (tag_pattern_fit.h
   // AlignTargetPattern), searched within this many view px where the ring's own corners give
-  // the prediction (else within the pose's max_prediction_error_px).
+  // the prediction (else within the pose's max_prediction_error_deg).
   bool pattern_alignment = true;
   double pattern_search_px = 4;
   // ... tried where the saddles' guided corners are fewer than this fraction of the ring's
@@ -104,6 +108,10 @@ struct GuidedOptions {
   double pattern_below_gap_px = 10;
   int min_kept = 4;  // fewer guided corners of a target in a ring after the checks: none kept
   TagGridCheckOptions grid_check;
+
+  // Empty if the options are usable, else "<field>: expected ...": a count under 1, an angle,
+  // search or gap <= 0, a fraction outside its range.
+  std::string Check() const;
 };
 
 // Guided corners (only ids not in `found` for their target and ring) from the targets `found`

@@ -3,8 +3,10 @@
 #include <cmath>
 #include <cstdio>
 #include <optional>
+#include <stdexcept>
 #include <utility>
 
+#include "detectors/common/option_check.h"
 #include "detectors/lips/lip_detector.h"
 #include "detectors/lips/lip_intrinsics.h"
 #include "io/image_file.h"
@@ -33,7 +35,7 @@ struct LipSearch {
 };
 
 LipSearch SearchLips(const std::vector<GuideImage>& images, const RigModel& model,
-                     io::ToneCurve tone) {
+                     io::ToneCurve tone, LipPredictionCache* cache) {
   LipSearch search;
   const RigParams& rig = model.params();
   for (const GuideImage& one : images) {
@@ -42,7 +44,8 @@ LipSearch SearchLips(const std::vector<GuideImage>& images, const RigModel& mode
       continue;
     }
     const std::vector<LipEdgeObservation> found = DetectLips(
-        LipInput(io::LinearImage(image, tone)), model, LipOptionsFor(image, one.chroma_halved, one.luma));
+        LipInput(io::LinearImage(image, tone)), model, LipOptionsFor(image, one.chroma_halved, one.luma),
+        cache);
     search.edges.insert(search.edges.end(), found.begin(), found.end());
   }
   search.fit = InitialIntrinsicsFromLips(search.edges, model, /*fit_reflex_tilt=*/true);
@@ -51,8 +54,24 @@ LipSearch SearchLips(const std::vector<GuideImage>& images, const RigModel& mode
 
 }  // namespace
 
+std::string LipGuideOptions::Check() const {
+  if (!(min_f_change > 0)) return OptionError("min_f_change", "a fraction > 0 of f", min_f_change);
+  if (!(min_pp_move_px > 0)) return OptionError("min_pp_move_px", "a move > 0 px", min_pp_move_px);
+  if (!(min_inner_move_px > 0)) return OptionError("min_inner_move_px", "a move > 0 px", min_inner_move_px);
+  if (!(max_f_change > min_f_change)) {
+    return OptionError("max_f_change", "a fraction of f above min_f_change", max_f_change);
+  }
+  if (!(max_move_per_f > 0)) return OptionError("max_move_per_f", "a fraction > 0 of f", max_move_per_f);
+  if (!(max_rms_px > 0)) return OptionError("max_rms_px", "an rms > 0 px", max_rms_px);
+  for (double s : f_scan) {
+    if (!(s > 0.5 && s < 2)) return OptionError("f_scan", "scales of f in (0.5, 2)", s);
+  }
+  return "";
+}
+
 LipGuide GuideByLips(const std::vector<GuideImage>& images, DetectorContext* ctx,
                      const LipGuideOptions& options) {
+  if (const std::string error = options.Check(); !error.empty()) throw std::invalid_argument(error);
   const RigParams& rig = ctx->model.params();
   LipGuide guide;
   guide.f_before = 0.5 * (rig.camera[kFx] + rig.camera[kFy]);
@@ -66,7 +85,7 @@ LipGuide GuideByLips(const std::vector<GuideImage>& images, DetectorContext* ctx
     guide.why_not = "no colour image to find the lips in";
     return guide;
   }
-  LipSearch search = SearchLips(images, ctx->model, ctx->tone);
+  LipSearch search = SearchLips(images, ctx->model, ctx->tone, &ctx->lip_prediction);
   // A model whose f is several percent off (the design's f at another camera's size) predicts
   // the lips beyond the detector's search (+-1.4% of f: about +-4% of f in the lips' radii): the
   // lips are looked for again with f scaled in steps within that reach, and the search that
@@ -77,7 +96,7 @@ LipGuide GuideByLips(const std::vector<GuideImage>& images, DetectorContext* ctx
       RigParams scaled = rig;
       scaled.camera[kFx] *= scale;
       scaled.camera[kFy] *= scale;
-      LipSearch candidate = SearchLips(images, RigModel(scaled), ctx->tone);
+      LipSearch candidate = SearchLips(images, RigModel(scaled), ctx->tone, &ctx->lip_prediction);
       if (holds(candidate) && (!holds(search) || candidate.fit->n_points > search.fit->n_points)) {
         search = std::move(candidate);
         guide.f_scanned = scale;
@@ -95,7 +114,7 @@ LipGuide GuideByLips(const std::vector<GuideImage>& images, DetectorContext* ctx
     refit.camera[kFx] = refit.camera[kFy] = search.fit->f;
     refit.camera[kCx] = search.fit->cx;
     refit.camera[kCy] = search.fit->cy;
-    LipSearch again = SearchLips(images, RigModel(refit), ctx->tone);
+    LipSearch again = SearchLips(images, RigModel(refit), ctx->tone, &ctx->lip_prediction);
     if (holds(again) && again.fit->n_points >= search.fit->n_points) search = std::move(again);
   }
   const std::vector<LipEdgeObservation>& edges = search.edges;

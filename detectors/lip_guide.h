@@ -47,6 +47,10 @@ struct LipGuideOptions {
   // Where the model's lips are not found (or their fit does not hold), f scaled by these is
   // tried (GuideByLips): a start up to ~10% off.
   std::vector<double> f_scan = {0.96, 1.04, 0.92, 1.08};
+
+  // Empty if the options are usable, else "<field>: expected ...": a change, move or rms <= 0,
+  // an f scale outside (0.5, 2).
+  std::string Check() const;
 };
 
 // One image for the guide: as read, and its file's chroma layout (LipOptionsFor).

@@ -5,6 +5,7 @@
 #include <array>
 #include <map>
 #include <set>
+#include <stdexcept>
 #include <tuple>
 
 #include <Eigen/Dense>
@@ -14,6 +15,8 @@
 #include "detectors/apriltag/kalibr_detector.h"
 #include "detectors/apriltag/tag_pattern_fit.h"
 #include "detectors/common/corner_refine.h"
+#include "detectors/common/corner_window.h"
+#include "detectors/common/option_check.h"
 #include "detectors/common/saddle_points.h"
 
 extern "C" {
@@ -318,7 +321,7 @@ CellOutcome TryCell(const cv::Mat& view_grey, const RingView& view, int v, const
     outcome = CellOutcome::kHidden;  // its neighbours are candidates now
     if (post) {
       PartialTag part{tag, {}};
-      const int half = static_cast<int>(std::lround(0.15 * side));
+      const int half = TagCornerHalfWindow(side);
       for (int k = 0; k < 4; ++k) {
         // Kalibr: a seen X-junction near the prediction; plain: a corner the view shows, its
         // edges measured near it later (MeasurePartialTags).
@@ -331,7 +334,7 @@ CellOutcome TryCell(const cv::Mat& view_grey, const RingView& view, int v, const
   }
   if (!in_view || covered) return outcome;
   if (kalibr) {
-    const int half = static_cast<int>(std::lround(0.15 * side));
+    const int half = TagCornerHalfWindow(side);
     for (int k = 0; k < 4 && ok; ++k) {
       ok = RefineSaddleCorner(view_grey, tag.corners[k], half, 0.1 * side, &tag.corners[k]);
     }
@@ -638,7 +641,7 @@ bool IntersectEdges(const EdgeCurve& in, const EdgeCurve& out, Eigen::Vector2d* 
 bool RetryKalibrCorner(const cv::Mat& view_grey, const RingView& view, const GridFit& fit,
                        const TagDetectorOptions& options, TagCornerDetection* d) {
   if (view_grey.empty() || fit.residual_px < 0) return false;
-  const double first_half = std::lround(0.15 * d->side_in_view);
+  const double first_half = TagCornerHalfWindow(d->side_in_view);
   for (const double fraction : options.kalibr_retry_windows) {
     const int half = static_cast<int>(std::lround(fraction * first_half));
     if (half < 2 || half >= first_half) continue;
@@ -798,7 +801,7 @@ void KalibrTagsInView(const cv::Mat& view_grey, const RingView& view, int v, con
     regions.back().rect = crop_rect;
   }
   for (const Region& region : regions) {
-    const int pad = static_cast<int>(options.kalibr_region_pad_px);
+    const int pad = static_cast<int>(std::lround(options.kalibr_region_pad_deg * M_PI / 180 * view.f));
     const cv::Rect box = cv::Rect(region.rect.x - pad, region.rect.y - pad, region.rect.width + 2 * pad,
                                   region.rect.height + 2 * pad) &
                          crop_rect;
@@ -913,10 +916,10 @@ void RefineKalibrTag(const cv::Mat& raw_grey8, const cv::Mat& grey, const RingVi
         std::min((mapped[(k + 1) % 4] - mapped[k]).norm(), (mapped[(k + 3) % 4] - mapped[k]).norm());
     const Eigen::Vector2d to_next = (mapped[(k + 1) % 4] - mapped[k]).normalized();
     const Eigen::Vector2d to_previous = (mapped[(k + 3) % 4] - mapped[k]).normalized();
-    whole[k] = IsKalibrXJunction(raw_grey8, mapped[k], to_next, to_previous, std::max(1.5, 0.12 * side),
+    whole[k] = IsKalibrXJunction(raw_grey8, mapped[k], to_next, to_previous, XJunctionProbe(side),
                                  options.kalibr.min_contrast);
     if (whole[k] && options.kalibr_refine_in_raw) {
-      whole[k] = RefineSaddleCorner(raw_grey8, mapped[k], static_cast<int>(std::lround(0.15 * side)),
+      whole[k] = RefineSaddleCorner(raw_grey8, mapped[k], TagCornerHalfWindow(side),
                                     options.max_refine_shift_px, &refined[k]);
     }
     if (whole[k] && options.kalibr_fit_junction) {
@@ -1090,7 +1093,7 @@ void MeasurePartialTags(const cv::Mat& raw_grey8, const cv::Mat& grey, const std
       if (!next || !previous) continue;
       const double side = 4 * std::min(next->norm(), previous->norm());
       if (!IsKalibrXJunction(raw_grey8, *mapped, next->normalized(), previous->normalized(),
-                             std::max(1.5, 0.12 * side), options.kalibr.min_contrast)) {
+                             XJunctionProbe(side), options.kalibr.min_contrast)) {
         continue;
       }
       const Eigen::Vector2d refined =
@@ -1105,12 +1108,56 @@ void MeasurePartialTags(const cv::Mat& raw_grey8, const cv::Mat& grey, const std
 
 }  // namespace
 
+std::string TagDetectorOptions::Check() const {
+  if (!(quad_decimate >= 1)) return OptionError("quad_decimate", "a decimation >= 1", quad_decimate);
+  if (!(inner_ring_quad_decimate >= 1)) {
+    return OptionError("inner_ring_quad_decimate", "a decimation >= 1", inner_ring_quad_decimate);
+  }
+  if (plain_max_hamming < 0) return OptionError("plain_max_hamming", "a bit count >= 0", plain_max_hamming);
+  if (!(view_overlap_deg >= 0)) return OptionError("view_overlap_deg", "an angle >= 0 degrees", view_overlap_deg);
+  if (!(max_refine_shift_px > 0)) return OptionError("max_refine_shift_px", "a shift > 0 px", max_refine_shift_px);
+  if (!(min_edge_px > 0)) return OptionError("min_edge_px", "a length > 0 px", min_edge_px);
+  if (!(max_edge_rms_px > 0)) return OptionError("max_edge_rms_px", "a tolerance > 0 px", max_edge_rms_px);
+  if (!(edge_corner_margin_px >= 0)) {
+    return OptionError("edge_corner_margin_px", "a margin >= 0 px", edge_corner_margin_px);
+  }
+  if (!(edge_fit_reach_in > 0)) return OptionError("edge_fit_reach_in", "a fraction > 0 of the border", edge_fit_reach_in);
+  if (!(edge_fit_reach_in_blurred > 0)) {
+    return OptionError("edge_fit_reach_in_blurred", "a fraction > 0 of the border", edge_fit_reach_in_blurred);
+  }
+  if (!(min_border_px > 0)) return OptionError("min_border_px", "a width > 0 px", min_border_px);
+  if (!(kalibr_junction_window > 0)) {
+    return OptionError("kalibr_junction_window", "a fraction > 0 of the tag side", kalibr_junction_window);
+  }
+  if (kalibr_min_whole_corners < 1 || kalibr_min_whole_corners > 4) {
+    return OptionError("kalibr_min_whole_corners", "a corner count in [1, 4]", kalibr_min_whole_corners);
+  }
+  if (!(kalibr_region_pad_deg >= 0)) {
+    return OptionError("kalibr_region_pad_deg", "an angle >= 0 degrees", kalibr_region_pad_deg);
+  }
+  for (double w : kalibr_retry_windows) {
+    if (!(w > 0 && w < 1)) return OptionError("kalibr_retry_windows", "fractions in (0, 1)", w);
+  }
+  if (!(kalibr_retry_max_residual_px > 0)) {
+    return OptionError("kalibr_retry_max_residual_px", "a tolerance > 0 px", kalibr_retry_max_residual_px);
+  }
+  if (const std::string error = NestedOptionError("kalibr_saddles", kalibr_saddles.Check()); !error.empty()) {
+    return error;
+  }
+  if (const std::string error = NestedOptionError("grid_check_options", grid_check_options.Check());
+      !error.empty()) {
+    return error;
+  }
+  return NestedOptionError("kalibr", kalibr.Check());
+}
+
 std::vector<TagCornerDetection> DetectTagCorners(const cv::Mat& raw_bgr,
                                                  const std::vector<RingView>& views,
                                                  const RigModel& model,
                                                  const std::vector<TargetSpec>& targets,
                                                  const TagDetectorOptions& options,
                                                  UnclaimedTags* unclaimed) {
+  if (const std::string error = options.Check(); !error.empty()) throw std::invalid_argument(error);
   std::vector<TagCornerDetection> out;
   bool want_plain = false, want_kalibr = false;
   for (const TargetSpec& t : targets) {

@@ -31,6 +31,7 @@
 #pragma once
 
 #include <set>
+#include <string>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -64,7 +65,9 @@ struct TagDetectorOptions {
   // (views overlap): tags up to this wide (at 1 m, 0.17 rad = 170 mm) are whole in some crop.
   double view_overlap_deg = 10.0;
   double max_refine_shift_px = 1.5;  // refined corner farther from the mapped one: tag unrefined
-  double min_edge_px = 5.0;       // shorter tag edges in the raw image: tag unrefined
+  // Shorter tag edges in the raw image: tag unrefined (a pixel-grid limit, 0.6 px per bit of a
+  // tag36h11 tag: the same at any image size).
+  double min_edge_px = 5.0;
   double max_edge_rms_px = 0.25;  // of the edge points about their fitted curve
   double edge_corner_margin_px = 2.0;  // edge points are measured this far from both corners
   // Plain tags: refine in the raw image (RefineTagCorners: the 4 edges fitted, corners where they
@@ -113,7 +116,9 @@ struct TagDetectorOptions {
   int kalibr_min_whole_corners = 2;
   bool kalibr_saddle_gate = true;  // false: the quad finder runs on the whole crop
   SaddleOptions kalibr_saddles;  // where the Kalibr quad finder runs (saddle-point clusters)
-  double kalibr_region_pad_px = 16;  // added around each cluster's box (view pixels)
+  // Added around each cluster's box, degrees of the view (16 view px at the big rig's 1280x960,
+  // 12 at 960x720, 32 at 2592x1944): background for the quad finder past the outer tags.
+  double kalibr_region_pad_deg = 3.13;
   // Grid check (tag_grid_check.h) of each target's corners per ring after refinement: a corner
   // off the target's homography by more than grid_check.max_residual_px raw px is dropped.
   bool grid_check = true;
@@ -127,6 +132,11 @@ struct TagDetectorOptions {
   // kept if it then lies within kalibr_retry_max_residual_px raw px of the prediction.
   std::vector<double> kalibr_retry_windows = {0.7, 0.5, 0.35};
   double kalibr_retry_max_residual_px = 0.2;
+
+  // Empty if the options are usable, else "<field>: expected ..." (kalibr.<field> for the
+  // Kalibr finder's): a decimation under 1, an overlap, pad or reach < 0, a shift, length,
+  // tolerance or window <= 0, a retry window outside (0, 1).
+  std::string Check() const;
 };
 
 // One detected tag corner with its diagnostics.

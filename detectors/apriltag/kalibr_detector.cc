@@ -11,12 +11,31 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "detectors/common/corner_window.h"
+#include "detectors/common/option_check.h"
+
 extern "C" {
 #include <apriltag/apriltag.h>
 #include <apriltag/tag36h11.h>
 }
 
 namespace omni::detectors {
+
+std::string KalibrDetectorOptions::Check() const {
+  if (upsample < 1) return OptionError("upsample", "an enlargement of at least 1", upsample);
+  if (threshold_window_px < 1) return OptionError("threshold_window_px", "at least 1 px", threshold_window_px);
+  if (separation_px < 0) return OptionError("separation_px", "an erosion >= 0 px", separation_px);
+  if (separation_passes < 1) return OptionError("separation_passes", "at least 1", separation_passes);
+  if (!(min_side_px > 0)) return OptionError("min_side_px", "a side > 0 view px", min_side_px);
+  if (!(min_bit_margin >= 0 && min_bit_margin < 0.5)) {
+    return OptionError("min_bit_margin", "a fraction in [0, 0.5)", min_bit_margin);
+  }
+  if (!(max_neighbour_error > 0)) {
+    return OptionError("max_neighbour_error", "a fraction > 0 of the side", max_neighbour_error);
+  }
+  if (!(blur_sigma >= 0)) return OptionError("blur_sigma", "a blur >= 0 view px (0: sharp)", blur_sigma);
+  return "";
+}
 namespace {
 
 // A Kalibr tag is 10 bits across: 2 black border bits each side around tag36h11's 6 x 6 data
@@ -203,7 +222,7 @@ bool RefineQuadCorners(const cv::Mat& grey, const std::array<cv::Point2f, 4>& qu
                        int min_contrast, std::array<cv::Point2f, 4>* refined) {
   double side = 0;
   for (int k = 0; k < 4; ++k) side += 0.25 * cv::norm(quad[k] - quad[(k + 1) % 4]);
-  const int half = static_cast<int>(std::lround(0.15 * side));
+  const int half = TagCornerHalfWindow(side);
   for (int k = 0; k < 4; ++k) {
     Eigen::Vector2d corner;
     if (!RefineSaddleCorner(grey, Eigen::Vector2d(quad[k].x, quad[k].y), half, 0.2 * side,
@@ -217,7 +236,7 @@ bool RefineQuadCorners(const cv::Mat& grey, const std::array<cv::Point2f, 4>& qu
     const cv::Point2f next = (*refined)[(k + 1) % 4], previous = (*refined)[(k + 3) % 4];
     const Eigen::Vector2d to_next = (Eigen::Vector2d(next.x, next.y) - at).normalized();
     const Eigen::Vector2d to_previous = (Eigen::Vector2d(previous.x, previous.y) - at).normalized();
-    if (!IsKalibrXJunction(grey, at, to_next, to_previous, std::max(1.5, 0.12 * side),
+    if (!IsKalibrXJunction(grey, at, to_next, to_previous, XJunctionProbe(side),
                            min_contrast)) {
       return false;
     }
@@ -690,7 +709,7 @@ std::vector<KalibrViewTag> DetectKalibrTagsInView(const cv::Mat& view_grey,
     bool ok = true;
     if (options.refine_in_view) {
       // The clean X-junction reaches 2 bits (the border) around the corner.
-      const int half = static_cast<int>(std::lround(0.15 * side));
+      const int half = TagCornerHalfWindow(side);
       for (int k = 0; k < 4 && ok; ++k) {
         ok = RefineSaddleCorner(view_grey, tag.corners[k], half, 0.1 * side, &tag.corners[k]);
       }

@@ -27,6 +27,7 @@
 #pragma once
 
 #include <array>
+#include <string>
 #include <vector>
 
 #include <Eigen/Core>
@@ -52,7 +53,9 @@ struct KalibrDetectorOptions {
   int min_contrast = 25;            // grey levels between local black and white
   int separation_px = 1;            // erosion of the black mask (enlarged pixels), first pass
   int separation_passes = 3;        // passes with separation_px, +1, +2, ...
-  double min_side_px = 10;          // shortest tag side accepted (view pixels)
+  // Shortest tag side accepted (view pixels): a pixel-grid limit, a view pixel per bit of a
+  // Kalibr tag (10 bits across), the same at any image size.
+  double min_side_px = 10;
   double min_bit_margin = 0.05;     // |bit - threshold| / (white - black), each data bit
   // A quad that does not read is read once more from its corners refined as X-junctions.
   bool refine_quad_before_decode = true;
@@ -64,6 +67,10 @@ struct KalibrDetectorOptions {
   double blur_sigma = 0;
   bool read_blurred = true;
   BlurredReadOptions blurred;
+
+  // Empty if the options are usable, else "<field>: expected ...": an enlargement, window or
+  // pass count under 1, a side, margin or blur out of range.
+  std::string Check() const;
 };
 
 // How a tag is laid out in bits (model/target.h): Kalibr 10 bits across with a 2-bit border,

@@ -3,15 +3,25 @@
 #include <algorithm>
 #include <optional>
 #include <set>
+#include <stdexcept>
 
 #include <opencv2/calib3d.hpp>
 
+#include "detectors/common/option_check.h"
+
 namespace omni::detectors {
+
+std::string TagGridCheckOptions::Check() const {
+  if (!(max_residual_px > 0)) return OptionError("max_residual_px", "a tolerance > 0 raw px", max_residual_px);
+  if (min_corners < 4) return OptionError("min_corners", "at least 4 corners (a homography)", min_corners);
+  return "";
+}
 
 std::vector<GridFit> CornersFittingTargetHomography(const std::vector<RingView>& views,
                                                     const RigModel& model,
                                                     const std::vector<GridCorner>& corners,
                                                     const TagGridCheckOptions& options) {
+  if (const std::string error = options.Check(); !error.empty()) throw std::invalid_argument(error);
   const std::size_t n = corners.size();
   std::vector<GridFit> out(n);
   for (GridFit& f : out) f.keep = options.keep_unchecked;

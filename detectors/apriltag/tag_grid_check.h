@@ -18,6 +18,7 @@
 // (its corners are kept); a corner off by less than the tolerance stays.
 #pragma once
 
+#include <string>
 #include <vector>
 
 #include <Eigen/Core>
@@ -34,6 +35,9 @@ struct TagGridCheckOptions {
   // checked; they are kept or dropped by `keep_unchecked`.
   int min_corners = 8;
   bool keep_unchecked = true;
+
+  // Empty if the options are usable, else "<field>: expected ...".
+  std::string Check() const;
 };
 
 // One corner of a target in one ring: where it is on the target plane, its refined raw pixel,

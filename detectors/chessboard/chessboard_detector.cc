@@ -5,11 +5,14 @@
 #include <cmath>
 #include <numeric>
 #include <optional>
+#include <stdexcept>
 
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "detectors/common/corner_refine.h"
+#include "detectors/common/corner_window.h"
+#include "detectors/common/option_check.h"
 #include "detectors/common/saddle_points.h"
 
 namespace omni::detectors {
@@ -547,15 +550,14 @@ std::optional<BoardDetection> MakeBoard(const cv::Mat& raw_grey, const RingView&
         const auto& q = raw[rr * spec.cols + cc];
         if (q) side = std::min(side, (*q - *raw[i]).norm());
       }
-      // A window of 0.55 squares (half-width): the more of the four squares' edges it holds, the
+      // A window of 0.55 squares (half-width, corner_window.h): the more of the four squares' edges it holds, the
       // less the demosaicing's phase-dependent errors and the noise move the corner
       // (realistic_scene ring 2 chessboards: 0.4 squares 0.140 px mean, 0.55: 0.099; clean
       // 0.058 -> 0.049; 0.7 reaches the next corners: 0.17). 3x3 on squares under 3 px (the inner
       // ring near 2 m at 960x720): a 5x5 one there spans neighbouring corners and pulled a third
       // of them about 1 px off (demo image 0007), which the grid check then refused; at 3-3.75 px
       // (inner-ring near boards, radially squeezed) 5x5 keeps them (realistic_scene 0011).
-      const int raw_half =
-          side < 3.0 ? 1 : std::clamp(static_cast<int>(std::lround(0.55 * side)), 2, 8);
+      const int raw_half = ChessboardHalfWindow(side, CameraPixelsPerDegree(model.params()));
       const Eigen::Vector2d before = pixel;
       if (!RefineCornerInRaw(raw_grey, raw_half, &pixel)) continue;
       // The views are exact only for points at their distance_mm: on the non-central rig a
@@ -804,12 +806,39 @@ void SpreadCopiesOverTheirTargets(const RigModel& model, const std::vector<Targe
   }
 }
 
+std::string ChessboardOptions::Check() const {
+  if (!(saddle_sigma > 0)) return OptionError("saddle_sigma", "a smoothing > 0 view px", saddle_sigma);
+  if (!(saddle_balance > 0)) return OptionError("saddle_balance", "a ratio > 0", saddle_balance);
+  if (min_saddles < 1) return OptionError("min_saddles", "at least 1", min_saddles);
+  if (max_boards_per_region < 1) return OptionError("max_boards_per_region", "at least 1", max_boards_per_region);
+  if (!(edge_margin_rad >= 0)) return OptionError("edge_margin_rad", "an angle >= 0 rad", edge_margin_rad);
+  if (min_clean_half < 1) return OptionError("min_clean_half", "a half-window of at least 1 px", min_clean_half);
+  if (!(junction_window_squares > 0)) {
+    return OptionError("junction_window_squares", "a half-window > 0 squares", junction_window_squares);
+  }
+  if (!(max_refine_shift_px > 0)) return OptionError("max_refine_shift_px", "a shift > 0 px", max_refine_shift_px);
+  if (!(max_refine_shift_squares > 0)) {
+    return OptionError("max_refine_shift_squares", "a shift > 0 squares", max_refine_shift_squares);
+  }
+  if (!(max_grid_ransac_squares > 0)) {
+    return OptionError("max_grid_ransac_squares", "a tolerance > 0 squares", max_grid_ransac_squares);
+  }
+  if (!(max_grid_residual_px > 0)) {
+    return OptionError("max_grid_residual_px", "a tolerance > 0 px", max_grid_residual_px);
+  }
+  if (!(min_grid_inlier_fraction >= 0 && min_grid_inlier_fraction <= 1)) {
+    return OptionError("min_grid_inlier_fraction", "a fraction in [0, 1]", min_grid_inlier_fraction);
+  }
+  return "";
+}
+
 std::vector<BoardDetection> DetectChessboardBoards(const cv::Mat& raw_grey,
                                                    const std::vector<RingView>& views,
                                                    const RigModel& model,
                                                    const std::vector<TargetSpec>& targets,
                                                    const ChessboardOptions& options,
                                                    std::vector<int>* repeated) {
+  if (const std::string error = options.Check(); !error.empty()) throw std::invalid_argument(error);
   // Distinct patterns, larger first (a smaller pattern must not claim part of a larger board).
   std::vector<int> patterns;
   for (size_t t = 0; t < targets.size(); ++t) {

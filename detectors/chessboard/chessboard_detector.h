@@ -36,6 +36,7 @@
 // are left out, and boards cut beyond one row or column give nothing here (see Limits above).
 #pragma once
 
+#include <string>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -80,6 +81,10 @@ struct ChessboardOptions {
   double max_grid_ransac_squares = 0.15;  // RANSAC tolerance in the view (of a square)
   double max_grid_residual_px = 0.5;      // the test, in raw pixels
   double min_grid_inlier_fraction = 0.9;
+
+  // Empty if the options are usable, else "<field>: expected ...": a smoothing, window, shift
+  // or tolerance <= 0, a count under 1, a fraction outside [0, 1].
+  std::string Check() const;
 };
 
 // One detected board (before flattening into observations).

@@ -4,14 +4,26 @@
 #include <array>
 #include <cmath>
 #include <numeric>
+#include <stdexcept>
 
 #include <opencv2/imgproc.hpp>
+
+#include "detectors/common/option_check.h"
 
 namespace omni::detectors {
 
 // Saddle points of the view: local maxima of Ixy^2 - Ixx Iyy (positive where the Hessian is
 // indefinite, i.e. at X-junctions) above the strength of a saddle of `min_contrast` grey levels.
+std::string SaddleOptions::Check() const {
+  if (!(sigma > 0)) return OptionError("sigma", "a smoothing > 0 view px", sigma);
+  if (!(min_contrast > 0)) return OptionError("min_contrast", "grey levels > 0", min_contrast);
+  if (!(balance > 0)) return OptionError("balance", "a ratio > 0", balance);
+  if (min_saddles < 1) return OptionError("min_saddles", "at least 1", min_saddles);
+  return "";
+}
+
 std::vector<cv::Point2f> SaddlePoints(const RingView& view, const SaddleOptions& options) {
+  if (const std::string error = options.Check(); !error.empty()) throw std::invalid_argument(error);
   const double blur = view.blur_sigma.value_or(-1);
   RingView::SaddleCache& cache = view.saddle_cache;
   if (cache.image_data != nullptr && cache.image_data == view.image.data &&

@@ -11,6 +11,7 @@
 // decide what is a target.
 #pragma once
 
+#include <string>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -28,6 +29,9 @@ struct SaddleOptions {
   double min_contrast = 125;
   double balance = 0.5;         // |trace H| <= balance * sqrt(-det H) at a saddle point
   int min_saddles = 4;          // a cluster with fewer saddle points is not a region
+
+  // Empty if the options are usable, else "<field>: expected ...".
+  std::string Check() const;
 };
 
 struct Region {

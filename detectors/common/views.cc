@@ -2,9 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 
 #include <opencv2/imgproc.hpp>
 
+#include "detectors/common/option_check.h"
 #include "model/ideal_analysis.h"
 
 namespace omni::detectors {
@@ -151,7 +153,27 @@ double RingView::RawBlurAt(const Eigen::Vector2d& view_pixel) const {
   return *blur_sigma * std::sqrt(det);
 }
 
+std::string ViewOptions::Check() const {
+  if (sectors < 1) return OptionError("sectors", "at least 1 view per ring", sectors);
+  if (!(horizontal_fov_deg > 0 && horizontal_fov_deg < 180)) {
+    return OptionError("horizontal_fov_deg", "an angle in (0, 180) degrees", horizontal_fov_deg);
+  }
+  if (!(max_vertical_fov_deg > 0 && max_vertical_fov_deg < 180)) {
+    return OptionError("max_vertical_fov_deg", "an angle in (0, 180) degrees", max_vertical_fov_deg);
+  }
+  if (!(elevation_margin_deg >= 0)) {
+    return OptionError("elevation_margin_deg", "an angle >= 0 degrees", elevation_margin_deg);
+  }
+  if (!(pixels_per_rad >= 0)) {
+    return OptionError("pixels_per_rad", "a resolution > 0 px/rad (0: the outer ring's)", pixels_per_rad);
+  }
+  if (!(distance_mm > 0)) return OptionError("distance_mm", "a distance > 0 mm", distance_mm);
+  if (grid_step < 1) return OptionError("grid_step", "at least 1 view px", grid_step);
+  return "";
+}
+
 std::vector<RingView> MakeRingViews(const RigModel& model, const ViewOptions& options) {
+  if (const std::string error = options.Check(); !error.empty()) throw std::invalid_argument(error);
   const IdealModel ideal = model.params().Ideal();
   const FieldOfView fov = ComputeFieldOfView(model.params().Design(), ideal.r_ref, ideal.r_cam);
   const double pixels_per_rad =
@@ -194,9 +216,25 @@ cv::Mat ToGrey(const cv::Mat& raw) {
   return grey;
 }
 
+namespace {
+
+// The blur measure's local-contrast window (view px): +-6 px, 3 sigma of the widest blur it is
+// calibrated for (2 px; views.h), so that the whole blurred step lies inside it. A blur in view
+// pixels is the camera's in raw pixels (the views have the outer ring's raw resolution), the
+// same at any image size: the window is a multiple of the blur, not of an angle.
+constexpr int kBlurWindowHalf = 6;
+// Grey levels (0..255) across that window for a pixel to be measured: an edge, not noise.
+constexpr int kBlurMinContrast = 60;
+
+cv::Mat BlurWindow() {
+  return cv::getStructuringElement(cv::MORPH_RECT, cv::Size(2 * kBlurWindowHalf + 1, 2 * kBlurWindowHalf + 1));
+}
+
+}  // namespace
+
 cv::Mat BlurValidMask(const cv::Mat& map_x) {
-  cv::Mat valid;  // the 13 x 13 window must not reach the view's black outside
-  cv::erode(map_x >= 0, valid, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(13, 13)));
+  cv::Mat valid;  // the blur window must not reach the view's black outside
+  cv::erode(map_x >= 0, valid, BlurWindow());
   return valid;
 }
 
@@ -215,7 +253,7 @@ std::optional<double> BlurWhereValid(const cv::Mat& view_image, const cv::Mat& v
   cv::Mat gx, gy, hi, lo;
   cv::Sobel(view_image, gx, CV_16S, 1, 0, 3);
   cv::Sobel(view_image, gy, CV_16S, 0, 1, 3);
-  const cv::Mat box = cv::getStructuringElement(cv::MORPH_RECT, cv::Size(13, 13));
+  const cv::Mat box = BlurWindow();
   cv::dilate(view_image, hi, box);
   cv::erode(view_image, lo, box);
   // Every second pixel of every second row: the percentile does not need them all.
@@ -225,7 +263,7 @@ std::optional<double> BlurWhereValid(const cv::Mat& view_image, const cv::Mat& v
     const int16_t *dx = gx.ptr<int16_t>(y), *dy = gy.ptr<int16_t>(y);
     for (int x = 0; x < view_image.cols; x += 2) {
       const int contrast = h[x] - l[x];
-      if (!ok[x] || contrast < 60) continue;
+      if (!ok[x] || contrast < kBlurMinContrast) continue;
       // The 3x3 Sobel's gain is 8.
       ratio.push_back(std::hypot(static_cast<float>(dx[x]), static_cast<float>(dy[x])) /
                       (8.0f * static_cast<float>(contrast)));

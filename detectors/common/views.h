@@ -24,6 +24,7 @@
 #pragma once
 
 #include <optional>
+#include <string>
 #include <vector>
 
 #include <Eigen/Core>
@@ -43,6 +44,10 @@ struct ViewOptions {
   double pixels_per_rad = 0;
   double distance_mm = 1000;        // where view rays are taken to meet the world
   int grid_step = 4;                // exact projections every grid_step view pixels (bilinear between)
+
+  // Empty if the options are usable, else "<field>: expected ...": no sector, a field of view
+  // outside (0, 180) degrees, a negative margin or resolution, a distance or grid step <= 0.
+  std::string Check() const;
 };
 
 struct RingView {

@@ -4,12 +4,13 @@
 #include <array>
 #include <cmath>
 #include <memory>
-#include <mutex>
 #include <random>
+#include <stdexcept>
 
 #include <Eigen/Dense>
 
 #include "detectors/lips/luma_edge.h"
+#include "io/file_util.h"
 
 namespace omni::detectors {
 namespace {
@@ -132,20 +133,26 @@ int LabelExtreme(const std::vector<Sample>& samples, bool outer, double min_marg
 }
 
 // Whether pixels across an edge (along `radial`, out to the edge search's reach, and a post's
-// width to each side along the edge) see a post of the model's mount.
-// In pixels of a 1280-wide image, scaled with the image's width.
+// width to each side along the edge) see a post of the model's mount: 9 x 7 samples every
+// kMountStepPerFocal radians of the camera's view (2 px at f 1452 px: +-8 px across, +-6 along),
+// never closer than 2 px.
+constexpr double kMountStepPerFocal = 0.001377;
 bool NearMount(const RigModel& model, const Eigen::Vector2d& pixel, const Eigen::Vector2d& radial) {
   const Eigen::Vector2d along(-radial.y(), radial.x());
-  const double scale = std::max(1.0, model.params().image_width / 1280.0);
-  for (double a = -6; a <= 6; a += 2) {
-    for (double r = -8; r <= 8; r += 2) {
-      if (model.PixelSeesMount(pixel + scale * (r * radial + a * along))) return true;
+  const RigParams& rig = model.params();
+  const double step = std::max(2.0, kMountStepPerFocal * 0.5 * (rig.camera[0] + rig.camera[1]));
+  for (int a = -3; a <= 3; ++a) {
+    for (int r = -4; r <= 4; ++r) {
+      if (model.PixelSeesMount(pixel + step * (r * radial + a * along))) return true;
     }
   }
   return false;
 }
 
+}  // namespace
+
 // The labelled edges a model predicts (computed once per model; projections are costly).
+// Outside the unnamed namespace: LipPredictionCache (lip_detector.h) holds one.
 class LipPrediction {
  public:
   LipPrediction(const RigModel& model, const LipDetectorOptions& options) : params_(model.params()) {
@@ -223,21 +230,21 @@ class LipPrediction {
   std::vector<EdgeTrack> tracks_;
 };
 
-// The model's prediction, cached for the last model seen (detection runs image after image
-// with one model).
-std::shared_ptr<const LipPrediction> PredictionFor(const RigModel& model,
-                                                   const LipDetectorOptions& options) {
-  static std::mutex mutex;
-  static std::shared_ptr<const LipPrediction> cached;
-  static LipDetectorOptions cached_options;
-  std::lock_guard<std::mutex> lock(mutex);
-  if (!cached || !cached->SameModel(model) || cached_options.profiles != options.profiles ||
-      cached_options.min_margin_px != options.min_margin_px ||
-      cached_options.min_band_px != options.min_band_px) {
-    cached = std::make_shared<const LipPrediction>(model, options);
-    cached_options = options;
+namespace {
+
+// The model's prediction: the one in `cache` if it was made for this model and these options
+// (detection runs image after image with one model), else a new one (kept there).
+std::shared_ptr<const LipPrediction> PredictionFor(const RigModel& model, const LipDetectorOptions& options,
+                                                   LipPredictionCache* cache) {
+  if (!cache) return std::make_shared<const LipPrediction>(model, options);
+  if (!cache->prediction || !cache->prediction->SameModel(model) || cache->profiles != options.profiles ||
+      cache->min_margin_px != options.min_margin_px || cache->min_band_px != options.min_band_px) {
+    cache->prediction = std::make_shared<const LipPrediction>(model, options);
+    cache->profiles = options.profiles;
+    cache->min_margin_px = options.min_margin_px;
+    cache->min_band_px = options.min_band_px;
   }
-  return cached;
+  return cache->prediction;
 }
 
 double Median(std::vector<double> v) {
@@ -616,8 +623,38 @@ bool FitEllipseRobust(const std::vector<Eigen::Vector2d>& points, const LipDetec
   return true;
 }
 
+// "<field>: expected <what>, got <value>" (the lips do not link detectors/common's OptionError).
+std::string LipOptionError(const std::string& field, const std::string& expected, double got) {
+  return field + ": expected " + expected + ", got " + io::FormatDouble(got);
+}
+
+std::string LipDetectorOptions::Check() const {
+  if (profiles < 8) return LipOptionError("profiles", "at least 8 radial profiles", profiles);
+  if (!(search_px >= 0)) return LipOptionError("search_px", "a half-width >= 0 px (0: from f)", search_px);
+  if (!(min_margin_px >= 0)) return LipOptionError("min_margin_px", "a margin >= 0 px", min_margin_px);
+  if (!(min_band_px >= 0)) return LipOptionError("min_band_px", "a width >= 0 px", min_band_px);
+  if (!(min_measured_band_px >= 0)) {
+    return LipOptionError("min_measured_band_px", "a width >= 0 px", min_measured_band_px);
+  }
+  if (!(tangential_px >= 0)) return LipOptionError("tangential_px", "a half-width >= 0 px", tangential_px);
+  if (!(min_snr > 0)) return LipOptionError("min_snr", "a ratio > 0", min_snr);
+  if (!(min_relative >= 0 && min_relative <= 1)) {
+    return LipOptionError("min_relative", "a fraction in [0, 1]", min_relative);
+  }
+  if (!(min_contrast >= 0)) return LipOptionError("min_contrast", "grey levels >= 0", min_contrast);
+  if (!(ransac_inlier_px > 0)) return LipOptionError("ransac_inlier_px", "a distance > 0 px", ransac_inlier_px);
+  if (ransac_iterations < 1) return LipOptionError("ransac_iterations", "at least 1", ransac_iterations);
+  if (min_points < 5) return LipOptionError("min_points", "at least 5 points (an ellipse)", min_points);
+  if (!(luma_min_snr > 0)) return LipOptionError("luma_min_snr", "a ratio > 0", luma_min_snr);
+  if (!(luma_tangential_px >= 0)) {
+    return LipOptionError("luma_tangential_px", "a half-width >= 0 px", luma_tangential_px);
+  }
+  return "";
+}
+
 std::vector<LipEdgeFit> DetectLipEdges(const cv::Mat& raw_bgr, const RigModel& model,
-                                       const LipDetectorOptions& options_in) {
+                                       const LipDetectorOptions& options_in, LipPredictionCache* cache) {
+  if (const std::string error = options_in.Check(); !error.empty()) throw std::invalid_argument(error);
   std::vector<LipEdgeFit> out;
   const RigParams& rig = model.params();
   LipDetectorOptions options = options_in;
@@ -629,7 +666,7 @@ std::vector<LipEdgeFit> DetectLipEdges(const cv::Mat& raw_bgr, const RigModel& m
       raw_bgr.rows != rig.image_height) {
     return out;
   }
-  const std::shared_ptr<const LipPrediction> prediction = PredictionFor(model, options);
+  const std::shared_ptr<const LipPrediction> prediction = PredictionFor(model, options, cache);
   const std::vector<EdgeTrack>& tracks = prediction->tracks();
   std::vector<std::vector<EdgeCandidate>> found_on(tracks.size());
   for (size_t k = 0; k < tracks.size(); ++k) {
@@ -679,9 +716,9 @@ std::vector<LipEdgeFit> DetectLipEdges(const cv::Mat& raw_bgr, const RigModel& m
 }
 
 std::vector<LipEdgeObservation> DetectLips(const cv::Mat& raw_bgr, const RigModel& model,
-                                    const LipDetectorOptions& options) {
+                                    const LipDetectorOptions& options, LipPredictionCache* cache) {
   std::vector<LipEdgeObservation> out;
-  for (LipEdgeFit& fit : DetectLipEdges(raw_bgr, model, options)) out.push_back(std::move(fit.edge));
+  for (LipEdgeFit& fit : DetectLipEdges(raw_bgr, model, options, cache)) out.push_back(std::move(fit.edge));
   return out;
 }
 

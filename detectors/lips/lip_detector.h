@@ -37,6 +37,8 @@
 // ellipse within 0.5 px.
 #pragma once
 
+#include <memory>
+#include <string>
 #include <vector>
 
 #include <Eigen/Core>
@@ -72,6 +74,10 @@ struct LipDetectorOptions {
   double luma_min_snr = 4;       // luma contrast over its noise to place a point on the luma
   double luma_tangential_px = 6; // the luma placement's pixels span +-this along the edge (a
                                  // dark band's Y' is noisy: +-3 px left 0.12 px per point)
+
+  // Empty if the options are usable, else "<field>: expected ...": fewer than 8 profiles or 5
+  // points, a search or width < 0, a ratio, tolerance or iteration count <= 0.
+  std::string Check() const;
 };
 
 // An ellipse as the conic a u^2 + b uv + c v^2 + d u + e v + f = 0 (unit norm) with its centre,
@@ -96,14 +102,30 @@ struct LipEdgeFit {
   double band = 0, contrast = 0, noise = 0;
 };
 
+// The labelled edges a model predicts (lip_detector.cc): made once per model, they cost tens of
+// thousands of projections.
+class LipPrediction;
+
+// The last prediction made, and what for, kept for the next image: one per session (the
+// DetectorContext the session loop owns holds it), so that sessions in one process never share
+// one. Not thread-safe.
+struct LipPredictionCache {
+  std::shared_ptr<const LipPrediction> prediction;
+  int profiles = 0;  // the options it was made with (LipDetectorOptions)
+  double min_margin_px = 0, min_band_px = 0;
+};
+
 // The edges the model labels unambiguous, detected in a linear BGR image (8 or 16 bit, the
-// model's size). Grey or wrongly sized images give no edges.
+// model's size). Grey or wrongly sized images give no edges. The model's prediction is taken
+// from `cache` when it holds this model's (and kept there), made anew without one.
 std::vector<LipEdgeFit> DetectLipEdges(const cv::Mat& raw_bgr, const RigModel& model,
-                                       const LipDetectorOptions& options = {});
+                                       const LipDetectorOptions& options = {},
+                                       LipPredictionCache* cache = nullptr);
 
 // The detections-file view of DetectLipEdges.
 std::vector<LipEdgeObservation> DetectLips(const cv::Mat& raw_bgr, const RigModel& model,
-                                    const LipDetectorOptions& options = {});
+                                    const LipDetectorOptions& options = {},
+                                    LipPredictionCache* cache = nullptr);
 
 // Robust ellipse fit (RANSAC on 5-point conics, then least squares on the inliers); false if
 // fewer than min_points inliers. *inliers receives their indices.

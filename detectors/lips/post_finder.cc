@@ -4,7 +4,9 @@
 #include <array>
 #include <cmath>
 #include <optional>
+#include <stdexcept>
 
+#include "io/file_util.h"
 #include "model/ideal_analysis.h"
 #include "model/rig_frames.h"
 
@@ -142,8 +144,22 @@ std::vector<FoundPost> PostsFromScores(const std::vector<double>& score, const s
 
 }  // namespace
 
+std::string PostFinderOptions::Check() const {
+  const auto error = [](const std::string& field, const std::string& expected, double got) {
+    return field + ": expected " + expected + ", got " + io::FormatDouble(got);
+  };
+  if (!(bin_deg > 0 && bin_deg <= 10)) return error("bin_deg", "a bin in (0, 10] degrees", bin_deg);
+  if (!(max_score > 0)) return error("max_score", "a score > 0", max_score);
+  if (!(max_width_deg > bin_deg)) return error("max_width_deg", "an angle above bin_deg", max_width_deg);
+  if (elevations < 1) return error("elevations", "at least 1 sample", elevations);
+  if (!(registration_deg >= 0)) return error("registration_deg", "an angle >= 0 degrees", registration_deg);
+  if (!(min_texture >= 0)) return error("min_texture", "grey levels >= 0", min_texture);
+  return "";
+}
+
 std::vector<FoundPost> FindPosts(const std::vector<cv::Mat>& grey_images, const RigModel& model,
                                  int count, const PostFinderOptions& options) {
+  if (const std::string error = options.Check(); !error.empty()) throw std::invalid_argument(error);
   std::vector<FoundPost> out;
   if (grey_images.empty() || count <= 0) return out;
   // The model without its mount: the posts' own pixels are what is looked at.

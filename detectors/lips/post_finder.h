@@ -40,6 +40,9 @@ struct PostFinderOptions {
   double registration_deg = 1;  // each elevation step taken as the flattest within +-this
   double min_texture = 2;       // grey levels: a photo's ring whose median spread is under this
                                 // has no texture to tell posts by
+
+  // Empty if the options are usable, else "<field>: expected ...".
+  std::string Check() const;
 };
 
 // Grey images (CV_8U or 16U, the model's size). Up to `count` posts, deepest first (fewer if

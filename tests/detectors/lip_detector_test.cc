@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <map>
+#include <stdexcept>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -125,6 +126,37 @@ TEST_F(LipDetectorOnRender, IntrinsicsFromLips) {
     const double tilt_px = f_true * 0.006;  // the sample rig's tilts are <= 0.005 rad
     EXPECT_LT(std::hypot(in->cx - truth_->camera[2], in->cy - truth_->camera[3]), 1.5 * tilt_px);
   }
+}
+
+// Two sessions in one process, each with its own model (two DetectorContexts: tests, Python),
+// interleaved image by image: each keeps its own model's prediction (the other's images do not
+// replace it), and the edges found with a cache are the edges found without one.
+TEST_F(LipDetectorOnRender, EachSessionKeepsItsOwnLipPrediction) {
+  ASSERT_FALSE(image_->empty());
+  const RigModel truth(*truth_);
+  const RigModel prior(ReadSample("big_rig_ideal.yaml"));
+  LipPredictionCache truth_session, prior_session;
+  const std::vector<LipEdgeObservation> uncached = DetectLips(*image_, truth);
+  const std::vector<LipEdgeObservation> first = DetectLips(*image_, truth, {}, &truth_session);
+  const auto truth_prediction = truth_session.prediction;
+  ASSERT_TRUE(truth_prediction);
+  EXPECT_FALSE(prior_session.prediction);
+  DetectLips(*image_, prior, {}, &prior_session);
+  ASSERT_TRUE(prior_session.prediction);
+  EXPECT_NE(prior_session.prediction, truth_prediction);
+  const std::vector<LipEdgeObservation> again = DetectLips(*image_, truth, {}, &truth_session);
+  EXPECT_EQ(truth_session.prediction, truth_prediction);  // kept, not made again
+  ASSERT_EQ(first.size(), uncached.size());
+  ASSERT_EQ(again.size(), uncached.size());
+  for (size_t k = 0; k < uncached.size(); ++k) {
+    EXPECT_EQ(first[k].points, uncached[k].points);
+    EXPECT_EQ(again[k].points, uncached[k].points);
+  }
+  // Other options for the prediction: made again.
+  LipDetectorOptions fewer;
+  fewer.profiles = 360;
+  DetectLips(*image_, truth, fewer, &truth_session);
+  EXPECT_NE(truth_session.prediction, truth_prediction);
 }
 
 // What a lip-only fit from the ideal model finds instead of the principal point: lips are fixed to
@@ -428,6 +460,15 @@ TEST_F(LipDetectorOnPaintedRealisticRender, TheLipGuideFindsTheLipsFromAFocalLen
 TEST_F(LipDetectorOnPaintedRealisticRender, TheLipGuideLeavesGreyImagesAlone) {
   DetectorContext ctx(ReadSample("big_rig_ideal.yaml"), {});
   EXPECT_FALSE(GuideByLips({{cv::Mat(960, 1280, CV_16UC1, cv::Scalar(0))}}, &ctx).applied);
+}
+
+TEST(LipDetector, OptionsAreChecked) {
+  EXPECT_EQ(LipDetectorOptions().Check(), "");
+  LipDetectorOptions options;
+  options.min_points = 3;
+  EXPECT_EQ(options.Check(), "min_points: expected at least 5 points (an ellipse), got 3");
+  const RigModel model(ReadSample("big_rig_ideal.yaml"));
+  EXPECT_THROW(DetectLips(cv::Mat(960, 1280, CV_8UC3, cv::Scalar(0)), model, options), std::invalid_argument);
 }
 
 TEST(LipDetector, GreyOrWrongSizeImagesGiveNoEdges) {
