@@ -54,12 +54,19 @@ ceres::CostFunction* CachedCost(std::vector<CostCache::Cost>* costs, size_t i,
   return slot.cost.get();
 }
 
+// The costs for `held`, made on first use. Found without inserting once there: InitialisePoses'
+// threads look the costs up concurrently.
+CostCache::Costs& CostsFor(const BlockMasks& held, CostCache* costs) {
+  const auto it = costs->by_held.find(held);
+  return it != costs->by_held.end() ? it->second : costs->by_held[held];
+}
+
 }  // namespace
 
 ceres::CostFunction* CornerCost(const RigState& rig, const Observation& o, size_t i,
                                 const BlockMasks& held, CostCache* costs) {
   const std::shared_ptr<const RigFixed>& fixed = rig.corner_bounds[o.mirror - 1];
-  return CachedCost(&costs->by_held[held].corners, i, fixed, [&] {
+  return CachedCost(&CostsFor(held, costs).corners, i, fixed, [&] {
     return o.mirror == 1 ? Mirror1CornerCost::Create(o.pixel, o.corner_in_target, fixed, held)
                          : Mirror2CornerCost::Create(o.pixel, o.corner_in_target, fixed, held);
   });
@@ -68,7 +75,7 @@ ceres::CostFunction* CornerCost(const RigState& rig, const Observation& o, size_
 ceres::CostFunction* LipCost(const RigState& rig, const LipObservation& l, size_t i,
                              const BlockMasks& held, CostCache* costs) {
   const std::shared_ptr<const RigFixed>& fixed = LipBounds(rig, l.path);
-  return CachedCost(&costs->by_held[held].lips, i, fixed, [&] {
+  return CachedCost(&CostsFor(held, costs).lips, i, fixed, [&] {
     return LipPointCost::Create(l.pixel, l.path, l.radius, l.z, fixed, held, rig.fixed->r_ref);
   });
 }

@@ -279,13 +279,13 @@ std::string LipsOnlyCheck(const Observations& detections, const RigModel& model)
                   edges);
     return line;
   }
-  const double f_model = 0.5 * (p.camera[0] + p.camera[1]);
+  const double f_model = 0.5 * (p.camera[kFx] + p.camera[kFy]);
   std::snprintf(line, sizeof line,
                 "lips only: f %.1f px (sigma %.2f; the model's %.1f: %+.2f%%), principal point "
                 "(%.1f, %.1f) px (sigma %.2f, %.2f; the model's (%.1f, %.1f)), rms %.3f px over %d "
                 "edge points\n",
                 lips->f, lips->sigma_f, f_model, 100 * (lips->f / f_model - 1), lips->cx, lips->cy,
-                lips->sigma_cx, lips->sigma_cy, p.camera[2], p.camera[3], lips->rms_px,
+                lips->sigma_cx, lips->sigma_cy, p.camera[kCx], p.camera[kCy], lips->rms_px,
                 lips->n_points);
   return std::string(line) +
          "  a check, not a calibration: from the design as the model, the lips put the "

@@ -224,8 +224,8 @@ std::string DetectorEvaluation::Tables() const {
 std::string LipIntrinsicsAgainstTruth(const RigParams& truth, const RigParams& nominal,
                                       const std::vector<LipEdgeObservation>& edges, int n_images) {
   std::string out;
-  const double f_true = 0.5 * (truth.camera[0] + truth.camera[1]);
-  const Eigen::Vector2d pp(truth.camera[2], truth.camera[3]);
+  const double f_true = 0.5 * (truth.camera[kFx] + truth.camera[kFy]);
+  const Eigen::Vector2d pp(truth.camera[kCx], truth.camera[kCy]);
   const LipReferencePoints ref = LipReferencePointsOf(truth);
   struct Ref {
     const char* name;
@@ -237,8 +237,8 @@ std::string LipIntrinsicsAgainstTruth(const RigParams& truth, const RigParams& n
                       {"lip2_centre_in_reflex", ref.lip2_centre_in_reflex},
                       {"axis2_in_reflex", ref.axis2_in_reflex}};
   Append(&out, "lips (%d images, %zu labelled edges): true f %.3f pp (%.3f, %.3f); nominal pp "
-         "(%.3f, %.3f)\n", n_images, edges.size(), f_true, pp.x(), pp.y(), nominal.camera[2],
-         nominal.camera[3]);
+         "(%.3f, %.3f)\n", n_images, edges.size(), f_true, pp.x(), pp.y(), nominal.camera[kCx],
+         nominal.camera[kCy]);
   for (const Ref& r : refs) {
     Append(&out, "lips ref %-22s (%.3f, %.3f), minus true pp (%+.3f, %+.3f) = %.3f px\n", r.name,
            r.pixel.x(), r.pixel.y(), r.pixel.x() - pp.x(), r.pixel.y() - pp.y(),

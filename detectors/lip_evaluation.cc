@@ -42,7 +42,7 @@ void LipEvaluation::AddImage(const std::vector<LipEdgeFit>& fits, std::string* p
         ++s.no_truth;
         continue;
       }
-      const Eigen::Vector2d pp(truth_params.camera[2], truth_params.camera[3]);
+      const Eigen::Vector2d pp(truth_params.camera[kCx], truth_params.camera[kCy]);
       const double signed_d = (p - pp).norm() > (q - pp).norm() ? d : -d;
       s.distances.push_back(d);
       s.signed_sum += signed_d;
@@ -115,11 +115,11 @@ std::string LipOnlyFitLine(const char* name, const std::vector<LipEdgeObservatio
                   edges.size());
     return line;
   }
-  const double f_true = 0.5 * (truth.camera[0] + truth.camera[1]);
+  const double f_true = 0.5 * (truth.camera[kFx] + truth.camera[kFy]);
   std::snprintf(line, sizeof line,
                 "lip-only fit from the %s model: f %.3f (%+.3f%%), pp - true (%+.3f, %+.3f) px, "
                 "rms %.3f px, %d points\n", name, est->f, 100 * (est->f / f_true - 1),
-                est->cx - truth.camera[2], est->cy - truth.camera[3], est->rms_px, est->n_points);
+                est->cx - truth.camera[kCx], est->cy - truth.camera[kCy], est->rms_px, est->n_points);
   return line;
 }
 

@@ -28,10 +28,10 @@ void StartingIntrinsics(const std::vector<std::string>& images, const StartingMo
                         int width, int height, StartingModel* out) {
   RigParams* rig = &out->rig;
   const double scale = static_cast<double>(width) / rig->image_width;
-  rig->camera[0] *= scale;
-  rig->camera[1] *= scale;
-  rig->camera[2] = 0.5 * (width - 1);
-  rig->camera[3] = 0.5 * (height - 1);
+  rig->camera[kFx] *= scale;
+  rig->camera[kFy] *= scale;
+  rig->camera[kCx] = 0.5 * (width - 1);
+  rig->camera[kCy] = 0.5 * (height - 1);
   rig->image_width = width;
   rig->image_height = height;
   io::Session lips_only;
@@ -45,12 +45,12 @@ void StartingIntrinsics(const std::vector<std::string>& images, const StartingMo
     out->lines.push_back(Format(
         "intrinsics from the image size (f %.1f px, principal point at the centre): no lips "
         "found in the first photos (check `color:` of the lips in %s)",
-        rig->camera[0], options.design_name.c_str()));
+        rig->camera[kFx], options.design_name.c_str()));
     return;
   }
-  rig->camera[0] = rig->camera[1] = lips->f;
-  rig->camera[2] = lips->cx;
-  rig->camera[3] = lips->cy;
+  rig->camera[kFx] = rig->camera[kFy] = lips->f;
+  rig->camera[kCx] = lips->cx;
+  rig->camera[kCy] = lips->cy;
   out->lines.push_back(Format("intrinsics from the lips in the first %zu photos: f %.1f px "
                               "(sigma %.1f), principal point (%.1f, %.1f) px, %d edge points",
                               lips_only.images.size(), lips->f, lips->sigma_f, lips->cx, lips->cy,

@@ -90,7 +90,7 @@ inline bool RenderTargetWindows(const RigParams& rig, const synthetic::Scene& sc
 inline cv::Mat RenderLipStrips(const RigParams& rig, const std::string& tag, int bits = 8) {
   const std::string dir = UniqueTempDir("omni_lips_" + tag);
   std::filesystem::create_directories(dir);
-  const int cx = static_cast<int>(rig.camera[2]), cy = static_cast<int>(rig.camera[3]);
+  const int cx = static_cast<int>(rig.camera[kCx]), cy = static_cast<int>(rig.camera[kCy]);
   cv::Mat combined;
   for (int strip = 0; strip < 2; ++strip) {
     synthetic::RenderOptions opt;

@@ -6,7 +6,7 @@
 namespace omni::detectors {
 
 double CameraPixelsPerDegree(const RigParams& rig) {
-  return 0.5 * (rig.camera[0] + rig.camera[1]) * M_PI / 180.0;
+  return 0.5 * (rig.camera[kFx] + rig.camera[kFy]) * M_PI / 180.0;
 }
 
 int ChessboardHalfWindow(double square_side_px, double camera_px_per_deg) {

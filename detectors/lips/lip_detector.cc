@@ -140,7 +140,7 @@ constexpr double kMountStepPerFocal = 0.001377;
 bool NearMount(const RigModel& model, const Eigen::Vector2d& pixel, const Eigen::Vector2d& radial) {
   const Eigen::Vector2d along(-radial.y(), radial.x());
   const RigParams& rig = model.params();
-  const double step = std::max(2.0, kMountStepPerFocal * 0.5 * (rig.camera[0] + rig.camera[1]));
+  const double step = std::max(2.0, kMountStepPerFocal * 0.5 * (rig.camera[kFx] + rig.camera[kFy]));
   for (int a = -3; a <= 3; ++a) {
     for (int r = -4; r <= 4; ++r) {
       if (model.PixelSeesMount(pixel + step * (r * radial + a * along))) return true;

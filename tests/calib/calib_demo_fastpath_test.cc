@@ -111,7 +111,7 @@ void ExpectMisalignmentWithin3Sigma(const FastPathRun& run, const Eigen::VectorX
 // Measured: all within 1.9 noise sigmas; 0.093 / 0.048 px plain (0.013 deg frame rotation).
 TEST(CalibDemoFastPath, LensWithoutTangentialDistortion) {
   RigParams truth = testing::MisalignedRig();
-  truth.distortion[2] = truth.distortion[3] = 0;
+  truth.distortion[kDistP1] = truth.distortion[kDistP2] = 0;
   const FastPathRun run = SolveDemoFastPath(truth);
   ExpectMisalignmentWithin3Sigma(run, run.result.uncertainty.noise_sigma);
   EXPECT_LE(run.plain.rms_px[0], 0.1);

@@ -157,7 +157,7 @@ TEST(CalibProfile, ARippleShowsInTheRadialPattern) {
 TEST(CalibProfile, MonteCarloConfirmsTheSigmasWithTheProfileFreed) {
   testing::SyntheticSession session;
   RigParams truth_full = MisalignedRig();
-  truth_full.distortion[2] = truth_full.distortion[3] = 0;
+  truth_full.distortion[kDistP1] = truth_full.distortion[kDistP2] = 0;
   const RigParams profiled = ProfiledTruth(0.010);
   truth_full.profile1 = profiled.profile1;
   truth_full.profile2 = profiled.profile2;

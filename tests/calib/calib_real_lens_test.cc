@@ -111,7 +111,7 @@ RealLensRun SolveRealLens(const RigParams& lens_rig, double noise_px) {
   // that the camera frame's pointing is uncertain (the camera-rotation valley).
   EXPECT_TRUE(HasNote(result, "dist_k3 held at 0"));
   EXPECT_TRUE(HasNote(result, "camera pointing"));
-  EXPECT_EQ(result.estimate.rig.distortion[4], 0.0);
+  EXPECT_EQ(result.estimate.rig.distortion[kDistK3], 0.0);
   return run;
 }
 
@@ -141,7 +141,7 @@ TEST(CalibRealLens, IdealStartFindsTheLensAtATenthOfAPixel) {
 // in C too. Measured: C 0.099 / 0.051 px (0.021 deg), M1 0.086 / 0.045 px; all within 1.45 sigma.
 TEST(CalibRealLens, LensWithoutTangentialDistortionProjectsInTheCameraFrame) {
   RigParams lens = RealLensRig();
-  lens.distortion[2] = lens.distortion[3] = 0;
+  lens.distortion[kDistP1] = lens.distortion[kDistP2] = 0;
   const RealLensRun run = SolveRealLens(lens, 0.05);
   EXPECT_LE(run.plain.rms_px[0], 0.15);
   EXPECT_LE(run.plain.rms_px[1], 0.15);

@@ -122,7 +122,7 @@ inline Observations NoisyDetections(const SyntheticSession& s, double noise_px, 
 inline void AddLipDetections(const RigParams& truth, double noise_px, unsigned seed,
                              Observations* detections, int profiles = 360) {
   const RigModel model(truth);
-  const Eigen::Vector2d centre(truth.camera[2], truth.camera[3]);
+  const Eigen::Vector2d centre(truth.camera[kCx], truth.camera[kCy]);
   struct Image {
     LipPath path;
     LipCircle circle;
@@ -191,7 +191,7 @@ inline void AddSystematicLipOffsets(const RigParams& rig, double sigma_px, unsig
                                     Observations* detections) {
   std::mt19937 rng(seed);
   std::normal_distribution<double> noise(0.0, sigma_px);
-  const Eigen::Vector2d centre(rig.camera[2], rig.camera[3]);
+  const Eigen::Vector2d centre(rig.camera[kCx], rig.camera[kCy]);
   std::vector<double> offsets;
   for (auto& image : detections->images) {
     for (size_t e = 0; e < image.lips.size(); ++e) {
@@ -226,7 +226,7 @@ inline RigParams MakeSceneSession(const RigParams& truth_full, const std::string
 // of the Monte Carlo and considered-parameter tests. Returns the truth at the scene's size.
 inline RigParams SmallCleanSessionWithoutTangential(SyntheticSession* s) {
   RigParams truth_rig = MisalignedRig();
-  truth_rig.distortion[2] = truth_rig.distortion[3] = 0;
+  truth_rig.distortion[kDistP1] = truth_rig.distortion[kDistP2] = 0;
   return MakeSceneSession(
       truth_rig, std::string(OMNI_SOURCE_DIR) + "/sample_configs/small_clean_scene.yaml", s);
 }

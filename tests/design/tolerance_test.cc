@@ -21,8 +21,8 @@ RigParams BigRig() {
 RigParams WithCovariance(double tx, double ty, double sxx, double syy, double sxy) {
   RigParams rig = BigRig();
   rig.kind = ModelKind::kNoncentral;
-  rig.mirror1_pose[2] = tx;
-  rig.mirror1_pose[3] = ty;
+  rig.mirror1_pose[kTx] = tx;
+  rig.mirror1_pose[kTy] = ty;
   CalibrationInfo c;
   c.parameters = {"mirror1.tx", "mirror1.ty"};
   c.values = {tx, ty};

@@ -45,7 +45,7 @@ TEST(CornerWindow, ChessboardWindowsAreTheFixedOnesAt1280x960And960x720) {
 TEST(CornerWindow, TheChessboardCapGrowsWithTheViewAt5MP) {
   const RigParams rig = BigRigAt(2592, 1944);
   const double px_per_deg = CameraPixelsPerDegree(rig);
-  EXPECT_NEAR(px_per_deg, 0.5 * (rig.camera[0] + rig.camera[1]) * M_PI / 180, 1e-12);
+  EXPECT_NEAR(px_per_deg, 0.5 * (rig.camera[kFx] + rig.camera[kFy]) * M_PI / 180, 1e-12);
   EXPECT_EQ(ChessboardHalfWindow(10, px_per_deg), 6);    // 0.55 squares below the cap
   EXPECT_EQ(ChessboardHalfWindow(20, px_per_deg), 11);
   EXPECT_EQ(ChessboardHalfWindow(100, px_per_deg), 16);  // 0.316 degrees at 51.3 px/deg

@@ -228,7 +228,7 @@ TEST(DetectCliTest, LipsOnlySessionPrintsTheLipsIntrinsics) {
   const auto at = out.find("lips only: f ");
   ASSERT_NE(at, std::string::npos) << out;
   const double f = std::stod(out.substr(at + 13));
-  const double f_model = 0.5 * (rig.camera[0] + rig.camera[1]);
+  const double f_model = 0.5 * (rig.camera[kFx] + rig.camera[kFy]);
   EXPECT_NEAR(f / f_model, 1.0, 0.001) << out;
   std::printf("%s", out.c_str());
 

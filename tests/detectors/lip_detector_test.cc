@@ -99,7 +99,7 @@ TEST_F(LipDetectorOnRender, EdgePointsLieOnTheTrueCircleImages) {
 
 TEST_F(LipDetectorOnRender, IntrinsicsFromLips) {
   ASSERT_FALSE(image_->empty());
-  const double f_true = 0.5 * (truth_->camera[0] + truth_->camera[1]);
+  const double f_true = 0.5 * (truth_->camera[kFx] + truth_->camera[kFy]);
   // With the rig's true misalignment known, lips give the intrinsics to the detector's accuracy.
   {
     const RigModel prior(*truth_);
@@ -107,11 +107,11 @@ TEST_F(LipDetectorOnRender, IntrinsicsFromLips) {
     ASSERT_TRUE(in);
     std::printf("known misalignment: f %.3f (true mean %.3f) cx %.3f cy %.3f (true %.3f %.3f), "
                 "rms %.3f px, %d points, sigma f %.3f cx %.3f cy %.3f\n",
-                in->f, f_true, in->cx, in->cy, truth_->camera[2], truth_->camera[3], in->rms_px,
+                in->f, f_true, in->cx, in->cy, truth_->camera[kCx], truth_->camera[kCy], in->rms_px,
                 in->n_points, in->sigma_f, in->sigma_cx, in->sigma_cy);
     EXPECT_NEAR(in->f / f_true, 1.0, 0.001);
-    EXPECT_NEAR(in->cx, truth_->camera[2], 0.3);
-    EXPECT_NEAR(in->cy, truth_->camera[3], 0.3);
+    EXPECT_NEAR(in->cx, truth_->camera[kCx], 0.3);
+    EXPECT_NEAR(in->cy, truth_->camera[kCy], 0.3);
   }
   // From the ideal model (as a real camera's initialisation would): f to well under 1%; the
   // principal point absorbs the mirror bodies' tilts (lip_intrinsics.h): f * tilt ~ 7 px here.
@@ -120,11 +120,11 @@ TEST_F(LipDetectorOnRender, IntrinsicsFromLips) {
     const auto in = InitialIntrinsicsFromLips(DetectLips(*image_, prior), prior);
     ASSERT_TRUE(in);
     std::printf("ideal prior: f %.3f (%.3f%%) cx %+.3f cy %+.3f px off, rms %.3f px, %d points\n",
-                in->f, 100 * (in->f / f_true - 1), in->cx - truth_->camera[2],
-                in->cy - truth_->camera[3], in->rms_px, in->n_points);
+                in->f, 100 * (in->f / f_true - 1), in->cx - truth_->camera[kCx],
+                in->cy - truth_->camera[kCy], in->rms_px, in->n_points);
     EXPECT_NEAR(in->f / f_true, 1.0, 0.007);
     const double tilt_px = f_true * 0.006;  // the sample rig's tilts are <= 0.005 rad
-    EXPECT_LT(std::hypot(in->cx - truth_->camera[2], in->cy - truth_->camera[3]), 1.5 * tilt_px);
+    EXPECT_LT(std::hypot(in->cx - truth_->camera[kCx], in->cy - truth_->camera[kCy]), 1.5 * tilt_px);
   }
 }
 
@@ -170,8 +170,8 @@ TEST_F(LipDetectorOnRender, LipOnlyPrincipalPointIsWhereTheMirrorBodyPutsTheLip)
   const RigModel prior(ReadSample("big_rig_ideal.yaml"));
   const std::vector<LipEdgeObservation> edges = DetectLips(*image_, truth);
   const LipReferencePoints ref = LipReferencePointsOf(*truth_);
-  const Eigen::Vector2d pp(truth_->camera[2], truth_->camera[3]);
-  const double f_true = 0.5 * (truth_->camera[0] + truth_->camera[1]);
+  const Eigen::Vector2d pp(truth_->camera[kCx], truth_->camera[kCy]);
+  const double f_true = 0.5 * (truth_->camera[kFx] + truth_->camera[kFy]);
   std::optional<LipIntrinsics> fits[3];
   for (int mirror = 0; mirror <= 2; ++mirror) {
     std::vector<LipEdgeObservation> used;
@@ -272,7 +272,7 @@ TEST_F(LipDetectorOnPaintedRealisticRender, LipsArePaintLitByTheRoom) {
       }
       const int u = static_cast<int>(std::lround(mid.x()));
       const int v = static_cast<int>(std::lround(mid.y()));
-      if (std::abs(v - pinhole_rig.camera[3]) > 55 && std::abs(u - pinhole_rig.camera[2]) > 55) {
+      if (std::abs(v - pinhole_rig.camera[kCy]) > 55 && std::abs(u - pinhole_rig.camera[kCx]) > 55) {
         continue;  // outside the strips
       }
       const cv::Vec3w bgr = pinhole_->at<cv::Vec3w>(v, u);
@@ -314,7 +314,7 @@ TEST_F(LipDetectorOnPaintedRealisticRender, EdgePointsLieOnTheTrueCircleImages) 
 std::map<LipPath, double> SignedOffsets(const cv::Mat& image, const RigParams& truth_params,
                                         const LipDetectorOptions& options) {
   const RigModel truth(truth_params);
-  const Eigen::Vector2d pp(truth_params.camera[2], truth_params.camera[3]);
+  const Eigen::Vector2d pp(truth_params.camera[kCx], truth_params.camera[kCy]);
   std::map<LipPath, double> offsets;
   for (const LipEdgeFit& fit : DetectLipEdges(image, truth, options)) {
     double sum = 0;
@@ -350,14 +350,14 @@ TEST_F(LipDetectorOnPaintedRealisticRender, JpegEdgesPlacedOnTheLumaMoveLess) {
 
 TEST_F(LipDetectorOnPaintedRealisticRender, IntrinsicsFromLips) {
   ASSERT_FALSE(jpeg_->empty());
-  const double f_true = 0.5 * (truth_->camera[0] + truth_->camera[1]);
+  const double f_true = 0.5 * (truth_->camera[kFx] + truth_->camera[kFy]);
   for (const char* prior_name : {"big_rig_painted.yaml", "big_rig_ideal.yaml"}) {
     const RigModel prior(ReadSample(prior_name));
     const auto in = InitialIntrinsicsFromLips(DetectLips(*jpeg_, prior, JpegOptions()), prior);
     ASSERT_TRUE(in) << prior_name;
     std::printf("prior %s: f %+.3f%%, pp - true (%+.3f, %+.3f) px, rms %.3f px, %d points\n",
-                prior_name, 100 * (in->f / f_true - 1), in->cx - truth_->camera[2],
-                in->cy - truth_->camera[3], in->rms_px, in->n_points);
+                prior_name, 100 * (in->f / f_true - 1), in->cx - truth_->camera[kCx],
+                in->cy - truth_->camera[kCy], in->rms_px, in->n_points);
     // The ideal prior: lens and the bodies' axial offsets (-0.5%, LipDetectorOnRender).
     const bool ideal = std::string(prior_name) == "big_rig_ideal.yaml";
     EXPECT_NEAR(in->f / f_true, 1.0, ideal ? 0.007 : 0.001);
@@ -433,8 +433,8 @@ TEST_F(LipDetectorOnPaintedRealisticRender, TheLipGuideFindsTheLipsFromAFocalLen
   int needed_the_scan = 0;
   for (double scale : {0.90, 1.10}) {
     RigParams start = ReadSample("big_rig_ideal.yaml");
-    start.camera[0] *= scale;
-    start.camera[1] *= scale;
+    start.camera[kFx] *= scale;
+    start.camera[kFy] *= scale;
     DetectorContext unscanned(start, {});
     LipGuideOptions no_scan;
     no_scan.f_scan.clear();
@@ -450,7 +450,7 @@ TEST_F(LipDetectorOnPaintedRealisticRender, TheLipGuideFindsTheLipsFromAFocalLen
     }
     const std::array<double, 2> after = ProjectionDifferenceAt1m(ctx.model, truth);
     std::printf("against the true rig at 1 m: ring 1 %.2f px, ring 2 %.2f px RMS\n", after[0], after[1]);
-    EXPECT_NEAR(guide.f_after / truth_->camera[0], 1.0, 0.008);  // as from the design (see above)
+    EXPECT_NEAR(guide.f_after / truth_->camera[kFx], 1.0, 0.008);  // as from the design (see above)
     EXPECT_LT(after[0], 2.0);  // 1.43 / 0.78 px from the design (see above)
     EXPECT_LT(after[1], 1.2);
   }

@@ -130,7 +130,7 @@ bool ShowsLip2ViaReflex(const RigParams& rig, const Eigen::Vector2d& pixel) {
 // The band's outer edge along the image ray from the principal point through `towards`, by
 // stepping outward from `start_rho` until the pixel no longer shows the lip, then bisection.
 double TracedOuterEdge(const RigParams& rig, const Eigen::Vector2d& towards, double start_rho) {
-  const Eigen::Vector2d pp(rig.camera[2], rig.camera[3]);
+  const Eigen::Vector2d pp(rig.camera[kCx], rig.camera[kCy]);
   const Eigen::Vector2d u = (towards - pp).normalized();
   double inside = start_rho;
   EXPECT_TRUE(ShowsLip2ViaReflex(rig, pp + inside * u));
@@ -151,7 +151,7 @@ TEST(LipModel, ViaReflexEdgeFollowsTheDiscRimWhereItHidesTheLip) {
   const RigParams rig = io::ReadModelFile(std::string(OMNISTEREO_SOURCE_DIR) +
                                           "/sample_configs/big_rig_large_reflex.yaml");
   const RigModel model(rig);
-  const Eigen::Vector2d pp(rig.camera[2], rig.camera[3]);
+  const Eigen::Vector2d pp(rig.camera[kCx], rig.camera[kCy]);
   const RigBlocks<double> blocks = RigBlocksOf(rig);
   int on_rim = 0;
   double worst = 0, circle_miss = 0;
@@ -235,8 +235,8 @@ TEST(LipModel, JetDerivativeMatchesFiniteDifferences) {
     for (int k = 0; k < 3; ++k) {
       RigParams plus = rig, minus = rig;
       double phi_p = phi, phi_m = phi;
-      if (k == 0) { plus.camera[0] += h[k]; minus.camera[0] -= h[k]; }
-      if (k == 1) { plus.camera[2] += h[k]; minus.camera[2] -= h[k]; }
+      if (k == 0) { plus.camera[kFx] += h[k]; minus.camera[kFx] -= h[k]; }
+      if (k == 1) { plus.camera[kCx] += h[k]; minus.camera[kCx] -= h[k]; }
       if (k == 2) { phi_p += h[k]; phi_m -= h[k]; }
       const auto a = ProjectLipPoint(RigModel(plus), path, LipCircle::kOuter, phi_p);
       const auto b = ProjectLipPoint(RigModel(minus), path, LipCircle::kOuter, phi_m);

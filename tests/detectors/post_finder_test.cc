@@ -76,9 +76,9 @@ TEST(PostFinder, FindsThePrototypesPostsFromTheDesign) {
   }
   const auto lips = InitialIntrinsicsFromLips(edges, RigModel(design));
   ASSERT_TRUE(lips);
-  design.camera[0] = design.camera[1] = lips->f;
-  design.camera[2] = lips->cx;
-  design.camera[3] = lips->cy;
+  design.camera[kFx] = design.camera[kFy] = lips->f;
+  design.camera[kCx] = lips->cx;
+  design.camera[kCy] = lips->cy;
   for (const RigParams* model : {static_cast<const RigParams*>(&design), &prototype}) {
     const std::vector<FoundPost> posts = FindPosts(Grey(photos), RigModel(*model), 3);
     for (const FoundPost& post : posts) {

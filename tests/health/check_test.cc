@@ -48,7 +48,7 @@ ImageEvidence Simulate(const RigParams& now, int n_points, double match_sigma, d
     m.elevation = std::atan2(point.z(), r);
     e.matches.push_back(m);
   }
-  const Eigen::Vector2d centre(now.camera[2], now.camera[3]);
+  const Eigen::Vector2d centre(now.camera[kCx], now.camera[kCy]);
   for (LipPath path : {LipPath::kDirect, LipPath::kViaMirror1, LipPath::kViaMirror2}) {
     LipEdgeObservation edge;
     edge.mirror = LipOwner(path);

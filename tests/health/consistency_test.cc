@@ -61,7 +61,7 @@ TEST(EpipolarGap, ZeroForAPointSeenInBothRingsAndTheBruteForceDistanceOtherwise)
 // principal point by a small angle gets the same sign everywhere.
 TEST(EpipolarGap, SignIsOneSenseOfAzimuthAllAround) {
   const RigModel model(io::ReadModelFile(kSampleDir + "big_rig_misaligned.yaml"));
-  const Eigen::Vector2d centre(model.params().camera[2], model.params().camera[3]);
+  const Eigen::Vector2d centre(model.params().camera[kCx], model.params().camera[kCy]);
   int positive = 0, negative = 0;
   for (int k = 0; k < 36; ++k) {
     const double a = k * 2 * M_PI / 36;
@@ -79,7 +79,7 @@ TEST(EpipolarGap, SignIsOneSenseOfAzimuthAllAround) {
 
 TEST(LipResidual, SignedDistanceAcrossTheEdge) {
   const RigModel model(io::ReadModelFile(kSampleDir + "big_rig_misaligned.yaml"));
-  const Eigen::Vector2d centre(model.params().camera[2], model.params().camera[3]);
+  const Eigen::Vector2d centre(model.params().camera[kCx], model.params().camera[kCy]);
   int tested = 0;
   for (LipPath path : {LipPath::kDirect, LipPath::kViaMirror1, LipPath::kViaMirror2}) {
     for (double phi : {0.3, 2.0, 4.4}) {

@@ -122,9 +122,9 @@ RigParams RandomNoncentralRig(std::uint64_t seed) {
   rig.r_ref = uniform(0.3, 0.6) * rig.r_sys;
   rig.r_cam = uniform(0.1, 0.3) * rig.r_sys;
   for (double* pose : {rig.mirror1_pose.data(), rig.mirror2_pose.data()}) {
-    pose[0] = uniform(-0.02, 0.02);
-    pose[1] = uniform(-0.02, 0.02);
-    for (int i = 2; i < 5; ++i) pose[i] = uniform(-0.8, 0.8);
+    pose[kRx] = uniform(-0.02, 0.02);
+    pose[kRy] = uniform(-0.02, 0.02);
+    for (int i : {kTx, kTy, kTz}) pose[i] = uniform(-0.8, 0.8);
   }
   rig.reflex = {uniform(-0.01, 0.01), uniform(-0.01, 0.01), uniform(-0.5, 0.5)};
   rig.lip1 = Lip{"blue", rig.r_sys, rig.r_sys + uniform(1, 5), uniform(120, 140)};
@@ -323,7 +323,7 @@ TEST(ModelFileTest, AcceptsMinorVersionsAndDegreeKeys) {
   text.replace(text.find("reflex: {rx: 0.0"), 16, "reflex: {rx_deg: 0.5");
   WriteText(dir / "m.yaml", text);
   const RigParams rig = ReadModelFile(dir / "m.yaml");
-  EXPECT_DOUBLE_EQ(rig.reflex[0], 0.5 * M_PI / 180);
+  EXPECT_DOUBLE_EQ(rig.reflex[kReflexRx], 0.5 * M_PI / 180);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -589,10 +589,10 @@ TEST(ModelFileTest, FailedWriteLeavesTheExistingFileUntouched) {
   const std::string before = ReadText(path);
 
   RigParams bad = good;
-  bad.camera[0] = std::nan("");
+  bad.camera[kFx] = std::nan("");
   EXPECT_THROW(WriteModelFile(path, bad), std::runtime_error);
   bad = good;
-  bad.mirror2_shape[1] = 1.5;  // k2 <= 2: a file nobody could read back
+  bad.mirror2_shape[kShapeK] = 1.5;  // k2 <= 2: a file nobody could read back
   EXPECT_THROW(WriteModelFile(path, bad), std::runtime_error);
   bad = RandomNoncentralRig(7);
   bad.calibration->covariance.pop_back();

@@ -34,10 +34,10 @@ TEST(ModelCompare, RotationRemovedIsTheLeastSquaresOne) {
   std::mt19937 rng(5);
   const RigModel truth(testing::MisalignedBigRig(&rng, 0.5, 0.3, true));
   RigParams near = truth.params();  // a calibration's worth of difference
-  near.camera[2] += 0.8;
-  near.mirror1_pose[0] += 0.03 * M_PI / 180;
-  near.mirror2_pose[1] -= 0.02 * M_PI / 180;
-  near.distortion[0] += 0.002;
+  near.camera[kCx] += 0.8;
+  near.mirror1_pose[kRx] += 0.03 * M_PI / 180;
+  near.mirror2_pose[kRy] -= 0.02 * M_PI / 180;
+  near.distortion[kDistK1] += 0.002;
   const RigModel other(near);
   const ProjectionDifference plain = CompareProjections(truth, other, 1000);
   Eigen::Vector3d rotation;
@@ -76,11 +76,11 @@ TEST(ModelCompare, RotationRemovedIsTheLeastSquaresOne) {
 // cam_from_mirror1 built from its block here, independently of the model's Pose: tilt (rx, ry) as
 // a rotation vector with z = 0, then the translation (docs/design.md, Conventions).
 Eigen::Isometry3d CamFromMirror1Block(const RigParams& rig) {
-  const Eigen::Vector3d tilt(rig.mirror1_pose[0], rig.mirror1_pose[1], 0);
+  const Eigen::Vector3d tilt(rig.mirror1_pose[kRx], rig.mirror1_pose[kRy], 0);
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
   pose.linear() = Eigen::AngleAxisd(tilt.norm(), tilt.normalized()).toRotationMatrix();
   pose.translation() =
-      Eigen::Vector3d(rig.mirror1_pose[2], rig.mirror1_pose[3], rig.mirror1_pose[4]);
+      Eigen::Vector3d(rig.mirror1_pose[kTx], rig.mirror1_pose[kTy], rig.mirror1_pose[kTz]);
   return pose;
 }
 
@@ -88,11 +88,11 @@ TEST(ModelCompare, InMirror1HoldsThePointsInMirror1sBody) {
   std::mt19937 rng(7);
   const RigModel truth(testing::MisalignedBigRig(&rng, 0.5, 0.3, true));
   RigParams near = truth.params();
-  near.camera[2] += 0.8;
-  near.mirror1_pose[0] += 0.03 * M_PI / 180;
-  near.mirror1_pose[1] -= 0.02 * M_PI / 180;
-  near.mirror1_pose[2] += 0.2;
-  near.mirror2_pose[0] += 0.03 * M_PI / 180;
+  near.camera[kCx] += 0.8;
+  near.mirror1_pose[kRx] += 0.03 * M_PI / 180;
+  near.mirror1_pose[kRy] -= 0.02 * M_PI / 180;
+  near.mirror1_pose[kTx] += 0.2;
+  near.mirror2_pose[kRx] += 0.03 * M_PI / 180;
   const RigModel other(near);
 
   EXPECT_LT(CompareProjectionsInMirror1(truth, truth, 1000).rms_px[0], 1e-9);

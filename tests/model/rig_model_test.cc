@@ -223,7 +223,7 @@ TEST(RigModel, InvalidPointsAreRejected) {
       }
     }
     // The principal point looks through the reflex disc straight down into the hole.
-    EXPECT_FALSE(model.Unproject(Eigen::Vector2d(rig.camera[2], rig.camera[3])).has_value());
+    EXPECT_FALSE(model.Unproject(Eigen::Vector2d(rig.camera[kCx], rig.camera[kCy])).has_value());
     EXPECT_FALSE(model.Unproject(Eigen::Vector2d(NAN, 3)).has_value());
     // Far outside the image: beyond mirror 1's rim.
     EXPECT_FALSE(model.Unproject(Eigen::Vector2d(-2000, -2000)).has_value());

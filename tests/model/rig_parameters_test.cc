@@ -117,7 +117,7 @@ TEST(RigParameters, BlocksOffsetsAndDefaults) {
   RigParams rig;
   EXPECT_EQ(BlockIn(&rig, kPose2Block), rig.mirror2_pose.data());
   EXPECT_EQ(BlockIn(&rig, "mirror2_profile"), rig.mirror2_profile.data());
-  EXPECT_EQ(ParameterOf(&rig, "mirror1.reflex.dz"), &rig.reflex[2]);
+  EXPECT_EQ(ParameterOf(&rig, "mirror1.reflex.dz"), &rig.reflex[kReflexDz]);
 }
 
 }  // namespace

@@ -55,9 +55,9 @@ inline RigParams MisalignedBigRig(std::mt19937* rng, double max_mm, double max_d
   }
   rig.reflex = {u(*rng) * max_deg * kRigDeg, u(*rng) * max_deg * kRigDeg, u(*rng) * max_mm};
   if (with_distortion) {
-    rig.camera[2] += 4.3 + u(*rng);
-    rig.camera[3] -= 3.1 + u(*rng);
-    rig.camera[4] = 0.2 * u(*rng);
+    rig.camera[kCx] += 4.3 + u(*rng);
+    rig.camera[kCy] -= 3.1 + u(*rng);
+    rig.camera[kSkew] = 0.2 * u(*rng);
     rig.distortion = {-0.06 + 0.01 * u(*rng), 0.012, 2e-4 * u(*rng), -1.5e-4 * u(*rng), -0.002};
   }
   return rig;

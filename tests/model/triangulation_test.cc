@@ -133,7 +133,7 @@ TEST(Triangulation, IdealRigMatchesThePapersClosedForm) {
   for (const auto& s : StereoSamples(model, {300, 1000, 3000}, 20, 9)) {
     // Move the inner-ring pixel radially only (ideal rig: it stays in the plane of the outer
     // ray, so the rays remain coplanar) to test away from the exact point too.
-    const Eigen::Vector2d centre(rig.camera[2], rig.camera[3]);
+    const Eigen::Vector2d centre(rig.camera[kCx], rig.camera[kCy]);
     const Eigen::Vector2d radial = (s.px2 - centre).normalized();
     const Eigen::Vector2d px2 = s.px2 + noise(rng) * radial;
     const auto ray1 = model.Unproject(s.px1);
@@ -208,18 +208,18 @@ TEST(Triangulation, CovarianceMatchesMonteCarloAndNeesIsThree) {
 // (rad), dz (mm)); nullptr for a name the test does not know.
 double* ParameterByName(RigParams* rig, const std::string& name) {
   const std::vector<std::pair<std::string, double*>> table = {
-      {"fx", &rig->camera[0]}, {"fy", &rig->camera[1]}, {"cx", &rig->camera[2]},
-      {"cy", &rig->camera[3]}, {"skew", &rig->camera[4]}, {"dist_k1", &rig->distortion[0]},
-      {"dist_k2", &rig->distortion[1]}, {"dist_p1", &rig->distortion[2]},
-      {"dist_p2", &rig->distortion[3]}, {"dist_k3", &rig->distortion[4]},
-      {"c1", &rig->mirror1_shape[0]}, {"k1", &rig->mirror1_shape[1]},
-      {"c2", &rig->mirror2_shape[0]}, {"k2", &rig->mirror2_shape[1]},
-      {"mirror1.rx", &rig->mirror1_pose[0]}, {"mirror1.ry", &rig->mirror1_pose[1]},
-      {"mirror1.tx", &rig->mirror1_pose[2]}, {"mirror1.ty", &rig->mirror1_pose[3]},
-      {"mirror1.tz", &rig->mirror1_pose[4]}, {"mirror2.rx", &rig->mirror2_pose[0]},
-      {"mirror2.ry", &rig->mirror2_pose[1]}, {"mirror2.tx", &rig->mirror2_pose[2]},
-      {"mirror2.ty", &rig->mirror2_pose[3]}, {"mirror2.tz", &rig->mirror2_pose[4]},
-      {"reflex.rx", &rig->reflex[0]}, {"reflex.ry", &rig->reflex[1]}, {"reflex.dz", &rig->reflex[2]}};
+      {"fx", &rig->camera[kFx]}, {"fy", &rig->camera[kFy]}, {"cx", &rig->camera[kCx]},
+      {"cy", &rig->camera[kCy]}, {"skew", &rig->camera[kSkew]}, {"dist_k1", &rig->distortion[kDistK1]},
+      {"dist_k2", &rig->distortion[kDistK2]}, {"dist_p1", &rig->distortion[kDistP1]},
+      {"dist_p2", &rig->distortion[kDistP2]}, {"dist_k3", &rig->distortion[kDistK3]},
+      {"c1", &rig->mirror1_shape[kShapeC]}, {"k1", &rig->mirror1_shape[kShapeK]},
+      {"c2", &rig->mirror2_shape[kShapeC]}, {"k2", &rig->mirror2_shape[kShapeK]},
+      {"mirror1.rx", &rig->mirror1_pose[kRx]}, {"mirror1.ry", &rig->mirror1_pose[kRy]},
+      {"mirror1.tx", &rig->mirror1_pose[kTx]}, {"mirror1.ty", &rig->mirror1_pose[kTy]},
+      {"mirror1.tz", &rig->mirror1_pose[kTz]}, {"mirror2.rx", &rig->mirror2_pose[kRx]},
+      {"mirror2.ry", &rig->mirror2_pose[kRy]}, {"mirror2.tx", &rig->mirror2_pose[kTx]},
+      {"mirror2.ty", &rig->mirror2_pose[kTy]}, {"mirror2.tz", &rig->mirror2_pose[kTz]},
+      {"reflex.rx", &rig->reflex[kReflexRx]}, {"reflex.ry", &rig->reflex[kReflexRy]}, {"reflex.dz", &rig->reflex[kReflexDz]}};
   for (const auto& [key, ptr] : table) {
     if (key == name) return ptr;
   }
@@ -390,7 +390,7 @@ TEST(Triangulation, RejectsPixelsOfTheWrongRingOrInTheHole) {
   const auto s = StereoSamples(model, {1000}, 1, 1).at(0);
   EXPECT_FALSE(triangulator.Triangulate(s.px2, s.px1).has_value());  // rings swapped
   EXPECT_FALSE(triangulator.Triangulate(s.px1, s.px1).has_value());  // both outer
-  const Eigen::Vector2d centre(model.params().camera[2], model.params().camera[3]);
+  const Eigen::Vector2d centre(model.params().camera[kCx], model.params().camera[kCy]);
   EXPECT_FALSE(triangulator.Triangulate(s.px1, centre).has_value());  // through the hole
   EXPECT_EQ(ModelParameterIndex("mirror1.tx"), 16);
   EXPECT_EQ(ModelParameterIndex("camera.fx"), 0);

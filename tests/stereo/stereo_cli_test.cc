@@ -154,10 +154,10 @@ TEST_F(StereoCli, Mirror1FrameGivesThePointsInTheMirrorBody) {
     EXPECT_EQ(zero_rows, 6) << frame << "\n" << out;
   }
   const RigParams rig = io::ReadModelFile(model);
-  const double rx = rig.mirror1_pose[0], ry = rig.mirror1_pose[1];
+  const double rx = rig.mirror1_pose[kRx], ry = rig.mirror1_pose[kRy];
   const Eigen::Matrix3d cam_from_mirror1 =
       Eigen::AngleAxisd(std::hypot(rx, ry), Eigen::Vector3d(rx, ry, 0).normalized()).matrix();
-  const Eigen::Vector3d mirror1_in_cam(rig.mirror1_pose[2], rig.mirror1_pose[3], rig.mirror1_pose[4]);
+  const Eigen::Vector3d mirror1_in_cam(rig.mirror1_pose[kTx], rig.mirror1_pose[kTy], rig.mirror1_pose[kTz]);
   io::CsvReader in_cam(Path("cam.csv"), {"x_mm", "y_mm", "z_mm"});
   io::CsvReader in_mirror1(Path("mirror1.csv"), {"x_mm", "y_mm", "z_mm"});
   std::vector<double> a, b;

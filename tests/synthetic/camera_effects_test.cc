@@ -100,7 +100,7 @@ TEST(CameraEffects, SrgbToneCurveAndVignettingFollowTheirLaws) {
   v.vignetting = 0.3;
   v.bits = 16;
   const cv::Mat vig = ApplyCamera(Flat(rig, cv::Scalar::all(0.8 * 65535)), rig, v, 1);
-  const int cx = static_cast<int>(std::round(rig.camera[2])), cy = static_cast<int>(std::round(rig.camera[3]));
+  const int cx = static_cast<int>(std::round(rig.camera[kCx])), cy = static_cast<int>(std::round(rig.camera[kCy]));
   EXPECT_NEAR(vig.at<cv::Vec3w>(cy, cx)[0] / 65535.0, 0.8, 1e-3);
   // The corner farthest from the principal point (642.3, 476.8) is the bottom left.
   EXPECT_NEAR(vig.at<cv::Vec3w>(rig.image_height - 1, 0)[0] / 65535.0, 0.8 * 0.7, 1e-4);

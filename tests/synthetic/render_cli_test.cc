@@ -115,9 +115,9 @@ TEST_F(RenderCli, FastPathEqualsRenderedTruthAndTruthEqualsProject) {
   const Eigen::Vector3d e1 = normal.cross(Eigen::Vector3d::UnitX()).normalized();
   const Eigen::Vector3d e2 = normal.cross(e1);
   const RigParams& rig = model.params();
-  const Pinhole<double> cam{rig.camera[0], rig.camera[1], rig.camera[2], rig.camera[3], rig.camera[4]};
-  const RadTan<double> dist{rig.distortion[0], rig.distortion[1], rig.distortion[2],
-                            rig.distortion[3], rig.distortion[4]};
+  const Pinhole<double> cam{rig.camera[kFx], rig.camera[kFy], rig.camera[kCx], rig.camera[kCy], rig.camera[kSkew]};
+  const RadTan<double> dist{rig.distortion[kDistK1], rig.distortion[kDistK2], rig.distortion[kDistP1],
+                            rig.distortion[kDistP2], rig.distortion[kDistK3]};
   auto pixel_of = [&](const Eigen::Vector3d& p) {
     return cam.PixelFromNormalized(dist.Distort(Eigen::Vector2d(p.x() / p.z(), p.y() / p.z())));
   };
