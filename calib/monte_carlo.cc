@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <cstdarg>
 #include <cstdio>
 #include <map>
 #include <random>
@@ -12,28 +11,13 @@
 
 #include <Eigen/Eigenvalues>
 
+#include "io/text_append.h"
 #include "model/lip.h"
 #include "model/rig_model.h"
 #include "model/rig_parameters.h"
 
 namespace omni::calib {
 namespace {
-
-// printf appended to *out.
-void Append(std::string* out, const char* format, ...) {
-  va_list args, size_args;
-  va_start(args, format);
-  va_copy(size_args, args);
-  const int n = std::vsnprintf(nullptr, 0, format, size_args);
-  va_end(size_args);
-  if (n > 0) {
-    const size_t old = out->size();
-    out->resize(old + n + 1);
-    std::vsnprintf(out->data() + old, n + 1, format, args);
-    out->resize(old + n);
-  }
-  va_end(args);
-}
 
 }  // namespace
 
@@ -154,31 +138,31 @@ std::string MonteCarloSummary(const CalibrationResult& r0, const MonteCarloSolve
     if (count > most) most = count, names = list;
   }
   if (names != r0.estimate.names) {
-    Append(&out, "the solves' observable parameters differ from R0's:");
+    io::AppendFormat(&out, "the solves' observable parameters differ from R0's:");
     for (const auto& name : names) {
       if (std::find(r0.estimate.names.begin(), r0.estimate.names.end(), name) == r0.estimate.names.end()) {
-        Append(&out, " +%s", name.c_str());
+        io::AppendFormat(&out, " +%s", name.c_str());
       }
     }
     for (const auto& name : r0.estimate.names) {
       if (std::find(names.begin(), names.end(), name) == names.end()) {
-        Append(&out, " -%s", name.c_str());
+        io::AppendFormat(&out, " -%s", name.c_str());
       }
     }
-    Append(&out, "\n");
+    io::AppendFormat(&out, "\n");
   }
   std::vector<int> good;
   for (int k = 0; k < count; ++k) {
     if (!solves.errors[k].empty()) {
-      Append(&out, "solve %d failed: %s\n", k, solves.errors[k].c_str());
+      io::AppendFormat(&out, "solve %d failed: %s\n", k, solves.errors[k].c_str());
     } else if (solves.results[k].estimate.names != names) {
-      Append(&out, "solve %d: other parameters observable than the others' (left out)\n", k);
+      io::AppendFormat(&out, "solve %d: other parameters observable than the others' (left out)\n", k);
     } else {
       good.push_back(k);
     }
   }
   const int n = static_cast<int>(good.size());
-  Append(&out, "%d of %d solves used, %.1f s wall (%.1f s per solve on one thread)\n", n, count,
+  io::AppendFormat(&out, "%d of %d solves used, %.1f s wall (%.1f s per solve on one thread)\n", n, count,
          solves.wall_s, [&] { double s = 0; for (double x : solves.seconds) s += x; return s / count; }());
   *used = n;
   if (n < 2) return out;
@@ -191,7 +175,7 @@ std::string MonteCarloSummary(const CalibrationResult& r0, const MonteCarloSolve
       }
     }
     for (const auto& [name, v] : groups) {
-      Append(&out, "  solves' %-15s mean s %.4f px per axis, correlation factor %.2f\n",
+      io::AppendFormat(&out, "  solves' %-15s mean s %.4f px per axis, correlation factor %.2f\n",
                   name.c_str(), v.first, v.second);
     }
   }
@@ -207,18 +191,18 @@ std::string MonteCarloSummary(const CalibrationResult& r0, const MonteCarloSolve
   const Eigen::VectorXd mean = x.colwise().mean().transpose();
   const Eigen::MatrixXd d = x.rowwise() - mean.transpose();
   const Eigen::VectorXd spread = (d.array().square().colwise().sum() / (n - 1)).sqrt().transpose();
-  Append(&out, "%-14s %14s %12s %12s %7s %12s\n", "parameter", "R0 value", "spread", "predicted",
+  io::AppendFormat(&out, "%-14s %14s %12s %12s %7s %12s\n", "parameter", "R0 value", "spread", "predicted",
               "ratio", "bias/spread");
   double worst = 0;
   std::string worst_name;
   for (int i = 0; i < p; ++i) {
     const double ratio = spread(i) / predicted(i);
     const double bias = (mean(i) - reference(i)) / spread(i);
-    Append(&out, "%-14s %14.6g %12.4g %12.4g %7.3f %12.2f\n", names[i].c_str(), reference(i),
+    io::AppendFormat(&out, "%-14s %14.6g %12.4g %12.4g %7.3f %12.2f\n", names[i].c_str(), reference(i),
                 spread(i), predicted(i), ratio, bias);
     if (std::abs(ratio - 1) > worst) worst = std::abs(ratio - 1), worst_name = names[i];
   }
-  Append(&out, "ratio sd from sampling alone ~ 1/sqrt(2 n) = %.3f; worst |ratio - 1| %.3f (%s)\n",
+  io::AppendFormat(&out, "ratio sd from sampling alone ~ 1/sqrt(2 n) = %.3f; worst |ratio - 1| %.3f (%s)\n",
               1 / std::sqrt(2.0 * n), worst, worst_name.c_str());
 
   // chi^2 of the spread against the predicted pixel-noise covariance (each solve's covariance
@@ -238,7 +222,7 @@ std::string MonteCarloSummary(const CalibrationResult& r0, const MonteCarloSolve
     noise_cov += c / n;
   }
   const Eigen::VectorXd scale = noise_cov.diagonal().cwiseMax(1e-300).cwiseSqrt();
-  Append(&out, "mean noise covariance: sqrt(diagonal) / mean noise_sigma in %.4f .. %.4f\n",
+  io::AppendFormat(&out, "mean noise covariance: sqrt(diagonal) / mean noise_sigma in %.4f .. %.4f\n",
               scale.cwiseQuotient(predicted).minCoeff(), scale.cwiseQuotient(predicted).maxCoeff());
   const Eigen::MatrixXd scaled = scale.cwiseInverse().asDiagonal() * noise_cov *
                                  scale.cwiseInverse().asDiagonal();
@@ -260,14 +244,14 @@ std::string MonteCarloSummary(const CalibrationResult& r0, const MonteCarloSolve
     ++rank;
     chi2 += per_direction(k);
   }
-  Append(&out, "chi^2 of the spread against the predicted noise covariance: %.2f per solve for %d "
+  io::AppendFormat(&out, "chi^2 of the spread against the predicted noise covariance: %.2f per solve for %d "
               "directions (expected %d; sampling sd ~%.2f)\n", chi2, rank, rank,
               std::sqrt(2.0 * rank / n));
-  Append(&out, "per eigen-direction (Jacobi-scaled eigenvalue ascending: variance ratio): ");
+  io::AppendFormat(&out, "per eigen-direction (Jacobi-scaled eigenvalue ascending: variance ratio): ");
   for (int k = 0; k < p; ++k) {
-    if (eig.eigenvalues()(k) > tol) Append(&out, "%.2g:%.2f ", eig.eigenvalues()(k), per_direction(k));
+    if (eig.eigenvalues()(k) > tol) io::AppendFormat(&out, "%.2g:%.2f ", eig.eigenvalues()(k), per_direction(k));
   }
-  Append(&out, "\n");
+  io::AppendFormat(&out, "\n");
   return out;
 }
 

@@ -2,30 +2,14 @@
 
 #include <algorithm>
 #include <array>
-#include <cstdarg>
 #include <cstdio>
 
 #include "detectors/lips/lip_intrinsics.h"
+#include "io/text_append.h"
 #include "model/rig_model.h"
 
 namespace omni::detectors {
 namespace {
-
-// printf appended to *out.
-void Append(std::string* out, const char* format, ...) {
-  va_list args, size_args;
-  va_start(args, format);
-  va_copy(size_args, args);
-  const int n = std::vsnprintf(nullptr, 0, format, size_args);
-  va_end(size_args);
-  if (n > 0) {
-    const size_t old = out->size();
-    out->resize(old + n + 1);
-    std::vsnprintf(out->data() + old, n + 1, format, args);
-    out->resize(old + n);
-  }
-  va_end(args);
-}
 
 int RangeBin(double range_mm) {
   const double edges[] = {500, 1000, 2000};
@@ -90,7 +74,7 @@ std::vector<std::string> DetectorEvaluation::AddImage(const std::string& name,
       ++bin.wrong;
       if (guided_bin) ++guided_bin->wrong;
       line.clear();
-      Append(&line, "%s: wrong%s: target %d id %d mirror %d at (%.1f, %.1f): nearest truth "
+      io::AppendFormat(&line, "%s: wrong%s: target %d id %d mirror %d at (%.1f, %.1f): nearest truth "
              "target %d id %d at %.2f px", name.c_str(), guided_bin ? " (guided)" : "", o.target,
              o.id, MirrorIndex(o.mirror), o.pixel.x(), o.pixel.y(),
              best_i >= 0 ? truth[best_i].target : -1, best_i >= 0 ? truth[best_i].id : -1, best);
@@ -101,13 +85,13 @@ std::vector<std::string> DetectorEvaluation::AddImage(const std::string& name,
     if (guided_bin) guided_bin->errors.push_back(best);
     if (csv) {
       const Eigen::Vector2d& t = *truth[best_i].pixel[MirrorIndex(o.mirror) - 1];
-      Append(csv, "%s,%d,%s,%d,%d,%.1f,%.4f,%.4f,%.4f,%.4f,%d,1\n", name.c_str(), o.target,
+      io::AppendFormat(csv, "%s,%d,%s,%d,%d,%.1f,%.4f,%.4f,%.4f,%.4f,%d,1\n", name.c_str(), o.target,
              kKindNames[kind_of(o.target)], o.id, MirrorIndex(o.mirror), range, o.pixel.x(),
              o.pixel.y(), t.x(), t.y(), guided_bin ? 1 : 0);
     }
     if (best > 0.5) {  // right id but far off: named, like wrong ids, to find the cause
       line.clear();
-      Append(&line, "%s: off: target %d id %d mirror %d at (%.1f, %.1f): %.2f px from truth",
+      io::AppendFormat(&line, "%s: off: target %d id %d mirror %d at (%.1f, %.1f): %.2f px from truth",
              name.c_str(), o.target, o.id, MirrorIndex(o.mirror), o.pixel.x(), o.pixel.y(), best);
       lines.push_back(line);
     }
@@ -126,7 +110,7 @@ std::vector<std::string> DetectorEvaluation::AddImage(const std::string& name,
       if (found) ++bin.found;
       if (csv && !found) {  // a missed corner: its true pixel only
         const Eigen::Vector2d& t = *truth[i].pixel[m - 1];
-        Append(csv, "%s,%d,%s,%d,%d,%.1f,,,%.4f,%.4f,0,0\n", name.c_str(), truth[i].target,
+        io::AppendFormat(csv, "%s,%d,%s,%d,%d,%.1f,,,%.4f,%.4f,0,0\n", name.c_str(), truth[i].target,
                kKindNames[kind_of(truth[i].target)], truth[i].id, m,
                truth[i].point_in_cam.head<2>().norm(), t.x(), t.y());
       }
@@ -158,7 +142,7 @@ std::vector<std::string> DetectorEvaluation::AddImage(const std::string& name,
     }
     if (b[1] < b[0]) {
       line.clear();
-      Append(&line, "%s: missed: target %d ring %d at %.2f m: %.0f of %.0f visible corners found",
+      io::AppendFormat(&line, "%s: missed: target %d ring %d at %.2f m: %.0f of %.0f visible corners found",
              name.c_str(), key.first, key.second, b[2] / 1000, b[1], b[0]);
       lines.push_back(line);
     }
@@ -168,10 +152,10 @@ std::vector<std::string> DetectorEvaluation::AddImage(const std::string& name,
 
 std::string DetectorEvaluation::Tables() const {
   std::string out;
-  Append(&out, "%-6s %-10s %8s %8s %8s %8s %8s %6s\n", "ring", "range", "visible", "found",
+  io::AppendFormat(&out, "%-6s %-10s %8s %8s %8s %8s %8s %6s\n", "ring", "range", "visible", "found",
          "found%", "mean_px", "p99_px", "wrong");
   const auto row = [&](const std::string& ring, const char* range, const Bin& bin) {
-    Append(&out, "%-6s %-10s %8d %8d %7.1f%% %8.4f %8.4f %6d\n", ring.c_str(), range, bin.visible,
+    io::AppendFormat(&out, "%-6s %-10s %8d %8d %7.1f%% %8.4f %8.4f %6d\n", ring.c_str(), range, bin.visible,
            bin.found, 100.0 * bin.found / std::max(1, bin.visible), Mean(bin.errors),
            Percentile(bin.errors, 0.99), bin.wrong);
   };
@@ -195,27 +179,27 @@ std::string DetectorEvaluation::Tables() const {
   row("both", "all", all);
   // The same per kind of target (wrong ids are counted in the range table only).
   for (const auto& [key, bin] : by_kind_) {
-    Append(&out, "%-6d %-10s %8d %8zu %7.1f%% %8.4f %8.4f\n", key.second, kKindNames[key.first],
+    io::AppendFormat(&out, "%-6d %-10s %8d %8zu %7.1f%% %8.4f %8.4f\n", key.second, kKindNames[key.first],
            bin.visible, bin.errors.size(), 100.0 * bin.found / std::max(1, bin.visible),
            Mean(bin.errors), Percentile(bin.errors, 0.99));
   }
-  Append(&out, "corners at least %.0f px from their target's other corners in the ring:\n",
+  io::AppendFormat(&out, "corners at least %.0f px from their target's other corners in the ring:\n",
          kSpacedPx);
   for (const auto& [key, bin] : spaced_by_kind_) {
-    Append(&out, "%-6d %-10s %8d %8d %7.1f%%\n", key.second, kKindNames[key.first], bin.visible,
+    io::AppendFormat(&out, "%-6d %-10s %8d %8d %7.1f%%\n", key.second, kKindNames[key.first], bin.visible,
            bin.found, 100.0 * bin.found / std::max(1, bin.visible));
   }
-  Append(&out, "targets whose junctions are at least %.0f px apart (median nearest) in the ring:\n",
+  io::AppendFormat(&out, "targets whose junctions are at least %.0f px apart (median nearest) in the ring:\n",
          kResolvedPx);
   for (const auto& [ring, bin] : resolved_by_ring_) {
-    Append(&out, "%-6d %-10s %8d %8d %7.1f%%\n", ring, "resolved", bin.visible, bin.found,
+    io::AppendFormat(&out, "%-6d %-10s %8d %8d %7.1f%%\n", ring, "resolved", bin.visible, bin.found,
            100.0 * bin.found / std::max(1, bin.visible));
   }
   // Guided corners alone (guided_detection.h): how many, their error and wrong ids.
-  Append(&out, "guided corners (across rings):\n%-6s %-10s %8s %8s %8s %6s\n", "ring", "kind",
+  io::AppendFormat(&out, "guided corners (across rings):\n%-6s %-10s %8s %8s %8s %6s\n", "ring", "kind",
          "found", "mean_px", "p99_px", "wrong");
   for (const auto& [key, bin] : guided_by_kind_) {
-    Append(&out, "%-6d %-10s %8zu %8.4f %8.4f %6d\n", key.second, kKindNames[key.first],
+    io::AppendFormat(&out, "%-6d %-10s %8zu %8.4f %8.4f %6d\n", key.second, kKindNames[key.first],
            bin.errors.size(), Mean(bin.errors), Percentile(bin.errors, 0.99), bin.wrong);
   }
   return out;
@@ -236,11 +220,11 @@ std::string LipIntrinsicsAgainstTruth(const RigParams& truth, const RigParams& n
                       {"lip1_centre", ref.lip1_centre},
                       {"lip2_centre_in_reflex", ref.lip2_centre_in_reflex},
                       {"axis2_in_reflex", ref.axis2_in_reflex}};
-  Append(&out, "lips (%d images, %zu labelled edges): true f %.3f pp (%.3f, %.3f); nominal pp "
+  io::AppendFormat(&out, "lips (%d images, %zu labelled edges): true f %.3f pp (%.3f, %.3f); nominal pp "
          "(%.3f, %.3f)\n", n_images, edges.size(), f_true, pp.x(), pp.y(), nominal.camera[kCx],
          nominal.camera[kCy]);
   for (const Ref& r : refs) {
-    Append(&out, "lips ref %-22s (%.3f, %.3f), minus true pp (%+.3f, %+.3f) = %.3f px\n", r.name,
+    io::AppendFormat(&out, "lips ref %-22s (%.3f, %.3f), minus true pp (%+.3f, %+.3f) = %.3f px\n", r.name,
            r.pixel.x(), r.pixel.y(), r.pixel.x() - pp.x(), r.pixel.y() - pp.y(),
            (r.pixel - pp).norm());
   }
@@ -262,15 +246,15 @@ std::string LipIntrinsicsAgainstTruth(const RigParams& truth, const RigParams& n
     }
     const auto est = InitialIntrinsicsFromLips(used, RigModel(*fit.prior));
     if (!est) {
-      Append(&out, "lips fit %-14s: failed (%zu edges)\n", fit.name, used.size());
+      io::AppendFormat(&out, "lips fit %-14s: failed (%zu edges)\n", fit.name, used.size());
       continue;
     }
     const Eigen::Vector2d c(est->cx, est->cy);
-    Append(&out, "lips fit %-14s: f %.3f (%+.3f%%) pp (%.3f, %.3f) rms %.3f px, %d points; "
+    io::AppendFormat(&out, "lips fit %-14s: f %.3f (%+.3f%%) pp (%.3f, %.3f) rms %.3f px, %d points; "
            "minus true pp (%+.3f, %+.3f) = %.3f px", fit.name, est->f, 100 * (est->f / f_true - 1),
            c.x(), c.y(), est->rms_px, est->n_points, c.x() - pp.x(), c.y() - pp.y(),
            (c - pp).norm());
-    for (const Ref& r : refs) Append(&out, "; %s %.3f", r.name, (c - r.pixel).norm());
+    for (const Ref& r : refs) io::AppendFormat(&out, "; %s %.3f", r.name, (c - r.pixel).norm());
     out += " px\n";
   }
   return out;
