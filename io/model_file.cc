@@ -428,6 +428,124 @@ std::string LipMap(const Lip& lip) {
 
 }  // namespace
 
+namespace {
+
+// `rig:` (folded | single, default folded) and `lens:` (perspective | telecentric, default
+// perspective); the folded rig's design is for a perspective lens only.
+void ReadRigAndLens(const Reader& in, const YAML::Node& root, RigParams* rig) {
+  if (root["rig"].IsDefined()) {
+    const std::string kind = in.String(root, "", "rig");
+    if (kind == "single") {
+      rig->rig = RigKind::kSingle;
+    } else if (kind != "folded") {
+      in.Fail("rig", "expected 'folded' or 'single'", Describe(root["rig"]));
+    }
+  }
+  if (root["lens"].IsDefined()) {
+    const std::string lens = in.String(root, "", "lens");
+    if (lens == "telecentric") {
+      rig->lens = LensKind::kTelecentric;
+    } else if (lens != "perspective") {
+      in.Fail("lens", "expected 'perspective' or 'telecentric'", Describe(root["lens"]));
+    }
+  }
+  if (rig->lens == LensKind::kTelecentric && !rig->Single()) {
+    in.Fail("lens", "expected 'perspective': the folded rig's design needs a perspective lens "
+                    "(telecentric lenses: rig: single)", "telecentric");
+  }
+}
+
+// A single-mirror rig (rig: single): camera, `design: {R, K, vertex_z, r_sys, r_cam}` and
+// `mirror1: {cam_from_mirror, lip (optional), profile (optional)}`; the folded rig's keys refused.
+void ReadSingleRig(const Reader& in, const YAML::Node& root, RigParams* rig) {
+  ReadBlock(in, SectionMap(in, root, kCameraBlock), kCameraBlock, rig->camera.data());
+  const YAML::Node dist = SectionMap(in, root, kDistortionBlock);
+  const std::string dist_path = kRigBlocks[kDistortionBlock].section;
+  if (in.String(dist, dist_path, "model") != "radtan") {
+    in.Fail(Join(dist_path, "model"), "expected 'radtan'", Describe(dist["model"]));
+  }
+  ReadBlock(in, dist, kDistortionBlock, rig->distortion.data());
+  const YAML::Node design = in.Map(root, "design", "design");
+  for (const char* key : {"c1", "c2", "k1", "k2", "d", "r_ref"}) {
+    if (design[key].IsDefined()) {
+      in.Fail(Join("design", key), "no folded-rig key in a single-mirror model (rig: single): "
+                                   "its mirror is design.R, design.K", "one");
+    }
+  }
+  for (const char* key : {"mirror2", "reflex"}) {
+    if (root[key].IsDefined()) {
+      in.Fail(key, "no folded-rig key in a single-mirror model (rig: single)", "one");
+    }
+  }
+  const double R = in.Positive(design, "design", "R");
+  const double K = in.Number(design, "design", "K");
+  rig->mirror1_shape = {R, K};
+  rig->vertex_z = in.Number(design, "design", "vertex_z");
+  rig->r_sys = in.Positive(design, "design", "r_sys");
+  rig->r_cam = design["r_cam"].IsDefined() ? in.Number(design, "design", "r_cam") : 0.0;
+  if (!(rig->r_cam >= 0 && rig->r_cam < rig->r_sys)) {
+    in.Fail("design.r_cam", "expected a radius in [0, r_sys) = [0, " + FormatDouble(rig->r_sys) + ")",
+            Describe(design["r_cam"]));
+  }
+  if (!Conic<double>{R, K}.Covers(rig->r_sys * rig->r_sys)) {
+    in.Fail("design.K", "a conic that reaches the rim r_sys = " + FormatDouble(rig->r_sys) +
+                            " mm (an ellipsoid or sphere closes at R / sqrt(1 + K) = " +
+                            FormatDouble(R / std::sqrt(1 + K)) + " mm)",
+            FormatDouble(K));
+  }
+  if (rig->lens == LensKind::kPerspective && !(rig->vertex_z > 0)) {
+    in.Fail("design.vertex_z", "expected the mirror's vertex above the camera (> 0 mm)",
+            Describe(design["vertex_z"]));
+  }
+  const YAML::Node m1 = in.Map(root, "mirror1", "mirror1");
+  if (m1["reflex"].IsDefined()) {
+    in.Fail("mirror1.reflex", "no reflex disc in a single-mirror model (rig: single)", "one");
+  }
+  ReadBlock(in, SectionMap(in, root, kPose1Block), kPose1Block, rig->mirror1_pose.data());
+  rig->lip1 = m1["lip"].IsDefined()
+                  ? ReadLip(in, in.Map(m1, "mirror1.lip", "lip"), "mirror1.lip")
+                  : Lip{"", rig->r_sys, rig->r_sys,
+                        rig->vertex_z + Conic<double>{R, K}.Sag(rig->r_sys * rig->r_sys)};
+  if (m1[SectionKey(kProfile1Block)].IsDefined()) {
+    ReadProfile(in, SectionMap(in, root, kProfile1Block), kRigBlocks[kProfile1Block].section, *rig,
+                Mirror::kOne, &rig->profile1, rig->mirror1_profile.data());
+  }
+  if (root["mount"].IsDefined()) rig->mount = ReadMount(in, in.Map(root, "mount", "mount"), *rig);
+  if (rig->kind == ModelKind::kIdeal) CheckIdeal(in, *rig);
+  if (root["calibration"].IsDefined()) rig->calibration = ReadCalibration(in, root);
+}
+
+// The single-mirror rig's part of a model file (ModelFileText).
+void WriteSingleRig(const RigParams& rig, std::string* out) {
+  Line(out, 0, "design:", "the mirror: a conic of vertex radius R (mm) and conic constant K");
+  Line(out, 2, "R: " + Num(rig.mirror1_shape[kShapeC]));
+  Line(out, 2, "K: " + Num(rig.mirror1_shape[kShapeK]),
+       "0 sphere, -1 paraboloid, < -1 hyperboloid, -1..0 ellipsoid");
+  Line(out, 2, "vertex_z: " + Num(rig.vertex_z), "the vertex's height in mirror 1's frame");
+  Line(out, 2, "r_sys: " + Num(rig.r_sys), "the rim's radius");
+  Line(out, 2, "r_cam: " + Num(rig.r_cam), "the centre the camera does not use");
+  Line(out, 0, "mirror1:", "body of the mirror");
+  Line(out, 2, SectionKey(kPose1Block) + ": " + BlockMap(rig, kPose1Block));
+  if (!rig.lip1.color.empty()) Line(out, 2, "lip: " + LipMap(rig.lip1), "flat annulus, mirror-1 frame");
+  if (rig.profile1.present) {
+    Line(out, 2, SectionKey(kProfile1Block) + ": " + ProfileMap(rig, Mirror::kOne),
+         "sag over the conic along +z (mm): docs/formats/model.md");
+  }
+  if (rig.mount.present) {
+    Line(out, 0, "mount: " + MountMap(rig.mount), "posts (square prisms) in that body's frame, mm / deg");
+  }
+  const ModelDerived derived = ComputeModelDerived(rig);
+  Line(out, 0, "derived:", "written for people and other tools; ignored when read");
+  Line(out, 2, "focus1_in_cam: " + Vec(derived.focus1_in_cam), "the mirror's near focus");
+  Line(out, 2, "axis1_in_cam: " + Vec(derived.axis1_in_cam));
+  if (derived.has_far_focus) {
+    Line(out, 2, "far_focus1_in_cam: " + Vec(derived.far_focus1_in_cam),
+         "a perspective camera is central when this is 0");
+  }
+}
+
+}  // namespace
+
 RigParams ParseModelText(const std::string& text, const std::string& file) {
   YAML::Node root;
   try {
@@ -465,6 +583,11 @@ RigParams ParseModelText(const std::string& text, const std::string& file) {
   const YAML::Node image = in.Map(root, "image", "image");
   rig.image_width = in.Integer(image, "image", "width", 1);
   rig.image_height = in.Integer(image, "image", "height", 1);
+  ReadRigAndLens(in, root, &rig);
+  if (rig.Single()) {
+    ReadSingleRig(in, root, &rig);
+    return rig;
+  }
 
   const YAML::Node camera = SectionMap(in, root, kCameraBlock);
   ReadBlock(in, camera, kCameraBlock, rig.camera.data());
@@ -524,6 +647,11 @@ RigParams ReadModelFile(const std::string& path) {
   return ParseModelText(ReadWholeFile(path, "model file"), path);
 }
 
+namespace {
+void WriteFoldedRig(const RigParams& rig, std::string* out);
+void WriteCalibration(const CalibrationInfo& cal, std::string* out);
+}  // namespace
+
 std::string ModelFileText(const RigParams& rig) {
   std::string out;
   out +=
@@ -536,6 +664,10 @@ std::string ModelFileText(const RigParams& rig) {
   Line(&out, 0, std::string("format: ") + kFormatPrefix + std::to_string(kFormatMajor));
   Line(&out, 0, std::string("kind: ") + (rig.kind == ModelKind::kIdeal ? "ideal" : "noncentral"),
        "ideal | noncentral  (ideal: every pose below is zero, no distortion)");
+  if (rig.Single()) {
+    Line(&out, 0, "rig: single", "folded | single  (single: one mirror of any conic, ring 1 only)");
+    Line(&out, 0, std::string("lens: ") + LensKindName(rig.lens), "perspective | telecentric");
+  }
   Line(&out, 0, "units: {length: mm, angle: rad}");
   Line(&out, 0, "image: {width: " + std::to_string(rig.image_width) +
                     ", height: " + std::to_string(rig.image_height) + "}");
@@ -544,6 +676,20 @@ std::string ModelFileText(const RigParams& rig) {
     Line(&out, 2, BlockParameters(kCameraBlock)[i].Key() + ": " + Num(rig.camera[i]));
   }
   Line(&out, 2, SectionKey(kDistortionBlock) + ": " + BlockMap(rig, kDistortionBlock, "model: radtan, "));
+  if (rig.Single()) {
+    WriteSingleRig(rig, &out);
+  } else {
+    WriteFoldedRig(rig, &out);
+  }
+  if (rig.calibration) WriteCalibration(*rig.calibration, &out);
+  return out;
+}
+
+namespace {
+
+// The folded rig's part of a model file (ModelFileText).
+void WriteFoldedRig(const RigParams& rig, std::string* out_text) {
+  std::string& out = *out_text;
   Line(&out, 0, kRigBlocks[kShape1Block].section + std::string(":"),
        "the paper's primary parameters (mm, unitless k) and physical radii");
   for (int i = 0; i < kRigBlocks[kShape1Block].size; ++i) {
@@ -586,44 +732,46 @@ std::string ModelFileText(const RigParams& rig) {
   Line(&out, 2, "reflex_point_in_cam: " + Vec(derived.reflex_point_in_cam));
   Line(&out, 2, "reflex_normal_in_cam: " + Vec(derived.reflex_normal_in_cam));
   Line(&out, 2, "baseline: " + Num(derived.baseline), "distance between the two primary foci");
-
-  if (rig.calibration) {
-    const CalibrationInfo& cal = *rig.calibration;
-    std::vector<std::string> names;
-    for (const std::string& name : cal.parameters) names.push_back(Text(name));
-    const std::size_t n = std::max<std::size_t>(cal.parameters.size(), 1);
-    Line(&out, 0, "calibration:", "what the calibration estimated, and from what");
-    Line(&out, 2, "parameters: " + FlowList(names, 2, 8), "names in the order of the covariance");
-    Line(&out, 2, "values: " + FlowList(Nums(cal.values), 2, 6));
-    Line(&out, 2, "sigma: " + FlowList(Nums(cal.sigma), 2, 6), "standard deviations");
-    Line(&out, 2, "covariance:",
-         ("row-major, " + std::to_string(cal.parameters.size()) + " x " +
-          std::to_string(cal.parameters.size()))
-             .c_str());
-    // One covariance row per line, as a flow list indented under the key.
-    out += "    " + FlowList(Nums(cal.covariance), 2, n) + "\n";
-    Line(&out, 2, "residuals: {rms_px: " + Num(cal.rms_px) +
-                      ", n_observations: " + std::to_string(cal.n_observations) +
-                      ", n_outliers: " + std::to_string(cal.n_outliers) +
-                      ", per_mirror_rms_px: " + FlowList(Nums(cal.per_mirror_rms_px), 2, 100) +
-                      ", n_rejected: " + std::to_string(cal.n_rejected) +
-                      ", n_lip_points: " + std::to_string(cal.n_lip_points) +
-                      ", lip_rms_px: " + Num(cal.lip_rms_px) + "}");
-    if (!cal.unobservable.empty()) {
-      std::vector<std::string> un, hints;
-      for (const std::string& name : cal.unobservable) un.push_back(Text(name));
-      for (const std::string& hint : cal.unobservable_hints) hints.push_back(Text(hint));
-      Line(&out, 2, "unobservable: " + FlowList(un, 2, 8),
-           "not determined by the data: no value given");
-      Line(&out, 2, "unobservable_hints: " + FlowList(hints, 2, 1), "what data would determine each");
-    }
-    Line(&out, 2, "dataset: {session: " + Text(cal.session) + ", images: " +
-                      std::to_string(cal.images) + ", targets: " + Text(cal.targets) + "}");
-    Line(&out, 2, "tool_version: " + Text(cal.tool_version));
-    Line(&out, 2, "date: " + Text(cal.date));
-  }
-  return out;
 }
+
+// A calibrated model's `calibration:` section (ModelFileText).
+void WriteCalibration(const CalibrationInfo& cal, std::string* out_text) {
+  std::string& out = *out_text;
+  std::vector<std::string> names;
+  for (const std::string& name : cal.parameters) names.push_back(Text(name));
+  const std::size_t n = std::max<std::size_t>(cal.parameters.size(), 1);
+  Line(&out, 0, "calibration:", "what the calibration estimated, and from what");
+  Line(&out, 2, "parameters: " + FlowList(names, 2, 8), "names in the order of the covariance");
+  Line(&out, 2, "values: " + FlowList(Nums(cal.values), 2, 6));
+  Line(&out, 2, "sigma: " + FlowList(Nums(cal.sigma), 2, 6), "standard deviations");
+  Line(&out, 2, "covariance:",
+       ("row-major, " + std::to_string(cal.parameters.size()) + " x " +
+        std::to_string(cal.parameters.size()))
+           .c_str());
+  // One covariance row per line, as a flow list indented under the key.
+  out += "    " + FlowList(Nums(cal.covariance), 2, n) + "\n";
+  Line(&out, 2, "residuals: {rms_px: " + Num(cal.rms_px) +
+                    ", n_observations: " + std::to_string(cal.n_observations) +
+                    ", n_outliers: " + std::to_string(cal.n_outliers) +
+                    ", per_mirror_rms_px: " + FlowList(Nums(cal.per_mirror_rms_px), 2, 100) +
+                    ", n_rejected: " + std::to_string(cal.n_rejected) +
+                    ", n_lip_points: " + std::to_string(cal.n_lip_points) +
+                    ", lip_rms_px: " + Num(cal.lip_rms_px) + "}");
+  if (!cal.unobservable.empty()) {
+    std::vector<std::string> un, hints;
+    for (const std::string& name : cal.unobservable) un.push_back(Text(name));
+    for (const std::string& hint : cal.unobservable_hints) hints.push_back(Text(hint));
+    Line(&out, 2, "unobservable: " + FlowList(un, 2, 8),
+         "not determined by the data: no value given");
+    Line(&out, 2, "unobservable_hints: " + FlowList(hints, 2, 1), "what data would determine each");
+  }
+  Line(&out, 2, "dataset: {session: " + Text(cal.session) + ", images: " +
+                    std::to_string(cal.images) + ", targets: " + Text(cal.targets) + "}");
+  Line(&out, 2, "tool_version: " + Text(cal.tool_version));
+  Line(&out, 2, "date: " + Text(cal.date));
+}
+
+}  // namespace
 
 void WriteModelFile(const std::string& path, const RigParams& rig) {
   const std::string text = ModelFileText(rig);

@@ -76,4 +76,20 @@ Vec2<T> PixelOfPointInCam(const Pinhole<T>& cam, const RadTan<T>& dist, const Ve
   return cam.PixelFromNormalized(dist.Distort(Vec2<T>(p.x() / p.z(), p.y() / p.z())));
 }
 
+// The pixel of a point on a telecentric (orthographic) lens's side (docs/design.md, The rig):
+// its lateral position (x, y) in C in mm distorted, then K (fx, fy in px per mm).
+template <typename T>
+Vec2<T> TelecentricPixelOfPointInCam(const Pinhole<T>& cam, const RadTan<T>& dist,
+                                     const Vec3<T>& p) {
+  return cam.PixelFromNormalized(dist.Distort(Vec2<T>(p.x(), p.y())));
+}
+
+// The pixel of the point the camera sees, by lens kind.
+template <typename T>
+Vec2<T> PixelOfPointInCam(const Pinhole<T>& cam, const RadTan<T>& dist, const Vec3<T>& p,
+                          LensKind lens) {
+  return lens == LensKind::kTelecentric ? TelecentricPixelOfPointInCam(cam, dist, p)
+                                        : PixelOfPointInCam(cam, dist, p);
+}
+
 }  // namespace omni

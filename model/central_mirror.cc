@@ -4,10 +4,6 @@
 
 namespace omni {
 
-const char* LensKindName(LensKind lens) {
-  return lens == LensKind::kPerspective ? "perspective" : "telecentric";
-}
-
 double CentralMirror::CameraBelowVertexMm() const {
   const double e = std::sqrt(-mirror.K);
   return mirror.R / (e - 1);

@@ -17,11 +17,10 @@
 #include <string>
 
 #include "model/conic.h"
+#include "model/types.h"
 
 namespace omni {
 
-enum class LensKind { kPerspective, kTelecentric };
-const char* LensKindName(LensKind lens);
 
 struct CentralMirror {
   Conic<double> mirror;  // R (mm), K

@@ -1,10 +1,35 @@
 #include "model/model_derived.h"
 
+#include "model/conic.h"
 #include "model/rig_frames.h"
 
 namespace omni {
 
+namespace {
+
+// A single-mirror rig: its near focus (the viewpoint of a central camera; a sphere's centre) and
+// axis in C; where the conic has a far focus (hyperboloid, ellipsoid), that too: a perspective
+// camera is central exactly when its centre (C's origin) sits there.
+ModelDerived SingleDerived(const RigParams& rig) {
+  const Pose<double> cam_from_mirror1 = PoseFromBlock(rig.mirror1_pose.data());
+  const Conic<double> conic{rig.mirror1_shape[kShapeC], rig.mirror1_shape[kShapeK]};
+  ModelDerived out;
+  double near = conic.R;
+  conic.NearFocus(&near);
+  out.focus1_in_cam = cam_from_mirror1 * Eigen::Vector3d(0, 0, rig.vertex_z + near);
+  out.axis1_in_cam = cam_from_mirror1.Rotate(Eigen::Vector3d::UnitZ());
+  double far = 0;
+  if (conic.FarFocus(&far)) {
+    out.has_far_focus = true;
+    out.far_focus1_in_cam = cam_from_mirror1 * Eigen::Vector3d(0, 0, rig.vertex_z + far);
+  }
+  return out;
+}
+
+}  // namespace
+
 ModelDerived ComputeModelDerived(const RigParams& rig) {
+  if (rig.Single()) return SingleDerived(rig);
   const Pose<double> cam_from_mirror1 = PoseFromBlock(rig.mirror1_pose.data());
   const Pose<double> cam_from_mirror2 = PoseFromBlock(rig.mirror2_pose.data());
   const Plane<double> reflex_in_cam =

@@ -8,14 +8,18 @@
 
 namespace omni {
 
+// A single-mirror rig: focus1 is its mirror's near focus (a sphere's centre), far_focus1 the
+// other one where the conic has it; the mirror-2 and reflex members are zero.
 struct ModelDerived {
-  Eigen::Vector3d focus1_in_cam;  // mirror 1's primary focus, (0,0,c1) in M1
-  Eigen::Vector3d axis1_in_cam;   // mirror 1's axis, cam_from_mirror1 rotation * (0,0,1)
-  Eigen::Vector3d focus2_in_cam;  // mirror 2's primary focus, (0,0,d-c2) in M2
-  Eigen::Vector3d axis2_in_cam;
-  Eigen::Vector3d reflex_point_in_cam;   // the reflex plane's point (0,0,d/2+dz in M1)
-  Eigen::Vector3d reflex_normal_in_cam;  // its unit normal (nominally (0,0,-1))
+  Eigen::Vector3d focus1_in_cam = Eigen::Vector3d::Zero();  // mirror 1's primary focus, (0,0,c1) in M1
+  Eigen::Vector3d axis1_in_cam = Eigen::Vector3d::Zero();   // mirror 1's axis, cam_from_mirror1 rotation * (0,0,1)
+  Eigen::Vector3d focus2_in_cam = Eigen::Vector3d::Zero();  // mirror 2's primary focus, (0,0,d-c2) in M2
+  Eigen::Vector3d axis2_in_cam = Eigen::Vector3d::Zero();
+  Eigen::Vector3d reflex_point_in_cam = Eigen::Vector3d::Zero();   // the reflex plane's point (0,0,d/2+dz in M1)
+  Eigen::Vector3d reflex_normal_in_cam = Eigen::Vector3d::Zero();  // its unit normal (nominally (0,0,-1))
   double baseline = 0;                   // |focus1 - focus2|
+  bool has_far_focus = false;            // single-mirror rigs
+  Eigen::Vector3d far_focus1_in_cam = Eigen::Vector3d::Zero();
 };
 ModelDerived ComputeModelDerived(const RigParams& rig);
 

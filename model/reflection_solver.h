@@ -45,6 +45,10 @@ template <typename T>
 MirrorSurface<double> ScalarPart(const MirrorSurface<T>& s) {
   MirrorSurface<double> out;
   out.conic = ScalarPart(s.conic);
+  out.general = s.general;
+  out.general_conic = ConicSheet<double>{ScalarPart(s.general_conic.R),
+                                         ScalarPart(s.general_conic.K),
+                                         ScalarPart(s.general_conic.vertex_z)};
   out.shape = s.shape;
   for (int i = 0; i < kProfileTerms; ++i) out.coeffs[i] = ScalarPart(s.coeffs[i]);
   return out;
@@ -68,6 +72,32 @@ struct ReflectionSolverInfo {
   double gradient_norm = 0;   // |grad L| before the final Newton step (dimensionless)
 };
 
+// PathLengthGradient for an eye at infinity in the unit direction a (see there).
+template <typename T>
+bool PathLengthGradientToDirection(const MirrorSurface<T>& surface, const Vec3<T>& a,
+                                   const Vec3<T>& b, const T& x, const T& y, Vec2<T>* grad,
+                                   Eigen::Matrix<T, 2, 2>* hessian) {
+  T zx, zy, zxx[3];
+  const Vec3<T> s(x, y, surface.Z(x, y, &zx, &zy, hessian ? zxx : nullptr));
+  const Vec3<T> sb = s - b;
+  const T lb = sb.norm();
+  if (!(lb > T(0))) return false;
+  const T inv_lb = T(1) / lb;
+  const Vec3<T> ub = sb * inv_lb;
+  const Vec3<T> f = ub - a;  // dL/dS
+  (*grad)(0) = f.x() + f.z() * zx;
+  (*grad)(1) = f.y() + f.z() * zy;
+  if (hessian) {
+    Eigen::Matrix<T, 3, 2> jac;
+    jac << T(1), T(0), T(0), T(1), zx, zy;
+    const Mat3<T> hs = (Mat3<T>::Identity() - ub * ub.transpose()) * inv_lb;
+    Eigen::Matrix<T, 2, 2> z2;
+    z2 << zxx[0], zxx[1], zxx[1], zxx[2];
+    *hessian = jac.transpose() * hs * jac + f.z() * z2;
+  }
+  return true;
+}
+
 // The point of the surface at parameters (x, y) (Jets smooth on the axis).
 template <typename T>
 Vec3<T> SheetPoint(const MirrorSurface<T>& surface, const T& x, const T& y) {
@@ -75,10 +105,14 @@ Vec3<T> SheetPoint(const MirrorSurface<T>& surface, const T& x, const T& y) {
 }
 
 // grad L at (x, y) and, if hessian != nullptr, its 2x2 Hessian. False if S coincides with A or B.
+// An eye at infinity (a telecentric lens, a_at_infinity): `a` is the unit direction from the
+// mirror towards the eye, and |S - A| becomes the path to a plane across that direction,
+// L = -a.S + |S - B| (its gradient's first unit vector is -a, its Hessian term vanishes).
 template <typename T>
 bool PathLengthGradient(const MirrorSurface<T>& surface, const Vec3<T>& a, const Vec3<T>& b,
                         const T& x, const T& y, Vec2<T>* grad,
-                        Eigen::Matrix<T, 2, 2>* hessian = nullptr) {
+                        Eigen::Matrix<T, 2, 2>* hessian = nullptr, bool a_at_infinity = false) {
+  if (a_at_infinity) return PathLengthGradientToDirection(surface, a, b, x, y, grad, hessian);
   T zx, zy, zxx[3];
   const Vec3<T> s(x, y, surface.Z(x, y, &zx, &zy, hessian ? zxx : nullptr));
   const Vec3<T> sa = s - a;
@@ -112,39 +146,60 @@ bool PathLengthGradient(const MirrorSurface<T>& surface, const Vec3<T>& a, const
 // stationary point (the caller takes the final step).
 bool SolveReflectionPointDouble(const MirrorSurface<double>& sheet, const Eigen::Vector3d& a,
                                 const Eigen::Vector3d& b, const ReflectionSolverOptions& options,
-                                Eigen::Vector2d* xy, ReflectionSolverInfo* info);
+                                Eigen::Vector2d* xy, ReflectionSolverInfo* info,
+                                bool a_at_infinity = false);
 
 // The ideal (SVP) seed: where the line from the conic's primary focus to B meets the conic
 // ([lambda_1], [lambda_2] written in the mirror's own frame). Exact when A is the secondary
 // focus and the mirror has no profile. False if that line misses the sheet.
 bool IdealReflectionSeed(const HyperboloidSheet<double>& sheet, const Eigen::Vector3d& b,
                          Eigen::Vector2d* xy);
+// The same from a single-mirror rig's conic: the line from its near focus (ConicSheet::
+// SeedPointZ) to B. Exact for a perspective eye at a hyperboloid's far focus and for a
+// telecentric eye along a paraboloid's axis.
+bool IdealReflectionSeed(const ConicSheet<double>& sheet, const Eigen::Vector3d& b,
+                         Eigen::Vector2d* xy);
+// The seed of either kind of surface.
+inline bool IdealReflectionSeed(const MirrorSurface<double>& surface, const Eigen::Vector3d& b,
+                                Eigen::Vector2d* xy) {
+  return surface.general ? IdealReflectionSeed(surface.general_conic, b, xy)
+                         : IdealReflectionSeed(surface.conic, b, xy);
+}
 
 // The reflection point S (mirror frame) of the path A -> S -> B on the sheet, for any scalar T;
-// false if the solver did not converge. See the file comment for the derivatives.
+// false if the solver did not converge. See the file comment for the derivatives. a_at_infinity:
+// `a` is the unit direction towards an eye at infinity (PathLengthGradient).
 template <typename T>
 bool SolveReflectionPoint(const MirrorSurface<T>& sheet, const Vec3<T>& a, const Vec3<T>& b,
                           const ReflectionSolverOptions& options, Vec3<T>* point_on_mirror,
-                          ReflectionSolverInfo* info = nullptr) {
+                          ReflectionSolverInfo* info = nullptr, bool a_at_infinity = false) {
   const MirrorSurface<double> sheet_d = ScalarPart(sheet);
   const Eigen::Vector3d a_d = ScalarPart(a);
   const Eigen::Vector3d b_d = ScalarPart(b);
   Eigen::Vector2d xy;
-  if (!IdealReflectionSeed(sheet_d.conic, b_d, &xy)) return false;
+  if (!IdealReflectionSeed(sheet_d, b_d, &xy)) return false;
   ReflectionSolverInfo local_info;
   if (!info) info = &local_info;
-  if (!SolveReflectionPointDouble(sheet_d, a_d, b_d, options, &xy, info)) return false;
+  if (!SolveReflectionPointDouble(sheet_d, a_d, b_d, options, &xy, info, a_at_infinity)) {
+    return false;
+  }
   // One Newton step in T at the converged point (implicit function theorem); for T = double it
   // is the final polishing step.
   const T x0(xy.x()), y0(xy.y());
   Vec2<T> grad;
   Eigen::Matrix2d hessian;
   if constexpr (std::is_same_v<T, double>) {
-    if (!PathLengthGradient(sheet, a, b, x0, y0, &grad, &hessian)) return false;
+    if (!PathLengthGradient(sheet, a, b, x0, y0, &grad, &hessian, a_at_infinity)) return false;
   } else {
     Eigen::Vector2d grad_d;
-    if (!PathLengthGradient(sheet_d, a_d, b_d, xy.x(), xy.y(), &grad_d, &hessian)) return false;
-    if (!PathLengthGradient(sheet, a, b, x0, y0, &grad)) return false;
+    if (!PathLengthGradient(sheet_d, a_d, b_d, xy.x(), xy.y(), &grad_d, &hessian,
+                            a_at_infinity)) {
+      return false;
+    }
+    if (!PathLengthGradient(sheet, a, b, x0, y0, &grad,
+                            static_cast<Eigen::Matrix<T, 2, 2>*>(nullptr), a_at_infinity)) {
+      return false;
+    }
   }
   info->gradient_norm = ScalarPart(grad(0)) * ScalarPart(grad(0)) +
                         ScalarPart(grad(1)) * ScalarPart(grad(1));

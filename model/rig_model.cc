@@ -6,6 +6,9 @@ namespace omni {
 
 RigFixed FixedOf(const RigParams& rig) {
   RigFixed fixed;
+  fixed.rig = rig.rig;
+  fixed.lens = rig.lens;
+  fixed.vertex_z = rig.vertex_z;
   fixed.d = rig.d;
   fixed.r_sys = rig.r_sys;
   fixed.r_ref = rig.r_ref;
@@ -30,6 +33,7 @@ RigModel::RigModel(const RigParams& params)
 std::optional<Eigen::Vector2d> RigModel::Project(const Eigen::Vector3d& point_in_cam,
                                                  Mirror mirror, ProjectionInfo* info) const {
   Eigen::Vector2d pixel;
+  if (mirror == Mirror::kTwo && fixed_.rig == RigKind::kSingle) return std::nullopt;
   const bool ok = mirror == Mirror::kOne ? path1_.Project(fixed_, point_in_cam, &pixel, info)
                                          : path2_.Project(fixed_, point_in_cam, &pixel, info);
   if (!ok || !pixel.allFinite()) return std::nullopt;
@@ -74,6 +78,7 @@ std::optional<MirrorRay> RigModel::Trace(const Eigen::Vector2d& pixel, bool* blo
   if (!pixel.allFinite()) return std::nullopt;
   Eigen::Vector2d xy;
   if (!Undistort(path1_.dist, path1_.cam.NormalizedFromPixel(pixel), &xy)) return std::nullopt;
+  if (fixed_.rig == RigKind::kSingle) return TraceSingle(xy, blocked, camera_dir);
   const Eigen::Vector3d dir_in_cam = Eigen::Vector3d(xy.x(), xy.y(), 1.0).normalized();
   if (camera_dir) *camera_dir = dir_in_cam;
 
@@ -120,6 +125,34 @@ std::optional<MirrorRay> RigModel::Trace(const Eigen::Vector2d& pixel, bool* blo
   out.ray.direction = path1_.cam_from_mirror.Rotate(Reflect(dir, normal)).normalized();
   if (!out.ray.origin.allFinite() || !out.ray.direction.allFinite()) return std::nullopt;
   *blocked = BlockedByMount({Eigen::Vector3d::Zero(), out.ray.origin}, out.ray);
+  return out;
+}
+
+std::optional<MirrorRay> RigModel::TraceSingle(const Eigen::Vector2d& xy, bool* blocked,
+                                               Eigen::Vector3d* camera_dir) const {
+  // The camera ray in C: from the pinhole through the undistorted normalised point, or, for a
+  // telecentric lens, along the axis through the lateral point (mm).
+  const bool telecentric = fixed_.lens == LensKind::kTelecentric;
+  const Eigen::Vector3d lens_point =
+      telecentric ? Eigen::Vector3d(xy.x(), xy.y(), 0) : Eigen::Vector3d::Zero();
+  const Eigen::Vector3d dir_in_cam = telecentric
+                                         ? Eigen::Vector3d::UnitZ()
+                                         : Eigen::Vector3d(xy.x(), xy.y(), 1.0).normalized();
+  if (camera_dir) *camera_dir = dir_in_cam;
+  const Eigen::Vector3d origin = path1_.mirror_from_cam * lens_point;
+  const Eigen::Vector3d dir = path1_.mirror_from_cam.Rotate(dir_in_cam);
+  double t = 0;
+  if (!path1_.sheet.IntersectRay(origin, dir, &t)) return std::nullopt;
+  const Eigen::Vector3d s = origin + t * dir;
+  const double r2 = s.head<2>().squaredNorm();
+  if (r2 < fixed_.r_cam * fixed_.r_cam || r2 > fixed_.r_sys * fixed_.r_sys) return std::nullopt;
+  const Eigen::Vector3d normal = path1_.sheet.Normal(s);
+  if (!(dir.dot(normal) > 0)) return std::nullopt;  // hit from the back
+  MirrorRay out{Mirror::kOne, Ray{}};
+  out.ray.origin = path1_.cam_from_mirror * s;
+  out.ray.direction = path1_.cam_from_mirror.Rotate(Reflect(dir, normal)).normalized();
+  if (!out.ray.origin.allFinite() || !out.ray.direction.allFinite()) return std::nullopt;
+  *blocked = BlockedByMount({path1_.cam_from_mirror * origin, out.ray.origin}, out.ray);
   return out;
 }
 

@@ -17,6 +17,11 @@
 // and RigFixed (d, r_sys, r_ref, r_cam: design data never refined, the profiles' radii and
 // ripple, plus solver options). Each mirror is a MirrorSurface: its conic plus its profile.
 //
+// A SINGLE-mirror rig (RigKind::kSingle, types.h) has mirror 1's path only: its mirror a conic of
+// any kind (conic_sheet.h, shape block R, K), no reflex disc, the used annulus r_cam..r_sys, and a
+// perspective or telecentric lens (for a telecentric one the eye is at infinity along the
+// camera's axis and the pixel is K(distort(x, y)) of S1's lateral position in mm).
+//
 // Mirror 1 path (outer ring): world point P -> reflection point S1 on mirror 1 -> camera centre O.
 //   S1 solves the law of reflection between P and O (reflection_solver.h) in M1's frame;
 //   pixel = K(distort(x/z, y/z)) of S1 in C.
@@ -59,7 +64,10 @@ namespace omni {
 
 // Design data that a calibration never refines (mm), and the reflection solver's options.
 struct RigFixed {
+  RigKind rig = RigKind::kFolded;
+  LensKind lens = LensKind::kPerspective;
   double d = 0, r_sys = 0, r_ref = 0, r_cam = 0;
+  double vertex_z = 0;  // a single-mirror rig's vertex height in M1 (conic_sheet.h)
   // Mirror 1: how far (mm) S1 may lie on the camera's side of the reflex plane and still count
   // as seen when it is outside the disc's radius. 0 for the model (the ideal rig's validity);
   // the calibration's corner costs use a few mm: S1 of a corner seen at the ring's inner edge
@@ -91,28 +99,35 @@ Plane<double> ScalarPart(const Plane<T>& plane) {
 }
 
 // P in front of the mirror: the eye and the point on the reflective side of the tangent plane
-// at S (the sheet's normal points into the mirror's body).
+// at S (the sheet's normal points into the mirror's body). eye_at_infinity: `eye` is the unit
+// direction towards it.
 inline bool FacesReflectiveSide(const MirrorSurface<double>& sheet, const Eigen::Vector3d& s,
-                                const Eigen::Vector3d& eye, const Eigen::Vector3d& point) {
+                                const Eigen::Vector3d& eye, const Eigen::Vector3d& point,
+                                bool eye_at_infinity = false) {
   const Eigen::Vector3d normal = sheet.Normal(s);
-  return (eye - s).dot(normal) < 0 && (point - s).dot(normal) < 0;
+  const Eigen::Vector3d to_eye = eye_at_infinity ? eye : Eigen::Vector3d(eye - s);
+  return to_eye.dot(normal) < 0 && (point - s).dot(normal) < 0;
 }
 
 // The reflection point S on a mirror's sheet for an eye and a point (both in the mirror's body
 // frame) [reflection law], in T and in double (*s_d, for the validity checks that need no
 // derivatives). False if the solve fails, S lies outside r_min <= |S_xy| <= r_max (the mirror's
-// hole and rim), or the eye and the point are not in front of the mirror at S.
+// hole and rim), or the eye and the point are not in front of the mirror at S. eye_at_infinity
+// (a telecentric lens): `eye` is the unit direction towards the camera.
 template <typename T>
 bool ReflectOnSheet(const MirrorSurface<T>& sheet, const Vec3<T>& eye, const Vec3<T>& point,
                     const ReflectionSolverOptions& solver, double r_min, double r_max,
-                    ProjectionInfo* info, Vec3<T>* s, Eigen::Vector3d* s_d) {
-  if (!SolveReflectionPoint(sheet, eye, point, solver, s, info ? &info->solver : nullptr)) {
+                    ProjectionInfo* info, Vec3<T>* s, Eigen::Vector3d* s_d,
+                    bool eye_at_infinity = false) {
+  if (!SolveReflectionPoint(sheet, eye, point, solver, s, info ? &info->solver : nullptr,
+                            eye_at_infinity)) {
     return false;
   }
   *s_d = ScalarPart(*s);
   const double r2 = s_d->head<2>().squaredNorm();
   if (!(r2 >= r_min * r_min) || !(r2 <= r_max * r_max)) return false;
-  return FacesReflectiveSide(ScalarPart(sheet), *s_d, ScalarPart(eye), ScalarPart(point));
+  return FacesReflectiveSide(ScalarPart(sheet), *s_d, ScalarPart(eye), ScalarPart(point),
+                             eye_at_infinity);
 }
 
 // The geometry of the mirror-1 path built from the parameter blocks.
@@ -125,16 +140,26 @@ struct Mirror1Path {
   Pose<T> cam_from_mirror;
   Plane<double> reflex_in_mirror;  // only decides validity (occlusion): no derivatives
 
-  // Reads camera, distortion, mirror1_shape, mirror1_profile, mirror1_pose, reflex.
+  // Reads camera, distortion, mirror1_shape, mirror1_profile, mirror1_pose, reflex (a
+  // single-mirror rig: not the reflex; its shape block is the conic's R, K).
   static Mirror1Path FromBlocks(const RigBlocks<T>& b, const RigFixed& fixed) {
     const T* shape = b[kShape1Block];
     Mirror1Path p{PinholeFromBlock(b[kCameraBlock]),
                   RadTanFromBlock(b[kDistortionBlock]),
-                  MirrorSurface<T>(HyperboloidSheet<T>::Mirror1(shape[kShapeC], shape[kShapeK]),
-                                   fixed.profile1, b[kProfile1Block]),
+                  fixed.rig == RigKind::kSingle
+                      ? MirrorSurface<T>(
+                            ConicSheet<T>{shape[kShapeC], shape[kShapeK], T(fixed.vertex_z)},
+                            fixed.profile1, b[kProfile1Block])
+                      : MirrorSurface<T>(HyperboloidSheet<T>::Mirror1(shape[kShapeC],
+                                                                      shape[kShapeK]),
+                                         fixed.profile1, b[kProfile1Block]),
                   Pose<T>{},
                   PoseFromBlock(b[kPose1Block]),
                   Plane<double>{}};
+    if (fixed.rig == RigKind::kSingle) {
+      p.mirror_from_cam = p.cam_from_mirror.Inverse();
+      return p;
+    }
     const T* reflex = b[kReflexBlock];
     const double reflex_d[3] = {ScalarPart(reflex[kReflexRx]), ScalarPart(reflex[kReflexRy]),
                                 ScalarPart(reflex[kReflexDz])};
@@ -145,6 +170,7 @@ struct Mirror1Path {
 
   bool Project(const RigFixed& fixed, const Vec3<T>& point_in_cam, Vec2<T>* pixel,
                ProjectionInfo* info = nullptr) const {
+    if (fixed.rig == RigKind::kSingle) return ProjectSingle(fixed, point_in_cam, pixel, info);
     const Vec3<T> eye = mirror_from_cam.translation;  // the camera centre in M1
     Vec3<T> s;
     Eigen::Vector3d s_d;
@@ -175,6 +201,42 @@ struct Mirror1Path {
       }
     }
     *pixel = PixelOfPointInCam(cam, dist, s_in_cam);
+    if (info) {
+      info->point_on_mirror = ScalarPart(s);
+      info->point_on_mirror_in_cam = ScalarPart(s_in_cam);
+      info->eye_in_mirror = ScalarPart(eye);
+      info->reflex_point_in_cam = Eigen::Vector3d::Zero();
+    }
+    return true;
+  }
+
+  // A single-mirror rig (no reflex disc): the reflection between the point and the camera
+  // centre (perspective) or the camera's axis direction (telecentric: the eye at infinity),
+  // within the mirror's used annulus r_cam <= r <= r_sys.
+  bool ProjectSingle(const RigFixed& fixed, const Vec3<T>& point_in_cam, Vec2<T>* pixel,
+                     ProjectionInfo* info) const {
+    const bool telecentric = fixed.lens == LensKind::kTelecentric;
+    // The eye in M1: the camera centre, or the unit direction from the mirror to the camera.
+    const Vec3<T> eye = telecentric ? Vec3<T>(mirror_from_cam.Rotate(Vec3<T>(T(0), T(0), T(-1))))
+                                    : Vec3<T>(mirror_from_cam.translation);
+    Vec3<T> s;
+    Eigen::Vector3d s_d;
+    if (!ReflectOnSheet(sheet, eye, mirror_from_cam * point_in_cam, fixed.solver, fixed.r_cam,
+                        fixed.r_sys, info, &s, &s_d, telecentric)) {
+      return false;
+    }
+    const Vec3<T> s_in_cam = cam_from_mirror * s;
+    if (!telecentric && !(s_in_cam.z() > T(0))) return false;
+    if (fixed.mount.present) {  // the path point -> S1 -> camera through a post
+      const Eigen::Vector3d s_cam_d = ScalarPart(s_in_cam);
+      const Eigen::Vector3d lens_d =
+          telecentric ? Eigen::Vector3d(s_cam_d.x(), s_cam_d.y(), 0) : Eigen::Vector3d::Zero();
+      if (SegmentHitsMount(fixed.mount, fixed.cam_from_mount, ScalarPart(point_in_cam), s_cam_d) ||
+          SegmentHitsMount(fixed.mount, fixed.cam_from_mount, s_cam_d, lens_d)) {
+        return false;
+      }
+    }
+    *pixel = PixelOfPointInCam(cam, dist, s_in_cam, fixed.lens);
     if (info) {
       info->point_on_mirror = ScalarPart(s);
       info->point_on_mirror_in_cam = ScalarPart(s_in_cam);
@@ -265,11 +327,13 @@ bool ProjectViaMirror1(const RigBlocks<T>& blocks, const RigFixed& fixed,
   return Mirror1Path<T>::FromBlocks(blocks, fixed).Project(fixed, point_in_cam, pixel, info);
 }
 
-// Pixel of point_in_cam via mirror 2 and the reflex disc (inner ring); false if invalid.
+// Pixel of point_in_cam via mirror 2 and the reflex disc (inner ring); false if invalid (always
+// for a single-mirror rig).
 template <typename T>
 bool ProjectViaMirror2(const RigBlocks<T>& blocks, const RigFixed& fixed,
                        const Vec3<T>& point_in_cam, Vec2<T>* pixel,
                        ProjectionInfo* info = nullptr) {
+  if (fixed.rig == RigKind::kSingle) return false;
   return Mirror2Path<T>::FromBlocks(blocks, fixed).Project(fixed, point_in_cam, pixel, info);
 }
 
@@ -312,6 +376,9 @@ class RigModel {
   // *blocked: a post stands on that path. *camera_dir (optional): the undistorted camera ray.
   std::optional<MirrorRay> Trace(const Eigen::Vector2d& pixel, bool* blocked,
                                  Eigen::Vector3d* camera_dir) const;
+  // Trace for a single-mirror rig from the undistorted normalised point (telecentric: mm).
+  std::optional<MirrorRay> TraceSingle(const Eigen::Vector2d& xy, bool* blocked,
+                                       Eigen::Vector3d* camera_dir) const;
   RigParams params_;
   RigFixed fixed_;
   Mirror1Path<double> path1_;

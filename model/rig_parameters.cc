@@ -158,10 +158,22 @@ const RigParameter* FindRigParameter(const std::string& name) {
         if (map) m[std::string(map) + "." + p.Key()] = &p;
       }
     }
+    // A single-mirror rig's conic (ParameterName).
+    for (int i = 0; i < kRigBlocks[kShape1Block].size; ++i) {
+      const RigParameter& p = kTable[kRigBlocks[kShape1Block].offset + i];
+      m[ParameterName(p, RigKind::kSingle)] = &p;
+    }
     return m;
   }();
   const auto it = by_name.find(name);
   return it == by_name.end() ? nullptr : it->second;
+}
+
+std::string ParameterName(const RigParameter& p, RigKind rig) {
+  if (rig == RigKind::kSingle && BlockOf(p) == kShape1Block) {
+    return p.index == kShapeC ? "mirror1.R" : "mirror1.K";
+  }
+  return p.name;
 }
 
 const RigBlock* FindRigBlock(const std::string& name) {

@@ -107,6 +107,11 @@ const std::array<RigParameter, kRigParameterCount>& RigParameterTable();
 // there is none.
 const RigParameter* FindRigParameter(const std::string& name);
 
+// A parameter's name in a rig of that kind: p.name, except a single-mirror rig's shape block,
+// its conic's vertex radius and conic constant (mirror1.R, mirror1.K; FindRigParameter finds
+// them).
+std::string ParameterName(const RigParameter& p, RigKind rig);
+
 // The block of that name; nullptr if there is none.
 const RigBlock* FindRigBlock(const std::string& name);
 

@@ -24,6 +24,29 @@ RigParams MakeIdealRig(const DesignParams& theta, double r_cam, const Pinhole<do
   return rig;
 }
 
+RigParams MakeSingleRig(const Conic<double>& mirror, LensKind lens, double vertex_z, double r_sys,
+                        double r_cam, const Pinhole<double>& cam, int image_width,
+                        int image_height) {
+  RigParams rig;
+  rig.kind = ModelKind::kIdeal;
+  rig.rig = RigKind::kSingle;
+  rig.lens = lens;
+  rig.image_width = image_width;
+  rig.image_height = image_height;
+  rig.camera = {cam.fx, cam.fy, cam.cx, cam.cy, cam.skew};
+  rig.mirror1_shape = {mirror.R, mirror.K};
+  rig.vertex_z = vertex_z;
+  rig.r_sys = r_sys;
+  rig.r_cam = r_cam;
+  rig.lip1 = Lip{"", r_sys, r_sys, vertex_z + mirror.Sag(r_sys * r_sys)};
+  return rig;
+}
+
+bool HasLip(const RigParams& rig, Mirror mirror) {
+  if (rig.Single() && mirror == Mirror::kTwo) return false;
+  return !(mirror == Mirror::kOne ? rig.lip1 : rig.lip2).color.empty();
+}
+
 RigBlocks<double> RigBlocksOf(const RigParams& rig) {
   RigBlocks<double> b;
   b[kCameraBlock] = rig.camera.data();
@@ -41,7 +64,7 @@ RigBlocks<double> RigBlocksOf(const RigParams& rig) {
 ProfileShape DefaultProfileShape(const RigParams& rig, Mirror mirror) {
   ProfileShape shape;
   shape.present = true;
-  shape.r_min = mirror == Mirror::kOne ? rig.r_ref : rig.r_cam;
+  shape.r_min = mirror == Mirror::kOne && !rig.Single() ? rig.r_ref : rig.r_cam;
   shape.r_max = rig.r_sys;
   return shape;
 }

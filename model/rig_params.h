@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "model/camera.h"
+#include "model/conic.h"
 #include "model/ideal_model.h"
 #include "model/mirror_profile.h"
 #include "model/mount.h"
@@ -50,12 +51,17 @@ struct CalibrationInfo {
 
 struct RigParams {
   ModelKind kind = ModelKind::kIdeal;
+  // The layout and the lens (types.h). A single-mirror rig uses camera, distortion, mirror 1's
+  // shape (R, K: conic.h, instead of the folded rig's c1, k1), pose and profile; its mirror 2,
+  // reflex and d are unused (zero).
+  RigKind rig = RigKind::kFolded;
+  LensKind lens = LensKind::kPerspective;
   int image_width = 1280, image_height = 960;
 
   // Parameter blocks (the order inside each block is fixed and named in the comments).
   std::array<double, 5> camera{};        // fx, fy, cx, cy, skew
   std::array<double, 5> distortion{};    // dist_k1, dist_k2, dist_p1, dist_p2, dist_k3
-  std::array<double, 2> mirror1_shape{}; // c1, k1
+  std::array<double, 2> mirror1_shape{}; // c1, k1 (a single-mirror rig: R, K)
   std::array<double, 2> mirror2_shape{}; // c2, k2
   std::array<double, 5> mirror1_pose{};  // cam_from_mirror1: rx, ry (tilt), tx, ty, tz (mm)
   std::array<double, 5> mirror2_pose{};  // cam_from_mirror2
@@ -65,8 +71,11 @@ struct RigParams {
   std::array<double, kProfileTerms> mirror1_profile{};
   std::array<double, kProfileTerms> mirror2_profile{};
 
-  // Fixed design data (mm).
+  // Fixed design data (mm). A single-mirror rig: r_sys its rim's radius, r_cam the radius of
+  // the centre it does not use (the camera's own reflection), vertex_z its vertex's height in M1
+  // (conic_sheet.h); r_ref and d zero.
   double d = 0, r_sys = 0, r_ref = 0, r_cam = 0;
+  double vertex_z = 0;
   Lip lip1, lip2;
   // The profiles' fixed part: radii, ripple; present false (the default) = exact quadrics.
   ProfileShape profile1, profile2;
@@ -75,6 +84,7 @@ struct RigParams {
 
   std::optional<CalibrationInfo> calibration;
 
+  bool Single() const { return rig == RigKind::kSingle; }
   Pinhole<double> Intrinsics() const { return PinholeFromBlock(camera.data()); }
   RadTan<double> Distortion() const { return RadTanFromBlock(distortion.data()); }
   DesignParams Design() const {
@@ -118,5 +128,17 @@ ProfileShape DefaultProfileShape(const RigParams& rig, Mirror mirror);
 
 RigParams MakeIdealRig(const DesignParams& theta, double r_cam, const Pinhole<double>& cam,
                        int image_width, int image_height);
+
+// A single-mirror rig (RigKind::kSingle) of that conic and lens, aligned: the mirror's axis the
+// camera's, its vertex vertex_z above the camera (a perspective lens at a hyperboloid's far focus:
+// CentralMirror::CameraBelowVertexMm); the used annulus r_cam..r_sys; no lip paint (the rim
+// itself is the mark: lip1 a circle of radius r_sys at the rim's height, colour "").
+RigParams MakeSingleRig(const Conic<double>& mirror, LensKind lens, double vertex_z, double r_sys,
+                        double r_cam, const Pinhole<double>& cam, int image_width,
+                        int image_height);
+
+// Whether the rig has that mirror's painted lip (a single-mirror rig: none for mirror 2; its
+// mirror 1 only where the model file gives one).
+bool HasLip(const RigParams& rig, Mirror mirror);
 
 }  // namespace omni
