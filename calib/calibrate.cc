@@ -23,6 +23,19 @@ Refinement RefinementOf(const CalibrationOptions& options) {
   return refined;
 }
 
+void RestrictToRig(const RigParams& rig, Refinement* refined, const CalibrationOptions& options) {
+  if (!rig.Single()) return;
+  // A single-mirror rig has mirror 1's path only: nothing else can be refined.
+  for (RigBlockId block : {kShape2Block, kPose2Block, kReflexBlock, kProfile2Block}) {
+    if (refined->groups[block]) {
+      refined->groups.reset(block);
+      Progress(options, std::string("single-mirror rig: ") + kRigBlocks[block].name +
+                            " is not part of it (left out of estimate)");
+    }
+  }
+  refined->telecentric = rig.lens == LensKind::kTelecentric;
+}
+
 RigState RigStateOf(const RigParams& params) {
   RigState rig;
   rig.params = params;
@@ -36,6 +49,13 @@ RigState RigStateOf(const RigParams& params) {
   for (RigFixed& f : corner) f.mount.present = false;
   for (RigFixed& f : corner) f.r_sys += kBoundSlackMm;
   corner[0].r_ref = std::max(0.0, fixed.r_ref - kBoundSlackMm);
+  if (params.Single()) {
+    // A mirror nobody designed for us starts far from its shape: the rim and the centre walled
+    // every trial step of the corners the start puts just beyond them (a K 0.2 off put a corner
+    // at the slackened rim). The conic goes on beyond both, and a detected corner is seen.
+    corner[0].r_cam = 0;
+    corner[0].r_sys = 2 * fixed.r_sys;
+  }
   corner[0].reflex_side_slack = kBoundSlackMm;
   corner[1].r_ref += kBoundSlackMm;
   corner[1].r_cam = std::max(0.0, fixed.r_cam - kBoundSlackMm);
@@ -277,17 +297,29 @@ void FillResult(const std::vector<TargetSpec>& targets, const Calibration& c,
   result->estimate.rig.calibration = CalibrationInfoOf(*result);
 }
 
+// estimate: []: the model held, every placement's pose solved by least squares on all its
+// corners (no robust loss, no rejection): the residuals of photos the model was not fit to, as
+// BabelCalib and mrcal score a calibration on held-out photos.
+CalibrationResult ScoreWithModelHeld(const std::vector<TargetSpec>& targets,
+                                     const CalibrationOptions& options, Calibration* c) {
+  Progress(options, "estimate: [] -- the model held, only the targets' poses solved");
+  CalibrationResult result;
+  result.solve.stages.push_back(Solve(kFinalStage, options, c));
+  ResidualStatistics(options, c, &result.residuals);
+  result.solve.converged = result.solve.stages.back().converged;
+  result.solve.notes.push_back(
+      "scored with the model held (estimate: []): only the targets' poses were solved, so the "
+      "residuals are those of photos the model was not fit to when none of these photos were in "
+      "its calibration");
+  FillResult(targets, *c, &result);
+  return result;
+}
+
 }  // namespace
 
 std::string CalibrationOptions::Check() const {
   for (const auto& g : estimate) {
     if (BlockParameterNames(g).empty()) return "estimate: unknown parameter group '" + g + "'";
-  }
-  if (estimate.empty()) {
-    std::string usual;
-    for (const std::string& g : DefaultEstimateBlocks()) usual += (usual.empty() ? "" : ", ") + g;
-    return "nothing to estimate: the session's estimate: names no parameter group (usually [" +
-           usual + "])";
   }
   if (profile != "auto" && profile != "free" && profile != "hold" && profile != "off") {
     return "profile: expected auto, free, hold or off, got '" + profile + "'";
@@ -310,13 +342,18 @@ CalibrationResult Calibrate(const RigParams& start, const std::vector<TargetSpec
   // The rig from the start (every mirror with a profile), what is refined, the observations.
   Calibration c;
   c.refined = RefinementOf(options);
+  RestrictToRig(start, &c.refined, options);
+  c.refined.shape_mean[0] = start.mirror1_shape;
+  c.refined.shape_mean[1] = start.mirror2_shape;
   RigParams params = start;
   params.kind = ModelKind::kNoncentral;
   params.calibration.reset();
   c.profiles = SetUpProfiles(start, options, &params, &c.refined);
+  if (options.estimate.empty()) c.refined.groups.reset();  // scoring: nothing refined
   c.rig = RigStateOf(params);
   c.observations = CollectObservations(detections, targets, c.rig.params, options);
   InitialisePoses(&c.rig, options, &c.observations, &c.costs);
+  if (c.refined.groups.none()) return ScoreWithModelHeld(targets, options, &c);
   CheckDegeneracy(c.observations, targets, c.refined.groups, options);
   if (!c.observations.lips.empty()) {
     Progress(options, "lips: " + std::to_string(c.observations.lips.size()) + " edge points");

@@ -126,9 +126,17 @@ struct Refinement {
   bool profile_free[2] = {false, false};  // each mirror's profile refined (DecideProfiles)
   std::map<std::string, double> considered_sigma;  // options' and the held profiles'
   std::map<std::string, ShapePrior> shape_priors;  // options.priors
+  // Their means: each mirror's shape in the starting model (the priors stay there while the
+  // stages move the values).
+  std::array<double, 2> shape_mean[2] = {};
   // A freed profile's prior: the machining tolerance about the starting model's profile.
   std::array<double, kProfileTerms> profile_mean[2] = {};
   double profile_sigma_mm = 0;
+  // A telecentric lens (single-mirror rigs): the camera's position along its axis is no datum,
+  // a lateral shift of the mirror is the principal point's and the mirror's size trades with the
+  // lens's magnification (fx: px per mm), so mirror 1's tx, ty, tz and R stay (R: the rim's
+  // measured size sets it).
+  bool telecentric = false;
 };
 
 // The coordinates of `group`'s block that stay at their starting values.

@@ -19,6 +19,8 @@ std::vector<int> HeldCoordinates(const Refinement& refined, RigBlockId group) {
   if (!refined.skew) hold(SolveRole::kSkew);
   if (!refined.tangential) hold(SolveRole::kTangential);
   if (!refined.dist_k3) hold(SolveRole::kHighRadial);
+  if (refined.telecentric && group == kPose1Block) held.insert(held.end(), {kTx, kTy, kTz});
+  if (refined.telecentric && group == kShape1Block) held.push_back(kShapeC);
   for (int m = 0; m < 2; ++m) {
     if (group == kProfileGroups[m] && !refined.profile_free[m]) {
       for (int k = 0; k < kProfileTerms; ++k) held.push_back(k);
@@ -127,7 +129,8 @@ void AddPriors(const RigBlockSet& groups, const Refinement& refined, RigParams* 
     for (int k = 0; k < 2; ++k) {
       if (!(sigmas[k] > 0)) continue;
       p->prior_costs.emplace_back(new ceres::AutoDiffCostFunction<ScalarPriorCost, 1, 2>(
-          new ScalarPriorCost{k, block[k], sigmas[k]}));  // k: kShapeC, kShapeK
+          new ScalarPriorCost{k, refined.shape_mean[id == kShape1Block ? 0 : 1][k],
+                              sigmas[k]}));  // k: kShapeC, kShapeK
       p->prior_blocks.push_back(
           p->problem.AddResidualBlock(p->prior_costs.back().get(), nullptr, block));
     }

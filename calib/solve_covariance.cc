@@ -101,7 +101,7 @@ Columns RigColumns(const Refinement& refined, const CalibrationOptions& options,
       const bool held = std::count(held_coords.begin(), held_coords.end(), static_cast<int>(k));
       const auto consider = refined.considered_sigma.find(all[k]);
       if (!held) {
-        c.names.push_back(all[k]);
+        c.names.push_back(ParameterName(BlockParameters(g)[k], rig->rig));
         c.values.push_back(block[k]);
         refined_cols.push_back(col++);
       } else if (consider != refined.considered_sigma.end() && consider->second > 0) {

@@ -169,16 +169,12 @@ void ReadImageKeys(const Reader& in, const YAML::Node& root, Session* session) {
   }
 }
 
-// `estimate`: the parameter groups (blocks) to refine, each once; the table's default without it.
+// `estimate`: the parameter groups (blocks) to refine, each once ([]: none, the model scored);
+// the table's default without it.
 void ReadEstimate(const Reader& in, const YAML::Node& root, Session* session) {
   if (root["estimate"].IsDefined()) {
+    // An empty list scores the model on the session's photos: only the targets' poses solved.
     session->estimate = in.Strings(root, "", "estimate");
-    if (session->estimate.empty()) {
-      std::string usual;
-      for (const std::string& g : DefaultEstimateBlocks()) usual += (usual.empty() ? "" : ", ") + g;
-      in.Fail("estimate", "expected at least one parameter group (usually [" + usual + "])",
-              "an empty list");
-    }
     std::set<std::string> seen;
     for (std::size_t i = 0; i < session->estimate.size(); ++i) {
       const std::string& g = session->estimate[i];

@@ -4,6 +4,7 @@
 
 #include <Eigen/Geometry>
 
+#include "model/model_derived.h"
 #include "model/rig_frames.h"
 
 namespace omni {
@@ -11,6 +12,7 @@ namespace {
 
 // The primary focus of a mirror in C (rig_frames.h).
 Eigen::Vector3d FocusInCam(const RigParams& rig, Mirror mirror) {
+  if (rig.Single()) return ComputeModelDerived(rig).focus1_in_cam;  // its near focus
   return mirror == Mirror::kOne
              ? Focus1InCam(rig.mirror1_pose.data(), rig.mirror1_shape.data())
              : Focus2InCam(rig.mirror2_pose.data(), rig.mirror2_shape.data(), rig.d);

@@ -1,5 +1,7 @@
 #include "synthetic/scene.h"
 
+#include "model/model_derived.h"
+
 #include <cmath>
 #include <random>
 
@@ -102,7 +104,11 @@ bool AddRandomImages(const RigModel& model, const RandomPlacement& random, Scene
   }
   std::mt19937 rng(random.seed);
   std::uniform_real_distribution<double> uni(0.0, 1.0);
+  // A single-mirror rig has no stereo region: its targets are seen by its mirror, from 10 deg
+  // above its near focus's level to 50 deg below it (where its view allows).
+  const bool single = model.params().Single();
   const IdealModel ideal = model.params().Ideal();
+  const double single_focus_z = single ? ComputeModelDerived(model.params()).focus1_in_cam.z() : 0;
   for (int i = 0; i < random.images; ++i) {
     SceneImage image;
     char name[32];
@@ -128,8 +134,9 @@ bool AddRandomImages(const RigModel& model, const RandomPlacement& random, Scene
         const double hi = own ? random.target_ranges_mm[target].second : random.range_max_mm;
         const double rho = lo + uni(rng) * (hi - lo);
         // Height between the two foci's levels spread by the range (inside the common FOV).
-        const double z_mid = 0.5 * (ideal.c1 + ideal.d - ideal.c2);
-        const double z = z_mid + (uni(rng) - 0.5) * 0.3 * rho;
+        const double z_mid = single ? single_focus_z : 0.5 * (ideal.c1 + ideal.d - ideal.c2);
+        const double z = single ? z_mid + std::tan((10 - 60 * uni(rng)) * M_PI / 180) * rho
+                                : z_mid + (uni(rng) - 0.5) * 0.3 * rho;
         const Eigen::Vector3d centre(rho * std::cos(az), rho * std::sin(az), z);
         // Face the axis: the front (-z_target) points at the rig's axis point at height z_mid.
         const Eigen::Vector3d to_rig = (Eigen::Vector3d(0, 0, z_mid) - centre).normalized();
@@ -155,7 +162,7 @@ bool AddRandomImages(const RigModel& model, const RandomPlacement& random, Scene
               Eigen::Vector3d(e[0], e[3], 0), Eigen::Vector3d(e[2], e[3], 0)}) {
           const Eigen::Vector3d x = p.cam_from_target_rotation * corner +
                                     p.cam_from_target_translation;
-          ok = ok && model.Project(x, Mirror::kOne) && model.Project(x, Mirror::kTwo);
+          ok = ok && model.Project(x, Mirror::kOne) && (single || model.Project(x, Mirror::kTwo));
         }
         if (ok) {
           image.placements.push_back(p);
