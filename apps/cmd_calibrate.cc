@@ -19,6 +19,7 @@
 #include "apps/common_flags.h"
 #include "apps/detect_cli.h"
 #include "calib/calibrate.h"
+#include "calib/single_mirror_summary.h"
 #include "calib/calibration_checks.h"
 #include "calib/projection_uncertainty.h"
 #include "io/detections_file.h"
@@ -123,13 +124,18 @@ int RunCalibrate() {
   std::printf("solved in %.2f s (%s); %zu target placements in %zu images\n", seconds,
               result.solve.converged ? "converged" : "NOT converged",
               result.residuals.placements.size(), detections.images.size());
-  const calib::ProjectionUncertainty predicted = calib::PredictProjectionUncertainty(result, 1000);
-  std::printf("projection uncertainty at 1 m (from the covariance: the expected RMS difference "
-              "from the true rig over the stereo band)\n");
-  std::printf("  points in mirror 1's body: ring 1 %.3f px, ring 2 %.3f px; in the camera frame: "
-              "ring 1 %.3f px, ring 2 %.3f px\n",
-              predicted.in_mirror1_px[0], predicted.in_mirror1_px[1], predicted.in_cam_px[0],
-              predicted.in_cam_px[1]);
+  if (!result.estimate.rig.Single() && !result.estimate.names.empty()) {
+    const calib::ProjectionUncertainty predicted = calib::PredictProjectionUncertainty(result, 1000);
+    std::printf("projection uncertainty at 1 m (from the covariance: the expected RMS difference "
+                "from the true rig over the stereo band)\n");
+    std::printf("  points in mirror 1's body: ring 1 %.3f px, ring 2 %.3f px; in the camera frame: "
+                "ring 1 %.3f px, ring 2 %.3f px\n",
+                predicted.in_mirror1_px[0], predicted.in_mirror1_px[1], predicted.in_cam_px[0],
+                predicted.in_cam_px[1]);
+  }
+  if (result.estimate.rig.Single() && !result.estimate.names.empty()) {
+    std::printf("%s", calib::SingleMirrorText(calib::SummariseSingleMirror(result)).c_str());
+  }
   if (truth) PrintTruthShare(result, *truth);
   // Detected here: the detections are kept beside the model (`report`, `refine` and a second
   // calibration read them; detecting again costs the same time).

@@ -56,8 +56,11 @@ ObservationSet CollectObservations(const Observations& detections,
 // corners rejected.
 void InitialisePoses(RigState* rig, const CalibrationOptions& options,
                      ObservationSet* observations, CostCache* costs);
+// Refuses a session too small for its unknowns; a session whose targets sit at one range or in
+// one azimuth sector is refused too, or (geometry_warns) said in a warning.
 void CheckDegeneracy(const ObservationSet& observations, const std::vector<TargetSpec>& targets,
-                     const RigBlockSet& groups, const CalibrationOptions& options);
+                     const RigBlockSet& groups, const CalibrationOptions& options,
+                     bool geometry_warns = false);
 // Throws where a target's size (square, tag_size) is off by more than
 // options.max_target_scale_error from what the rig's stereo measures of it.
 void CheckTargetScales(const RigParams& rig, const ObservationSet& observations,
@@ -150,6 +153,9 @@ extern const Stage kRobustStages[3];
 // The weighted rounds: on the robust stages' corner subset while the weights still move, then
 // with every corner (their answer).
 extern const Stage kReweightStage, kFinalStage;
+// Scoring with the model held (estimate: []): every corner, no robust loss, solved to the
+// unweighted stop rule (the whitened one stops at once when the weights are still 1 px).
+extern const Stage kScoreStage;
 
 // The groups `stage` refines.
 RigBlockSet StageGroups(const Stage& stage, const Refinement& refined);

@@ -571,7 +571,8 @@ void CheckTargetScales(const RigParams& rig, const ObservationSet& observations,
 }
 
 void CheckDegeneracy(const ObservationSet& observations, const std::vector<TargetSpec>& targets,
-                     const RigBlockSet& groups, const CalibrationOptions& options) {
+                     const RigBlockSet& groups, const CalibrationOptions& options,
+                     bool geometry_warns) {
   const std::vector<Placement>& placements = observations.placements;
   int n_placements = 0;
   std::vector<double> ranges, azimuths;
@@ -630,7 +631,8 @@ void CheckDegeneracy(const ObservationSet& observations, const std::vector<Targe
                   "place them at ranges differing by at least a factor %.1f (e.g. 0.5 m and 2 m) "
                   "so axial shifts and the focal length separate",
                   rmin, rmax, options.min_range_ratio);
-    throw CalibrationError(buf);
+    if (!geometry_warns) throw CalibrationError(buf);
+    Progress(options, std::string("warning: ") + buf + "; the covariance says what it leaves open");
   }
   // Azimuth span: 360 deg minus the largest gap between neighbouring targets.
   std::sort(azimuths.begin(), azimuths.end());
@@ -646,7 +648,8 @@ void CheckDegeneracy(const ObservationSet& observations, const std::vector<Targe
                   "them all around the rig (a span of at least %.0f deg) so tilts and decentres "
                   "separate",
                   span_deg, options.min_azimuth_span_deg);
-    throw CalibrationError(buf);
+    if (!geometry_warns) throw CalibrationError(buf);
+    Progress(options, std::string("warning: ") + buf + "; the covariance says what it leaves open");
   }
 }
 

@@ -28,7 +28,7 @@ ProfileState SetUpProfiles(const RigParams& start, const CalibrationOptions& opt
   refined->profile_sigma_mm = options.profile_sigma_mm;
   const std::string& mode = options.profile;
   // The mode and the tolerance are valid (CalibrationOptions::Check, in Calibrate).
-  for (int m = 0; m < 2; ++m) {
+  for (int m = 0; m < start.Paths(); ++m) {
     ProfileShape& shape = m == 0 ? rig->profile1 : rig->profile2;
     auto& coeffs = m == 0 ? rig->mirror1_profile : rig->mirror2_profile;
     profiles.given[m] = (m == 0 ? start.profile1 : start.profile2).present;
@@ -139,7 +139,7 @@ bool DecideProfiles(const ObservationSet& observations, const CalibrationOptions
                     CalibrationResult* result) {
   if (options.profile == "off") return false;
   bool freed = false;
-  for (int m = 0; m < 2; ++m) {
+  for (int m = 0; m < rig->params.Paths(); ++m) {
     // A profile the start did not have is laid from the smallest radius the corners reach on the
     // mirror out to its rim (its Legendre variable spans them; below them it would only
     // extrapolate). Its coefficients are zero, so the model is unchanged.
@@ -165,8 +165,10 @@ bool DecideProfiles(const ObservationSet& observations, const CalibrationOptions
   if (freed) {
     Progress(options,
              std::string("profiles freed where the corners cover the mirror's radii: mirror 1 ") +
-                 (refined->profile_free[0] ? "yes" : "no") + ", mirror 2 " +
-                 (refined->profile_free[1] ? "yes" : "no"));
+                 (refined->profile_free[0] ? "yes" : "no") +
+                 (rig->params.Single()
+                      ? std::string()
+                      : std::string(", mirror 2 ") + (refined->profile_free[1] ? "yes" : "no")));
   }
   return freed;
 }
@@ -191,7 +193,7 @@ void FinishProfiles(const ObservationSet& observations, const ProfileState& prof
                   traded.c_str(), options.profile_sigma_mm);
     result->solve.notes.push_back(buf);
   }
-  for (int m = 0; m < 2; ++m) {
+  for (int m = 0; m < rig->params.Paths(); ++m) {
     ProfileDecision& d = result->residuals.profile[m];
     d.pattern_after = RadialPattern(*rig, observations, profiles, m + 1, &d.pattern_chi2_after);
     char buf[640];

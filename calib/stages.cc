@@ -50,6 +50,8 @@ const Stage kReweightStage =
     {"reweight",  kEveryGroup, true,  false, {true,  true},  {0, 1e8, true,  false}};
 const Stage kFinalStage =
     {"final",     kEveryGroup, true,  false, {false, true},  {0, 1e8, true,  true}};
+const Stage kScoreStage =
+    {"score",     kEveryGroup, true,  false, {false, false}, {0, 1e4, false, true}};
 // clang-format on
 
 RigBlockSet StageGroups(const Stage& stage, const Refinement& refined) {

@@ -85,6 +85,8 @@ struct RigParams {
   std::optional<CalibrationInfo> calibration;
 
   bool Single() const { return rig == RigKind::kSingle; }
+  // The optical paths (rings) it has: 2 folded, 1 single.
+  int Paths() const { return Single() ? 1 : 2; }
   Pinhole<double> Intrinsics() const { return PinholeFromBlock(camera.data()); }
   RadTan<double> Distortion() const { return RadTanFromBlock(distortion.data()); }
   DesignParams Design() const {
