@@ -7,6 +7,7 @@
 #include "exports/npy.h"
 #include "exports/panorama_maps.h"
 #include "exports/ray_table.h"
+#include "io/text_append.h"
 #include "model/input_error.h"
 #include "model/rig_model.h"
 
@@ -14,20 +15,12 @@ namespace omni::exports {
 namespace {
 
 bool EndsWith(const std::string& s, const std::string& suffix) {
-  return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
+  return s.size() >= suffix.size() &&
+         s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
 
 ReferenceBody Frame(const ExportOptions& options) {
   return options.frame == "mirror1" ? ReferenceBody::kMirror1 : ReferenceBody::kCam;
-}
-
-// The text of a printf of any length.
-template <typename... Args>
-std::string Format(const char* format, Args... args) {
-  const int size = std::snprintf(nullptr, 0, format, args...);
-  std::string text(size > 0 ? size : 0, '\0');
-  if (size > 0) std::snprintf(text.data(), text.size() + 1, format, args...);
-  return text;
 }
 
 ModelExport Rays(const RigModel& model, const ExportOptions& options) {
@@ -35,11 +28,11 @@ ModelExport Rays(const RigModel& model, const ExportOptions& options) {
       model, Frame(options), options.dtype == "float32" ? DType::kFloat32 : DType::kFloat64);
   ModelExport out;
   out.bytes = NpyBytes(table);
-  out.summary = Format("ray table %s: shape (2, %lld, %lld, 6) %s, [ring][v][u][ox, oy, oz (mm), "
-                       "dx, dy, dz], frame %s, NaN where a pixel does not see the ring\n",
-                       options.out.c_str(), static_cast<long long>(table.shape[1]),
-                       static_cast<long long>(table.shape[2]), options.dtype.c_str(),
-                       options.frame == "mirror1" ? "M1 (mirror 1's body)" : "C (camera)");
+  io::AppendFormat(&out.summary, "ray table %s: shape (2, %lld, %lld, 6) %s, [ring][v][u][ox, "
+                   "oy, oz (mm), dx, dy, dz], frame %s, NaN where a pixel does not see the ring\n",
+                   options.out.c_str(), static_cast<long long>(table.shape[1]),
+                   static_cast<long long>(table.shape[2]), options.dtype.c_str(),
+                   options.frame == "mirror1" ? "M1 (mirror 1's body)" : "C (camera)");
   return out;
 }
 
@@ -47,11 +40,11 @@ ModelExport Panoramas(const RigModel& model, const ExportOptions& options) {
   const std::vector<NpyArray> maps = PanoramaMaps(model, options.panorama);
   ModelExport out;
   out.bytes = NpzBytes(maps);
-  out.summary = Format("panorama maps %s: ring1_map_x/y, ring2_map_x/y (%lld x %lld, float32, -1 "
-                       "where the ring does not see), elevation_rad, azimuth_rad, viewpoints_mm, "
-                       "cam_from_cylinder, radius_mm\n",
-                       options.out.c_str(), static_cast<long long>(maps[0].shape[0]),
-                       static_cast<long long>(maps[0].shape[1]));
+  io::AppendFormat(&out.summary, "panorama maps %s: ring1_map_x/y, ring2_map_x/y (%lld x %lld, "
+                   "float32, -1 where the ring does not see), elevation_rad, azimuth_rad, "
+                   "viewpoints_mm, cam_from_cylinder, radius_mm\n",
+                   options.out.c_str(), static_cast<long long>(maps[0].shape[0]),
+                   static_cast<long long>(maps[0].shape[1]));
   return out;
 }
 
@@ -71,12 +64,12 @@ ModelExport Central(const RigModel& model, const ExportOptions& options) {
   out.scale_px = max_px > 0 ? max_px : 1;
   out.map_distance_mm = fit.map_distance_mm;
   out.residual_map_path = options.out.substr(0, options.out.rfind('.')) + "_residual.png";
-  out.summary = Format("%s approximation of each ring (central, fitted to the non-central "
-                       "model):\n", CentralModelName(kind)) +
-                ResidualLines(*out.rings) +
-                Format("written to %s; residual map at %.0f m (blue 0 .. red %.3f px) %s\n",
-                       options.out.c_str(), out.map_distance_mm / 1000, out.scale_px,
-                       out.residual_map_path.c_str());
+  io::AppendFormat(&out.summary, "%s approximation of each ring (central, fitted to the "
+                   "non-central model):\n", CentralModelName(kind));
+  out.summary += ResidualLines(*out.rings);
+  io::AppendFormat(&out.summary, "written to %s; residual map at %.0f m (blue 0 .. red %.3f px) "
+                   "%s\n", options.out.c_str(), out.map_distance_mm / 1000, out.scale_px,
+                   out.residual_map_path.c_str());
   return out;
 }
 
