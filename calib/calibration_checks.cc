@@ -7,6 +7,10 @@
 #include <tuple>
 #include <utility>
 
+#include "calib/projection_uncertainty.h"
+#include "io/text_append.h"
+#include "model/model_compare.h"
+
 namespace omni::calib {
 
 CornerNoise CornerNoiseAgainstTruth(const CalibrationResult& result,
@@ -37,6 +41,46 @@ CornerNoise CornerNoiseAgainstTruth(const CalibrationResult& result,
   for (int m = 0; m < 2; ++m) {
     if (out.count[m] > 0) out.true_rms_px[m] = std::sqrt(squared[m] / out.count[m]);
   }
+  return out;
+}
+
+std::string CornerNoiseText(const CalibrationResult& result, const CornerNoise& noise,
+                            const std::string& truth_path) {
+  std::string out;
+  io::AppendFormat(&out, "corner noise (--truth %s): reprojection RMS against the detector's true "
+                   "error over the same corners (2-D RMS)\n", truth_path.c_str());
+  for (int m = 0; m < 2; ++m) {
+    if (noise.count[m] == 0) continue;
+    io::AppendFormat(&out, "  ring %d: %.4f px vs %.4f px over %d corners: ratio %.2f\n", m + 1,
+                     result.residuals.per_mirror_rms_px[m], noise.true_rms_px[m], noise.count[m],
+                     result.residuals.per_mirror_rms_px[m] / noise.true_rms_px[m]);
+  }
+  if (noise.unmatched > 0) {
+    io::AppendFormat(&out, "  (%d detected corners have no true counterpart)\n", noise.unmatched);
+  }
+  return out;
+}
+
+std::string TruthShareText(const CalibrationResult& result, const RigParams& truth) {
+  const RigModel true_model(truth), calibrated(result.estimate.rig);
+  const ProjectionDifference in_m1 = CompareProjectionsInMirror1(true_model, calibrated, 1000);
+  const ProjectionDifference in_cam = CompareProjections(true_model, calibrated, 1000);
+  std::string out =
+      "against the true model: projection difference at 1 m over the stereo band, RMS (max) per "
+      "ring\n";
+  io::AppendFormat(&out, "  points in mirror 1's body: ring 1 %.3f (%.3f) px, ring 2 %.3f (%.3f) "
+                   "px\n", in_m1.rms_px[0], in_m1.max_px[0], in_m1.rms_px[1], in_m1.max_px[1]);
+  io::AppendFormat(&out, "  points in the camera frame: ring 1 %.3f (%.3f) px, ring 2 %.3f (%.3f) "
+                   "px\n", in_cam.rms_px[0], in_cam.max_px[0], in_cam.rms_px[1], in_cam.max_px[1]);
+  const ProjectionErrorShare share = ShareOfProjectionError(result, truth, 1000);
+  io::AppendFormat(&out, "  linearised, points in mirror 1's body: ring 1 %.3f px, ring 2 %.3f px; "
+                   "with one group's error alone:", share.total_px[0], share.total_px[1]);
+  for (size_t g = 0; g < share.groups.size(); ++g) {
+    io::AppendFormat(&out, " %s %.3f / %.3f", share.groups[g].c_str(), share.group_px[g][0],
+                     share.group_px[g][1]);
+  }
+  io::AppendFormat(&out, "\n  parameter error against the covariance: chi^2 %.1f for %d "
+                   "parameters\n", share.chi2, share.dof);
   return out;
 }
 
