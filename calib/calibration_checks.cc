@@ -4,12 +4,14 @@
 #include <cstdio>
 #include <map>
 #include <set>
+#include <sstream>
 #include <tuple>
 #include <utility>
 
 #include "calib/projection_uncertainty.h"
 #include "io/text_append.h"
 #include "model/model_compare.h"
+#include "model/rig_parameters.h"
 
 namespace omni::calib {
 
@@ -82,6 +84,42 @@ std::string TruthShareText(const CalibrationResult& result, const RigParams& tru
   io::AppendFormat(&out, "\n  parameter error against the covariance: chi^2 %.1f for %d "
                    "parameters\n", share.chi2, share.dof);
   return out;
+}
+
+std::string TruthLine(const CalibrationResult& result, const RigParams& truth) {
+  double worst = 0;
+  std::string worst_name;
+  for (size_t i = 0; i < result.estimate.names.size(); ++i) {
+    const std::string& name = result.estimate.names[i];
+    const RigParameter* p = FindRigParameter(name);
+    const bool misalignment = p && (std::string(p->block) == "mirror1_pose" ||
+                                    std::string(p->block) == "mirror2_pose" ||
+                                    std::string(p->block) == "reflex");
+    if (!misalignment || !(result.uncertainty.sigma(i) > 0)) continue;
+    const double* true_value = ParameterOf(truth, name);
+    const double z = std::abs(result.estimate.values(i) - (true_value ? *true_value : NAN)) /
+                     result.uncertainty.sigma(i);
+    if (z > worst) worst = z, worst_name = name;
+  }
+  const RigModel true_model(truth), calibrated(result.estimate.rig);
+  const ProjectionDifference m1 = CompareProjectionsInMirror1(true_model, calibrated, 1000);
+  const ProjectionDifference cam = CompareProjections(true_model, calibrated, 1000);
+  std::string out;
+  io::AppendFormat(&out, "worst misalignment |value-truth|/sigma %.2f (%s); projection at 1 m "
+                   "RMS: mirror 1's body %.3f / %.3f px, C %.3f / %.3f px (ring 1 / ring 2)\n",
+                   worst, worst_name.c_str(), m1.rms_px[0], m1.rms_px[1], cam.rms_px[0],
+                   cam.rms_px[1]);
+  return out;
+}
+
+std::string ValuesText(const CalibrationResult& result) {
+  std::ostringstream out;
+  out.precision(17);
+  for (size_t i = 0; i < result.estimate.names.size(); ++i) {
+    out << result.estimate.names[i] << " " << result.estimate.values(i) << " "
+        << result.uncertainty.sigma(i) << "\n";
+  }
+  return out.str();
 }
 
 std::string LeftOutText(const CalibrationResult& result, const Observations& detections,

@@ -40,6 +40,15 @@ std::string CornerNoiseText(const CalibrationResult& result, const CornerNoise& 
 // against the covariance. Newline-terminated.
 std::string TruthShareText(const CalibrationResult& result, const RigParams& truth);
 
+// Against the true rig in one line (bench_calibrate): the worst misalignment (a pose or reflex
+// parameter) as |value - truth| / sigma with its name, and the projection difference at 1 m in
+// mirror 1's body and in C per ring. Newline-terminated.
+std::string TruthLine(const CalibrationResult& result, const RigParams& truth);
+
+// "name value sigma" per refined parameter (internal units, 17 digits), to compare two builds'
+// answers.
+std::string ValuesText(const CalibrationResult& result);
+
 // Every observation the solve left out, one line each with why ("left out: image I (FILE) target
 // T corner C ring R at (u, v): reason (residual px)"), then, when there were any, one line per
 // target (named) of how many in how many photos: a target with most of the outliers is worth a

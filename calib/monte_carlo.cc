@@ -11,6 +11,7 @@
 
 #include <Eigen/Eigenvalues>
 
+#include "calib/solve_benchmark.h"
 #include "io/text_append.h"
 #include "model/lip.h"
 #include "model/rig_model.h"
@@ -87,6 +88,42 @@ Observations Noisy(const ExactSession& exact, const double corner_sigma_px[2],
     }
   }
   return d;
+}
+
+MeasuredNoise MeasuredNoiseOf(const CalibrationResult& r0, bool use_lips) {
+  MeasuredNoise noise;
+  for (const auto& g : r0.uncertainty.variance_components) {
+    if (g.group == "corners ring 1") noise.corner_sigma_px[0] = g.sigma_px;
+    if (g.group == "corners ring 2") noise.corner_sigma_px[1] = g.sigma_px;
+  }
+  noise.lip_sigma_px = use_lips ? r0.residuals.lip_rms_px : 0.0;
+  return noise;
+}
+
+std::string ReferenceText(const CalibrationResult& r0, double seconds) {
+  std::string out;
+  io::AppendFormat(&out, "reference R0 (the session's detections): %.1f s wall, rms %.4f px over "
+                   "%d corners, %d lip points (%d normal points), lips rms %.4f px\n", seconds,
+                   r0.residuals.rms_px, r0.residuals.n_observations, r0.residuals.n_lip_points,
+                   r0.residuals.n_lip_normal_points, r0.residuals.lip_rms_px);
+  for (const auto& g : r0.uncertainty.variance_components) {
+    io::AppendFormat(&out, "  R0 %-15s s %.4f px per axis, correlation factor %.2f, weighted as "
+                     "%.4f px\n", g.group.c_str(), g.sigma_px, g.correlation_factor,
+                     g.weight_sigma_px);
+  }
+  return out;
+}
+
+std::string SyntheticSessionsText(const ExactSession& exact, const MeasuredNoise& noise,
+                                  int solves, int workers) {
+  std::string out;
+  io::AppendFormat(&out, "synthetic sessions: %d / %d corners (rings 1 / 2) at %.4f / %.4f px per "
+                   "axis, %d lip points at %.4f px per axis (%d farther than 1 px from R0's edge "
+                   "left out); %d solves from R0's rig, %d at a time, one thread each\n",
+                   exact.corners[0], exact.corners[1], noise.corner_sigma_px[0],
+                   noise.corner_sigma_px[1], exact.lip_points, noise.lip_sigma_px,
+                   exact.lip_dropped, solves, workers);
+  return out;
 }
 
 MonteCarloSolves SolveNoisySessions(const CalibrationResult& r0,
@@ -319,6 +356,24 @@ std::string MonteCarloSummary(const CalibrationResult& r0, const MonteCarloSolve
   out += ParameterTable(names, spread);
   out += ChiSquareText(MeanNoiseCovariance(solves, good, static_cast<int>(names.size())), spread);
   return out;
+}
+
+int MonteCarloCheck(const RigParams& start, const std::vector<TargetSpec>& targets,
+                    const Observations& detections, CalibrationOptions options, int solves,
+                    int workers, const std::function<void(const std::string&)>& print) {
+  const TimedSolve reference = SolveTimed(start, targets, detections, options);
+  const CalibrationResult& r0 = reference.result;
+  print(ReferenceText(r0, reference.wall_s));
+  const MeasuredNoise noise = MeasuredNoiseOf(r0, options.use_lips);
+  const ExactSession exact = ExactOf(r0, targets, detections);
+  print(SyntheticSessionsText(exact, noise, solves, workers));
+  options.progress = nullptr;
+  options.solver.threads = 1;
+  const MonteCarloSolves runs = SolveNoisySessions(r0, targets, exact, noise.corner_sigma_px,
+                                                   noise.lip_sigma_px, options, solves, workers);
+  int used = 0;
+  print(MonteCarloSummary(r0, runs, &used));
+  return used;
 }
 
 }  // namespace omni::calib
