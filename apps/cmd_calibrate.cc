@@ -26,7 +26,6 @@
 #include "io/model_file.h"
 #include "io/session_file.h"
 #include "io/truth_file.h"
-#include "model/model_compare.h"
 
 DEFINE_string(truth_model, "", "calibrate, refine: the true model file (synthetic sessions), to add a "
                                 "truth column to the table");
@@ -46,48 +45,6 @@ std::string UtcNow() {
   char buf[32];
   std::strftime(buf, sizeof(buf), "%Y-%m-%dT%H:%M:%SZ", &tm);
   return buf;
-}
-
-// The reprojection RMS per ring against the detector's true error over the same corners
-// (calib::CornerNoiseAgainstTruth).
-void PrintCornerNoiseCheck(const calib::CalibrationResult& result, const Observations& detections,
-                           const std::string& truth_path) {
-  const calib::CornerNoise noise =
-      calib::CornerNoiseAgainstTruth(result, detections, io::ReadTruthFile(truth_path));
-  std::printf("corner noise (--truth %s): reprojection RMS against the detector's true error "
-              "over the same corners (2-D RMS)\n", truth_path.c_str());
-  for (int m = 0; m < 2; ++m) {
-    if (noise.count[m] == 0) continue;
-    std::printf("  ring %d: %.4f px vs %.4f px over %d corners: ratio %.2f\n", m + 1,
-                result.residuals.per_mirror_rms_px[m], noise.true_rms_px[m], noise.count[m],
-                result.residuals.per_mirror_rms_px[m] / noise.true_rms_px[m]);
-  }
-  if (noise.unmatched > 0) std::printf("  (%d detected corners have no true counterpart)\n", noise.unmatched);
-}
-
-// With --truth_model: what the calibration is worth for measuring, as the projection difference
-// from the true rig of points at 1 m over the stereo band, held in mirror 1's body (what
-// `triangulate --frame mirror1` measures) and in the camera frame; each group's share of it, and
-// the parameter error against the covariance.
-void PrintTruthShare(const calib::CalibrationResult& result, const RigParams& truth) {
-  const RigModel true_model(truth), calibrated(result.estimate.rig);
-  const ProjectionDifference in_m1 = CompareProjectionsInMirror1(true_model, calibrated, 1000);
-  const ProjectionDifference in_cam = CompareProjections(true_model, calibrated, 1000);
-  std::printf("against the true model: projection difference at 1 m over the stereo band, RMS "
-              "(max) per ring\n");
-  std::printf("  points in mirror 1's body: ring 1 %.3f (%.3f) px, ring 2 %.3f (%.3f) px\n",
-              in_m1.rms_px[0], in_m1.max_px[0], in_m1.rms_px[1], in_m1.max_px[1]);
-  std::printf("  points in the camera frame: ring 1 %.3f (%.3f) px, ring 2 %.3f (%.3f) px\n",
-              in_cam.rms_px[0], in_cam.max_px[0], in_cam.rms_px[1], in_cam.max_px[1]);
-  const calib::ProjectionErrorShare share = calib::ShareOfProjectionError(result, truth, 1000);
-  std::printf("  linearised, points in mirror 1's body: ring 1 %.3f px, ring 2 %.3f px; with "
-              "one group's error alone:", share.total_px[0], share.total_px[1]);
-  for (size_t g = 0; g < share.groups.size(); ++g) {
-    std::printf(" %s %.3f / %.3f", share.groups[g].c_str(), share.group_px[g][0],
-                share.group_px[g][1]);
-  }
-  std::printf("\n  parameter error against the covariance: chi^2 %.1f for %d parameters\n",
-              share.chi2, share.dof);
 }
 
 }  // namespace
@@ -120,7 +77,11 @@ int RunCalibrate() {
   if (!FLAGS_truth_model.empty()) truth = io::ReadModelFile(FLAGS_truth_model);
   std::printf("%s", calib::ResultTable(result, truth ? &*truth : nullptr).c_str());
   std::printf("%s", calib::LeftOutText(result, detections, session.targets).c_str());
-  if (!FLAGS_truth.empty()) PrintCornerNoiseCheck(result, detections, FLAGS_truth);
+  if (!FLAGS_truth.empty()) {
+    const calib::CornerNoise noise =
+        calib::CornerNoiseAgainstTruth(result, detections, io::ReadTruthFile(FLAGS_truth));
+    std::printf("%s", calib::CornerNoiseText(result, noise, FLAGS_truth).c_str());
+  }
   std::printf("solved in %.2f s (%s); %zu target placements in %zu images\n", seconds,
               result.solve.converged ? "converged" : "NOT converged",
               result.residuals.placements.size(), detections.images.size());
@@ -136,7 +97,7 @@ int RunCalibrate() {
   if (result.estimate.rig.Single() && !result.estimate.names.empty()) {
     std::printf("%s", calib::SingleMirrorText(calib::SummariseSingleMirror(result)).c_str());
   }
-  if (truth) PrintTruthShare(result, *truth);
+  if (truth) std::printf("%s", calib::TruthShareText(result, *truth).c_str());
   // Detected here: the detections are kept beside the model (`report`, `refine` and a second
   // calibration read them; detecting again costs the same time).
   std::string detections_path = FLAGS_detections;

@@ -35,22 +35,14 @@ namespace {
 
 // The flags as dense-stereo options; throws io::InputError naming the flag.
 stereo::DepthOptions OptionsFromFlags() {
-  if (FLAGS_num_disparities < 16 || FLAGS_num_disparities % 16 != 0 ||
-      FLAGS_num_disparities > 1024) {
-    throw io::InputError("--num_disparities: expected a multiple of 16 in 16..1024, got " +
-                         std::to_string(FLAGS_num_disparities));
-  }
-  if (FLAGS_block_size < 1 || FLAGS_block_size % 2 == 0 || FLAGS_block_size > 31) {
-    throw io::InputError("--block_size: expected an odd number in 1..31, got " +
-                         std::to_string(FLAGS_block_size));
-  }
-  if (!(FLAGS_sigma_px >= 0)) throw io::InputError("--sigma_px: expected a number >= 0");
-  if (!(FLAGS_max_sigma_mm >= 0)) throw io::InputError("--max_sigma_mm: expected a number >= 0");
   stereo::DepthOptions options;
   options.num_disparities = FLAGS_num_disparities;
   options.block_size = FLAGS_block_size;
   options.sigma_px = FLAGS_sigma_px;
   options.max_sigma_mm = FLAGS_max_sigma_mm;
+  if (const std::string error = options.Check(); !error.empty()) {
+    throw io::InputError("--" + error);  // the flags have the fields' names
+  }
   return options;
 }
 
@@ -147,20 +139,9 @@ int RunDepth() {
   WriteImageAtomically(dir + "/disparity.png", stereo::DisparityView(frame, options.num_disparities));
   WriteImageAtomically(dir + "/disparity16.png", stereo::Disparity16(frame));
   io::WritePlyFile(dir + "/cloud.ply", Cloud(frame), !FLAGS_ply_ascii);
-  const double median_sigma = stereo::MedianSigma(frame);
   progress.Finish();
-
-  const int band_pixels =
-      (frame.band_row_end - frame.band_row_begin) * frame.disparity.cols;
-  std::printf("depth: panoramas %dx%d, matched rows %d..%d, %zu points of %d band pixels "
-              "(median sigma %.1f mm at sigma_px %g)\n",
-              frame.disparity.cols, frame.disparity.rows, frame.band_row_begin,
-              frame.band_row_end, frame.points.size(), band_pixels, median_sigma,
-              options.sigma_px);
-  std::printf("time: setup (LUTs, ray tables) %.2f s; per frame: remap %.1f ms, SGBM %.1f ms, "
-              "triangulation %.1f ms -> %s/cloud.ply\n",
-              setup_s, 1e3 * frame.seconds_remap, 1e3 * frame.seconds_sgbm,
-              1e3 * frame.seconds_triangulation, dir.c_str());
+  std::printf("%s", stereo::FrameSummary(frame, options.sigma_px, setup_s, dir + "/cloud.ply")
+                        .c_str());
   if (frame.points.empty()) std::fprintf(stderr, "depth: warning: no stereo match in the image\n");
   return 0;
 }

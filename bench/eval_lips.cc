@@ -20,11 +20,8 @@
 // (LipEdgeFit, 8-bit linear levels), the lip-only fit of f and the principal point
 // (InitialIntrinsicsFromLips from NOMINAL and from MODEL) and the CPU time of DetectLipEdges.
 // The evaluation itself is detectors/lip_evaluation.h.
-#include <algorithm>
-#include <cctype>
 #include <cstdio>
 #include <cstdlib>
-#include <ctime>
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -33,12 +30,12 @@
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgcodecs.hpp>
 
-#include "detectors/detector_evaluation.h"
 #include "detectors/lip_evaluation.h"
 #include "detectors/lips/lip_detector.h"
 #include "io/image_file.h"
 #include "io/model_file.h"
 #include "synthetic/camera_effects.h"
+#include "synthetic/rendered_image.h"
 #include "synthetic/scene_file.h"
 
 using namespace omni;
@@ -54,33 +51,15 @@ int main(int argc, char** argv) {
   const RigModel nominal(argc == 5 ? io::ReadModelFile(argv[4]) : truth_params);
   const char* bits_env = std::getenv("EVAL_LIPS_BITS");
   const bool eight_bit = bits_env && std::string(bits_env) == "8";
-  std::optional<synthetic::CameraEffects> camera;
-  if (const char* text = std::getenv("EVAL_CAMERA")) {
-    camera = synthetic::ParseCameraEffects(text, "EVAL_CAMERA");
-    std::printf("camera: %s\n", camera->Summary().c_str());
-  }
-  std::vector<std::string> files;
-  for (const auto& entry : std::filesystem::directory_iterator(argv[2])) {
-    const std::string ext = entry.path().extension().string();
-    std::string stem = entry.path().stem().string();
-    if (camera) {
-      if (ext != ".png" || stem.size() < 8 || stem.substr(stem.size() - 8) != ".pinhole") continue;
-      stem = stem.substr(0, stem.size() - 8);
-    } else if (ext != ".png" && ext != ".jpg") {
-      continue;
-    }
-    if (!stem.empty() &&
-        std::all_of(stem.begin(), stem.end(), [](char c) { return std::isdigit(c); })) {
-      files.push_back(entry.path().string());
-    }
-  }
-  std::sort(files.begin(), files.end());
+  const std::optional<synthetic::CameraEffects> camera =
+      synthetic::CameraFromEnvironment("EVAL_CAMERA");
+  if (camera) std::printf("camera: %s\n", camera->Summary().c_str());
+  const std::vector<std::string> files = synthetic::NumberedRenders(argv[2], camera.has_value());
   std::printf("lips: %s %s, %s / %s, %zu images, fed %s linear\n", truth_params.lip1.color.c_str(),
               truth_params.lip2.color.c_str(), argv[1], argv[2], files.size(),
               eight_bit ? "8-bit" : "16-bit");
   detectors::LipEvaluation evaluation(truth);
   const bool print_points = std::getenv("EVAL_LIPS_POINTS") != nullptr;
-  std::vector<double> cpu_ms;
   for (const std::string& file : files) {
     cv::Mat image = cv::imread(file, cv::IMREAD_COLOR | cv::IMREAD_ANYDEPTH);
     if (image.empty()) continue;
@@ -101,22 +80,10 @@ int main(int argc, char** argv) {
     cv::Mat linear = io::LinearImage(image, srgb ? io::ToneCurve::kSrgb : io::ToneCurve::kLinear);
     if (eight_bit) linear.convertTo(linear, CV_8U, 1.0 / 257.0);
     if (std::getenv("EVAL_LIPS_NO_LUMA")) options.luma = cv::Mat();
-    const std::clock_t c0 = std::clock();
-    const std::vector<detectors::LipEdgeFit> fits = detectors::DetectLipEdges(linear, nominal, options);
-    cpu_ms.push_back(1000.0 * (std::clock() - c0) / CLOCKS_PER_SEC);
     std::string points;
-    evaluation.AddImage(fits, print_points ? &points : nullptr);
+    evaluation.DetectAndAdd(linear, nominal, options, print_points ? &points : nullptr);
     std::printf("%s", points.c_str());
   }
-  std::printf("%s", evaluation.Table().c_str());
-  if (!cpu_ms.empty()) {
-    double sum = 0;
-    for (double t : cpu_ms) sum += t;
-    std::printf("DetectLipEdges CPU per %dx%d image: mean %.1f ms, max %.1f ms\n",
-                truth_params.image_width, truth_params.image_height, sum / cpu_ms.size(),
-                detectors::Percentile(cpu_ms, 1.0));
-  }
-  std::printf("%s", detectors::LipOnlyFitLine("nominal", evaluation.edges(), nominal, truth_params).c_str());
-  std::printf("%s", detectors::LipOnlyFitLine("true rig", evaluation.edges(), truth, truth_params).c_str());
+  std::printf("%s", evaluation.Report(nominal).c_str());
   return 0;
 }

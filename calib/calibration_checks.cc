@@ -4,8 +4,14 @@
 #include <cstdio>
 #include <map>
 #include <set>
+#include <sstream>
 #include <tuple>
 #include <utility>
+
+#include "calib/projection_uncertainty.h"
+#include "io/text_append.h"
+#include "model/model_compare.h"
+#include "model/rig_parameters.h"
 
 namespace omni::calib {
 
@@ -38,6 +44,82 @@ CornerNoise CornerNoiseAgainstTruth(const CalibrationResult& result,
     if (out.count[m] > 0) out.true_rms_px[m] = std::sqrt(squared[m] / out.count[m]);
   }
   return out;
+}
+
+std::string CornerNoiseText(const CalibrationResult& result, const CornerNoise& noise,
+                            const std::string& truth_path) {
+  std::string out;
+  io::AppendFormat(&out, "corner noise (--truth %s): reprojection RMS against the detector's true "
+                   "error over the same corners (2-D RMS)\n", truth_path.c_str());
+  for (int m = 0; m < 2; ++m) {
+    if (noise.count[m] == 0) continue;
+    io::AppendFormat(&out, "  ring %d: %.4f px vs %.4f px over %d corners: ratio %.2f\n", m + 1,
+                     result.residuals.per_mirror_rms_px[m], noise.true_rms_px[m], noise.count[m],
+                     result.residuals.per_mirror_rms_px[m] / noise.true_rms_px[m]);
+  }
+  if (noise.unmatched > 0) {
+    io::AppendFormat(&out, "  (%d detected corners have no true counterpart)\n", noise.unmatched);
+  }
+  return out;
+}
+
+std::string TruthShareText(const CalibrationResult& result, const RigParams& truth) {
+  const RigModel true_model(truth), calibrated(result.estimate.rig);
+  const ProjectionDifference in_m1 = CompareProjectionsInMirror1(true_model, calibrated, 1000);
+  const ProjectionDifference in_cam = CompareProjections(true_model, calibrated, 1000);
+  std::string out =
+      "against the true model: projection difference at 1 m over the stereo band, RMS (max) per "
+      "ring\n";
+  io::AppendFormat(&out, "  points in mirror 1's body: ring 1 %.3f (%.3f) px, ring 2 %.3f (%.3f) "
+                   "px\n", in_m1.rms_px[0], in_m1.max_px[0], in_m1.rms_px[1], in_m1.max_px[1]);
+  io::AppendFormat(&out, "  points in the camera frame: ring 1 %.3f (%.3f) px, ring 2 %.3f (%.3f) "
+                   "px\n", in_cam.rms_px[0], in_cam.max_px[0], in_cam.rms_px[1], in_cam.max_px[1]);
+  const ProjectionErrorShare share = ShareOfProjectionError(result, truth, 1000);
+  io::AppendFormat(&out, "  linearised, points in mirror 1's body: ring 1 %.3f px, ring 2 %.3f px; "
+                   "with one group's error alone:", share.total_px[0], share.total_px[1]);
+  for (size_t g = 0; g < share.groups.size(); ++g) {
+    io::AppendFormat(&out, " %s %.3f / %.3f", share.groups[g].c_str(), share.group_px[g][0],
+                     share.group_px[g][1]);
+  }
+  io::AppendFormat(&out, "\n  parameter error against the covariance: chi^2 %.1f for %d "
+                   "parameters\n", share.chi2, share.dof);
+  return out;
+}
+
+std::string TruthLine(const CalibrationResult& result, const RigParams& truth) {
+  double worst = 0;
+  std::string worst_name;
+  for (size_t i = 0; i < result.estimate.names.size(); ++i) {
+    const std::string& name = result.estimate.names[i];
+    const RigParameter* p = FindRigParameter(name);
+    const bool misalignment = p && (std::string(p->block) == "mirror1_pose" ||
+                                    std::string(p->block) == "mirror2_pose" ||
+                                    std::string(p->block) == "reflex");
+    if (!misalignment || !(result.uncertainty.sigma(i) > 0)) continue;
+    const double* true_value = ParameterOf(truth, name);
+    const double z = std::abs(result.estimate.values(i) - (true_value ? *true_value : NAN)) /
+                     result.uncertainty.sigma(i);
+    if (z > worst) worst = z, worst_name = name;
+  }
+  const RigModel true_model(truth), calibrated(result.estimate.rig);
+  const ProjectionDifference m1 = CompareProjectionsInMirror1(true_model, calibrated, 1000);
+  const ProjectionDifference cam = CompareProjections(true_model, calibrated, 1000);
+  std::string out;
+  io::AppendFormat(&out, "worst misalignment |value-truth|/sigma %.2f (%s); projection at 1 m "
+                   "RMS: mirror 1's body %.3f / %.3f px, C %.3f / %.3f px (ring 1 / ring 2)\n",
+                   worst, worst_name.c_str(), m1.rms_px[0], m1.rms_px[1], cam.rms_px[0],
+                   cam.rms_px[1]);
+  return out;
+}
+
+std::string ValuesText(const CalibrationResult& result) {
+  std::ostringstream out;
+  out.precision(17);
+  for (size_t i = 0; i < result.estimate.names.size(); ++i) {
+    out << result.estimate.names[i] << " " << result.estimate.values(i) << " "
+        << result.uncertainty.sigma(i) << "\n";
+  }
+  return out.str();
 }
 
 std::string LeftOutText(const CalibrationResult& result, const Observations& detections,

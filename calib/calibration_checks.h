@@ -28,6 +28,26 @@ struct CornerNoise {
 };
 CornerNoise CornerNoiseAgainstTruth(const CalibrationResult& result,
                                     const Observations& detections, const Truth& truth);
+// The check as `calibrate --truth PATH` prints it: per ring the reprojection RMS beside the true
+// error and their ratio, and the kept corners without a true one. Newline-terminated.
+std::string CornerNoiseText(const CalibrationResult& result, const CornerNoise& noise,
+                            const std::string& truth_path);
+
+// With the true rig of a synthetic session (`calibrate --truth_model`): what the calibration is
+// worth for measuring, as the projection difference from the true rig of points at 1 m over the
+// stereo band, held in mirror 1's body (what `triangulate --frame mirror1` measures) and in the
+// camera frame; each group's share of it (ShareOfProjectionError), and the parameter error
+// against the covariance. Newline-terminated.
+std::string TruthShareText(const CalibrationResult& result, const RigParams& truth);
+
+// Against the true rig in one line (bench_calibrate): the worst misalignment (a pose or reflex
+// parameter) as |value - truth| / sigma with its name, and the projection difference at 1 m in
+// mirror 1's body and in C per ring. Newline-terminated.
+std::string TruthLine(const CalibrationResult& result, const RigParams& truth);
+
+// "name value sigma" per refined parameter (internal units, 17 digits), to compare two builds'
+// answers.
+std::string ValuesText(const CalibrationResult& result);
 
 // Every observation the solve left out, one line each with why ("left out: image I (FILE) target
 // T corner C ring R at (u, v): reason (residual px)"), then, when there were any, one line per

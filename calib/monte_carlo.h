@@ -13,6 +13,7 @@
 // d^T C^+ d over the solves, ~rank if the covariance's shape is right too.
 #pragma once
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -37,6 +38,21 @@ ExactSession ExactOf(const CalibrationResult& r0, const std::vector<TargetSpec>&
 Observations Noisy(const ExactSession& exact, const double corner_sigma_px[2],
                    double lip_sigma_px, unsigned seed);
 
+// R0's measured noise, which the synthetic sessions get: each ring's corners' sigma per axis
+// (its variance component), the lips' RMS across the edge (0 without lips).
+struct MeasuredNoise {
+  double corner_sigma_px[2] = {0, 0};
+  double lip_sigma_px = 0;
+};
+MeasuredNoise MeasuredNoiseOf(const CalibrationResult& r0, bool use_lips);
+// R0 described (`seconds`: its solve's wall time): RMS and counts, then each variance component's
+// sigma, correlation factor and weight. Newline-terminated.
+std::string ReferenceText(const CalibrationResult& r0, double seconds);
+// The synthetic sessions described: corners per ring, lip points and their noise, the lip points
+// left out, and how the solves run. Newline-terminated.
+std::string SyntheticSessionsText(const ExactSession& exact, const MeasuredNoise& noise,
+                                  int solves, int workers);
+
 struct MonteCarloSolves {
   std::vector<CalibrationResult> results;  // per solve (empty where it failed)
   std::vector<std::string> errors;         // per solve, what() where it threw
@@ -58,5 +74,13 @@ MonteCarloSolves SolveNoisySessions(const CalibrationResult& r0,
 // when fewer than 2).
 std::string MonteCarloSummary(const CalibrationResult& r0, const MonteCarloSolves& solves,
                               int* used);
+
+// The whole check on a real session (bench_calibrate montecarlo): R0 solved from `start` with
+// `options` (timed) and described (ReferenceText); the synthetic sessions at R0's measured noise
+// described and solved, one thread each, `workers` at a time; MonteCarloSummary. Each part's text
+// goes to print() as it is known (R0's long before the solves'). Returns the solves used.
+int MonteCarloCheck(const RigParams& start, const std::vector<TargetSpec>& targets,
+                    const Observations& detections, CalibrationOptions options, int solves,
+                    int workers, const std::function<void(const std::string&)>& print);
 
 }  // namespace omni::calib

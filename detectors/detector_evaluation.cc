@@ -2,7 +2,10 @@
 
 #include <algorithm>
 #include <array>
+#include <chrono>
 #include <cstdio>
+#include <ctime>
+#include <numeric>
 
 #include "detectors/lips/lip_intrinsics.h"
 #include "io/text_append.h"
@@ -257,6 +260,62 @@ std::string LipIntrinsicsAgainstTruth(const RigParams& truth, const RigParams& n
     for (const Ref& r : refs) io::AppendFormat(&out, "; %s %.3f", r.name, (c - r.pixel).norm());
     out += " px\n";
   }
+  return out;
+}
+
+std::vector<std::string> DetectAndEvaluate(const cv::Mat& raw, const std::string& name,
+                                           const std::vector<TruthCorner>& truth,
+                                           DetectorContext* ctx, DetectorEvaluation* evaluation,
+                                           DetectionRun* run, std::string* csv_rows) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const std::clock_t c0 = std::clock();
+  std::vector<bool> guided;
+  const ImageObservations det = DetectImage(raw, ctx, nullptr, &guided);
+  for (const RingView& v : ctx->views) {
+    if (v.blur_sigma) run->view_blur[MirrorIndex(v.mirror) - 1].push_back(*v.blur_sigma);
+  }
+  run->cpu_ms.push_back(1000.0 * (std::clock() - c0) / CLOCKS_PER_SEC);
+  run->times_ms.push_back(
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+  if (!det.lips.empty()) {
+    ++run->lip_images;
+    run->lips.insert(run->lips.end(), det.lips.begin(), det.lips.end());
+  }
+  std::vector<std::string> lines = evaluation->AddImage(name, det, guided, truth, csv_rows);
+  std::string last;
+  io::AppendFormat(&last, "%s: %zu corners in %.1f ms", name.c_str(), det.corners.size(),
+                   run->times_ms.back());
+  lines.push_back(last);
+  return lines;
+}
+
+std::string DetectionRunReport(const DetectionRun& run, const DetectorContext& ctx,
+                               const DetectorEvaluation& evaluation, const RigParams& rig,
+                               const RigParams& nominal, double context_ms) {
+  std::string out;
+  io::AppendFormat(&out, "views and layout built once in %.0f ms\n", context_ms);
+  for (int ring = 0; ring < 2; ++ring) {
+    for (const RingView& v : ctx.views) {
+      if (MirrorIndex(v.mirror) != ring + 1) continue;
+      io::AppendFormat(&out, "ring %d views: %d x %d px, f %.0f px/rad, measured blur sigma "
+                       "median %.2f view px\n", ring + 1, v.width, v.height, v.f,
+                       Percentile(run.view_blur[ring], 0.5));
+      break;
+    }
+  }
+  out += evaluation.Tables();
+  if (!run.times_ms.empty()) {
+    const auto sum = [](const std::vector<double>& v) {
+      return std::accumulate(v.begin(), v.end(), 0.0);
+    };
+    io::AppendFormat(&out, "time per %dx%d image on one core: mean %.1f ms, max %.1f ms (%zu "
+                     "images)\n", rig.image_width, rig.image_height,
+                     sum(run.times_ms) / run.times_ms.size(), Percentile(run.times_ms, 1.0),
+                     run.times_ms.size());
+    io::AppendFormat(&out, "CPU time per image (independent of other load): mean %.1f ms, max "
+                     "%.1f ms\n", sum(run.cpu_ms) / run.cpu_ms.size(), Percentile(run.cpu_ms, 1.0));
+  }
+  if (!run.lips.empty()) out += LipIntrinsicsAgainstTruth(rig, nominal, run.lips, run.lip_images);
   return out;
 }
 

@@ -6,10 +6,15 @@
 // (model/truth.h, synthetic::ComputeTruth), matched by pixels alone (NearestTrueCorner).
 #pragma once
 
+#include <array>
 #include <map>
 #include <string>
 #include <utility>
 #include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "detectors/detect_image.h"
 
 #include "model/observations.h"
 #include "model/rig_params.h"
@@ -61,5 +66,30 @@ double Percentile(std::vector<double> values, double p);
 // makes). Newline-terminated lines.
 std::string LipIntrinsicsAgainstTruth(const RigParams& truth, const RigParams& nominal,
                                       const std::vector<LipEdgeObservation>& edges, int n_images);
+
+// A session's detection as the evaluation runs it, beyond the corners DetectorEvaluation judges:
+// per ring every image's measured view blur, each detection's wall and process CPU time (one
+// thread), every labelled lip edge (for one pooled lip-only fit) and the images with lips.
+struct DetectionRun {
+  std::array<std::vector<double>, 2> view_blur;
+  std::vector<double> times_ms, cpu_ms;
+  std::vector<LipEdgeObservation> lips;
+  int lip_images = 0;
+};
+
+// One image detected with `ctx` (DetectImage, timed) and judged against its true corners
+// (DetectorEvaluation::AddImage, csv_rows as there); adds to *run. Returns AddImage's lines and
+// "NAME: N corners in T ms".
+std::vector<std::string> DetectAndEvaluate(const cv::Mat& raw, const std::string& name,
+                                           const std::vector<TruthCorner>& truth,
+                                           DetectorContext* ctx, DetectorEvaluation* evaluation,
+                                           DetectionRun* run, std::string* csv_rows = nullptr);
+
+// The run's report, newline-terminated: the context's build time (context_ms), each ring's views
+// (size, f, median measured blur), the evaluation's tables, the time per image of `rig`'s size
+// and, with lips, the lip-only intrinsics from `nominal` against `rig` (LipIntrinsicsAgainstTruth).
+std::string DetectionRunReport(const DetectionRun& run, const DetectorContext& ctx,
+                               const DetectorEvaluation& evaluation, const RigParams& rig,
+                               const RigParams& nominal, double context_ms);
 
 }  // namespace omni::detectors

@@ -3,10 +3,12 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <ctime>
 #include <utility>
 
 #include "detectors/detector_evaluation.h"
 #include "detectors/lips/lip_intrinsics.h"
+#include "io/text_append.h"
 #include "model/lip.h"
 
 namespace omni::detectors {
@@ -103,6 +105,29 @@ std::string LipEvaluation::Table() const {
         Percentile(s.fit_distances, 0.95));
     out += line;
   }
+  return out;
+}
+
+void LipEvaluation::DetectAndAdd(const cv::Mat& linear, const RigModel& prior,
+                                 const LipDetectorOptions& options, std::string* point_lines) {
+  const std::clock_t c0 = std::clock();
+  const std::vector<LipEdgeFit> fits = DetectLipEdges(linear, prior, options);
+  cpu_ms_.push_back(1000.0 * (std::clock() - c0) / CLOCKS_PER_SEC);
+  AddImage(fits, point_lines);
+}
+
+std::string LipEvaluation::Report(const RigModel& nominal) const {
+  const RigParams& truth = truth_.params();
+  std::string out = Table();
+  if (!cpu_ms_.empty()) {
+    double sum = 0;
+    for (double t : cpu_ms_) sum += t;
+    io::AppendFormat(&out, "DetectLipEdges CPU per %dx%d image: mean %.1f ms, max %.1f ms\n",
+                     truth.image_width, truth.image_height, sum / cpu_ms_.size(),
+                     Percentile(cpu_ms_, 1.0));
+  }
+  out += LipOnlyFitLine("nominal", edges_, nominal, truth);
+  out += LipOnlyFitLine("true rig", edges_, truth_, truth);
   return out;
 }
 

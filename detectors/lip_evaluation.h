@@ -23,8 +23,16 @@ class LipEvaluation {
   // "point MIRROR PATH u v signed_px" (+ away from the principal point).
   void AddImage(const std::vector<LipEdgeFit>& fits, std::string* point_lines = nullptr);
 
+  // DetectLipEdges on one image (linear, 8 or 16 bit, as DetectImage feeds it) with `prior`, its
+  // process CPU time kept, then AddImage.
+  void DetectAndAdd(const cv::Mat& linear, const RigModel& prior, const LipDetectorOptions& options,
+                    std::string* point_lines = nullptr);
+
   // The table: a header and one row per edge (columns as bench/eval_lips.cc's header says).
   std::string Table() const;
+  // The table, DetectAndAdd's CPU time per image (mean, max) and the lip-only fit of every edge
+  // from `nominal` and from the true rig (LipOnlyFitLine); newline-terminated.
+  std::string Report(const RigModel& nominal) const;
   // Every edge added, for a pooled lip-only fit.
   const std::vector<LipEdgeObservation>& edges() const { return edges_; }
 
@@ -45,6 +53,7 @@ class LipEvaluation {
   const RigModel& truth_;
   std::map<std::tuple<int, std::string, std::string, std::string>, EdgeStats> stats_;
   std::vector<LipEdgeObservation> edges_;
+  std::vector<double> cpu_ms_;  // DetectAndAdd's, per image
 };
 
 // The lip-only fit (InitialIntrinsicsFromLips) of `edges` from `prior`, against the true rig's f

@@ -181,4 +181,11 @@ std::string Describe(const LipGuide& guide) {
   return line;
 }
 
+LipGuide GuideByLipsOf(size_t count, const std::function<GuideImage(size_t i)>& read,
+                       DetectorContext* ctx, const LipGuideOptions& options) {
+  std::vector<GuideImage> images;
+  for (size_t i : LipGuideImages(count)) images.push_back(read(i));
+  return GuideByLips(images, ctx, options);
+}
+
 }  // namespace omni::detectors

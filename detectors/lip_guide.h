@@ -11,6 +11,7 @@
 // calibrated one, or `init`'s) is left as it is.
 #pragma once
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -69,6 +70,11 @@ std::vector<size_t> LipGuideImages(size_t n);
 // the maximum), replaces ctx's model with the corrected one (views and ring layout rebuilt).
 LipGuide GuideByLips(const std::vector<GuideImage>& images, DetectorContext* ctx,
                      const LipGuideOptions& options = {});
+
+// GuideByLips on a session's LipGuideImages(count), image i as read(i) gives it (the benches'
+// sessions, read their own way).
+LipGuide GuideByLipsOf(size_t count, const std::function<GuideImage(size_t i)>& read,
+                       DetectorContext* ctx, const LipGuideOptions& options = {});
 
 // One line for the user saying what the guide did.
 std::string Describe(const LipGuide& guide);

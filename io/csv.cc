@@ -236,4 +236,15 @@ void CsvWriter::Commit() {
   file_->Commit();
 }
 
+void WriteLabelledCsv(const std::string& path, std::vector<std::string> columns,
+                      const std::vector<LabelledRow>& rows) {
+  CsvWriter out(path, std::move(columns));
+  for (const auto& [label, values] : rows) {
+    out.Add(label);
+    for (double value : values) out.Add(value);
+    out.EndRow();
+  }
+  out.Commit();
+}
+
 }  // namespace omni::io

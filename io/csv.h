@@ -14,6 +14,7 @@
 #include <memory>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "io/file_util.h"  // InputError, AtomicFile
@@ -102,5 +103,12 @@ class CsvWriter {
   std::size_t fields_in_row_ = 0;
   std::string buffer_;
 };
+
+// A whole table whose first column is text (each row's label, e.g. an image name) and the others
+// numbers, written through CsvWriter: each row a label and columns.size() - 1 numbers. Plain rows,
+// so a library that io does not link (stereo/) can hand over its table.
+using LabelledRow = std::pair<std::string, std::vector<double>>;
+void WriteLabelledCsv(const std::string& path, std::vector<std::string> columns,
+                      const std::vector<LabelledRow>& rows);
 
 }  // namespace omni::io

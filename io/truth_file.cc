@@ -1,5 +1,6 @@
 #include "io/truth_file.h"
 
+#include "io/csv.h"
 #include "io/yaml_reader.h"
 
 namespace omni::io {
@@ -60,6 +61,21 @@ Truth ReadTruthFile(const std::string& path) {
     truth.images.push_back(std::move(out));
   }
   return truth;
+}
+
+std::vector<ReferenceRow> ReadReferenceTable(const std::string& path) {
+  std::vector<ReferenceRow> rows;
+  if (path.empty()) return rows;
+  CsvReader in(path, {"range_m", "rmse_mm", "sd_mm"});
+  std::vector<double> v;
+  while (in.ReadRow(&v)) {
+    if (!(v[0] > 0) || !(v[1] >= 0) || !(v[2] >= 0)) {
+      throw InputError(path + ": line " + std::to_string(in.line()) +
+                       ": expected range_m > 0 and rmse_mm, sd_mm >= 0");
+    }
+    rows.push_back({v[0], v[1], v[2]});
+  }
+  return rows;
 }
 
 }  // namespace omni::io

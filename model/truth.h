@@ -35,6 +35,14 @@ struct Truth {
   std::vector<TruthImage> images;
 };
 
+// A published table of triangulation error to compare with, by range (e.g. the paper's
+// tab:rmse_triangulation_experiment, kept in bench/paper_triangulation_table.csv; `triangulate
+// --reference_table`, read by io/truth_file.h). A row applies to the range bins within 10% of
+// its range (stereo/sparse_triangulation.h).
+struct ReferenceRow {
+  double range_m = 0, rmse_mm = 0, sd_mm = 0;
+};
+
 // The true corner a detection is, judged by its pixels alone (independent of any model): among
 // the corners `admit` accepts (all if empty) that are seen in every ring the detection has a
 // pixel in, the one whose distance (the larger of its rings' distances) is least and below

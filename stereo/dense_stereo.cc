@@ -24,10 +24,15 @@ double Seconds(std::chrono::steady_clock::time_point since) {
 DenseStereo::~DenseStereo() = default;
 
 std::string DepthOptions::Check() const {
-  if (num_disparities < 16 || num_disparities % 16 != 0) {
-    return "num_disparities: expected a positive multiple of 16";
+  if (num_disparities < 16 || num_disparities % 16 != 0 || num_disparities > 1024) {
+    return "num_disparities: expected a multiple of 16 in 16..1024, got " +
+           std::to_string(num_disparities);
   }
-  if (block_size < 1 || block_size % 2 == 0) return "block_size: expected an odd number >= 1";
+  if (block_size < 1 || block_size % 2 == 0 || block_size > 31) {
+    return "block_size: expected an odd number in 1..31, got " + std::to_string(block_size);
+  }
+  if (!(sigma_px >= 0)) return "sigma_px: expected a number >= 0";
+  if (!(max_sigma_mm >= 0)) return "max_sigma_mm: expected a number >= 0";
   if (refine_half_width < 0 || refine_half_width > 50 || refine_half_height < 0 ||
       refine_half_height > 50) {
     return "refine_half_width, refine_half_height: expected 0..50";

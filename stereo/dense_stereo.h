@@ -64,7 +64,8 @@ struct DepthOptions {
   // same. For a loop that keeps only the clouds (`depth --images`): ~60% less remap at 2592.
   bool full_panoramas = true;
 
-  // Empty if the options are consistent, else what is wrong (names the field).
+  // Empty if the options are consistent, else "<field>: expected <what>" (`depth` prefixes
+  // "--": its flags have the fields' names).
   std::string Check() const;
 };
 

@@ -96,6 +96,22 @@ std::string FrameLine(const std::string& name, const DepthFrame& frame) {
   return line;
 }
 
+std::string FrameSummary(const DepthFrame& frame, double sigma_px, double setup_s,
+                         const std::string& cloud_path) {
+  const int band_pixels = (frame.band_row_end - frame.band_row_begin) * frame.disparity.cols;
+  char line[512];
+  std::snprintf(line, sizeof(line), "depth: panoramas %dx%d, matched rows %d..%d, %zu points of "
+                "%d band pixels (median sigma %.1f mm at sigma_px %g)\n",
+                frame.disparity.cols, frame.disparity.rows, frame.band_row_begin,
+                frame.band_row_end, frame.points.size(), band_pixels, MedianSigma(frame),
+                sigma_px);
+  std::string text = line;
+  std::snprintf(line, sizeof(line), "time: setup (LUTs, ray tables) %.2f s; per frame: remap %.1f "
+                "ms, SGBM %.1f ms, triangulation %.1f ms -> ", setup_s, 1e3 * frame.seconds_remap,
+                1e3 * frame.seconds_sgbm, 1e3 * frame.seconds_triangulation);
+  return text + line + cloud_path + "\n";
+}
+
 std::string FramesSummary(const FramesReport& r, size_t count, const DenseStereo& dense,
                           double setup_s) {
   const double n = static_cast<double>(r.computed);

@@ -42,6 +42,11 @@ FramesReport ComputeFrames(const DenseStereo& dense, size_t count,
 // A frame's progress line: "NAME: N points (median sigma S mm); remap R, SGBM G, triangulation
 // T ms".
 std::string FrameLine(const std::string& name, const DepthFrame& frame);
+// One frame's summary (`depth --image`): panorama size, matched rows, points of the band's
+// pixels with their median sigma at sigma_px; then the set-up's and the stages' times and the
+// cloud's path.
+std::string FrameSummary(const DepthFrame& frame, double sigma_px, double setup_s,
+                         const std::string& cloud_path);
 // The loop's summary (`depth --images`): frames computed (and skipped of `count`), panorama
 // size, points per frame, the set-up's time, the stages' mean times and the frame rates.
 std::string FramesSummary(const FramesReport& report, size_t count, const DenseStereo& dense,

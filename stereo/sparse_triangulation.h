@@ -89,14 +89,8 @@ struct RangeRow {
 };
 std::vector<RangeRow> RangeTable(const std::vector<CornerError>& errors);
 
-// A table to compare with, by range (e.g. the paper's tab:rmse_triangulation_experiment, kept in
-// bench/paper_triangulation_table.csv; `triangulate --reference_table`). A row applies to the
-// range bins within 10% of its range.
-struct ReferenceRow {
-  double range_m = 0, rmse_mm = 0, sd_mm = 0;
-};
-
-// The table as text (range m, RMSE, SD, points, the reference's RMSE and SD or "-", mean sigma,
+// The table as text (range m, RMSE, SD, points, the reference's RMSE and SD (ReferenceRow,
+// model/truth.h) or "-", mean sigma,
 // NEES, the per-ring pixel RMS and the NEES at those).
 std::string FormatRangeTable(const std::vector<RangeRow>& rows,
                              const std::vector<ReferenceRow>& reference = {});

@@ -48,6 +48,8 @@ struct CameraEffects {
   std::string Summary() const;
   // Empty if the values are consistent, else what is wrong (names the key).
   std::string Check() const;
+  // How this camera's files encode light: linear for a raw mosaic, else `tone`.
+  ToneCurve FileTone() const { return raw_mosaic ? ToneCurve::kLinear : tone; }
 };
 
 // "clean" (distortion only), "mild", "realistic" (the chain a machine-vision or phone camera

@@ -99,7 +99,7 @@ io::Session SessionOfRender(const Scene& scene, const std::string& dir) {
     session.images.push_back(dir + "/" + image.name + ImageExtension(scene.camera));
   }
   if (scene.camera.raw_mosaic) session.bayer = scene.camera.bayer;
-  session.tone = scene.camera.raw_mosaic ? io::ToneCurve::kLinear : scene.camera.tone;
+  session.tone = scene.camera.FileTone();
   session.targets = scene.targets;
   session.estimate = DefaultEstimateBlocks();
   return session;

@@ -1,5 +1,7 @@
 #include "synthetic/rendered_image.h"
 
+#include <algorithm>
+#include <cctype>
 #include <cstdio>
 #include <filesystem>
 #include <vector>
@@ -42,6 +44,26 @@ RenderedImage ReadRenderedImage(const std::string& dir, const std::string& name,
   out.chroma_halved = io::HasHalvedChroma(out.path);
   out.luma = io::ReadStoredLuma(out.path);
   return out;
+}
+
+std::vector<std::string> NumberedRenders(const std::string& dir, bool pinhole) {
+  std::vector<std::string> files;
+  for (const auto& entry : std::filesystem::directory_iterator(dir)) {
+    const std::string ext = entry.path().extension().string();
+    std::string stem = entry.path().stem().string();
+    if (pinhole) {
+      if (ext != ".png" || stem.size() < 8 || stem.substr(stem.size() - 8) != ".pinhole") continue;
+      stem = stem.substr(0, stem.size() - 8);
+    } else if (ext != ".png" && ext != ".jpg") {
+      continue;
+    }
+    if (!stem.empty() &&
+        std::all_of(stem.begin(), stem.end(), [](char c) { return std::isdigit(c); })) {
+      files.push_back(entry.path().string());
+    }
+  }
+  std::sort(files.begin(), files.end());
+  return files;
 }
 
 }  // namespace omni::synthetic

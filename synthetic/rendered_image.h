@@ -5,6 +5,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include <opencv2/core.hpp>
 
@@ -27,5 +28,9 @@ struct RenderedImage {
 RenderedImage ReadRenderedImage(const std::string& dir, const std::string& name,
                                 const RigParams& rig, const CameraEffects* camera,
                                 unsigned seed, const std::string& save_dir = "");
+
+// A render folder's numbered images (DIR/NNNN.png or .jpg), sorted; with `pinhole` the kept
+// linear renders DIR/NNNN.pinhole.png instead (`render --keep_pinhole`).
+std::vector<std::string> NumberedRenders(const std::string& dir, bool pinhole);
 
 }  // namespace omni::synthetic

@@ -1,6 +1,7 @@
 #include "synthetic/scene_file.h"
 
 #include <cmath>
+#include <cstdlib>
 #include <limits>
 #include <sstream>
 
@@ -438,6 +439,12 @@ std::string TruthText(const Scene& scene, const RigModel& model, const std::stri
     }
   }
   return out.str();
+}
+
+std::optional<CameraEffects> CameraFromEnvironment(const char* variable) {
+  const char* text = std::getenv(variable);
+  if (text == nullptr) return std::nullopt;
+  return ParseCameraEffects(text, variable);
 }
 
 }  // namespace omni::synthetic

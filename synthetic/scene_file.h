@@ -13,6 +13,7 @@
 //   markers: [{center: [x, y, z], radius: 5.0}]
 #pragma once
 
+#include <optional>
 #include <string>
 
 #include "synthetic/scene.h"
@@ -26,6 +27,9 @@ Scene ReadSceneFile(const std::string& path, const RigModel& model);
 // `camera_effects:` from YAML text (a preset name or a map, as in the scene file); `what` names
 // the source in errors.
 CameraEffects ParseCameraEffects(const std::string& text, const std::string& what);
+// The camera named by the environment variable `variable` (the benches' EVAL_CAMERA: a preset
+// name or a YAML map, ParseCameraEffects), nullopt when it is not set.
+std::optional<CameraEffects> CameraFromEnvironment(const char* variable);
 
 // The ground-truth file of a rendered (or fast-path) session: per image the target poses and per
 // corner [placement, target, id, x, y, z, u1, v1, u2, v2] with null where not visible.

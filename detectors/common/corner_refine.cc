@@ -393,4 +393,36 @@ int KeepWindowsOnTheirSquares(const cv::Mat& grey, int rows, int cols, const std
   return dropped;
 }
 
+std::vector<std::optional<Eigen::Vector2d>> RefineFromStarts(
+    const cv::Mat& grey, const std::vector<std::pair<int, int>>& board_sizes,
+    const std::vector<CornerStart>& corners, bool correct) {
+  // Refined corners per board, row-major by id as the detector holds them.
+  std::vector<std::vector<std::optional<Eigen::Vector2d>>> grids(board_sizes.size());
+  std::vector<std::vector<int>> halves(board_sizes.size());
+  for (size_t b = 0; b < board_sizes.size(); ++b) {
+    grids[b].resize(board_sizes[b].first * board_sizes[b].second);
+    halves[b].resize(board_sizes[b].first * board_sizes[b].second, 1);
+  }
+  for (const CornerStart& c : corners) {
+    Eigen::Vector2d p = c.start;
+    const int half = c.half;
+    if (p.x() < half + 3 || p.y() < half + 3 || p.x() > grey.cols - half - 4 ||
+        p.y() > grey.rows - half - 4) {
+      continue;
+    }
+    if (!RefineCornerInRaw(grey, half, &p)) continue;
+    grids[c.board][c.id] = p;
+    halves[c.board][c.id] = half;
+  }
+  if (correct) {
+    for (size_t b = 0; b < board_sizes.size(); ++b) {
+      RemoveCurvatureBias(board_sizes[b].first, board_sizes[b].second, halves[b], &grids[b]);
+    }
+  }
+  std::vector<std::optional<Eigen::Vector2d>> refined;
+  refined.reserve(corners.size());
+  for (const CornerStart& c : corners) refined.push_back(grids[c.board][c.id]);
+  return refined;
+}
+
 }  // namespace omni::detectors

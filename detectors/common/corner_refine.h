@@ -23,6 +23,7 @@
 #pragma once
 
 #include <optional>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -52,6 +53,20 @@ Eigen::Vector2d PredictedRefineBias(const Eigen::Vector2d& corner, const LocalLi
 // a straight line through the two. nullopt without any neighbour along the line.
 std::optional<LocalLine> LineThroughCorner(const std::vector<std::optional<Eigen::Vector2d>>& corners,
                                            int rows, int cols, int id, bool along_row);
+
+// Corners refined from known starting points as the chessboard detector refines a board's
+// (bench/render_bias: the refinement's bias on exact images): each corner by RefineCornerInRaw
+// with its half window from its start (nullopt where the window comes within 3 px of the border
+// or cornerSubPix refuses), then with `correct` each board's RemoveCurvatureBias. Board b is
+// board_sizes[b] = (rows, cols); a corner's id is row-major on its board.
+struct CornerStart {
+  int board = 0, id = 0;
+  Eigen::Vector2d start = Eigen::Vector2d::Zero();
+  int half = 1;
+};
+std::vector<std::optional<Eigen::Vector2d>> RefineFromStarts(
+    const cv::Mat& grey, const std::vector<std::pair<int, int>>& board_sizes,
+    const std::vector<CornerStart>& corners, bool correct);
 
 // Subtracts PredictedRefineBias from each known corner of a board refined by RefineCornerInRaw
 // with half-windows `halves` (per id). Lines are taken from the corners as given (all before

@@ -36,6 +36,20 @@ inline bool IsMisalignment(const std::string& name) {
   return name.rfind("mirror1.", 0) == 0 || name.rfind("mirror2.", 0) == 0 ||
          name.rfind("reflex.", 0) == 0;
 }
+// RIG's ideal design at an image size: what a user starts from (sample_configs/big_rig_ideal.yaml's
+// camera: every pose, the reflex plane and the distortion zero, the principal point at the image
+// centre, fx = fy = 1450 px).
+inline RigParams IdealDesignOf(const RigParams& rig, int width, int height) {
+  RigParams ideal = rig;
+  ideal.kind = ModelKind::kIdeal;
+  ideal.camera = {1450.0, 1450.0, (width - 1) / 2.0, (height - 1) / 2.0, 0.0};
+  ideal.distortion = {};
+  ideal.mirror1_pose = {};
+  ideal.mirror2_pose = {};
+  ideal.reflex = {};
+  ideal.calibration.reset();
+  return ideal;
+}
 inline RigParams IdealRig() {
   return io::ReadModelFile(std::string(OMNI_SOURCE_DIR) + "/sample_configs/big_rig_ideal.yaml");
 }

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <random>
+#include <sstream>
 
 #include <gtest/gtest.h>
 
@@ -143,6 +144,58 @@ TEST(MonteCarlo, NoisyAddsWhiteNoiseOfEachGroupsSigma) {
             noisy.images[0].corners[3].pixel);
   EXPECT_NE(Noisy(exact, sigma, 0.1, 8).images[0].corners[3].pixel,
             noisy.images[0].corners[3].pixel);
+}
+
+// The corner noise check's text: each ring with corners, their ratio, the unmatched.
+TEST(CalibrationChecks, CornerNoiseText) {
+  CalibrationResult result;
+  result.residuals.per_mirror_rms_px[0] = 0.2;
+  result.residuals.per_mirror_rms_px[1] = 0.3;
+  CornerNoise noise;
+  noise.true_rms_px[0] = 0.25;
+  noise.count[0] = 12;
+  noise.unmatched = 2;
+  EXPECT_EQ(CornerNoiseText(result, noise, "t.yaml"),
+            "corner noise (--truth t.yaml): reprojection RMS against the detector's true error "
+            "over the same corners (2-D RMS)\n"
+            "  ring 1: 0.2000 px vs 0.2500 px over 12 corners: ratio 0.80\n"
+            "  (2 detected corners have no true counterpart)\n");
+}
+
+// "name value sigma" with 17 digits: values read back bit for bit.
+TEST(CalibrationChecks, ValuesTextReadsBackExactly) {
+  CalibrationResult result;
+  result.estimate.names = {"fx", "mirror1.rx"};
+  result.estimate.values = Eigen::Vector2d(1450.1 + 1e-9, 0.1 + 0.2);
+  result.uncertainty.sigma = Eigen::Vector2d(0.5, 1e-5);
+  std::istringstream in(ValuesText(result));
+  std::string name;
+  double value = 0, sigma = 0;
+  for (int i = 0; i < 2; ++i) {
+    ASSERT_TRUE(in >> name >> value >> sigma);
+    EXPECT_EQ(name, result.estimate.names[i]);
+    EXPECT_EQ(value, result.estimate.values(i));
+    EXPECT_EQ(sigma, result.uncertainty.sigma(i));
+  }
+}
+
+// R0's measured noise: the corners' groups by name, the lips' RMS only with lips.
+TEST(MonteCarlo, MeasuredNoiseOfTheReference) {
+  CalibrationResult r0;
+  r0.residuals.lip_rms_px = 0.07;
+  VarianceComponent ring1, ring2, lips;
+  ring1.group = "corners ring 1";
+  ring1.sigma_px = 0.1;
+  ring2.group = "corners ring 2";
+  ring2.sigma_px = 0.2;
+  lips.group = "lips";
+  lips.sigma_px = 0.3;
+  r0.uncertainty.variance_components = {lips, ring2, ring1};
+  const MeasuredNoise with_lips = MeasuredNoiseOf(r0, true);
+  EXPECT_EQ(with_lips.corner_sigma_px[0], 0.1);
+  EXPECT_EQ(with_lips.corner_sigma_px[1], 0.2);
+  EXPECT_EQ(with_lips.lip_sigma_px, 0.07);
+  EXPECT_EQ(MeasuredNoiseOf(r0, false).lip_sigma_px, 0.0);
 }
 
 }  // namespace

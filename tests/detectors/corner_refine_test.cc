@@ -404,5 +404,22 @@ TEST(CornerRefine, BlurredBoardsKeepTheirWindows) {
   EXPECT_GT(dropped_as_sharp, corners / 4);  // what the test guards against
 }
 
+// RefineFromStarts: each start refined with its window onto the junction, a start whose window
+// comes within 3 px of the border left out, and the result in the corners' order.
+TEST(RefineFromStarts, RefinesEachStartAndLeavesOutWindowsAtTheBorder) {
+  // One X-junction between pixels: the quadrants meet at (39.5, 29.5).
+  cv::Mat grey(60, 80, CV_8U, cv::Scalar(0));
+  grey(cv::Rect(40, 0, 40, 30)).setTo(255);
+  grey(cv::Rect(0, 30, 40, 30)).setTo(255);
+  cv::GaussianBlur(grey, grey, cv::Size(0, 0), 1.0);
+  const std::vector<CornerStart> corners = {{0, 1, Eigen::Vector2d(41.2, 28.4), 5},
+                                            {0, 0, Eigen::Vector2d(3, 29), 5}};
+  const auto refined = RefineFromStarts(grey, {{1, 2}}, corners, false);
+  ASSERT_EQ(refined.size(), 2u);
+  ASSERT_TRUE(refined[0]);
+  EXPECT_LT((*refined[0] - Eigen::Vector2d(39.5, 29.5)).norm(), 0.02) << refined[0]->transpose();
+  EXPECT_FALSE(refined[1]);
+}
+
 }  // namespace
 }  // namespace omni::detectors

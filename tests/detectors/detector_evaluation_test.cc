@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include "detectors/detect_session.h"
+#include "io/model_file.h"
 
 namespace omni::detectors {
 namespace {
@@ -90,6 +91,28 @@ TEST(DetectSessionLines, ImageLineAndTargetSummary) {
             "  target 1 (" + TargetName(Board(3, 4)) + "): in 1 of 2 photos, 0 corners in ring 1, 1 in ring 2\n"
             "  target 2 (" + TargetName(Board(5, 5)) + "): in 0 of 2 photos, 0 corners in ring 1, 0 in ring 2: "
             "never found (check its rows/cols, size and first_id)\n");
+}
+
+// The run's report: each ring's views with the median of its measured blurs, the evaluation's
+// tables, the time per image (mean and max); no lip line without lips.
+TEST(DetectionRunReport, StatesViewsBlurAndTimes) {
+  const RigParams rig = io::ReadModelFile(std::string(OMNISTEREO_SOURCE_DIR) +
+                                          "/sample_configs/big_rig_misaligned.yaml");
+  const DetectorContext ctx(rig, {Board(2, 2)});
+  DetectionRun run;
+  run.view_blur = {std::vector<double>{0.4, 0.5, 0.9}, std::vector<double>{1.2}};
+  run.times_ms = {10, 30};
+  run.cpu_ms = {8, 12};
+  const DetectorEvaluation evaluation({Board(2, 2)});
+  const std::string report = DetectionRunReport(run, ctx, evaluation, rig, rig, 42);
+  EXPECT_EQ(report.rfind("views and layout built once in 42 ms\n", 0), 0u) << report;
+  EXPECT_NE(report.find("measured blur sigma median 0.50 view px\n"), std::string::npos) << report;
+  EXPECT_NE(report.find("measured blur sigma median 1.20 view px\n"), std::string::npos) << report;
+  EXPECT_NE(report.find(evaluation.Tables()), std::string::npos);
+  EXPECT_NE(report.find("image on one core: mean 20.0 ms, max 30.0 ms (2 images)\n"),
+            std::string::npos) << report;
+  EXPECT_NE(report.find("mean 10.0 ms, max 12.0 ms\n"), std::string::npos) << report;
+  EXPECT_EQ(report.find("lip"), std::string::npos) << report;
 }
 
 }  // namespace

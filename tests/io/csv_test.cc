@@ -247,5 +247,25 @@ TEST(CsvTest, WriterErrors) {
   EXPECT_THROW(CsvWriter(dir / "q.csv", {"x,y"}), std::invalid_argument);
 }
 
+// A labelled table (text first column, e.g. `triangulate`'s image names) reads back by column name.
+TEST(CsvTest, LabelledRowsReadBackWithTheirLabels) {
+  ScratchDir dir;
+  WriteLabelledCsv(dir / "t.csv", {"image", "x_mm", "y_mm"},
+                   {{"0001.jpg", {1.5, -2}}, {"0002.jpg", {0.1 + 0.2, 3}}});
+  CsvReader in(dir / "t.csv", {"x_mm", "y_mm"});
+  std::vector<double> v;
+  ASSERT_TRUE(in.ReadRow(&v));
+  EXPECT_EQ(in.Field(0), "0001.jpg");
+  EXPECT_EQ(v, (std::vector<double>{1.5, -2}));
+  ASSERT_TRUE(in.ReadRow(&v));
+  EXPECT_EQ(in.Field(0), "0002.jpg");
+  EXPECT_EQ(v, (std::vector<double>{0.1 + 0.2, 3}));
+  EXPECT_FALSE(in.ReadRow(&v));
+  // A row of the wrong length is a programmer error, and nothing is left behind.
+  EXPECT_THROW(WriteLabelledCsv(dir / "u.csv", {"image", "x_mm"}, {{"a", {1, 2}}}),
+               std::invalid_argument);
+  EXPECT_FALSE(std::filesystem::exists(dir / "u.csv"));
+}
+
 }  // namespace
 }  // namespace omni::io
