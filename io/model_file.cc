@@ -12,6 +12,7 @@
 #include <sstream>
 #include <sys/stat.h>
 
+#include "io/measured_profile.h"
 #include "io/yaml_reader.h"
 #include "model/lip.h"
 #include "model/rig_frames.h"
@@ -504,6 +505,7 @@ RigParams ParseModelText(const std::string& text, const std::string& file) {
     ReadProfile(in, SectionMap(in, root, kProfile1Block), kRigBlocks[kProfile1Block].section, rig,
                 Mirror::kOne, &rig.profile1, rig.mirror1_profile.data());
   }
+  ReadMeasuredProfile(in, file, m1, Mirror::kOne, {kMaxProfileSagMm, kMaxProfileSlope}, &rig);
 
   const YAML::Node m2 = in.Map(root, "mirror2", "mirror2");
   ReadBlock(in, SectionMap(in, root, kPose2Block), kPose2Block, rig.mirror2_pose.data());
@@ -512,6 +514,7 @@ RigParams ParseModelText(const std::string& text, const std::string& file) {
     ReadProfile(in, SectionMap(in, root, kProfile2Block), kRigBlocks[kProfile2Block].section, rig,
                 Mirror::kTwo, &rig.profile2, rig.mirror2_profile.data());
   }
+  ReadMeasuredProfile(in, file, m2, Mirror::kTwo, {kMaxProfileSagMm, kMaxProfileSlope}, &rig);
 
   if (root["mount"].IsDefined()) rig.mount = ReadMount(in, in.Map(root, "mount", "mount"), rig);
   if (rig.kind == ModelKind::kIdeal) CheckIdeal(in, rig);
