@@ -21,6 +21,7 @@
 #include <cmath>
 #include <map>
 #include <memory>
+#include <optional>
 #include <set>
 #include <string>
 #include <vector>
@@ -126,9 +127,11 @@ struct Refinement {
   bool profile_free[2] = {false, false};  // each mirror's profile refined (DecideProfiles)
   std::map<std::string, double> considered_sigma;  // options' and the held profiles'
   std::map<std::string, ShapePrior> shape_priors;  // options.priors
-  // A freed profile's prior: the machining tolerance about the starting model's profile.
+  // A freed profile's prior: the machining tolerance about the starting model's profile, or, for
+  // a measured one (the start's measured_profile), the fit's covariance (MeasuredPriorCovariance).
   std::array<double, kProfileTerms> profile_mean[2] = {};
   double profile_sigma_mm = 0;
+  std::optional<Eigen::Matrix<double, kProfileTerms, kProfileTerms>> profile_covariance[2];
 };
 
 // The coordinates of `group`'s block that stay at their starting values.
