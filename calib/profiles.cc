@@ -44,6 +44,9 @@ ProfileState SetUpProfiles(const RigParams& start, const CalibrationOptions& opt
     // A measured profile's prior is its fit (the coefficients the model file set from it).
     const std::optional<MeasuredProfile>& measured = start.measured_profile[m];
     if (measured) {
+      // The fit, not the start's coefficients: a calibrated model carries its calibrated values
+      // beside the fit it was calibrated with (solved again, the prior is the same).
+      refined->profile_mean[m] = measured->fit.coeffs;
       refined->profile_covariance[m] =
           MeasuredPriorCovariance(measured->fit, options.profile_sigma_mm);
     }

@@ -8,11 +8,106 @@
 
 namespace omni::io {
 
+namespace {
+
+using TermMatrix = Eigen::Matrix<double, kProfileTerms, kProfileTerms>;
+
+std::string Quoted(const std::string& text) {
+  std::string out = "\"";
+  for (char ch : text) {
+    if (ch == '"' || ch == '\\') out += '\\';
+    out += ch;
+  }
+  return out + "\"";
+}
+
+std::string List(const double* values, int n) {
+  std::string out = "[";
+  for (int i = 0; i < n; ++i) out += (i ? ", " : "") + FormatDouble(values[i]);
+  return out + "]";
+}
+
+// `profile_measured:` (MeasuredProfileText): the fit a calibrated model was calibrated with; the
+// mirror's coefficients are its `profile:` map's (the calibration's values).
+void ReadWrittenFit(const Reader& in, const YAML::Node& mirror_map, Mirror mirror, RigParams* rig) {
+  const std::string mirror_path = mirror == Mirror::kOne ? "mirror1" : "mirror2";
+  const std::string path = Join(mirror_path, "profile_measured");
+  const YAML::Node map = in.Map(mirror_map, path, "profile_measured");
+  if (!(mirror == Mirror::kOne ? rig->profile1 : rig->profile2).present) {
+    in.Fail(Join(mirror_path, "profile"), "a profile map beside profile_measured (its coefficients)",
+            "nothing (key missing)");
+  }
+  MeasuredProfile measured;
+  measured.scan_file = in.String(map, path, "scan");
+  measured.accuracy_mm = in.Positive(map, path, "accuracy_mm");
+  ProfileFit& fit = measured.fit;
+  fit.points = in.Integer(map, path, "points", 1);
+  fit.piston_mm = in.Number(map, path, "piston_mm");
+  fit.residual_pv_mm = in.Number(map, path, "residual_pv_mm");
+  fit.residual_rms_mm = in.Number(map, path, "residual_rms_mm");
+  const std::vector<std::string>& names = BlockParameterNames(kRigBlocks[ProfileBlock(mirror)].name);
+  for (const std::string& term : in.Strings(map, path, "terms")) {
+    int k = 0;
+    while (k < kProfileTerms && names[k] != mirror_path + "." + term) ++k;
+    if (k == kProfileTerms) in.Fail(Join(path, "terms"), "profile term names (sag_p1 ..)", Abbreviate(term));
+    fit.measured[k] = true;
+  }
+  const std::vector<double> sag = in.Numbers(map, path, "sag");
+  const std::vector<double> covariance = in.Numbers(map, path, "covariance");
+  if (sag.size() != kProfileTerms) {
+    in.Fail(Join(path, "sag"), "6 numbers (sag_p1 .. sag_sin2)", std::to_string(sag.size()));
+  }
+  if (covariance.size() != kProfileTerms * kProfileTerms) {
+    in.Fail(Join(path, "covariance"), "36 numbers (6 x 6, row-major)",
+            std::to_string(covariance.size()));
+  }
+  std::copy(sag.begin(), sag.end(), fit.coeffs.begin());
+  fit.covariance = Eigen::Map<const Eigen::Matrix<double, kProfileTerms, kProfileTerms, Eigen::RowMajor>>(
+      covariance.data());
+  if (!fit.covariance.isApprox(fit.covariance.transpose(), 1e-9) ||
+      fit.covariance.diagonal().minCoeff() < 0) {
+    in.Fail(Join(path, "covariance"), "a symmetric covariance", "another matrix");
+  }
+  rig->measured_profile[MirrorIndex(mirror) - 1] = std::move(measured);
+}
+
+}  // namespace
+
+std::string MeasuredProfileText(const RigParams& rig, Mirror mirror) {
+  const std::optional<MeasuredProfile>& measured = rig.measured_profile[MirrorIndex(mirror) - 1];
+  if (!measured) return "";
+  const ProfileFit& fit = measured->fit;
+  const std::vector<std::string>& names = BlockParameterNames(kRigBlocks[ProfileBlock(mirror)].name);
+  std::string terms;
+  for (int k = 0; k < kProfileTerms; ++k) {
+    if (fit.measured[k]) terms += (terms.empty() ? "" : ", ") + names[k].substr(names[k].find('.') + 1);
+  }
+  const Eigen::Matrix<double, kProfileTerms, kProfileTerms, Eigen::RowMajor> c = fit.covariance;
+  return "  profile_measured: {scan: " + Quoted(measured->scan_file) +
+         ", accuracy_mm: " + FormatDouble(measured->accuracy_mm) +
+         ", points: " + std::to_string(fit.points) + ", piston_mm: " + FormatDouble(fit.piston_mm) +
+         ", residual_pv_mm: " + FormatDouble(fit.residual_pv_mm) +
+         ", residual_rms_mm: " + FormatDouble(fit.residual_rms_mm) + ", terms: [" + terms +
+         "],\n                     sag: " + List(fit.coeffs.data(), kProfileTerms) +
+         ",\n                     covariance: " + List(c.data(), kProfileTerms * kProfileTerms) +
+         "}  # the scan's fit it was calibrated with (its prior)\n";
+}
+
 void ReadMeasuredProfile(const Reader& in, const std::string& model_file,
                          const YAML::Node& mirror_map, Mirror mirror, const ProfileBounds& bounds,
                          RigParams* rig) {
   const std::string path = mirror == Mirror::kOne ? "mirror1" : "mirror2";
   const std::string key = Join(path, "profile_from");
+  if (mirror_map["profile_measured"].IsDefined() && mirror_map["profile_from"].IsDefined()) {
+    in.Fail(Join(path, "profile_measured"),
+            "either profile_from (a scan to fit) or profile_measured (a fit written with a "
+            "calibrated model)",
+            "both");
+  }
+  if (mirror_map["profile_measured"].IsDefined()) {
+    ReadWrittenFit(in, mirror_map, mirror, rig);
+    return;
+  }
   if (!mirror_map["profile_from"].IsDefined()) {
     for (const char* stray : {"profile_accuracy_mm", "profile_max_gap_mm"}) {
       if (mirror_map[stray].IsDefined()) {

@@ -29,8 +29,18 @@ struct ProfileBounds {
 // gap; coefficients beside profile_from; kind ideal; a scan point off the mirror (inside mirror
 // 2's hole, beyond the rim), unsorted, with |sag| beyond bounds.max_sag_mm, gaps wider than the
 // bound; fitted terms beyond the bounds.
+// Or reads `profile_measured:` (MeasuredProfileText: a fit written with a model, the scan not
+// needed), whose coefficients are those of the mirror's `profile:` map (a calibrated model's
+// values); refused beside profile_from, without a profile map, or with a malformed map.
 void ReadMeasuredProfile(const Reader& in, const std::string& model_file,
                          const YAML::Node& mirror_map, Mirror mirror, const ProfileBounds& bounds,
                          RigParams* rig);
+
+// The lines ModelFileText writes for a mirror's measured profile ("" without one):
+// `profile_measured: {scan, accuracy_mm, points, piston_mm, residual_pv_mm, residual_rms_mm,
+// terms (the measured ones), sag (the fit's six terms), covariance (6 x 6, row-major)}`, so
+// that a written model (a calibrated one: its `profile:` the calibration's values) carries the
+// prior it was calibrated with, without the scan.
+std::string MeasuredProfileText(const RigParams& rig, Mirror mirror);
 
 }  // namespace omni::io

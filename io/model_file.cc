@@ -567,6 +567,7 @@ std::string ModelFileText(const RigParams& rig) {
     Line(&out, 2, SectionKey(kProfile1Block) + ": " + ProfileMap(rig, Mirror::kOne),
          "sag over the conic along +z (mm): docs/formats/model.md");
   }
+  out += MeasuredProfileText(rig, Mirror::kOne);
   Line(&out, 0, "mirror2:");
   Line(&out, 2, SectionKey(kPose2Block) + ": " + BlockMap(rig, kPose2Block));
   Line(&out, 2, "lip: " + LipMap(rig.lip2), "flat annulus, mirror-2 frame");
@@ -574,6 +575,7 @@ std::string ModelFileText(const RigParams& rig) {
     Line(&out, 2, SectionKey(kProfile2Block) + ": " + ProfileMap(rig, Mirror::kTwo),
          "sag over the conic along +z (mm): docs/formats/model.md");
   }
+  out += MeasuredProfileText(rig, Mirror::kTwo);
 
   if (rig.mount.present) {
     Line(&out, 0, "mount: " + MountMap(rig.mount),

@@ -333,10 +333,10 @@ std::string UncertaintyMap(const std::string& dir,
 std::string MeasuredProfileScript(const calib::CalibrationResult& result, int mirror) {
   const RigParams& rig = result.estimate.rig;
   const std::optional<MeasuredProfile>& measured = rig.measured_profile[mirror - 1];
-  if (!measured || measured->scan.empty()) return "";
+  if (!measured) return "";
   // The scan's piston is the mirror's axial offset (not a profile term): the points are drawn
   // without it, as the fit sees them.
-  const double theta = measured->scan.front().theta_rad;
+  const double theta = measured->scan.empty() ? 0.0 : measured->scan.front().theta_rad;
   const std::vector<calib::ProfileSample> samples =
       calib::CompareWithMeasured(rig, result, mirror, theta, 121);
   std::vector<std::vector<double>> points, curves;
@@ -353,6 +353,7 @@ std::string MeasuredProfileScript(const calib::CalibrationResult& result, int mi
     scan_file.insert(at, 1, '\'');
   }
   // One radius axis for both panels: the scan line's and the profile's radii.
+  if (samples.empty()) return "";
   double r_lo = samples.front().r_mm, r_hi = samples.back().r_mm;
   for (const auto& p : points) r_lo = std::min(r_lo, p[0]), r_hi = std::max(r_hi, p[0]);
   char text[1400];
@@ -362,8 +363,7 @@ std::string MeasuredProfileScript(const calib::CalibrationResult& result, int mi
       "set title 'mirror %d: profile along azimuth %.0f deg (scan %s, stated accuracy %.3g um, "
       "fit residual %.3g um PV)'\n"
       "set ylabel 'sag over the conic (um)'\n"
-      "plot $points using 1:2 with points pt 7 ps 0.4 lc rgb '#999999' title 'scan (piston removed)', "
-      "$curves using 1:2 with lines lw 2 lc rgb '#1f77b4' title 'measured (the scan''s fit)', "
+      "plot %s$curves using 1:2 with lines lw 2 lc rgb '#1f77b4' title 'measured (the scan''s fit)', "
       "'' using 1:3 with lines lw 2 dt 2 lc rgb '#d62728' title 'calibrated'\n"
       "set title 'calibrated minus measured, with its 1-sigma band'\n"
       "set xlabel 'mirror radius (mm)'\nset ylabel 'difference (um)'\n"
@@ -371,8 +371,12 @@ std::string MeasuredProfileScript(const calib::CalibrationResult& result, int mi
       "'' using 1:4 with lines lw 2 lc rgb '#d62728' title 'difference', 0 with lines lc rgb "
       "'#444444' notitle\nunset multiplot\n",
       r_lo, r_hi, mirror, theta * 180 / M_PI, scan_file.c_str(), 1000 * measured->accuracy_mm,
-      1000 * measured->fit.residual_pv_mm);
-  return Datablock("points", points) + Datablock("curves", curves) + text;
+      1000 * measured->fit.residual_pv_mm,
+      points.empty() ? ""
+                     : "$points using 1:2 with points pt 7 ps 0.4 lc rgb '#999999' title 'scan "
+                       "(piston removed)', ");
+  // A model read back carries the scan's fit, not its points (io/measured_profile.h).
+  return (points.empty() ? "" : Datablock("points", points)) + Datablock("curves", curves) + text;
 }
 
 std::string MeasuredProfilePlot(const std::string& dir, const ReportInput& in, int mirror,

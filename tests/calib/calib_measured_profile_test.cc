@@ -21,6 +21,7 @@
 #include <Eigen/Eigenvalues>
 
 #include "calib/calibrate.h"
+#include "calib/calibration_checks.h"
 #include "calib/profile_comparison.h"
 #include "io/model_file.h"
 #include "tests/calib/calib_test_util.h"
@@ -160,6 +161,18 @@ TEST(CalibMeasuredProfile, AOneMicronScanNarrowsTheAxialSigmasAndHoldsTheTruth) 
   // The right scan raises no alarm: the calibrated profile within 3 sigma of their difference.
   for (const std::string& note : r.solve.notes) {
     EXPECT_EQ(note.find("the photos disagree with the scan"), std::string::npos) << note;
+  }
+  // The calibrated model, written and read back without its scans, carries the fit it was
+  // calibrated with: solved again from it (what `report` does) the calibration is the same.
+  const std::filesystem::path dir = testing::UniqueTempDir("calib_measured_again");
+  std::filesystem::create_directories(dir);
+  io::WriteModelFile((dir / "calibrated.yaml").string(), r.estimate.rig);
+  const RigParams written = io::ReadModelFile((dir / "calibrated.yaml").string());
+  ASSERT_TRUE(written.measured_profile[0] && written.measured_profile[1]);
+  const CalibrationResult again = s.Solve(written);
+  EXPECT_EQ(MovedWhenSolvedAgain(*written.calibration, again), "");
+  for (const char* name : {"mirror1.tz", "mirror2.tz", "mirror1.sag_p1", "mirror2.sag_p2"}) {
+    EXPECT_NEAR(SigmaOf(again, name) / SigmaOf(r, name), 1.0, 0.01) << name;
   }
 }
 

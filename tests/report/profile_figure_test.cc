@@ -93,6 +93,13 @@ TEST(ProfileFigure, PlotsTheMeasuredAndCalibratedProfilesAndTheirDifference) {
   EXPECT_GT(largest_sigma, 0.01);
   EXPECT_LT(largest_sigma, 1.0);
 
+  // A calibrated model read back carries the fit without the points: the figure still draws.
+  calib::CalibrationResult without_points = result;
+  without_points.estimate.rig.measured_profile[0]->scan.clear();
+  const std::string fit_only = MeasuredProfileScript(without_points, 1);
+  EXPECT_EQ(fit_only.find("$points"), std::string::npos);
+  EXPECT_EQ(Rows(fit_only, "curves"), curves);
+
   ReportInput in;
   in.result = &result;
   in.observations = &detections;
@@ -105,6 +112,11 @@ TEST(ProfileFigure, PlotsTheMeasuredAndCalibratedProfilesAndTheirDifference) {
   if (std::system("command -v gnuplot > /dev/null 2>&1") != 0) GTEST_SKIP() << "no gnuplot";
   EXPECT_NE(html.find("<img src=\"profile_mirror1.png\""), std::string::npos);
   EXPECT_GT(fs::file_size(dir / "report" / "profile_mirror1.png"), 10000u);
+  in.result = &without_points;
+  std::string note;
+  fs::create_directories(dir / "fit_only");
+  EXPECT_EQ(MeasuredProfilePlot((dir / "fit_only").string(), in, 1, &note), "profile_mirror1.png")
+      << note;
 }
 
 }  // namespace
