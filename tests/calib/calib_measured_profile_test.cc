@@ -15,8 +15,10 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <random>
 #include <sstream>
+#include <thread>
 
 #include <Eigen/Eigenvalues>
 
@@ -197,6 +199,71 @@ TEST(CalibMeasuredProfile, AScanOfAnotherMirrorIsCaught) {
             note.find("the photos disagree with the scan") != std::string::npos;
   }
   EXPECT_TRUE(said);
+}
+
+// Monte Carlo over the pixel noise and the scans' noise: the small clean session (8 images at
+// 960x720, calib_profile_test.cc's Monte Carlo) of the profiled rig without tangential
+// distortion, corners at 0.1 px, lips at 0.03 px; each solve from the true rig with its
+// profiles replaced by fresh scans (1 um, stated so). The errors' spread over the solves is what
+// the predicted sigma (noise_sigma: pixel noise and prior; no detector bias is simulated) says:
+// with N solves a ratio has sd ~1/sqrt(2N) (11% at N = 40), so each is held to [0.65, 1.5] and
+// their RMS over the misalignments, the camera and the profile terms to within 20% of 1.
+// MC_SOLVES overrides N.
+TEST(CalibMeasuredProfile, MonteCarloConfirmsTheSigmasWithScans) {
+  testing::SyntheticSession session;
+  RigParams truth_full = ProfiledTruth(0.010);
+  truth_full.distortion[kDistP1] = truth_full.distortion[kDistP2] = 0;
+  const RigParams truth = testing::MakeSceneSession(
+      truth_full, std::string(OMNI_SOURCE_DIR) + "/sample_configs/small_clean_scene.yaml", &session);
+  const int solves = std::getenv("MC_SOLVES") ? std::atoi(std::getenv("MC_SOLVES")) : 40;
+  const std::filesystem::path dir = testing::UniqueTempDir("calib_measured_mc");
+  std::vector<CalibrationResult> results(solves);
+  std::vector<std::string> failures(solves);
+  auto run = [&](int first, int step) {
+    for (int k = first; k < solves; k += step) {
+      Observations detections = testing::NoisyDetections(session, 0.1, 1000 + k);
+      testing::AddLipDetections(truth, 0.03, 5000 + k, &detections, 90);
+      const RigParams start = StartWithScans(dir / std::to_string(k), truth, 0.001, 0.001,
+                                             100 * static_cast<unsigned>(k), &truth);
+      CalibrationOptions options;
+      options.solver.threads = 1;
+      try {
+        results[k] = Calibrate(start, session.targets, detections, options);
+      } catch (const CalibrationError& e) {
+        failures[k] = e.what();
+      }
+    }
+  };
+  std::thread worker(run, 1, 2);
+  run(0, 2);
+  worker.join();
+  for (int k = 0; k < solves; ++k) EXPECT_TRUE(failures[k].empty()) << "solve " << k << ": " << failures[k];
+  std::map<std::string, std::vector<double>> errors, sigmas;
+  for (const auto& r : results) {
+    ASSERT_TRUE(r.residuals.profile[0].measured && r.residuals.profile[0].freed);
+    for (size_t i = 0; i < r.estimate.names.size(); ++i) {
+      errors[r.estimate.names[i]].push_back(r.estimate.values(i) -
+                                            testing::TruthValue(truth, r.estimate.names[i]));
+      sigmas[r.estimate.names[i]].push_back(r.uncertainty.noise_sigma(i));
+    }
+  }
+  double sum_ratio2 = 0;
+  int compared = 0;
+  for (const auto& [name, e] : errors) {
+    double rms = 0, predicted = 0;
+    for (double x : e) rms += x * x / e.size();
+    for (double sigma : sigmas[name]) predicted += sigma / e.size();
+    const double ratio = std::sqrt(rms) / predicted;
+    std::fprintf(stderr, "%-16s n %3zu  RMS error %.6g  predicted %.6g  ratio %.3f\n", name.c_str(),
+                 e.size(), std::sqrt(rms), predicted, ratio);
+    EXPECT_GT(ratio, 0.65) << name;
+    EXPECT_LT(ratio, 1.5) << name;
+    sum_ratio2 += ratio * ratio;
+    ++compared;
+  }
+  const double rms_ratio = std::sqrt(sum_ratio2 / compared);
+  std::fprintf(stderr, "RMS of the ratios over %d parameters: %.3f\n", compared, rms_ratio);
+  EXPECT_NEAR(rms_ratio, 1.0, 0.2);
 }
 
 }  // namespace

@@ -50,19 +50,25 @@ inline std::string ScanOf(const RigParams& surface, Mirror mirror, double noise_
   return text.str();
 }
 
-// The design as a noncentral starting model whose mirrors' profiles are scans of `surface`,
-// written into `dir` and read back as calibrate would.
+// A starting model whose mirrors' profiles are scans of `surface` (noise seeds seed + 1, seed +
+// 2), written into `dir` and read back as calibrate would: `base` (default: the design, as kind
+// noncentral) without its profiles, each mirror naming its scan stated to accuracy_mm.
 inline RigParams StartWithScans(const std::filesystem::path& dir, const RigParams& surface,
-                                double accuracy_mm = 0.001, double noise_mm = 0.001) {
+                                double accuracy_mm = 0.001, double noise_mm = 0.001,
+                                unsigned seed = 0, const RigParams* base = nullptr) {
   std::filesystem::create_directories(dir / "scans");
-  RigParams start = IdealRig();
+  RigParams start = base ? *base : IdealRig();
   start.kind = ModelKind::kNoncentral;
+  start.profile1.present = start.profile2.present = false;
+  start.measured_profile = {};
+  start.calibration.reset();
   std::string text = io::ModelFileText(start);
-  for (const auto& [lip, name, seed] :
+  for (const auto& [lip, name, mirror_seed] :
        {std::tuple<const char*, const char*, unsigned>{"  lip: {color: blue", "mirror1", 1},
         std::tuple<const char*, const char*, unsigned>{"  lip: {color: red", "mirror2", 2}}) {
     std::ofstream(dir / "scans" / (std::string(name) + ".csv"))
-        << ScanOf(surface, seed == 1 ? Mirror::kOne : Mirror::kTwo, noise_mm, seed);
+        << ScanOf(surface, mirror_seed == 1 ? Mirror::kOne : Mirror::kTwo, noise_mm,
+                  seed + mirror_seed);
     const size_t at = text.find('\n', text.find(lip)) + 1;
     char accuracy[64];
     std::snprintf(accuracy, sizeof(accuracy), "%.17g", accuracy_mm);
