@@ -18,7 +18,8 @@
 // the scene file's placements through RIG (the truth) on the fast path, exact corners plus
 // Gaussian noise, lips from the truth with 0.03 px noise (lip_profiles 0: none), started from
 // RIG's ideal design (every pose, the reflex plane and the distortion zero, the principal point
-// at the image centre, fx = fy = 1450 px as in the design files).
+// at the image centre, fx = fy = 1450 px as in the design files), or from the model file
+// OMNI_START_MODEL names (e.g. with measured profiles: bench/measured_profile_scans.py).
 #include <sys/resource.h>
 
 #include <algorithm>
@@ -65,7 +66,11 @@ int RunScene(int argc, char** argv) {
   const RigParams truth = testing::MakeSceneSession(truth_rig, argv[1], &session);
   Observations detections = testing::NoisyDetections(session, corner_noise, 3);
   if (lip_profiles > 0) testing::AddLipDetections(truth, 0.03, 4, &detections, lip_profiles);
-  SolveAndReport(testing::IdealDesignOf(truth, session.scene.width, session.scene.height),
+  // OMNI_START_MODEL: a model file to start from instead (e.g. the design with its mirrors'
+  // measured profiles, bench/measured_profile_scans.py).
+  const char* start_file = std::getenv("OMNI_START_MODEL");
+  SolveAndReport(start_file ? io::ReadModelFile(start_file)
+                            : testing::IdealDesignOf(truth, session.scene.width, session.scene.height),
                  session.targets, detections, calib::CalibrationOptions(), truth,
                  static_cast<int>(detections.images.size()), argc > 5 ? argv[5] : nullptr);
   return 0;

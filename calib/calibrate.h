@@ -89,8 +89,10 @@ struct CalibrationOptions {
   // Each mirror's profile (model/mirror_profile.h: a machined mirror's smooth departure from the
   // conic, sag_p1..sag_p4, sag_cos2, sag_sin2). "auto": freed, with a prior of profile_sigma_mm
   // per term around the starting model's value, for a mirror whose corners cover the radii the
-  // profile acts on (ProfileCoverage); otherwise held and considered with that sigma. "free":
-  // always freed; "hold": always held and considered. A profile of microns bends rays by
+  // profile acts on (ProfileCoverage); otherwise held and considered with that sigma. A measured
+  // profile (the start's measured_profile, a model file's profile_from) has its fit's covariance
+  // as the prior instead (the tolerance stays on terms the scan did not measure) and is freed in
+  // "auto" whatever the coverage. "free": always freed; "hold": always held and considered. A profile of microns bends rays by
   // milliradians: held at the conic, it hides in the mirrors' heights and the focal length while
   // the residuals stay at the noise (10 um moved both tz by 3 mm at 10 sigma).
   std::string profile = "auto";
@@ -152,6 +154,12 @@ struct RadialResidualBin {
 };
 struct ProfileDecision {
   bool freed = false;
+  // The start's profile was measured (profile_from): the prior on its terms, the scan's fit and
+  // its covariance (MeasuredPriorCovariance; calib/profile_comparison.h compares).
+  bool measured = false;
+  std::array<double, kProfileTerms> prior_mean{};
+  Eigen::Matrix<double, kProfileTerms, kProfileTerms> prior_covariance =
+      Eigen::Matrix<double, kProfileTerms, kProfileTerms>::Zero();
   int bins_covered = 0, bins = 0;  // radial bands holding >= 10 corners
   double r_min = 0, r_max = 0;     // the radii the mirror's corners reach (mm): the bands' span
   // Before the profile was decided (held at the start) and at the end.

@@ -21,6 +21,7 @@
 #include <cmath>
 #include <map>
 #include <memory>
+#include <optional>
 #include <set>
 #include <string>
 #include <vector>
@@ -129,9 +130,11 @@ struct Refinement {
   // Their means: each mirror's shape in the starting model (the priors stay there while the
   // stages move the values).
   std::array<double, 2> shape_mean[2] = {};
-  // A freed profile's prior: the machining tolerance about the starting model's profile.
+  // A freed profile's prior: the machining tolerance about the starting model's profile, or, for
+  // a measured one (the start's measured_profile), the fit's covariance (MeasuredPriorCovariance).
   std::array<double, kProfileTerms> profile_mean[2] = {};
   double profile_sigma_mm = 0;
+  std::optional<Eigen::Matrix<double, kProfileTerms, kProfileTerms>> profile_covariance[2];
   // A telecentric lens (single-mirror rigs): the camera's position along its axis is no datum,
   // a lateral shift of the mirror is the principal point's and the mirror's size trades with the
   // lens's magnification (fx: px per mm), so mirror 1's tx, ty, tz and R stay (R: the rim's

@@ -203,4 +203,18 @@ struct ScalarPriorCost {
   }
 };
 
+// One row of a whitened Gaussian prior on a whole block: row . (x - mean). With the rows of
+// L^-1 (covariance = L L^T) the rows' squares sum to (x - mean)^T covariance^-1 (x - mean).
+template <int kSize>
+struct LinearPriorCost {
+  std::array<double, kSize> row, mean;
+
+  template <typename T>
+  bool operator()(const T* block, T* residual) const {
+    residual[0] = T(0);
+    for (int j = 0; j < kSize; ++j) residual[0] += T(row[j]) * (block[j] - T(mean[j]));
+    return true;
+  }
+};
+
 }  // namespace omni::calib

@@ -3,6 +3,8 @@
 // refined shapes and freed profiles, and the held coordinates (BuildProblem).
 #include <ceres/ceres.h>
 
+#include <Eigen/Cholesky>
+
 #include "calib/calibration_steps.h"
 #include "calib/corner_cost.h"
 #include "calib/lip_cost.h"
@@ -114,6 +116,22 @@ void MarkProjectable(const RigState& rig, const Selection& selection,
 
 namespace {
 
+// A measured profile's prior: one residual block per row of the whitening L^-1 (covariance =
+// L L^T), so that each prior residual is one row as the machining tolerance's are.
+void AddMeasuredProfilePrior(const Eigen::Matrix<double, kProfileTerms, kProfileTerms>& covariance,
+                             const std::array<double, kProfileTerms>& mean, double* block,
+                             CalibrationProblem* p) {
+  using Matrix = Eigen::Matrix<double, kProfileTerms, kProfileTerms>;
+  const Matrix whitening = covariance.llt().matrixL().solve(Matrix::Identity());
+  for (int k = 0; k < kProfileTerms; ++k) {
+    LinearPriorCost<kProfileTerms>* cost = new LinearPriorCost<kProfileTerms>{{}, mean};
+    for (int j = 0; j < kProfileTerms; ++j) cost->row[j] = whitening(k, j);
+    p->prior_costs.emplace_back(
+        new ceres::AutoDiffCostFunction<LinearPriorCost<kProfileTerms>, 1, kProfileTerms>(cost));
+    p->prior_blocks.push_back(p->problem.AddResidualBlock(p->prior_costs.back().get(), nullptr, block));
+  }
+}
+
 // The priors on the refined shapes (options' priors) and on the freed profiles (the machining
 // tolerance about the starting model's profile), each added as a residual block of its own.
 void AddPriors(const RigBlockSet& groups, const Refinement& refined, RigParams* rig,
@@ -135,10 +153,15 @@ void AddPriors(const RigBlockSet& groups, const Refinement& refined, RigParams* 
           p->problem.AddResidualBlock(p->prior_costs.back().get(), nullptr, block));
     }
   }
-  // Freed profiles: the machining tolerance as a prior around the starting model's profile.
+  // Freed profiles: the machining tolerance as a prior around the starting model's profile, or
+  // a measured profile's fit with its covariance.
   for (int m = 0; m < 2; ++m) {
     if (!groups[kProfileGroups[m]] || !refined.profile_free[m]) continue;
     double* block = BlockIn(rig, kProfileGroups[m]);
+    if (refined.profile_covariance[m]) {
+      AddMeasuredProfilePrior(*refined.profile_covariance[m], refined.profile_mean[m], block, p);
+      continue;
+    }
     for (int k = 0; k < kProfileTerms; ++k) {
       p->prior_costs.emplace_back(
           new ceres::AutoDiffCostFunction<ScalarPriorCost, 1, kProfileTerms>(

@@ -4,6 +4,7 @@
 #include <algorithm>
 
 #include "calib/calibration_steps.h"
+#include "calib/profile_comparison.h"
 
 namespace omni::calib {
 namespace {
@@ -40,12 +41,24 @@ ProfileState SetUpProfiles(const RigParams& start, const CalibrationOptions& opt
       coeffs.fill(0);
       refined->profile_mean[m] = coeffs;
     }
+    // A measured profile's prior is its fit (the coefficients the model file set from it).
+    const std::optional<MeasuredProfile>& measured = start.measured_profile[m];
+    if (measured) {
+      // The fit, not the start's coefficients: a calibrated model carries its calibrated values
+      // beside the fit it was calibrated with (solved again, the prior is the same).
+      refined->profile_mean[m] = measured->fit.coeffs;
+      refined->profile_covariance[m] =
+          MeasuredPriorCovariance(measured->fit, options.profile_sigma_mm);
+    }
     // Held through the robust stages in every mode (a fine correction, freed once the rig is
-    // aligned: DecideProfiles).
+    // aligned: DecideProfiles), considered with its prior's sigmas.
     refined->groups.set(kProfileGroups[m]);
     refined->profile_free[m] = false;
-    for (const std::string& name : BlockParameterNames(kRigBlocks[kProfileGroups[m]].name)) {
-      refined->considered_sigma.emplace(name, options.profile_sigma_mm);
+    const std::vector<std::string>& names = BlockParameterNames(kRigBlocks[kProfileGroups[m]].name);
+    for (int k = 0; k < kProfileTerms; ++k) {
+      refined->considered_sigma.emplace(
+          names[k], measured ? std::sqrt((*refined->profile_covariance[m])(k, k))
+                             : options.profile_sigma_mm);
     }
   }
   return profiles;
@@ -155,8 +168,16 @@ bool DecideProfiles(const ObservationSet& observations, const CalibrationOptions
     const bool asked = options.profile == "free" ||
                        std::count(options.estimate.begin(), options.estimate.end(),
                                   kRigBlocks[kProfileGroups[m]].name);
+    // A measured profile is freed in auto whatever the coverage: its prior holds the terms the
+    // corners do not reach.
+    d.measured = refined->profile_covariance[m].has_value();
+    if (d.measured) {
+      d.prior_mean = refined->profile_mean[m];
+      d.prior_covariance = *refined->profile_covariance[m];
+    }
     bool& free = refined->profile_free[m];
-    if (!free && (asked || (options.profile == "auto" && d.bins_covered >= kMinBandsToFree))) {
+    if (!free && (asked || (options.profile == "auto" &&
+                            (d.measured || d.bins_covered >= kMinBandsToFree)))) {
       free = true;
       freed = true;
     }
@@ -173,6 +194,49 @@ bool DecideProfiles(const ObservationSet& observations, const CalibrationOptions
   return freed;
 }
 
+namespace {
+
+// A measured profile's note: the scan and its fit, the prior, and the calibrated profile against
+// the measured one (their largest difference over the radii and azimuths, in sigmas of it).
+std::string MeasuredProfileNote(int mirror, const MeasuredProfile& measured,
+                                const ProfileDecision& d, const RigParams& rig,
+                                const CalibrationResult& result) {
+  const ProfileFit& fit = measured.fit;
+  double lo = HUGE_VAL, hi = 0;
+  for (int k = 0; k < kProfileTerms; ++k) {
+    if (!fit.measured[k]) continue;
+    lo = std::min(lo, std::sqrt(d.prior_covariance(k, k)));
+    hi = std::max(hi, std::sqrt(d.prior_covariance(k, k)));
+  }
+  double worst_um = 0, worst_sigmas = 0;
+  for (int a = 0; a < 8; ++a) {
+    for (const ProfileSample& s : CompareWithMeasured(rig, result, mirror, M_PI * a / 8, 41)) {
+      worst_um = std::max(worst_um, 1000 * std::abs(s.difference_mm));
+      if (s.sigma_mm > 0) worst_sigmas = std::max(worst_sigmas, std::abs(s.difference_mm) / s.sigma_mm);
+    }
+  }
+  char buf[1024];
+  std::snprintf(
+      buf, sizeof(buf),
+      "mirror %d's profile measured (%s: %d points inside its radii, stated accuracy %.3g um; the "
+      "fit's residual %.3g um PV, %.3g um RMS, the form its terms cannot take) and %s with the fit "
+      "as prior (sigmas %.3g-%.3g um per measured term%s); calibrated minus measured: at most "
+      "%.3g um over the radii, %.2g sigma of their difference%s; radial residual pattern chi^2 "
+      "per band %.2g before, %.2g after",
+      mirror, measured.scan_file.c_str(), fit.points, 1000 * measured.accuracy_mm,
+      1000 * fit.residual_pv_mm, 1000 * fit.residual_rms_mm,
+      d.freed ? "refined" : "held, considered", 1000 * lo, 1000 * hi,
+      fit.measured[4] ? "" : "; the astigmatism, which one or two scan azimuths cannot tell, at the machining tolerance",
+      worst_um, worst_sigmas,
+      worst_sigmas > 3 ? ": the photos disagree with the scan (a mirror other than the one scanned, "
+                         "a scan of another reference, or an accuracy stated too small)"
+                       : "",
+      d.pattern_chi2_before, d.pattern_chi2_after);
+  return buf;
+}
+
+}  // namespace
+
 void FinishProfiles(const ObservationSet& observations, const ProfileState& profiles,
                     const CalibrationOptions& options, RigState* rig, CalibrationResult* result) {
   if (options.profile == "off") return;
@@ -183,13 +247,14 @@ void FinishProfiles(const ObservationSet& observations, const ProfileState& prof
     if (p && p->role == SolveRole::kAxialScale) traded += (traded.empty() ? "" : ", ") + u.name;
   }
   if (!traded.empty()) {
-    char buf[512];
+    char buf[768];
     std::snprintf(buf, sizeof(buf),
                   "%s: the mirrors' profiles trade with them (a profile's power term bends the "
                   "rays as an axial shift or a focal length does, and targets and lips fit either "
-                  "at the noise), so the machining tolerance (profile_sigma_mm %.3g mm) leaves "
-                  "them open: projections stay determined; a measured mirror (its profile in the "
-                  "starting model, a smaller profile_sigma_mm) would narrow them",
+                  "at the noise), so the profiles' priors (the machining tolerance, "
+                  "profile_sigma_mm %.3g mm, or a measured profile's fit) leave them open: "
+                  "projections stay determined; a measured mirror (profile_from: its scan in the "
+                  "starting model) would narrow them",
                   traded.c_str(), options.profile_sigma_mm);
     result->solve.notes.push_back(buf);
   }
@@ -198,6 +263,10 @@ void FinishProfiles(const ObservationSet& observations, const ProfileState& prof
     d.pattern_after = RadialPattern(*rig, observations, profiles, m + 1, &d.pattern_chi2_after);
     char buf[640];
     const double um = 1000 * options.profile_sigma_mm;
+    if (const std::optional<MeasuredProfile>& measured = rig->params.measured_profile[m]) {
+      result->solve.notes.push_back(MeasuredProfileNote(m + 1, *measured, d, rig->params, *result));
+      continue;  // a measured profile is given: never dropped
+    }
     if (d.freed) {
       std::snprintf(buf, sizeof(buf),
                     "mirror %d's profile refined (prior sigma %.3g um per term): the corners cover "

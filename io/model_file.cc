@@ -12,6 +12,7 @@
 #include <sstream>
 #include <sys/stat.h>
 
+#include "io/measured_profile.h"
 #include "io/yaml_reader.h"
 #include "model/lip.h"
 #include "model/rig_frames.h"
@@ -457,7 +458,8 @@ void ReadRigAndLens(const Reader& in, const YAML::Node& root, RigParams* rig) {
 
 // A single-mirror rig (rig: single): camera, `design: {R, K, vertex_z, r_sys, r_cam}` and
 // `mirror1: {cam_from_mirror, lip (optional), profile (optional)}`; the folded rig's keys refused.
-void ReadSingleRig(const Reader& in, const YAML::Node& root, RigParams* rig) {
+void ReadSingleRig(const Reader& in, const YAML::Node& root, const std::string& file,
+                   RigParams* rig) {
   ReadBlock(in, SectionMap(in, root, kCameraBlock), kCameraBlock, rig->camera.data());
   const YAML::Node dist = SectionMap(in, root, kDistortionBlock);
   const std::string dist_path = kRigBlocks[kDistortionBlock].section;
@@ -510,6 +512,7 @@ void ReadSingleRig(const Reader& in, const YAML::Node& root, RigParams* rig) {
     ReadProfile(in, SectionMap(in, root, kProfile1Block), kRigBlocks[kProfile1Block].section, *rig,
                 Mirror::kOne, &rig->profile1, rig->mirror1_profile.data());
   }
+  ReadMeasuredProfile(in, file, m1, Mirror::kOne, {kMaxProfileSagMm, kMaxProfileSlope}, rig);
   if (root["mount"].IsDefined()) rig->mount = ReadMount(in, in.Map(root, "mount", "mount"), *rig);
   if (rig->kind == ModelKind::kIdeal) CheckIdeal(in, *rig);
   if (root["calibration"].IsDefined()) rig->calibration = ReadCalibration(in, root);
@@ -531,6 +534,7 @@ void WriteSingleRig(const RigParams& rig, std::string* out) {
     Line(out, 2, SectionKey(kProfile1Block) + ": " + ProfileMap(rig, Mirror::kOne),
          "sag over the conic along +z (mm): docs/formats/model.md");
   }
+  *out += MeasuredProfileText(rig, Mirror::kOne);
   if (rig.mount.present) {
     Line(out, 0, "mount: " + MountMap(rig.mount), "posts (square prisms) in that body's frame, mm / deg");
   }
@@ -585,7 +589,7 @@ RigParams ParseModelText(const std::string& text, const std::string& file) {
   rig.image_height = in.Integer(image, "image", "height", 1);
   ReadRigAndLens(in, root, &rig);
   if (rig.Single()) {
-    ReadSingleRig(in, root, &rig);
+    ReadSingleRig(in, root, file, &rig);
     return rig;
   }
 
@@ -627,6 +631,7 @@ RigParams ParseModelText(const std::string& text, const std::string& file) {
     ReadProfile(in, SectionMap(in, root, kProfile1Block), kRigBlocks[kProfile1Block].section, rig,
                 Mirror::kOne, &rig.profile1, rig.mirror1_profile.data());
   }
+  ReadMeasuredProfile(in, file, m1, Mirror::kOne, {kMaxProfileSagMm, kMaxProfileSlope}, &rig);
 
   const YAML::Node m2 = in.Map(root, "mirror2", "mirror2");
   ReadBlock(in, SectionMap(in, root, kPose2Block), kPose2Block, rig.mirror2_pose.data());
@@ -635,6 +640,7 @@ RigParams ParseModelText(const std::string& text, const std::string& file) {
     ReadProfile(in, SectionMap(in, root, kProfile2Block), kRigBlocks[kProfile2Block].section, rig,
                 Mirror::kTwo, &rig.profile2, rig.mirror2_profile.data());
   }
+  ReadMeasuredProfile(in, file, m2, Mirror::kTwo, {kMaxProfileSagMm, kMaxProfileSlope}, &rig);
 
   if (root["mount"].IsDefined()) rig.mount = ReadMount(in, in.Map(root, "mount", "mount"), rig);
   if (rig.kind == ModelKind::kIdeal) CheckIdeal(in, rig);
@@ -710,6 +716,7 @@ void WriteFoldedRig(const RigParams& rig, std::string* out_text) {
     Line(&out, 2, SectionKey(kProfile1Block) + ": " + ProfileMap(rig, Mirror::kOne),
          "sag over the conic along +z (mm): docs/formats/model.md");
   }
+  out += MeasuredProfileText(rig, Mirror::kOne);
   Line(&out, 0, "mirror2:");
   Line(&out, 2, SectionKey(kPose2Block) + ": " + BlockMap(rig, kPose2Block));
   Line(&out, 2, "lip: " + LipMap(rig.lip2), "flat annulus, mirror-2 frame");
@@ -717,6 +724,7 @@ void WriteFoldedRig(const RigParams& rig, std::string* out_text) {
     Line(&out, 2, SectionKey(kProfile2Block) + ": " + ProfileMap(rig, Mirror::kTwo),
          "sag over the conic along +z (mm): docs/formats/model.md");
   }
+  out += MeasuredProfileText(rig, Mirror::kTwo);
 
   if (rig.mount.present) {
     Line(&out, 0, "mount: " + MountMap(rig.mount),

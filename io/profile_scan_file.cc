@@ -69,9 +69,11 @@ std::vector<ProfileScanPoint> ReadProfileScan(const std::string& path, const Pro
       }
     }
     p.theta_rad = theta_deg * M_PI / 180;
-    if (!std::isfinite(p.r_mm) || p.r_mm < 0 || (limits.rim_mm > 0 && p.r_mm > limits.rim_mm)) {
-      throw InputError(where + "r_mm " + Mm(p.r_mm) + ": expected a radius on the mirror, 0.." +
-                       Mm(limits.rim_mm) + " mm");
+    if (!std::isfinite(p.r_mm) || p.r_mm < limits.hole_mm || p.r_mm < 0 ||
+        (limits.rim_mm > 0 && p.r_mm > limits.rim_mm)) {
+      throw InputError(where + "r_mm " + Mm(p.r_mm) + ": expected a radius on the mirror, " +
+                       Mm(limits.hole_mm) + ".." + Mm(limits.rim_mm) + " mm" +
+                       (limits.hole_mm > 0 && p.r_mm < limits.hole_mm ? " (inside the hole)" : ""));
     }
     if (!std::isfinite(p.sag_mm) || std::abs(p.sag_mm) > limits.max_sag_mm) {
       throw InputError(where + "sag_mm " + Mm(p.sag_mm) + ": expected a departure from the conic " +

@@ -17,6 +17,8 @@ namespace omni::io {
 
 struct ProfileScanLimits {
   double rim_mm = 0;         // the mirror's outer radius: a radius beyond it is not on the mirror
+  double hole_mm = 0;        // the radius of the mirror's central hole (mirror 2's r_cam): a
+                             // radius inside it is not on the mirror
   double max_gap_mm = 0;     // widest gap between a line's radii over the profile's radii (0:
                              // a tenth of r_max - r_min)
   double max_sag_mm = 0.5;   // a larger |sag| is no profile error (the conic itself, or microns
@@ -24,7 +26,8 @@ struct ProfileScanLimits {
 };
 
 // Reads and checks a scan against the profile's radii `shape`. Throws InputError naming the file
-// and line for: a missing r_mm or sag_mm column; a non-number; a radius < 0 or beyond the rim; a
+// and line for: a missing r_mm or sag_mm column; a non-number; a radius < 0, inside the hole or
+// beyond the rim; a
 // radius not above the previous one of its scan line; a |sag| beyond max_sag_mm; a gap wider
 // than max_gap_mm between consecutive radii of a line, or between the profile's radii and a
 // line's first or last radius inside them; fewer than 10 points inside the profile's radii.

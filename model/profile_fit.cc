@@ -9,16 +9,21 @@
 namespace omni {
 namespace {
 
-// Two azimuths tell astigmatism from the symmetric terms unless cos 2theta and sin 2theta agree
-// for both (theta equal modulo 180 deg): they must differ by at least this in 2 theta.
-constexpr double kMinAzimuthSpreadRad = 20.0 * M_PI / 180.0;
+// The astigmatism's r^2 cos 2theta and r^2 sin 2theta are told from the symmetric terms' r^2
+// only where (1, cos 2theta, sin 2theta) over the scan's points spans three dimensions: at least
+// three azimuths distinct in 2 theta (two lines leave one combination of the three r^2
+// coefficients open). The smallest eigenvalue of their mean outer product must reach this
+// (three lines 0, 45, 90 deg: 0.20; 0, 60, 120 deg: 0.5).
+constexpr double kMinAzimuthSpread = 0.05;
 
 bool ScanHasAzimuths(const std::vector<ProfileScanPoint>& scan) {
+  Eigen::Matrix3d m = Eigen::Matrix3d::Zero();
   for (const ProfileScanPoint& p : scan) {
-    const double d = std::remainder(2 * (p.theta_rad - scan.front().theta_rad), 2 * M_PI);
-    if (std::abs(d) >= kMinAzimuthSpreadRad) return true;
+    const Eigen::Vector3d v(1, std::cos(2 * p.theta_rad), std::sin(2 * p.theta_rad));
+    m += v * v.transpose();
   }
-  return false;
+  m /= static_cast<double>(scan.size());
+  return Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(m).eigenvalues()(0) >= kMinAzimuthSpread;
 }
 
 }  // namespace
@@ -29,11 +34,34 @@ std::array<double, kProfileTerms> ProfileFit::Sigma() const {
   return sigma;
 }
 
+std::array<double, kProfileTerms> ProfileTermGradient(const ProfileShape& shape, double x,
+                                                      double y) {
+  ProfileShape terms_only = shape;  // the ripple is fixed data, not a term
+  terms_only.ripple_amplitude = 0;
+  std::array<double, kProfileTerms> g{};
+  for (int k = 0; k < kProfileTerms; ++k) {
+    std::array<double, kProfileTerms> unit{};
+    unit[k] = 1;
+    g[k] = ProfileSag(unit.data(), terms_only, x, y, /*second=*/false).z;
+  }
+  return g;
+}
+
+Eigen::Matrix<double, kProfileTerms, kProfileTerms> MeasuredPriorCovariance(const ProfileFit& fit,
+                                                                           double tolerance_mm) {
+  Eigen::Matrix<double, kProfileTerms, kProfileTerms> c = fit.covariance;
+  for (int k = 0; k < kProfileTerms; ++k) {
+    if (fit.measured[k]) continue;
+    c.row(k).setZero();
+    c.col(k).setZero();
+    c(k, k) = tolerance_mm * tolerance_mm;
+  }
+  return c;
+}
+
 ProfileFit FitProfileToScan(const std::vector<ProfileScanPoint>& scan, const ProfileShape& shape,
                             double sigma_mm) {
   if (!(sigma_mm > 0)) throw std::invalid_argument("the scan's accuracy must be > 0 mm");
-  ProfileShape terms_only = shape;  // the ripple is fixed data, not a fitted term
-  terms_only.ripple_amplitude = 0;
   std::vector<ProfileScanPoint> inside;
   ProfileFit fit;
   for (const ProfileScanPoint& p : scan) {
@@ -58,12 +86,9 @@ ProfileFit FitProfileToScan(const std::vector<ProfileScanPoint>& scan, const Pro
   for (size_t i = 0; i < inside.size(); ++i) {
     const double x = inside[i].r_mm * std::cos(inside[i].theta_rad);
     const double y = inside[i].r_mm * std::sin(inside[i].theta_rad);
+    const std::array<double, kProfileTerms> g = ProfileTermGradient(shape, x, y);
     a(i, 0) = 1;
-    for (size_t j = 0; j < terms.size(); ++j) {
-      std::array<double, kProfileTerms> unit{};
-      unit[terms[j]] = 1;
-      a(i, 1 + j) = ProfileSag(unit.data(), terms_only, x, y, /*second=*/false).z;
-    }
+    for (size_t j = 0; j < terms.size(); ++j) a(i, 1 + j) = g[terms[j]];
     b(i) = inside[i].sag_mm;
   }
   const Eigen::MatrixXd normal = a.transpose() * a;

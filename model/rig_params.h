@@ -13,6 +13,7 @@
 #include "model/ideal_model.h"
 #include "model/mirror_profile.h"
 #include "model/mount.h"
+#include "model/profile_fit.h"
 #include "model/rig_blocks.h"
 
 namespace omni {
@@ -79,6 +80,9 @@ struct RigParams {
   Lip lip1, lip2;
   // The profiles' fixed part: radii, ripple; present false (the default) = exact quadrics.
   ProfileShape profile1, profile2;
+  // Each mirror's measured profile (index 0: mirror 1), where the model file gave one
+  // (`profile_from:`): its coefficients above are the scan's fit; the calibration's prior.
+  std::array<std::optional<MeasuredProfile>, 2> measured_profile;
   // The posts that hold the rig together (model/mount.h); present false: none (a glass tube).
   Mount mount;
 

@@ -9,6 +9,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "calib/profile_comparison.h"
 #include "calib/projection_uncertainty.h"
 #include "model/model_compare.h"
 #include "model/rig_model.h"
@@ -49,9 +50,9 @@ bool Write(const std::string& dir, const std::string& name, const cv::Mat& image
 }
 
 std::string Plot(const std::string& dir, const std::string& name, const std::string& body,
-                 std::string* note) {
-  const std::string script = "set terminal pngcairo size 900,420 font 'sans,10'\nset output '" +
-                             dir + "/" + name + "'\n" + body;
+                 std::string* note, int height = 420) {
+  const std::string script = "set terminal pngcairo size 900," + std::to_string(height) +
+                             " font 'sans,10'\nset output '" + dir + "/" + name + "'\n" + body;
   return RunGnuplot(script, note) ? name : std::string();
 }
 
@@ -327,6 +328,62 @@ std::string UncertaintyMap(const std::string& dir,
   char name[64];
   std::snprintf(name, sizeof(name), "uncertainty_%.0fmm.png", range_mm);
   return Plot(dir, name, UncertaintyMapScript(map, range_mm, cb_max_px), note);
+}
+
+std::string MeasuredProfileScript(const calib::CalibrationResult& result, int mirror) {
+  const RigParams& rig = result.estimate.rig;
+  const std::optional<MeasuredProfile>& measured = rig.measured_profile[mirror - 1];
+  if (!measured) return "";
+  // The scan's piston is the mirror's axial offset (not a profile term): the points are drawn
+  // without it, as the fit sees them.
+  const double theta = measured->scan.empty() ? 0.0 : measured->scan.front().theta_rad;
+  const std::vector<calib::ProfileSample> samples =
+      calib::CompareWithMeasured(rig, result, mirror, theta, 121);
+  std::vector<std::vector<double>> points, curves;
+  for (const ProfileScanPoint& p : measured->scan) {
+    if (p.theta_rad != theta) break;  // the first scan line
+    points.push_back({p.r_mm, 1000 * (p.sag_mm - measured->fit.piston_mm)});
+  }
+  for (const calib::ProfileSample& s : samples) {
+    curves.push_back({s.r_mm, 1000 * s.measured_mm, 1000 * s.calibrated_mm, 1000 * s.difference_mm,
+                      1000 * s.sigma_mm});
+  }
+  std::string scan_file = measured->scan_file;  // in a gnuplot '...' string: ' as ''
+  for (size_t at = scan_file.find('\''); at != std::string::npos; at = scan_file.find('\'', at + 2)) {
+    scan_file.insert(at, 1, '\'');
+  }
+  // One radius axis for both panels: the scan line's and the profile's radii.
+  if (samples.empty()) return "";
+  double r_lo = samples.front().r_mm, r_hi = samples.back().r_mm;
+  for (const auto& p : points) r_lo = std::min(r_lo, p[0]), r_hi = std::max(r_hi, p[0]);
+  char text[1400];
+  std::snprintf(
+      text, sizeof(text),
+      "set multiplot layout 2,1\nset key top left\nset grid\nset xrange [%g:%g]\n"
+      "set title 'mirror %d: profile along azimuth %.0f deg (scan %s, stated accuracy %.3g um, "
+      "fit residual %.3g um PV)'\n"
+      "set ylabel 'sag over the conic (um)'\n"
+      "plot %s$curves using 1:2 with lines lw 2 lc rgb '#1f77b4' title 'measured (the scan''s fit)', "
+      "'' using 1:3 with lines lw 2 dt 2 lc rgb '#d62728' title 'calibrated'\n"
+      "set title 'calibrated minus measured, with its 1-sigma band'\n"
+      "set xlabel 'mirror radius (mm)'\nset ylabel 'difference (um)'\n"
+      "plot $curves using 1:($4-$5):($4+$5) with filledcurves fc rgb '#c6dbef' title '1 sigma', "
+      "'' using 1:4 with lines lw 2 lc rgb '#d62728' title 'difference', 0 with lines lc rgb "
+      "'#444444' notitle\nunset multiplot\n",
+      r_lo, r_hi, mirror, theta * 180 / M_PI, scan_file.c_str(), 1000 * measured->accuracy_mm,
+      1000 * measured->fit.residual_pv_mm,
+      points.empty() ? ""
+                     : "$points using 1:2 with points pt 7 ps 0.4 lc rgb '#999999' title 'scan "
+                       "(piston removed)', ");
+  // A model read back carries the scan's fit, not its points (io/measured_profile.h).
+  return (points.empty() ? "" : Datablock("points", points)) + Datablock("curves", curves) + text;
+}
+
+std::string MeasuredProfilePlot(const std::string& dir, const ReportInput& in, int mirror,
+                                std::string* note) {
+  const std::string script = MeasuredProfileScript(*in.result, mirror);
+  if (script.empty()) return "";
+  return Plot(dir, "profile_mirror" + std::to_string(mirror) + ".png", script, note, 640);
 }
 
 }  // namespace omni::report

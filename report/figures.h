@@ -42,4 +42,13 @@ std::string UncertaintyMapScript(const std::vector<calib::PointUncertainty>& map
                                  double range_mm, double cb_max_px);
 double LargestUncertaintyPx(const std::vector<calib::PointUncertainty>& map);
 
+// A measured mirror's profile against the radius (calib/profile_comparison.h), along its first
+// scan line's azimuth: above, the scan's points on that line (where the model was read with its
+// scan, not a written model's fit), the scan's fit and the calibrated
+// profile (um); below, calibrated minus measured with its 1-sigma band. Empty, without a note,
+// where mirror `mirror` (1, 2) was not measured.
+std::string MeasuredProfilePlot(const std::string& dir, const ReportInput& in, int mirror,
+                                std::string* note);
+std::string MeasuredProfileScript(const calib::CalibrationResult& result, int mirror);
+
 }  // namespace omni::report

@@ -259,7 +259,9 @@ std::string MountSection(const RigParams& rig) {
          "the check leave those sectors out, and no corner is expected there.</p>\n";
 }
 
-std::string ProfileSection(const calib::CalibrationResult& r) {
+// `plots`, `notes`: each mirror's measured-profile figure (MeasuredProfilePlot) or why it is missing.
+std::string ProfileSection(const calib::CalibrationResult& r, const std::string (&plots)[2],
+                           const std::string (&notes)[2]) {
   std::ostringstream out;
   bool any = false;
   for (int m = 0; m < 2; ++m) {
@@ -285,6 +287,12 @@ std::string ProfileSection(const calib::CalibrationResult& r) {
       out << "</td></tr>\n";
     }
     out << "</table>\n";
+    if (d.measured) {
+      out << Figure(plots[m], notes[m],
+                    "mirror " + std::to_string(m + 1) +
+                        "'s profile against the radius: measured (the scan's fit), calibrated, "
+                        "and their difference with its 1-sigma band");
+    }
   }
   return any ? out.str() : "<p>Profiles left out of this calibration (profile: off).</p>\n";
 }
@@ -321,6 +329,9 @@ std::string WriteReport(const std::string& dir, const ReportInput& in) {
   const double cb_max = std::max(LargestUncertaintyPx(map_1m), LargestUncertaintyPx(map_far));
   const std::string near = UncertaintyMap(dir, map_1m, 1000, cb_max, &note[4]);
   const std::string far = UncertaintyMap(dir, map_far, in.range_mm, cb_max, &note[5]);
+  status("mirror profiles");
+  std::string profile_plots[2], profile_notes[2];
+  for (int m = 0; m < 2; ++m) profile_plots[m] = MeasuredProfilePlot(dir, in, m + 1, &profile_notes[m]);
   status("triangulation uncertainty");
   const calib::ProjectionUncertainty at_1m = calib::RmsOf(map_1m);
 
@@ -340,7 +351,7 @@ std::string WriteReport(const std::string& dir, const ReportInput& in) {
        << Figure(vectors, note[0], "residual vectors over the image")
        << Figure(per_image, note[3], "residual RMS per image")
        << Figure(per_target, note[6], "residual RMS per target") << "<h2>Mirror profiles</h2>\n"
-       << ProfileSection(*in.result) << "<h2>Mount</h2>\n"
+       << ProfileSection(*in.result, profile_plots, profile_notes) << "<h2>Mount</h2>\n"
        << MountSection(in.result->estimate.rig) << "<h2>Coverage</h2>\n"
        << Figure(angles, note[7], "where the corners' rays point, per ring")
        << Figure(coverage, note[1], "where corners were seen (every image)")

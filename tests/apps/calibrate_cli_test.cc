@@ -22,6 +22,7 @@
 #include "io/truth_file.h"
 #include "stereo/sparse_triangulation.h"
 #include "tests/calib/calib_test_util.h"
+#include "tests/calib/measured_profile_util.h"
 #include "tests/cli_test_util.h"
 
 namespace omni {
@@ -229,6 +230,37 @@ TEST_F(CalibrateCli, ReportOfACalibratedModel) {
   EXPECT_EQ(report_of(shifted, "report4"), 2);
   EXPECT_NE(err.find("sigma when solved again"), std::string::npos) << err;
   EXPECT_FALSE(fs::exists(dir_ / "report4"));
+}
+
+// A starting model whose mirrors name profilometer scans (profile_from:, exact mirrors scanned
+// to 1 um): calibrate prints each mirror's measured-profile note, writes the fit beside the
+// calibrated coefficients (profile_measured:), and `report` solves again from that model without
+// the scans and draws each mirror's profile against the radius.
+TEST_F(CalibrateCli, MeasuredProfilesFromScansToTheReport) {
+  RigParams exact = testing::MisalignedRig();
+  exact.profile1 = DefaultProfileShape(exact, Mirror::kOne);
+  exact.profile2 = DefaultProfileShape(exact, Mirror::kTwo);
+  testing::StartWithScans(dir_ / "measured", exact);
+  io::Session session = SessionWith(session_->targets);
+  session.model_path = (dir_ / "measured" / "start.yaml").string();
+  std::string err, out;
+  ASSERT_EQ(Run(Files(session, *detections_), &err, &out), 0) << err;
+  for (const char* said : {"mirror 1's profile measured (scans/mirror1.csv", "mirror 2's profile measured (scans/mirror2.csv"}) {
+    EXPECT_NE(out.find(said), std::string::npos) << out;
+  }
+  EXPECT_NE(testing::ReadText(dir_ / "out.yaml").find("profile_measured: {scan: \"scans/mirror1.csv\""),
+            std::string::npos);
+  fs::remove_all(dir_ / "measured" / "scans");
+  ASSERT_EQ(Run("report --model='" + (dir_ / "out.yaml").string() + "' --detections='" +
+                    (dir_ / "detections.yaml").string() + "' --session='" +
+                    (dir_ / "session.yaml").string() + "' --out='" + (dir_ / "report").string() + "'",
+                &err, &out),
+            0)
+      << err;
+  const std::string html = testing::ReadText(dir_ / "report" / "index.html");
+  if (std::system("command -v gnuplot > /dev/null 2>&1") != 0) GTEST_SKIP() << "no gnuplot";
+  EXPECT_NE(html.find("<img src=\"profile_mirror1.png\""), std::string::npos);
+  EXPECT_NE(html.find("<img src=\"profile_mirror2.png\""), std::string::npos);
 }
 
 TEST_F(CalibrateCli, TooFewObservations) {

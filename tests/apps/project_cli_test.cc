@@ -188,5 +188,36 @@ TEST_F(ProjectCli, BadInputIsRejectedWithoutOutput) {
   EXPECT_EQ(ReadText(out), "precious\n");
 }
 
+// A model whose mirror 1 names a measured profile (profile_from:): a good scan reads and projects;
+// a bad one (radii unsorted, a gap wider than the stated bound, a sag beyond the profile's
+// bound) ends in exit 2 with one line naming the scan and its line, and no output.
+TEST_F(ProjectCli, AModelsBadProfileScanIsRejectedWithoutOutput) {
+  std::string text = ReadText(model_path_);
+  const size_t at = text.find('\n', text.find("  lip: {color: blue")) + 1;
+  text.insert(at, "  profile_from: scan.csv\n  profile_accuracy_mm: 0.001\n  profile_max_gap_mm: 1.0\n");
+  const std::string model = Write("scan_model.yaml", text);
+  const std::string points = Write("points.csv", "x_mm,y_mm,z_mm\n900,300,200\n");
+  const fs::path out = dir_ / "out.csv";
+  const std::string args =
+      "project --model='" + model + "' --points='" + points + "' --out='" + out.string() + "'";
+  std::string good = "r_mm,sag_mm\n";
+  for (int i = 0; i <= 148; ++i) good += std::to_string(i * 0.25) + "," + std::to_string(1e-6 * i) + "\n";
+  Write("scan.csv", good);
+  std::string err;
+  ASSERT_EQ(Run(args, &err), 0) << err;
+  ASSERT_TRUE(fs::exists(out));
+  fs::remove(out);
+  for (const auto& [scan, expected] : std::vector<std::pair<std::string, std::string>>{
+           {"r_mm,sag_mm\n20,0\n19,0\n", "scan.csv: line 3: r_mm 19 after 20"},
+           {good.substr(0, good.find("\n30.250000")) + "\n", "expected gaps of at most 1 mm"},
+           {"r_mm,sag_mm\n20,0.2\n", "scan.csv: line 2: sag_mm 0.2: expected a departure"}}) {
+    Write("scan.csv", scan);
+    EXPECT_EQ(Run(args, &err), 2) << scan;
+    EXPECT_NE(err.find(expected), std::string::npos) << err;
+    EXPECT_EQ(std::count(err.begin(), err.end(), '\n'), 1) << err;
+    EXPECT_FALSE(fs::exists(out));
+  }
+}
+
 }  // namespace
 }  // namespace omni

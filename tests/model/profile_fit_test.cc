@@ -100,6 +100,17 @@ TEST(ProfileFit, OneScanLineLeavesTheAstigmatismUnmeasured) {
     both.push_back(p);
   }
   EXPECT_FALSE(FitProfileToScan(both, shape, 1e-3).measured[4]);
+  // Two lines 45 deg apart leave one combination of the r^2 terms (P1, cos2, sin2) open: the
+  // astigmatism needs a third azimuth.
+  for (auto& p : both) p.theta_rad = p.theta_rad == 0 ? 0 : M_PI / 4;
+  EXPECT_FALSE(FitProfileToScan(both, shape, 1e-3).measured[4]);
+  for (auto p : scan) {
+    p.theta_rad = M_PI / 2;
+    both.push_back(p);
+  }
+  const ProfileFit three = FitProfileToScan(both, shape, 1e-3);
+  EXPECT_TRUE(three.measured[4] && three.measured[5]);
+  for (int i = 0; i < kProfileTerms; ++i) EXPECT_NEAR(three.coeffs[i], symmetric[i], 1e-12);
 }
 
 TEST(ProfileFit, MachiningRippleShowsInTheResidualPeakToValley) {
