@@ -34,6 +34,9 @@ void RestrictToRig(const RigParams& rig, Refinement* refined, const CalibrationO
     }
   }
   refined->telecentric = rig.lens == LensKind::kTelecentric;
+  const auto prior = refined->shape_priors.find(kRigBlocks[kShape1Block].name);
+  refined->hold_mirror_size =
+      prior == refined->shape_priors.end() || !(prior->second.sigma_c > 0);
 }
 
 RigState RigStateOf(const RigParams& params) {

@@ -140,6 +140,10 @@ struct Refinement {
   // lens's magnification (fx: px per mm), so mirror 1's tx, ty, tz and R stay (R: the rim's
   // measured size sets it).
   bool telecentric = false;
+  // A single-mirror rig's scale datum: R held at the start's (the rim's measured diameter set
+  // it) unless a prior on mirror1_shape's R says how well it is known. From corners alone a
+  // mirror twice the size twice as far looks the same to a nearly central camera.
+  bool hold_mirror_size = false;
 };
 
 // The coordinates of `group`'s block that stay at their starting values.

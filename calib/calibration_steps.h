@@ -36,7 +36,8 @@ inline void Status(const CalibrationOptions& options, const std::string& now) {
 // What options ask to refine (the profiles are added by SetUpProfiles).
 Refinement RefinementOf(const CalibrationOptions& options);
 // A single-mirror rig: mirror 2, the reflex and mirror 2's profile left out of the groups (said
-// in the progress), and a telecentric lens's mirror translation held.
+// in the progress), a telecentric lens's mirror translation held, and R (the scale) held unless
+// a prior on mirror1_shape gives its sigma.
 void RestrictToRig(const RigParams& rig, Refinement* refined, const CalibrationOptions& options);
 // The rig's blocks from `params` and the fixed data of its costs with the relaxed bounds.
 RigState RigStateOf(const RigParams& params);

@@ -22,7 +22,9 @@ std::vector<int> HeldCoordinates(const Refinement& refined, RigBlockId group) {
   if (!refined.tangential) hold(SolveRole::kTangential);
   if (!refined.dist_k3) hold(SolveRole::kHighRadial);
   if (refined.telecentric && group == kPose1Block) held.insert(held.end(), {kTx, kTy, kTz});
-  if (refined.telecentric && group == kShape1Block) held.push_back(kShapeC);
+  if ((refined.telecentric || refined.hold_mirror_size) && group == kShape1Block) {
+    held.push_back(kShapeC);
+  }
   for (int m = 0; m < 2; ++m) {
     if (group == kProfileGroups[m] && !refined.profile_free[m]) {
       for (int k = 0; k < kProfileTerms; ++k) held.push_back(k);
