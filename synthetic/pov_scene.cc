@@ -280,6 +280,10 @@ std::string SingleMirrorBody(const RigParams& rig) {
   const Conic<double> conic = SingleConic(rig);
   const double rim_z = rig.vertex_z + conic.Sag(rig.r_sys * rig.r_sys);
   const double housing = std::max(2.0, 0.1 * rig.r_sys);
+  // A painted lip lies on the rim where the housing would (coplanar discs would fight): the
+  // housing then starts outside the lip.
+  const double housing_inner =
+      HasLip(rig, Mirror::kOne) ? std::max(rig.r_sys, rig.lip1.r_outer) : rig.r_sys;
   std::ostringstream s;
   s << "  union {  // the single mirror's body (frame M1)\n"
     << "  " << SingleMirrorSurface(rig) << "\n";
@@ -287,8 +291,8 @@ std::string SingleMirrorBody(const RigParams& rig) {
     s << "  disc { " << Vec(0, 0, rig.vertex_z + conic.Sag(rig.r_cam * rig.r_cam))
       << ", <0, 0, 1>, " << Num(rig.r_cam) << " texture { MatteBlack } }\n";
   }
-  s << "  disc { " << Vec(0, 0, rim_z) << ", <0, 0, 1>, " << Num(rig.r_sys + housing) << ", "
-    << Num(rig.r_sys) << " texture { Housing } }\n";
+  s << "  disc { " << Vec(0, 0, rim_z) << ", <0, 0, 1>, " << Num(housing_inner + housing) << ", "
+    << Num(housing_inner) << " texture { Housing } }\n";
   if (HasLip(rig, Mirror::kOne)) {
     s << "  disc { " << Vec(0, 0, rig.lip1.z) << ", <0, 0, 1>, " << Num(rig.lip1.r_outer) << ", "
       << Num(rig.lip1.r_inner) << " " << LipTexture(rig.lip1, Mirror::kOne) << " }\n";
