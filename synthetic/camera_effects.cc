@@ -115,6 +115,7 @@ cv::Mat InnerRingWeight(const RigParams& rig, double feather_px) {
   // The reflex disc's rim in C: mirror 1's pose applied to the disc of radius r_ref about the
   // reflex plane's point (rig_frames.h), imaged straight through the lens (the camera sees the
   // disc directly; everything inside its image is the inner ring).
+  if (rig.Single()) return cv::Mat(rig.image_height, rig.image_width, CV_32F, cv::Scalar(0));
   const Pose<double> cam_from_mirror1 = PoseFromBlock(rig.mirror1_pose.data());
   const Pinhole<double> cam = rig.Intrinsics();
   const RadTan<double> dist = rig.Distortion();
@@ -144,7 +145,7 @@ cv::Mat Defocus(const cv::Mat& image, const RigParams& rig, const double sigma[2
     return out;
   };
   const cv::Mat outer = blur(sigma[0]);
-  if (sigma[1] == sigma[0]) return outer;
+  if (sigma[1] == sigma[0] || rig.Single()) return outer;  // a single rig: its one ring
   const cv::Mat inner = blur(sigma[1]);
   const cv::Mat w = InnerRingWeight(rig);
   cv::Mat out(image.size(), image.type());

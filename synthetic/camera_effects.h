@@ -62,7 +62,8 @@ std::vector<std::string> CameraPresetNames();
 
 // Weight of the inner ring (mirror 2, inside the reflex disc's image) at every pixel, 0..1,
 // feathered over `feather_px` across the disc's rim: the image of the reflex disc's rim circle
-// through the rig's camera (intrinsics and distortion).
+// through the rig's camera (intrinsics and distortion). A single-mirror rig has no inner ring:
+// zero everywhere.
 cv::Mat InnerRingWeight(const RigParams& rig, double feather_px = 1.5);
 
 // The camera applied to a linear render at the rig's image size (BGR, 8 or 16 bit, before lens

@@ -2,12 +2,14 @@
 
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
 
+#include "model/conic.h"
 #include "model/hyperboloid.h"
 #include "model/lip.h"
 #include "model/rig_frames.h"
@@ -25,6 +27,11 @@ std::string Num(double v) {
   char buf[40];
   std::snprintf(buf, sizeof(buf), "%.17g", v);
   return buf;
+}
+
+// A single-mirror rig's conic (its shape block is R, K: rig_params.h).
+Conic<double> SingleConic(const RigParams& rig) {
+  return Conic<double>{rig.mirror1_shape[kShapeC], rig.mirror1_shape[kShapeK]};
 }
 
 std::string Vec(double x, double y, double z) {
@@ -54,8 +61,9 @@ std::string Quadric(const HyperboloidSheet<double>& h) {
 // polynomial in W (Horner), and OmniMirror<n>S(x, y, R2) with R2 = x^2 + y^2, so that each
 // evaluation computes r^2 and w once (3.3x faster than the terms written out, same image to the
 // byte but 2 values of 3.7 M).
-std::string ProfileFunctions(const HyperboloidSheet<double>& h, const ProfileShape& shape,
-                             const double* c, int mirror) {
+// conic: the conic's z as a POV-Ray expression in R2 (HyperboloidConicZ, SingleConicSag).
+std::string ProfileFunctions(const std::string& conic, const ProfileShape& shape, const double* c,
+                             int mirror) {
   // P1..P4 as monomials in W: a0 + a1 W + a2 W^2 + a3 W^3 + a4 W^4.
   const double a[5] = {-0.5 * c[1] + 0.375 * c[3], c[0] - 1.5 * c[2], 1.5 * c[1] - 3.75 * c[3],
                        2.5 * c[2], 4.375 * c[3]};
@@ -64,8 +72,8 @@ std::string ProfileFunctions(const HyperboloidSheet<double>& h, const ProfileSha
   std::ostringstream s;
   s << "#declare " << name << "P = function(W) { " << Num(a[0]) << "+W*(" << Num(a[1]) << "+W*("
     << Num(a[2]) << "+W*(" << Num(a[3]) << "+W*" << Num(a[4]) << "))) }\n"
-    << "#declare " << name << "S = function(x, y, R2) { " << Num(h.z0) << "+" << Num(h.sheet * h.a / h.b)
-    << "*sqrt(" << Num(h.b * h.b) << "+R2)+" << name << "P(" << Num(2 / span) << "*(R2-"
+    << "#declare " << name << "S = function(x, y, R2) { " << conic << "+" << name << "P("
+    << Num(2 / span) << "*(R2-"
     << Num(shape.r_min * shape.r_min) << ")-1)+(" << Num(c[4]) << "*(x*x-y*y)+" << Num(c[5])
     << "*2*x*y)/" << Num(shape.r_max * shape.r_max);
   if (shape.ripple_amplitude != 0) {
@@ -74,6 +82,20 @@ std::string ProfileFunctions(const HyperboloidSheet<double>& h, const ProfileSha
   }
   s << " }\n";
   return s.str();
+}
+
+// A folded rig's hyperboloid sheet's z(R2) (hyperboloid.h) for ProfileFunctions.
+std::string HyperboloidConicZ(const HyperboloidSheet<double>& h) {
+  return Num(h.z0) + "+" + Num(h.sheet * h.a / h.b) + "*sqrt(" + Num(h.b * h.b) + "+R2)";
+}
+
+// A single rig's conic's sag s(R2) = R2 / (R + sqrt(R^2 - (1 + K) R2)) (conic.h) for
+// ProfileFunctions, measured from the vertex. Beyond an ellipsoid's or sphere's equator (only the
+// corners of the isosurface's box, clipped away) the root is clamped at 0, so the function stays
+// finite there.
+std::string SingleConicSag(const Conic<double>& conic) {
+  return "R2/(" + Num(conic.R) + "+sqrt(max(0," + Num(conic.R * conic.R) + "-(" +
+         Num(1 + conic.K) + ")*R2)))";
 }
 
 // The profiled mirror as POV-Ray's isosurface of sheet * (z - Z(x, y)) (ProfileFunctions), which
@@ -130,11 +152,13 @@ std::string LipTexture(const Lip& lip, Mirror owner) {
 // what the camera sees, directly and in mirror 1), a ring above lights mirror 2's lip from above
 // (seen in mirror 2 and the reflex disc). The lamps are shadowless: a room's light is soft, and a
 // point lamp's hard shadow of a mirror body would cross a lip's band as a sharp edge.
+// A single-mirror rig has the lower ring only, and only where its mirror has a painted lip.
 std::string RoomLamps(const RigParams& rig, const SceneContent& content) {
   constexpr int kLamps = 6;
   const double radius = 0.6 * content.room_half_size_mm;
+  const int rings = rig.Single() ? (HasLip(rig, Mirror::kOne) ? 1 : 0) : 2;
   std::ostringstream s;
-  for (int ring = 0; ring < 2; ++ring) {
+  for (int ring = 0; ring < rings; ++ring) {
     const double lamp_z = 0.5 * (ring == 0 ? content.room_floor_mm : content.room_ceiling_mm);
     const double lip_z =
         ring == 0 ? rig.lip1.z + rig.mirror1_pose[kTz] : rig.lip2.z + rig.mirror2_pose[kTz];
@@ -199,6 +223,85 @@ std::string MirrorBodies(const RigParams& rig) {
   return s.str();
 }
 
+// A single-mirror rig's conic (conic_sheet.h), clipped to its used annulus r_cam..r_sys and to
+// the branch through the vertex (R - (1 + K) s > 0), in a frame with the vertex at the origin
+// (s = z). The quadric r^2 - 2 R s + (1 + K) s^2, like the profile's isosurface of
+// s(x, y) - z, is negative on the mirror body's side and positive on the camera's, so the
+// camera sees the outside: the texture is the mirror, the interior texture matte black.
+std::string SingleMirrorSurface(const RigParams& rig) {
+  const Conic<double> conic = SingleConic(rig);
+  const double one_k = 1 + conic.K;
+  const double r_box = rig.r_sys + 1;
+  // The conic's top within the box's radius (an ellipsoid or sphere closes at its equator).
+  const double s_top = conic.Covers(r_box * r_box) ? conic.Sag(r_box * r_box) : conic.R / one_k;
+  std::ostringstream s;
+  if (rig.profile1.present) {
+    // |grad| <= sqrt(1 + slope^2), the conic's slope largest at the box's radius (or the rim's,
+    // for a conic that closes before it) and the profile's below 0.02 (ProfiledSurface).
+    const double r_slope = conic.Covers(r_box * r_box) ? r_box : rig.r_sys;
+    const double slope = r_slope * conic.SlopeOverRadius(r_slope * r_slope);
+    const double max_gradient = 1.05 * std::sqrt(1 + std::pow(slope + 0.02, 2)) + 0.05;
+    s << "isosurface { function { OmniMirror1S(x, y, x*x+y*y)-z }\n"
+      << "      contained_by { box { " << Vec(-r_box, -r_box, -1) << ", "
+      << Vec(r_box, r_box, s_top + 1) << " } }\n"
+      << "      threshold 0 accuracy 1e-5 max_gradient " << Num(max_gradient) << " open }";
+  } else {
+    s << "quadric { <1, 1, " << Num(one_k) << ">, <0, 0, 0>, " << Vec(0, 0, -2 * conic.R)
+      << ", 0 }";
+  }
+  const std::string surface = s.str();
+  s.str("");
+  const double z_far = 2 * (s_top + rig.r_sys) + 10;
+  s << "object { " << surface << "\n"
+    << "    clipped_by { intersection {\n"
+    << "      cylinder { " << Vec(0, 0, -z_far) << ", " << Vec(0, 0, z_far) << ", "
+    << Num(rig.r_sys) << " }\n";
+  if (rig.r_cam > 0) {
+    s << "      cylinder { " << Vec(0, 0, -z_far) << ", " << Vec(0, 0, z_far) << ", "
+      << Num(rig.r_cam) << " inverse }\n";
+  }
+  // The other branch lies beyond the conic's centre s = R / (1 + K) (none for a paraboloid);
+  // plane{n, d} keeps n . x <= d.
+  if (std::abs(one_k) > 1e-9 && !rig.profile1.present) {
+    const double sign = one_k > 0 ? 1 : -1;
+    s << "      plane { " << Vec(0, 0, sign) << ", " << Num(sign * conic.R / one_k) << " }\n";
+  }
+  s << "    } }\n"
+    << "    texture { MirrorFinish } interior_texture { MatteBlack }\n"
+    << "    translate " << Vec(0, 0, rig.vertex_z) << "\n  }";
+  return s.str();
+}
+
+// A single-mirror rig's body in C: the mirror, the camera's own reflection inside r_cam (a dark
+// centre, as in photographs), a dark housing ring just outside the rim (the rim's edge is what
+// a user and `init` find in a photo), a painted lip where the model has one, the mount's posts.
+std::string SingleMirrorBody(const RigParams& rig) {
+  const Pose<double> cam_from_m1 = PoseFromBlock(rig.mirror1_pose.data());
+  const Conic<double> conic = SingleConic(rig);
+  const double rim_z = rig.vertex_z + conic.Sag(rig.r_sys * rig.r_sys);
+  const double housing = std::max(2.0, 0.1 * rig.r_sys);
+  // A painted lip lies on the rim where the housing would (coplanar discs would fight): the
+  // housing then starts outside the lip.
+  const double housing_inner =
+      HasLip(rig, Mirror::kOne) ? std::max(rig.r_sys, rig.lip1.r_outer) : rig.r_sys;
+  std::ostringstream s;
+  s << "  union {  // the single mirror's body (frame M1)\n"
+    << "  " << SingleMirrorSurface(rig) << "\n";
+  if (rig.r_cam > 0) {
+    s << "  disc { " << Vec(0, 0, rig.vertex_z + conic.Sag(rig.r_cam * rig.r_cam))
+      << ", <0, 0, 1>, " << Num(rig.r_cam) << " texture { MatteBlack } }\n";
+  }
+  s << "  disc { " << Vec(0, 0, rim_z) << ", <0, 0, 1>, " << Num(housing_inner + housing) << ", "
+    << Num(housing_inner) << " texture { Housing } }\n";
+  if (HasLip(rig, Mirror::kOne)) {
+    s << "  disc { " << Vec(0, 0, rig.lip1.z) << ", <0, 0, 1>, " << Num(rig.lip1.r_outer) << ", "
+      << Num(rig.lip1.r_inner) << " " << LipTexture(rig.lip1, Mirror::kOne) << " }\n";
+  }
+  s << (rig.mount.present && rig.mount.body == Mirror::kOne ? MountPosts(rig.mount) : "")
+    << "  " << Matrix(cam_from_m1.rotation, cam_from_m1.translation) << "\n  }\n";
+  return s.str();
+}
+
 // One target sheet in C: a chessboard of boxes, or a box with the tag texture's PNG.
 std::string TargetObject(const TargetSheet& sheet) {
   std::ostringstream s;
@@ -258,6 +361,29 @@ std::string RoomObject(const SceneContent& content) {
   return s.str();
 }
 
+// POV-Ray's camera for the rig's lens (the header's convention). Perspective: right, up and
+// direction (a, b, 1) as derived in PovSceneText. Telecentric (orthographic): POV-Ray starts
+// pixel (i, j)'s ray at location + x_s right + y_s up (the same screen coordinates as the
+// perspective camera) and sends it along direction; with the same right and up and location
+// (a, b, 0) that origin is (x_mm, -y_mm, 0) for the pixel-centre convention
+// u = fx x_mm + s y_mm + cx, v = fy y_mm + cy: the same a and b as the perspective camera's
+// direction, since both are the screen's offset at unit scale. The rays start in the camera's
+// plane z_C = 0 (nothing below it is seen directly) and run along +z_C.
+std::string CameraText(const RigParams& rig, double a, double b, double right_x, double up_x,
+                       double up_y) {
+  std::ostringstream s;
+  if (rig.lens == LensKind::kTelecentric) {
+    s << "camera { orthographic location " << Vec(a, b, 0) << "\n"
+      << "  direction <0, 0, 1>\n";
+  } else {
+    s << "camera { perspective location <0, 0, 0>\n"
+      << "  direction " << Vec(a, b, 1) << "\n";
+  }
+  s << "  right " << Vec(right_x, 0, 0) << "\n"
+    << "  up " << Vec(up_x, up_y, 0) << " }\n";
+  return s.str();
+}
+
 }  // namespace
 
 std::string PovSceneText(const RigParams& rig, const SceneContent& content) {
@@ -280,22 +406,26 @@ std::string PovSceneText(const RigParams& rig, const SceneContent& content) {
        "emission 1 } }\n"
     << "#declare SelfLit = finish { ambient 0 diffuse 0 emission 1 }\n"
     << "#declare LipPaint = finish { ambient " << Num(kLipAmbient) << " diffuse 1 emission 0 }\n"
+    << (rig.Single() ? "#declare Housing = texture { pigment { rgb 0.04 } finish { ambient 0 "
+                       "diffuse 0 emission 1 } }\n"
+                     : "")
     << (content.draw_mirrors && rig.profile1.present
-            ? ProfileFunctions(HyperboloidSheet<double>::Mirror1(rig.mirror1_shape[kShapeC], rig.mirror1_shape[kShapeK]),
-                               rig.profile1, rig.mirror1_profile.data(), 1)
+            ? ProfileFunctions(
+                  rig.Single() ? SingleConicSag(SingleConic(rig))
+                               : HyperboloidConicZ(HyperboloidSheet<double>::Mirror1(
+                                     rig.mirror1_shape[kShapeC], rig.mirror1_shape[kShapeK])),
+                  rig.profile1, rig.mirror1_profile.data(), 1)
             : "")
-    << (content.draw_mirrors && rig.profile2.present
-            ? ProfileFunctions(HyperboloidSheet<double>::Mirror2(rig.mirror2_shape[kShapeC], rig.mirror2_shape[kShapeK], rig.d),
+    << (content.draw_mirrors && !rig.Single() && rig.profile2.present
+            ? ProfileFunctions(HyperboloidConicZ(HyperboloidSheet<double>::Mirror2(
+                                   rig.mirror2_shape[kShapeC], rig.mirror2_shape[kShapeK], rig.d)),
                                rig.profile2, rig.mirror2_profile.data(), 2)
             : "")
-    << "camera { perspective location <0, 0, 0>\n"
-    << "  direction " << Vec(a, b, 1) << "\n"
-    << "  right " << Vec(right_x, 0, 0) << "\n"
-    << "  up " << Vec(up_x, up_y, 0) << " }\n"
+    << CameraText(rig, a, b, right_x, up_x, up_y)
     << (content.draw_mirrors ? RoomLamps(rig, content) : "")
     << "union {  // everything below is in C\n";
 
-  if (content.draw_mirrors) s << MirrorBodies(rig);
+  if (content.draw_mirrors) s << (rig.Single() ? SingleMirrorBody(rig) : MirrorBodies(rig));
 
   for (const Marker& m : content.markers) {
     s << "  sphere { " << Vec(m.center_in_cam.x(), m.center_in_cam.y(), m.center_in_cam.z())

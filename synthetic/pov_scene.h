@@ -9,6 +9,10 @@
 // up = (s H/(fx fy), H/fy, 0) and direction = (a, b, 1) (derived in pov_scene.cc), that ray is
 // exactly (x_n, -y_n, 1) for the pixel-centre convention u = fx x_n + s y_n + cx, v = fy y_n + cy:
 // any principal point and skew, no cropping. Lens distortion is applied after rendering.
+// A telecentric lens (single-mirror rigs) is an orthographic camera with the same right and up
+// starting at (a, b, 0): pixel (u, v)'s ray starts at (x_mm, -y_mm, 0) and runs along +z.
+// A single-mirror rig (rig: single) draws its conic, a dark centre inside r_cam and a dark
+// housing ring outside the rim; no reflex disc, no mirror 2 (docs/design.md, POV-Ray rendering).
 #pragma once
 
 #include <string>
