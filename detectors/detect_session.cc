@@ -24,6 +24,12 @@ LipGuide GuideSessionByLips(const io::Session& session, DetectorContext* ctx,
     none.why_not = "the session does not use the lips (lips: false)";
     return none;
   }
+  const RigParams& rig = ctx->model.params();
+  if (rig.Single() && !HasLip(rig, Mirror::kOne)) {
+    LipGuide none;
+    none.why_not = "the single mirror's model paints no lip";
+    return none;
+  }
   // The guide's picks; an unreadable one (DetectSession reports it) is replaced by the next
   // readable image after it not picked already, so that the guide reads none only when the
   // session has no readable image.
