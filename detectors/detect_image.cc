@@ -70,10 +70,17 @@ DetectorContext::DetectorContext(const RigParams& rig, std::vector<TargetSpec> t
       layout(ComputeRingLayout(model)),
       views(MakeRingViews(model, view_options)),
       targets(std::move(target_specs)),
-      use_lips(lips) {}
+      use_lips(lips) {
+  SetSingleMirrorOptions();
+}
+
+void DetectorContext::SetSingleMirrorOptions() {
+  chessboard.smooth_grid_correction = model.params().Single();
+}
 
 void DetectorContext::SetModel(const RigParams& rig) {
   model = RigModel(rig);
+  SetSingleMirrorOptions();
   layout = ComputeRingLayout(model);
   views = MakeRingViews(model, view_options);
 }
