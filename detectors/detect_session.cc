@@ -148,6 +148,7 @@ Observations DetectSession(const io::Session& session, DetectorContext* ctx,
     report.index = i;
     report.total = n;
     report.file = session.images[i];
+    report.rings = rig.Paths();
     cv::Mat image;
     try {
       image = io::ReadImage(report.file, session.bayer);
@@ -191,6 +192,14 @@ Observations DetectSession(const io::Session& session, DetectorContext* ctx,
 std::string ImageLine(const ImageReport& report, const ImageObservations& detections,
                       bool detail) {
   char line[512];
+  if (report.rings == 1) {
+    std::snprintf(line, sizeof(line), "[%zu/%zu] %s: %d corners", report.index + 1, report.total,
+                  report.file.c_str(), report.corners[0]);
+    std::string out = line;
+    if (detail) out += ", " + std::to_string(detections.lips.size()) + " lip edges";
+    std::snprintf(line, sizeof(line), " (%.0f ms)", report.ms);
+    return out + line;
+  }
   if (!detail) {
     std::snprintf(line, sizeof(line), "[%zu/%zu] %s: %d corners in ring 1, %d in ring 2 (%.0f ms)",
                   report.index + 1, report.total, report.file.c_str(), report.corners[0],
