@@ -70,10 +70,17 @@ DetectorContext::DetectorContext(const RigParams& rig, std::vector<TargetSpec> t
       layout(ComputeRingLayout(model)),
       views(MakeRingViews(model, view_options)),
       targets(std::move(target_specs)),
-      use_lips(lips) {}
+      use_lips(lips) {
+  SetSingleMirrorOptions();
+}
+
+void DetectorContext::SetSingleMirrorOptions() {
+  chessboard.smooth_grid_correction = model.params().Single();
+}
 
 void DetectorContext::SetModel(const RigParams& rig) {
   model = RigModel(rig);
+  SetSingleMirrorOptions();
   layout = ComputeRingLayout(model);
   views = MakeRingViews(model, view_options);
 }
@@ -120,7 +127,8 @@ ImageObservations DetectImage(const cv::Mat& image, DetectorContext* ctx,
     guided->assign(out.corners.size(), false);
     std::fill(guided->begin() + per_ring, guided->end(), true);
   }
-  if (ctx->use_lips) {
+  // A single mirror's rim is no painted lip: its lips are looked for only where the model paints one.
+  if (ctx->use_lips && (!rig.Single() || HasLip(rig, Mirror::kOne))) {
     if (image.channels() >= 3) {
       out.lips = DetectLips(LipInput(linear), ctx->model, LipOptionsFor(image, ctx->chroma_halved, ctx->luma),
                            &ctx->lip_prediction);

@@ -48,6 +48,11 @@ struct DetectorContext {
   GuidedOptions guided;  // corners of targets found in one ring looked for in the other
   // The lip detector's prediction for the model, made on the session's first colour image.
   LipPredictionCache lip_prediction;
+
+ private:
+  // A single-mirror model's chessboard options (the folded rig keeps the defaults): the grid
+  // check allows the start model's smooth error (ChessboardOptions::smooth_grid_correction).
+  void SetSingleMirrorOptions();
 };
 
 // Detects the context's targets in `image` (BGR or grey, 8 or 16 bit, the model's size, encoded

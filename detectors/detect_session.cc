@@ -24,6 +24,12 @@ LipGuide GuideSessionByLips(const io::Session& session, DetectorContext* ctx,
     none.why_not = "the session does not use the lips (lips: false)";
     return none;
   }
+  const RigParams& rig = ctx->model.params();
+  if (rig.Single() && !HasLip(rig, Mirror::kOne)) {
+    LipGuide none;
+    none.why_not = "the single mirror's model paints no lip";
+    return none;
+  }
   // The guide's picks; an unreadable one (DetectSession reports it) is replaced by the next
   // readable image after it not picked already, so that the guide reads none only when the
   // session has no readable image.
@@ -142,6 +148,7 @@ Observations DetectSession(const io::Session& session, DetectorContext* ctx,
     report.index = i;
     report.total = n;
     report.file = session.images[i];
+    report.rings = rig.Paths();
     cv::Mat image;
     try {
       image = io::ReadImage(report.file, session.bayer);
@@ -185,6 +192,14 @@ Observations DetectSession(const io::Session& session, DetectorContext* ctx,
 std::string ImageLine(const ImageReport& report, const ImageObservations& detections,
                       bool detail) {
   char line[512];
+  if (report.rings == 1) {
+    std::snprintf(line, sizeof(line), "[%zu/%zu] %s: %d corners", report.index + 1, report.total,
+                  report.file.c_str(), report.corners[0]);
+    std::string out = line;
+    if (detail) out += ", " + std::to_string(detections.lips.size()) + " lip edges";
+    std::snprintf(line, sizeof(line), " (%.0f ms)", report.ms);
+    return out + line;
+  }
   if (!detail) {
     std::snprintf(line, sizeof(line), "[%zu/%zu] %s: %d corners in ring 1, %d in ring 2 (%.0f ms)",
                   report.index + 1, report.total, report.file.c_str(), report.corners[0],

@@ -26,6 +26,7 @@ struct ImageReport {
   bool skipped = false;         // unreadable (missing or undecodable): left out
   std::vector<std::string> warnings;  // one line each, without the file name (or the skip reason)
   int corners[2] = {0, 0};      // per ring
+  int rings = 2;                // the rig's optical paths (RigParams::Paths): 1 for a single mirror
   // Targets of which more copies were seen in a ring than the session lists sheets of the
   // pattern (DetectImage's `repeated`): one copy per ring kept.
   std::vector<int> repeated_targets;
@@ -74,7 +75,8 @@ class RepeatedSheets {
 Observations DetectSession(const io::Session& session, DetectorContext* ctx,
                              const ImageCallback& on_image = nullptr);
 
-// One image's progress line: "[i/n] file: A corners in ring 1, B in ring 2 (T ms)"; with
+// One image's progress line: "[i/n] file: A corners in ring 1, B in ring 2 (T ms)" (a single
+// mirror's one ring: "A corners"); with
 // `detail` also its lip edges (before the time) and, after it, the corners per target in
 // ring 1 / ring 2 (what a user checks each photo by).
 std::string ImageLine(const ImageReport& report, const ImageObservations& detections, bool detail);

@@ -1039,7 +1039,8 @@ std::vector<CornerObservation> GuidedCorners(const cv::Mat& raw_grey,
                                                  const GuidedOptions& options) {
   if (const std::string error = options.Check(); !error.empty()) throw std::invalid_argument(error);
   std::vector<CornerObservation> out;
-  if (!options.enabled) return out;
+  // A single-mirror rig has one ring: no other ring to guide into.
+  if (!options.enabled || model.params().Paths() < 2) return out;
   cv::Mat raw_grey32;  // CV_32F, made once, when a target is first guided
   for (size_t ti = 0; ti < targets.size(); ++ti) {
     const TargetSpec& target = targets[ti];

@@ -55,14 +55,16 @@ GridExtent GrowGrid(const std::vector<cv::Point2f>& p, double spacing, int seed)
     }
     return best;
   };
-  // The seed's two grid steps: its nearest neighbour and the nearest one roughly across it.
+  // The seed's two grid steps: its nearest neighbour and the nearest one roughly across it,
+  // which on a board seen obliquely (held flat below a single mirror: Mei's photos, squares 2-3
+  // times longer one way than the other in the view) lies several times farther than the first.
   std::vector<int> none(n, -1);
   none[seed] = 0;
   const int a = nearest(p[seed], 1.6 * spacing, none);
   if (a < 0) return {};
   const cv::Point2f step_a = p[a] - p[seed];
   int b = -1;
-  double best_b = 1.6 * spacing;
+  double best_b = std::max(1.6 * spacing, 3.5 * cv::norm(step_a));
   for (int i = 0; i < n; ++i) {
     if (i == seed || i == a) continue;
     const cv::Point2f d = p[i] - p[seed];
@@ -243,8 +245,14 @@ cv::Mat RingPixels(const RingView& view, double edge_margin_rad) {
 // pixels (RingPixels) or the view (the dark invalid area and the rim would add sectors). The Hessian saddle test cannot tell this from
 // the corner of a single square (an L-corner has the same balanced Hessian at its tip), the
 // circle can: an L-corner has one dark sector, an X-junction two.
+// With `point_symmetric`, the two dark sectors must also face each other: two straight lines
+// crossing at p make opposite sectors point-symmetric, so each sample must match the one
+// opposite (all but kMaxAsymmetric of the 12 pairs: the samples on the blurred edges). An
+// L-corner whose circle reaches another edge (a narrow white margin and the dark frame or
+// shadow beyond it: Mei's photos, where it refused whole boards) also changes 4 times, but not
+// symmetrically.
 std::optional<bool> IsXJunction(const RingView& view, const cv::Mat& trusted, const cv::Point2f& p,
-                                double radius) {
+                                double radius, bool point_symmetric = false) {
   constexpr int kSamples = 24;
   radius = std::max(2.0, radius);
   const cv::Mat& grey = view.image;
@@ -269,7 +277,11 @@ std::optional<bool> IsXJunction(const RingView& view, const cv::Mat& trusted, co
   const float mid = 0.5f * (*lo + *hi);
   int changes = 0;
   for (int k = 0; k < kSamples; ++k) changes += (v[k] > mid) != (v[(k + 1) % kSamples] > mid);
-  return changes == 4;
+  if (changes != 4 || !point_symmetric) return changes == 4;
+  constexpr int kMaxAsymmetric = 3;
+  int asymmetric = 0;
+  for (int k = 0; k < kSamples / 2; ++k) asymmetric += (v[k] > mid) != (v[k + kSamples / 2] > mid);
+  return asymmetric <= kMaxAsymmetric;
 }
 
 // The junction grid as a rows x cols corner list in row-major order: the last resort where
@@ -358,7 +370,8 @@ bool GridIsWholeBoard(const RingView& view, const cv::Mat& trusted,
   for (const auto& side : sides) {
     int junctions = 0, seen = 0;
     for (const auto& [edge, inner] : side) {
-      const std::optional<bool> x = IsXJunction(view, trusted, 2 * edge - inner, 0.35 * cv::norm(edge - inner));
+      const std::optional<bool> x =
+          IsXJunction(view, trusted, 2 * edge - inner, 0.35 * cv::norm(edge - inner), true);
       if (!x) continue;  // beyond the ring or the view: unknown
       ++seen;
       junctions += *x ? 1 : 0;
@@ -368,6 +381,34 @@ bool GridIsWholeBoard(const RingView& view, const cv::Mat& trusted,
     if (junctions >= 2 && 2 * junctions > seen) return false;
   }
   return true;
+}
+
+// The homography's residuals over the board (`grid_in` -> `view_in`, in view px) fitted by a
+// quadratic in the grid coordinates, added to its predictions of `grid`: what a smooth error of
+// the model bends the board's image by (GridFitsBoard). Left as it is with too few corners for
+// the 6 terms per coordinate to be measured twice over.
+void AddSmoothCorrection(const std::vector<cv::Point2f>& grid_in, const std::vector<cv::Point2f>& view_in,
+                         const cv::Mat& h, const std::vector<cv::Point2f>& grid,
+                         std::vector<cv::Point2f>* predicted) {
+  constexpr int kTerms = 6;
+  if (grid_in.size() < 2 * kTerms) return;
+  const auto terms = [](const cv::Point2f& g) {
+    return Eigen::Matrix<double, kTerms, 1>(1, g.x, g.y, g.x * g.x, g.x * g.y, g.y * g.y);
+  };
+  std::vector<cv::Point2f> fitted;
+  cv::perspectiveTransform(grid_in, fitted, h);
+  Eigen::MatrixXd a(grid_in.size(), kTerms);
+  Eigen::MatrixXd b(grid_in.size(), 2);
+  for (size_t i = 0; i < grid_in.size(); ++i) {
+    a.row(static_cast<Eigen::Index>(i)) = terms(grid_in[i]).transpose();
+    b(static_cast<Eigen::Index>(i), 0) = view_in[i].x - fitted[i].x;
+    b(static_cast<Eigen::Index>(i), 1) = view_in[i].y - fitted[i].y;
+  }
+  const Eigen::MatrixXd coeffs = a.colPivHouseholderQr().solve(b);
+  for (size_t i = 0; i < grid.size(); ++i) {
+    const Eigen::Vector2d d = coeffs.transpose() * terms(grid[i]);
+    (*predicted)[i] += cv::Point2f(static_cast<float>(d.x()), static_cast<float>(d.y()));
+  }
 }
 
 // The refined corners of one board must lie on the board's image: in a view the board is a
@@ -429,6 +470,7 @@ bool GridFitsBoard(const RingView& view, const RigModel& model, int cols,
     if (h.empty()) return false;
     std::vector<cv::Point2f> predicted;
     cv::perspectiveTransform(grid, predicted, h);
+    if (options.smooth_grid_correction) AddSmoothCorrection(grid_in, view_in, h, grid, &predicted);
     kept = 0;
     grid_in.clear();
     view_in.clear();

@@ -81,6 +81,11 @@ struct ChessboardOptions {
   double max_grid_ransac_squares = 0.15;  // RANSAC tolerance in the view (of a square)
   double max_grid_residual_px = 0.5;      // the test, in raw pixels
   double min_grid_inlier_fraction = 0.9;
+  // The grid check against the homography plus a quadratic in the board's coordinates (fitted
+  // to the corners): a start model that is itself a few pixels off (a single mirror's, from its
+  // rim alone: 1-3 raw px across a board on Mei's photos, DetectorContext sets it for single
+  // rigs) bends the board's image in the view smoothly; a mis-ordered corner stays off.
+  bool smooth_grid_correction = false;
 
   // Empty if the options are usable, else "<field>: expected ...": a smoothing, window, shift
   // or tolerance <= 0, a count under 1, a fraction outside [0, 1].

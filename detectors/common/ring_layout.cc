@@ -69,8 +69,44 @@ double RingBoundary::RadiusAt(double phi) const {
 double RingBoundary::MinRadius() const { return *std::min_element(radius.begin(), radius.end()); }
 double RingBoundary::MaxRadius() const { return *std::max_element(radius.begin(), radius.end()); }
 
+namespace {
+
+// A single mirror's one ring: between the images of r_cam (`hole`: the camera's own reflection)
+// and r_sys, its painted lip beyond where the model has one (HasLip; else lip1_outer is the rim).
+// The folded rig's other curves collapse onto the hole (nothing is ring 2, the reflex disc or
+// the plane beside it), so LabelAt and DepthInRing read a single rig unchanged.
+RingLayout SingleRingLayout(const RigModel& model) {
+  const RigParams& rig = model.params();
+  const Mirror1Path<double>& path = model.path1();
+  auto on_mirror = [&](double r, double t) {
+    const double x = r * std::cos(t), y = r * std::sin(t);
+    return PixelOfPointInCam(path.cam, path.dist,
+                             Eigen::Vector3d(path.cam_from_mirror * Eigen::Vector3d(x, y, path.sheet.Z(x, y))),
+                             rig.lens);
+  };
+  RingLayout layout;
+  layout.width = rig.image_width;
+  layout.height = rig.image_height;
+  const auto rim = CurvePixels([&](double t) { return on_mirror(rig.r_sys, t); });
+  for (const auto& p : rim) layout.centre += p / rim.size();
+  layout.mirror1_rim = ToBoundary(rim, layout.centre);
+  layout.lip1_outer = layout.mirror1_rim;
+  if (HasLip(rig, Mirror::kOne)) {
+    layout.lip1_outer = ToBoundary(CurvePixels([&](double t) {
+      const Eigen::Vector3d lip(rig.lip1.r_outer * std::cos(t), rig.lip1.r_outer * std::sin(t), rig.lip1.z);
+      return PixelOfPointInCam(path.cam, path.dist, Eigen::Vector3d(path.cam_from_mirror * lip), rig.lens);
+    }), layout.centre);
+  }
+  layout.hole = ToBoundary(CurvePixels([&](double t) { return on_mirror(rig.r_cam, t); }), layout.centre);
+  layout.mirror2_rim = layout.lip2_outer = layout.reflex_edge = layout.mirror1_cut = layout.hole;
+  return layout;
+}
+
+}  // namespace
+
 RingLayout ComputeRingLayout(const RigModel& model) {
   const RigParams& rig = model.params();
+  if (rig.Single()) return SingleRingLayout(model);
   const Pose<double>& cam_from_mirror1 = model.path1().cam_from_mirror;
   const Pose<double>& cam_from_mirror2 = model.path2().cam_from_mirror;
   const HyperboloidSheet<double>& sheet1 = model.path1().sheet.conic;

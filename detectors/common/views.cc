@@ -8,6 +8,8 @@
 
 #include "detectors/common/option_check.h"
 #include "model/ideal_analysis.h"
+#include "model/model_derived.h"
+#include "model/rig_frames.h"
 
 namespace omni::detectors {
 namespace {
@@ -25,17 +27,98 @@ double OuterRingPixelsPerRad(const IdealModel& ideal, const FieldOfView& fov) {
   return std::hypot(pixel.x() - ideal.cam.cx, (pixel.y() - ideal.cam.cy) * ideal.cam.fx / ideal.cam.fy);
 }
 
-RingView MakeView(const RigModel& model, Mirror mirror, double azimuth, double elevation_lo,
+// One optical path's views: where they look from and the elevations (rad) of the ring's
+// field of view, before the margin and the cap.
+struct PathField {
+  Mirror mirror = Mirror::kOne;
+  Eigen::Vector3d viewpoint_in_cam = Eigen::Vector3d::Zero();
+  double elevation_lo = 0, elevation_hi = 0;
+};
+
+// Unit direction from `viewpoint` to the point of `ray` at `distance` from it (the view's
+// convention, RingView::RawToView); nullopt where the ray never gets that far from it.
+std::optional<Eigen::Vector3d> DirectionAtDistance(const Ray& ray, const Eigen::Vector3d& viewpoint,
+                                                   double distance) {
+  const Eigen::Vector3d o = ray.origin - viewpoint;
+  const double b = ray.direction.dot(o), c = o.squaredNorm() - distance * distance;
+  if (b * b - c < 0) return std::nullopt;
+  return (o + (-b + std::sqrt(b * b - c)) * ray.direction).normalized();
+}
+
+// The folded rig's two rings: viewpoints at the mirrors' outer foci [m1], [m2], elevations
+// from the design's field of view [theta1_limits] (the ideal rig's: the views only find targets).
+std::vector<PathField> FoldedFields(const RigParams& rig, const FieldOfView& fov) {
+  PathField one{Mirror::kOne, Focus1InCam(rig.mirror1_pose.data(), rig.mirror1_shape.data()),
+                std::min(fov.theta1_min, fov.theta1_max), std::max(fov.theta1_min, fov.theta1_max)};
+  PathField two{Mirror::kTwo,
+                Focus2InCam(rig.mirror2_pose.data(), rig.mirror2_shape.data(), rig.d),
+                std::min(fov.theta2_min, fov.theta2_max), std::max(fov.theta2_min, fov.theta2_max)};
+  return {one, two};
+}
+
+// A single mirror's one ring, seen from its near focus (model_derived.h; a sphere's centre):
+// the elevations of the world rays the model itself traces back from the images of the used
+// annulus's edges (r_cam and r_sys, a hair inside) at 16 azimuths, so any conic, lens and
+// misalignment gets its own band. Where no edge pixel traces (a model that sees nothing), the
+// directions from the focus to the edges' points on the mirror.
+PathField SingleField(const RigModel& model, double distance) {
+  const RigParams& rig = model.params();
+  const Mirror1Path<double>& path = model.path1();
+  PathField field{Mirror::kOne, ComputeModelDerived(rig).focus1_in_cam, 0, 0};
+  const double hair = 1e-3 * (rig.r_sys - rig.r_cam);
+  double lo = 1e9, hi = -1e9, lo_mirror = 1e9, hi_mirror = -1e9;
+  for (int k = 0; k < 16; ++k) {
+    const double t = 2 * M_PI * k / 16;
+    for (const double r : {rig.r_cam + hair, rig.r_sys - hair}) {
+      const double x = r * std::cos(t), y = r * std::sin(t);
+      const Eigen::Vector3d on_mirror = path.cam_from_mirror * Eigen::Vector3d(x, y, path.sheet.Z(x, y));
+      const double e_mirror = std::asin((on_mirror - field.viewpoint_in_cam).normalized().z());
+      lo_mirror = std::min(lo_mirror, e_mirror);
+      hi_mirror = std::max(hi_mirror, e_mirror);
+      const auto ray = model.Unproject(PixelOfPointInCam(path.cam, path.dist, on_mirror, rig.lens));
+      if (!ray) continue;
+      const auto dir = DirectionAtDistance(ray->ray, field.viewpoint_in_cam, distance);
+      if (!dir) continue;
+      lo = std::min(lo, std::asin(dir->z()));
+      hi = std::max(hi, std::asin(dir->z()));
+    }
+  }
+  field.elevation_lo = lo <= hi ? lo : lo_mirror;
+  field.elevation_hi = lo <= hi ? hi : hi_mirror;
+  return field;
+}
+
+// A single mirror's tangential resolution (raw px per radian of azimuth) at the middle of its
+// elevations: the outer ring's rule (OuterRingPixelsPerRad), measured through the model (the
+// median over 8 azimuths: a tilted mirror's ring is wider on one side).
+double SinglePixelsPerRad(const RigModel& model, const PathField& field, double distance) {
+  const double e = 0.5 * (field.elevation_lo + field.elevation_hi), step = 1e-3;
+  auto pixel_at = [&](double azimuth) {
+    return model.Project(field.viewpoint_in_cam +
+                             distance * Eigen::Vector3d(std::cos(e) * std::cos(azimuth),
+                                                        std::cos(e) * std::sin(azimuth), std::sin(e)),
+                         Mirror::kOne);
+  };
+  std::vector<double> measured;
+  for (int k = 0; k < 8; ++k) {
+    const double azimuth = 2 * M_PI * k / 8;
+    const auto a = pixel_at(azimuth), b = pixel_at(azimuth + step);
+    if (a && b) measured.push_back((*b - *a).norm() / step);
+  }
+  if (measured.empty()) return 0.25 * std::min(model.params().image_width, model.params().image_height);
+  std::nth_element(measured.begin(), measured.begin() + measured.size() / 2, measured.end());
+  return measured[measured.size() / 2];
+}
+
+RingView MakeView(const RigModel& model, const PathField& field, double azimuth, double elevation_lo,
                   double elevation_hi, double pixels_per_rad, const ViewOptions& options) {
   RingView v;
-  v.mirror = mirror;
+  v.mirror = field.mirror;
   v.azimuth = azimuth;
   v.elevation = 0.5 * (elevation_lo + elevation_hi);
   v.distance_mm = options.distance_mm;
   const RigParams& rig = model.params();
-  v.viewpoint_in_cam = mirror == Mirror::kOne
-      ? Focus1InCam(rig.mirror1_pose.data(), rig.mirror1_shape.data())
-      : Focus2InCam(rig.mirror2_pose.data(), rig.mirror2_shape.data(), rig.d);
+  v.viewpoint_in_cam = field.viewpoint_in_cam;
   const Eigen::Vector3d forward(std::cos(v.elevation) * std::cos(azimuth),
                                 std::cos(v.elevation) * std::sin(azimuth), std::sin(v.elevation));
   const Eigen::Vector3d right = forward.cross(Eigen::Vector3d::UnitZ()).normalized();
@@ -131,12 +214,9 @@ std::optional<Eigen::Vector2d> RingView::RawToView(const RigModel& model,
                                                    const Eigen::Vector2d& raw_pixel) const {
   const auto ray = model.Unproject(raw_pixel);
   if (!ray || ray->mirror != mirror) return std::nullopt;
-  // The point on the ray at distance_mm from the viewpoint.
-  const Eigen::Vector3d o = ray->ray.origin - viewpoint_in_cam;
-  const double b = ray->ray.direction.dot(o), c = o.squaredNorm() - distance_mm * distance_mm;
-  if (b * b - c < 0) return std::nullopt;
-  const Eigen::Vector3d point = o + (-b + std::sqrt(b * b - c)) * ray->ray.direction;
-  auto pixel = ViewPixelOfDirection(point.normalized());
+  const auto direction = DirectionAtDistance(ray->ray, viewpoint_in_cam, distance_mm);
+  if (!direction) return std::nullopt;
+  auto pixel = ViewPixelOfDirection(*direction);
   if (!pixel || pixel->x() < 0 || pixel->y() < 0 || pixel->x() > width - 1 || pixel->y() > height - 1) {
     return std::nullopt;
   }
@@ -174,17 +254,23 @@ std::string ViewOptions::Check() const {
 
 std::vector<RingView> MakeRingViews(const RigModel& model, const ViewOptions& options) {
   if (const std::string error = options.Check(); !error.empty()) throw std::invalid_argument(error);
-  const IdealModel ideal = model.params().Ideal();
-  const FieldOfView fov = ComputeFieldOfView(model.params().Design(), ideal.r_ref, ideal.r_cam);
-  const double pixels_per_rad =
-      options.pixels_per_rad > 0 ? options.pixels_per_rad : OuterRingPixelsPerRad(ideal, fov);
+  const RigParams& rig = model.params();
+  std::vector<PathField> fields;
+  double pixels_per_rad = options.pixels_per_rad;
+  if (rig.Single()) {
+    fields.push_back(SingleField(model, options.distance_mm));
+    if (!(pixels_per_rad > 0)) pixels_per_rad = SinglePixelsPerRad(model, fields[0], options.distance_mm);
+  } else {
+    const IdealModel ideal = rig.Ideal();
+    const FieldOfView fov = ComputeFieldOfView(rig.Design(), ideal.r_ref, ideal.r_cam);
+    fields = FoldedFields(rig, fov);
+    if (!(pixels_per_rad > 0)) pixels_per_rad = OuterRingPixelsPerRad(ideal, fov);
+  }
   const double margin = Deg(options.elevation_margin_deg);
   std::vector<RingView> views;
-  for (Mirror mirror : {Mirror::kOne, Mirror::kTwo}) {
-    double lo = (mirror == Mirror::kOne ? std::min(fov.theta1_min, fov.theta1_max)
-                                        : std::min(fov.theta2_min, fov.theta2_max)) - margin;
-    double hi = (mirror == Mirror::kOne ? std::max(fov.theta1_min, fov.theta1_max)
-                                        : std::max(fov.theta2_min, fov.theta2_max)) + margin;
+  for (const PathField& field : fields) {
+    double lo = field.elevation_lo - margin;
+    double hi = field.elevation_hi + margin;
     const double cap = Deg(options.max_vertical_fov_deg);
     if (hi - lo > cap) {  // keep the part nearest the horizon, where targets are
       const double centre = std::clamp(0.0, lo + 0.5 * cap, hi - 0.5 * cap);
@@ -192,7 +278,7 @@ std::vector<RingView> MakeRingViews(const RigModel& model, const ViewOptions& op
       hi = centre + 0.5 * cap;
     }
     for (int k = 0; k < options.sectors; ++k) {
-      views.push_back(MakeView(model, mirror, 2 * M_PI * k / options.sectors, lo, hi,
+      views.push_back(MakeView(model, field, 2 * M_PI * k / options.sectors, lo, hi,
                                pixels_per_rad, options));
     }
   }
