@@ -660,9 +660,12 @@ void WriteCalibration(const CalibrationInfo& cal, std::string* out);
 
 std::string ModelFileText(const RigParams& rig) {
   std::string out;
+  out += rig.Single()
+             ? "# omnistereo-model/1: a single-mirror catadioptric camera (a camera looking at one\n"
+               "# mirror of any conic: rig: single), written by the omnistereo toolkit.\n"
+             : "# omnistereo-model/1: a single-camera folded catadioptric omnistereo rig (camera, two\n"
+               "# hyperboloidal mirrors, reflex plane), written by the omnistereo toolkit.\n";
   out +=
-      "# omnistereo-model/1: a single-camera folded catadioptric omnistereo rig (camera, two\n"
-      "# hyperboloidal mirrors, reflex plane), written by the omnistereo toolkit.\n"
       "# Units: mm and rad. Frames (docs/design.md, Conventions): camera C (OpenCV: +z along the optical axis),\n"
       "# mirror bodies M1, M2; cam_from_mirror maps M_i to C with tilt = rotation vector (rx, ry, 0).\n"
       "# Numbers are written to full double precision; `derived:` is for people and other tools\n"
