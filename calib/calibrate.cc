@@ -196,7 +196,7 @@ void FinalCovariance(const CalibrationOptions& options, Calibration* c,
     result->solve.stages.push_back(Solve(kFinalStage, options, c));
     findings = covariance();
   }
-  AddPointingNote(result);
+  AddPointingNote(c->rig.params.rig, result);
   FinishProfiles(c->observations, c->profiles, options, &c->rig, result);
   if (result->uncertainty.lip_edges_considered > 0) {
     std::string sigmas;
