@@ -220,8 +220,9 @@ void FinalCovariance(const CalibrationOptions& options, Calibration* c,
     std::snprintf(buf, sizeof(buf),
                   "corners: a detector offset common to each ring's corners, the same in every "
                   "image, is carried into the sigmas: sigma %.3g px per axis (many corners average "
-                  "their noise, not such an offset; the reflex tilt reads it most)",
-                  options.corner_offset_sigma_px);
+                  "their noise, not such an offset%s)",
+                  options.corner_offset_sigma_px,
+                  c->rig.params.Single() ? "" : "; the reflex tilt reads it most");
     result->solve.notes.push_back(buf);
   }
 }
