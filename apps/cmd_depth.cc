@@ -118,7 +118,10 @@ int RunDepthFrames(const RigModel& model) {
 }  // namespace
 
 int RunDepth() {
-  const RigModel model(io::ReadModelFile(RequireStereoFlag(FLAGS_model, "model", "a model file")));
+  const RigParams rig = io::ReadModelFile(RequireStereoFlag(FLAGS_model, "model", "a model file"));
+  RequireTwoRings(rig, FLAGS_model, "depth matches two rings' panoramas (two viewpoints); "
+                  "`panorama` unwarps its one ring");
+  const RigModel model(rig);
   if (!FLAGS_images.empty()) return RunDepthFrames(model);
   RequireStereoFlag(FLAGS_image, "image",
                     "a raw omnidirectional image (or --images: a video's frames, a glob or list)");

@@ -20,6 +20,7 @@
 
 #include "apps/command.h"
 #include "apps/common_flags.h"
+#include "apps/stereo_cli.h"
 #include "io/csv.h"
 #include "io/detections_file.h"
 #include "io/model_file.h"
@@ -86,6 +87,8 @@ RigParams TrueRig(const Truth& truth) {
 int RunTriangulate() {
   const stereo::SessionTriangulationOptions options = OptionsFromFlags();
   const RigParams rig = io::ReadModelFile(options.model);
+  RequireTwoRings(rig, options.model, "triangulate intersects the rays of a point seen in both "
+                  "rings (one ring sees it from one viewpoint: a direction, no range)");
   const Triangulator triangulator{RigModel(rig)};
   const std::string warning = stereo::CheckModelFor(triangulator, options);
   if (!warning.empty()) std::fprintf(stderr, "triangulate: warning: %s\n", warning.c_str());

@@ -6,6 +6,7 @@
 
 #include "apps/common_flags.h"
 #include "apps/progress.h"
+#include "apps/stereo_cli.h"
 #include "health/evidence.h"
 #include "health/ring_matches.h"
 #include "io/model_file.h"
@@ -22,6 +23,10 @@ RigParams ReadStoredModel(const char* command) {
     throw io::InputError("--model: expected the calibrated model file to " + std::string(command));
   }
   RigParams rig = io::ReadModelFile(FLAGS_model);
+  RequireTwoRings(rig, FLAGS_model, std::string(command) +
+                  " compares the two rings' views of the scene and the painted lips' edges; "
+                  "score new photos of the target instead (a session of them with `estimate: []` "
+                  "through `calibrate`: RMS per photo)");
   if (!rig.calibration) {
     std::fprintf(stderr,
                  "%s: warning: %s has no calibration: section, so its own uncertainty is not "

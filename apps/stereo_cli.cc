@@ -20,6 +20,11 @@ const std::string& RequireStereoFlag(const std::string& value, const char* flag,
   return value;
 }
 
+void RequireTwoRings(const RigParams& rig, const std::string& model_path, const std::string& why) {
+  if (rig.Paths() >= 2) return;
+  throw io::InputError(model_path + ": a single-mirror rig (rig: single) has one ring; " + why);
+}
+
 cv::Mat ReadModelImage(const RigModel& model) {
   RequireStereoFlag(FLAGS_image, "image", "a raw omnidirectional image");
   return ReadModelImage(model, FLAGS_image);

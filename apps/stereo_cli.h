@@ -1,4 +1,4 @@
-// What `panorama` and `depth` share: flag checks, reading the raw image, writing images
+// What `panorama`, `depth` (and the commands that need two rings) share: flag checks, reading the raw image, writing images
 // atomically.
 #pragma once
 
@@ -13,6 +13,9 @@ namespace omni::apps {
 
 // The flag's value; io::InputError "--<flag>: expected <what>" if empty.
 const std::string& RequireStereoFlag(const std::string& value, const char* flag, const char* what);
+// io::InputError "<model_path>: a single-mirror rig (rig: single) has one ring; <why>" when `rig`
+// is one: what `depth`, `triangulate`, `check` and `refine` need two rings for.
+void RequireTwoRings(const RigParams& rig, const std::string& model_path, const std::string& why);
 // --image read as 8-bit BGR; InputError if unreadable or not the model's size.
 cv::Mat ReadModelImage(const RigModel& model);
 // The same for the image at `path` (InputError naming it).

@@ -196,7 +196,7 @@ void FinalCovariance(const CalibrationOptions& options, Calibration* c,
     result->solve.stages.push_back(Solve(kFinalStage, options, c));
     findings = covariance();
   }
-  AddPointingNote(result);
+  AddPointingNote(c->rig.params.rig, result);
   FinishProfiles(c->observations, c->profiles, options, &c->rig, result);
   if (result->uncertainty.lip_edges_considered > 0) {
     std::string sigmas;
@@ -220,8 +220,9 @@ void FinalCovariance(const CalibrationOptions& options, Calibration* c,
     std::snprintf(buf, sizeof(buf),
                   "corners: a detector offset common to each ring's corners, the same in every "
                   "image, is carried into the sigmas: sigma %.3g px per axis (many corners average "
-                  "their noise, not such an offset; the reflex tilt reads it most)",
-                  options.corner_offset_sigma_px);
+                  "their noise, not such an offset%s)",
+                  options.corner_offset_sigma_px,
+                  c->rig.params.Single() ? "" : "; the reflex tilt reads it most");
     result->solve.notes.push_back(buf);
   }
 }

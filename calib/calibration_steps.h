@@ -191,7 +191,7 @@ bool DecideDistK3(const CovarianceFindings& findings, const RigParams& rig,
                   const std::vector<Observation>& corners, const CalibrationOptions& options,
                   Refinement* refined, CalibrationResult* result);
 // Adds the note on the camera frame's pointing.
-void AddPointingNote(CalibrationResult* result);
+void AddPointingNote(RigKind rig, CalibrationResult* result);
 
 // ---- Profiles (profiles.cc) ----
 

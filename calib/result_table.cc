@@ -67,12 +67,20 @@ std::string ResultTable(const CalibrationResult& result, const RigParams* truth)
     out << u.name << ": not determined by this session (unobservable); needs " << u.hint << "\n";
   }
   for (const auto& note : result.solve.notes) out << note << "\n";
-  std::snprintf(line, sizeof(line),
-                "residuals: rms %.4f px (mirror 1: %.4f, mirror 2: %.4f) over %d observations, "
-                "%zu left out, weighted variance factor %.4g\n",
-                result.residuals.rms_px, result.residuals.per_mirror_rms_px[0],
-                result.residuals.per_mirror_rms_px[1], result.residuals.n_observations,
-                result.residuals.rejected.size(), result.uncertainty.variance_factor);
+  if (result.estimate.rig.Single()) {  // one mirror: its RMS is the line's
+    std::snprintf(line, sizeof(line),
+                  "residuals: rms %.4f px over %d observations, %zu left out, weighted variance "
+                  "factor %.4g\n",
+                  result.residuals.rms_px, result.residuals.n_observations,
+                  result.residuals.rejected.size(), result.uncertainty.variance_factor);
+  } else {
+    std::snprintf(line, sizeof(line),
+                  "residuals: rms %.4f px (mirror 1: %.4f, mirror 2: %.4f) over %d observations, "
+                  "%zu left out, weighted variance factor %.4g\n",
+                  result.residuals.rms_px, result.residuals.per_mirror_rms_px[0],
+                  result.residuals.per_mirror_rms_px[1], result.residuals.n_observations,
+                  result.residuals.rejected.size(), result.uncertainty.variance_factor);
+  }
   out << line;
   if (result.residuals.n_lip_points > 0 || result.residuals.n_lip_rejected > 0) {
     std::snprintf(line, sizeof(line),

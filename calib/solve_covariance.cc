@@ -288,7 +288,8 @@ void ProbeDistK3(const Eigen::MatrixXd& schur_all, const Columns& c, const RigCo
 }
 
 // The result's names, values, sigmas, covariance and correlation from `cov`.
-void FillCovarianceResult(const RigCovariance& cov, const Columns& c, CalibrationResult* result) {
+void FillCovarianceResult(const RigCovariance& cov, const Columns& c, RigKind rig,
+                          CalibrationResult* result) {
   result->uncertainty.refined_names = c.names;
   result->uncertainty.schur_eigenvalues = cov.eigenvalues;
   result->uncertainty.schur_eigenvectors = cov.eigenvectors;
@@ -299,7 +300,8 @@ void FillCovarianceResult(const RigCovariance& cov, const Columns& c, Calibratio
     result->estimate.values(i) = c.values[cov.observable[i]];
   }
   for (int i : cov.unobservable) {
-    result->uncertainty.unobservable.push_back({c.names[i], FindRigParameter(c.names[i])->hint});
+    result->uncertainty.unobservable.push_back(
+        {c.names[i], ParameterHint(*FindRigParameter(c.names[i]), rig)});
   }
   result->uncertainty.covariance = cov.covariance;
   result->uncertainty.considered_sensitivity = cov.considered_sensitivity;
@@ -451,7 +453,7 @@ CovarianceFindings ComputeCovariance(const Weights& weights, const Refinement& r
 
   const RigCovariance cov = CovarianceOf(jacobian, c, nuisance_sizes, rig->params,
                                          observations->corners, &findings);
-  FillCovarianceResult(cov, c, result);
+  FillCovarianceResult(cov, c, rig->params.rig, result);
   return findings;
 }
 
@@ -460,7 +462,7 @@ CovarianceFindings ComputeCovariance(const Weights& weights, const Refinement& r
 // (docs/design.md, Calibration): the camera frame C's pointing is uncertain by about the sigma of
 // mirror 1's tilt, which is C's rotation against M1. Said in words, since a table of sigmas does
 // not tell a user that C is the uncertain frame and M1 the one to measure in.
-void AddPointingNote(CalibrationResult* result) {
+void AddPointingNote(RigKind rig, CalibrationResult* result) {
   // Mirror 1's tilt: its pose block's parameters in the rotation valley (rx, ry).
   int tilt[2] = {-1, -1};
   for (size_t i = 0; i < result->estimate.names.size(); ++i) {
@@ -476,13 +478,22 @@ void AddPointingNote(CalibrationResult* result) {
     const RigParameter* p = FindRigParameter(c.name);
     if (p && p->role == SolveRole::kTangential) held += (held.empty() ? "" : ", ") + c.name;
   }
+  // A single-mirror rig: one mirror's tilt, no triangulation (its rays go out in M1 by export).
+  const bool single = rig == RigKind::kSingle;
   char buf[768];
   std::snprintf(buf, sizeof(buf),
-                "camera pointing: the camera frame's rotation against the mirror bodies is "
-                "weakly determined (it trades with the principal point and equal tilts of both "
-                "mirrors%s): sigma %.3f / %.3f deg about x / y (%s, %s; pixel noise alone "
-                "%.3f / %.3f deg). Points in the camera frame carry it, distances and shapes do "
-                "not: measure in mirror 1's body (triangulate --frame mirror1)",
+                single ? "camera pointing: the camera frame's rotation against the mirror's body "
+                         "is weakly determined (it trades with the principal point and the "
+                         "mirror's tilt%s): sigma %.3f / %.3f deg about x / y (%s, %s; pixel noise "
+                         "alone %.3f / %.3f deg). Directions in the camera frame carry it, the "
+                         "mirror's shape does not: take rays in the mirror's body (export --frame "
+                         "mirror1)"
+                       : "camera pointing: the camera frame's rotation against the mirror bodies is "
+                         "weakly determined (it trades with the principal point and equal tilts of "
+                         "both mirrors%s): sigma %.3f / %.3f deg about x / y (%s, %s; pixel noise "
+                         "alone %.3f / %.3f deg). Points in the camera frame carry it, distances "
+                         "and shapes do not: measure in mirror 1's body (triangulate --frame "
+                         "mirror1)",
                 held.empty() ? "" : (", where the held " + held + " go").c_str(),
                 result->uncertainty.sigma(rx) / kDeg, result->uncertainty.sigma(ry) / kDeg,
                 result->estimate.names[rx].c_str(),

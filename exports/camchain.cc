@@ -63,16 +63,23 @@ std::string ResidualComments(const CentralRing& ring, const std::string& prefix)
 
 }  // namespace
 
-std::string KalibrCamchainYaml(const std::array<CentralRing, 2>& rings, int width, int height,
+std::string KalibrCamchainYaml(const std::vector<CentralRing>& rings, int width, int height,
                                const std::string& source, ReferenceBody frame) {
+  const std::string rig_frame =
+      "the rig frame " + std::string(FrameName(frame)) + ", which takes the IMU's place; metres.\n";
   std::string out =
-      "# Kalibr camchain: central approximations (unified model, omni + radtan) of the two rings\n"
-      "# of the calibrated non-central omnistereo rig " + source + ",\n"
-      "# written by `omnistereo export --format kalibr`. cam0: ring 1 (mirror 1, outer ring);\n"
-      "# cam1: ring 2 (mirror 2, inner ring). Both read the SAME image. T_cam_imu: the camera from\n"
-      "# the rig frame " + std::string(FrameName(frame)) + ", which takes the IMU's place; metres.\n"
-      "# A negative fv: the ring is mirror-reversed (flip the image rows to make it positive).\n";
-  for (int k = 0; k < 2; ++k) {
+      rings.size() == 1
+          ? "# Kalibr camchain: the central approximation (unified model, omni + radtan) of the\n"
+            "# calibrated non-central single-mirror camera " + source + ",\n"
+            "# written by `omnistereo export --format kalibr`. cam0: its mirror's ring.\n"
+            "# T_cam_imu: the camera from " + rig_frame
+          : "# Kalibr camchain: central approximations (unified model, omni + radtan) of the two rings\n"
+            "# of the calibrated non-central omnistereo rig " + source + ",\n"
+            "# written by `omnistereo export --format kalibr`. cam0: ring 1 (mirror 1, outer ring);\n"
+            "# cam1: ring 2 (mirror 2, inner ring). Both read the SAME image. T_cam_imu: the camera from\n"
+            "# " + rig_frame;
+  out += "# A negative fv: the ring is mirror-reversed (flip the image rows to make it positive).\n";
+  for (size_t k = 0; k < rings.size(); ++k) {
     const CentralRing& ring = rings[k];
     const std::vector<double>& q = ring.intrinsics;
     out += "cam" + std::to_string(k) + ":\n";
@@ -99,10 +106,10 @@ std::string KalibrCamchainYaml(const std::array<CentralRing, 2>& rings, int widt
   return out;
 }
 
-std::string BasaltCalibrationJson(const std::array<CentralRing, 2>& rings, int width, int height,
+std::string BasaltCalibrationJson(const std::vector<CentralRing>& rings, int width, int height,
                                   const std::string& source, ReferenceBody frame) {
   std::string poses, intrinsics, resolution, residuals;
-  for (int k = 0; k < 2; ++k) {
+  for (size_t k = 0; k < rings.size(); ++k) {
     const CentralRing& ring = rings[k];
     const Pose<double> rig_from_cam = ring.cam_from_rig.Inverse();
     const Eigen::Quaterniond q(rig_from_cam.rotation);
@@ -127,6 +134,13 @@ std::string BasaltCalibrationJson(const std::array<CentralRing, 2>& rings, int w
     residuals += sep + "        [" + list + "]";
   }
   const std::string frame_text = FrameName(frame);
+  const std::string note =
+      rings.size() == 1
+          ? "the central approximation (double sphere) of the calibrated non-central "
+            "single-mirror camera " + JsonEscaped(source) + "; camera 0: its mirror's ring"
+          : "central approximations (double sphere) of the two rings of the calibrated "
+            "non-central rig " + JsonEscaped(source) + "; camera 0: ring 1 (mirror 1, outer), "
+            "camera 1: ring 2 (mirror 2, inner), both on the same image";
   return "{\n  \"value0\": {\n    \"T_imu_cam\": [\n" + poses + "\n    ],\n" +
          "    \"intrinsics\": [\n" + intrinsics + "\n    ],\n" +
          "    \"resolution\": [\n" + resolution + "\n    ],\n" +
@@ -143,9 +157,7 @@ std::string BasaltCalibrationJson(const std::array<CentralRing, 2>& rings, int w
          "    \"cam_time_offset_ns\": 0\n"
          "  },\n"
          "  \"omnistereo\": {\n"
-         "    \"note\": \"central approximations (double sphere) of the two rings of the calibrated "
-         "non-central rig " + JsonEscaped(source) + "; camera 0: ring 1 (mirror 1, outer), camera 1: ring 2 "
-         "(mirror 2, inner), both on the same image; the 'imu' frame is the rig frame " +
+         "    \"note\": \"" + note + "; the 'imu' frame is the rig frame " +
          frame_text + "; a negative fy: the ring is mirror-reversed\",\n"
          "    \"residuals\": [\n" + residuals + "\n    ]\n"
          "  }\n}\n";

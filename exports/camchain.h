@@ -6,11 +6,12 @@
 //  - basalt's calibration JSON (cereal): value0.T_imu_cam (each camera's pose in the rig frame:
 //    px, py, pz in metres, qx, qy, qz, qw), intrinsics (camera_type "ds": fx, fy, cx, cy, xi,
 //    alpha), resolution, and the IMU fields basalt's reader expects, neutral (no IMU).
+// A single-mirror rig has one ring: cam0 alone (no T_cn_cnm1), one basalt camera.
 // The fit's residuals are written beside them as comments (YAML) or an "omnistereo" member
 // (JSON) so that a user sees what the approximation costs where it is used.
 #pragma once
 
-#include <array>
+#include <vector>
 #include <string>
 
 #include "exports/central_fit.h"
@@ -18,9 +19,9 @@
 namespace omni::exports {
 
 // `source` names the model file (written into the header comment); `frame` the rig frame.
-std::string KalibrCamchainYaml(const std::array<CentralRing, 2>& rings, int width, int height,
+std::string KalibrCamchainYaml(const std::vector<CentralRing>& rings, int width, int height,
                                const std::string& source, ReferenceBody frame);
-std::string BasaltCalibrationJson(const std::array<CentralRing, 2>& rings, int width, int height,
+std::string BasaltCalibrationJson(const std::vector<CentralRing>& rings, int width, int height,
                                   const std::string& source, ReferenceBody frame);
 
 }  // namespace omni::exports

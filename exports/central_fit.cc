@@ -215,7 +215,7 @@ const char* CentralModelName(CentralModel model) {
   return model == CentralModel::kUnified ? "unified (omni + radtan)" : "double sphere";
 }
 
-std::array<CentralRing, 2> FitCentral(const RigModel& model, CentralModel kind,
+std::vector<CentralRing> FitCentral(const RigModel& model, CentralModel kind,
                                       const CentralFitOptions& options) {
   // The output frame from C (C itself, or mirror 1's body), as triangulate's.
   const Pose<double> rig_from_cam =
@@ -223,8 +223,8 @@ std::array<CentralRing, 2> FitCentral(const RigModel& model, CentralModel kind,
   const stereo::PanoramaGeometry geometry = stereo::MakePanoramaGeometry(model, {});
   const Eigen::Vector3d axis = rig_from_cam.rotation * geometry.cam_from_cylinder.col(2);
   const Eigen::Vector2d principal(model.params().camera[kCx], model.params().camera[kCy]);
-  std::array<CentralRing, 2> rings;
-  for (int m = 0; m < 2; ++m) {
+  std::vector<CentralRing> rings(model.params().Paths());
+  for (int m = 0; m < static_cast<int>(rings.size()); ++m) {
     const Mirror mirror = m == 0 ? Mirror::kOne : Mirror::kTwo;
     const std::vector<Sample> fit = RingSamples(model, mirror, options.fit_step_px, rig_from_cam);
     CentralRing ring = StartUnified(fit, rig_from_cam * geometry.viewpoint_in_cam[m], axis,

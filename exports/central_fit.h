@@ -1,4 +1,4 @@
-// Central approximations of the calibrated non-central rig, one per ring, for the
+// Central approximations of the calibrated non-central rig, one per ring (a single-mirror rig: one), for the
 // packages that only know central cameras (Kalibr, basalt, OpenVINS, VINS): each ring becomes a
 // virtual central camera with its own pose in the rig frame and the unified (Kalibr omni+radtan)
 // or double-sphere (basalt ds) intrinsics (central_models.h), fitted by least squares in pixels
@@ -63,8 +63,9 @@ struct CentralRing {
   double fit_rms_px = 0;  // over the fit's samples
 };
 
-// Both rings' central approximations of `model` ([0]: mirror 1, [1]: mirror 2).
-std::array<CentralRing, 2> FitCentral(const RigModel& model, CentralModel kind,
+// The central approximation of each of `model`'s rings ([0]: mirror 1, [1]: mirror 2; a
+// single-mirror rig's one ring alone).
+std::vector<CentralRing> FitCentral(const RigModel& model, CentralModel kind,
                                       const CentralFitOptions& options);
 
 }  // namespace omni::exports

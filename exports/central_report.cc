@@ -5,7 +5,7 @@
 
 namespace omni::exports {
 
-cv::Mat BothResidualMaps(const std::array<CentralRing, 2>& rings, cv::Mat* seen, double* max_px) {
+cv::Mat BothResidualMaps(const std::vector<CentralRing>& rings, cv::Mat* seen, double* max_px) {
   // The maps are NaN off their ring (OpenCV's comparisons do not single NaN out: by hand).
   cv::Mat both(rings[0].residual_map.size(), CV_32F, cv::Scalar(0));
   *seen = cv::Mat(both.size(), CV_8U, cv::Scalar(0));
@@ -25,7 +25,7 @@ cv::Mat BothResidualMaps(const std::array<CentralRing, 2>& rings, cv::Mat* seen,
   return both;
 }
 
-std::string ResidualLines(const std::array<CentralRing, 2>& rings) {
+std::string ResidualLines(const std::vector<CentralRing>& rings) {
   std::string out;
   for (const auto& ring : rings) {
     const int m = ring.mirror == Mirror::kOne ? 1 : 2;

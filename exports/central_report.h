@@ -2,7 +2,7 @@
 // ring and distance, and both rings' residual maps as one image.
 #pragma once
 
-#include <array>
+#include <vector>
 #include <string>
 
 #include <opencv2/core.hpp>
@@ -11,12 +11,12 @@
 
 namespace omni::exports {
 
-// Both rings' residual maps in one CV_32F image (0 where neither ring sees), *seen (CV_8U) 255
+// The rings' residual maps in one CV_32F image (0 where neither ring sees), *seen (CV_8U) 255
 // where one does, *max_px the larger ring maximum (0 when none).
-cv::Mat BothResidualMaps(const std::array<CentralRing, 2>& rings, cv::Mat* seen, double* max_px);
+cv::Mat BothResidualMaps(const std::vector<CentralRing>& rings, cv::Mat* seen, double* max_px);
 
 // One line per ring and distance, newline-terminated: "  ring R at D m: RMS x px, max y px over
 // N pixels" (and when some were not projectable).
-std::string ResidualLines(const std::array<CentralRing, 2>& rings);
+std::string ResidualLines(const std::vector<CentralRing>& rings);
 
 }  // namespace omni::exports

@@ -28,9 +28,10 @@ ModelExport Rays(const RigModel& model, const ExportOptions& options) {
       model, Frame(options), options.dtype == "float32" ? DType::kFloat32 : DType::kFloat64);
   ModelExport out;
   out.bytes = NpyBytes(table);
-  io::AppendFormat(&out.summary, "ray table %s: shape (2, %lld, %lld, 6) %s, [ring][v][u][ox, "
+  io::AppendFormat(&out.summary, "ray table %s: shape (%lld, %lld, %lld, 6) %s, [ring][v][u][ox, "
                    "oy, oz (mm), dx, dy, dz], frame %s, NaN where a pixel does not see the ring\n",
-                   options.out.c_str(), static_cast<long long>(table.shape[1]),
+                   options.out.c_str(), static_cast<long long>(table.shape[0]),
+                   static_cast<long long>(table.shape[1]),
                    static_cast<long long>(table.shape[2]), options.dtype.c_str(),
                    options.frame == "mirror1" ? "M1 (mirror 1's body)" : "C (camera)");
   return out;
@@ -40,10 +41,12 @@ ModelExport Panoramas(const RigModel& model, const ExportOptions& options) {
   const std::vector<NpyArray> maps = PanoramaMaps(model, options.panorama);
   ModelExport out;
   out.bytes = NpzBytes(maps);
-  io::AppendFormat(&out.summary, "panorama maps %s: ring1_map_x/y, ring2_map_x/y (%lld x %lld, "
+  io::AppendFormat(&out.summary, "panorama maps %s: %s (%lld x %lld, "
                    "float32, -1 where the ring does not see), elevation_rad, azimuth_rad, "
                    "viewpoints_mm, cam_from_cylinder, radius_mm\n",
-                   options.out.c_str(), static_cast<long long>(maps[0].shape[0]),
+                   options.out.c_str(),
+                   model.params().Paths() == 1 ? "ring1_map_x/y" : "ring1_map_x/y, ring2_map_x/y",
+                   static_cast<long long>(maps[0].shape[0]),
                    static_cast<long long>(maps[0].shape[1]));
   return out;
 }

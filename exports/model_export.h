@@ -4,7 +4,7 @@
 // the map.
 #pragma once
 
-#include <array>
+#include <vector>
 #include <optional>
 #include <string>
 
@@ -33,10 +33,10 @@ struct ExportOptions {
 struct ModelExport {
   std::string bytes;    // the file at options.out
   std::string summary;  // what `export` prints (newline-terminated)
-  // kalibr, basalt: the fit per ring, both rings' residual map at map_distance_mm (CV_32F, 0
+  // kalibr, basalt: the fit per ring, the rings' residual map at map_distance_mm (CV_32F, 0
   // where neither ring sees; `seen` CV_8U 255 where one does), its colour scale (the larger
   // ring maximum, 1 px when none) and its path (out without its extension + "_residual.png").
-  std::optional<std::array<CentralRing, 2>> rings;
+  std::optional<std::vector<CentralRing>> rings;  // one per ring of the rig
   cv::Mat residual_map, seen;
   double scale_px = 0, map_distance_mm = 0;
   std::string residual_map_path;

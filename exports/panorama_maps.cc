@@ -33,7 +33,7 @@ std::vector<NpyArray> PanoramaMaps(const RigModel& model, const stereo::Panorama
   const stereo::PanoramaLuts luts = stereo::BuildPanoramaLuts(model, options);
   const stereo::PanoramaGeometry& g = luts.geometry;
   std::vector<NpyArray> out;
-  for (int m = 0; m < 2; ++m) {
+  for (int m = 0; m < g.rings; ++m) {
     const std::string ring = "ring" + std::to_string(m + 1);
     out.push_back(FromMat(ring + "_map_x", luts.map_x[m]));
     out.push_back(FromMat(ring + "_map_y", luts.map_y[m]));
@@ -44,13 +44,13 @@ std::vector<NpyArray> PanoramaMaps(const RigModel& model, const stereo::Panorama
   out.push_back(Doubles("elevation_rad", {g.height}, elevation));
   out.push_back(Doubles("azimuth_rad", {g.width}, azimuth));
   std::vector<double> viewpoints, axes;
-  for (int m = 0; m < 2; ++m) {
+  for (int m = 0; m < g.rings; ++m) {
     for (int k = 0; k < 3; ++k) viewpoints.push_back(g.viewpoint_in_cam[m][k]);
   }
   for (int r = 0; r < 3; ++r) {
     for (int c = 0; c < 3; ++c) axes.push_back(g.cam_from_cylinder(r, c));
   }
-  out.push_back(Doubles("viewpoints_mm", {2, 3}, viewpoints));
+  out.push_back(Doubles("viewpoints_mm", {g.rings, 3}, viewpoints));
   out.push_back(Doubles("cam_from_cylinder", {3, 3}, axes));
   out.push_back(Doubles("radius_mm", {1}, {g.radius_mm}));
   return out;

@@ -11,6 +11,8 @@
 //   viewpoints_mm (2, 3) float64: F1, F2 in C; cam_from_cylinder (3, 3) float64: columns x, y and
 //       the cylinder axis in C; radius_mm (1,) float64: the cylinder's radius (the LUTs are exact
 //       for scene points at that range from each viewpoint).
+// A single-mirror rig has one ring: ring1_map_x/y alone, viewpoints_mm (1, 3) (its mirror's near
+// focus; the cylinder's axis is the mirror's).
 #pragma once
 
 #include <vector>

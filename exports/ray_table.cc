@@ -17,8 +17,9 @@ NpyArray RayTable(const RigModel& model, ReferenceBody frame, DType dtype) {
   NpyArray table;
   table.name = "rays";
   table.dtype = dtype;
-  table.shape = {2, h, w, 6};
-  const size_t n = static_cast<size_t>(2) * h * w * 6;
+  const int rings = model.params().Paths();
+  table.shape = {rings, h, w, 6};
+  const size_t n = static_cast<size_t>(rings) * h * w * 6;
   std::vector<double> values(n, std::numeric_limits<double>::quiet_NaN());
   cv::parallel_for_(cv::Range(0, h), [&](const cv::Range& rows) {
     for (int v = rows.start; v < rows.end; ++v) {

@@ -3,7 +3,7 @@
 // library.
 //
 // Array shape (2, H, W, 6): [ring][v][u][ox, oy, oz, dx, dy, dz]; ring 0 is mirror 1's (the
-// outer ring), ring 1 mirror 2's (the inner ring); (u, v) pixel centres at integer coordinates
+// outer ring), ring 1 mirror 2's (the inner ring); a single-mirror rig's (1, H, W, 6) its ring's; (u, v) pixel centres at integer coordinates
 // (OpenCV's convention, docs/design.md, Conventions); origin in mm on the mirror (the reflection point), direction
 // a unit vector towards the scene; NaN in all six where the pixel does not see that ring.
 // Frame: the camera frame C, or mirror 1's body M1 (ReferenceBody::kMirror1: the rig's physical

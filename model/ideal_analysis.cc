@@ -82,7 +82,9 @@ FieldOfView ComputeFieldOfView(const DesignParams& theta, double r_ref, double r
   f.theta2_max = ElevationOfMirrorRadius(theta, Mirror::kTwo, r_cam);
   f.alpha1 = f.theta1_max - f.theta1_min;
   f.alpha2 = f.theta2_max - f.theta2_min;
-  f.alpha_sys = std::max(f.theta1_max, f.theta2_max) - std::min(f.theta1_min, f.theta2_min);
+  f.theta_sys_min = std::min(f.theta1_min, f.theta2_min);
+  f.theta_sys_max = std::max(f.theta1_max, f.theta2_max);
+  f.alpha_sys = f.theta_sys_max - f.theta_sys_min;
   f.theta_sroi_min = std::max(f.theta1_min, f.theta2_min);
   f.theta_sroi_max = std::min(f.theta1_max, f.theta2_max);
   f.alpha_sroi = f.theta_sroi_max - f.theta_sroi_min;

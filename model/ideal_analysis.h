@@ -25,6 +25,7 @@ struct FieldOfView {
   double theta1_max, theta1_min, theta2_max, theta2_min;  // [theta1_limits], rad
   double alpha1, alpha2;                                   // [alpha1], [alpha2]
   double alpha_sys;                                        // [vFOV_system]
+  double theta_sys_min, theta_sys_max;                     // its limits: min / max of both rings'
   double theta_sroi_min, theta_sroi_max, alpha_sroi;       // [common_FOV_limit_angles], [vFOV_common]
 };
 // theta1: mirror 1 between r_ref (min) and r_sys (max); theta2: mirror 2 between r_sys (min) and

@@ -4,6 +4,7 @@
 
 #include <Eigen/Core>
 
+#include "model/ideal_analysis.h"
 #include "model/rig_params.h"
 
 namespace omni {
@@ -22,5 +23,13 @@ struct ModelDerived {
   Eigen::Vector3d far_focus1_in_cam = Eigen::Vector3d::Zero();
 };
 ModelDerived ComputeModelDerived(const RigParams& rig);
+
+// A rig's elevation limits (rad; each ring's directions seen from its viewpoint, in its mirror's
+// body), the one place panoramas, their exports, the central fits and stereo take them from:
+//  - folded: ComputeFieldOfView(rig.Design(), rig.r_ref, rig.r_cam) ([vFOV_system]);
+//  - single: its one ring seen from the mirror's near focus (focus1 above) at the surface points
+//    between r_cam and r_sys: theta1_min/max, alpha1 = alpha_sys, theta_sys = theta1; the
+//    mirror-2 and stereo-ROI members NaN and alpha2 0 (there is no second ring).
+FieldOfView RigFieldOfView(const RigParams& rig);
 
 }  // namespace omni

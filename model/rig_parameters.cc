@@ -11,6 +11,11 @@ constexpr double kRad = M_PI / 180.0;  // one degree in rad
 constexpr const char* kCameraHint = "targets filling both rings all around the rig, at near and far ranges";
 constexpr const char* kDistortionHint =
     "corners over the whole radial extent of both rings (targets at several heights and ranges)";
+// A single-mirror rig's wording of the two above (ParameterHint).
+constexpr const char* kSingleCameraHint =
+    "targets filling the ring all around the camera, at near and far ranges";
+constexpr const char* kSingleDistortionHint =
+    "corners over the ring's whole radial extent (targets at several heights and ranges)";
 constexpr const char* kShapeHint =
     "a manufacturing-tolerance prior on the mirror shape, or targets at many ranges";
 constexpr const char* kLateralHint =
@@ -174,6 +179,14 @@ std::string ParameterName(const RigParameter& p, RigKind rig) {
     return p.index == kShapeC ? "mirror1.R" : "mirror1.K";
   }
   return p.name;
+}
+
+const char* ParameterHint(const RigParameter& p, RigKind rig) {
+  if (rig == RigKind::kSingle) {
+    if (p.hint == kCameraHint) return kSingleCameraHint;
+    if (p.hint == kDistortionHint) return kSingleDistortionHint;
+  }
+  return p.hint;
 }
 
 const RigBlock* FindRigBlock(const std::string& name) {

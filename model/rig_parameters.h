@@ -112,6 +112,10 @@ const RigParameter* FindRigParameter(const std::string& name);
 // them).
 std::string ParameterName(const RigParameter& p, RigKind rig);
 
+// The data that would determine p in a rig of that kind: p.hint, except where the hint speaks of
+// two rings and a single-mirror rig has one (the camera's and the distortion's).
+const char* ParameterHint(const RigParameter& p, RigKind rig);
+
 // The block of that name; nullptr if there is none.
 const RigBlock* FindRigBlock(const std::string& name);
 

@@ -36,7 +36,8 @@ std::optional<double> RayElevation(const RigModel& model, const Eigen::Vector2d&
 void CoverageAdvice(const ReportInput& in, std::vector<std::string>* out) {
   const RigModel model(in.result->estimate.rig);
   const std::vector<BandPoint> band = StereoBandPoints(model, 1000);
-  for (int m = 1; m <= 2; ++m) {
+  // A single-mirror rig has no inner ring to advise on.
+  for (int m = 1; m <= in.result->estimate.rig.Paths(); ++m) {
     double lo = 1e9, hi = -1e9;
     for (const BandPoint& p : band) {
       if (const auto e = RayElevation(model, p.pixel[m - 1])) {

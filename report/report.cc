@@ -342,7 +342,11 @@ std::string WriteReport(const std::string& dir, const ReportInput& in) {
        << Escape(in.session) << "</p>\n"
        << Summary(in) << "<h2>Advice</h2>\n";
   const std::vector<std::string> advice = Advice(in);
-  if (advice.empty()) html << "<p>Nothing stands out: the session covers both rings.</p>\n";
+  if (advice.empty()) {
+    html << (in.result->estimate.rig.Single()
+                 ? "<p>Nothing stands out: the session covers the ring.</p>\n"
+                 : "<p>Nothing stands out: the session covers both rings.</p>\n");
+  }
   html << "<ul>\n";
   for (const auto& a : advice) html << "<li>" << Escape(a) << "</li>\n";
   html << "</ul>\n<h2>Parameters</h2>\n"

@@ -10,7 +10,7 @@
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "model/ideal_analysis.h"
+#include "model/model_derived.h"
 
 namespace omni::stereo {
 namespace {
@@ -46,11 +46,14 @@ DenseStereo::DenseStereo(const RigModel& model, const PanoramaOptions& panorama_
   if (const std::string error = options_.Check(); !error.empty()) {
     throw std::invalid_argument(error);
   }
+  if (model_.params().Single()) {
+    throw std::invalid_argument("dense stereo: needs two rings, a single-mirror rig has one");
+  }
   luts_ = BuildPanoramaLuts(model_, panorama_options);
   const PanoramaGeometry& g = luts_.geometry;
   // The band of Xi_1 rows inside the stereo ROI [common_FOV_limit_angles].
   const RigParams& rig = model_.params();
-  const FieldOfView fov = ComputeFieldOfView(rig.Design(), rig.r_ref, rig.r_cam);
+  const FieldOfView fov = RigFieldOfView(rig);
   band_begin_ = std::clamp(static_cast<int>(std::ceil(g.RowOfElevation(fov.theta_sroi_max))), 0,
                            g.height);
   band_end_ = std::clamp(static_cast<int>(std::floor(g.RowOfElevation(fov.theta_sroi_min))) + 1,

@@ -7,7 +7,7 @@
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "model/ideal_analysis.h"
+#include "model/model_derived.h"
 
 namespace omni::stereo {
 
@@ -35,6 +35,18 @@ Eigen::Vector2d PanoramaGeometry::PanoramaPixel(Mirror mirror,
   return Eigen::Vector2d((2 * M_PI - psi) / l_px, (z_max - p.z() / rho) / l_px);
 }
 
+namespace {
+
+// The cylinder's frame: its axis, azimuth 0 at C's +x projected normal to it.
+void SetCylinderAxis(const Eigen::Vector3d& axis, PanoramaGeometry* g) {
+  const Eigen::Vector3d x = (Eigen::Vector3d::UnitX() - axis.x() * axis).normalized();
+  g->cam_from_cylinder.col(0) = x;
+  g->cam_from_cylinder.col(1) = axis.cross(x);
+  g->cam_from_cylinder.col(2) = axis;
+}
+
+}  // namespace
+
 std::string PanoramaOptions::Check() const {
   if (width < 8) return "panorama width: expected at least 8";
   if (!(cylinder_radius_mm > 0)) return "panorama cylinder radius: expected > 0 mm";
@@ -50,9 +62,9 @@ PanoramaGeometry MakePanoramaGeometry(const RigModel& model, const PanoramaOptio
   double theta_min = options.theta_min, theta_max = options.theta_max;
   if (std::isnan(theta_min) || std::isnan(theta_max)) {
     // [cylinder_height] from the system's elevation limits [vFOV_system].
-    const FieldOfView fov = ComputeFieldOfView(rig.Design(), rig.r_ref, rig.r_cam);
-    if (std::isnan(theta_min)) theta_min = std::min(fov.theta1_min, fov.theta2_min);
-    if (std::isnan(theta_max)) theta_max = std::max(fov.theta1_max, fov.theta2_max);
+    const FieldOfView fov = RigFieldOfView(rig);
+    if (std::isnan(theta_min)) theta_min = fov.theta_sys_min;
+    if (std::isnan(theta_max)) theta_max = fov.theta_sys_max;
   }
   if (!(theta_min < theta_max) || !(theta_max < M_PI / 2) || !(theta_min > -M_PI / 2)) {
     throw std::invalid_argument("panorama elevation limits: expected -90 < min < max < 90 deg");
@@ -63,14 +75,19 @@ PanoramaGeometry MakePanoramaGeometry(const RigModel& model, const PanoramaOptio
   g.z_min = std::tan(theta_min);
   g.height = std::max(1, static_cast<int>(std::lround((g.z_max - g.z_min) / g.l_px)));
   g.radius_mm = options.cylinder_radius_mm;
+  g.rings = rig.Paths();
+  if (rig.Single()) {
+    // One ring: its mirror's near focus, the cylinder coaxial with the mirror.
+    const ModelDerived derived = ComputeModelDerived(rig);
+    g.viewpoint_in_cam[0] = derived.focus1_in_cam;
+    g.viewpoint_in_cam[1] = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
+    SetCylinderAxis(derived.axis1_in_cam.normalized(), &g);
+    return g;
+  }
   g.viewpoint_in_cam[0] = Focus1InCam(rig.mirror1_pose.data(), rig.mirror1_shape.data());
   g.viewpoint_in_cam[1] = Focus2InCam(rig.mirror2_pose.data(), rig.mirror2_shape.data(), rig.d);
   // The common axis: the baseline direction (from F2 up to F1).
-  const Eigen::Vector3d axis = (g.viewpoint_in_cam[0] - g.viewpoint_in_cam[1]).normalized();
-  const Eigen::Vector3d x = (Eigen::Vector3d::UnitX() - axis.x() * axis).normalized();
-  g.cam_from_cylinder.col(0) = x;
-  g.cam_from_cylinder.col(1) = axis.cross(x);
-  g.cam_from_cylinder.col(2) = axis;
+  SetCylinderAxis((g.viewpoint_in_cam[0] - g.viewpoint_in_cam[1]).normalized(), &g);
   return g;
 }
 
@@ -78,7 +95,7 @@ PanoramaLuts BuildPanoramaLuts(const RigModel& model, const PanoramaOptions& opt
   PanoramaLuts luts;
   luts.geometry = MakePanoramaGeometry(model, options);
   const PanoramaGeometry& g = luts.geometry;
-  for (int i = 0; i < 2; ++i) {
+  for (int i = 0; i < g.rings; ++i) {
     const Mirror mirror = i == 0 ? Mirror::kOne : Mirror::kTwo;
     luts.map_x[i].create(g.height, g.width, CV_32FC1);
     luts.map_y[i].create(g.height, g.width, CV_32FC1);
@@ -112,6 +129,9 @@ void Unwarp(const cv::Mat& image, const PanoramaLuts& luts, Mirror mirror, cv::M
 void Unwarp(const cv::Mat& image, const PanoramaLuts& luts, Mirror mirror, cv::Range wanted,
             cv::Mat* panorama) {
   const int i = MirrorIndex(mirror) - 1;
+  if (i >= luts.geometry.rings) {
+    throw std::invalid_argument("panorama of mirror 2: the rig has one ring");
+  }
   cv::Range rows = luts.valid_rows[i];
   if (wanted != cv::Range::all()) {
     rows = cv::Range(std::max(rows.start, wanted.start), std::min(rows.end, wanted.end));

@@ -19,6 +19,9 @@
 //    F_i + R (r cos psi, r sin psi, r tan theta) on a cylinder of radius r = cylinder_radius_mm
 //    (default 2 m); the LUT is exact for scene points at that range and, for the misalignments
 //    of a real rig, within a small fraction of a pixel elsewhere.
+//  - A single-mirror rig (RigParams::Single) has one ring and so one panorama: its viewpoint is
+//    its mirror's near focus and the cylinder's axis the mirror's (model_derived.h); its
+//    elevation limits come from its conic (RigFieldOfView). Ring 2's members are left empty.
 //  - LUT entry = the raw pixel of that point via mirror i (RigModel::Project, so lens distortion
 //    and misalignment are included) [panorama_pixel_mapping_function]; -1 where invalid.
 #pragma once
@@ -37,7 +40,8 @@ namespace omni::stereo {
 struct PanoramaOptions {
   int width = 1280;                  // w_Xi (columns); the height follows [panorama_pixel_size]
   double cylinder_radius_mm = 2000;  // r of the projection cylinder (see the file comment)
-  // Elevation limits (rad); NaN: theta_sys,min/max of the ideal model [cylinder_height].
+  // Elevation limits (rad); NaN: theta_sys,min/max of the rig [cylinder_height]
+  // (RigFieldOfView, model_derived.h).
   double theta_min = std::numeric_limits<double>::quiet_NaN();
   double theta_max = std::numeric_limits<double>::quiet_NaN();
 
@@ -47,11 +51,12 @@ struct PanoramaOptions {
 };
 
 struct PanoramaGeometry {
+  int rings = 2;  // the rig's optical paths (RigParams::Paths): [0] only when 1
   int width = 0, height = 0;
   double l_px = 0;                     // [panorama_pixel_size], unit-cylinder length per pixel
   double z_max = 0, z_min = 0;         // tan(theta_max), tan(theta_min)
   double radius_mm = 0;
-  std::array<Eigen::Vector3d, 2> viewpoint_in_cam;  // F1, F2
+  std::array<Eigen::Vector3d, 2> viewpoint_in_cam;  // F1, F2 (a single rig: F2 NaN)
   Eigen::Matrix3d cam_from_cylinder = Eigen::Matrix3d::Identity();  // columns: x, y, axis
 
   double Azimuth(double u) const;      // [azimuth_inference_from_column_in_panoramic_image]
@@ -70,7 +75,8 @@ PanoramaGeometry MakePanoramaGeometry(const RigModel& model, const PanoramaOptio
 // cv::remap.
 struct PanoramaLuts {
   PanoramaGeometry geometry;
-  std::array<cv::Mat, 2> map_x, map_y;          // [0]: mirror 1 (Xi_1), [1]: mirror 2 (Xi_2)
+  // [0]: mirror 1 (Xi_1), [1]: mirror 2 (Xi_2); only [0] for a single rig (geometry.rings 1).
+  std::array<cv::Mat, 2> map_x, map_y;
   std::array<cv::Mat, 2> fixed_xy, fixed_frac;  // cv::convertMaps(CV_16SC2)
   std::array<cv::Range, 2> valid_rows;          // rows with at least one valid entry
 };
@@ -79,7 +85,8 @@ struct PanoramaLuts {
 PanoramaLuts BuildPanoramaLuts(const RigModel& model, const PanoramaOptions& options);
 
 // Panorama Xi_mirror of a raw image (any type cv::remap takes), bilinear, black where invalid.
-// Only the rows the mirror sees are remapped (the rest is set to black).
+// Only the rows the mirror sees are remapped (the rest is set to black). The mirror must be one
+// of the rig's rings (std::invalid_argument: mirror 2 of a single rig).
 void Unwarp(const cv::Mat& image, const PanoramaLuts& luts, Mirror mirror, cv::Mat* panorama);
 // The same for the panorama rows `rows` alone (the rest black): what a caller that reads only a
 // band (dense stereo) needs, at that band's share of the cost.

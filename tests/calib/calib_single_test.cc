@@ -90,8 +90,13 @@ CalibrationResult ExpectRecovered(const RigParams& truth, const RigParams& start
   options.use_lips = false;
   options.progress = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
   const CalibrationResult result = Calibrate(start, session.targets, detections, options);
-  std::fprintf(stderr, "%s", ResultTable(result, &truth).c_str());
+  const std::string table = ResultTable(result, &truth);
+  std::fprintf(stderr, "%s", table.c_str());
   EXPECT_TRUE(result.solve.converged);
+  // What the table says fits a rig of one mirror: no second ring, mirror 2 or reflex.
+  for (const char* absent : {"both rings", "both mirrors", "mirror 2", "ring 2", "reflex"}) {
+    EXPECT_EQ(table.find(absent), std::string::npos) << absent;
+  }
   // Photos the fit never saw, scored with only the boards' poses solved (estimate: []): the
   // calibrated model within 3% of the true one's RMS (itself the noise less the poses' share).
   const auto held_out = testing::MakeSession(truth, Placement(6, 77), kBoards);

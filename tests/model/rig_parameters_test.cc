@@ -120,5 +120,24 @@ TEST(RigParameters, BlocksOffsetsAndDefaults) {
   EXPECT_EQ(ParameterOf(&rig, "mirror1.reflex.dz"), &rig.reflex[kReflexDz]);
 }
 
+// What a hint asks for fits the rig's kind: a single-mirror rig's hints of the parameters it has
+// (camera, distortion, mirror 1's shape, pose and profile) never speak of two rings; a folded
+// rig's are the table's own.
+TEST(RigParameters, HintsFitTheRigKind) {
+  for (const RigParameter& p : RigParameterTable()) {
+    EXPECT_EQ(ParameterHint(p, RigKind::kFolded), p.hint) << p.name;
+    const RigBlockId block = BlockOf(p);
+    if (block == kShape2Block || block == kPose2Block || block == kReflexBlock ||
+        block == kProfile2Block) {
+      continue;  // a single rig has no such parameter
+    }
+    const std::string hint = ParameterHint(p, RigKind::kSingle);
+    EXPECT_FALSE(hint.empty()) << p.name;
+    for (const char* ring2 : {"both rings", "rings", "inner", "mirror 2"}) {
+      EXPECT_EQ(hint.find(ring2), std::string::npos) << p.name << ": " << hint;
+    }
+  }
+}
+
 }  // namespace
 }  // namespace omni

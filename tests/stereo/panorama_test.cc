@@ -15,6 +15,8 @@
 #include "io/file_util.h"
 #include "io/model_file.h"
 #include "io/ply.h"
+#include "model/central_mirror.h"
+#include "model/model_derived.h"
 
 namespace omni::stereo {
 namespace {
@@ -120,6 +122,67 @@ TEST(Panorama, NonCentralLutErrorIsSmallAwayFromTheCylinder) {
     // Bilinear LUT interpolation alone is ~0.01 px; the non-central part must stay small.
     EXPECT_LT(worst, 0.25);
   }
+}
+
+// A single-mirror rig's one panorama against the unified model's closed form
+// (central_mirror.h): a perspective lens at an aligned hyperboloid's far focus is central, so each
+// LUT entry is exactly the unified pixel of its cylinder point seen from the near focus, and the
+// elevation limits (RigFieldOfView) are those of the rim (r_sys) and the hole (r_cam): their
+// unified image radii equal the pinhole radii of those mirror points.
+TEST(Panorama, SingleRigHasOnePanoramaOfTheUnifiedModel) {
+  CentralMirror central;
+  central.mirror = Conic<double>{20.0, -2.2};
+  central.focal_px = 800;
+  const double below = central.CameraBelowVertexMm(), r_sys = 30, r_cam = 5;
+  const RigModel model(MakeSingleRig(central.mirror, LensKind::kPerspective, below, r_sys, r_cam,
+                                     Pinhole<double>{800, 800, 640, 480, 0}, 1280, 960));
+  const UnifiedParameters unified = *UnifiedOf(central);
+  double near = 0;
+  ASSERT_TRUE(central.mirror.NearFocus(&near));
+  const Eigen::Vector3d focus(0, 0, below + near);
+  auto unified_pixel = [&](const Eigen::Vector3d& p) {
+    const Eigen::Vector3d v = (p - focus).normalized();
+    return Eigen::Vector2d(640 + unified.gamma * v.x() / (unified.xi - v.z()),
+                           480 + unified.gamma * v.y() / (unified.xi - v.z()));
+  };
+  // Elevation theta seen from the focus: image radius gamma cos(theta) / (xi - sin(theta)).
+  const FieldOfView fov = RigFieldOfView(model.params());
+  EXPECT_TRUE(std::isnan(fov.theta2_min) && std::isnan(fov.theta_sroi_max));
+  EXPECT_EQ(fov.alpha_sys, fov.alpha1);
+  for (const auto& [r, theta] : {std::pair{r_sys, fov.theta1_max}, {r_cam, fov.theta1_min}}) {
+    const double z = below + central.mirror.Sag(r * r);
+    EXPECT_NEAR(unified.gamma * std::cos(theta) / (unified.xi - std::sin(theta)), 800 * r / z,
+                1e-9)
+        << "r " << r;
+  }
+
+  PanoramaOptions options;
+  options.width = 360;
+  const PanoramaLuts luts = BuildPanoramaLuts(model, options);
+  const PanoramaGeometry& g = luts.geometry;
+  ASSERT_EQ(g.rings, 1);
+  EXPECT_TRUE(luts.map_x[1].empty());
+  EXPECT_NEAR((g.viewpoint_in_cam[0] - focus).norm(), 0, 1e-12);
+  EXPECT_NEAR(std::atan(g.z_max), fov.theta1_max, 1e-12);
+  EXPECT_NEAR(std::atan(g.z_min), fov.theta1_min, 1e-12);
+  int valid = 0;
+  double worst = 0;
+  for (int v = 0; v < g.height; ++v) {
+    for (int u = 0; u < g.width; ++u) {
+      const float x = luts.map_x[0].at<float>(v, u), y = luts.map_y[0].at<float>(v, u);
+      if (x < 0) continue;
+      ++valid;
+      const Eigen::Vector2d expected = unified_pixel(g.PointOnCylinder(Mirror::kOne, u, v));
+      worst = std::max(worst, (Eigen::Vector2d(x, y) - expected).norm());
+    }
+  }
+  // Every row but the limits' own (the rim and the hole, where a ray may just miss) is seen.
+  EXPECT_GE(valid, (g.height - 2) * g.width);
+  EXPECT_LT(worst, 2e-4) << "px (float32 LUT)";
+  cv::Mat image(960, 1280, CV_8UC1, cv::Scalar(9)), panorama;
+  EXPECT_THROW(Unwarp(image, luts, Mirror::kTwo, &panorama), std::invalid_argument);
+  Unwarp(image, luts, Mirror::kOne, &panorama);
+  EXPECT_EQ(panorama.rows, g.height);
 }
 
 TEST(Ply, BinaryAndAsciiRoundTripAndAtomicWrite) {

@@ -19,6 +19,7 @@
 
 #include "io/csv.h"
 #include "io/model_file.h"
+#include "model/central_mirror.h"
 #include "tests/cli_test_util.h"
 
 namespace omni {
@@ -249,6 +250,42 @@ TEST_F(StereoCli, PanoramaAndDepthWriteTheirFiles) {
                         "cloud.ply"}) {
     EXPECT_TRUE(fs::exists(dir_ / "d" / f)) << f;
   }
+}
+
+// A single-mirror rig: `panorama` writes its one panorama; `depth`, `triangulate`, `check` and
+// `refine` need two rings and refuse it in one line naming the model file, exit 2, no output.
+TEST_F(StereoCli, SingleRigHasOnePanoramaAndNoStereo) {
+  CentralMirror central;
+  central.mirror = Conic<double>{20.0, -2.2};
+  io::WriteModelFile(Path("single.yaml"),
+                     MakeSingleRig(central.mirror, LensKind::kPerspective,
+                                   central.CameraBelowVertexMm(), 30, 5,
+                                   Pinhole<double>{800, 800, 640, 480, 0}, 1280, 960));
+  cv::imwrite(Path("grey.png"), cv::Mat(960, 1280, CV_8UC3, cv::Scalar(90, 90, 90)));
+  const std::string model = " --model=" + Path("single.yaml");
+  const std::string image = " --image=" + Path("grey.png");
+  std::string err, out;
+  ASSERT_EQ(RunOmnistereo("panorama" + model + image + " --panorama_width=360 --out=" + Path("p"),
+                          Path("e"), &err, Path("o"), &out),
+            0)
+      << err;
+  EXPECT_EQ(cv::imread(Path("p/panorama1.png")).cols, 360);
+  EXPECT_FALSE(fs::exists(Path("p/panorama2.png")));
+  EXPECT_EQ(out.find("panorama2"), std::string::npos) << out;
+  const std::string refused[] = {
+      "depth" + model + image + " --out=" + Path("d"),
+      "triangulate" + model + " --detections=" + Path("none.yaml") + " --out=" + Path("t.csv"),
+      "check" + model + image,
+      "refine" + model + image + " --out=" + Path("r.yaml")};
+  for (const std::string& command : refused) {
+    EXPECT_EQ(RunOmnistereo(command, Path("e"), &err), 2) << command;
+    EXPECT_NE(err.find(Path("single.yaml") + ": a single-mirror rig (rig: single) has one ring; "),
+              std::string::npos)
+        << err;
+    EXPECT_EQ(std::count(err.begin(), err.end(), '\n'), 1) << err;
+  }
+  EXPECT_FALSE(fs::exists(Path("d/cloud.ply")) || fs::exists(Path("t.csv")) ||
+               fs::exists(Path("r.yaml")));
 }
 
 // `depth --images`: one set-up for a glob of frames, DIR/<name>.ply per frame, the same cloud as
