@@ -46,11 +46,13 @@ DEFINE_string(mirror, "unknown", "init, single_mirror: hyperbolic | parabolic | 
 DEFINE_string(lens, "perspective", "init: perspective | telecentric (single_mirror only: with a "
                                    "parabolic, spherical or unknown mirror)");
 DEFINE_double(camera_distance, 0, "init, single_mirror: the lens's rough distance to the mirror's "
-                                  "vertex (mm); needed for a sphere seen in perspective");
+                                  "vertex (mm); a sphere seen in perspective needs it (or --focal_px); "
+                                  "with --focal_px it checks --mirror_diameter (within 30%)");
 DEFINE_double(focal_px, 0, "init, single_mirror, perspective lens: the lens's focal length in px "
-                           "(focal mm / pixel pitch mm), if known");
+                           "(focal mm / pixel pitch mm), if known: it places the camera");
 DEFINE_double(magnification, 0, "init, single_mirror, telecentric lens: px per mm (the lens's "
-                                "magnification / pixel pitch mm), if known");
+                                "magnification / pixel pitch mm), if known: it checks "
+                                "--mirror_diameter (within 5%)");
 
 namespace omni::apps {
 namespace {
