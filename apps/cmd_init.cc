@@ -109,30 +109,63 @@ void RefuseSingleMirrorFlags() {
   }
 }
 
-// The single-mirror start: the rim in the photos, the model and the session's choices.
-detectors::SingleMirrorStart SingleMirrorStart(const std::vector<std::string>& images) {
+// The starting model and the session's comment on it (its choices made in the session).
+struct Start {
+  RigParams rig;
+  std::string about;
+};
+
+// A single mirror: the rim in the photos, the model and the session's estimate, priors, lips.
+Start SingleMirrorStart(io::Session* session) {
   const detectors::SingleMirrorKnowledge know = KnowledgeFromFlags();
   std::string why;
-  const auto start = detectors::SingleMirrorStartFromPhotos(detectors::GreyPhotosForRim(images),
-                                                            know, &why);
+  const auto start = detectors::SingleMirrorStartFromPhotos(
+      detectors::GreyPhotosForRim(session->images), know, &why);
   if (!start) throw io::InputError("--" + why);
-  return *start;
+  for (const std::string& line : start->lines) std::printf("%s\n", line.c_str());
+  session->estimate = start->estimate;
+  for (const auto& [name, prior] : start->priors) session->priors[name] = prior;
+  session->use_lips = false;
+  std::string about = "# model: the starting model (a single mirror found by its rim in the "
+                      "photos, " + FLAGS_mirror + " mirror, " + FLAGS_lens +
+                      " lens; calibrate refines it).\n";
+  for (const std::string& line : start->comments) about += "# " + line + "\n";
+  return {start->rig, about};
 }
 
-}  // namespace
+// A built rig: the design at the photos' size, its intrinsics from the lips, its posts.
+Start DesignStart(const io::Session& session, int width, int height) {
+  detectors::StartingModelOptions options;
+  options.design_name = FLAGS_design;
+  options.posts = FLAGS_posts;
+  options.post_width = FLAGS_post_width;
+  const detectors::StartingModel start =
+      detectors::StartingModelFromPhotos(DesignedRig(), session.images, width, height, options);
+  for (const std::string& line : start.lines) std::printf("%s\n", line.c_str());
+  return {start.rig, "# model: the starting model (the design " + FLAGS_design +
+                         " at the photos' " + std::to_string(width) + "x" +
+                         std::to_string(height) + "; calibrate refines it).\n"};
+}
 
-int RunInit() {
+// The flags every design checks first.
+void CheckCommonFlags(bool single) {
   if (FLAGS_images.empty() || FLAGS_out.empty()) {
     throw io::InputError("--images (a glob of the photos) and --out (the session file) are required");
   }
   if (FLAGS_lens != "perspective" && FLAGS_lens != "telecentric") {
     throw io::InputError("--lens: expected perspective or telecentric, got '" + FLAGS_lens + "'");
   }
-  const bool single = FLAGS_design == "single_mirror";
   if (!single) RefuseSingleMirrorFlags();
   if (!(FLAGS_post_width > 0)) {
     throw io::InputError("--post_width: expected the posts' side in mm (> 0), got " + std::to_string(FLAGS_post_width));
   }
+}
+
+}  // namespace
+
+int RunInit() {
+  const bool single = FLAGS_design == "single_mirror";
+  CheckCommonFlags(single);
   io::Session session;
   session.estimate = DefaultEstimateBlocks();
   session.targets = io::ParseTargetList(FLAGS_targets, "--targets");
@@ -143,44 +176,21 @@ int RunInit() {
   session.images = ImagesFromFlags();
   int width = 0, height = 0;
   detectors::CommonImageSize(session.images, &width, &height);
-  RigParams rig;
-  std::string about;  // the session's comment on its model and choices
-  if (single) {
-    const detectors::SingleMirrorStart start = SingleMirrorStart(session.images);
-    for (const std::string& line : start.lines) std::printf("%s\n", line.c_str());
-    rig = start.rig;
-    session.estimate = start.estimate;
-    for (const auto& [name, prior] : start.priors) session.priors[name] = prior;
-    session.use_lips = false;
-    about = "# model: the starting model (a single mirror found by its rim in the photos, " +
-            FLAGS_mirror + " mirror, " + FLAGS_lens + " lens; calibrate refines it).\n";
-    for (const std::string& line : start.comments) about += "# " + line + "\n";
-  } else {
-    detectors::StartingModelOptions options;
-    options.design_name = FLAGS_design;
-    options.posts = FLAGS_posts;
-    options.post_width = FLAGS_post_width;
-    const detectors::StartingModel start =
-        detectors::StartingModelFromPhotos(DesignedRig(), session.images, width, height, options);
-    for (const std::string& line : start.lines) std::printf("%s\n", line.c_str());
-    rig = start.rig;
-    about = "# model: the starting model (the design " + FLAGS_design + " at the photos' " +
-            std::to_string(width) + "x" + std::to_string(height) + "; calibrate refines it).\n";
-  }
+  const Start start = single ? SingleMirrorStart(&session) : DesignStart(session, width, height);
 
   const fs::path out = fs::absolute(FLAGS_out);
   const std::string model_path = (out.parent_path() / "start_model.yaml").string();
   session.model_path = model_path;
   const std::string text =
       "# omnistereo-session/1 written by `omnistereo init` from " + FLAGS_images + ".\n" +
-      about +
+      start.about +
       "# images: the photos (globs allowed); targets: what was printed, exactly (mm).\n" +
       std::string(single ? "# " : "# lips: use the coloured lips at the mirror rims; ") +
       "tone: srgb for colour cameras and JPEG,\n"
       "# linear for machine-vision cameras with gamma off; bayer: RGGB|... for raw frames.\n"
       "# Next: omnistereo detect --session " + FLAGS_out + " --out detections.yaml --overlay overlays/\n" +
       io::SessionText(session, out.parent_path().string());
-  io::WriteModelFile(model_path, rig);
+  io::WriteModelFile(model_path, start.rig);
   io::WriteFileAtomically(out.string(), text);
   std::printf("%zu photos of %dx%d, %zu target(s); session %s, starting model %s\n",
               session.images.size(), width, height, session.targets.size(), FLAGS_out.c_str(),

@@ -115,7 +115,7 @@ std::optional<RimConicResult> RimConic(double r, double K, double alpha) {
   // The slope dz/dr = sigma at the rim turns a ray at alpha from the axis to 90 deg; with
   // q = r / sigma the conic (1 + K) s^2 - 2 R s + r^2 = 0 and its slope r / (R - (1 + K) s) = sigma
   // leave (1 + K) s^2 + 2 q s - r^2 = 0 and R = q + (1 + K) s.
-  const double sigma = std::tan(M_PI / 4 - alpha / 2);
+  const double sigma = alpha == 0 ? 1.0 : std::tan(M_PI / 4 - alpha / 2);  // exact when 0
   if (!(r > 0) || !(sigma > 0)) return std::nullopt;
   const double q = r / sigma;
   const double disc = q * q + (1 + K) * r * r;
