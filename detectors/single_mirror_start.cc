@@ -168,6 +168,93 @@ std::string ConicLine(const RigParams& rig) {
   return Format("%s R %.3f mm, K %.4f", ConicKindName(KindOfConic(K)), rig.mirror1_shape[kShapeC], K);
 }
 
+// The start's conic constant and the rim's angle from the lens axis (perspective; telecentric 0)
+// from what the builder knows, the diameter checked where two things are known. Adds the checks'
+// and assumptions' lines; *why ("<field>: ...") where the diameter disagrees or no conic fits.
+struct RimGeometry {
+  double K = -1, alpha = 0;
+};
+std::optional<RimGeometry> ChooseRimGeometry(const SingleMirrorKnowledge& know, double rho,
+                                             std::vector<std::string>* lines, std::string* why) {
+  auto fail = [&](const std::string& text) {
+    *why = text;
+    return std::nullopt;
+  };
+  const double D = know.mirror_diameter, r = D / 2, given_d = know.camera_distance;
+  // Perspective: the rim's angle from focal_px and the diameter place the lens; camera_distance
+  // says where it is.
+  auto distance_mismatch = [&](double implied) -> std::optional<std::string> {
+    const double off = Mismatch(implied, given_d);
+    const std::string text = Format(
+        "the %g mm rim seen at %.2f px with --focal_px %g puts the lens %.1f mm from the mirror's "
+        "vertex, --camera_distance says %g mm (off by %.0f%%, tolerance %.0f%%)",
+        D, rho, know.focal_px, implied, given_d, 100 * off, 100 * know.distance_tolerance);
+    if (off > know.distance_tolerance) {
+      return "mirror_diameter: " + text +
+             ": check the diameter (mm, across the rim), --focal_px and --camera_distance";
+    }
+    lines->push_back("diameter checked: " + text);
+    return std::nullopt;
+  };
+  RimGeometry g{StartK(know.mirror), 0};
+  if (know.lens == LensKind::kTelecentric) {
+    if (know.magnification > 0) {
+      const double m = rho / r, off = Mismatch(m, know.magnification);
+      const std::string text = Format(
+          "the %g mm rim seen at %.2f px is %.3f px per mm, --magnification says %g (off by "
+          "%.1f%%, tolerance %.0f%%)",
+          D, rho, m, know.magnification, 100 * off, 100 * know.magnification_tolerance);
+      if (off > know.magnification_tolerance) {
+        return fail("mirror_diameter: " + text + ": check the diameter (mm, across the rim) and "
+                    "the magnification (the lens's over the pixel pitch in mm)");
+      }
+      lines->push_back("diameter checked: " + text);
+    }
+    return g;
+  }
+  if (know.mirror == MirrorKnowledge::kHyperbolic || know.mirror == MirrorKnowledge::kUnknown) {
+    // The central hyperboloid with the rim in its near focus's plane: R = r, e from the rim's
+    // angle (tan alpha = (e^2 - 1) / 2e) or from the camera at the far focus (d = r / (e - 1)).
+    double e = std::sqrt(2.0);
+    if (know.focal_px > 0) {
+      const double t = rho / know.focal_px;
+      e = t + std::hypot(t, 1.0);
+      if (given_d > 0) {
+        if (auto bad = distance_mismatch(r / (e - 1))) return fail(*bad);
+      }
+    } else if (given_d > 0) {
+      e = 1 + r / given_d;
+    } else {
+      lines->push_back(Format(
+          "assumed: K = -2 with the lens at the far focus (%.1f mm below the vertex): give "
+          "--camera_distance or --focal_px to place it",
+          r / (e - 1)));
+    }
+    return RimGeometry{-e * e, HyperboloidRimAngle(e)};
+  }
+  if (know.focal_px > 0) {
+    g.alpha = std::atan(rho / know.focal_px);
+    if (given_d > 0) {
+      const auto implied = VertexDistance(r, g.K, g.alpha);
+      if (!implied) return fail("focal_px: no such mirror sees its rim at this angle");
+      if (auto bad = distance_mismatch(*implied)) return fail(*bad);
+    }
+    return g;
+  }
+  const double d = given_d > 0 ? given_d : 2 * D;  // a sphere without either fails Check()
+  if (!(given_d > 0)) {
+    lines->push_back(Format("assumed: the lens %.0f mm (two rim diameters) from the vertex: give "
+                            "--camera_distance or --focal_px to place it", d));
+  }
+  const auto alpha = RimAngleForDistance(r, g.K, d);
+  if (!alpha) {
+    return fail(Format("camera_distance: no %s mirror of a %g mm rim reflects its rim to the "
+                       "horizon for a lens %g mm away", MirrorKnowledgeName(know.mirror), D, d));
+  }
+  g.alpha = *alpha;
+  return g;
+}
+
 }  // namespace
 
 std::optional<SingleMirrorStart> SingleMirrorStartFromRim(const MirrorRim& rim,
@@ -183,84 +270,15 @@ std::optional<SingleMirrorStart> SingleMirrorStartFromRim(const MirrorRim& rim,
   SingleMirrorStart out;
   out.rim = rim;
   const double r = know.mirror_diameter / 2, rho = rim.radius_px;
-  const double D = know.mirror_diameter, given_d = know.camera_distance;
   const bool telecentric = know.lens == LensKind::kTelecentric;
   out.lines.push_back(Format("mirror rim: centre (%.2f, %.2f) px, radius %.2f px, rms %.2f px over "
                              "%d edge points (coverage %.2f)",
                              rim.centre.x(), rim.centre.y(), rho, rim.rms_px, rim.edge_points,
                              rim.coverage));
-  // The distance check (perspective: the rim's angle from focal_px and the diameter place the
-  // camera; camera_distance says where it is).
-  auto check_distance = [&](double implied) -> std::optional<std::string> {
-    const double off = Mismatch(implied, given_d);
-    const std::string text = Format(
-        "the %g mm rim seen at %.2f px with --focal_px %g puts the lens %.1f mm from the mirror's "
-        "vertex, --camera_distance says %g mm (off by %.0f%%, tolerance %.0f%%)",
-        D, rho, know.focal_px, implied, given_d, 100 * off, 100 * know.distance_tolerance);
-    if (off > know.distance_tolerance) {
-      return "mirror_diameter: " + text +
-             ": check the diameter (mm, across the rim), --focal_px and --camera_distance";
-    }
-    out.lines.push_back("diameter checked: " + text);
-    return std::nullopt;
-  };
-  double K = StartK(know.mirror), alpha = 0;
-  if (telecentric) {
-    if (know.magnification > 0) {
-      const double m = rho / r, off = Mismatch(m, know.magnification);
-      const std::string text = Format(
-          "the %g mm rim seen at %.2f px is %.3f px per mm, --magnification says %g (off by "
-          "%.1f%%, tolerance %.0f%%)",
-          D, rho, m, know.magnification, 100 * off, 100 * know.magnification_tolerance);
-      if (off > know.magnification_tolerance) {
-        return fail("mirror_diameter: " + text + ": check the diameter (mm, across the rim) and "
-                    "the magnification (the lens's over the pixel pitch in mm)");
-      }
-      out.lines.push_back("diameter checked: " + text);
-    }
-  } else if (know.mirror == MirrorKnowledge::kHyperbolic ||
-             know.mirror == MirrorKnowledge::kUnknown) {
-    // The central hyperboloid with the rim in its near focus's plane: R = r, e from the rim's
-    // angle (tan alpha = (e^2 - 1) / 2e) or from the camera at the far focus (d = r / (e - 1)).
-    double e = std::sqrt(2.0);
-    if (know.focal_px > 0) {
-      const double t = rho / know.focal_px;
-      e = t + std::hypot(t, 1.0);
-      if (given_d > 0) {
-        if (auto bad = check_distance(r / (e - 1))) return fail(*bad);
-      }
-    } else if (given_d > 0) {
-      e = 1 + r / given_d;
-    } else {
-      out.lines.push_back(Format(
-          "assumed: K = -2 with the lens at the far focus (%.1f mm below the vertex): give "
-          "--camera_distance or --focal_px to place it",
-          r / (e - 1)));
-    }
-    K = -e * e;
-    alpha = HyperboloidRimAngle(e);
-  } else {
-    if (know.focal_px > 0) {
-      alpha = std::atan(rho / know.focal_px);
-      if (given_d > 0) {
-        const auto implied = VertexDistance(r, K, alpha);
-        if (!implied) return fail("focal_px: no such mirror sees its rim at this angle");
-        if (auto bad = check_distance(*implied)) return fail(*bad);
-      }
-    } else {
-      const double d = given_d > 0 ? given_d : 2 * D;  // a sphere without either fails Check()
-      if (!(given_d > 0)) {
-        out.lines.push_back(Format("assumed: the lens %.0f mm (two rim diameters) from the "
-                                   "vertex: give --camera_distance or --focal_px to place it", d));
-      }
-      const auto a = RimAngleForDistance(r, K, d);
-      if (!a) {
-        return fail(Format("camera_distance: no %s mirror of a %g mm rim reflects its rim to the "
-                           "horizon for a lens %g mm away", MirrorKnowledgeName(know.mirror), D, d));
-      }
-      alpha = *a;
-    }
-  }
+  std::string reason;
+  const auto geometry = ChooseRimGeometry(know, rho, &out.lines, &reason);
+  if (!geometry) return fail(reason);
+  const double K = geometry->K, alpha = geometry->alpha, given_d = know.camera_distance;
   const auto conic = RimConic(r, K, alpha);
   if (!conic) return fail("focal_px: no such mirror reflects its rim to the horizon at this angle");
   double vertex_z = 0, f = 0;
