@@ -6,7 +6,7 @@
 // written when an input is wrong.
 // `--design single_mirror` (a single-mirror camera nobody designed for us): the start from the
 // mirror's rim in the photos and what the builder knows (--mirror_diameter, --mirror, --lens,
-// --camera_distance, --focal_px, --magnification; detectors/single_mirror_start.h).
+// --camera_distance, --focal_px, --magnification, --unified; detectors/single_mirror_start.h).
 #include <cstdio>
 #include <filesystem>
 #include <string>
@@ -50,6 +50,9 @@ DEFINE_double(camera_distance, 0, "init, single_mirror: the lens's rough distanc
                                   "with --focal_px it checks --mirror_diameter (within 30%)");
 DEFINE_double(focal_px, 0, "init, single_mirror, perspective lens: the lens's focal length in px "
                            "(focal mm / pixel pitch mm), if known: it places the camera");
+DEFINE_string(unified, "", "init, single_mirror: XI,GAMMA_PX of a central fit's unified model "
+                          "(cv::omnidir, Mei): the start's conic and distance from it, scaled by "
+                          "the rim, instead of the rim-at-the-horizon assumption");
 DEFINE_double(magnification, 0, "init, single_mirror, telecentric lens: px per mm (the lens's "
                                 "magnification / pixel pitch mm), if known: it checks "
                                 "--mirror_diameter (within 5%)");
@@ -90,6 +93,14 @@ detectors::SingleMirrorKnowledge KnowledgeFromFlags() {
   know.camera_distance = FLAGS_camera_distance;
   know.focal_px = FLAGS_focal_px;
   know.magnification = FLAGS_magnification;
+  if (!FLAGS_unified.empty()) {
+    char rest = 0;
+    if (std::sscanf(FLAGS_unified.c_str(), "%lf,%lf%c", &know.unified_xi, &know.unified_gamma,
+                    &rest) != 2) {
+      throw io::InputError("--unified: expected XI,GAMMA_PX (e.g. 0.96,410.5), got '" +
+                           FLAGS_unified + "'");
+    }
+  }
   if (const std::string bad = know.Check(); !bad.empty()) throw io::InputError("--" + bad);
   return know;
 }
@@ -104,7 +115,8 @@ void RefuseSingleMirrorFlags() {
                                   {"mirror", FLAGS_mirror != "unknown"},
                                   {"camera_distance", FLAGS_camera_distance != 0},
                                   {"focal_px", FLAGS_focal_px != 0},
-                                  {"magnification", FLAGS_magnification != 0}}) {
+                                  {"magnification", FLAGS_magnification != 0},
+                                  {"unified", !FLAGS_unified.empty()}}) {
     if (set) throw io::InputError(std::string("--") + flag + ": only with --design single_mirror");
   }
 }

@@ -104,6 +104,18 @@ std::string SingleMirrorKnowledge::Check() const {
     return "camera_distance: a spherical mirror has no central configuration that places the "
            "camera; give the lens's rough distance to the mirror's vertex (mm) or --focal_px";
   }
+  if ((unified_xi > 0) != (unified_gamma > 0) || unified_xi < 0 || unified_gamma < 0) {
+    return "unified: expected XI,GAMMA_PX, both > 0 (a central fit's unified model)";
+  }
+  if (unified_xi > 0 && (mirror == MirrorKnowledge::kSpherical ||
+                         (mirror == MirrorKnowledge::kParabolic && !telecentric))) {
+    return std::string("unified: a unified model is a central camera, which a ") +
+           MirrorKnowledgeName(mirror) + " mirror with a " + (telecentric ? "telecentric" : "perspective") +
+           " lens is not";
+  }
+  if (unified_xi > 0 && focal_px > 0) {
+    return "focal_px: the unified fit's gamma gives the focal length; give one or the other";
+  }
   if (!(distance_tolerance > 0) || !(magnification_tolerance > 0)) {
     return "tolerance: expected > 0";
   }
@@ -255,6 +267,83 @@ std::optional<RimGeometry> ChooseRimGeometry(const SingleMirrorKnowledge& know, 
   return g;
 }
 
+// The start's mirror, its vertex's height above the lens and the lens's f (px) or m (px per mm).
+struct StartShape {
+  Conic<double> conic{1, -1};
+  double vertex_z = 0, f = 0, alpha = 0;
+  std::string basis;  // what it rests on, for the start's line
+};
+
+// From the rim's angle (ChooseRimGeometry): the rim reflects to the horizon.
+std::optional<StartShape> ShapeFromRimAngle(const SingleMirrorKnowledge& know, double rho,
+                                            std::vector<std::string>* lines, std::string* why) {
+  const auto geometry = ChooseRimGeometry(know, rho, lines, why);
+  if (!geometry) return std::nullopt;
+  const double r = know.mirror_diameter / 2, alpha = geometry->alpha;
+  const auto conic = RimConic(r, geometry->K, alpha);
+  if (!conic) {
+    *why = "focal_px: no such mirror reflects its rim to the horizon at this angle";
+    return std::nullopt;
+  }
+  StartShape shape{conic->conic, 0, 0, alpha, "the rim reflects to the horizon (assumed)"};
+  if (know.lens == LensKind::kTelecentric) {
+    shape.vertex_z = know.camera_distance > 0 ? know.camera_distance : 2 * r;  // no effect
+    shape.f = rho / r;
+    return shape;
+  }
+  shape.vertex_z = r / std::tan(alpha) - conic->rim_sag;
+  if (!(shape.vertex_z > 0)) {
+    *why = Format("focal_px: the rim at %.1f deg from the lens axis puts the lens inside the "
+                  "mirror", alpha * kDeg);
+    return std::nullopt;
+  }
+  shape.f = rho / std::tan(alpha);
+  return shape;
+}
+
+// From a central fit's unified model scaled by the rim (CentralMirrorFromUnified); the diameter
+// checked against camera_distance (perspective) or magnification (telecentric).
+std::optional<StartShape> ShapeFromUnified(const SingleMirrorKnowledge& know, double rho,
+                                           std::vector<std::string>* lines, std::string* why) {
+  const double D = know.mirror_diameter, r = D / 2;
+  std::string reason;
+  const auto central = CentralMirrorFromUnified(
+      UnifiedParameters{know.unified_xi, know.unified_gamma}, know.lens, rho, D, &reason);
+  if (!central) {
+    *why = "unified: " + reason;
+    return std::nullopt;
+  }
+  StartShape shape{central->mirror, 0, 0, 0,
+                   Format("from the unified fit xi %g, gamma %g px", know.unified_xi,
+                          know.unified_gamma)};
+  if (know.lens == LensKind::kTelecentric) {
+    SingleMirrorKnowledge magnification_only = know;  // the magnification check, as without it
+    magnification_only.unified_xi = magnification_only.unified_gamma = 0;
+    magnification_only.mirror = MirrorKnowledge::kParabolic;
+    if (!ChooseRimGeometry(magnification_only, rho, lines, why)) return std::nullopt;
+    shape.vertex_z = know.camera_distance > 0 ? know.camera_distance : 2 * r;  // no effect
+    shape.f = central->magnification;
+    return shape;
+  }
+  shape.vertex_z = central->CameraBelowVertexMm();
+  shape.f = central->focal_px;
+  shape.alpha = std::atan(rho / shape.f);
+  if (know.camera_distance > 0) {
+    const double off = Mismatch(shape.vertex_z, know.camera_distance);
+    const std::string text = Format(
+        "the %g mm rim seen at %.2f px with the unified fit puts the lens %.1f mm from the "
+        "mirror's vertex, --camera_distance says %g mm (off by %.0f%%, tolerance %.0f%%)",
+        D, rho, shape.vertex_z, know.camera_distance, 100 * off, 100 * know.distance_tolerance);
+    if (off > know.distance_tolerance) {
+      *why = "mirror_diameter: " + text + ": check the diameter (mm, across the rim), --unified "
+             "and --camera_distance";
+      return std::nullopt;
+    }
+    lines->push_back("diameter checked: " + text);
+  }
+  return shape;
+}
+
 }  // namespace
 
 std::optional<SingleMirrorStart> SingleMirrorStartFromRim(const MirrorRim& rim,
@@ -271,34 +360,22 @@ std::optional<SingleMirrorStart> SingleMirrorStartFromRim(const MirrorRim& rim,
   out.rim = rim;
   const double r = know.mirror_diameter / 2, rho = rim.radius_px;
   const bool telecentric = know.lens == LensKind::kTelecentric;
+  const bool unified = know.unified_xi > 0;
   out.lines.push_back(Format("mirror rim: centre (%.2f, %.2f) px, radius %.2f px, rms %.2f px over "
                              "%d edge points (coverage %.2f)",
                              rim.centre.x(), rim.centre.y(), rho, rim.rms_px, rim.edge_points,
                              rim.coverage));
   std::string reason;
-  const auto geometry = ChooseRimGeometry(know, rho, &out.lines, &reason);
-  if (!geometry) return fail(reason);
-  const double K = geometry->K, alpha = geometry->alpha, given_d = know.camera_distance;
-  const auto conic = RimConic(r, K, alpha);
-  if (!conic) return fail("focal_px: no such mirror reflects its rim to the horizon at this angle");
-  double vertex_z = 0, f = 0;
-  if (telecentric) {
-    vertex_z = given_d > 0 ? given_d : 2 * r;  // a telecentric image does not depend on it
-    f = rho / r;
-  } else {
-    vertex_z = r / std::tan(alpha) - conic->rim_sag;
-    if (!(vertex_z > 0)) {
-      return fail(Format("focal_px: the rim at %.1f deg from the lens axis puts the lens inside "
-                         "the mirror", alpha * kDeg));
-    }
-    f = rho / std::tan(alpha);
-  }
+  const auto shape = unified ? ShapeFromUnified(know, rho, &out.lines, &reason)
+                             : ShapeFromRimAngle(know, rho, &out.lines, &reason);
+  if (!shape) return fail(reason);
+  const double f = shape->f, vertex_z = shape->vertex_z, alpha = shape->alpha;
   const Pinhole<double> cam{f, f, rim.centre.x(), rim.centre.y(), 0};
-  out.rig = MakeSingleRig(conic->conic, know.lens, vertex_z, r, know.r_cam_fraction * r, cam,
+  out.rig = MakeSingleRig(shape->conic, know.lens, vertex_z, r, know.r_cam_fraction * r, cam,
                           width, height);
   out.rim_angle_rad = alpha;
   out.camera_distance_mm = vertex_z;
-  if (know.mirror == MirrorKnowledge::kUnknown) {
+  if (know.mirror == MirrorKnowledge::kUnknown && !unified) {
     out.lines.push_back(std::string("unknown mirror: started as the central ") +
                         (telecentric ? "paraboloid" : "hyperboloid") +
                         " of this lens; its shape is estimated");
@@ -312,13 +389,15 @@ std::optional<SingleMirrorStart> SingleMirrorStartFromRim(const MirrorRim& rim,
            : Format(", vertex %.1f mm above the lens, focal length %.1f px, principal point at "
                     "the rim centre (the rim %.1f deg from the lens axis)",
                     vertex_z, f, alpha * kDeg)) +
-      "; the rim reflects to the horizon (assumed)");
-  if (!(telecentric ? know.magnification > 0 : know.focal_px > 0 && given_d > 0)) {
+      "; " + shape->basis);
+  const double given_d = know.camera_distance;
+  if (!(telecentric ? know.magnification > 0
+                    : given_d > 0 && (know.focal_px > 0 || unified))) {
     out.lines.push_back(
         telecentric ? "diameter not checked: the rim's px per mm is the magnification; "
                       "--magnification (px per mm) would check it"
                     : "diameter not checked: the rim's image fixes the focal length against the "
-                      "diameter; --focal_px with --camera_distance would check it");
+                      "diameter; --camera_distance with --focal_px or --unified would check it");
   }
   ChooseEstimate(know, &out);
   return out;

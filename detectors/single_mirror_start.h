@@ -18,8 +18,12 @@
 //     (a hyperboloid: the camera at its far focus, e = 1 + r / d);
 //   else a hyperboloid of K = -2 with the camera at its far focus, a paraboloid seen from two rim
 //     diameters away (both stated as assumptions in the lines); a sphere has no such default.
+// A central fit instead (unified_xi, unified_gamma: cv::omnidir's or Mei's xi and gamma, px):
+// the central camera it describes scaled by the rim (model/central_mirror.h
+// CentralMirrorFromUnified): a hyperboloid with the lens at its far focus, or a paraboloid
+// behind a telecentric lens; no assumption about the rim's reflection.
 // The diameter check: where two of these are given (focal_px and camera_distance, or a
-// telecentric lens's magnification), the rim in the photos must agree with the diameter within
+// telecentric lens's magnification; with a unified fit: camera_distance, focal_px), the rim in the photos must agree with the diameter within
 // the tolerances below; a diameter given as a radius (2x), in cm (10x) or inches misses by far
 // more.
 #pragma once
@@ -51,6 +55,8 @@ struct SingleMirrorKnowledge {
   double camera_distance = 0;  // mm, rough, the lens's centre to the mirror's vertex; 0: unknown
   double focal_px = 0;         // perspective: the lens's focal length in px; 0: unknown
   double magnification = 0;    // telecentric: px per mm (magnification / pixel pitch); 0: unknown
+  // A central fit's unified model (both > 0, or both 0: none); gamma in px.
+  double unified_xi = 0, unified_gamma = 0;
   // Tolerances of the diameter check (relative). Perspective: the camera distance the rim's
   // angle and the diameter imply against camera_distance (rough, and the rim's reflection at the
   // horizon is assumed). Telecentric: the rim's px per mm against magnification (a lens

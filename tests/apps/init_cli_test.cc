@@ -130,6 +130,13 @@ TEST_F(InitCli, PerspectiveUnknownMirrorFromItsRim) {
   EXPECT_TRUE(session.priors.empty());
 }
 
+TEST_F(InitCli, PerspectiveFromAUnifiedFit) {
+  std::string err, out;
+  ASSERT_EQ(Run("--mirror_diameter 50 --mirror hyperbolic --unified 0.9,300", &err, &out), 0) << err;
+  EXPECT_NE(out.find("from the unified fit xi 0.9, gamma 300 px"), std::string::npos) << out;
+  EXPECT_LT(WorstRimError(), 1.0);
+}
+
 TEST_F(InitCli, BadInputIsNamedAndNothingWritten) {
   const detectors::testing::Drawn d;
   // The rim's px per mm 10% off the magnification.
@@ -144,6 +151,8 @@ TEST_F(InitCli, BadInputIsNamedAndNothingWritten) {
   ExpectRejected("--mirror parabolic", "--mirror_diameter: ");
   ExpectRejected("--mirror_diameter 40 --mirror conic", "--mirror: ");
   ExpectRejected("--mirror_diameter 40 --lens fisheye", "--lens: ");
+  ExpectRejected("--mirror_diameter 40 --unified 0.9", "--unified: ");
+  ExpectRejected("--mirror_diameter 40 --unified 0.9,0", "--unified: ");
   ExpectRejected("--mirror_diameter 40", "--images: no mirror rim found in the 3 photos: ", "noise");
   // Telecentric with the folded design.
   std::string err;

@@ -136,7 +136,9 @@ TEST(SingleMirrorStart, EveryKindProjectsItsRimWhereThePhotosShowIt) {
     if (c.lens == LensKind::kPerspective && c.camera_distance > 0) {
       EXPECT_NEAR(rig.vertex_z, c.camera_distance, 1e-6) << what;
     }
-    if (c.focal_px > 0) EXPECT_NEAR(rig.camera[kFx], c.focal_px, 1e-9) << what;
+    if (c.focal_px > 0) {
+      EXPECT_NEAR(rig.camera[kFx], c.focal_px, 1e-9) << what;
+    }
     // A hyperboloid seen in perspective starts central: the lens at its far focus.
     if (c.lens == LensKind::kPerspective && K < -1) {
       const CentralMirror central{Conic<double>{rig.mirror1_shape[kShapeC], K}, c.lens, 0, 0};
@@ -196,6 +198,65 @@ TEST(SingleMirrorStart, TheDiameterIsCheckedWhereTwoThingsAreKnown) {
   know.camera_distance = parabolic->rig.vertex_z * 2;
   EXPECT_FALSE(SingleMirrorStartFromRim(rim, know, 800, 600, &why));
   EXPECT_EQ(why.rfind("mirror_diameter: ", 0), 0u) << why;
+}
+
+// A central camera's unified model (model/central_mirror.h UnifiedOf) and its rim's image radius
+// give back its mirror, distance and lens exactly; the distance checks the diameter.
+TEST(SingleMirrorStart, FromAUnifiedFitTheCentralCameraItself) {
+  const Conic<double> hyperboloid{20.0, -2.2};
+  const CentralMirror perspective{hyperboloid, LensKind::kPerspective, 800, 0};
+  RigParams truth = MakeSingleRig(hyperboloid, LensKind::kPerspective,
+                                  perspective.CameraBelowVertexMm(), 30, 5,
+                                  Pinhole<double>{800, 800, 640, 480, 0}, 1280, 960);
+  const RigParams paraboloid_truth =
+      MakeSingleRig(Conic<double>{16.0, -1.0}, LensKind::kTelecentric, 60, 30, 4,
+                    Pinhole<double>{13.3, 13.3, 640, 512, 0}, 1280, 1024);
+  const CentralMirror telecentric{Conic<double>{16.0, -1.0}, LensKind::kTelecentric, 0, 13.3};
+  for (const auto& [rig, central] : {std::pair{truth, perspective},
+                                     std::pair{paraboloid_truth, telecentric}}) {
+    const auto unified = UnifiedOf(central);
+    ASSERT_TRUE(unified);
+    const auto pixel =
+        ProjectLipPoint(RigModel(rig), LipPath::kDirect, LipCircle::kOuter, 0.3);
+    ASSERT_TRUE(pixel);
+    const MirrorRim rim = Rim(rig.camera[kCx], rig.camera[kCy],
+                              (*pixel - Eigen::Vector2d(rig.camera[kCx], rig.camera[kCy])).norm());
+    SingleMirrorKnowledge know;
+    know.mirror_diameter = 60;
+    know.lens = central.lens;
+    know.unified_xi = unified->xi;
+    know.unified_gamma = unified->gamma;
+    std::string why;
+    const auto start = SingleMirrorStartFromRim(rim, know, rig.image_width, rig.image_height, &why);
+    ASSERT_TRUE(start) << why;
+    EXPECT_NEAR(start->rig.mirror1_shape[kShapeC], rig.mirror1_shape[kShapeC], 1e-9);
+    EXPECT_NEAR(start->rig.mirror1_shape[kShapeK], rig.mirror1_shape[kShapeK], 1e-9);
+    EXPECT_NEAR(start->rig.camera[kFx], rig.camera[kFx], 1e-9);
+    if (central.lens == LensKind::kPerspective) {
+      EXPECT_NEAR(start->rig.vertex_z, rig.vertex_z, 1e-9);
+      know.camera_distance = 1.25 * rig.vertex_z;
+      EXPECT_TRUE(SingleMirrorStartFromRim(rim, know, 1280, 960, &why)) << why;
+      know.mirror_diameter = 30;  // the radius given: the lens placed at about half the distance
+      EXPECT_FALSE(SingleMirrorStartFromRim(rim, know, 1280, 960, &why));
+      EXPECT_EQ(why.rfind("mirror_diameter: ", 0), 0u) << why;
+    }
+    EXPECT_LT(WorstRimRadiusError(start->rig, rim.centre, rim.radius_px), 1.0);
+  }
+  SingleMirrorKnowledge know;
+  know.mirror_diameter = 60;
+  know.unified_xi = 0.9;
+  EXPECT_EQ(know.Check().rfind("unified: ", 0), 0u);
+  know.unified_gamma = 400;
+  know.focal_px = 800;
+  EXPECT_EQ(know.Check().rfind("focal_px: ", 0), 0u);
+  know.focal_px = 0;
+  know.mirror = MirrorKnowledge::kParabolic;  // perspective: no central paraboloid
+  EXPECT_EQ(know.Check().rfind("unified: ", 0), 0u);
+  know.mirror = MirrorKnowledge::kHyperbolic;
+  know.unified_xi = 1.2;  // no hyperboloid
+  std::string why;
+  EXPECT_FALSE(SingleMirrorStartFromRim(Rim(640, 480, 400), know, 1280, 960, &why));
+  EXPECT_EQ(why.rfind("unified: ", 0), 0u) << why;
 }
 
 TEST(SingleMirrorStart, BadKnowledgeIsNamed) {
