@@ -58,8 +58,10 @@ const std::vector<Command>& Commands() {
        RunExport,
        {{"out", "the file to write, ending as --format writes it: .npy (rays), .npz "
                 "(panorama_maps), .yaml (kalibr), .json (basalt)"}}},
-      {"init", "write a session for a built rig's photos (starting model from the design and the lips)",
-       {"images", "design", "targets", "posts", "post_width", "out"}, RunInit,
+      {"init", "write a session for a built rig's photos (starting model from the design and the "
+               "lips, or for a single mirror from its rim)",
+       {"images", "design", "targets", "posts", "post_width", "mirror_diameter", "mirror", "lens",
+        "camera_distance", "focal_px", "magnification", "unified", "out"}, RunInit,
        {{"out", "the session file to write (omnistereo-session/1 YAML; the starting model beside "
                 "it as start_model.yaml)"}}},
       {"target", "a printable target at exact size (PDF, SVG, PNG) and its session entry",

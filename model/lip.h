@@ -54,7 +54,8 @@ Vec3<T> LipPointInCam(const T* mirror_pose, const T& radius, const T& lip_z, con
   return PoseFromBlock(mirror_pose) * Vec3<T>(radius * cos(phi), radius * sin(phi), lip_z);
 }
 
-// The `direct` path: pixel of a point in C seen straight by the camera. Valid if the point is in
+// The `direct` path: pixel of a point in C seen straight by the camera (through its lens, by
+// kind: a telecentric lens images (x, y) in mm). Valid if the point is in
 // front of the camera and the camera ray does not pass through the reflex disc (the disc's back
 // hides what lies beyond it).
 template <typename T>
@@ -76,7 +77,7 @@ bool ProjectLipDirect(const RigBlocks<T>& b, const RigFixed& fixed, const Vec3<T
     if ((crossing - plane_point).squaredNorm() <= fixed.r_ref * fixed.r_ref) return false;
   }
   *pixel = PixelOfPointInCam(PinholeFromBlock(b[kCameraBlock]),
-                             RadTanFromBlock(b[kDistortionBlock]), point_in_cam);
+                             RadTanFromBlock(b[kDistortionBlock]), point_in_cam, fixed.lens);
   return true;
 }
 

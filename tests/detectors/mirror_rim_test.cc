@@ -6,57 +6,13 @@
 
 #include <gtest/gtest.h>
 
-#include <cmath>
-#include <random>
-
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
+#include "tests/detectors/drawn_rim.h"
 
 namespace omni::detectors {
 namespace {
 
-struct Drawn {
-  double cx = 402.3, cy = 297.8, r = 231.6;
-};
-
-// Grey level of the scene at (x, y): the mirror's texture inside the rim (seeded blobs and
-// stripes), the camera's reflection, the sleeve (a dark band crossing the rim's lower left),
-// the housing outside.
-double Scene(const Drawn& d, double x, double y, int seed) {
-  const double dx = x - d.cx, dy = y - d.cy, rho = std::hypot(dx, dy);
-  const double azimuth = std::atan2(dy, dx);
-  if (rho > d.r) return rho > d.r * 1.25 ? 45 : 20;  // housing, then the outer plate
-  if (rho < 0.12 * d.r) return 6;                    // the camera's reflection
-  if (azimuth > 1.9 && azimuth < 2.6 && rho > 0.5 * d.r) return 24;  // a dark sleeve
-  const double s = seed * 0.7;
-  double v = 140 + 45 * std::sin(0.05 * x + s) * std::cos(0.043 * y - s) +
-             35 * std::sin(0.011 * (x + 2 * y) + 2 * s);
-  if (std::fmod(std::abs(x * 0.02 + y * 0.013 + s), 1.0) < 0.3) v -= 50;  // stripes
-  return std::clamp(v, 40.0, 235.0);
-}
-
-cv::Mat Photo(const Drawn& d, int seed) {
-  cv::Mat img(600, 800, CV_32F);
-  for (int y = 0; y < img.rows; ++y) {
-    for (int x = 0; x < img.cols; ++x) {
-      double sum = 0;
-      for (int j = 0; j < 4; ++j) {
-        for (int i = 0; i < 4; ++i) sum += Scene(d, x - 0.375 + 0.25 * i, y - 0.375 + 0.25 * j, seed);
-      }
-      img.at<float>(y, x) = static_cast<float>(sum / 16);
-    }
-  }
-  cv::GaussianBlur(img, img, cv::Size(), 1.2);
-  cv::Mat noise(img.size(), CV_32F);
-  cv::randn(noise, 0, 2.0);
-  cv::theRNG().state = seed;
-  img += noise;
-  cv::Mat grey;
-  img.convertTo(grey, CV_8U);
-  std::vector<unsigned char> jpeg;
-  cv::imencode(".jpg", grey, jpeg, {cv::IMWRITE_JPEG_QUALITY, 85});
-  return cv::imdecode(jpeg, cv::IMREAD_GRAYSCALE);
-}
+using testing::Drawn;
+using testing::Photo;
 
 TEST(MirrorRim, FindsTheDrawnRimInOnePhotoAndInSeveral) {
   const Drawn d;
