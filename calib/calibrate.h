@@ -166,10 +166,6 @@ struct ProfileDecision {
   std::vector<RadialResidualBin> pattern_before, pattern_after;
   // chi^2 of the band means against zero per band (~1 where no pattern is left), before / after.
   double pattern_chi2_before = 0, pattern_chi2_after = 0;
-  // profile: auto: whether the pattern before (the profile held) is beyond chance at the 1%
-  // level (its chi^2 over the covered bands against that quantile): the evidence that frees it.
-  bool evidence = false;
-  double evidence_threshold = 0;  // that quantile, per band
 };
 
 struct StageReport {

@@ -147,17 +147,6 @@ void FitProfileRadiiToCorners(int m, const ObservationSet& observations, RigStat
 
 }  // namespace
 
-namespace {
-
-// The 99% quantile of chi^2 with k degrees of freedom (Wilson-Hilferty; within 1% for k >= 2).
-double Chi2Quantile99(int k) {
-  const double z = 2.3263;  // the standard normal's 99% quantile
-  const double a = 2.0 / (9.0 * k);
-  return k * std::pow(1 - a + z * std::sqrt(a), 3);
-}
-
-}  // namespace
-
 bool DecideProfiles(const ObservationSet& observations, const CalibrationOptions& options,
                     RigState* rig, ProfileState* profiles, Refinement* refined,
                     CalibrationResult* result) {
@@ -186,19 +175,9 @@ bool DecideProfiles(const ObservationSet& observations, const CalibrationOptions
       d.prior_mean = refined->profile_mean[m];
       d.prior_covariance = *refined->profile_covariance[m];
     }
-    // auto frees an unmeasured profile on evidence: the corners cover its radii AND their radial
-    // residuals with the profile held show a pattern beyond chance (an exact conic leaves none,
-    // and freeing it then only opens the profile-axial valley: on exact mirrors the points in
-    // mirror 1's body at 1 m came out 0.029 -> 0.055 px). A profile error that leaves no pattern
-    // hides in the axial positions and the focal length, where the considered tolerance carries
-    // it into their sigmas.
-    int used = 0;
-    for (const auto& b : d.pattern_before) used += b.count >= kMinCornersPerBand && b.sem_px > 0;
-    d.evidence_threshold = used > 0 ? Chi2Quantile99(used) / used : 0;
-    d.evidence = used > 0 && d.pattern_chi2_before > d.evidence_threshold;
     bool& free = refined->profile_free[m];
     if (!free && (asked || (options.profile == "auto" &&
-                            (d.measured || (d.bins_covered >= kMinBandsToFree && d.evidence))))) {
+                            (d.measured || d.bins_covered >= kMinBandsToFree)))) {
       free = true;
       freed = true;
     }
@@ -206,8 +185,7 @@ bool DecideProfiles(const ObservationSet& observations, const CalibrationOptions
   }
   if (freed) {
     Progress(options,
-             std::string("profiles freed where the corners cover the mirror's radii and show a "
-                         "radial pattern: mirror 1 ") +
+             std::string("profiles freed where the corners cover the mirror's radii: mirror 1 ") +
                  (refined->profile_free[0] ? "yes" : "no") +
                  (rig->params.Single()
                       ? std::string()
@@ -302,16 +280,6 @@ void FinishProfiles(const ObservationSet& observations, const ProfileState& prof
                           "passed on through the shared parameters); it bounds what this model "
                           "can reach"
                         : "");
-    } else if (options.profile == "auto" && d.bins_covered >= kMinBandsToFree && !d.evidence) {
-      std::snprintf(buf, sizeof(buf),
-                    "mirror %d's profile held at the %s and considered (sigma %.3g um per term, "
-                    "the machining tolerance): the corners cover %d of %d bands of the radii they "
-                    "reach on it, %.1f-%.1f mm, but show no radial pattern with it held (chi^2 per "
-                    "band %.2g, the 1%% level %.2g): the conic fits them, and freeing the profile "
-                    "would only trade with the axial positions (session profile: free frees it)",
-                    m + 1, profiles.given[m] ? "starting model's profile" : "conic", um,
-                    d.bins_covered, d.bins, d.r_min, d.r_max, d.pattern_chi2_before,
-                    d.evidence_threshold);
     } else {
       std::snprintf(buf, sizeof(buf),
                     "mirror %d's profile held at the %s and considered (sigma %.3g um per term, "
