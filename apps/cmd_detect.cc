@@ -80,7 +80,7 @@ int RunDetect() {
   io::WriteDetectionsFile(FLAGS_out, io::WithPathsRelativeToFile(found.detections, FLAGS_out));
   std::printf("%zu of %zu images used (%zu skipped), %d corners, detections in %s\n",
               found.detections.images.size(), session.images.size(), found.skipped, found.corners, FLAGS_out.c_str());
-  std::printf("%s", detectors::TargetSummary(session.targets, found.detections).c_str());
+  std::printf("%s", detectors::TargetSummary(session.targets, found.detections, rig.Paths()).c_str());
   if (session.targets.empty()) {
     std::printf("%s", detectors::LipsOnlyCheck(found.detections, RigModel(rig)).c_str());
   }

@@ -69,9 +69,11 @@ SingleMirrorSummary SummariseSingleMirror(const CalibrationResult& result) {
   SingleMirrorSummary s;
   s.R = rig.mirror1_shape[kShapeC];
   s.K = rig.mirror1_shape[kShapeK];
-  s.mirror = ConicKindName(KindOfConic(s.K, 0.0));
   s.sigma_R = SigmaOf(result, "mirror1.R");
   s.sigma_K = SigmaOf(result, "mirror1.K");
+  // The kind the data tell: a sphere or paraboloid where K is within 2 sigma of 0 or -1.
+  s.mirror = ConicKindName(
+      KindOfConic(s.K, std::isfinite(s.sigma_K) && s.sigma_K > 0 ? 2 * s.sigma_K : 1e-9));
   // The mirror's axis in C against the camera's: the tilt's angle.
   const auto axis_tilt = [](const RigParams& r) {
     const Eigen::Vector3d axis = PoseFromBlock(r.mirror1_pose.data()).Rotate(Eigen::Vector3d::UnitZ());

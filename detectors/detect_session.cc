@@ -257,7 +257,8 @@ SessionDetection DetectSessionReported(const io::Session& session, const RigPara
   return out;
 }
 
-std::string TargetSummary(const std::vector<TargetSpec>& targets, const Observations& detections) {
+std::string TargetSummary(const std::vector<TargetSpec>& targets, const Observations& detections,
+                          int paths) {
   std::string out;
   for (size_t t = 0; t < targets.size(); ++t) {
     int photos = 0, ring[2] = {0, 0};
@@ -271,11 +272,17 @@ std::string TargetSummary(const std::vector<TargetSpec>& targets, const Observat
       photos += seen;
     }
     char line[512];
-    std::snprintf(line, sizeof line,
-                  "  target %zu (%s): in %d of %zu photos, %d corners in ring 1, %d in ring 2%s\n",
-                  t, TargetName(targets[t]).c_str(), photos, detections.images.size(), ring[0],
-                  ring[1],
-                  photos == 0 ? ": never found (check its rows/cols, size and first_id)" : "");
+    const char* never = photos == 0 ? ": never found (check its rows/cols, size and first_id)" : "";
+    if (paths == 1) {  // a single-mirror rig: one ring
+      std::snprintf(line, sizeof line, "  target %zu (%s): in %d of %zu photos, %d corners%s\n", t,
+                    TargetName(targets[t]).c_str(), photos, detections.images.size(), ring[0],
+                    never);
+    } else {
+      std::snprintf(line, sizeof line,
+                    "  target %zu (%s): in %d of %zu photos, %d corners in ring 1, %d in ring 2%s\n",
+                    t, TargetName(targets[t]).c_str(), photos, detections.images.size(), ring[0],
+                    ring[1], never);
+    }
     out += line;
   }
   return out;

@@ -121,8 +121,10 @@ SessionDetection DetectSessionReported(const io::Session& session, const RigPara
                                        const SessionDetectHooks& hooks = {});
 
 // Per target of the session, one line: "  target T (name): in P of N photos, A corners in ring 1,
-// B in ring 2" (with what to check when it was never found); newline-terminated.
-std::string TargetSummary(const std::vector<TargetSpec>& targets, const Observations& detections);
+// B in ring 2" (a single-mirror rig, paths 1: "A corners"), with what to check when it was never
+// found; newline-terminated.
+std::string TargetSummary(const std::vector<TargetSpec>& targets, const Observations& detections,
+                          int paths = 2);
 
 // A lips-only session's check: the intrinsics the lips alone give against the model's, with what
 // the check is worth (or why there was none); newline-terminated lines. A check, not a

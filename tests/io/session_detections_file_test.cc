@@ -182,7 +182,7 @@ TEST_F(SessionFileTest, MalformedInputNamesTheKey) {
       {"first_id: 30", "first_id: 585", "targets[2]"},
       {"[camera, mirror1_pose]", "[camera, lens]", "estimate[1]"},
       {"[camera, mirror1_pose]", "[camera, camera]", "estimate[1]"},
-      {"[camera, mirror1_pose]", "[]", "estimate"},
+      {"[camera, mirror1_pose]", "camera", "estimate"},  // ([] scores the model: valid)
       {"sigma_k: 0.01", "sigma_k: 0", "priors.mirror1_shape.sigma_k"},
       {"loss: cauchy", "loss: l1", "solver.loss"},
       {"dist_p2: 0}", "dist_p2: -1e-4}", "consider.dist_p2"},

@@ -97,8 +97,8 @@ TEST(SingleModelFile, RefusesFoldedKeysAndImpossibleMirrors) {
   // An ellipsoid that closes before the rim: R / sqrt(1 + K) = 20.1 / sqrt(1.5) < 30.
   ExpectRefused(Replace(text, "K: -2.3", "K: 0.5"), "design.K");
   ExpectRefused(Replace(text, "R: 20.1", "R: -3"), "design.R");
-  ExpectRefused(Replace(text, "rig: single", "rig: double"), "rig");
-  ExpectRefused(Replace(text, "lens: perspective", "lens: fisheye"), "lens");
+  ExpectRefused(Replace(text, "\nrig: single", "\nrig: double"), "rig");
+  ExpectRefused(Replace(text, "\nlens: perspective", "\nlens: fisheye"), "lens");
   // A telecentric lens with the folded rig's design.
   std::string folded = ModelFileText(MakeIdealRig(DesignParams{123.488, 241.803, 5.7319, 9.7443,
                                                                233.684, 37.0},
