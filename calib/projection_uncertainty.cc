@@ -29,6 +29,7 @@ struct BandJacobian {
 BandJacobian Jacobians(const RigParams& rig, const std::vector<std::string>& names,
                        const std::vector<double>& steps, double range_mm) {
   const RigModel model(rig);
+  const int rings = rig.Paths();
   std::vector<BandPoint> band = StereoBandPoints(model, range_mm);
   std::vector<Eigen::Vector3d> in_cam, in_mirror1;
   const Pose<double> cam_from_mirror1 = PoseFromBlock(rig.mirror1_pose.data());
@@ -55,7 +56,7 @@ BandJacobian Jacobians(const RigParams& rig, const std::vector<std::string>& nam
       for (int p = 0; p < n_points; ++p) {
         for (int f = 0; f < 2; ++f) {
           const Eigen::Vector3d point = f == 0 ? other_cam_from_mirror1 * in_mirror1[p] : in_cam[p];
-          for (int m = 0; m < 2; ++m) {
+          for (int m = 0; m < rings; ++m) {
             const auto pixel = other.Project(point, m == 0 ? Mirror::kOne : Mirror::kTwo);
             if (!pixel) {
               ok[p] = false;
@@ -76,7 +77,7 @@ BandJacobian Jacobians(const RigParams& rig, const std::vector<std::string>& nam
     out.points.push_back(band[p * kPointStride]);
   }
   for (int f = 0; f < 2; ++f) {
-    for (int m = 0; m < 2; ++m) {
+    for (int m = 0; m < rings; ++m) {
       Eigen::MatrixXd& target = f == 0 ? out.in_mirror1[m] : out.in_cam[m];
       target.resize(2 * kept, n);
       int row = 0;

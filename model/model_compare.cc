@@ -8,12 +8,18 @@
 namespace omni {
 
 std::vector<BandPoint> StereoBandPoints(const RigModel& model, double range_mm) {
+  const bool single = model.params().Single();
+  const Eigen::Vector2d none = Eigen::Vector2d::Constant(std::nan(""));
   std::vector<BandPoint> points;
   for (int a = 0; a < 72; ++a) {
     const double azimuth = 2 * M_PI * a / 72;
     for (double z = -1.5 * range_mm; z <= 1.5 * range_mm; z += range_mm / 40) {
       const Eigen::Vector3d p(range_mm * std::cos(azimuth), range_mm * std::sin(azimuth), z);
       const auto p1 = model.Project(p, Mirror::kOne);
+      if (single) {
+        if (p1) points.push_back({p, {*p1, none}});
+        continue;
+      }
       const auto p2 = model.Project(p, Mirror::kTwo);
       if (p1 && p2) points.push_back({p, {*p1, *p2}});
     }
@@ -37,7 +43,7 @@ ProjectionDifference Difference(const std::vector<BandPoint>& points, const RigM
   int n[2] = {0, 0};
   for (const BandPoint& p : points) {
     ++diff.points;
-    for (int m = 0; m < 2; ++m) {
+    for (int m = 0; m < other.params().Paths(); ++m) {
       const auto o =
           other.Project(other_from_reference * p.point_in_cam, m == 0 ? Mirror::kOne : Mirror::kTwo);
       if (!o) {
@@ -60,7 +66,7 @@ Eigen::VectorXd Residuals(const std::vector<BandPoint>& points, const RigModel& 
   const Eigen::Matrix3d r = RotationOf(rotation);
   Eigen::VectorXd res = Eigen::VectorXd::Zero(4 * points.size());
   for (size_t i = 0; i < points.size(); ++i) {
-    for (int m = 0; m < 2; ++m) {
+    for (int m = 0; m < other.params().Paths(); ++m) {
       const auto o = other.Project(r * points[i].point_in_cam, m == 0 ? Mirror::kOne : Mirror::kTwo);
       if (o) res.segment<2>(4 * i + 2 * m) = *o - points[i].pixel[m];
     }

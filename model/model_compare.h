@@ -17,6 +17,8 @@ struct ProjectionDifference {
 
 // Points on the cylinder of horizontal radius `range_mm` about the camera axis (72 azimuths,
 // heights every range/40 within +-1.5 range) that `model` sees in both rings (the stereo band).
+// A single-mirror rig has one ring and no stereo: its band is what that ring sees, and pixel[1]
+// is NaN (loop over the rings as model.params().Paths()).
 struct BandPoint {
   Eigen::Vector3d point_in_cam;
   Eigen::Vector2d pixel[2];  // via mirror 1, mirror 2

@@ -21,7 +21,8 @@ constexpr double kTargetRmsFactor = 2.0;  // a target's residual RMS over the me
 constexpr int kAzimuthSectors = 6;        // 60 deg each
 constexpr double kEmptyBandShare = 0.02;  // a third of the band with fewer corners is empty
 
-const char* RingName(int mirror) {
+const char* RingName(int mirror, bool single = false) {
+  if (single) return "the ring (the mirror)";
   return mirror == 1 ? "the outer ring (mirror 1)" : "the inner ring (mirror 2)";
 }
 
@@ -36,7 +37,8 @@ std::optional<double> RayElevation(const RigModel& model, const Eigen::Vector2d&
 void CoverageAdvice(const ReportInput& in, std::vector<std::string>* out) {
   const RigModel model(in.result->estimate.rig);
   const std::vector<BandPoint> band = StereoBandPoints(model, 1000);
-  // A single-mirror rig has no inner ring to advise on.
+  // A single-mirror rig has no inner ring to advise on, and its band is its one ring's view.
+  const bool single = in.result->estimate.rig.Single();
   for (int m = 1; m <= in.result->estimate.rig.Paths(); ++m) {
     double lo = 1e9, hi = -1e9;
     for (const BandPoint& p : band) {
@@ -58,9 +60,9 @@ void CoverageAdvice(const ReportInput& in, std::vector<std::string>* out) {
     char line[400];
     if (n < kMinCornersPerRing) {
       std::snprintf(line, sizeof(line),
-                    "%s has only %d corners in the solve: add images with targets in it (near "
-                    "targets fill the inner ring; tags need 3 px per bit there)",
-                    RingName(m), n);
+                    "%s has only %d corners in the solve: add images with targets in it%s",
+                    RingName(m, single), n,
+                    single ? "" : " (near targets fill the inner ring; tags need 3 px per bit there)");
       out->push_back(line);
       if (n == 0) continue;
     }
@@ -71,18 +73,20 @@ void CoverageAdvice(const ReportInput& in, std::vector<std::string>* out) {
         upper += e > hi - third;
         lower += e < lo + third;
       }
+      // A single mirror has no stereo band: its band is the ring's own view.
+      const char* band_name = single ? "view" : "stereo band";
       if (upper < kEmptyBandShare * n) {
         std::snprintf(line, sizeof(line),
-                      "%s has %d corners above %.0f deg elevation (the upper third of its stereo "
-                      "band, up to %.0f deg): add targets higher",
-                      RingName(m), upper, hi - third, hi);
+                      "%s has %d corners above %.0f deg elevation (the upper third of its %s, "
+                      "up to %.0f deg): add targets higher",
+                      RingName(m, single), upper, hi - third, band_name, hi);
         out->push_back(line);
       }
       if (lower < kEmptyBandShare * n) {
         std::snprintf(line, sizeof(line),
-                      "%s has %d corners below %.0f deg elevation (the lower third of its stereo "
-                      "band, down to %.0f deg): add targets lower",
-                      RingName(m), lower, lo + third, lo);
+                      "%s has %d corners below %.0f deg elevation (the lower third of its %s, "
+                      "down to %.0f deg): add targets lower",
+                      RingName(m, single), lower, lo + third, band_name, lo);
         out->push_back(line);
       }
     }
@@ -97,7 +101,7 @@ void CoverageAdvice(const ReportInput& in, std::vector<std::string>* out) {
       std::snprintf(line, sizeof(line),
                     "%s has no corners between %.0f and %.0f deg azimuth (about C's z axis from "
                     "its x axis): place targets there",
-                    RingName(m), from, from + 360.0 / kAzimuthSectors);
+                    RingName(m, single), from, from + 360.0 / kAzimuthSectors);
       out->push_back(line);
     }
   }

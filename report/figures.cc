@@ -226,8 +226,9 @@ std::string CoverageAngles(const std::string& dir, const ReportInput& in, std::s
   for (const auto& r : in.result->residuals.corners) {
     if (const auto a = angles(r.pixel)) corners[r.mirror - 1].push_back(*a);
   }
+  const int rings = in.result->estimate.rig.Paths();
   for (const BandPoint& p : StereoBandPoints(model, 1000)) {
-    for (int m = 0; m < 2; ++m) {
+    for (int m = 0; m < rings; ++m) {
       if (const auto a = angles(p.pixel[m])) band[m].push_back(*a);
     }
   }
@@ -235,10 +236,12 @@ std::string CoverageAngles(const std::string& dir, const ReportInput& in, std::s
     *note = "no corner's ray could be traced";
     return "";
   }
-  std::string body = "set multiplot layout 1,2 title 'where the used corners were seen (dots) "
-                     "over the stereo band at 1 m (grey)'\nset xlabel 'azimuth (deg)'\n"
+  std::string body = std::string("set multiplot layout 1,") + (rings == 1 ? "1" : "2") +
+                     " title 'where the used corners were seen (dots) over " +
+                     (rings == 1 ? "the view of the ring" : "the stereo band") +
+                     " at 1 m (grey)'\nset xlabel 'azimuth (deg)'\n"
                      "set ylabel 'ray elevation (deg)'\nset xrange [-180:180]\nunset key\n";
-  for (int m = 0; m < 2; ++m) {
+  for (int m = 0; m < rings; ++m) {
     const std::string c = "c" + std::to_string(m + 1), b = "b" + std::to_string(m + 1);
     body += Datablock(c, corners[m].empty() ? std::vector<std::vector<double>>{{0, 0}} : corners[m]) +
             Datablock(b, band[m].empty() ? std::vector<std::vector<double>>{{0, 0}} : band[m]) +
@@ -292,7 +295,7 @@ double LargestUncertaintyPx(const std::vector<calib::PointUncertainty>& map) {
 }
 
 std::string UncertaintyMapScript(const std::vector<calib::PointUncertainty>& map,
-                                 double range_mm, double cb_max_px) {
+                                 double range_mm, double cb_max_px, int rings) {
   std::vector<std::vector<double>> rows;
   for (const auto& p : map) {
     const Eigen::Vector3d& x = p.point_in_cam;
@@ -302,15 +305,21 @@ std::string UncertaintyMapScript(const std::vector<calib::PointUncertainty>& map
   }
   char head[512];
   std::snprintf(head, sizeof(head),
-                "set multiplot layout 1,2 title 'sigma of projection (px) of points at %.2f m "
+                "set multiplot layout 1,%d title 'sigma of projection (px) of points at %.2f m "
                 "held in mirror 1''s body'\n"
                 "set cbrange [0:%.6g]\n",
-                range_mm / 1000, cb_max_px > 0 ? cb_max_px : 1.0);
+                rings == 1 ? 1 : 2, range_mm / 1000, cb_max_px > 0 ? cb_max_px : 1.0);
+  const std::string axes =
+      "set xlabel 'azimuth (deg)'\nset ylabel 'direction from C above its xy plane (deg)'\n"
+      "set palette rgbformulae 22,13,-31\nset cblabel 'sigma (px)'\nunset key\n";
+  if (rings == 1) {  // a single mirror: its one ring, with the colour bar
+    return Datablock("u", rows) + head + axes +
+           "set title 'ring 1 (the mirror)'\nplot $u using 1:2:3 with points pt 5 ps 0.6 palette\n"
+           "unset multiplot\n";
+  }
   // One colour scale for both rings (and both ranges: the caller's cb_max_px), its bar drawn
   // once, beside ring 2.
-  return Datablock("u", rows) + head +
-         "set xlabel 'azimuth (deg)'\nset ylabel 'direction from C above its xy plane (deg)'\n"
-         "set palette rgbformulae 22,13,-31\nset cblabel 'sigma (px)'\nunset key\n"
+  return Datablock("u", rows) + head + axes +
          "unset colorbox\n"
          "set title 'ring 1 (mirror 1)'\nplot $u using 1:2:3 with points pt 5 ps 0.6 palette\n"
          "set colorbox\n"
@@ -320,14 +329,15 @@ std::string UncertaintyMapScript(const std::vector<calib::PointUncertainty>& map
 
 std::string UncertaintyMap(const std::string& dir,
                            const std::vector<calib::PointUncertainty>& map, double range_mm,
-                           double cb_max_px, std::string* note) {
+                           double cb_max_px, int rings, std::string* note) {
   if (map.empty()) {
-    *note = "no stereo-band point is seen in both rings at this range";
+    *note = rings == 1 ? "no point at this range is seen in the ring"
+                       : "no stereo-band point is seen in both rings at this range";
     return "";
   }
   char name[64];
   std::snprintf(name, sizeof(name), "uncertainty_%.0fmm.png", range_mm);
-  return Plot(dir, name, UncertaintyMapScript(map, range_mm, cb_max_px), note);
+  return Plot(dir, name, UncertaintyMapScript(map, range_mm, cb_max_px, rings), note);
 }
 
 std::string MeasuredProfileScript(const calib::CalibrationResult& result, int mirror) {

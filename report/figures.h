@@ -34,12 +34,12 @@ std::vector<std::string> OutlierThumbnails(const std::string& dir, const ReportI
 // The predicted sigma of projection over each ring's stereo band (azimuth x elevation) for
 // points at range_mm held in mirror 1's body (`map`: calib::ProjectionUncertaintyMap), both
 // rings on one colour scale from 0 to cb_max_px (the report passes the largest over all its maps:
-// LargestUncertaintyPx), with its colour bar.
+// LargestUncertaintyPx), with its colour bar. `rings` 1: a single mirror's one ring.
 std::string UncertaintyMap(const std::string& dir,
                            const std::vector<calib::PointUncertainty>& map, double range_mm,
-                           double cb_max_px, std::string* note);
+                           double cb_max_px, int rings, std::string* note);
 std::string UncertaintyMapScript(const std::vector<calib::PointUncertainty>& map,
-                                 double range_mm, double cb_max_px);
+                                 double range_mm, double cb_max_px, int rings = 2);
 double LargestUncertaintyPx(const std::vector<calib::PointUncertainty>& map);
 
 // A measured mirror's profile against the radius (calib/profile_comparison.h), along its first

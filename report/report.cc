@@ -207,6 +207,23 @@ std::string TriangulationTable(const calib::CalibrationResult& r) {
   return out.str();
 }
 
+// The projection uncertainty's summary at 1 m: over the stereo band, or over a single mirror's
+// one ring.
+std::string ProjectionParagraph(const calib::ProjectionUncertainty& at_1m, int rings) {
+  if (rings == 1) {
+    return "<p>From the covariance: the RMS over the ring's view at 1 m of the predicted sigma of "
+           "projection, points held in the mirror's body, is " +
+           Format("%.3f", at_1m.in_mirror1_px[0]) + " px (points held in C: " +
+           Format("%.3f", at_1m.in_cam_px[0]) + " px).</p>\n";
+  }
+  return "<p>From the covariance: the RMS over the stereo band at 1 m of the predicted sigma of "
+         "projection, points held in mirror 1's body, is " +
+         Format("%.3f", at_1m.in_mirror1_px[0]) + " px in ring 1 and " +
+         Format("%.3f", at_1m.in_mirror1_px[1]) + " px in ring 2 (points held in C: " +
+         Format("%.3f", at_1m.in_cam_px[0]) + " / " + Format("%.3f", at_1m.in_cam_px[1]) +
+         " px).</p>\n";
+}
+
 std::string Tolerances(const std::vector<design::ToleranceCheck>& checks) {
   std::ostringstream out;
   out << "<table><tr><th>check</th><th>value</th><th>sigma</th><th>limit</th><th>verdict</th>"
@@ -327,8 +344,9 @@ std::string WriteReport(const std::string& dir, const ReportInput& in) {
       calib::ProjectionUncertaintyMap(*in.result, in.range_mm);
   // Both maps, both rings on one colour scale: a colour means the same sigma everywhere.
   const double cb_max = std::max(LargestUncertaintyPx(map_1m), LargestUncertaintyPx(map_far));
-  const std::string near = UncertaintyMap(dir, map_1m, 1000, cb_max, &note[4]);
-  const std::string far = UncertaintyMap(dir, map_far, in.range_mm, cb_max, &note[5]);
+  const int rings = in.result->estimate.rig.Paths();
+  const std::string near = UncertaintyMap(dir, map_1m, 1000, cb_max, rings, &note[4]);
+  const std::string far = UncertaintyMap(dir, map_far, in.range_mm, cb_max, rings, &note[5]);
   status("mirror profiles");
   std::string profile_plots[2], profile_notes[2];
   for (int m = 0; m < 2; ++m) profile_plots[m] = MeasuredProfilePlot(dir, in, m + 1, &profile_notes[m]);
@@ -359,17 +377,14 @@ std::string WriteReport(const std::string& dir, const ReportInput& in) {
        << MountSection(in.result->estimate.rig) << "<h2>Coverage</h2>\n"
        << Figure(angles, note[7], "where the corners' rays point, per ring")
        << Figure(coverage, note[1], "where corners were seen (every image)")
-       << "<h2>Projection uncertainty</h2>\n<p>From the covariance: the RMS over the stereo band "
-       << "at 1 m of the predicted sigma of projection, points held in mirror 1's body, is "
-       << Format("%.3f", at_1m.in_mirror1_px[0]) << " px in ring 1 and "
-       << Format("%.3f", at_1m.in_mirror1_px[1])
-       << " px in ring 2 (points held in C: " << Format("%.3f", at_1m.in_cam_px[0]) << " / "
-       << Format("%.3f", at_1m.in_cam_px[1]) << " px).</p>\n"
+       << "<h2>Projection uncertainty</h2>\n" << ProjectionParagraph(at_1m, rings)
        << Figure(near, note[4], "sigma of projection at 1 m")
        << Figure(far, note[5],
                  "sigma of projection at " + Format("%.2f", in.range_mm / 1000) + " m")
        << "<h2>Triangulation uncertainty</h2>\n"
-       << TriangulationTable(*in.result)
+       << (rings == 1 ? "<p>A single mirror gives one view per photo: nothing is triangulated "
+                        "from one photo (the projection sigma above is what a ray carries).</p>\n"
+                      : TriangulationTable(*in.result))
        << (in.tolerances.empty() ? ""
                                  : "<h2>Assembly tolerances</h2>\n" + Tolerances(in.tolerances))
        << "<h2>Strongest correlations</h2>\n"
