@@ -179,6 +179,10 @@ class Model {
   py::dict Triangulate(const Array& pixels1, const Array& pixels2, const std::string& method,
                        double sigma_px, double sigma_px_ring2, bool model_covariance,
                        const std::string& frame) {
+    if (params().Single()) {
+      throw py::value_error(path_ + ": a single-mirror rig (rig: single) has one view per photo: "
+                            "nothing to triangulate from one pixel pair");
+    }
     const ssize_t n = RowsOf(pixels1, 2, "pixels1");
     if (RowsOf(pixels2, 2, "pixels2") != n) {
       throw py::value_error("pixels1, pixels2: expected the same number of rows");
@@ -298,6 +302,13 @@ PYBIND11_MODULE(omnistereo, m) {
           "kind", [](const Model& s) {
             return s.params().kind == ModelKind::kIdeal ? "ideal" : "noncentral";
           })
+      .def_property_readonly(
+          "rig", [](const Model& s) { return RigKindName(s.params().rig); },
+          "'folded' (two mirrors and the reflex: rings 1 and 2) or 'single' (one mirror seen "
+          "directly: ring 1 only; mirror 2 projects NaN)")
+      .def_property_readonly(
+          "lens",
+          [](const Model& s) { return LensKindName(s.params().lens); })
       .def_property_readonly(
           "calibration",
           [](const Model& s) -> py::object {
