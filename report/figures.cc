@@ -51,8 +51,9 @@ bool Write(const std::string& dir, const std::string& name, const cv::Mat& image
 
 std::string Plot(const std::string& dir, const std::string& name, const std::string& body,
                  std::string* note, int height = 420) {
-  const std::string script = "set terminal pngcairo size 900," + std::to_string(height) +
-                             " font 'sans,10'\nset output '" + dir + "/" + name + "'\n" + body;
+  // noenhanced: names such as kalibr_aprilgrid are printed as written, not with subscripts.
+  const std::string script = "set terminal pngcairo noenhanced size 900," +
+                             std::to_string(height) + " font 'sans,10'\nset output '" + dir + "/" + name + "'\n" + body;
   return RunGnuplot(script, note) ? name : std::string();
 }
 
@@ -184,7 +185,13 @@ std::string RmsBarsScript(const std::string& what, const std::vector<std::string
   data += "EOD\n";
   char range[80];
   std::snprintf(range, sizeof range, "set yrange [0:%.6g]\n", largest > 0 ? 1.25 * largest : 1.0);
-  return data + "set style data histograms\nset style histogram clustered\n"
+  // Labels wider than their bars' share of the 900 px plot (~6 px a character at 10 pt) are
+  // turned, so that neighbours do not overlap.
+  size_t widest = 0;
+  for (const std::string& l : labels) widest = std::max(widest, l.size());
+  const bool turn = !rows.empty() && widest * 6 > 0.8 * 800 / rows.size();
+  return data + (turn ? "set xtics rotate by 25 right\nset bmargin 7\n" : "") +
+         "set style data histograms\nset style histogram clustered\n"
                 "set style fill solid 0.7\nset xlabel '" + what + "'\n"
                 "set ylabel 'residual RMS (px)'\nset key top right\n" + range +
                 "set title 'residual RMS per " + what + "'\n"

@@ -29,6 +29,15 @@ TEST(Figures, BarsStartAtZeroHoldTheLargestAndNameTheTargets) {
   EXPECT_NE(script.find("xtic(stringcolumn(4))"), std::string::npos) << script;
   // All bars 0: still a range that starts at 0.
   EXPECT_GT(YMax(RmsBarsScript("image", {"0"}, {{0, 0, 0}})), 0);
+  // Two names fit under their bars; the field session's five (up to 30 characters, ~180 px of
+  // text under 160 px of bars each) are turned so that neighbours do not overlap.
+  EXPECT_EQ(script.find("rotate"), std::string::npos) << script;
+  std::vector<std::vector<double>> five;
+  for (int i = 0; i < 5; ++i) five.push_back({double(i), 0.1, 0.1});
+  const std::string turned = RmsBarsScript(
+      "target", {"kalibr_aprilgrid 2x3 ids 70-75", "chessboard 5x7", "kalibr_aprilgrid 3x5 ids 80-94",
+                 "chessboard 6x8", "chessboard 7x10"}, five);
+  EXPECT_NE(turned.find("set xtics rotate by 25 right"), std::string::npos) << turned;
 }
 
 TEST(Figures, TargetNamesTellTheSessionsTargetsApart) {
