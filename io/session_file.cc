@@ -85,11 +85,18 @@ void ReadSolver(const Reader& in, const YAML::Node& node, SolverOptions* s) {
   if (node["threads"].IsDefined()) s->threads = in.Integer(node, key, "threads", 1);
 }
 
+// `path` (absolute, or relative to the working folder) as the file at base_dir will read it:
+// relative to base_dir where it lies under it, else absolute. (A path relative to the working
+// folder written as it was would be read against base_dir: `init --images 'render/*.jpg' --out
+// work/session.yaml` wrote images that detect could not find.)
 std::string Relative(const std::string& path, const std::string& base_dir) {
   if (base_dir.empty()) return path;
-  const fs::path rel = fs::path(path).lexically_normal().lexically_relative(
-      fs::path(base_dir).lexically_normal());
-  if (rel.empty() || *rel.begin() == "..") return path;
+  std::error_code ec;
+  const fs::path absolute = fs::absolute(path, ec).lexically_normal();
+  const fs::path base = fs::absolute(base_dir, ec).lexically_normal();
+  if (ec) return path;
+  const fs::path rel = absolute.lexically_relative(base);
+  if (rel.empty() || *rel.begin() == "..") return absolute.string();
   return rel.string();
 }
 

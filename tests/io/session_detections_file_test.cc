@@ -315,3 +315,43 @@ TEST(DetectionsFileTest, LipLabelsAreCheckedWhenRead) {
 
 }  // namespace
 }  // namespace omni::io
+
+namespace omni::io {
+namespace {
+
+// init --images 'render/*.jpg' --out work/session.yaml: photos given relative to the working
+// folder are written as the session's folder reads them (relative to it where they lie under
+// it, else absolute), so that detect finds them; the model beside the session stays relative.
+TEST(SessionText, PathsGivenFromTheWorkingFolderAreWrittenAsTheSessionReadsThem) {
+  const fs::path root = fs::temp_directory_path() / "omni_session_paths_test";
+  fs::remove_all(root);
+  fs::create_directories(root / "render");
+  fs::create_directories(root / "work" / "photos");
+  std::ofstream(root / "render" / "0001.jpg") << "x";
+  std::ofstream(root / "work" / "photos" / "0002.jpg") << "x";
+  const fs::path before = fs::current_path();
+  fs::current_path(root);
+  Session s;
+  s.model_path = (root / "work" / "start_model.yaml").string();
+  s.images = {"render/0001.jpg", "work/photos/0002.jpg"};
+  TargetSpec board;
+  board.type = TargetType::kChessboard;
+  board.rows = 5;
+  board.cols = 6;
+  board.square_mm = 35;
+  s.targets = {board};
+  const std::string text = SessionText(s, "work");
+  fs::current_path(before);
+  EXPECT_NE(text.find("model: \"start_model.yaml\""), std::string::npos) << text;
+  EXPECT_NE(text.find("\"" + (root / "render" / "0001.jpg").string() + "\""), std::string::npos)
+      << text;
+  EXPECT_NE(text.find("\"photos/0002.jpg\""), std::string::npos) << text;
+  io::WriteFileAtomically((root / "work" / "session.yaml").string(), text);
+  const Session back = ReadSessionFile((root / "work" / "session.yaml").string());
+  ASSERT_EQ(back.images.size(), 2u);
+  for (const std::string& image : back.images) EXPECT_TRUE(fs::exists(image)) << image;
+  fs::remove_all(root);
+}
+
+}  // namespace
+}  // namespace omni::io
