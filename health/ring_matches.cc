@@ -44,6 +44,32 @@ cv::Mat Grey(const cv::Mat& panorama) {
   return grey;
 }
 
+// Columns of a panorama whose window reaches into a post's sector (or any other obstruction
+// that crosses the band): a column is blocked where more than a fifth of `rows` is invalid in the
+// LUT (the posts cross both rings from lip to lip; the ring's own edges invalidate a few rows of
+// some columns at most), and the flag is spread `reach` columns either way, around the azimuth.
+// Why: a track whose window straddles a post's edge follows the post's silhouette, which lies on
+// no epipolar curve of the scene behind it (the post is millimetres from the mirrors and each
+// ring sees its edge against another part of the room); those matches bordered every post at
+// 10+ sigma on a mounted rig's own calibration photos.
+std::vector<bool> BlockedColumns(const cv::Mat& map_x, cv::Range rows, int reach) {
+  const int w = map_x.cols;
+  std::vector<bool> blocked(w, false);
+  rows.start = std::max(rows.start, 0);
+  rows.end = std::min(rows.end, map_x.rows);
+  if (rows.empty()) return blocked;
+  std::vector<int> invalid(w, 0);
+  for (int v = rows.start; v < rows.end; ++v) {
+    const float* x = map_x.ptr<float>(v);
+    for (int u = 0; u < w; ++u) invalid[u] += x[u] < 0;
+  }
+  for (int u = 0; u < w; ++u) {
+    if (5 * invalid[u] <= rows.size()) continue;
+    for (int k = -reach; k <= reach; ++k) blocked[((u + k) % w + w) % w] = true;
+  }
+  return blocked;
+}
+
 }  // namespace
 
 struct RingMatcher::Impl {
@@ -101,8 +127,18 @@ std::vector<RingMatch> RingMatcher::Match(const cv::Mat& image) const {
   cv::calcOpticalFlowPyrLK(grey2, grey1, tracked, back, status_back, error, window,
                            o.pyramid_levels, stop, cv::OPTFLOW_USE_INITIAL_FLOW);
   const stereo::PanoramaGeometry& g = luts.geometry;
+  // Posts' sectors: half the track's window plus the mount's margin either side.
+  const int reach = o.window_px / 2 + static_cast<int>(std::ceil(o.mount_margin_deg * M_PI / 180 /
+                                                                 (2 * M_PI / g.width)));
+  const std::vector<bool> blocked1 = BlockedColumns(
+      luts.map_x[0], cv::Range(frame.band_row_begin, frame.band_row_end), reach);
+  const std::vector<bool> blocked2 = BlockedColumns(
+      luts.map_x[1], cv::Range(frame.band_row_begin - static_cast<int>(o.max_offset_px) - margin,
+                               frame.band_row_end), reach);
+  auto column = [&](float u) { return std::clamp(cvRound(u), 0, g.width - 1); };
   for (size_t k = 0; k < features.size(); ++k) {
     if (!status[k] || !status_back[k]) continue;
+    if (blocked1[column(features[k].x)] || blocked2[column(tracked[k].x)]) continue;
     const cv::Point2f offset = tracked[k] - start[k];
     if (std::abs(offset.x) > o.max_offset_px || std::abs(offset.y) > o.max_offset_px) continue;
     if (cv::norm(back[k] - features[k]) > o.max_round_trip_px) continue;

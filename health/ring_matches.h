@@ -8,7 +8,8 @@
 // started there is free in both directions, so a rig that has moved since its calibration shows
 // as a sideways (azimuthal) offset of the match. A match is kept if the track converged, stayed
 // within max_offset_px of its start, and the track back from Xi_2 returns to the feature within
-// max_round_trip_px. Panorama pixels map to raw pixels through the LUTs (bilinear), so what the
+// max_round_trip_px, and neither end lies within a window of a post's sector (the model's mount:
+// the LUT's invalid columns). Panorama pixels map to raw pixels through the LUTs (bilinear), so what the
 // caller gets is exact raw pixels of both rings, free of the panorama's cylinder approximation.
 #pragma once
 
@@ -43,6 +44,9 @@ struct RingMatchOptions {
   int pyramid_levels = 1;
   double max_offset_px = 4;       // from SGBM's start, either direction (panorama px)
   double max_round_trip_px = 0.2;
+  // No match within half a window plus this of a post's sector in either ring (the mount's
+  // model may be off by a little: a post 0.5 mm wider at 41.5 mm is 0.7 deg).
+  double mount_margin_deg = 1.5;
 };
 
 class RingMatcher {
