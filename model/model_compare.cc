@@ -121,8 +121,14 @@ Eigen::Isometry3d CamFromMirror1(const RigModel& model) {
 
 ProjectionDifference CompareProjectionsInMirror1(const RigModel& reference, const RigModel& other,
                                                  double range_mm) {
-  const Eigen::Isometry3d other_from_reference =
-      CamFromMirror1(other) * CamFromMirror1(reference).inverse();
+  // A single mirror's body frame puts its vertex at vertex_z, a convention each model may set
+  // differently (init's start and the true rig): the points are held against the vertex.
+  Eigen::Isometry3d other_m1_from_reference_m1 = Eigen::Isometry3d::Identity();
+  other_m1_from_reference_m1.translation().z() =
+      other.params().vertex_z - reference.params().vertex_z;
+  const Eigen::Isometry3d other_from_reference = CamFromMirror1(other) *
+                                                 other_m1_from_reference_m1 *
+                                                 CamFromMirror1(reference).inverse();
   return Difference(StereoBandPoints(reference, range_mm), other, other_from_reference);
 }
 

@@ -47,6 +47,8 @@ ProjectionDifference CompareProjectionsUpToRotation(const RigModel& reference,
 // `triangulate --frame mirror1` reports in; C's pointing against the mirror bodies is what a lens
 // with unknown decentring distortion (dist_p1, dist_p2, held by the calibration) leaves open.
 // Unlike CompareProjectionsUpToRotation nothing is fitted to the reference here.
+// (A single mirror's points are held against its vertex: RigParams::vertex_z is each model's own
+// convention.)
 ProjectionDifference CompareProjectionsInMirror1(const RigModel& reference, const RigModel& other,
                                                  double range_mm);
 

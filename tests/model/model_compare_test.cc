@@ -128,5 +128,30 @@ TEST(ModelCompare, InMirror1HoldsThePointsInMirror1sBody) {
   EXPECT_NEAR(a.rms_px[1], b.rms_px[1], 1e-12);
 }
 
+// A single mirror's body frame is a convention (the vertex at vertex_z): the same physical rig
+// written with its vertex 10 mm higher in M1 and the pose 10 mm lower compares as identical, and a
+// real 0.5 mm axial move of the mirror does not.
+TEST(ModelCompare, SingleMirrorPointsAreHeldAgainstTheVertex) {
+  RigParams a = MakeSingleRig(Conic<double>{30.0, -1.8}, LensKind::kPerspective, 87.8, 30, 6,
+                              Pinhole<double>{1600, 1600, 640, 512, 0}, 1280, 1024);
+  a.kind = ModelKind::kNoncentral;
+  a.mirror1_pose = {0.006, -0.0065, 0.4, -0.3, 0.2};
+  RigParams b = a;
+  b.vertex_z += 10;
+  b.lip1.z += 10;
+  // The pose's translation is the M1 origin in C: moving the origin 10 mm down the mirror's own
+  // axis keeps every mirror point in place.
+  const Eigen::Vector3d axis = RotationFromTilt(a.mirror1_pose[0], a.mirror1_pose[1]) *
+                               Eigen::Vector3d::UnitZ();
+  for (int k = 0; k < 3; ++k) b.mirror1_pose[2 + k] -= 10 * axis(k);
+  const ProjectionDifference same = CompareProjectionsInMirror1(RigModel(a), RigModel(b), 1000);
+  EXPECT_GT(same.points, 1000);
+  EXPECT_LT(same.rms_px[0], 1e-6);
+  EXPECT_EQ(same.rms_px[1], 0);
+  RigParams moved = a;
+  moved.mirror1_pose[4] += 0.5;
+  EXPECT_GT(CompareProjectionsInMirror1(RigModel(a), RigModel(moved), 1000).rms_px[0], 0.5);
+}
+
 }  // namespace
 }  // namespace omni
