@@ -594,9 +594,11 @@ std::optional<BoardDetection> MakeBoard(const cv::Mat& raw_grey, const RingView&
   return board;
 }
 
-// The boards in one region of a view. Only the patterns whose rows x cols match the extent of
-// the region's X-junction grid are searched when any does (the board's outer square corners pass
-// the saddle test but are not X-junctions), else those that can hold the grid, nearest first.
+// The boards in one region of a view. The patterns whose rows x cols match the extent of the
+// region's X-junction grid are searched first (the board's outer square corners pass the saddle
+// test but are not X-junctions), then those that can hold the grid, nearest first: a grid with
+// an extra row and column of junk junctions can match another pattern exactly (the field
+// photo's 5x7 board read as an 8x6 grid, the session's 6x8 pattern; only 6x8 was searched).
 // Pass 0 runs the fast classic finder, pass 1 the junction grid, pass 2 the sector finder where
 // the region's saddle points allow more boards than were found (a failed sector search costs
 // ~60-80 ms, a failed classic one ~10 ms, a successful one 2-20 ms: measured on the demo's
@@ -633,7 +635,6 @@ std::vector<BoardDetection> SearchRegion(const cv::Mat& raw_grey, const RingView
            (std::abs(r - grid.b) <= tolerance && std::abs(c - grid.a) <= tolerance);
   };
   const auto matches = [&](int t) { return near(t, 0); };
-  const bool any_match = std::any_of(patterns.begin(), patterns.end(), matches);
   // Whether the grid fits in the pattern with at most two extra rows or columns: junctions
   // beyond the board's sides where its sheet's narrow white margin meets a dark background
   // (its outer squares' corners then read as X-junctions: Mei's photo 1, an 8x10 grid of a 6x8
@@ -643,8 +644,8 @@ std::vector<BoardDetection> SearchRegion(const cv::Mat& raw_grey, const RingView
     const int r = targets[t].rows, c = targets[t].cols;
     return (grid.a <= r + 2 && grid.b <= c + 2) || (grid.b <= r + 2 && grid.a <= c + 2);
   };
-  // Without an exact match the patterns nearest the grid's extent go first (larger first among
-  // equals, as `patterns`): a failed classic search costs 10-25 ms per pattern.
+  // The patterns nearest the grid's extent go first (larger first among equals, as
+  // `patterns`): a failed classic search costs 10-25 ms per pattern.
   std::vector<int> order = patterns;
   const auto distance = [&](int t) {
     const int r = targets[t].rows, c = targets[t].cols;
@@ -670,16 +671,15 @@ std::vector<BoardDetection> SearchRegion(const cv::Mat& raw_grey, const RingView
   }
   for (const auto& [finder, t] : searches) {
     {
-      if (any_match && !matches(t)) continue;
       const TargetSpec& spec = targets[t];
       const int n = spec.rows * spec.cols;
-      // Without an exact match: not where the junction grid holds under half the pattern's
+      // Patterns the grid does not match: not where the junction grid holds under half their
       // corners (tag grids' bits make saddle regions too: searching them cost ~500 ms per
       // 1280x960 image) or more rows or columns than the pattern has (plus two), and the sector
       // finder only for patterns within two rows or columns of the grid (some junctions missed,
       // or extra ones from the background, see `holds`).
-      if (!any_match && (2 * grid.count < n || !holds(t))) continue;
-      if (finder == kSector && !any_match && !near(t, 2)) continue;
+      if (!matches(t) && (2 * grid.count < n || !holds(t))) continue;
+      if (finder == kSector && !matches(t) && !near(t, 2)) continue;
       // Too few saddles for the pattern, unless half its junctions already form a grid it holds
       // (an underexposed, vignetted board loses a third of its saddles under the threshold:
       // the harsh preset's 0.55 m board at 1280x960; the classic finder reads its squares).
@@ -957,5 +957,6 @@ std::vector<CornerObservation> DetectChessboards(const cv::Mat& raw_grey,
 }
 
 }  // namespace omni::detectors
+
 
 

@@ -51,10 +51,13 @@ namespace omni::detectors {
 struct ChessboardOptions {
   double saddle_sigma = 1.0;       // view pixels: smoothing before the Hessian
   double saddle_min_contrast = 125; // grey levels across a corner, at the view's blur (saddle_points.h)
-  // Or this fraction of the junction's own contrast, not under the floor (SaddleOptions): a
-  // board in shade (Mei's photos in linear light: ~80 grey levels per junction) gives its
-  // junctions too.
-  double saddle_relative_contrast = 0.4;
+  // Or this fraction of the junction's own contrast, not under the floor, where a circle about
+  // it shows a clear X-junction (SaddleOptions): a board in shade (Mei's photos in linear light:
+  // ~80 grey levels per junction) gives its junctions too. 0 (off) by default: on the folded
+  // rig's rendered rooms the low-contrast junctions of the room's textures joined the boards'
+  // regions (detector_eval_scene: chessboard recall 100% / 100% -> 56% / 11%); DetectorContext
+  // turns it on for single rigs, whose boards are held in the shade below the mirror.
+  double saddle_relative_contrast = 0;
   double saddle_contrast_floor = 10;
   // |trace H| <= balance * sqrt(-det H) at a saddle point: 1.5 takes junctions whose edges
   // cross at 53-127 degrees (a board slanted 60 degrees about its diagonal; 0.5 took 76-104 and
