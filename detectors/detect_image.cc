@@ -76,6 +76,8 @@ DetectorContext::DetectorContext(const RigParams& rig, std::vector<TargetSpec> t
 
 void DetectorContext::SetSingleMirrorOptions() {
   chessboard.smooth_grid_correction = model.params().Single();
+  // Dim boards' junctions (chessboard_detector.h, saddle_relative_contrast).
+  chessboard.saddle_relative_contrast = model.params().Single() ? 0.4 : 0.0;
 }
 
 void DetectorContext::SetModel(const RigParams& rig) {

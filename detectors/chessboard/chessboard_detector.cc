@@ -1,5 +1,8 @@
 #include "detectors/chessboard/chessboard_detector.h"
 
+#include "detectors/chessboard/chessboard_trace.h"
+#include "detectors/chessboard/junction_grid.h"
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -8,6 +11,7 @@
 #include <stdexcept>
 
 #include <opencv2/calib3d.hpp>
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "detectors/common/corner_refine.h"
@@ -23,123 +27,12 @@ SaddleOptions Saddles(const ChessboardOptions& o) {
   s.sigma = o.saddle_sigma;
   s.min_contrast = o.saddle_min_contrast;
   s.balance = o.saddle_balance;
+  s.relative_contrast = o.saddle_relative_contrast;
+  s.min_contrast_floor = o.saddle_contrast_floor;
+  s.merge_sigmas = o.saddle_merge_sigmas;
   s.min_saddles = o.min_saddles;
   return s;
 }
-
-// The lattice extent of the board around the most central of a region's X-junctions `p`: they
-// are given integer grid coordinates by growing from it, each step predicted from the step its
-// parent took in that direction (a perspective grid changes slowly from corner to corner) and
-// accepted within 0.3 of a step. Returns the extents (n_a, n_b) along the two grid directions,
-// (0 if no grid grows), the grid's size and box. Used only to choose which pattern to search for first (a search
-// for a wrong pattern costs 5-50 times a successful one); the finders decide.
-struct GridExtent {
-  int a = 0, b = 0;   // extents along the two grid directions (0: no grid)
-  int count = 0;      // X-junctions in the grid
-  cv::Rect box;       // their bounding box (view pixels)
-  std::vector<cv::Point2f> points;  // the grid's X-junctions (view pixels)
-  std::vector<cv::Point> coords;    // their grid coordinates, from (0, 0) to (a - 1, b - 1)
-};
-
-GridExtent GrowGrid(const std::vector<cv::Point2f>& p, double spacing, int seed) {
-  const int n = static_cast<int>(p.size());
-  const auto nearest = [&](const cv::Point2f& at, double within, const std::vector<int>& taken) {
-    int best = -1;
-    double best_d = within;
-    for (int i = 0; i < n; ++i) {
-      const double d = cv::norm(p[i] - at);
-      if (d < best_d && taken[i] < 0) {
-        best_d = d;
-        best = i;
-      }
-    }
-    return best;
-  };
-  // The seed's two grid steps: its nearest neighbour and the nearest one roughly across it,
-  // which on a board seen obliquely (held flat below a single mirror: Mei's photos, squares 2-3
-  // times longer one way than the other in the view) lies several times farther than the first.
-  std::vector<int> none(n, -1);
-  none[seed] = 0;
-  const int a = nearest(p[seed], 1.6 * spacing, none);
-  if (a < 0) return {};
-  const cv::Point2f step_a = p[a] - p[seed];
-  int b = -1;
-  double best_b = std::max(1.6 * spacing, 3.5 * cv::norm(step_a));
-  for (int i = 0; i < n; ++i) {
-    if (i == seed || i == a) continue;
-    const cv::Point2f d = p[i] - p[seed];
-    const double len = cv::norm(d);
-    const double cosine = std::abs(d.dot(step_a)) / (len * cv::norm(step_a) + 1e-9);
-    if (cosine < 0.5 && len < best_b) {
-      best_b = len;
-      b = i;
-    }
-  }
-  if (b < 0) return {};
-  // Breadth-first growth: grid coordinates and the two local steps of each assigned point.
-  std::vector<int> order(n, -1);
-  std::vector<cv::Point> coord(n);
-  std::vector<std::array<cv::Point2f, 2>> steps(n);
-  std::vector<int> queue{seed};
-  order[seed] = 0;
-  steps[seed] = {step_a, p[b] - p[seed]};
-  int min_a = 0, max_a = 0, min_b = 0, max_b = 0;
-  for (size_t q = 0; q < queue.size(); ++q) {
-    const int i = queue[q];
-    for (int dir = 0; dir < 4; ++dir) {
-      const int axis = dir / 2;
-      const float sign = dir % 2 ? -1.f : 1.f;
-      const cv::Point2f step = sign * steps[i][axis];
-      const int j = nearest(p[i] + step, 0.3 * cv::norm(step), order);
-      if (j < 0) continue;
-      order[j] = static_cast<int>(queue.size());
-      queue.push_back(j);
-      coord[j] = coord[i] + (axis == 0 ? cv::Point(dir % 2 ? -1 : 1, 0) : cv::Point(0, dir % 2 ? -1 : 1));
-      steps[j] = steps[i];
-      steps[j][axis] = sign * (p[j] - p[i]);
-      min_a = std::min(min_a, coord[j].x);
-      max_a = std::max(max_a, coord[j].x);
-      min_b = std::min(min_b, coord[j].y);
-      max_b = std::max(max_b, coord[j].y);
-    }
-  }
-  GridExtent out;
-  out.a = max_a - min_a + 1;
-  out.b = max_b - min_b + 1;
-  out.count = static_cast<int>(queue.size());
-  for (int i : queue) {
-    out.points.push_back(p[i]);
-    out.coords.push_back(coord[i] - cv::Point(min_a, min_b));
-  }
-  out.box = cv::boundingRect(out.points);
-  return out;
-}
-
-// The grid grown from the junction nearest the region's centroid; where that seed's steps are
-// wrong (a stray junction beside the board, or a neighbour the saddle test missed), growth stops
-// after a few points, so the next-nearest seeds are tried too (at most 5) and the largest grid
-// wins. realistic camera, RMSE scene through the ideal rig: a ring-2 board's 22 junctions grew to
-// 5 from the centroid's seed, which ruled out every pattern search (see SearchRegion).
-GridExtent MeasureGrid(const std::vector<cv::Point2f>& p, double spacing) {
-  const int n = static_cast<int>(p.size());
-  if (n < 4) return {};
-  cv::Point2f centroid(0, 0);
-  for (const auto& q : p) centroid += q * (1.0f / n);
-  std::vector<int> seeds(n);
-  for (int i = 0; i < n; ++i) seeds[i] = i;
-  std::sort(seeds.begin(), seeds.end(), [&](int a, int b) {
-    return cv::norm(p[a] - centroid) < cv::norm(p[b] - centroid);
-  });
-  GridExtent best;
-  for (int k = 0; k < std::min(n, 5); ++k) {
-    GridExtent grid = GrowGrid(p, spacing, seeds[k]);
-    if (grid.count > best.count) best = std::move(grid);
-    if (2 * best.count > n) break;  // the seed's grid holds most junctions: the usual case
-  }
-  return best;
-}
-
-
 
 // Index permutations of a rows x cols grid that a board's symmetry allows: 180-degree turns,
 // and for square boards 90-degree turns and transposes; mirror images are filtered later by
@@ -252,7 +145,7 @@ cv::Mat RingPixels(const RingView& view, double edge_margin_rad) {
 // shadow beyond it: Mei's photos, where it refused whole boards) also changes 4 times, but not
 // symmetrically.
 std::optional<bool> IsXJunction(const RingView& view, const cv::Mat& trusted, const cv::Point2f& p,
-                                double radius, bool point_symmetric = false) {
+                                double radius, double min_contrast, bool point_symmetric = false) {
   constexpr int kSamples = 24;
   radius = std::max(2.0, radius);
   const cv::Mat& grey = view.image;
@@ -273,7 +166,7 @@ std::optional<bool> IsXJunction(const RingView& view, const cv::Mat& trusted, co
            fy * ((1 - fx) * grey.at<uchar>(y0 + 1, x0) + fx * grey.at<uchar>(y0 + 1, x0 + 1));
   }
   const auto [lo, hi] = std::minmax_element(v.begin(), v.end());
-  if (*hi - *lo < 40) return false;
+  if (*hi - *lo < min_contrast) return false;
   const float mid = 0.5f * (*lo + *hi);
   int changes = 0;
   for (int k = 0; k < kSamples; ++k) changes += (v[k] > mid) != (v[(k + 1) % kSamples] > mid);
@@ -333,7 +226,7 @@ bool GridFromJunctions(const RingView& view, const cv::Mat& in_ring, const GridE
         for (int k = 0, j = 0; k < n && ok; ++k) {
           if (!missing[k]) continue;
           out[k] = predicted[j++];
-          ok = !IsXJunction(view, in_ring, out[k], 0.35 * spacing).has_value();  // hidden
+          ok = !IsXJunction(view, in_ring, out[k], 0.35 * spacing, 0).has_value();  // hidden
         }
       }
       if (!ok) continue;
@@ -354,7 +247,7 @@ bool GridFromJunctions(const RingView& view, const cv::Mat& in_ring, const GridE
 // outer squares are cut by a ring boundary is still found).
 bool GridIsWholeBoard(const RingView& view, const cv::Mat& trusted,
                       const std::vector<cv::Point2f>& corners, int rows,
-                      int cols) {
+                      int cols, double min_contrast) {
   if (rows < 2 || cols < 2) return true;
   const auto at = [&](int r, int c) { return corners[r * cols + c]; };
   // Each side: (edge corner, its inner neighbour) pairs.
@@ -371,7 +264,7 @@ bool GridIsWholeBoard(const RingView& view, const cv::Mat& trusted,
     int junctions = 0, seen = 0;
     for (const auto& [edge, inner] : side) {
       const std::optional<bool> x =
-          IsXJunction(view, trusted, 2 * edge - inner, 0.35 * cv::norm(edge - inner), true);
+          IsXJunction(view, trusted, 2 * edge - inner, 0.35 * cv::norm(edge - inner), min_contrast, true);
       if (!x) continue;  // beyond the ring or the view: unknown
       ++seen;
       junctions += *x ? 1 : 0;
@@ -384,20 +277,28 @@ bool GridIsWholeBoard(const RingView& view, const cv::Mat& trusted,
 }
 
 // The homography's residuals over the board (`grid_in` -> `view_in`, in view px) fitted by a
-// quadratic in the grid coordinates, added to its predictions of `grid`: what a smooth error of
-// the model bends the board's image by (GridFitsBoard). Left as it is with too few corners for
-// the 6 terms per coordinate to be measured twice over.
+// cubic in the grid coordinates (a quadratic with under 20 corners), added to its predictions of
+// `grid`: what a smooth error of the model bends the board's image by (GridFitsBoard). Cubic:
+// a single mirror's start model bends a large board near the rim by more than a quadratic
+// takes (Mei's photo 1: 48 corners, residuals to 2.5 raw px after the quadratic, 45 kept of 48;
+// all 48 within 0.5 px after the cubic). Left as it is with too few corners for the terms to be
+// measured twice over.
 void AddSmoothCorrection(const std::vector<cv::Point2f>& grid_in, const std::vector<cv::Point2f>& view_in,
                          const cv::Mat& h, const std::vector<cv::Point2f>& grid,
                          std::vector<cv::Point2f>* predicted) {
-  constexpr int kTerms = 6;
-  if (grid_in.size() < 2 * kTerms) return;
-  const auto terms = [](const cv::Point2f& g) {
-    return Eigen::Matrix<double, kTerms, 1>(1, g.x, g.y, g.x * g.x, g.x * g.y, g.y * g.y);
+  constexpr int kQuadratic = 6, kCubic = 10;
+  const int terms_used = grid_in.size() >= 2 * kCubic ? kCubic : kQuadratic;
+  if (grid_in.size() < 2 * static_cast<size_t>(terms_used)) return;
+  const auto terms = [terms_used](const cv::Point2f& g) {
+    Eigen::VectorXd t(terms_used);
+    const double x = g.x, y = g.y;
+    t.head<kQuadratic>() << 1, x, y, x * x, x * y, y * y;
+    if (terms_used == kCubic) t.tail<kCubic - kQuadratic>() << x * x * x, x * x * y, x * y * y, y * y * y;
+    return t;
   };
   std::vector<cv::Point2f> fitted;
   cv::perspectiveTransform(grid_in, fitted, h);
-  Eigen::MatrixXd a(grid_in.size(), kTerms);
+  Eigen::MatrixXd a(grid_in.size(), terms_used);
   Eigen::MatrixXd b(grid_in.size(), 2);
   for (size_t i = 0; i < grid_in.size(); ++i) {
     a.row(static_cast<Eigen::Index>(i)) = terms(grid_in[i]).transpose();
@@ -432,15 +333,27 @@ bool GridFitsBoard(const RingView& view, const RigModel& model, int cols,
     grid.emplace_back(static_cast<float>(board->ids[i] % cols), static_cast<float>(board->ids[i] / cols));
     in_view.emplace_back(static_cast<float>(p->x()), static_cast<float>(p->y()));
   }
-  // The square side in the view from the corners' grid neighbours (median).
-  std::vector<double> sides;
+  // The square side in the view from the corners' grid neighbours (median), and each corner's
+  // shortest side in the raw image.
+  std::vector<double> sides, raw_side(n, 1e9);
   for (size_t i = 0; i < n; ++i) {
     for (size_t j = i + 1; j < n; ++j) {
       if (std::abs(grid[i].x - grid[j].x) + std::abs(grid[i].y - grid[j].y) == 1) {
         sides.push_back(cv::norm(in_view[i] - in_view[j]));
+        const double raw = (board->raw_pixels[i] - board->raw_pixels[j]).norm();
+        raw_side[i] = std::min(raw_side[i], raw);
+        raw_side[j] = std::min(raw_side[j], raw);
       }
     }
   }
+  // The test's tolerance per corner: with the smooth correction (a start model's error), also
+  // a fraction of the corner's square: the model's error over a board grows with the board's
+  // image, a mis-ordered corner is a third of a square off or more.
+  const auto tolerance = [&](size_t i) {
+    return options.smooth_grid_correction
+               ? std::max(options.max_grid_residual_px, options.max_grid_residual_squares * raw_side[i])
+               : options.max_grid_residual_px;
+  };
   if (sides.empty()) return false;
   std::nth_element(sides.begin(), sides.begin() + sides.size() / 2, sides.end());
   const double side = sides[sides.size() / 2];
@@ -474,13 +387,20 @@ bool GridFitsBoard(const RingView& view, const RigModel& model, int cols,
     kept = 0;
     grid_in.clear();
     view_in.clear();
+    std::vector<double> residuals;  // for the trace
     for (size_t i = 0; i < n; ++i) {
       const auto raw = view.ViewToRaw(Eigen::Vector2d(predicted[i].x, predicted[i].y));
-      keep[i] = raw && (*raw - board->raw_pixels[i]).norm() <= options.max_grid_residual_px;
+      residuals.push_back(raw ? (*raw - board->raw_pixels[i]).norm() : -1);
+      keep[i] = raw && (*raw - board->raw_pixels[i]).norm() <= tolerance(i);
       if (!keep[i]) continue;
       ++kept;
       grid_in.push_back(grid[i]);
       view_in.push_back(in_view[i]);
+    }
+    if (trace::On()) {
+      std::string line;
+      for (double r : residuals) line += cv::format("%.2f ", r);
+      trace::Line("   round %d: kept %zu of %zu; residuals %s", round, kept, n, line.c_str());
     }
   }
   if (kept < 4 || static_cast<double>(kept) < options.min_grid_inlier_fraction * n) return false;
@@ -499,15 +419,39 @@ bool GridFitsBoard(const RingView& view, const RigModel& model, int cols,
 }
 
 // The region of a view as a crop for the corner finders, padded to the region's full size
-// where it runs off the view and with the view's invalid pixels (outside the ring) set to mid
-// grey: a board whose white margin is cut by the ring's edge then still has separable outer
-// squares (against black they merge, and the finders fail near a crop border).
+// where it runs off the view and with the view's invalid pixels (outside the ring) set to the
+// crop's paper white (its 90th percentile): a board whose white margin is cut by the ring's edge
+// then still has separable outer squares (against black they merge, and the finders fail near
+// a crop border), and the padding reads as more of the sheet's margin. Mid grey, the fill
+// before, sits at both finders' binarisation level: a band of it along a crop's side (a region
+// by the view's edge, the camera's own hole) made both fail on clear boards (Mei's photo 2: the
+// classic and the sector finder each found the board in the crop filled white or black, neither
+// in it filled at 128).
 cv::Mat RegionCrop(const RingView& view, const Region& region) {
   const cv::Rect inside = region.full & cv::Rect(0, 0, view.width, view.height);
-  cv::Mat crop(region.full.size(), CV_8U, cv::Scalar(128));
+  const cv::Mat valid = view.map_x(inside) >= 0;
+  int histogram[256] = {0}, total = 0;
+  for (int y = 0; y < inside.height; ++y) {
+    const uchar* g = view.image.ptr<uchar>(inside.y + y) + inside.x;
+    const uchar* ok = valid.ptr<uchar>(y);
+    for (int x = 0; x < inside.width; ++x) {
+      if (!ok[x]) continue;
+      ++histogram[g[x]];
+      ++total;
+    }
+  }
+  int white = 255;
+  for (int level = 0, below = 0; level < 256; ++level) {
+    below += histogram[level];
+    if (total > 0 && below >= 0.9 * total) {
+      white = level;
+      break;
+    }
+  }
+  cv::Mat crop(region.full.size(), CV_8U, cv::Scalar(white));
   const cv::Rect dst(inside.tl() - region.full.tl(), inside.size());
   view.image(inside).copyTo(crop(dst));
-  crop(dst).setTo(128, view.map_x(inside) < 0);
+  crop(dst).setTo(white, ~valid);
   return crop;
 }
 
@@ -552,6 +496,7 @@ std::optional<BoardDetection> MakeBoard(const cv::Mat& raw_grey, const RingView&
     c += origin;
     if (filled[i]) continue;
     if (c.x < half + 1 || c.y < half + 1 || c.x > view.width - half - 2 || c.y > view.height - half - 2) {
+      trace::Line("  refused: a corner at the view's border");
       return std::nullopt;
     }
     seen.push_back(c);
@@ -561,9 +506,15 @@ std::optional<BoardDetection> MakeBoard(const cv::Mat& raw_grey, const RingView&
   for (size_t i = 0, k = 0; i < corners.size(); ++i) {
     if (!filled[i]) corners[i] = seen[k++];
   }
-  if (!GridIsWholeBoard(view, trusted, corners, spec.rows, spec.cols)) return std::nullopt;
+  if (!GridIsWholeBoard(view, trusted, corners, spec.rows, spec.cols, options.saddle_contrast_floor)) {
+    trace::Line("  refused: not a whole board");
+    return std::nullopt;
+  }
   const std::vector<int> perm = Orient(corners, spec.rows, spec.cols);
-  if (perm.empty()) return std::nullopt;
+  if (perm.empty()) {
+    trace::Line("  refused: no proper orientation");
+    return std::nullopt;
+  }
   std::vector<cv::Point2f> oriented(perm.size());
   for (size_t i = 0; i < perm.size(); ++i) oriented[i] = corners[perm[i]];
   board.mirror = view.mirror;
@@ -634,13 +585,20 @@ std::optional<BoardDetection> MakeBoard(const cv::Mat& raw_grey, const RingView&
     board.view_pixels.emplace_back(oriented[i].x, oriented[i].y);
     board.raw_pixels.push_back(*refined[i]);
   }
-  if (!GridFitsBoard(view, model, spec.cols, options, &board)) return std::nullopt;
+  const size_t refined_count = board.ids.size();
+  if (!GridFitsBoard(view, model, spec.cols, options, &board)) {
+    trace::Line("  refused: grid check (%zu of %zu corners refined)", refined_count, oriented.size());
+    return std::nullopt;
+  }
+  trace::Line("  board: %zu corners (%zu refined)", board.ids.size(), refined_count);
   return board;
 }
 
-// The boards in one region of a view. Only the patterns whose rows x cols match the extent of
-// the region's X-junction grid are searched when any does (the board's outer square corners pass
-// the saddle test but are not X-junctions), else those that can hold the grid, nearest first.
+// The boards in one region of a view. The patterns whose rows x cols match the extent of the
+// region's X-junction grid are searched first (the board's outer square corners pass the saddle
+// test but are not X-junctions), then those that can hold the grid, nearest first: a grid with
+// an extra row and column of junk junctions can match another pattern exactly (the field
+// photo's 5x7 board read as an 8x6 grid, the session's 6x8 pattern; only 6x8 was searched).
 // Pass 0 runs the fast classic finder, pass 1 the junction grid, pass 2 the sector finder where
 // the region's saddle points allow more boards than were found (a failed sector search costs
 // ~60-80 ms, a failed classic one ~10 ms, a successful one 2-20 ms: measured on the demo's
@@ -649,32 +607,45 @@ std::vector<BoardDetection> SearchRegion(const cv::Mat& raw_grey, const RingView
                                          const cv::Mat& in_ring, const cv::Mat& trusted,
                                          const RigModel& model, const std::vector<TargetSpec>& targets,
                                          const std::vector<int>& patterns, const Region& region,
-                                         size_t sectors, const ChessboardOptions& options) {
+                                         size_t sectors, const ChessboardOptions& options,
+                                         int view_index) {
   std::vector<cv::Point2f> junctions;
   for (const auto& q : region.points) {
-    if (IsXJunction(view, in_ring, q, 0.35 * region.spacing).value_or(false)) junctions.push_back(q);
+    if (IsXJunction(view, in_ring, q, 0.35 * region.spacing, options.saddle_contrast_floor).value_or(false)) {
+      junctions.push_back(q);
+    }
   }
-  const GridExtent grid = MeasureGrid(junctions, region.spacing);
+  const GridExtent grid = MeasureGrid(view.image, junctions, region.spacing, options.saddle_contrast_floor);
+  trace::Junctions(view_index, junctions);
+  trace::Grid(view_index, grid.points, grid.coords);
+  trace::Line(" region %d,%d %dx%d: %d saddles, spacing %.1f, %zu junctions, grid %dx%d (%d)",
+              region.rect.x, region.rect.y, region.rect.width, region.rect.height, region.saddles,
+              region.spacing, junctions.size(), grid.a, grid.b, grid.count);
   std::vector<BoardDetection> found;
   // A board cut by the view's side lies whole in the neighbouring view and is searched there
   // (the region's box may be too large to tell, when background saddles join it; the grid's
   // box tells).
-  if (2 * grid.count > region.saddles && BetterInNeighbour(view, grid.box, sectors)) return found;
+  if (2 * grid.count > region.saddles && BetterInNeighbour(view, grid.box, sectors)) {
+    trace::Line("  left to the neighbouring view");
+    return found;
+  }
   const auto near = [&](int t, int tolerance) {
     const int r = targets[t].rows, c = targets[t].cols;
     return (std::abs(r - grid.a) <= tolerance && std::abs(c - grid.b) <= tolerance) ||
            (std::abs(r - grid.b) <= tolerance && std::abs(c - grid.a) <= tolerance);
   };
   const auto matches = [&](int t) { return near(t, 0); };
-  const bool any_match = std::any_of(patterns.begin(), patterns.end(), matches);
-  // Whether the grid fits in the pattern with at most one extra row or column (a background
-  // junction); beyond that the grid cannot be this pattern's board.
+  // Whether the grid fits in the pattern with at most two extra rows or columns: junctions
+  // beyond the board's sides where its sheet's narrow white margin meets a dark background
+  // (its outer squares' corners then read as X-junctions: Mei's photo 1, an 8x10 grid of a 6x8
+  // board, one junk row or column on each of two sides); beyond that the grid cannot be this
+  // pattern's board. The whole-board test decides.
   const auto holds = [&](int t) {
     const int r = targets[t].rows, c = targets[t].cols;
-    return (grid.a <= r + 1 && grid.b <= c + 1) || (grid.b <= r + 1 && grid.a <= c + 1);
+    return (grid.a <= r + 2 && grid.b <= c + 2) || (grid.b <= r + 2 && grid.a <= c + 2);
   };
-  // Without an exact match the patterns nearest the grid's extent go first (larger first among
-  // equals, as `patterns`): a failed classic search costs 10-25 ms per pattern.
+  // The patterns nearest the grid's extent go first (larger first among equals, as
+  // `patterns`): a failed classic search costs 10-25 ms per pattern.
   std::vector<int> order = patterns;
   const auto distance = [&](int t) {
     const int r = targets[t].rows, c = targets[t].cols;
@@ -700,16 +671,15 @@ std::vector<BoardDetection> SearchRegion(const cv::Mat& raw_grey, const RingView
   }
   for (const auto& [finder, t] : searches) {
     {
-      if (any_match && !matches(t)) continue;
       const TargetSpec& spec = targets[t];
       const int n = spec.rows * spec.cols;
-      // Without an exact match: not where the junction grid holds under half the pattern's
+      // Patterns the grid does not match: not where the junction grid holds under half their
       // corners (tag grids' bits make saddle regions too: searching them cost ~500 ms per
-      // 1280x960 image) or more rows or columns than the pattern has (plus one), and the sector
-      // finder only for patterns within one row or column of the grid (some junctions missed,
-      // or one extra from the background).
-      if (!any_match && (2 * grid.count < n || !holds(t))) continue;
-      if (finder == kSector && !any_match && !near(t, 1)) continue;
+      // 1280x960 image) or more rows or columns than the pattern has (plus two), and the sector
+      // finder only for patterns within two rows or columns of the grid (some junctions missed,
+      // or extra ones from the background, see `holds`).
+      if (!matches(t) && (2 * grid.count < n || !holds(t))) continue;
+      if (finder == kSector && !matches(t) && !near(t, 2)) continue;
       // Too few saddles for the pattern, unless half its junctions already form a grid it holds
       // (an underexposed, vignetted board loses a third of its saddles under the threshold:
       // the harsh preset's 0.55 m board at 1280x960; the classic finder reads its squares).
@@ -718,6 +688,8 @@ std::vector<BoardDetection> SearchRegion(const cv::Mat& raw_grey, const RingView
       // saddles at their sheet edges).
       const int expected = std::clamp(static_cast<int>(region.saddles / (1.5 * n) + 0.5), 1,
                                       options.max_boards_per_region);
+      trace::Line("  search %s %dx%d", finder == kClassic ? "classic" : finder == kJunctions ? "junctions" : "sector",
+                  spec.rows, spec.cols);
       while (found_here < expected) {
         std::vector<cv::Point2f> corners;
         std::vector<bool> filled;
@@ -729,6 +701,7 @@ std::vector<BoardDetection> SearchRegion(const cv::Mat& raw_grey, const RingView
           }
           for (auto& c : corners) c -= cv::Point2f(region.full.tl());
         } else if (!FindGrid(crop, spec, finder == kClassic ? 0 : 1, &corners)) {
+          trace::Line("   the finder found no grid in the %dx%d crop", crop.cols, crop.rows);
           break;
         }
         std::optional<BoardDetection> board =
@@ -851,6 +824,10 @@ void SpreadCopiesOverTheirTargets(const RigModel& model, const std::vector<Targe
 std::string ChessboardOptions::Check() const {
   if (!(saddle_sigma > 0)) return OptionError("saddle_sigma", "a smoothing > 0 view px", saddle_sigma);
   if (!(saddle_balance > 0)) return OptionError("saddle_balance", "a ratio > 0", saddle_balance);
+  if (!(saddle_relative_contrast >= 0)) {
+    return OptionError("saddle_relative_contrast", "a fraction >= 0", saddle_relative_contrast);
+  }
+  if (!(saddle_contrast_floor > 0)) return OptionError("saddle_contrast_floor", "grey levels > 0", saddle_contrast_floor);
   if (min_saddles < 1) return OptionError("min_saddles", "at least 1", min_saddles);
   if (max_boards_per_region < 1) return OptionError("max_boards_per_region", "at least 1", max_boards_per_region);
   if (!(edge_margin_rad >= 0)) return OptionError("edge_margin_rad", "an angle >= 0 rad", edge_margin_rad);
@@ -864,6 +841,9 @@ std::string ChessboardOptions::Check() const {
   }
   if (!(max_grid_ransac_squares > 0)) {
     return OptionError("max_grid_ransac_squares", "a tolerance > 0 squares", max_grid_ransac_squares);
+  }
+  if (!(max_grid_residual_squares >= 0)) {
+    return OptionError("max_grid_residual_squares", "a tolerance >= 0 squares", max_grid_residual_squares);
   }
   if (!(max_grid_residual_px > 0)) {
     return OptionError("max_grid_residual_px", "a tolerance > 0 px", max_grid_residual_px);
@@ -897,13 +877,28 @@ std::vector<BoardDetection> DetectChessboardBoards(const cv::Mat& raw_grey,
   std::vector<BoardDetection> boards;
   if (patterns.empty()) return boards;
 
+  trace::NextImage();
   for (size_t vi = 0; vi < views.size(); ++vi) {
     const RingView& view = views[vi];
     const cv::Mat in_ring = RingPixels(view, 0), trusted = RingPixels(view, options.edge_margin_rad);
-    for (const Region& region : Regions(SaddlePoints(view, Saddles(options)), view.image.size(), Saddles(options), view.f)) {
-      if (BetterInNeighbour(view, region.rect, views.size() / 2)) continue;
+    const std::vector<cv::Point2f> saddles = SaddlePoints(view, Saddles(options));
+    const std::vector<Region> regions = Regions(saddles, view.image.size(), Saddles(options), view.f);
+    if (trace::On()) {
+      std::vector<cv::Rect> boxes;
+      for (const Region& r : regions) boxes.push_back(r.rect);
+      trace::Line("view %zu (ring %d, azimuth %.0f deg, %dx%d, blur %.2f): %zu saddles, %zu regions", vi,
+                  MirrorIndex(view.mirror), view.azimuth * 180 / M_PI, view.width, view.height,
+                  view.blur_sigma.value_or(-1), saddles.size(), regions.size());
+      trace::View(static_cast<int>(vi), view.image, saddles, boxes);
+    }
+    for (const Region& region : regions) {
+      if (BetterInNeighbour(view, region.rect, views.size() / 2)) {
+        trace::Line(" region %d,%d %dx%d: better in the neighbouring view", region.rect.x, region.rect.y,
+                    region.rect.width, region.rect.height);
+        continue;
+      }
       for (BoardDetection& board : SearchRegion(raw_grey, view, in_ring, trusted, model, targets, patterns, region,
-                                                        views.size() / 2, options)) {
+                                                views.size() / 2, options, static_cast<int>(vi))) {
         board.view = static_cast<int>(vi);
         boards.push_back(std::move(board));
       }
@@ -962,4 +957,6 @@ std::vector<CornerObservation> DetectChessboards(const cv::Mat& raw_grey,
 }
 
 }  // namespace omni::detectors
+
+
 

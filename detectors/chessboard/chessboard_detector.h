@@ -51,7 +51,19 @@ namespace omni::detectors {
 struct ChessboardOptions {
   double saddle_sigma = 1.0;       // view pixels: smoothing before the Hessian
   double saddle_min_contrast = 125; // grey levels across a corner, at the view's blur (saddle_points.h)
-  double saddle_balance = 0.5;    // |trace H| <= balance * sqrt(-det H) at a saddle point
+  // Or this fraction of the junction's own contrast, not under the floor, where a circle about
+  // it shows a clear X-junction (SaddleOptions): a board in shade (Mei's photos in linear light:
+  // ~80 grey levels per junction) gives its junctions too. 0 (off) by default: on the folded
+  // rig's rendered rooms the low-contrast junctions of the room's textures joined the boards'
+  // regions (detector_eval_scene: chessboard recall 100% / 100% -> 56% / 11%); DetectorContext
+  // turns it on for single rigs, whose boards are held in the shade below the mirror.
+  double saddle_relative_contrast = 0;
+  double saddle_contrast_floor = 10;
+  // |trace H| <= balance * sqrt(-det H) at a saddle point: 1.5 takes junctions whose edges
+  // cross at 53-127 degrees (a board slanted 60 degrees about its diagonal; 0.5 took 76-104 and
+  // lost every junction of Mei's boards held flat below the mirror).
+  double saddle_balance = 1.5;
+  double saddle_merge_sigmas = 3;  // one junction's twin peaks merged (SaddleOptions::merge_sigmas)
   int min_saddles = 4;             // a region with fewer saddle points is not tried
   int max_boards_per_region = 4;
   // The whole-board test reads no pixel nearer than this to a ring's edge (its dark rim band,
@@ -86,6 +98,11 @@ struct ChessboardOptions {
   // rim alone: 1-3 raw px across a board on Mei's photos, DetectorContext sets it for single
   // rigs) bends the board's image in the view smoothly; a mis-ordered corner stays off.
   bool smooth_grid_correction = false;
+  // With the smooth correction, a corner passes the test within this fraction of its raw square
+  // side too (when that is more than max_grid_residual_px): the start model's error grows with
+  // the board's image (Mei's photo 8, squares of ~30 raw px near the rim: residuals of 1-2 px
+  // after the cubic correction at corners within 0.9 px of OpenCV's).
+  double max_grid_residual_squares = 0.05;
 
   // Empty if the options are usable, else "<field>: expected ...": a smoothing, window, shift
   // or tolerance <= 0, a count under 1, a fraction outside [0, 1].

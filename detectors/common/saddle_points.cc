@@ -18,9 +18,66 @@ std::string SaddleOptions::Check() const {
   if (!(sigma > 0)) return OptionError("sigma", "a smoothing > 0 view px", sigma);
   if (!(min_contrast > 0)) return OptionError("min_contrast", "grey levels > 0", min_contrast);
   if (!(balance > 0)) return OptionError("balance", "a ratio > 0", balance);
+  if (!(relative_contrast >= 0)) return OptionError("relative_contrast", "a fraction >= 0", relative_contrast);
+  if (!(min_contrast_floor > 0)) return OptionError("min_contrast_floor", "grey levels > 0", min_contrast_floor);
+  if (!(merge_sigmas >= 0)) return OptionError("merge_sigmas", "a distance >= 0 blurred sigmas", merge_sigmas);
   if (min_saddles < 1) return OptionError("min_saddles", "at least 1", min_saddles);
   return "";
 }
+
+namespace {
+
+// Of saddle points nearer each other than `radius`, the strongest: the response of a junction
+// whose edges cross obliquely peaks twice, either side of its centre along the acute angle's
+// bisector (Mei's photos: ~4 view px apart at 1.4 px of blur), which halved the regions'
+// spacing and with it the X-junction test's circle.
+std::vector<cv::Point2f> KeepStrongest(const std::vector<cv::Point2f>& points,
+                                       const std::vector<float>& strengths, double radius) {
+  std::vector<int> order(points.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::sort(order.begin(), order.end(), [&](int a, int b) { return strengths[a] > strengths[b]; });
+  std::vector<cv::Point2f> kept;
+  const double r2 = radius * radius;
+  for (int i : order) {
+    bool near = false;
+    for (const cv::Point2f& k : kept) {
+      const cv::Point2f d = k - points[i];
+      if (d.dot(d) < r2) {
+        near = true;
+        break;
+      }
+    }
+    if (!near) kept.push_back(points[i]);
+  }
+  std::sort(kept.begin(), kept.end(), [](const cv::Point2f& a, const cv::Point2f& b) {
+    return a.y != b.y ? a.y < b.y : a.x < b.x;
+  });
+  return kept;
+}
+
+// Whether the grey levels on a circle of `radius` about (x, y) alternate dark, light, dark,
+// light with opposite sectors alike (two straight edges crossing there) and span at least
+// `min_contrast`. Outside the image: false.
+bool ClearXJunction(const cv::Mat& grey, int x, int y, double radius, double min_contrast) {
+  constexpr int kSamples = 24;
+  std::array<float, kSamples> v;
+  for (int k = 0; k < kSamples; ++k) {
+    const double a = 2 * M_PI * k / kSamples;
+    const int px = static_cast<int>(std::lround(x + radius * std::cos(a)));
+    const int py = static_cast<int>(std::lround(y + radius * std::sin(a)));
+    if (px < 0 || py < 0 || px >= grey.cols || py >= grey.rows) return false;
+    v[k] = grey.at<uchar>(py, px);
+  }
+  const auto [lo, hi] = std::minmax_element(v.begin(), v.end());
+  if (*hi - *lo < min_contrast) return false;
+  const float mid = 0.5f * (*lo + *hi);
+  int changes = 0, asymmetric = 0;
+  for (int k = 0; k < kSamples; ++k) changes += (v[k] > mid) != (v[(k + 1) % kSamples] > mid);
+  for (int k = 0; k < kSamples / 2; ++k) asymmetric += (v[k] > mid) != (v[k + kSamples / 2] > mid);
+  return changes == 4 && asymmetric <= 3;
+}
+
+}  // namespace
 
 std::vector<cv::Point2f> SaddlePoints(const RingView& view, const SaddleOptions& options) {
   if (const std::string error = options.Check(); !error.empty()) throw std::invalid_argument(error);
@@ -29,7 +86,9 @@ std::vector<cv::Point2f> SaddlePoints(const RingView& view, const SaddleOptions&
   if (cache.image_data != nullptr && cache.image_data == view.image.data &&
       cache.image_size == view.image.size() &&
       cache.sigma == options.sigma && cache.min_contrast == options.min_contrast &&
-      cache.balance == options.balance && cache.blur == blur) {
+      cache.balance == options.balance && cache.blur == blur &&
+      cache.relative_contrast == options.relative_contrast &&
+      cache.min_contrast_floor == options.min_contrast_floor && cache.merge_sigmas == options.merge_sigmas) {
     return cache.points;
   }
   cache = {};
@@ -66,11 +125,31 @@ std::vector<cv::Point2f> SaddlePoints(const RingView& view, const SaddleOptions&
   // 0.7 px: the sharpest a render's anti-aliasing and the view's resampling leave).
   const double blur2 = view.blur_sigma ? *view.blur_sigma * *view.blur_sigma : 0.5;
   const double s2 = options.sigma * options.sigma + std::max(0.5, blur2);
-  const double ixy_min = 4.0 * options.min_contrast / (M_PI * s2);
-  const float threshold = static_cast<float>(ixy_min * ixy_min);
+  // The response of a junction of contrast c: (4 c / (pi s2))^2.
+  const auto response_of = [&](double contrast) {
+    const double ixy = 4.0 * contrast / (M_PI * s2);
+    return static_cast<float>(ixy * ixy);
+  };
+  const bool relative = options.relative_contrast > 0;
+  const float threshold =
+      response_of(relative ? std::min(options.min_contrast, options.min_contrast_floor) : options.min_contrast);
+  // The junction's own contrast: the range of grey levels within 2 blurred sigmas of it.
+  const int reach = static_cast<int>(std::ceil(2 * std::sqrt(s2)));
+  const auto local_range = [&](int x, int y) {
+    int lo = 255, hi = 0;
+    for (int yy = std::max(0, y - reach); yy <= std::min(view.image.rows - 1, y + reach); ++yy) {
+      const uchar* g = view.image.ptr<uchar>(yy);
+      for (int xx = std::max(0, x - reach); xx <= std::min(view.image.cols - 1, x + reach); ++xx) {
+        lo = std::min(lo, static_cast<int>(g[xx]));
+        hi = std::max(hi, static_cast<int>(g[xx]));
+      }
+    }
+    return hi - lo;
+  };
   // Local maxima over 5x5 (clipped at the view's border), tested only where the response passes
   // the threshold: a 5x5 dilation of the whole response was a seventh of this function.
   std::vector<cv::Point2f> points;
+  std::vector<float> strengths;
   for (int y = 0; y < response.rows; ++y) {
     const float* r = response.ptr<float>(y);
     for (int x = 0; x < response.cols; ++x) {
@@ -85,12 +164,24 @@ std::vector<cv::Point2f> SaddlePoints(const RingView& view, const SaddleOptions&
           }
         }
       }
-      if (peak) points.emplace_back(x, y);
+      if (!peak) continue;
+      // A saddle under min_contrast counts only as a clear X-junction of its own contrast, read
+      // on a circle 3 blurred sigmas out (clear of the blur): the relative test alone took
+      // texture and noise (a 5 MP JPEG's blurred inner ring: ~2000 saddles per view; at 2
+      // sigmas Mei's photo 10 lost its board).
+      if (relative && r[x] <= response_of(options.min_contrast) &&
+          (r[x] <= response_of(options.relative_contrast * local_range(x, y)) ||
+           !ClearXJunction(view.image, x, y, 3 * std::sqrt(s2), options.min_contrast_floor))) {
+        continue;
+      }
+      points.emplace_back(x, y);
+      strengths.push_back(r[x]);
     }
   }
+  if (options.merge_sigmas > 0) points = KeepStrongest(points, strengths, options.merge_sigmas * std::sqrt(s2));
   if (!view.image.empty()) {
     cache = {view.image.data, view.image.size(), options.sigma, options.min_contrast,
-             options.balance, blur, points};
+             options.balance, blur, options.relative_contrast, options.min_contrast_floor, options.merge_sigmas, points};
   }
   return points;
 }

@@ -27,7 +27,22 @@ struct SaddleOptions {
   // inner ring's views (upsampled ~1.7x) of a defocused, demosaiced camera image are 2-2.5 view
   // px blurred against ~0.9 in the outer ring of a clean render.
   double min_contrast = 125;
-  double balance = 0.5;         // |trace H| <= balance * sqrt(-det H) at a saddle point
+  // With relative_contrast > 0, a saddle point of a dimmer junction counts too: it needs
+  // relative_contrast times the range of grey levels around it (the junction's own contrast,
+  // read over the blurred junction's extent), if that is less than min_contrast, and never less
+  // than min_contrast_floor (noise). A board in shade, or one whose light is compressed by the
+  // sRGB-to-linear step (Mei's paracatadioptric photos: squares 3..127 in linear light, every
+  // junction ~80 grey levels) then still gives its X-junctions. 0: min_contrast alone.
+  double relative_contrast = 0;
+  double min_contrast_floor = 30;
+  // |trace H| <= balance * sqrt(-det H) at a saddle point. Two straight edges crossing at an
+  // angle phi give |trace| / sqrt(-det) = 2 |cot phi|: 0.5 takes junctions within 76-104
+  // degrees, 1.5 within 53-127 (a board slanted 60 degrees about its diagonal).
+  double balance = 0.5;
+  // Saddle points nearer each other than this many blurred sigmas (sqrt(sigma^2 + blur^2)) are
+  // one junction: the strongest is kept (0: all local maxima kept). An oblique junction's
+  // response peaks twice.
+  double merge_sigmas = 0;
   int min_saddles = 4;          // a cluster with fewer saddle points is not a region
 
   // Empty if the options are usable, else "<field>: expected ...".

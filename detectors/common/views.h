@@ -74,6 +74,7 @@ struct RingView {
     const uchar* image_data = nullptr;  // nullptr: empty
     cv::Size image_size;
     double sigma = 0, min_contrast = 0, balance = 0, blur = 0;
+    double relative_contrast = 0, min_contrast_floor = 0, merge_sigmas = 0;
     std::vector<cv::Point2f> points;
   };
   mutable SaddleCache saddle_cache;
