@@ -69,9 +69,13 @@ int RunScene(int argc, char** argv) {
   // OMNI_START_MODEL: a model file to start from instead (e.g. the design with its mirrors'
   // measured profiles, bench/measured_profile_scans.py).
   const char* start_file = std::getenv("OMNI_START_MODEL");
+  calib::CalibrationOptions options;
+  // OMNI_PROFILE=off|hold|free|auto, OMNI_PROFILE_SIGMA_MM: as in the default mode.
+  if (const char* profile = std::getenv("OMNI_PROFILE")) options.profile = profile;
+  if (const char* sigma = std::getenv("OMNI_PROFILE_SIGMA_MM")) options.profile_sigma_mm = std::atof(sigma);
   SolveAndReport(start_file ? io::ReadModelFile(start_file)
                             : testing::IdealDesignOf(truth, session.scene.width, session.scene.height),
-                 session.targets, detections, calib::CalibrationOptions(), truth,
+                 session.targets, detections, options, truth,
                  static_cast<int>(detections.images.size()), argc > 5 ? argv[5] : nullptr);
   return 0;
 }

@@ -269,7 +269,8 @@ std::string MeasuredProfileNote(int mirror, const MeasuredProfile& measured,
 namespace {
 
 // Profiles held for want of evidence: what their updated tolerance adds to the sigmas, said for
-// the parameters whose sigma it grows by half or more (the axial positions, the focal length):
+// the axial positions and the focal length, and any other parameter whose sigma it grows by half
+// or more:
 // "mirror1.tz 0.81 mm (0.22 without it), ...". Empty when none is held so.
 std::string HeldProfilesShare(const CalibrationResult& result) {
   const CalibrationUncertainty& u = result.uncertainty;
@@ -288,9 +289,11 @@ std::string HeldProfilesShare(const CalibrationResult& result) {
       share += s * s;
     }
     const double total = u.sigma(i) * u.sigma(i);
-    if (!(share > 0) || total < 2.25 * (total - share)) continue;
     const RigParameter* p = FindRigParameter(result.estimate.names[i]);
-    if (!p) continue;
+    if (!p || !(share > 0)) continue;
+    // The axial positions always (what the held profile leaves open of them), others where it
+    // grows the sigma by half or more.
+    if (p->role != SolveRole::kAxialScale && total < 2.25 * (total - share)) continue;
     char item[160];
     const std::string unit = *DisplayUnit(*p) ? std::string(" ") + DisplayUnit(*p) : "";
     std::snprintf(item, sizeof(item), "%s%s sigma %.3g%s (%.3g without it)",
