@@ -161,11 +161,20 @@ RigCovariance RigCovarianceFromSchur(const Eigen::MatrixXd& schur_all, int n_rig
                        out.considered_column_sigma.array().square().matrix().asDiagonal() *
                        sensitivity.transpose();
   }
-  // Nearly unobservable: a sigma beyond the parameter's bound says nothing, so it is named.
+  // Nearly unobservable: a sigma beyond the parameter's bound says nothing, so it is named. The
+  // test is on what the data tell with the held coordinates as they are (the pixel noise and
+  // the detector biases' share), not on an updated column's share: a profile held for want of
+  // evidence leaves its power term open along the axial positions and the focal length, and
+  // that is said in their sigmas (and a note), not by calling parameters the data determine
+  // (as with profile: off) not determined.
+  Eigen::VectorXd updated_share = Eigen::VectorXd::Zero(n_rig);
+  for (int c : options.updated_considered) {
+    updated_share += (sensitivity.col(c) * out.considered_column_sigma(c)).cwiseAbs2();
+  }
   for (int i = 0; i < n_rig; ++i) {
     if (named[i] || i >= static_cast<int>(options.nearly_unobservable_sigma.size())) continue;
     const double bound = options.nearly_unobservable_sigma[i];
-    const double total = full(i, i) + considered_share(i, i);
+    const double total = full(i, i) + considered_share(i, i) - updated_share(i);
     if (bound > 0 && !(std::sqrt(std::max(total, 0.0)) <= bound)) named[i] = true;
   }
   for (int i = 0; i < n_rig; ++i) {

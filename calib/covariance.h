@@ -48,6 +48,8 @@ struct RigCovarianceOptions {
   // data bound the profile's components they can tell from the refined parameters; the tolerance
   // stays whole along those they cannot (the power term against the axial positions). The
   // columns are replaced by the factors of Sigma_post (RigCovariance::considered_column_*).
+  // Their share is in the covariance but not in the nearly-unobservable test: that asks what the
+  // data determine with the held coordinates as they are.
   std::vector<int> updated_considered;
 };
 

@@ -5,6 +5,7 @@
 //    for a unit error in each considered value says: dx = sensitivity * dc.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <random>
 
 #include <Eigen/Dense>
@@ -130,6 +131,20 @@ TEST(RigCovariance, UpdatedConsideredColumnsGiveTheFreedMarginalCovariance) {
   // The updated column is a unit combination of the considered coordinates (here column 0).
   EXPECT_NEAR(std::abs(cov.considered_column_mix(0, 0)), 1.0, 1e-12);
   EXPECT_LT(cov.considered_column_sigma(0), 0.3);
+
+  // "Not determined" asks what the data determine with the held values as they are: a bound
+  // between rig 0's sigma without the updated column's share and with it keeps it observable
+  // (it is in the sigma, not in the test); a bound below the rest names it.
+  const double without = std::sqrt(cov.covariance(0, 0) -
+                                   std::pow(cov.considered_sensitivity(0, 0) *
+                                                cov.considered_column_sigma(0), 2));
+  ASSERT_LT(without, 0.9 * std::sqrt(cov.covariance(0, 0)));
+  options.nearly_unobservable_sigma = {0.5 * (without + std::sqrt(cov.covariance(0, 0))), 0, 0, 0};
+  EXPECT_EQ(ComputeRigCovariance(Sparse(p.dense), p.n_rig, options).observable.size(),
+            static_cast<size_t>(p.n_rig));
+  options.nearly_unobservable_sigma[0] = 0.9 * without;
+  EXPECT_EQ(ComputeRigCovariance(Sparse(p.dense), p.n_rig, options).unobservable,
+            std::vector<int>{0});
 }
 
 }  // namespace
