@@ -20,6 +20,8 @@
 // RIG's ideal design (every pose, the reflex plane and the distortion zero, the principal point
 // at the image centre, fx = fy = 1450 px as in the design files), or from the model file
 // OMNI_START_MODEL names (e.g. with measured profiles: bench/measured_profile_scans.py).
+// OMNI_PROFILE (off|hold|free|auto) sets the session's profile mode; OMNI_MODEL_OUT writes the
+// calibrated model file.
 #include <sys/resource.h>
 
 #include <algorithm>
@@ -56,6 +58,11 @@ void SolveAndReport(const RigParams& start, const std::vector<TargetSpec>& targe
   std::printf("%s", calib::TimedSolveReport(solve, detections, images, options.solver.threads,
                                             usage.ru_maxrss / 1024.0, truth).c_str());
   if (values_out) std::ofstream(values_out) << calib::ValuesText(solve.result);
+  // OMNI_MODEL_OUT: the calibrated model file (with its covariance), e.g. for `omnistereo
+  // tolerance` (bench/tolerance_acceptance.py).
+  if (const char* model_out = std::getenv("OMNI_MODEL_OUT")) {
+    io::WriteModelFile(model_out, solve.result.estimate.rig);
+  }
 }
 
 int RunScene(int argc, char** argv) {
@@ -69,9 +76,19 @@ int RunScene(int argc, char** argv) {
   // OMNI_START_MODEL: a model file to start from instead (e.g. the design with its mirrors'
   // measured profiles, bench/measured_profile_scans.py).
   const char* start_file = std::getenv("OMNI_START_MODEL");
-  SolveAndReport(start_file ? io::ReadModelFile(start_file)
-                            : testing::IdealDesignOf(truth, session.scene.width, session.scene.height),
-                 session.targets, detections, calib::CalibrationOptions(), truth,
+  calib::CalibrationOptions options;
+  // OMNI_PROFILE=off|hold|free|auto, OMNI_PROFILE_SIGMA_MM: as in the default mode.
+  if (const char* profile = std::getenv("OMNI_PROFILE")) options.profile = profile;
+  if (const char* sigma = std::getenv("OMNI_PROFILE_SIGMA_MM")) options.profile_sigma_mm = std::atof(sigma);
+  RigParams start =
+      start_file ? io::ReadModelFile(start_file)
+                 : testing::IdealDesignOf(truth, session.scene.width, session.scene.height);
+  // The design's focal length is 1450 px at 1280 pixels across: at 5 MP (2592) twice that, which
+  // the initial poses need (from 1450 no placement was posed).
+  if (!start_file && session.scene.width > 1280) {
+    start.camera[kFx] = start.camera[kFy] = 1450.0 * session.scene.width / 1280.0;
+  }
+  SolveAndReport(start, session.targets, detections, options, truth,
                  static_cast<int>(detections.images.size()), argc > 5 ? argv[5] : nullptr);
   return 0;
 }

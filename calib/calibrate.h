@@ -89,7 +89,10 @@ struct CalibrationOptions {
   // Each mirror's profile (model/mirror_profile.h: a machined mirror's smooth departure from the
   // conic, sag_p1..sag_p4, sag_cos2, sag_sin2). "auto": freed, with a prior of profile_sigma_mm
   // per term around the starting model's value, for a mirror whose corners cover the radii the
-  // profile acts on (ProfileCoverage); otherwise held and considered with that sigma. A measured
+  // profile acts on (ProfileCoverage) AND show a radial residual pattern with it held beyond
+  // chance at the 1% level (ProfileDecision::evidence); otherwise held, and considered with that
+  // sigma updated by what the data tell of the profile (Refinement::profile_updated: the
+  // covariance the rig would have with it freed, the estimate the held profile's). A measured
   // profile (the start's measured_profile, a model file's profile_from) has its fit's covariance
   // as the prior instead (the tolerance stays on terms the scan did not measure) and is freed in
   // "auto" whatever the coverage. "free": always freed; "hold": always held and considered. A profile of microns bends rays by
@@ -166,6 +169,13 @@ struct ProfileDecision {
   std::vector<RadialResidualBin> pattern_before, pattern_after;
   // chi^2 of the band means against zero per band (~1 where no pattern is left), before / after.
   double pattern_chi2_before = 0, pattern_chi2_after = 0;
+  // profile: auto: whether the pattern before (the profile held) is beyond chance at the 1%
+  // level (its chi^2 over the covered bands against that quantile): the evidence that frees it.
+  bool evidence = false;
+  double evidence_threshold = 0;  // that quantile, per band
+  // Held for want of evidence (auto): considered with its tolerance updated by the data
+  // (Refinement::profile_updated).
+  bool updated = false;
 };
 
 struct StageReport {
@@ -224,6 +234,11 @@ struct CalibrationUncertainty {
   // sigma assumed for each.
   Eigen::MatrixXd considered_sensitivity;
   Eigen::VectorXd considered_column_sigma;
+  // What each column is in the considered coordinates (columns x columns, unit columns): the
+  // identity, except where a held profile's tolerance was updated by the data (profile: auto
+  // without evidence): those columns are combinations of its terms (calib/covariance.h,
+  // updated_considered). Empty: the identity.
+  Eigen::MatrixXd considered_column_mix;
   // One name per considered column: the held parameter's, "lip <path> r <radius> across|u|v",
   // "corners ring <1|2> u|v".
   std::vector<std::string> considered_column_names;

@@ -125,6 +125,11 @@ struct Refinement {
   bool skew = false, tangential = false;
   bool dist_k3 = false;                   // options.refine_dist_k3, or DecideDistK3
   bool profile_free[2] = {false, false};  // each mirror's profile refined (DecideProfiles)
+  // Held by profile: auto for want of evidence (DecideProfiles): its considered columns carry the
+  // machining tolerance updated by what the session's data tell of the profile (the posterior of
+  // the tolerance given the data, RigCovarianceOptions::updated_considered), not the bare
+  // tolerance.
+  bool profile_updated[2] = {false, false};
   std::map<std::string, double> considered_sigma;  // options' and the held profiles'
   std::map<std::string, ShapePrior> shape_priors;  // options.priors
   // Their means: each mirror's shape in the starting model (the priors stay there while the

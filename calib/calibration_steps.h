@@ -24,6 +24,10 @@
 
 namespace omni::calib {
 
+// The name of each considered column of the profiles held for want of evidence (profile: auto),
+// followed by " 1", " 2", ...: the factors of their tolerance updated by the data.
+inline constexpr char kHeldProfileColumn[] = "held profiles, updated by the data: combination";
+
 inline void Progress(const CalibrationOptions& options, const std::string& line) {
   if (options.progress) options.progress(line);
 }

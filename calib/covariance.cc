@@ -117,20 +117,64 @@ RigCovariance RigCovarianceFromSchur(const Eigen::MatrixXd& schur_all, int n_rig
   // subspace), so the estimate's sensitivity to them is -full / variance_factor * S_xc.
   Eigen::MatrixXd considered_share = Eigen::MatrixXd::Zero(n_rig, n_rig);
   Eigen::MatrixXd sensitivity = Eigen::MatrixXd::Zero(n_rig, n_considered);
+  out.considered_column_sigma =
+      Eigen::Map<const Eigen::VectorXd>(options.considered_sigma.data(), n_considered);
+  out.considered_column_mix = Eigen::MatrixXd::Identity(n_considered, n_considered);
   if (n_considered > 0 && options.variance_factor > 0) {
     sensitivity =
         -(full / options.variance_factor) * schur_all.topRightCorner(n_rig, n_considered);
-    const Eigen::VectorXd var_c =
-        Eigen::Map<const Eigen::VectorXd>(options.considered_sigma.data(), n_considered)
-            .array()
-            .square();
-    considered_share = sensitivity * var_c.asDiagonal() * sensitivity.transpose();
+    const std::vector<int>& g = options.updated_considered;
+    if (!g.empty()) {
+      // S_c|x over the group, then Sigma_post = D (I + D S_c|x D)^-1 D with D = diag(sigma):
+      // factored as L L^T, L = D U Lambda^-1/2 (A = U Lambda U^T); each column of L is one new
+      // considered column (its norm the sigma, its direction the mix).
+      const int k = static_cast<int>(g.size());
+      Eigen::MatrixXd s_cc(k, k), s_xc(n_rig, k);
+      Eigen::VectorXd d(k);
+      for (int a = 0; a < k; ++a) {
+        d(a) = options.considered_sigma[g[a]];
+        s_xc.col(a) = schur_all.col(n_rig + g[a]).head(n_rig);
+        for (int b = 0; b < k; ++b) s_cc(a, b) = schur_all(n_rig + g[a], n_rig + g[b]);
+      }
+      const Eigen::MatrixXd s_c_given_x =
+          (s_cc - s_xc.transpose() * (full / options.variance_factor) * s_xc) /
+          options.variance_factor;
+      Eigen::MatrixXd a = d.asDiagonal() * s_c_given_x * d.asDiagonal();
+      a = 0.5 * (a + a.transpose());
+      a.diagonal().array() += 1.0;
+      Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig_a(a);
+      const Eigen::MatrixXd l =
+          d.asDiagonal() * eig_a.eigenvectors() *
+          eig_a.eigenvalues().cwiseMax(1.0).cwiseInverse().cwiseSqrt().asDiagonal();
+      const Eigen::MatrixXd s_g = sensitivity(Eigen::all, g);
+      for (int a2 = 0; a2 < k; ++a2) {
+        const double norm = l.col(a2).norm();
+        out.considered_column_sigma(g[a2]) = norm;
+        Eigen::VectorXd mix = Eigen::VectorXd::Zero(n_considered);
+        for (int b = 0; b < k; ++b) mix(g[b]) = norm > 0 ? l(b, a2) / norm : 0.0;
+        out.considered_column_mix.col(g[a2]) = mix;
+        sensitivity.col(g[a2]) = norm > 0 ? Eigen::VectorXd(s_g * l.col(a2) / norm)
+                                          : Eigen::VectorXd::Zero(n_rig);
+      }
+    }
+    considered_share = sensitivity *
+                       out.considered_column_sigma.array().square().matrix().asDiagonal() *
+                       sensitivity.transpose();
   }
-  // Nearly unobservable: a sigma beyond the parameter's bound says nothing, so it is named.
+  // Nearly unobservable: a sigma beyond the parameter's bound says nothing, so it is named. The
+  // test is on what the data tell with the held coordinates as they are (the pixel noise and
+  // the detector biases' share), not on an updated column's share: a profile held for want of
+  // evidence leaves its power term open along the axial positions and the focal length, and
+  // that is said in their sigmas (and a note), not by calling parameters the data determine
+  // (as with profile: off) not determined.
+  Eigen::VectorXd updated_share = Eigen::VectorXd::Zero(n_rig);
+  for (int c : options.updated_considered) {
+    updated_share += (sensitivity.col(c) * out.considered_column_sigma(c)).cwiseAbs2();
+  }
   for (int i = 0; i < n_rig; ++i) {
     if (named[i] || i >= static_cast<int>(options.nearly_unobservable_sigma.size())) continue;
     const double bound = options.nearly_unobservable_sigma[i];
-    const double total = full(i, i) + considered_share(i, i);
+    const double total = full(i, i) + considered_share(i, i) - updated_share(i);
     if (bound > 0 && !(std::sqrt(std::max(total, 0.0)) <= bound)) named[i] = true;
   }
   for (int i = 0; i < n_rig; ++i) {

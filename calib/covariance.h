@@ -39,6 +39,18 @@ struct RigCovarianceOptions {
   // Sigma of each considered column; the Jacobian has them right after the n_rig refined
   // columns (before the nuisance blocks). Empty: none.
   std::vector<double> considered_sigma;
+  // Considered columns (indices among them, ascending) whose assumed covariance diag(sigma^2) is
+  // first updated by the data's own information on them with the refined parameters free:
+  // Sigma_post = (Sigma^-1 + S_c|x)^-1, S_c|x = S_cc - S_cx S_xx^-1 S_xc. The covariance then
+  // gains S_xx^-1 S_xc Sigma_post S_cx S_xx^-1, which is the marginal covariance the refined
+  // parameters would have with these columns freed under a prior of that sigma, while the
+  // estimate keeps them held. Used for a profile held for want of evidence (profile: auto): the
+  // data bound the profile's components they can tell from the refined parameters; the tolerance
+  // stays whole along those they cannot (the power term against the axial positions). The
+  // columns are replaced by the factors of Sigma_post (RigCovariance::considered_column_*).
+  // Their share is in the covariance but not in the nearly-unobservable test: that asks what the
+  // data determine with the held coordinates as they are.
+  std::vector<int> updated_considered;
 };
 
 struct RigCovariance {
@@ -50,6 +62,11 @@ struct RigCovariance {
   // d estimate / d held value of each considered column (-S_xx^-1 S_xc), rows `observable`:
   // how a held value off by dc moves the estimate.
   Eigen::MatrixXd considered_sensitivity;
+  // Per considered column: its sigma and what it is in the held coordinates (n_considered x
+  // n_considered, unit columns): options.considered_sigma and the identity, except over
+  // options.updated_considered, whose columns are then the factors of their Sigma_post.
+  Eigen::VectorXd considered_column_sigma;
+  Eigen::MatrixXd considered_column_mix;
   Eigen::VectorXd eigenvalues;    // of the Jacobi-scaled Schur complement, ascending
   Eigen::MatrixXd eigenvectors;   // columns, same order (in the scaled coordinates)
 };

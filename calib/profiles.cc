@@ -147,6 +147,17 @@ void FitProfileRadiiToCorners(int m, const ObservationSet& observations, RigStat
 
 }  // namespace
 
+namespace {
+
+// The 99% quantile of chi^2 with k degrees of freedom (Wilson-Hilferty; within 1% for k >= 2).
+double Chi2Quantile99(int k) {
+  const double z = 2.3263;  // the standard normal's 99% quantile
+  const double a = 2.0 / (9.0 * k);
+  return k * std::pow(1 - a + z * std::sqrt(a), 3);
+}
+
+}  // namespace
+
 bool DecideProfiles(const ObservationSet& observations, const CalibrationOptions& options,
                     RigState* rig, ProfileState* profiles, Refinement* refined,
                     CalibrationResult* result) {
@@ -175,17 +186,35 @@ bool DecideProfiles(const ObservationSet& observations, const CalibrationOptions
       d.prior_mean = refined->profile_mean[m];
       d.prior_covariance = *refined->profile_covariance[m];
     }
+    // auto frees an unmeasured profile on evidence: the corners cover its radii AND their radial
+    // residuals with the profile held show a pattern beyond chance (an exact conic leaves none,
+    // and freeing it then only opens the profile-axial valley: on exact mirrors the points in
+    // mirror 1's body at 1 m came out 0.029 -> 0.055 px). A profile error that leaves no pattern
+    // hides in the axial positions and the focal length, where the considered tolerance carries
+    // it into their sigmas.
+    int used = 0;
+    for (const auto& b : d.pattern_before) used += b.count >= kMinCornersPerBand && b.sem_px > 0;
+    d.evidence_threshold = used > 0 ? Chi2Quantile99(used) / used : 0;
+    d.evidence = used > 0 && d.pattern_chi2_before > d.evidence_threshold;
     bool& free = refined->profile_free[m];
     if (!free && (asked || (options.profile == "auto" &&
-                            (d.measured || d.bins_covered >= kMinBandsToFree)))) {
+                            (d.measured || (d.bins_covered >= kMinBandsToFree && d.evidence))))) {
       free = true;
       freed = true;
     }
     d.freed = free;
+    // Held by auto for want of evidence: the data bound the profile's components that they tell
+    // from the refined parameters, so its considered tolerance is updated by them (the
+    // covariance the refined parameters would have with it freed under the tolerance, the
+    // estimate kept at the held profile's precision); along the components they cannot tell (the
+    // power term against the axial positions and the focal length) the tolerance stays whole.
+    refined->profile_updated[m] = options.profile == "auto" && !free && !d.measured && !d.evidence;
+    d.updated = refined->profile_updated[m];
   }
   if (freed) {
     Progress(options,
-             std::string("profiles freed where the corners cover the mirror's radii: mirror 1 ") +
+             std::string("profiles freed where the corners cover the mirror's radii and show a "
+                         "radial pattern: mirror 1 ") +
                  (refined->profile_free[0] ? "yes" : "no") +
                  (rig->params.Single()
                       ? std::string()
@@ -237,9 +266,59 @@ std::string MeasuredProfileNote(int mirror, const MeasuredProfile& measured,
 
 }  // namespace
 
+namespace {
+
+// Profiles held for want of evidence: what their updated tolerance adds to the sigmas, said for
+// the axial positions and the focal length, and any other parameter whose sigma it grows by half
+// or more:
+// "mirror1.tz 0.81 mm (0.22 without it), ...". Empty when none is held so.
+std::string HeldProfilesShare(const CalibrationResult& result) {
+  const CalibrationUncertainty& u = result.uncertainty;
+  const int n = static_cast<int>(result.estimate.names.size());
+  if (u.considered_sensitivity.rows() != n ||
+      u.considered_sensitivity.cols() != u.considered_column_sigma.size() ||
+      u.considered_column_names.size() != static_cast<size_t>(u.considered_column_sigma.size())) {
+    return "";
+  }
+  std::string out;
+  for (int i = 0; i < n; ++i) {
+    double share = 0;
+    for (int c = 0; c < u.considered_column_sigma.size(); ++c) {
+      if (u.considered_column_names[c].rfind(kHeldProfileColumn, 0) != 0) continue;
+      const double s = u.considered_sensitivity(i, c) * u.considered_column_sigma(c);
+      share += s * s;
+    }
+    const double total = u.sigma(i) * u.sigma(i);
+    const RigParameter* p = FindRigParameter(result.estimate.names[i]);
+    if (!p || !(share > 0)) continue;
+    // The axial positions always (what the held profile leaves open of them), others where it
+    // grows the sigma by half or more.
+    if (p->role != SolveRole::kAxialScale && total < 2.25 * (total - share)) continue;
+    char item[160];
+    const std::string unit = *DisplayUnit(*p) ? std::string(" ") + DisplayUnit(*p) : "";
+    std::snprintf(item, sizeof(item), "%s%s sigma %.3g%s (%.3g without it)",
+                  out.empty() ? "" : ", ", result.estimate.names[i].c_str(),
+                  DisplayValue(*p, u.sigma(i)), unit.c_str(),
+                  DisplayValue(*p, std::sqrt(std::max(total - share, 0.0))));
+    out += item;
+  }
+  return out;
+}
+
+}  // namespace
+
 void FinishProfiles(const ObservationSet& observations, const ProfileState& profiles,
                     const CalibrationOptions& options, RigState* rig, CalibrationResult* result) {
   if (options.profile == "off") return;
+  // Held for want of evidence: the sigmas carry what the held profile leaves open, said.
+  if (const std::string share = HeldProfilesShare(*result); !share.empty()) {
+    result->solve.notes.push_back(
+        "the held profiles' tolerance, updated by what this session tells of them, is in the "
+        "sigmas (the estimate is the held profile's): the data bound the profile components "
+        "they tell from the rig's parameters; the power term, which bends the rays as an axial "
+        "shift or a focal length does, keeps its whole tolerance: " + share +
+        "; a measured profile (profile_from: its scan in the starting model) would narrow them");
+  }
   // What the profiles' tolerance leaves open, said where the table names it unobservable.
   std::string traded;
   for (const auto& u : result->uncertainty.unobservable) {
@@ -280,13 +359,25 @@ void FinishProfiles(const ObservationSet& observations, const ProfileState& prof
                           "passed on through the shared parameters); it bounds what this model "
                           "can reach"
                         : "");
+    } else if (d.updated && d.bins_covered >= kMinBandsToFree) {
+      std::snprintf(buf, sizeof(buf),
+                    "mirror %d's profile held at the %s and considered (sigma %.3g um per term, "
+                    "the machining tolerance, updated by what the session tells of it): the "
+                    "corners cover %d of %d bands of the radii they reach on it, %.1f-%.1f mm, but "
+                    "show no radial pattern with it held (chi^2 per band %.2g, the 1%% level "
+                    "%.2g): the conic fits them, and freeing the profile would only trade with "
+                    "the axial positions (session profile: free frees it)",
+                    m + 1, profiles.given[m] ? "starting model's profile" : "conic", um,
+                    d.bins_covered, d.bins, d.r_min, d.r_max, d.pattern_chi2_before,
+                    d.evidence_threshold);
     } else {
       std::snprintf(buf, sizeof(buf),
                     "mirror %d's profile held at the %s and considered (sigma %.3g um per term, "
-                    "the machining tolerance): the corners fill %d of %d bands of the radii they reach on it, "
+                    "the machining tolerance%s): the corners fill %d of %d bands of the radii they reach on it, "
                     "%.1f-%.1f mm (%d needed to refine it: targets low and high in the ring); "
                     "radial residual pattern chi^2 per band %.2g%s",
                     m + 1, profiles.given[m] ? "starting model's profile" : "conic", um,
+                    d.updated ? ", updated by what the session tells of it" : "",
                     d.bins_covered, d.bins, d.r_min, d.r_max, kMinBandsToFree,
                     d.pattern_chi2_after,
                     d.pattern_chi2_after > kPatternChi2

@@ -147,7 +147,14 @@ std::vector<PointUncertainty> ProjectionUncertaintyMap(const CalibrationResult& 
       }
       for (int c = 0; considered && c < n_columns; ++c) {
         Eigen::VectorXd effect = j * result.uncertainty.considered_sensitivity.col(c);
-        if (c < n_named) effect += j_all.col(n + c);
+        const Eigen::MatrixXd& mix = result.uncertainty.considered_column_mix;
+        if (mix.rows() == n_columns && mix.cols() == n_columns) {
+          // A combination of held coordinates (a held profile's updated tolerance): its direct
+          // effect is the same combination of theirs.
+          if (n_named > 0) effect += j_all.middleCols(n, n_named) * mix.col(c).head(n_named);
+        } else if (c < n_named) {
+          effect += j_all.col(n + c);
+        }
         variance += result.uncertainty.considered_column_sigma(c) *
                     result.uncertainty.considered_column_sigma(c) * effect.cwiseAbs2();
       }

@@ -58,9 +58,18 @@ std::string ResultTable(const CalibrationResult& result, const RigParams* truth)
     out << "\n";
   }
   for (const auto& c : result.uncertainty.considered) {
+    // A profile term held for want of evidence (profile: auto): its tolerance as narrowed by
+    // the data is what the sigmas carry.
+    const RigParameter* p = FindRigParameter(c.name);
+    bool updated = false;
+    for (int m = 0; m < 2 && p; ++m) {
+      updated |= BlockOf(*p) == ProfileBlock(m == 0 ? Mirror::kOne : Mirror::kTwo) &&
+                 result.residuals.profile[m].updated;
+    }
     std::snprintf(line, sizeof(line),
-                  "%s: held at %.6g; its uncertainty (sigma %.3g) is carried into the sigmas\n",
-                  c.name.c_str(), c.value, c.sigma);
+                  "%s: held at %.6g; its uncertainty (sigma %.3g%s) is carried into the sigmas\n",
+                  c.name.c_str(), c.value, c.sigma,
+                  updated ? ", narrowed by what the data tell of the profile" : "");
     out << line;
   }
   for (const auto& u : result.uncertainty.unobservable) {

@@ -74,6 +74,9 @@ struct Columns {
   int n_ceres = 0;              // Ceres' rig columns (tangent coordinates of the evaluated blocks)
   std::vector<int> column_of;   // Ceres' rig column -> ours
   std::vector<double> considered_sigma;  // per considered column, in order
+  // The considered columns (indices among them) of profiles held for want of evidence, whose
+  // tolerance the data update (Refinement::profile_updated).
+  std::vector<int> updated_considered;
   int n_poses = 0;  // the pose blocks among the nuisance blocks after these columns (Evaluate)
 };
 
@@ -105,6 +108,11 @@ Columns RigColumns(const Refinement& refined, const CalibrationOptions& options,
         c.values.push_back(block[k]);
         refined_cols.push_back(col++);
       } else if (consider != refined.considered_sigma.end() && consider->second > 0) {
+        for (int m = 0; m < 2; ++m) {
+          if (g == kProfileGroups[m] && refined.profile_updated[m]) {
+            c.updated_considered.push_back(static_cast<int>(c.considered_sigma.size()));
+          }
+        }
         result->uncertainty.considered.push_back({all[k], block[k], consider->second});
         result->uncertainty.considered_column_names.push_back(all[k]);
         c.considered_sigma.push_back(consider->second);
@@ -305,8 +313,14 @@ void FillCovarianceResult(const RigCovariance& cov, const Columns& c, RigKind ri
   }
   result->uncertainty.covariance = cov.covariance;
   result->uncertainty.considered_sensitivity = cov.considered_sensitivity;
-  result->uncertainty.considered_column_sigma =
-      Eigen::Map<const Eigen::VectorXd>(c.considered_sigma.data(), c.considered_sigma.size());
+  result->uncertainty.considered_column_sigma = cov.considered_column_sigma;
+  result->uncertainty.considered_column_mix = cov.considered_column_mix;
+  // A held profile's tolerance updated by the data: its columns are the factors of the updated
+  // covariance, combinations of its terms.
+  for (size_t k = 0; k < c.updated_considered.size(); ++k) {
+    result->uncertainty.considered_column_names[c.updated_considered[k]] =
+        std::string(kHeldProfileColumn) + " " + std::to_string(k + 1);
+  }
   result->uncertainty.sigma = cov.covariance.diagonal().cwiseMax(0.0).cwiseSqrt();
   result->uncertainty.noise_sigma = cov.noise_covariance.diagonal().cwiseMax(0.0).cwiseSqrt();
   const int m = static_cast<int>(result->uncertainty.sigma.size());
@@ -364,6 +378,7 @@ RigCovariance CovarianceOf(const Eigen::SparseMatrix<double, Eigen::RowMajor>& j
   co.variance_factor = 1.0;  // the weights are the groups' estimated variances
   co.nuisance_sizes = nuisance_sizes;
   co.considered_sigma = c.considered_sigma;
+  co.updated_considered = c.updated_considered;
   const double outer_radius = OuterRadius(rig, corners);
   for (const auto& name : c.names) {
     co.nearly_unobservable_sigma.push_back(

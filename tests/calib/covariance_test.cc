@@ -5,6 +5,7 @@
 //    for a unit error in each considered value says: dx = sensitivity * dc.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <random>
 
 #include <Eigen/Dense>
@@ -84,6 +85,66 @@ TEST(RigCovariance, NoConsideredColumnsGivesTheNoiseCovariance) {
   const Eigen::MatrixXd normal_inverse = (j.transpose() * j).inverse();
   EXPECT_LT((cov.covariance - normal_inverse.topLeftCorner(p.n_rig, p.n_rig)).norm(),
             1e-9 * cov.covariance.norm());
+}
+
+// Considered columns whose assumed sigma is updated by the data (a profile held for want of
+// evidence): the covariance is the rig block of the full problem's inverse with those columns
+// freed under a prior of that sigma (their prior rows added), i.e. what freeing them would
+// report, while the estimate holds them; the other considered column keeps its plain share.
+TEST(RigCovariance, UpdatedConsideredColumnsGiveTheFreedMarginalCovariance) {
+  ArrowProblem p = MakeProblem(7);
+  p.n_considered = 2;
+  RigCovarianceOptions options;
+  options.variance_factor = 0.7;
+  options.considered_sigma = {0.3, 0.05};
+  options.updated_considered = {0};  // column 0 trades with rig column 0 (MakeProblem)
+  const RigCovariance cov = ComputeRigCovariance(Sparse(p.dense), p.n_rig, options);
+  ASSERT_EQ(cov.observable.size(), static_cast<size_t>(p.n_rig));
+
+  // Freed with a prior: the considered column 0 estimated, with a prior row of weight
+  // sqrt(vf) / sigma (the data's rows have unit weight up to the variance factor vf).
+  const int n = static_cast<int>(p.dense.cols());
+  Eigen::MatrixXd normal = p.dense.transpose() * p.dense;
+  normal(p.n_rig, p.n_rig) += options.variance_factor / (0.3 * 0.3);
+  std::vector<int> estimated;  // rig, considered 0, poses
+  for (int c = 0; c <= p.n_rig; ++c) estimated.push_back(c);
+  for (int c = p.n_rig + p.n_considered; c < n; ++c) estimated.push_back(c);
+  Eigen::MatrixXd n_est(estimated.size(), estimated.size());
+  for (size_t a = 0; a < estimated.size(); ++a) {
+    for (size_t b = 0; b < estimated.size(); ++b) n_est(a, b) = normal(estimated[a], estimated[b]);
+  }
+  const Eigen::MatrixXd freed =
+      options.variance_factor * n_est.inverse().topLeftCorner(p.n_rig, p.n_rig);
+
+  // The other considered column (held, plain share) is in both: take it out of ours by its
+  // column, and compare with the freed marginal.
+  const Eigen::VectorXd s1 = cov.considered_sensitivity.col(1) * cov.considered_column_sigma(1);
+  EXPECT_DOUBLE_EQ(cov.considered_column_sigma(1), 0.05);
+  const Eigen::MatrixXd ours = cov.covariance - s1 * s1.transpose();
+  // The test means something: updating narrows the plain consider share of column 0.
+  const Eigen::MatrixXd held_share = cov.covariance - cov.noise_covariance;
+  EXPECT_LT(ours(0, 0), cov.noise_covariance(0, 0) + held_share(0, 0));
+  EXPECT_GT(ours(0, 0), 1.2 * cov.noise_covariance(0, 0));
+  // Column 1's sensitivity was taken with column 0 held; freed, it would differ, so compare the
+  // covariance without column 1 against the freed problem without it.
+  EXPECT_LT((ours - freed).norm(), 1e-9 * freed.norm()) << ours << "\n\n" << freed;
+  // The updated column is a unit combination of the considered coordinates (here column 0).
+  EXPECT_NEAR(std::abs(cov.considered_column_mix(0, 0)), 1.0, 1e-12);
+  EXPECT_LT(cov.considered_column_sigma(0), 0.3);
+
+  // "Not determined" asks what the data determine with the held values as they are: a bound
+  // between rig 0's sigma without the updated column's share and with it keeps it observable
+  // (it is in the sigma, not in the test); a bound below the rest names it.
+  const double without = std::sqrt(cov.covariance(0, 0) -
+                                   std::pow(cov.considered_sensitivity(0, 0) *
+                                                cov.considered_column_sigma(0), 2));
+  ASSERT_LT(without, 0.9 * std::sqrt(cov.covariance(0, 0)));
+  options.nearly_unobservable_sigma = {0.5 * (without + std::sqrt(cov.covariance(0, 0))), 0, 0, 0};
+  EXPECT_EQ(ComputeRigCovariance(Sparse(p.dense), p.n_rig, options).observable.size(),
+            static_cast<size_t>(p.n_rig));
+  options.nearly_unobservable_sigma[0] = 0.9 * without;
+  EXPECT_EQ(ComputeRigCovariance(Sparse(p.dense), p.n_rig, options).unobservable,
+            std::vector<int>{0});
 }
 
 }  // namespace
