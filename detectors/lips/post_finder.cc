@@ -202,7 +202,11 @@ PostSearch SearchPosts(const std::vector<cv::Mat>& grey_images, const RigModel& 
   for (const Band& band : bands) {
     const Band inner = BestBandNear(inner_score, band.lo + 0.5 * band.width, reach, band.width / 2,
                                     band.width + band.width / 2 + in_bins(1.0));
-    const bool scores = band.score >= options.min_score, confirmed = inner.score >= options.min_inner_score;
+    // A band the outer ring shows strongly needs less of the inner ring, whose image of a post is
+    // a third as wide and which the design registers worst (a 640x480 photo: outer 38.7, inner 2.1).
+    const bool scores = band.score >= options.min_score;
+    const bool confirmed = inner.score >= options.min_inner_score ||
+                           (band.score >= 3 * options.min_score && inner.score >= 0.5 * options.min_inner_score);
     if (scores && confirmed && static_cast<int>(out.found.size()) < count) {
       FoundPost post = PlacePost(outer, band, gap, bin);
       post.inner_score = inner.score;
@@ -219,8 +223,8 @@ PostSearch SearchPosts(const std::vector<cv::Mat>& grey_images, const RigModel& 
       std::snprintf(why, sizeof why, "too faint in the outer ring (contrast over roughness %.1f < %.1f)",
                     band.score, options.min_score);
     } else if (!confirmed) {
-      std::snprintf(why, sizeof why, "not in the inner ring within %.0f deg (score %.1f < %.1f)",
-                    options.inner_reach_deg, inner.score, options.min_inner_score);
+      std::snprintf(why, sizeof why, "not in the inner ring within %.0f deg (score %.1f < %.1f; outer ring %.1f)",
+                    options.inner_reach_deg, inner.score, options.min_inner_score, band.score);
     } else {
       std::snprintf(why, sizeof why, "weaker than the %d posts asked for (score %.1f)", count, band.score);
     }

@@ -59,7 +59,8 @@ struct PostFinderOptions {
   double gap_deg = 0.75;       // the band's sides this far out (past the edges' blur)
   int elevations = 32;         // samples along each ring's elevations
   double min_score = 4;        // outer ring: contrast over roughness for a post
-  double min_inner_score = 2.5;  // the inner ring's band that confirms it
+  double min_inner_score = 2.5;  // the inner ring's band that confirms it (half of it where the
+                                 // outer ring's band scores 3 x min_score)
   double inner_reach_deg = 8;  // the inner ring's band within this of the outer's
   double noise_floor = 1;      // grey levels added to the roughness
 
