@@ -62,7 +62,9 @@ std::string PostText(const FoundPost& post, double radius) {
   const double side = PostSideFromBand(post.width, radius);
   const double sigma_side = 0.5 * (PostSideFromBand(post.width + post.sigma_width, radius) -
                                    PostSideFromBand(std::max(0.0, post.width - post.sigma_width), radius));
-  return Format("%.1f deg (sigma %.2f), %.1f mm (sigma %.2f; %.1f deg wide)", post.azimuth * 180 / M_PI,
+  double deg = post.azimuth * 180 / M_PI;
+  if (deg >= 359.95) deg -= 360;  // printed as 0.0, not 360.0
+  return Format("%.1f deg (sigma %.2f), %.1f mm (sigma %.2f; %.1f deg wide)", deg,
                 post.sigma_azimuth * 180 / M_PI, side, sigma_side, post.width * 180 / M_PI);
 }
 

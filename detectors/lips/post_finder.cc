@@ -33,6 +33,8 @@ float GreyAt(const cv::Mat& grey, const Eigen::Vector2d& p) {
                             fv * ((1 - fu) * g(u, v + 1) + fu * g(u + 1, v + 1)));
 }
 
+constexpr int kProjectEvery = 4;
+
 // Pixels sampled per (ring, bin) for `rig` (the model without its mount): directions from the
 // ring's viewpoint over its elevations (their middle 80%: the rims' dark bands are not scene).
 // [ring][bin * elevations + j]; nullopt where the direction does not project.
@@ -50,12 +52,31 @@ std::array<PostSamples, 2> RingSamples(const RigModel& rig, const RigParams& bar
         ? Focus1InCam(bare.mirror1_pose.data(), bare.mirror1_shape.data())
         : Focus2InCam(bare.mirror2_pose.data(), bare.mirror2_shape.data(), bare.d);
     samples[ring].assign(static_cast<size_t>(bins) * options.elevations, std::nullopt);
-    for (int b = 0; b < bins; ++b) {
+    // Projected every kProjectEvery bins (a projection through the rig is what costs: 92k of them
+    // at 0.25 deg took ~1 s of a 5 MP photo's detection), the bins between interpolated along
+    // the ring: over 1 deg the curve's chord is within 0.03 px of it at 900 px from the centre.
+    const int every = bins % kProjectEvery == 0 ? kProjectEvery : 1;
+    const auto project = [&](int b, int j) {
       const double azimuth = (b + 0.5) * bin;
-      for (int j = 0; j < options.elevations; ++j) {
-        const double e = lo + (hi - lo) * (0.1 + 0.8 * j / (options.elevations - 1));
-        const Eigen::Vector3d dir(std::cos(e) * std::cos(azimuth), std::cos(e) * std::sin(azimuth), std::sin(e));
-        samples[ring][static_cast<size_t>(b) * options.elevations + j] = rig.Project(viewpoint + 1000.0 * dir, mirror);
+      const double e = lo + (hi - lo) * (0.1 + 0.8 * j / (options.elevations - 1));
+      const Eigen::Vector3d dir(std::cos(e) * std::cos(azimuth), std::cos(e) * std::sin(azimuth), std::sin(e));
+      return rig.Project(viewpoint + 1000.0 * dir, mirror);
+    };
+    std::vector<std::optional<Eigen::Vector2d>> row(bins / every);
+    for (int j = 0; j < options.elevations; ++j) {
+      for (int m = 0; m < bins / every; ++m) row[m] = project(m * every, j);
+      for (int b = 0; b < bins; b += every) {
+        const std::optional<Eigen::Vector2d>& a = row[b / every];
+        const std::optional<Eigen::Vector2d>& c = row[((b + every) % bins) / every];
+        for (int k = 0; k < every; ++k) {
+          std::optional<Eigen::Vector2d>& s = samples[ring][static_cast<size_t>(b + k) * options.elevations + j];
+          if (k == 0) {
+            s = a;
+          } else if (a && c) {
+            const double t = static_cast<double>(k) / every;
+            s = (1 - t) * *a + t * *c;
+          }
+        }
       }
     }
   }
