@@ -34,9 +34,11 @@ DEFINE_string(targets, "", "init: the printed targets as a YAML list of session 
                            "`omnistereo target` prints)");
 
 DEFINE_int32(posts, -1, "init: the posts of the rig's mount to find in the photos (the paper's "
-                        "prototype: 3 standoffs); -1: as many as the design's mount has, 0: none");
-DEFINE_double(post_width, 3.0, "init: with --posts and a design without a mount: the posts' side "
-                               "(mm); they stand just outside the wider lip, lip plane to lip plane");
+                        "prototype: 3 standoffs), each placed (azimuth) and measured (side, mm) "
+                        "with its uncertainty; -1: as many as the design's mount has, 0: none");
+DEFINE_double(post_width, 3.0, "init: with --posts and a design without a mount: the posts stand just "
+                               "outside the wider lip, lip plane to lip plane; their sides are measured "
+                               "in the photos, this side (mm) only seeds their distance from the axis");
 
 DEFINE_double(mirror_diameter, 0, "init, single_mirror: the mirror rim's measured diameter (mm): "
                                   "the model's scale");

@@ -69,11 +69,19 @@ std::string GuideLine(const LipGuide& guide) {
   // What the lip-only fit's rms says (experiments.md: 0.43-0.45 px on rigs whose model fits
   // the lips, the posts in the model or none on the rig; 2.0-2.4 px from an ideal design or with
   // the posts missing from the model).
-  char judgement[320];
+  char judgement[480];
   if (guide.rms_px <= kGuideRmsFinePx) {
     std::snprintf(judgement, sizeof judgement,
                   "\n  lip fit rms %.2f px: fine (under %.1f px; 0.4-0.5 px where the model fits "
                   "the rig's lips)",
+                  guide.rms_px, kGuideRmsFinePx);
+  } else if (guide.mount_in_model) {
+    // The posts are in the model and the lip points beside them left out: not their want.
+    std::snprintf(judgement, sizeof judgement,
+                  "\n  lip fit rms %.2f px: high (over %.1f px; 0.4-0.5 px where the model fits): "
+                  "the model does not fit the lips well (its posts are in it, the lip points "
+                  "beside them left out): a start far from the rig, a post the model misplaces "
+                  "(mount: in the model file), blur or a wrong paint; check the overlays' lip points",
                   guide.rms_px, kGuideRmsFinePx);
   } else {
     std::snprintf(judgement, sizeof judgement,

@@ -77,6 +77,8 @@ LipGuide GuideByLips(const std::vector<GuideImage>& images, DetectorContext* ctx
   guide.f_before = 0.5 * (rig.camera[kFx] + rig.camera[kFy]);
   guide.pp_before = Eigen::Vector2d(rig.camera[kCx], rig.camera[kCy]);
   guide.reflex_before = guide.reflex_after = Eigen::Vector2d(rig.reflex[kReflexRx], rig.reflex[kReflexRy]);
+  guide.mirror2_tz_before = guide.mirror2_tz_after = rig.mirror2_pose[kTz];
+  guide.mount_in_model = rig.mount.present;
   for (const GuideImage& one : images) {
     guide.images += one.image.channels() >= 3 && one.image.cols == rig.image_width &&
                     one.image.rows == rig.image_height;
@@ -157,23 +159,25 @@ LipGuide GuideByLips(const std::vector<GuideImage>& images, DetectorContext* ctx
   corrected.camera[kCy] = lips->cy;
   corrected.reflex[kReflexRx] = guide.reflex_after.x();
   corrected.reflex[kReflexRy] = guide.reflex_after.y();
+  if (lips->mirror2_tz) corrected.mirror2_pose[kTz] = guide.mirror2_tz_after = *lips->mirror2_tz;
   ctx->SetModel(corrected);
   guide.applied = true;
   return guide;
 }
 
 std::string Describe(const LipGuide& guide) {
-  char line[400];
+  char line[520];
   if (guide.applied) {
     std::snprintf(line, sizeof line,
                   "detection guided by the lips in %d image(s): f %.1f -> %.1f px, principal "
                   "point (%.1f, %.1f) -> (%.1f, %.1f) px, reflex tilt (%.2f, %.2f) -> (%.2f, "
-                  "%.2f) deg (rms %.2f px over %d edge points; the session's model is unchanged)",
+                  "%.2f) deg, mirror 2's tz %.2f -> %.2f mm (the inner ring's scale) (rms %.2f px "
+                  "over %d edge points; the session's model is unchanged)",
                   guide.images, guide.f_before, guide.f_after, guide.pp_before.x(),
                   guide.pp_before.y(), guide.pp_after.x(), guide.pp_after.y(),
                   guide.reflex_before.x() * 180 / M_PI, guide.reflex_before.y() * 180 / M_PI,
                   guide.reflex_after.x() * 180 / M_PI, guide.reflex_after.y() * 180 / M_PI,
-                  guide.rms_px, guide.points);
+                  guide.mirror2_tz_before, guide.mirror2_tz_after, guide.rms_px, guide.points);
   } else {
     std::snprintf(line, sizeof line, "detection guided by the model as it is: %s",
                   guide.why_not.c_str());

@@ -32,6 +32,11 @@ struct LipGuide {
   // The reflex tilt (rx, ry, rad), fitted where the via_mirror2 edge was found.
   Eigen::Vector2d reflex_before = Eigen::Vector2d::Zero(), reflex_after = Eigen::Vector2d::Zero();
   double f_scanned = 1;  // the scale of the model's f the lips were found with (f_scan)
+  // The model has the mount's posts (the lip points beside them were left out): a high rms is
+  // then not for want of them (detect_session.h GuideLine).
+  bool mount_in_model = false;
+  // Mirror 2's axial offset (mm) before and after: the inner ring's scale (lip_intrinsics.h).
+  double mirror2_tz_before = 0, mirror2_tz_after = 0;
   std::string why_not;   // when not applied: one line for the user
 };
 

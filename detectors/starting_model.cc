@@ -57,8 +57,35 @@ void StartingIntrinsics(const std::vector<std::string>& images, const StartingMo
                               lips->n_points));
 }
 
-// The mount's posts where the first photos show them: their azimuths, with the design's mount
-// (or, without one, options.post_width posts just outside the wider lip).
+// "a deg (sigma s), w mm (sigma s)" for a found post at `radius` (mm).
+std::string PostText(const FoundPost& post, double radius) {
+  const double side = PostSideFromBand(post.width, radius);
+  const double sigma_side = 0.5 * (PostSideFromBand(post.width + post.sigma_width, radius) -
+                                   PostSideFromBand(std::max(0.0, post.width - post.sigma_width), radius));
+  double deg = post.azimuth * 180 / M_PI;
+  if (deg >= 359.95) deg -= 360;  // printed as 0.0, not 360.0
+  return Format("%.1f deg (sigma %.2f), %.1f mm (sigma %.2f; %.1f deg wide)", deg,
+                post.sigma_azimuth * 180 / M_PI, side, sigma_side, post.width * 180 / M_PI);
+}
+
+// The posts' radius (mm): the design's mount's, or posts just outside the wider lip (their axis
+// half the widest post's side beyond it), the sides measured at that radius.
+double PostRadius(const RigParams& rig, const std::vector<FoundPost>& found, double seed_width) {
+  if (rig.mount.present) return rig.mount.radius;
+  const double lip = std::max(rig.lip1.r_outer, rig.lip2.r_outer);
+  double radius = lip + 0.5 * seed_width;
+  for (int iteration = 0; iteration < 3; ++iteration) {
+    double widest = 0;
+    for (const FoundPost& post : found) widest = std::max(widest, PostSideFromBand(post.width, radius));
+    if (widest > 0) radius = lip + 0.5 * widest;
+  }
+  return radius;
+}
+
+// The mount's posts where the first photos show them: their azimuths and sides, with the design's
+// mount's radius and span (or, without one, posts just outside the wider lip from lip plane to lip
+// plane). Fewer than asked for: what was searched, found and refused, and the model keeps the
+// design's mount (or none).
 void PostsFromPhotos(const std::vector<std::string>& images, const StartingModelOptions& options,
                      StartingModel* out) {
   RigParams* rig = &out->rig;
@@ -73,52 +100,61 @@ void PostsFromPhotos(const std::vector<std::string>& images, const StartingModel
   for (size_t i = 0; i < std::min(options.post_images, images.size()); ++i) {
     greys.push_back(ToGrey(io::ReadImage(images[i])));
   }
-  const std::vector<FoundPost> found = FindPosts(greys, RigModel(*rig), wanted);
+  const PostSearch search = SearchPosts(greys, RigModel(*rig), wanted);
+  std::vector<FoundPost> found = search.found;
+  std::sort(found.begin(), found.end(), [](const FoundPost& a, const FoundPost& b) { return a.azimuth < b.azimuth; });
+  const double radius = PostRadius(*rig, found, options.post_width);
+  std::string list;
+  for (const FoundPost& post : found) list += Format("\n  post at %s", PostText(post, radius).c_str());
   if (static_cast<int>(found.size()) < wanted) {
+    std::string refused;
+    for (const RefusedPost& r : search.refused) {
+      refused += Format("\n  refused: a band at %.1f deg, %.1f deg wide: %s", r.azimuth * 180 / M_PI,
+                        r.width * 180 / M_PI, r.why.c_str());
+    }
+    if (search.refused.empty()) refused = "\n  no other band scored (a post shows as a plain radial band in both rings, unlike the room beside it)";
     out->lines.push_back(Format(
-        "posts: found %zu of the %d asked for in the first %zu photos (a post shows as a plain "
-        "radial band across both rings in every photo, against a textured room); the starting "
+        "posts: found %zu of the %d asked for in %d photos, searching %s of both rings; the starting "
         "model has %s",
-        found.size(), wanted, greys.size(),
-        rig->mount.present ? "the design's mount" : "no mount: give it in the model file (mount:)"));
+        found.size(), wanted, search.photos, search.searched.c_str(),
+        rig->mount.present ? "the design's mount" : "no mount: give it in the model file (mount:)") +
+        list + refused);
     return;
   }
   Mount mount = rig->mount;
   if (!mount.present) {
     mount.present = true;
     mount.body = Mirror::kOne;
-    mount.width = options.post_width;
-    mount.radius = std::max(rig->lip1.r_outer, rig->lip2.r_outer) + 0.5 * mount.width;
     mount.z_min = std::min(rig->lip1.z, rig->lip2.z);
     mount.z_max = std::max(rig->lip1.z, rig->lip2.z);
   }
-  std::vector<double> azimuths;
-  for (const auto& post : found) azimuths.push_back(post.azimuth);
-  std::sort(azimuths.begin(), azimuths.end());
-  std::string list;
+  mount.radius = radius;
+  mount.azimuths.clear();
+  mount.widths.clear();
   double worst_move = 0;
-  for (double a : azimuths) {
-    list += Format("%s%.1f", list.empty() ? "" : ", ", a * 180 / M_PI);
+  for (const FoundPost& post : found) {
+    mount.azimuths.push_back(post.azimuth);
+    mount.widths.push_back(PostSideFromBand(post.width, radius));
     if (rig->mount.present) {
       double nearest = M_PI;
       for (double b : rig->mount.azimuths) {
-        nearest = std::min(nearest, std::abs(std::remainder(a - b, 2 * M_PI)));
+        nearest = std::min(nearest, std::abs(std::remainder(post.azimuth - b, 2 * M_PI)));
       }
       worst_move = std::max(worst_move, nearest);
     }
   }
-  mount.azimuths = azimuths;
+  mount.width = mount.MaxWidth();
   if (PostsOverlap(mount)) {
-    out->lines.push_back(Format("posts: the photos' flat bands at %s deg would make posts that "
-                                "meet; the starting model keeps %s",
-                                list.c_str(),
-                                rig->mount.present ? "the design's mount" : "no mount"));
+    out->lines.push_back(Format("posts: the photos' bands would make posts that meet; the starting "
+                                "model keeps %s",
+                                rig->mount.present ? "the design's mount" : "no mount") + list);
     return;
   }
-  out->lines.push_back(Format("posts found in the first %zu photos at azimuths %s deg (%d posts "
-                              "of %.1f mm at %.1f mm from the axis); projection leaves their "
-                              "sectors out",
-                              greys.size(), list.c_str(), wanted, mount.width, mount.radius));
+  out->lines.push_back(Format("posts: %d found in the first %d photos, at %.1f mm from the axis%s; "
+                              "projection leaves their sectors out",
+                              wanted, search.photos, radius,
+                              rig->mount.present ? " (the design's)" : " (just outside the wider lip)") +
+                       list);
   if (rig->mount.present && worst_move > 1.0 * M_PI / 180) {
     out->lines.push_back(Format("warning: the design's posts are up to %.1f deg from where the "
                                 "photos show them: the photos' azimuths are used",

@@ -167,10 +167,26 @@ Mount ReadMount(const Reader& in, const YAML::Node& map, const RigParams& rig) {
     mount.body = body == "mirror1" ? Mirror::kOne : Mirror::kTwo;
   }
   const int count = in.Integer(map, path, "count", 1);
-  mount.width = in.Number(map, path, "width");
-  if (!(mount.width > 0)) in.Fail(Join(path, "width"), "expected a width > 0 mm", Describe(map["width"]));
+  // `width:` for posts alike, or `widths:` one per post (a prototype's standoffs need not match).
+  if (map["widths"].IsDefined()) {
+    if (map["width"].IsDefined()) {
+      in.Fail(Join(path, "widths"), "width or widths, not both", "both");
+    }
+    mount.widths = in.Numbers(map, path, "widths");
+    if (static_cast<int>(mount.widths.size()) != count) {
+      in.Fail(Join(path, "widths"), "expected " + std::to_string(count) + " widths (count)",
+              std::to_string(mount.widths.size()));
+    }
+    for (double w : mount.widths) {
+      if (!(w > 0)) in.Fail(Join(path, "widths"), "expected widths > 0 mm", FormatDouble(w));
+    }
+    mount.width = mount.MaxWidth();
+  } else {
+    mount.width = in.Number(map, path, "width");
+    if (!(mount.width > 0)) in.Fail(Join(path, "width"), "expected a width > 0 mm", Describe(map["width"]));
+  }
   mount.radius = in.Number(map, path, "radius");
-  if (!(mount.radius - 0.5 * mount.width > rig.r_sys)) {
+  if (!(mount.radius - 0.5 * mount.MaxWidth() > rig.r_sys)) {
     in.Fail(Join(path, "radius"),
             "expected the posts outside the mirrors: radius - width/2 > r_sys (" +
                 FormatDouble(rig.r_sys) + " mm)",
@@ -202,9 +218,16 @@ Mount ReadMount(const Reader& in, const YAML::Node& map, const RigParams& rig) {
 std::string MountMap(const Mount& mount) {
   std::vector<std::string> deg;
   for (double a : mount.azimuths) deg.push_back(FormatDouble(a * 180 / M_PI));
+  std::string widths;
+  if (mount.EqualWidths()) {
+    widths = ", width: " + FormatDouble(mount.WidthOf(0));
+  } else {
+    for (size_t i = 0; i < mount.widths.size(); ++i) widths += (i ? ", " : "") + FormatDouble(mount.widths[i]);
+    widths = ", widths: [" + widths + "]";
+  }
   std::string out = std::string("{body: ") + (mount.body == Mirror::kOne ? "mirror1" : "mirror2") +
-                    ", count: " + std::to_string(mount.azimuths.size()) +
-                    ", width: " + FormatDouble(mount.width) + ", radius: " + FormatDouble(mount.radius) +
+                    ", count: " + std::to_string(mount.azimuths.size()) + widths +
+                    ", radius: " + FormatDouble(mount.radius) +
                     ", z_min: " + FormatDouble(mount.z_min) + ", z_max: " + FormatDouble(mount.z_max) +
                     ", azimuths_deg: [";
   for (size_t i = 0; i < deg.size(); ++i) out += (i ? ", " : "") + deg[i];

@@ -11,8 +11,8 @@ bool SegmentHitsMount(const Mount& mount, const Pose<double>& cam_from_body,
   const Pose<double> body_from_cam = cam_from_body.Inverse();
   const Eigen::Vector3d a = body_from_cam * a_in_cam;
   const Eigen::Vector3d d = body_from_cam * b_in_cam - a;
-  const double half = 0.5 * mount.width;
-  for (double azimuth : mount.azimuths) {
+  for (size_t i = 0; i < mount.azimuths.size(); ++i) {
+    const double azimuth = mount.azimuths[i], half = 0.5 * mount.WidthOf(i);
     // The post's frame: u radial, v tangential, z the body's axis; the post is the box
     // |u - radius| <= half, |v| <= half, z_min <= z <= z_max. Slab test on the segment t in [0, 1].
     const double c = std::cos(azimuth), s = std::sin(azimuth);
@@ -38,12 +38,26 @@ bool SegmentHitsMount(const Mount& mount, const Pose<double>& cam_from_body,
   return false;
 }
 
+double Mount::MaxWidth() const {
+  if (widths.empty()) return width;
+  double widest = widths.front();
+  for (double w : widths) widest = std::max(widest, w);
+  return widest;
+}
+
+bool Mount::EqualWidths() const {
+  for (double w : widths) {
+    if (w != widths.front()) return false;
+  }
+  return true;
+}
+
 bool PostsOverlap(const Mount& mount) {
   const int n = static_cast<int>(mount.azimuths.size());
   for (int i = 0; i < n; ++i) {
     for (int j = i + 1; j < n; ++j) {
       const double gap = 2 * mount.radius * std::abs(std::sin(0.5 * (mount.azimuths[i] - mount.azimuths[j])));
-      if (gap < mount.width * std::sqrt(2.0)) return true;
+      if (gap < 0.5 * (mount.WidthOf(i) + mount.WidthOf(j)) * std::sqrt(2.0)) return true;
     }
   }
   return false;

@@ -49,7 +49,7 @@ bool RigModel::BlockedByMount(const std::vector<Eigen::Vector3d>& camera_path,
     }
   }
   // The reflected ray as far as the posts could stand in its way.
-  const double reach = 4 * (fixed_.mount.radius + fixed_.mount.width + std::abs(fixed_.mount.z_max) +
+  const double reach = 4 * (fixed_.mount.radius + fixed_.mount.MaxWidth() + std::abs(fixed_.mount.z_max) +
                             std::abs(fixed_.mount.z_min));
   return SegmentHitsMount(fixed_.mount, fixed_.cam_from_mount, world_ray.origin,
                           world_ray.origin + reach * world_ray.direction);

@@ -262,16 +262,21 @@ const char kStyle[] =
 std::string MountSection(const RigParams& rig) {
   const Mount& m = rig.mount;
   if (!m.present) return "<p>No mount in the model: nothing hides part of the rings.</p>\n";
-  std::string azimuths;
-  for (double a : m.azimuths) azimuths += (azimuths.empty() ? "" : ", ") + Format("%.1f", a * 180 / M_PI);
-  // A square post seen from the axis: its near face's corners at radius - width / 2.
-  const double wide_deg = 2 * std::atan2(0.5 * m.width, m.radius - 0.5 * m.width) * 180 / M_PI;
-  return "<p>" + std::to_string(m.azimuths.size()) + " posts of " + Format("%.1f", m.width) +
+  std::string azimuths, widths;
+  double wide_deg = 0;  // the azimuth all posts hide
+  for (size_t i = 0; i < m.azimuths.size(); ++i) {
+    azimuths += (azimuths.empty() ? "" : ", ") + Format("%.1f", m.azimuths[i] * 180 / M_PI);
+    widths += (widths.empty() ? "" : ", ") + Format("%.1f", m.WidthOf(i));
+    // A square post seen from the axis: its near face's corners at radius - width / 2.
+    wide_deg += 2 * std::atan2(0.5 * m.WidthOf(i), m.radius - 0.5 * m.WidthOf(i)) * 180 / M_PI;
+  }
+  const std::string sides = m.EqualWidths() ? Format("%.1f", m.WidthOf(0)) : widths;
+  return "<p>" + std::to_string(m.azimuths.size()) + " posts of " + sides +
          " mm at " + Format("%.1f", m.radius) + " mm from the axis of mirror " +
          std::to_string(MirrorIndex(m.body)) + "'s body, z " + Format("%.1f", m.z_min) + " to " +
-         Format("%.1f", m.z_max) + " mm, at azimuths " + azimuths + " deg. Each hides about " +
+         Format("%.1f", m.z_max) + " mm, at azimuths " + azimuths + " deg. Together they hide about " +
          Format("%.1f", wide_deg) + " deg of azimuth in both rings (" +
-         Format("%.1f", 100 * wide_deg * m.azimuths.size() / 360) +
+         Format("%.1f", 100 * wide_deg / 360) +
          "% of the view): paths through a post are invalid, so projection, panoramas, depth and "
          "the check leave those sectors out, and no corner is expected there.</p>\n";
 }

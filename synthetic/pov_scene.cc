@@ -175,14 +175,14 @@ std::string RoomLamps(const RigParams& rig, const SceneContent& content) {
 }
 
 // The mount's posts (model/mount.h) in their body's frame: matte grey square prisms.
-std::string MountPosts(const Mount& mount) {
+std::string MountPosts(const Mount& mount, double grey) {
   std::ostringstream s;
-  const double h = 0.5 * mount.width;
-  for (double azimuth : mount.azimuths) {
+  for (size_t i = 0; i < mount.azimuths.size(); ++i) {
+    const double azimuth = mount.azimuths[i], h = 0.5 * mount.WidthOf(i);
     const Eigen::Matrix3d R = Eigen::AngleAxisd(azimuth, Eigen::Vector3d::UnitZ()).toRotationMatrix();
     s << "  box { " << Vec(mount.radius - h, -h, mount.z_min) << ", "
       << Vec(mount.radius + h, h, mount.z_max)
-      << " texture { pigment { rgb 0.25 } finish { SelfLit } } "
+      << " texture { pigment { rgb " << Num(grey) << " } finish { SelfLit } } "
       << Matrix(R, Eigen::Vector3d::Zero()) << " }\n";
   }
   return s.str();
@@ -190,7 +190,7 @@ std::string MountPosts(const Mount& mount) {
 
 // Both mirror bodies in C: the hyperboloids (with their profiles), the reflex disc, the lips and
 // the mount's posts, each body's union posed by its cam_from_mirror.
-std::string MirrorBodies(const RigParams& rig) {
+std::string MirrorBodies(const RigParams& rig, double post_grey) {
   std::ostringstream s;
   const Pose<double> cam_from_m1 = PoseFromBlock(rig.mirror1_pose.data());
   const Pose<double> cam_from_m2 = PoseFromBlock(rig.mirror2_pose.data());
@@ -211,14 +211,14 @@ std::string MirrorBodies(const RigParams& rig) {
     << " texture { MirrorFinish } }\n"
     << "  disc { " << Vec(0, 0, rig.lip1.z) << ", <0, 0, 1>, " << Num(rig.lip1.r_outer) << ", "
     << Num(rig.lip1.r_inner) << " " << LipTexture(rig.lip1, Mirror::kOne) << " }\n"
-    << (rig.mount.present && rig.mount.body == Mirror::kOne ? MountPosts(rig.mount) : "")
+    << (rig.mount.present && rig.mount.body == Mirror::kOne ? MountPosts(rig.mount, post_grey) : "")
     << "  " << Matrix(cam_from_m1.rotation, cam_from_m1.translation) << "\n  }\n";
   s << "  union {  // mirror 2 body (frame M2), with the camera hole of radius r_cam\n"
     << "  " << MirrorObject(m2, rig.profile2, 2, rig.r_cam, rig.r_sys)
     << "\n"
     << "  disc { " << Vec(0, 0, rig.lip2.z) << ", <0, 0, 1>, " << Num(rig.lip2.r_outer) << ", "
     << Num(rig.lip2.r_inner) << " " << LipTexture(rig.lip2, Mirror::kTwo) << " }\n"
-    << (rig.mount.present && rig.mount.body == Mirror::kTwo ? MountPosts(rig.mount) : "")
+    << (rig.mount.present && rig.mount.body == Mirror::kTwo ? MountPosts(rig.mount, post_grey) : "")
     << "  " << Matrix(cam_from_m2.rotation, cam_from_m2.translation) << "\n  }\n";
   return s.str();
 }
@@ -275,7 +275,7 @@ std::string SingleMirrorSurface(const RigParams& rig) {
 // A single-mirror rig's body in C: the mirror, the camera's own reflection inside r_cam (a dark
 // centre, as in photographs), a dark housing ring just outside the rim (the rim's edge is what
 // a user and `init` find in a photo), a painted lip where the model has one, the mount's posts.
-std::string SingleMirrorBody(const RigParams& rig) {
+std::string SingleMirrorBody(const RigParams& rig, double post_grey) {
   const Pose<double> cam_from_m1 = PoseFromBlock(rig.mirror1_pose.data());
   const Conic<double> conic = SingleConic(rig);
   const double rim_z = rig.vertex_z + conic.Sag(rig.r_sys * rig.r_sys);
@@ -297,7 +297,7 @@ std::string SingleMirrorBody(const RigParams& rig) {
     s << "  disc { " << Vec(0, 0, rig.lip1.z) << ", <0, 0, 1>, " << Num(rig.lip1.r_outer) << ", "
       << Num(rig.lip1.r_inner) << " " << LipTexture(rig.lip1, Mirror::kOne) << " }\n";
   }
-  s << (rig.mount.present && rig.mount.body == Mirror::kOne ? MountPosts(rig.mount) : "")
+  s << (rig.mount.present && rig.mount.body == Mirror::kOne ? MountPosts(rig.mount, post_grey) : "")
     << "  " << Matrix(cam_from_m1.rotation, cam_from_m1.translation) << "\n  }\n";
   return s.str();
 }
@@ -425,7 +425,7 @@ std::string PovSceneText(const RigParams& rig, const SceneContent& content) {
     << (content.draw_mirrors ? RoomLamps(rig, content) : "")
     << "union {  // everything below is in C\n";
 
-  if (content.draw_mirrors) s << (rig.Single() ? SingleMirrorBody(rig) : MirrorBodies(rig));
+  if (content.draw_mirrors) s << (rig.Single() ? SingleMirrorBody(rig, content.post_grey) : MirrorBodies(rig, content.post_grey));
 
   for (const Marker& m : content.markers) {
     s << "  sphere { " << Vec(m.center_in_cam.x(), m.center_in_cam.y(), m.center_in_cam.z())

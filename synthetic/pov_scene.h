@@ -56,6 +56,8 @@ struct SceneContent {
   // different rooms.
   bool room_plain = false;
   Eigen::Vector3d room_texture_offset_mm = Eigen::Vector3d::Zero();
+  // The mount's posts (the model's `mount:`): matte, self-lit grey (dark standoffs or light ones).
+  double post_grey = 0.25;
   bool draw_mirrors = true;   // false: markers seen directly (a pinhole-only check)
 };
 

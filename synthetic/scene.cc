@@ -260,6 +260,7 @@ SceneContent ContentOf(const Scene& scene, const SceneImage& image) {
   c.room_floor_mm = scene.room_floor_mm;
   c.room_ceiling_mm = scene.room_ceiling_mm;
   c.room_plain = scene.room_plain;
+  c.post_grey = scene.post_grey;
   if (scene.room_texture_seed > 0) {
     // The image's own room: the texture shifted by a few metres, from the seed and the image.
     std::mt19937 rng(scene.room_texture_seed * 7919u + static_cast<unsigned>(

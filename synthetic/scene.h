@@ -63,6 +63,7 @@ struct Scene {
   double room_half_size_mm = 3000, room_floor_mm = -1200, room_ceiling_mm = 1800;
   bool room_plain = false;     // `room.texture: plain` (a textureless room)
   unsigned room_texture_seed = 0;  // > 0: each image sees the texture shifted by its own offset
+  double post_grey = 0.25;     // `posts.grey`: the mount's posts' paint (0 black .. 1 white)
   std::vector<TargetSpec> targets;  // as in the session file's `targets:`
   std::vector<SceneImage> images;
   std::vector<Marker> markers;  // drawn in every image

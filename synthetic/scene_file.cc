@@ -348,7 +348,7 @@ void ReadRingsSection(const YAML::Node& r, const std::string& path, const RigMod
 
 Scene ParseScene(const YAML::Node& root, const std::string& path, const RigModel& model) {
   if (!root.IsMap()) Fail(path, "format", "expected a YAML mapping with format: omnistereo-scene/1");
-  for (const char* key : {"image", "render", "room", "random", "rings"}) ExpectMap(root, path, key);
+  for (const char* key : {"image", "render", "room", "random", "rings", "posts"}) ExpectMap(root, path, key);
   const std::string format = root["format"] && root["format"].IsScalar() ? root["format"].Scalar() : "";
   if (format.rfind("omnistereo-scene/1", 0) != 0) {
     Fail(path, "format", "expected omnistereo-scene/1, got '" + format + "'");
@@ -369,6 +369,10 @@ Scene ParseScene(const YAML::Node& root, const std::string& path, const RigModel
     }
   }
   if (const auto room = root["room"]) ReadRoomSection(room, path, &s);
+  if (const auto posts = root["posts"]) {
+    s.post_grey = NumberOr(posts["grey"], path, "posts.grey", s.post_grey);
+    if (!(s.post_grey >= 0 && s.post_grey <= 1)) Fail(path, "posts.grey", "expected a grey level in [0, 1]");
+  }
   if (const auto targets = root["targets"]) {
     if (!targets.IsSequence()) Fail(path, "targets", "expected a list of target definitions");
     for (size_t i = 0; i < targets.size(); ++i) {

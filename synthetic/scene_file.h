@@ -5,6 +5,7 @@
 //   render: {antialias: true, noise_sigma: 0.0, noise_seed: 1}
 //   camera_effects: realistic        # or {preset: realistic, defocus_sigma_px: [0.6, 0.9], ...}
 //   room: {enabled: true, half_size: 3000, floor: -1200, ceiling: 1800}     # mm, z_C up
+//   posts: {grey: 0.25}                       # the model mount's posts: paint, 0 black .. 1 white
 //   targets: [{type: chessboard, rows: 6, cols: 8, square: 40.0}]
 //   images:                                   # explicit placements (cam_from_target) ...
 //     - {name: "0001", placements: [{target: 0, rotation: [rx, ry, rz], translation: [x, y, z]}]}

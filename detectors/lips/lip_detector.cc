@@ -220,7 +220,7 @@ class LipPrediction {
            a.lip2.z == b.lip2.z && a.image_width == b.image_width &&
            a.image_height == b.image_height && a.mount.present == b.mount.present &&
            a.mount.azimuths == b.mount.azimuths && a.mount.radius == b.mount.radius &&
-           a.mount.width == b.mount.width;
+           a.mount.width == b.mount.width && a.mount.widths == b.mount.widths;
   }
 
   const std::vector<EdgeTrack>& tracks() const { return tracks_; }

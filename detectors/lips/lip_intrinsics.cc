@@ -11,14 +11,17 @@
 namespace omni::detectors {
 namespace {
 
+constexpr double kMaxInnerOffsetMm = 5.0;
+
 // Residual of one edge point (model/lip.h LipEdgeResidual, as in the calibration) with camera =
-// (f, f, cx, cy, 0), the reflex plane's tilt (rx, ry) and every other block at the nominal values.
+// (f, f, cx, cy, 0), the inner ring's (the reflex plane's tilt rx, ry and mirror 2's axial offset
+// tz) and every other block at the nominal values.
 struct LipPointResidual {
   LipPointResidual(const RigModel* model, LipPath path, double radius, const Eigen::Vector2d& pixel)
       : model(model), path(path), radius(radius), pixel(pixel) {}
 
   template <typename T>
-  bool operator()(const T* intrinsics, const T* reflex_tilt, const T* phi, T* residual) const {
+  bool operator()(const T* intrinsics, const T* inner, const T* phi, T* residual) const {
     const RigParams& rig = model->params();
     // Every block at its nominal value (constants), then the coordinates refined here.
     T flat[kRigParameterCount];
@@ -35,8 +38,9 @@ struct LipPointResidual {
     camera[kCy] = intrinsics[2];
     camera[kSkew] = T(0);
     T* reflex = flat + BlockOffset(kReflexBlock);
-    reflex[kReflexRx] = reflex_tilt[0];
-    reflex[kReflexRy] = reflex_tilt[1];
+    reflex[kReflexRx] = inner[0];
+    reflex[kReflexRy] = inner[1];
+    flat[BlockOffset(kPose2Block) + kTz] = inner[2];
     return LipEdgeResidual(blocks, model->fixed(), path, T(radius), T(LipOf(rig, path).z), phi[0],
                            model->fixed().r_ref, pixel, residual);
   }
@@ -90,7 +94,8 @@ std::optional<LipIntrinsics> InitialIntrinsicsFromLips(const std::vector<LipEdge
   const RigParams& rig = nominal.params();
   double intrinsics[3] = {0.5 * (rig.camera[kFx] + rig.camera[kFy]), rig.camera[kCx],
                           rig.camera[kCy]};
-  double reflex_tilt[2] = {rig.reflex[kReflexRx], rig.reflex[kReflexRy]};
+  // The inner ring's place and scale against the outer: the reflex tilt, mirror 2's axial offset.
+  double inner[3] = {rig.reflex[kReflexRx], rig.reflex[kReflexRy], rig.mirror2_pose[kTz]};
   struct Point {
     LipPath path;
     double radius;
@@ -145,17 +150,26 @@ std::optional<LipIntrinsics> InitialIntrinsicsFromLips(const std::vector<LipEdge
   }
   if (used.size() < 20) return std::nullopt;
   points.swap(used);
-  // The reflex tilt only moves the via_mirror2 edge: its centre against the mirror-1 edges'.
+  // The reflex tilt only moves the via_mirror2 edge: its centre against the mirror-1 edges'; mirror
+  // 2's axial offset its radius (the inner ring's scale). Each stands for every misalignment that
+  // moves (scales) the inner ring against the outer: a design's via_mirror2 edge is otherwise off by
+  // ~1 px on a misaligned rig at 1280x960 (docs/experiments.md, 2026-11-29: every post found).
   int via_mirror2 = 0;
   for (const Point& p : points) via_mirror2 += p.path == LipPath::kViaMirror2;
   const bool fit_tilt = fit_reflex_tilt && via_mirror2 >= 20;
   ceres::Problem problem;
   for (std::size_t i = 0; i < points.size(); ++i) {
-    auto* cost = new ceres::AutoDiffCostFunction<LipPointResidual, 2, 3, 2, 1>(
+    auto* cost = new ceres::AutoDiffCostFunction<LipPointResidual, 2, 3, 3, 1>(
         new LipPointResidual(&nominal, points[i].path, points[i].radius, points[i].pixel));
-    problem.AddResidualBlock(cost, new ceres::HuberLoss(1.0), intrinsics, reflex_tilt, &phi[i]);
+    problem.AddResidualBlock(cost, new ceres::HuberLoss(1.0), intrinsics, inner, &phi[i]);
   }
-  if (!fit_tilt) problem.SetParameterBlockConstant(reflex_tilt);
+  if (!fit_tilt) {
+    problem.SetParameterBlockConstant(inner);
+  } else {
+    // A stand-in, bounded to what a built rig's inner ring could need (a few mm of offset).
+    problem.SetParameterLowerBound(inner, 2, rig.mirror2_pose[kTz] - kMaxInnerOffsetMm);
+    problem.SetParameterUpperBound(inner, 2, rig.mirror2_pose[kTz] + kMaxInnerOffsetMm);
+  }
   ceres::Solver::Options options;
   options.linear_solver_type = ceres::DENSE_SCHUR;
   options.max_num_iterations = 50;
@@ -168,7 +182,10 @@ std::optional<LipIntrinsics> InitialIntrinsicsFromLips(const std::vector<LipEdge
   out.f = intrinsics[0];
   out.cx = intrinsics[1];
   out.cy = intrinsics[2];
-  if (fit_tilt) out.reflex_tilt = Eigen::Vector2d(reflex_tilt[0], reflex_tilt[1]);
+  if (fit_tilt) {
+    out.reflex_tilt = Eigen::Vector2d(inner[0], inner[1]);
+    out.mirror2_tz = inner[2];
+  }
   out.n_points = static_cast<int>(points.size());
   // Residual spread and the intrinsics' standard deviations from the Gauss-Newton normal
   // equations, the per-azimuth unknowns eliminated (Ceres' covariance of the 3-block).
@@ -177,7 +194,7 @@ std::optional<LipIntrinsics> InitialIntrinsicsFromLips(const std::vector<LipEdge
   problem.Evaluate(ceres::Problem::EvaluateOptions(), nullptr, &residuals, nullptr, nullptr);
   for (double r : residuals) sum2 += r * r;
   const int dof = std::max<int>(1, static_cast<int>(residuals.size()) - 3 -
-                                        (fit_tilt ? 2 : 0) -
+                                        (fit_tilt ? 3 : 0) -
                                         static_cast<int>(points.size()));
   out.rms_px = std::sqrt(sum2 / points.size());
   ceres::Covariance::Options cov_options;

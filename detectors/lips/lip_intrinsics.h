@@ -29,13 +29,18 @@ struct LipIntrinsics {
   // With fit_reflex_tilt: the reflex plane's rx, ry (rad, mirror 1's body frame). It stands for
   // every tilt that moves the inner ring against the outer (mirror 2's, the reflex's).
   std::optional<Eigen::Vector2d> reflex_tilt;
+  // With fit_reflex_tilt: mirror 2's axial offset tz (mm, within 5 mm of the model's). It stands
+  // for every misalignment that scales the inner ring's image against the outer (the
+  // via_mirror2 edge's radius), not for mirror 2's true offset.
+  std::optional<double> mirror2_tz;
   int n_points = 0;
 };
 
 // nullopt if fewer than 20 usable labelled points or the solve fails. Edges without a known
 // circle/path label are ignored.
-// fit_reflex_tilt: also the reflex plane's tilt, where 20 or more via_mirror2 points were found
-// (the lip guide, lip_guide.h: the inner ring's images move with it).
+// fit_reflex_tilt: also the reflex plane's tilt and mirror 2's axial offset, where 20 or more
+// via_mirror2 points were found (the lip guide, lip_guide.h: the inner ring's images move and
+// scale with them).
 std::optional<LipIntrinsics> InitialIntrinsicsFromLips(const std::vector<LipEdgeObservation>& edges,
                                                        const RigModel& nominal,
                                                        bool fit_reflex_tilt = false);

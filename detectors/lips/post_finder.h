@@ -2,18 +2,22 @@
 // over mirror 2 on thin standoffs, which every photo shows as plain radial bands at the same
 // azimuths across both rings (detectors/common/views.h's rings: the world seen via each mirror).
 //
-// What tells a post from the scene: along a ring's elevations a post is one matte surface (its
-// profile along the ring's radius nearly flat), the scene is texture; the targets move between
-// photos, the posts do not. Per world azimuth (0.5 deg bins) and ring, the spread of the grey
-// levels along the ring's elevations (the model's projections of directions from the ring's
-// viewpoint), relative to the median over azimuths of that photo and ring; the median over the
-// photos and the mean over both rings is the azimuth's score. A post is a run of bins scoring
-// under kPostScore (both rings flat there in most photos) no wider than max_width_deg.
+// What tells a post from the scene: along a ring's elevations a post is one plain surface that
+// differs from the columns beside it (post_bands.h: contrast over roughness), in a textured room
+// or a plain one, dark or light; the targets move between photos, the posts do not. Each ring of
+// each photo is sampled per world azimuth (0.25 deg bins) along its elevations (the model's
+// projections of directions from the ring's viewpoint); every band 1.5-12 deg wide is scored, the
+// median over the photos kept. A post is a band of the outer ring (mirror 1 carries the posts and
+// the lips place its ring) scoring over min_score, confirmed by a band of the inner ring within
+// inner_reach_deg (a model not yet calibrated, the design, registers the inner ring a few degrees
+// off: the reflex tilt and mirror 2's offsets, which the lips fit later); its edges are the
+// half-way crossings of the level step in each photo, their median placing it (azimuth, width)
+// and their spread its uncertainty.
 //
-// Pixel scales: none; the bins are angles and the score a ratio. Failure modes: a scene with
-// large plain areas at the same azimuth in both rings in most photos (a bare wall at the posts'
-// width) can pass for a post: the caller asks for the number of posts it expects, and the runs
-// are returned deepest first.
+// Pixel scales: none; the bins are angles and the score a ratio (the noise floor is 1 grey level).
+// Failure modes: a post of the room's own level in a plain room shows no contrast; a plain band
+// at the same azimuth in both rings in most photos (a door frame at the posts' width) can pass for
+// a post: the caller asks for the number of posts it expects, and bands are taken best first.
 #pragma once
 
 #include <optional>
@@ -28,27 +32,53 @@ namespace omni::detectors {
 
 struct FoundPost {
   double azimuth = 0;  // rad, world azimuth about the camera's z axis from its x axis
-  double width = 0;    // rad, the run of flat bins
-  double score = 0;    // the run's lowest score (0: flat in every photo; 1: the scene's median)
+  double width = 0;    // rad, the band's width seen from the axis (its edges' half-way crossings)
+  double sigma_azimuth = 0, sigma_width = 0;  // rad: the photos' spread and the bins' quantum
+  double score = 0;        // outer ring: contrast over roughness, median over the photos
+  double inner_score = 0;  // the inner ring's band near it
+  int photos_placed = 0;   // photos whose edges placed it (the others: the band's bins)
+};
+
+// A band that scored but was not taken for a post, and why (for the user).
+struct RefusedPost {
+  double azimuth = 0, width = 0;  // rad
+  double score = 0, inner_score = 0;
+  std::string why;
+};
+
+struct PostSearch {
+  std::vector<FoundPost> found;      // at most the count asked for, best first
+  std::vector<RefusedPost> refused;  // the best bands left out, best first
+  int photos = 0;                    // photos of the model's size looked at
+  std::string searched;              // the azimuths both rings were searched over, e.g. "0-360 deg"
 };
 
 struct PostFinderOptions {
-  double bin_deg = 0.5;
-  double max_score = 0.35;      // a bin under this is flat enough for a post
-  double max_width_deg = 12;    // a wider flat run is scene (a wall), not a post
-  int elevations = 24;          // samples along each ring's elevations
-  double registration_deg = 1;  // each elevation step taken as the flattest within +-this
-  double min_texture = 2;       // grey levels: a photo's ring whose median spread is under this
-                                // has no texture to tell posts by
+  double bin_deg = 0.25;
+  double min_width_deg = 1.5, max_width_deg = 12;  // a post's band (a wider plain one is a wall)
+  double gap_deg = 0.75;       // the band's sides this far out (past the edges' blur)
+  int elevations = 32;         // samples along each ring's elevations
+  double min_score = 4;        // outer ring: contrast over roughness for a post
+  double min_inner_score = 2.5;  // the inner ring's band that confirms it (half of it where the
+                                 // outer ring's band scores 3 x min_score)
+  double inner_reach_deg = 8;  // the inner ring's band within this of the outer's
+  double noise_floor = 1;      // grey levels added to the roughness
 
   // Empty if the options are usable, else "<field>: expected ...".
   std::string Check() const;
 };
 
-// Grey images (CV_8U or 16U, the model's size). Up to `count` posts, deepest first (fewer if
-// fewer runs qualify).
+// Grey images (CV_8U or 16U, the model's size; others are passed over). Up to `count` posts, best
+// first, and the bands refused with why.
+PostSearch SearchPosts(const std::vector<cv::Mat>& grey_images, const RigModel& model, int count,
+                       const PostFinderOptions& options = {});
+// SearchPosts(...).found.
 std::vector<FoundPost> FindPosts(const std::vector<cv::Mat>& grey_images, const RigModel& model,
                                  int count, const PostFinderOptions& options = {});
+
+// A post's side (mm) from its band's width (rad) seen from the axis at `radius` (mm): the near
+// face's corners at radius - side / 2 span the band.
+double PostSideFromBand(double band_width, double radius);
 
 // Where the model has a mount and the photo (grey) shows all of its posts turned by one angle
 // of over min_turn_deg (they agree within 0.5 deg: a photo of another rig, or a mount turned since

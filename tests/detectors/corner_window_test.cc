@@ -94,7 +94,7 @@ TEST(DetectorOptions, DefaultsPassTheirChecksAndBadValuesAreNamed) {
   EXPECT_EQ(PostFinderOptions().Check(), "");
   PostFinderOptions posts;
   posts.elevations = 0;
-  EXPECT_EQ(posts.Check(), "elevations: expected at least 1 sample, got 0");
+  EXPECT_EQ(posts.Check(), "elevations: expected at least 8 samples, got 0");
 }
 
 }  // namespace

@@ -491,6 +491,12 @@ TEST(LipGuideLine, JudgesTheFitsRms) {
   EXPECT_NE(high.find("rms 1.46 px over 6005 edge points"), std::string::npos) << high;
   EXPECT_NE(high.find("lip fit rms 1.46 px: high"), std::string::npos) << high;
   EXPECT_NE(high.find("init --posts"), std::string::npos) << high;
+  // With the mount in the model its want is not blamed (issue 48).
+  guide.mount_in_model = true;
+  const std::string mounted = GuideLine(guide);
+  EXPECT_NE(mounted.find("lip fit rms 1.46 px: high"), std::string::npos) << mounted;
+  EXPECT_EQ(mounted.find("init --posts"), std::string::npos) << mounted;
+  EXPECT_NE(mounted.find("its posts are in it"), std::string::npos) << mounted;
   guide.rms_px = 0.45;
   const std::string fine = GuideLine(guide);
   EXPECT_NE(fine.find("lip fit rms 0.45 px: fine"), std::string::npos) << fine;

@@ -483,6 +483,15 @@ INSTANTIATE_TEST_SUITE_P(
                   "mount.azimuths_deg", "expected 3 azimuths"},
         Malformed{"mount_body", {{"", "mount: {body: camera, count: 3, width: 3.0, radius: 41.5, z_min: -17.0, z_max: 132.0}\n"}},
                   "mount.body", "mirror1 or mirror2"},
+        // Posts of unequal widths (issue 48): one width per post.
+        Malformed{"mount_widths_count", {{"", "mount: {count: 3, widths: [3.0, 6.0], radius: 41.5, z_min: -17.0, z_max: 132.0}\n"}},
+                  "mount.widths", "expected 3 widths (count)"},
+        Malformed{"mount_width_and_widths", {{"", "mount: {count: 2, width: 3.0, widths: [3.0, 6.0], radius: 41.5, z_min: -17.0, z_max: 132.0}\n"}},
+                  "mount.widths", "width or widths, not both"},
+        Malformed{"mount_widths_zero", {{"", "mount: {count: 2, widths: [3.0, 0.0], radius: 41.5, z_min: -17.0, z_max: 132.0}\n"}},
+                  "mount.widths", "> 0"},
+        Malformed{"mount_widths_wide_overlap", {{"", "mount: {count: 2, widths: [3.0, 8.0], radius: 41.5, z_min: -17.0, z_max: 132.0, azimuths_deg: [10, 20]}\n"}},
+                  "mount.azimuths_deg", "do not meet"},
         Malformed{"mount_upside_down", {{"", "mount: {count: 3, width: 3.0, radius: 41.5, z_min: 132.0, z_max: -17.0}\n"}},
                   "mount.z_max", "z_max > z_min"}),
     [](const ::testing::TestParamInfo<Malformed>& info) { return std::string(info.param.name); });
@@ -506,6 +515,19 @@ TEST(ModelFileTest, MountRoundTrips) {
   EXPECT_EQ(back.mount.z_min, -17.29);
   EXPECT_EQ(back.mount.z_max, 132.71);
   for (int i = 0; i < 3; ++i) EXPECT_NEAR(back.mount.azimuths[i], rig.mount.azimuths[i], 1e-14);
+  // Posts of unequal widths: one per post, written back as such; equal ones as `width:`.
+  WriteText(dir / "widths.yaml", ReadText(kExamplePath) +
+                                     "mount: {count: 3, widths: [3.0, 4.5, 6.0], radius: 41.5, z_min: -17.0, "
+                                     "z_max: 132.0, azimuths_deg: [20, 135, 260]}\n");
+  const RigParams widths = ReadModelFile(dir / "widths.yaml");
+  ASSERT_EQ(widths.mount.widths.size(), 3u);
+  EXPECT_EQ(widths.mount.WidthOf(1), 4.5);
+  EXPECT_EQ(widths.mount.MaxWidth(), 6.0);
+  WriteModelFile(dir / "widths_back.yaml", widths);
+  EXPECT_NE(ReadText(dir / "widths_back.yaml").find("widths: [3, 4.5, 6]"), std::string::npos);
+  const RigParams widths_back = ReadModelFile(dir / "widths_back.yaml");
+  EXPECT_EQ(widths_back.mount.widths, widths.mount.widths);
+  EXPECT_EQ(ReadText(dir / "back.yaml").find("widths:"), std::string::npos);
   // Without azimuths: evenly spaced from +y.
   WriteText(dir / "even.yaml", ReadText(kExamplePath) +
                                    "mount: {count: 3, width: 3.0, radius: 41.5, z_min: -17.0, "

@@ -127,7 +127,7 @@ TEST(Report, PageIsSelfContainedAndEveryImageIsWritten) {
     posts.result = &with_mount;
     const std::string page = Read(WriteReport(dir + "_posts", posts));
     EXPECT_NE(page.find("3 posts of 3.0 mm at 41.5 mm from the axis of mirror 1's body"), std::string::npos);
-    EXPECT_NE(page.find("at azimuths 90.0, 210.0, 330.0 deg. Each hides about 4.3 deg"), std::string::npos);
+    EXPECT_NE(page.find("at azimuths 90.0, 210.0, 330.0 deg. Together they hide about 12.9 deg"), std::string::npos);
     fs::remove_all(dir + "_posts");
   }
   testing::CheckReportInBrowser(dir, 8);
