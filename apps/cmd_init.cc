@@ -204,6 +204,13 @@ int RunInit() {
       "# linear for machine-vision cameras with gamma off; bayer: RGGB|... for raw frames.\n"
       "# Next: omnistereo detect --session " + FLAGS_out + " --out detections.yaml --overlay overlays/\n" +
       io::SessionText(session, out.parent_path().string());
+  // The session's folder may be new (init --out work/session.yaml): made once everything is known.
+  std::error_code ec;
+  fs::create_directories(out.parent_path(), ec);
+  if (ec) {
+    throw io::InputError("--out: cannot create the folder " + out.parent_path().string() + " (" +
+                         ec.message() + ")");
+  }
   io::WriteModelFile(model_path, start.rig);
   io::WriteFileAtomically(out.string(), text);
   std::printf("%zu photos of %dx%d, %zu target(s); session %s, starting model %s\n",

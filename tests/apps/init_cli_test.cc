@@ -119,6 +119,19 @@ TEST_F(InitCli, TelecentricParaboloidFromItsRim) {
   EXPECT_NE(text.find("# priors: K held near -1"), std::string::npos) << text;
 }
 
+// --out into a folder that does not exist yet: made, the session and its model written there.
+TEST_F(InitCli, OutIntoANewFolder) {
+  std::string err, out;
+  const fs::path session = dir_ / "new" / "work" / "session.yaml";
+  ASSERT_EQ(Run("--mirror_diameter 50 --camera_distance 80 --out '" + session.string() + "'",
+                &err, &out),
+            0)
+      << err;
+  EXPECT_TRUE(fs::exists(session));
+  EXPECT_TRUE(fs::exists(dir_ / "new" / "work" / "start_model.yaml"));
+  EXPECT_EQ(io::ReadSessionFile(session.string()).images.size(), 3u);
+}
+
 TEST_F(InitCli, PerspectiveUnknownMirrorFromItsRim) {
   std::string err, out;
   ASSERT_EQ(Run("--mirror_diameter 50 --camera_distance 80", &err, &out), 0) << err;
