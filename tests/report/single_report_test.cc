@@ -9,14 +9,13 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
-#include <sstream>
 
 #include "calib/calibrate.h"
 #include "model/model_compare.h"
 #include "model/rig_model.h"
 #include "report/report.h"
 #include "tests/calib/calib_test_util.h"
+#include "tests/io/io_test_util.h"
 
 namespace omni::report {
 namespace {
@@ -83,18 +82,11 @@ ReportInput InputOf(const Solved& s) {
   return in;
 }
 
-std::string Read(const std::string& path) {
-  std::ifstream f(path, std::ios::binary);
-  std::stringstream ss;
-  ss << f.rdbuf();
-  return ss.str();
-}
-
 TEST(SingleReport, OneRingsProjectionUncertaintyAndNoTriangulation) {
   const Solved s = Solve(90);
   const std::string dir = (fs::temp_directory_path() / "omni_single_report_test").string();
   fs::remove_all(dir);
-  const std::string html = Read(WriteReport(dir, InputOf(s)));
+  const std::string html = testing::ReadText(WriteReport(dir, InputOf(s)));
   ASSERT_FALSE(html.empty());
   const size_t projection = html.find("<h2>Projection uncertainty</h2>");
   const size_t correlations = html.find("<h2>Strongest correlations</h2>");
