@@ -41,7 +41,7 @@ int RunTolerance() {
     std::printf("  %-*s %8.4f %-3s %10s %10.4f  %s\n", width, c.name.c_str(), c.value * k, unit, sigma,
                 c.limit * k, design::VerdictName(c.verdict));
     ++counts[static_cast<int>(c.verdict)];
-    for (const std::string& line : {design::Correction(c), design::RotationValleyNote(c)}) {
+    for (const std::string& line : {design::Correction(c), design::RotationValleyNote(c), c.note}) {
       if (!line.empty()) std::printf("    %s\n", line.c_str());
     }
   }

@@ -418,6 +418,7 @@ CalibrationInfo CalibrationInfoOf(const CalibrationResult& result,
     info.unobservable.push_back(u.name);
     info.unobservable_hints.push_back(u.hint);
   }
+  info.held_profiles = uncertainty.held_profiles;
   info.session = provenance.session;
   info.images = result.solve.images;
   info.targets = result.solve.targets;

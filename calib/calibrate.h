@@ -225,6 +225,9 @@ struct CalibrationUncertainty {
     double value = 0, sigma = 0;
   };
   std::vector<Considered> considered;
+  // Each held, considered mirror profile: its prior and what the data tell of it (the model
+  // file's calibration.held_profiles; design/tolerance.h decides its peak-to-valley from them).
+  std::vector<HeldProfileInfo> held_profiles;
   int lip_edges_considered = 0;
   // Rings x axes whose corners' common offset is considered: the last considered columns, ring 1
   // u, v then ring 2 u, v (a ring without corners left out).

@@ -139,6 +139,7 @@ RigCovariance RigCovarianceFromSchur(const Eigen::MatrixXd& schur_all, int n_rig
       const Eigen::MatrixXd s_c_given_x =
           (s_cc - s_xc.transpose() * (full / options.variance_factor) * s_xc) /
           options.variance_factor;
+      out.updated_information = 0.5 * (s_c_given_x + s_c_given_x.transpose());
       Eigen::MatrixXd a = d.asDiagonal() * s_c_given_x * d.asDiagonal();
       a = 0.5 * (a + a.transpose());
       a.diagonal().array() += 1.0;

@@ -67,6 +67,10 @@ struct RigCovariance {
   // options.updated_considered, whose columns are then the factors of their Sigma_post.
   Eigen::VectorXd considered_column_sigma;
   Eigen::MatrixXd considered_column_mix;
+  // The data's information on options.updated_considered's coordinates with the refined ones
+  // free, S_c|x (in that order, per unit of the held coordinates squared, divided by the
+  // variance factor): what the data tell of them, without the assumed sigma. Empty without them.
+  Eigen::MatrixXd updated_information;
   Eigen::VectorXd eigenvalues;    // of the Jacobi-scaled Schur complement, ascending
   Eigen::MatrixXd eigenvectors;   // columns, same order (in the scaled coordinates)
 };

@@ -3,6 +3,7 @@
 // and the corner rings' detector biases as considered columns and the poses and azimuths as
 // nuisance blocks; the dist_k3 decision it informs; the camera-pointing note.
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <map>
 
@@ -333,6 +334,54 @@ void FillCovarianceResult(const RigCovariance& cov, const Columns& c, RigKind ri
   }
 }
 
+// Each mirror profile held and considered whole: its prior (the machining tolerance or a scan's
+// fit) and, where profile: auto held it for want of evidence, what the data tell of its terms
+// (S_c|x over its columns), for the model file (design/tolerance.h decides its peak-to-valley).
+void RecordHeldProfiles(const Refinement& refined, const Columns& c, const RigCovariance& cov,
+                        const RigParams& rig, CalibrationResult* result) {
+  result->uncertainty.held_profiles.clear();
+  const auto& considered = result->uncertainty.considered;
+  for (int m = 0; m < 2; ++m) {
+    const std::vector<std::string>& names = BlockParameterNames(kRigBlocks[kProfileGroups[m]].name);
+    std::vector<int> column(kProfileTerms, -1);  // each term's considered column
+    for (int k = 0; k < kProfileTerms; ++k) {
+      for (size_t i = 0; i < considered.size(); ++i) {
+        if (considered[i].name == names[k]) column[k] = static_cast<int>(i);
+      }
+    }
+    if (std::count(column.begin(), column.end(), -1) > 0) continue;  // refined, or not considered
+    HeldProfileInfo held;
+    held.mirror = m + 1;
+    held.prior = refined.profile_covariance[m] ? "scan" : "tolerance";
+    const ProfileShape& shape = m == 0 ? rig.profile1 : rig.profile2;
+    held.r_min = shape.r_min;
+    held.r_max = shape.r_max;
+    for (int a = 0; a < kProfileTerms; ++a) {
+      for (int b = 0; b < kProfileTerms; ++b) {
+        held.prior_covariance.push_back(
+            refined.profile_covariance[m] ? (*refined.profile_covariance[m])(a, b)
+                                          : (a == b ? std::pow(considered[column[a]].sigma, 2) : 0.0));
+      }
+    }
+    if (refined.profile_updated[m] && cov.updated_information.rows() ==
+                                          static_cast<int>(c.updated_considered.size())) {
+      std::vector<int> at(kProfileTerms, -1);  // each term's place among the updated columns
+      for (int k = 0; k < kProfileTerms; ++k) {
+        const auto it = std::find(c.updated_considered.begin(), c.updated_considered.end(), column[k]);
+        if (it != c.updated_considered.end()) at[k] = static_cast<int>(it - c.updated_considered.begin());
+      }
+      if (std::count(at.begin(), at.end(), -1) == 0) {
+        for (int a = 0; a < kProfileTerms; ++a) {
+          for (int b = 0; b < kProfileTerms; ++b) {
+            held.data_information.push_back(cov.updated_information(at[a], at[b]));
+          }
+        }
+      }
+    }
+    result->uncertainty.held_profiles.push_back(std::move(held));
+  }
+}
+
 // The problem's residuals and Jacobian at the solution: the rig's columns (RigColumns), then the
 // poses' and the azimuths' (the nuisance blocks, their sizes in *nuisance_sizes); rows the pixel
 // blocks', then the priors'. No loss: the weights are applied by the caller.
@@ -469,6 +518,7 @@ CovarianceFindings ComputeCovariance(const Weights& weights, const Refinement& r
   const RigCovariance cov = CovarianceOf(jacobian, c, nuisance_sizes, rig->params,
                                          observations->corners, &findings);
   FillCovarianceResult(cov, c, rig->params.rig, result);
+  RecordHeldProfiles(refined, c, cov, rig->params, result);
   return findings;
 }
 

@@ -6,6 +6,7 @@
 #include <map>
 #include <random>
 
+#include "design/held_profile.h"
 #include "design/named_covariance.h"
 #include "design/rig_body.h"
 #include "model/model_compare.h"
@@ -69,8 +70,8 @@ double SagAt(const std::array<double, kProfileTerms>& c, const ProfileShape& sha
 }
 
 // A mirror's profile peak-to-valley, with its first-order sigma from the refined coefficients'
-// covariance (the difference of the sag at the two extreme points is linear in them). A mirror
-// the model holds as the exact conic has no measured profile: value 0, no sigma, UNDECIDED.
+// covariance (the difference of the sag at the two extreme points is linear in them). A held
+// profile (its terms not in the covariance) gets no sigma here: DecideHeldProfile decides it.
 ToleranceCheck ProfileCheck(const NamedCovariance& cov, const RigParams& rig, int m, double limit) {
   const RigParameter* terms = BlockParameters(ProfileBlock(m == 0 ? Mirror::kOne : Mirror::kTwo));
   ToleranceCheck check =
@@ -221,7 +222,7 @@ std::string RotationValleyNote(const ToleranceCheck& c) {
 std::vector<ToleranceCheck> CheckTolerances(const RigParams& rig, const ToleranceSpec& spec) {
   const NamedCovariance cov(rig);
   std::vector<ToleranceCheck> checks;
-  std::vector<size_t> unmeasured_profiles;  // checks of a profile the model does not carry
+  std::vector<std::pair<size_t, int>> held_profiles;  // (check, mirror): terms not in the covariance
   for (int m = 0; m < 2; ++m) {
     const auto& pose = m == 0 ? rig.mirror1_pose : rig.mirror2_pose;
     const BodyTolerance& tol = spec.mirror[m];
@@ -240,8 +241,8 @@ std::vector<ToleranceCheck> CheckTolerances(const RigParams& rig, const Toleranc
       checks.push_back(Magnitude1(cov, body + ".axial", "mm", p[kTz].name, pose[kTz], tol.axial_mm));
     }
     if (tol.profile_pv_mm >= 0) {
-      if (!(m == 0 ? rig.profile1 : rig.profile2).present) unmeasured_profiles.push_back(checks.size());
       checks.push_back(ProfileCheck(cov, rig, m, tol.profile_pv_mm));
+      if (rig.calibration && !checks.back().sigma) held_profiles.emplace_back(checks.size() - 1, m);
     }
   }
   // rx, ry, dz of the reflex disc.
@@ -270,12 +271,9 @@ std::vector<ToleranceCheck> CheckTolerances(const RigParams& rig, const Toleranc
         }
       }
     }
-    // A profile the model does not carry was never measured: no verdict.
-    const bool unmeasured_profile =
-        std::find(unmeasured_profiles.begin(), unmeasured_profiles.end(), i) !=
-        unmeasured_profiles.end();
-    if (unmeasured_profile) c.verdict = Verdict::kUndecided;
   }
+  // A held profile (its terms not refined): decided from what is known of it, not assumed.
+  for (const auto& [i, m] : held_profiles) DecideHeldProfile(rig, m, spec.confidence_sigmas, &checks[i]);
   return checks;
 }
 

@@ -70,6 +70,9 @@ struct ToleranceCheck {
   // parameters (sigma^2 = g' C g); what the photos that would decide it are predicted with.
   std::vector<std::string> gradient_names;
   std::vector<double> gradient;
+  // One line on how the verdict was reached where the sigma alone does not say it (a held
+  // profile: design/held_profile.h); else empty.
+  std::string note;
 };
 constexpr double kRotationValleyCorrelation = 0.99;
 

@@ -253,6 +253,49 @@ void CheckIdeal(const Reader& in, const RigParams& rig) {
   }
 }
 
+// calibration.held_profiles: each held, considered profile's prior and the data's information
+// on its terms (HeldProfileInfo).
+std::vector<HeldProfileInfo> ReadHeldProfiles(const Reader& in, const YAML::Node& cal,
+                                              const std::string& cal_path) {
+  const std::string path = Join(cal_path, "held_profiles");
+  const YAML::Node list = cal["held_profiles"];
+  if (!IsSequence(list)) in.Fail(path, "expected a list of held profiles", Describe(list));
+  const std::size_t n2 = kProfileTerms * kProfileTerms;
+  std::vector<HeldProfileInfo> out;
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    const std::string key = path + "[" + std::to_string(i) + "]";
+    const YAML::Node node = list[i];
+    if (!IsMap(node)) in.Fail(key, "expected a map of keys", Describe(node));
+    HeldProfileInfo held;
+    held.mirror = in.Integer(node, key, "mirror", 1);
+    if (held.mirror > 2) in.Fail(Join(key, "mirror"), "expected 1 or 2", Describe(node["mirror"]));
+    held.prior = in.String(node, key, "prior");
+    if (held.prior != "tolerance" && held.prior != "scan") {
+      in.Fail(Join(key, "prior"), "expected tolerance or scan", Describe(node["prior"]));
+    }
+    held.r_min = in.Number(node, key, "r_min");
+    held.r_max = in.Number(node, key, "r_max");
+    if (!(held.r_min >= 0 && held.r_max > held.r_min)) {
+      in.Fail(Join(key, "r_max"), "expected radii 0 <= r_min < r_max", Describe(node["r_max"]));
+    }
+    held.prior_covariance = in.Numbers(node, key, "prior_covariance");
+    if (held.prior_covariance.size() != n2) {
+      in.Fail(Join(key, "prior_covariance"), "expected " + std::to_string(n2) + " numbers (row-major)",
+              std::to_string(held.prior_covariance.size()));
+    }
+    if (node["data_information"].IsDefined()) {
+      held.data_information = in.Numbers(node, key, "data_information");
+      if (held.data_information.size() != n2) {
+        in.Fail(Join(key, "data_information"),
+                "expected " + std::to_string(n2) + " numbers (row-major)",
+                std::to_string(held.data_information.size()));
+      }
+    }
+    out.push_back(std::move(held));
+  }
+  return out;
+}
+
 CalibrationInfo ReadCalibration(const Reader& in, const YAML::Node& root) {
   const std::string path = "calibration";
   const YAML::Node cal = in.Map(root, path, "calibration");
@@ -312,6 +355,8 @@ CalibrationInfo ReadCalibration(const Reader& in, const YAML::Node& root) {
               std::to_string(info.unobservable_hints.size()));
     }
   }
+
+  if (cal["held_profiles"].IsDefined()) info.held_profiles = ReadHeldProfiles(in, cal, path);
 
   const std::string data_path = Join(path, "dataset");
   const YAML::Node data = in.Map(cal, data_path, "dataset");
@@ -798,6 +843,20 @@ void WriteCalibration(const CalibrationInfo& cal, std::string* out_text) {
     Line(&out, 2, "unobservable: " + FlowList(un, 2, 8),
          "not determined by the data: no value given");
     Line(&out, 2, "unobservable_hints: " + FlowList(hints, 2, 1), "what data would determine each");
+  }
+  if (!cal.held_profiles.empty()) {
+    Line(&out, 2, "held_profiles:",
+         "profiles held, not refined: the prior (machining tolerance or scan, mm^2) and what the "
+         "data tell of the terms (1/mm^2), each 6 x 6 row-major");
+    for (const HeldProfileInfo& held : cal.held_profiles) {
+      std::string item = "- {mirror: " + std::to_string(held.mirror) + ", prior: " + held.prior +
+                         ", r_min: " + Num(held.r_min) + ", r_max: " + Num(held.r_max) +
+                         ",\n      prior_covariance: " + FlowList(Nums(held.prior_covariance), 6, 6);
+      if (!held.data_information.empty()) {
+        item += ",\n      data_information: " + FlowList(Nums(held.data_information), 6, 6);
+      }
+      Line(&out, 4, item + "}");
+    }
   }
   Line(&out, 2, "dataset: {session: " + Text(cal.session) + ", images: " +
                     std::to_string(cal.images) + ", targets: " + Text(cal.targets) + "}");

@@ -27,6 +27,24 @@ struct Lip {
   double r_inner = 0, r_outer = 0, z = 0;
 };
 
+// A mirror profile the calibration held (not refined) but considered, and what is known of it:
+// the tolerance check of its peak-to-valley (design/tolerance.h) is decided from this.
+struct HeldProfileInfo {
+  int mirror = 1;  // 1 or 2
+  // What was assumed or measured before the photos: "tolerance" (the machining tolerance,
+  // profile_sigma_mm per term: an assumption) or "scan" (a measured profile's fit).
+  std::string prior;
+  // The radii the terms were held over (the profile's shape; a held zero profile is not written
+  // as a `profile:` map, so its radii are kept here).
+  double r_min = 0, r_max = 0;
+  std::vector<double> prior_covariance;  // kProfileTerms^2, row-major, mm^2
+  // What this session's data tell of the terms with the rig's refined parameters free (the Schur
+  // complement S_c|x, 1/mm^2, row-major); empty where the data were not asked (a profile held
+  // whatever they show: profile: hold). Only recorded where the data show no radial pattern
+  // (profile: auto held it for want of evidence), so the held terms are their estimate too.
+  std::vector<double> data_information;
+};
+
 // What a calibration adds to a model file (`calibration:` section).
 struct CalibrationInfo {
   std::vector<std::string> parameters;  // names in the order of the covariance, e.g. mirror1.tx
@@ -43,6 +61,7 @@ struct CalibrationInfo {
   int n_rejected = 0;        // observations left out (outliers, not projectable, failed poses)
   int n_lip_points = 0;      // lip edge points used
   double lip_rms_px = 0;
+  std::vector<HeldProfileInfo> held_profiles;  // optional (absent in older files)
   std::string session;
   int images = 0;
   std::string targets;

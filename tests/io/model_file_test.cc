@@ -349,6 +349,15 @@ const char kCalibration[] =
     "  tool_version: \"0.1.0\"\n"
     "  date: \"2024-05-01\"\n";
 
+// A held profile's record (calibration.held_profiles): 6 x 6 prior covariance and data information.
+const char kHeldProfiles[] =
+    "  held_profiles:\n"
+    "    - {mirror: 2, prior: tolerance, r_min: 7, r_max: 37,\n"
+    "      prior_covariance: [4e-06, 0, 0, 0, 0, 0, 0, 4e-06, 0, 0, 0, 0, 0, 0, 4e-06, 0, 0, 0,\n"
+    "         0, 0, 0, 4e-06, 0, 0, 0, 0, 0, 0, 4e-06, 0, 0, 0, 0, 0, 0, 4e-06],\n"
+    "      data_information: [1, 2, 0, 0, 0, 0, 2, 5e+07, 0, 0, 0, 0, 0, 0, 3e+09, 0, 0, 0,\n"
+    "         0, 0, 0, 4e+09, 0, 0, 0, 0, 0, 0, 5e+09, 0, 0, 0, 0, 0, 0, 6e+09]}\n";
+
 std::string CalibrationWith(const std::string& from, const std::string& to) {
   std::string text = kCalibration;
   text.replace(text.find(from), from.size(), to);
@@ -457,6 +466,16 @@ INSTANTIATE_TEST_SUITE_P(
                   "calibration.residuals", "key missing"},
         Malformed{"calibration_duplicate_name", {{"", CalibrationWith("mirror1.tx]", "camera.fx]")}},
                   "calibration.parameters[2]", "unique"},
+        Malformed{"held_profile_prior_unknown",
+                  {{"", CalibrationWith("  dataset:", std::string(kHeldProfiles).replace(
+                                                             std::string(kHeldProfiles).find("prior: tolerance"),
+                                                             16, "prior: guess") + "  dataset:")}},
+                  "calibration.held_profiles[0].prior", "expected tolerance or scan"},
+        Malformed{"held_profile_information_short",
+                  {{"", CalibrationWith("  dataset:", std::string(kHeldProfiles).replace(
+                                                             std::string(kHeldProfiles).find("data_information: [1,"),
+                                                             21, "data_information: [") + "  dataset:")}},
+                  "calibration.held_profiles[0].data_information", "expected 36 numbers"},
         // Mirror profiles (issue 40).
         Malformed{"profile_beyond_rim", {{kLip1, kLip1 + "\n  profile: {r_max: 40.0, sag_p1: 0.003}"}},
                   "mirror1.profile.r_max", "(r_min, r_sys]"},
@@ -547,6 +566,46 @@ TEST(ModelFileTest, ValidCalibrationSectionIsRead) {
   EXPECT_EQ(rig.calibration->covariance.size(), 9u);
   EXPECT_EQ(rig.calibration->n_outliers, 3);
   EXPECT_EQ(rig.calibration->tool_version, "0.1.0");
+}
+
+// A held profile's record is read, written and read back bit for bit; a file without it (older
+// files) reads with none.
+TEST(ModelFileTest, HeldProfilesRoundTrip) {
+  ScratchDir dir;
+  WriteText(dir / "held.yaml",
+            ReadText(kExamplePath) + CalibrationWith("  dataset:", std::string(kHeldProfiles) + "  dataset:"));
+  const RigParams rig = ReadModelFile(dir / "held.yaml");
+  ASSERT_EQ(rig.calibration->held_profiles.size(), 1u);
+  const HeldProfileInfo& held = rig.calibration->held_profiles[0];
+  EXPECT_EQ(held.mirror, 2);
+  EXPECT_EQ(held.prior, "tolerance");
+  ASSERT_EQ(held.prior_covariance.size(), 36u);
+  ASSERT_EQ(held.data_information.size(), 36u);
+  EXPECT_EQ(held.data_information[1], 2.0);
+  EXPECT_EQ(held.data_information[35], 6e9);
+  RigParams more = rig;
+  HeldProfileInfo scan;  // a scan's prior, held whatever the data show: no data information
+  scan.mirror = 1;
+  scan.prior = "scan";
+  scan.r_min = 17.225725156011855;
+  scan.r_max = 37;
+  for (int i = 0; i < 36; ++i) scan.prior_covariance.push_back(i % 7 == 0 ? 1e-8 / 3 : -1e-10 * i);
+  more.calibration->held_profiles.push_back(scan);
+  WriteModelFile(dir / "back.yaml", more);
+  const RigParams back = ReadModelFile(dir / "back.yaml");
+  ASSERT_EQ(back.calibration->held_profiles.size(), 2u);
+  for (int h = 0; h < 2; ++h) {
+    const HeldProfileInfo& a = more.calibration->held_profiles[h];
+    const HeldProfileInfo& b = back.calibration->held_profiles[h];
+    EXPECT_EQ(a.mirror, b.mirror);
+    EXPECT_EQ(a.prior, b.prior);
+    EXPECT_EQ(a.r_min, b.r_min);
+    EXPECT_EQ(a.r_max, b.r_max);
+    EXPECT_EQ(a.prior_covariance, b.prior_covariance);
+    EXPECT_EQ(a.data_information, b.data_information);
+  }
+  WriteText(dir / "old.yaml", ReadText(kExamplePath) + kCalibration);
+  EXPECT_TRUE(ReadModelFile(dir / "old.yaml").calibration->held_profiles.empty());
 }
 
 TEST(ModelFileTest, MissingUnreadableAndEmptyFiles) {
