@@ -88,6 +88,12 @@ int RunScene(int argc, char** argv) {
   if (!start_file && session.scene.width > 1280) {
     start.camera[kFx] = start.camera[kFy] = 1450.0 * session.scene.width / 1280.0;
   }
+  // The design knows the conic, not the machined profile: the truth's profile is not the start's
+  // (else a held profile is the true one, and a machined session checks nothing of it).
+  if (!start_file) {
+    start.profile1 = start.profile2 = ProfileShape{};
+    start.mirror1_profile = start.mirror2_profile = {};
+  }
   SolveAndReport(start, session.targets, detections, options, truth,
                  static_cast<int>(detections.images.size()), argc > 5 ? argv[5] : nullptr);
   return 0;
