@@ -407,6 +407,11 @@ CalibrationInfo CalibrationInfoOf(const CalibrationResult& result,
   for (int i = 0; i < m; ++i) {
     for (int j = 0; j < m; ++j) info.covariance.push_back(uncertainty.covariance(i, j));
   }
+  if (uncertainty.noise_covariance.rows() == m && uncertainty.noise_covariance.cols() == m) {
+    for (int i = 0; i < m; ++i) {
+      for (int j = 0; j < m; ++j) info.noise_covariance.push_back(uncertainty.noise_covariance(i, j));
+    }
+  }
   info.rms_px = residuals.rms_px;
   info.n_observations = residuals.n_observations;
   for (const auto& r : residuals.rejected) info.n_outliers += r.reason == "outlier";

@@ -217,8 +217,10 @@ struct CalibrationEstimate {
 struct CalibrationUncertainty {
   Eigen::VectorXd sigma;  // internal units: px, unitless, rad, mm
   Eigen::MatrixXd covariance, correlation;
-  // The sigmas from the pixel noise alone (without the considered parameters' share).
+  // The sigmas and covariance from the pixel noise alone (without the considered parameters'
+  // share).
   Eigen::VectorXd noise_sigma;
+  Eigen::MatrixXd noise_covariance;
   // The held parameters whose uncertainty is in `covariance`: name, held value, assumed sigma.
   struct Considered {
     std::string name;

@@ -324,6 +324,7 @@ void FillCovarianceResult(const RigCovariance& cov, const Columns& c, RigKind ri
   }
   result->uncertainty.sigma = cov.covariance.diagonal().cwiseMax(0.0).cwiseSqrt();
   result->uncertainty.noise_sigma = cov.noise_covariance.diagonal().cwiseMax(0.0).cwiseSqrt();
+  result->uncertainty.noise_covariance = cov.noise_covariance;
   const int m = static_cast<int>(result->uncertainty.sigma.size());
   result->uncertainty.correlation = Eigen::MatrixXd::Identity(m, m);
   for (int i = 0; i < m; ++i) {

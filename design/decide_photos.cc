@@ -167,8 +167,34 @@ std::vector<CandidatePhoto> Candidates(const RigParams& rig, const DecidingPhoto
   return out;
 }
 
-double Variance(const Eigen::MatrixXd& information, const Eigen::VectorXd& g) {
-  return g.dot(information.ldlt().solve(g));
+// What the calibration knows, split as more photos change it: the pixel noise's information S
+// (the inverse of the noise-alone covariance N), which the photos add to, and the considered
+// parameters' share C = T - N of the covariance T, a held coordinate's (or a detector bias's)
+// move passed on through S^-1 S_xc: C = S^-1 B S^-1 with B = S C S fixed by the data that hold
+// the considered columns (the lips, the held profile). With photos adding A the covariance is
+// (S + A)^-1 + (S + A)^-1 B (S + A)^-1: the share shrinks where the photos pin what the
+// considered columns moved. Without a noise covariance (older files) T^-1 stands for S, B = 0.
+struct Knowledge {
+  Eigen::MatrixXd information, considered;  // S, B
+};
+
+Knowledge KnowledgeOf(const CalibrationInfo& info, size_t n) {
+  const Eigen::MatrixXd total = Eigen::Map<const Eigen::MatrixXd>(info.covariance.data(), n, n);
+  const bool split = info.noise_covariance.size() == n * n;
+  const Eigen::MatrixXd noise =
+      split ? Eigen::Map<const Eigen::MatrixXd>(info.noise_covariance.data(), n, n) : total;
+  Knowledge k;
+  k.information = noise.ldlt().solve(Eigen::MatrixXd::Identity(n, n));
+  k.information = 0.5 * (k.information + k.information.transpose());
+  k.considered = k.information * (total - noise) * k.information;
+  k.considered = 0.5 * (k.considered + k.considered.transpose());
+  return k;
+}
+
+double Variance(const Eigen::MatrixXd& information, const Eigen::MatrixXd& considered,
+                const Eigen::VectorXd& g) {
+  const Eigen::VectorXd x = information.ldlt().solve(g);
+  return g.dot(x) + x.dot(considered * x);
 }
 
 }  // namespace
@@ -180,11 +206,13 @@ std::string DecidingPhotos::Describe(const std::string& unit, double scale) cons
   }
   // Grouped by range and height, in the order first chosen.
   std::vector<std::pair<std::pair<double, std::string>, std::vector<double>>> groups;
+  std::vector<double> heights;  // per group: the board centre's height in C (z, mm)
   for (const CandidatePhoto& p : photos) {
     const auto key = std::make_pair(p.range_mm, std::string(p.height_name));
     auto it = std::find_if(groups.begin(), groups.end(), [&](const auto& g) { return g.first == key; });
     if (it == groups.end()) {
       groups.push_back({key, {}});
+      heights.push_back(p.height_mm);
       it = groups.end() - 1;
     }
     it->second.push_back(p.azimuth_rad * 180 / M_PI);
@@ -192,11 +220,12 @@ std::string DecidingPhotos::Describe(const std::string& unit, double scale) cons
   std::string text = std::to_string(photos.size()) + (photos.size() == 1 ? " photo: " : " photos: ");
   for (size_t g = 0; g < groups.size(); ++g) {
     const double range = groups[g].first.first;
-    char part[160];
+    char part[240];
     std::snprintf(part, sizeof part, "%sa %dx%d board of %.0f mm squares at %.1f m, %s in the "
-                  "band, azimuth%s", g ? "; " : "", photos.front().rows, photos.front().cols,
+                  "band (its centre %.0f mm up the axis from the camera), azimuth%s",
+                  g ? "; " : "", photos.front().rows, photos.front().cols,
                   photos.front().square_mm * range / photos.front().range_mm, range / 1000,
-                  groups[g].first.second.c_str(), groups[g].second.size() > 1 ? "s" : "");
+                  groups[g].first.second.c_str(), heights[g], groups[g].second.size() > 1 ? "s" : "");
     text += part;
     // Each azimuth once, with how many photos there ("315 x5").
     std::map<long, int> az;
@@ -233,9 +262,7 @@ std::vector<DecidingPhotos> PhotosThatDecide(const RigParams& rig,
     }
   }
   if (undecided.empty()) return out;
-  const Eigen::MatrixXd cov = Eigen::Map<const Eigen::MatrixXd>(info.covariance.data(), n, n);
-  Eigen::MatrixXd information = cov.ldlt().solve(Eigen::MatrixXd::Identity(n, n));
-  information = 0.5 * (information + information.transpose());
+  const Knowledge known = KnowledgeOf(info, n);
   double sigma_px[2] = {0.1, 0.1};
   for (int m = 0; m < 2 && m < static_cast<int>(info.per_mirror_rms_px.size()); ++m) {
     if (info.per_mirror_rms_px[m] > 0) sigma_px[m] = info.per_mirror_rms_px[m];
@@ -258,15 +285,15 @@ std::vector<DecidingPhotos> PhotosThatDecide(const RigParams& rig,
       out.push_back(std::move(d));
       continue;
     }
-    d.sigma_now = std::sqrt(std::max(0.0, Variance(information, g)));
+    d.sigma_now = std::sqrt(std::max(0.0, Variance(known.information, known.considered, g)));
     d.sigma_needed = std::abs(c->value - c->limit) / confidence_sigmas;
     d.sigma_after = d.sigma_now;
-    Eigen::MatrixXd current = information;
+    Eigen::MatrixXd current = known.information;
     while (d.sigma_after > d.sigma_needed && static_cast<int>(d.photos.size()) < options.max_photos) {
       double best = HUGE_VAL;
       const Simulated* chosen = nullptr;
       for (const Simulated& s : simulated) {
-        const double v = Variance(current + s.information, g);
+        const double v = Variance(current + s.information, known.considered, g);
         if (v < best) best = v, chosen = &s;
       }
       if (!chosen || !(std::sqrt(best) < 0.999 * d.sigma_after)) break;  // nothing helps

@@ -237,6 +237,7 @@ CalibrationInfo RefinedCalibration(const RigParams& stored, const RigParams& cur
     for (size_t l = 0; l < n_free; ++l) covariance(index[k], index[l]) = result.covariance(k, l);
   }
   info.parameters = names;
+  info.noise_covariance.clear();  // the stored one describes the old photos alone
   info.values.assign(np, 0);
   info.sigma.assign(np, 0);
   info.covariance.assign(static_cast<size_t>(np) * np, 0);

@@ -330,6 +330,10 @@ CalibrationInfo ReadCalibration(const Reader& in, const YAML::Node& root) {
   }
   info.covariance = in.Numbers(cal, path, "covariance");
   check_length(info.covariance, "covariance", n * n, "row-major, parameters^2");
+  if (cal["noise_covariance"].IsDefined()) {
+    info.noise_covariance = in.Numbers(cal, path, "noise_covariance");
+    check_length(info.noise_covariance, "noise_covariance", n * n, "row-major, parameters^2");
+  }
 
   const std::string res_path = Join(path, "residuals");
   const YAML::Node res = in.Map(cal, res_path, "residuals");
@@ -829,6 +833,11 @@ void WriteCalibration(const CalibrationInfo& cal, std::string* out_text) {
            .c_str());
   // One covariance row per line, as a flow list indented under the key.
   out += "    " + FlowList(Nums(cal.covariance), 2, n) + "\n";
+  if (!cal.noise_covariance.empty()) {
+    Line(&out, 2, "noise_covariance:",
+         "the same from the pixel noise alone, without the considered parameters' share");
+    out += "    " + FlowList(Nums(cal.noise_covariance), 2, n) + "\n";
+  }
   Line(&out, 2, "residuals: {rms_px: " + Num(cal.rms_px) +
                     ", n_observations: " + std::to_string(cal.n_observations) +
                     ", n_outliers: " + std::to_string(cal.n_outliers) +

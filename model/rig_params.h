@@ -51,6 +51,10 @@ struct CalibrationInfo {
   std::vector<double> values;
   std::vector<double> sigma;
   std::vector<double> covariance;       // row-major, parameters.size()^2
+  // Optional (absent in older files): the covariance from the pixel noise alone, without the
+  // considered parameters' share (held coordinates, the detectors' biases), same layout. More
+  // photos shrink this part (design/decide_photos.h predicts with it).
+  std::vector<double> noise_covariance;
   double rms_px = 0;
   int n_observations = 0;
   int n_outliers = 0;
