@@ -191,6 +191,9 @@ def main():
     ap.add_argument("--margins", default="1.6,1.0", help="limits at value + margin sigma")
     ap.add_argument("--render", default=None, help="a rendered, detected and calibrated session")
     ap.add_argument("--jobs", type=int, default=1)
+    ap.add_argument("--max_photos", type=int, default=0,
+                    help="per check, the first margin whose suggestion has at most this many photos "
+                         "(renders are slow)")
     ap.add_argument("--out", default=None)
     args = ap.parse_args()
     omni = os.path.join(args.build, "apps", "omnistereo")
@@ -221,6 +224,7 @@ def main():
 
     checks = args.checks.split(",")
     rows = []
+    done_checks = set()
     for check in checks:
         # One check per file: a part's camera-frame and body-frame keys cannot share one
         # (tolerance_file.h).
@@ -231,6 +235,8 @@ def main():
             print("%s: no sigma in the calibrated model, skipped" % check)
             continue
         for margin in [float(m) for m in args.margins.split(",")]:
+            if check in done_checks:
+                break  # --max_photos: one prediction per check, the first margin few enough photos decide
             tag = "%s_m%g" % (check.replace(".", "_"), margin)
             config = os.path.join(out, tag + ".yaml")
             write_tolerances(config, limits_for(check, calibrated, margin))
@@ -240,6 +246,9 @@ def main():
                 print("%s margin %g: %s, no photos suggested" % (check, margin, before[check][3]))
                 continue
             p = photos[check]
+            if args.max_photos and len(p["boards"]) > args.max_photos:
+                print("%s margin %g: %d photos suggested, more than --max_photos" % (check, margin, len(p["boards"])))
+                continue
             new_targets, index = board_targets(p["boards"], len(targets))
             new_images = [{"name": "extra%02d" % (i + 1), "placements": [placement(b, index[i])]}
                           for i, b in enumerate(p["boards"])]
@@ -257,6 +266,8 @@ def main():
             ratio = reached / p["after"] if p["after"] > 0 else float("nan")
             rows.append((check, margin, before[check][1], p["now"], p["after"], reached, ratio,
                          len(p["boards"]), before[check][3], after[check][3]))
+            if args.max_photos:
+                done_checks.add(check)
             print("%-28s margin %.1f: sigma %.4g (predictor %.4g) -> predicted %.4g with %2d photos, "
                   "reached %.4g: ratio %.2f (%s -> %s)" % (check, margin, before[check][1], p["now"],
                                                           p["after"], len(p["boards"]), reached,
