@@ -1,11 +1,11 @@
 #!/usr/bin/env python3
 """Profilometer scans of a model's mirror profiles and a starting model that names them.
 
-  measured_profile_scans.py TRUTH.yaml OUT_DIR [accuracy_mm=0.001] [seed=1]
+  measured_profile_scans.py TRUTH.yaml OUT_DIR [accuracy_mm=0.001] [seed=1] [step_mm=0.25]
 
 Writes OUT_DIR/scans/mirror1.csv and mirror2.csv: each mirror's profile of TRUTH.yaml (its
 `profile:` map: the Legendre terms and astigmatism of docs/formats/model.md, evaluated here
-independently of the C++ code) along three scan lines at 0, 60 and 120 deg, every 0.25 mm from
+independently of the C++ code) along three scan lines at 0, 60 and 120 deg, every step_mm from
 1 mm inside the profile's r_min (mirror 2: from its hole) to r_sys, with a 3 um piston (the
 instrument's zero) and N(0, accuracy^2) noise; and OUT_DIR/start.yaml, the design
 (sample_configs/big_rig_ideal.yaml as kind noncentral) whose mirrors name those scans with that
@@ -40,6 +40,7 @@ def main():
     truth_path, out = sys.argv[1], sys.argv[2]
     accuracy = float(sys.argv[3]) if len(sys.argv) > 3 else 0.001
     rng = random.Random(int(sys.argv[4]) if len(sys.argv) > 4 else 1)
+    step = float(sys.argv[5]) if len(sys.argv) > 5 else 0.25
     truth = yaml.safe_load(open(truth_path))
     design = truth["design"]
     os.makedirs(os.path.join(out, "scans"), exist_ok=True)
@@ -50,8 +51,8 @@ def main():
             f.write("theta_deg,r_mm,sag_mm\n")
             for deg in (0, 60, 120):
                 k = 0
-                while first + 0.25 * k <= design["r_sys"] + 1e-9:
-                    r = first + 0.25 * k
+                while first + step * k <= design["r_sys"] + 1e-9:
+                    r = first + step * k
                     s = sag(profile, r, math.radians(deg)) + 0.003 + rng.gauss(0, accuracy)
                     f.write("%d,%.9f,%.12g\n" % (deg, r, s))
                     k += 1
