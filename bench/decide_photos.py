@@ -4,7 +4,7 @@ predicts after its suggested photos, against the sigma reached when those photos
 added to the session and the rig is calibrated again (within 30%).
 
   bench/decide_photos.py BUILD_DIR [--scene demo_scene.yaml] [--truth big_rig_misaligned.yaml]
-                         [--seed 21] [--width 1280 --height 960] [--noise 0.05]
+                         [--seed 21] [--images N] [--width 1280 --height 960] [--noise 0.05]
                          [--checks mirror2.spacing,reflex.dz,...] [--margins 1.6,1.0]
                          [--render RENDERED_DIR] [--out DIR]
 
@@ -84,7 +84,7 @@ def tolerance(omni, model, config):
         if m:
             k = math.pi / 180 if m.group(6) == "deg" else 1.0
             boards = []
-            for part in m.group(3).split("; "):
+            for part in [x for x in m.group(3).split("; ") if x]:  # "0 photos: ; ...": none helps
                 g = GROUP.match(part)
                 if not g:
                     sys.exit("cannot read the photos of: %s" % part)
@@ -183,6 +183,7 @@ def main():
     ap.add_argument("--scene", default="demo_scene.yaml")
     ap.add_argument("--truth", default="big_rig_misaligned.yaml")
     ap.add_argument("--seed", default=None, help="the scene's random seed (default: the file's)")
+    ap.add_argument("--images", type=int, default=None, help="the scene's random image count")
     ap.add_argument("--width", type=int, default=None)
     ap.add_argument("--height", type=int, default=None)
     ap.add_argument("--noise", type=float, default=0.05)
@@ -204,6 +205,8 @@ def main():
     text = open(os.path.join(SOURCE, "sample_configs", args.scene)).read()
     if args.seed:
         text = re.sub(r"^  seed: \d+", "  seed: %s" % args.seed, text, flags=re.M)
+    if args.images:
+        text = re.sub(r"^  images: \d+", "  images: %d" % args.images, text, flags=re.M)
     if args.width:
         text = re.sub(r"^image: \{width: \d+, height: \d+\}",
                       "image: {width: %d, height: %d}" % (args.width, args.height), text, flags=re.M)
@@ -246,6 +249,9 @@ def main():
                 print("%s margin %g: %s, no photos suggested" % (check, margin, before[check][3]))
                 continue
             p = photos[check]
+            if not p["boards"]:
+                print("%s margin %g: no photo lowers the sigma" % (check, margin))
+                continue
             if args.max_photos and len(p["boards"]) > args.max_photos:
                 print("%s margin %g: %d photos suggested, more than --max_photos" % (check, margin, len(p["boards"])))
                 continue
