@@ -267,9 +267,48 @@ std::vector<DecidingPhotos> PhotosThatDecide(const RigParams& rig,
   for (int m = 0; m < 2 && m < static_cast<int>(info.per_mirror_rms_px.size()); ++m) {
     if (info.per_mirror_rms_px[m] > 0) sigma_px[m] = info.per_mirror_rms_px[m];
   }
-  const std::vector<Simulated> simulated =
-      Simulate(rig, info.parameters, Candidates(rig, options), sigma_px);
+  // The held profiles (calibration.held_profiles): their terms move the new photos' corners too,
+  // so each photo's information on the rig is taken with them free under what is known of them
+  // (their prior, narrowed by the data), not as if they were exact: a photo adds nothing along a
+  // held power term's trade with the axial positions.
+  RigParams simulated_rig = rig;
+  std::vector<std::string> names = info.parameters;
+  std::vector<Eigen::MatrixXd> held_information;  // per held profile: Sigma_post^-1
+  for (const HeldProfileInfo& h : info.held_profiles) {
+    const Mirror mirror = h.mirror == 1 ? Mirror::kOne : Mirror::kTwo;
+    ProfileShape& shape = h.mirror == 1 ? simulated_rig.profile1 : simulated_rig.profile2;
+    if (!shape.present) {
+      shape = ProfileShape{};
+      shape.present = true;
+      shape.r_min = h.r_min;
+      shape.r_max = h.r_max;
+    }
+    const RigParameter* terms = BlockParameters(ProfileBlock(mirror));
+    for (int k = 0; k < kProfileTerms; ++k) names.push_back(terms[k].name);
+    const Eigen::MatrixXd prior =
+        Eigen::Map<const Eigen::MatrixXd>(h.prior_covariance.data(), kProfileTerms, kProfileTerms);
+    Eigen::MatrixXd held = prior.ldlt().solve(Eigen::MatrixXd::Identity(kProfileTerms, kProfileTerms));
+    if (!h.data_information.empty()) {
+      held += Eigen::Map<const Eigen::MatrixXd>(h.data_information.data(), kProfileTerms, kProfileTerms);
+    }
+    held_information.push_back(0.5 * (held + held.transpose()));
+  }
+  std::vector<Simulated> simulated =
+      Simulate(simulated_rig, names, Candidates(rig, options), sigma_px);
   if (simulated.empty()) return out;
+  if (!held_information.empty()) {
+    const int h = static_cast<int>(names.size() - n);
+    Eigen::MatrixXd prior = Eigen::MatrixXd::Zero(h, h);
+    for (size_t b = 0; b < held_information.size(); ++b) {
+      prior.block(b * kProfileTerms, b * kProfileTerms, kProfileTerms, kProfileTerms) = held_information[b];
+    }
+    for (Simulated& s : simulated) {
+      const Eigen::MatrixXd a = s.information;
+      const Eigen::MatrixXd a_xc = a.topRightCorner(n, h);
+      const Eigen::MatrixXd a_cc = a.bottomRightCorner(h, h) + prior;
+      s.information = a.topLeftCorner(n, n) - a_xc * a_cc.ldlt().solve(a_xc.transpose());
+    }
+  }
   for (const ToleranceCheck* c : undecided) {
     Eigen::VectorXd g = Eigen::VectorXd::Zero(n);
     for (size_t i = 0; i < c->gradient_names.size(); ++i) {

@@ -6,7 +6,9 @@
 // that lowers the check's sigma most, until its value and limit lie k sigma apart or max_photos
 // are taken. The considered parameters' share of the covariance (held coordinates, the
 // detectors' biases) is carried through: it shrinks only where the photos pin what those
-// columns move (decide_photos.cc, Knowledge). First order; a model without a noise covariance
+// columns move (decide_photos.cc, Knowledge); a held profile (calibration.held_profiles) moves
+// the new photos' corners too, so each photo's information is taken with its terms free under
+// what is known of them (their prior narrowed by the data). First order; a model without a noise covariance
 // (older files) takes its whole covariance as the data's information, which is optimistic where
 // the considered share dominates (reflex.tilt on the demo: predicted 0.014, reached 0.020 deg).
 #pragma once
