@@ -8,6 +8,7 @@
 #include "apps/progress.h"
 #include "apps/stereo_cli.h"
 #include "health/evidence.h"
+#include "health/lip_reference.h"
 #include "health/ring_matches.h"
 #include "io/model_file.h"
 
@@ -77,6 +78,22 @@ std::vector<health::ImageEvidence> CollectEvidenceFromFlags(const RigParams& sto
   }
   progress.Finish();
   return evidence;
+}
+
+std::vector<LipReferenceBin> LearnLipReference(const RigParams& calibrated,
+                                               const std::vector<std::string>& photos,
+                                               io::BayerPattern bayer, io::ToneCurve tone) {
+  const RigModel model(calibrated);
+  std::vector<health::ImageEvidence> evidence;
+  for (const std::string& path : photos) {
+    const cv::Mat image = io::ReadImage(path, bayer);
+    if (image.cols != calibrated.image_width || image.rows != calibrated.image_height) continue;
+    health::ImageEvidence one;
+    one.file = path;
+    one.lips = health::LipsUnderModel(image, path, model, tone, io::HasHalvedChroma(path));
+    evidence.push_back(std::move(one));
+  }
+  return health::LearnLipReference(model, evidence, health::CheckOptions{});
 }
 
 }  // namespace omni::apps

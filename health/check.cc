@@ -10,6 +10,7 @@
 
 #include "health/consistency.h"
 #include "health/drift.h"
+#include "health/lip_reference.h"
 #include "health/residuals.h"
 #include "model/rig_model.h"
 #include "model/rig_parameters.h"
@@ -66,7 +67,8 @@ double ChiSquareSurvival(double x, int dof) {
 
 CheckResult CheckRig(const RigParams& stored, const std::vector<ImageEvidence>& images,
                      const CheckOptions& options) {
-  return CheckSamples(stored, CollectSamples(RigModel(stored), images, options),
+  const LipReference reference(stored, options.azimuth_bins);
+  return CheckSamples(stored, CollectSamples(RigModel(stored), images, options, reference),
                       static_cast<int>(images.size()), options);
 }
 
@@ -85,6 +87,8 @@ void SummariseBins(const SampleSet& set, const CheckOptions& options, CheckResul
     r.count = static_cast<int>(bin.members.size());
     r.mean = bin.mean;
     r.standard_error = bin.standard_error;
+    r.referenced = bin.reference.has_value();
+    result->referenced_lip_bins += r.referenced;
     result->bins.push_back(r);
     if (is_match) {
       ++result->match_bins;
@@ -148,9 +152,10 @@ Eigen::MatrixXd BinJacobian(const RigParams& stored, const SampleSet& set,
 }
 
 // J Sigma J^T: the stored calibration's covariance carried into the bins, over the coordinates
-// it has (false, nothing added, without one).
-bool AddModelCovariance(const RigParams& stored, const Eigen::MatrixXd& jacobian,
-                        Eigen::MatrixXd* bin_covariance) {
+// it has (false, nothing added, without one). Not into bins measured from the calibration
+// photos' own: the stored parameters' error is in that reference as much as in the bin.
+bool AddModelCovariance(const RigParams& stored, const std::vector<ResidualBin>& bins,
+                        const Eigen::MatrixXd& jacobian, Eigen::MatrixXd* bin_covariance) {
   if (!stored.calibration || stored.calibration->covariance.empty()) return false;
   const auto& coordinates = DriftCoordinates();
   const int nc = static_cast<int>(coordinates.size());
@@ -166,6 +171,9 @@ bool AddModelCovariance(const RigParams& stored, const Eigen::MatrixXd& jacobian
   Eigen::MatrixXd J_stored = Eigen::MatrixXd::Zero(jacobian.rows(), np);
   for (int p = 0; p < np; ++p) {
     if (column[p] >= 0) J_stored.col(p) = jacobian.col(column[p]);
+  }
+  for (size_t b = 0; b < bins.size(); ++b) {
+    if (bins[b].referenced) J_stored.row(static_cast<int>(b)).setZero();
   }
   const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>
       sigma(info.covariance.data(), np, np);
@@ -277,7 +285,8 @@ CheckResult CheckSamples(const RigParams& stored, const SampleSet& set, int n_im
     se2[b] = result.bins[b].standard_error * result.bins[b].standard_error;
   }
   result.bin_covariance = se2.asDiagonal();
-  result.model_covariance = AddModelCovariance(stored, result.jacobian, &result.bin_covariance);
+  result.model_covariance = AddModelCovariance(stored, result.bins, result.jacobian,
+                                                &result.bin_covariance);
   const Eigen::LLT<Eigen::MatrixXd> llt(result.bin_covariance);
   const Eigen::MatrixXd L = llt.matrixL();
   const Eigen::VectorXd r_white = L.triangularView<Eigen::Lower>().solve(result.residual);
