@@ -55,10 +55,14 @@ std::string UtcNow() {
 // that `check` measures change from them (health/lip_reference.h); one line says what they hold.
 void StoreLipReference(const io::Session& session, RigParams* rig) {
   CalibrationInfo& info = *rig->calibration;
-  info.lip_reference = LearnLipReference(*rig, session.images, session.bayer, session.tone);
+  int photos = 0;
+  info.lip_reference =
+      LearnLipReference(*rig, session.images, session.bayer, session.tone, &photos);
   info.lip_reference_sectors = health::CheckOptions{}.azimuth_bins;
   if (info.lip_reference.empty()) {
-    std::printf("lip reference for `check`: none (fewer than 3 photos with lips)\n");
+    std::printf("lip reference for `check`: none (%d of the session's %zu photos read, with lips "
+                "needed in 3 or more): check will measure the lips from zero\n",
+                photos, session.images.size());
     return;
   }
   const LipReferenceBin* worst = &info.lip_reference[0];
@@ -68,10 +72,10 @@ void StoreLipReference(const io::Session& session, RigParams* rig) {
     scatter_min = std::min(scatter_min, bin.scatter_px);
     scatter_max = std::max(scatter_max, bin.scatter_px);
   }
-  std::printf("lip reference for `check`: %zu lip bins (edge x %d deg of azimuth) over %zu photos; "
+  std::printf("lip reference for `check`: %zu lip bins (edge x %d deg of azimuth) over %d photos; "
               "the edges' detected bias there up to %+.2f px (%s at %.1f deg), one photo's scatter "
               "%.2f-%.2f px\n",
-              info.lip_reference.size(), 360 / info.lip_reference_sectors, session.images.size(),
+              info.lip_reference.size(), 360 / info.lip_reference_sectors, photos,
               worst->mean_px, worst->edge.c_str(), worst->azimuth_deg, scatter_min, scatter_max);
 }
 

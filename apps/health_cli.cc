@@ -82,17 +82,24 @@ std::vector<health::ImageEvidence> CollectEvidenceFromFlags(const RigParams& sto
 
 std::vector<LipReferenceBin> LearnLipReference(const RigParams& calibrated,
                                                const std::vector<std::string>& photos,
-                                               io::BayerPattern bayer, io::ToneCurve tone) {
+                                               io::BayerPattern bayer, io::ToneCurve tone,
+                                               int* photos_used) {
   const RigModel model(calibrated);
   std::vector<health::ImageEvidence> evidence;
   for (const std::string& path : photos) {
-    const cv::Mat image = io::ReadImage(path, bayer);
+    cv::Mat image;
+    try {
+      image = io::ReadImage(path, bayer);
+    } catch (const io::InputError&) {
+      continue;
+    }
     if (image.cols != calibrated.image_width || image.rows != calibrated.image_height) continue;
     health::ImageEvidence one;
     one.file = path;
     one.lips = health::LipsUnderModel(image, path, model, tone, io::HasHalvedChroma(path));
     evidence.push_back(std::move(one));
   }
+  *photos_used = static_cast<int>(evidence.size());
   return health::LearnLipReference(model, evidence, health::CheckOptions{});
 }
 

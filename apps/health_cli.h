@@ -21,9 +21,11 @@ std::vector<health::ImageEvidence> CollectEvidenceFromFlags(const RigParams& sto
                                                             const char* command);
 
 // The calibration photos' lip bins under the calibrated model (health/lip_reference.h), for its
-// `calibration:` section; InputError naming a photo that cannot be read.
+// `calibration:` section. Photos that cannot be read (a calibration from a detections file whose
+// images are elsewhere) or are not the model's size are left out; *photos_used counts the rest.
 std::vector<LipReferenceBin> LearnLipReference(const RigParams& calibrated,
                                                const std::vector<std::string>& photos,
-                                               io::BayerPattern bayer, io::ToneCurve tone);
+                                               io::BayerPattern bayer, io::ToneCurve tone,
+                                               int* photos_used);
 
 }  // namespace omni::apps
