@@ -181,13 +181,34 @@ bool AddModelCovariance(const RigParams& stored, const std::vector<ResidualBin>&
   return true;
 }
 
+// Texture enough for the matches to tell: min_matches over min_match_coverage of the sectors.
+bool EnoughMatches(const CheckResult& result, const CheckOptions& options) {
+  return result.n_matches >= options.min_matches &&
+         result.covered_azimuth_bins >= options.min_match_coverage * options.azimuth_bins;
+}
+
+// Whether the lip bins measured from the calibration photos' own reject the stored model by
+// themselves. Too few matches leave a check CANNOT TELL because unreferenced lips cannot tell a
+// moved rig from their detector's bias; referenced ones can: what they show is change since
+// calibration, so they alone may say DRIFTED (not OK: a move the lips do not see needs the
+// matches). Their bins carry no model covariance, so their chi^2 is a sum over them.
+bool LipsMovedSinceCalibration(const CheckResult& result, const CheckOptions& options) {
+  double chi2 = 0;
+  int bins = 0;
+  for (const ResidualBin& bin : result.bins) {
+    if (!bin.referenced) continue;
+    chi2 += bin.mean * bin.mean / (bin.standard_error * bin.standard_error);
+    ++bins;
+  }
+  return bins > 0 && ChiSquareSurvival(chi2, bins) < options.significance;
+}
+
 // Sets the verdict where the evidence decides without naming a group: too little texture (or a
 // model that does not fit the lips), or residuals within the uncertainty. False: DRIFTED.
 bool DecidedWithoutGroups(const RigParams& stored, const CheckOptions& options,
                           CheckResult* result) {
   const int nb = options.azimuth_bins;
-  const bool enough = result->n_matches >= options.min_matches &&
-                      result->covered_azimuth_bins >= options.min_match_coverage * nb;
+  const bool enough = EnoughMatches(*result, options);
   const double f = 0.5 * (stored.camera[kFx] + stored.camera[kFy]);
   if (!enough && result->n_lip_points > 0 && result->lip_rms_px > options.lip_misfit_per_f * f) {
     result->verdict = Verdict::kCannotTell;
@@ -202,6 +223,7 @@ bool DecidedWithoutGroups(const RigParams& stored, const CheckOptions& options,
     result->reason = buf;
     return true;
   }
+  if (!enough && LipsMovedSinceCalibration(*result, options)) return false;
   if (!enough) {
     result->verdict = Verdict::kCannotTell;
     result->reason = "too little texture seen by both rings: " + std::to_string(result->n_matches) +
@@ -209,7 +231,11 @@ bool DecidedWithoutGroups(const RigParams& stored, const CheckOptions& options,
                      std::to_string(nb) + " azimuth sectors (needs " +
                      std::to_string(options.min_matches) + " over " +
                      std::to_string(static_cast<int>(std::ceil(options.min_match_coverage * nb))) +
-                     "); the lips alone cannot tell a moved rig from their own bias";
+                     ")";
+    result->reason += result->referenced_lip_bins > 0
+                          ? "; the lips have not moved since calibration, but a move they do not "
+                            "show needs the matches"
+                          : "; the lips alone cannot tell a moved rig from their own bias";
     return true;
   }
   if (result->p_value >= options.significance) {
@@ -317,6 +343,10 @@ CheckResult CheckSamples(const RigParams& stored, const SampleSet& set, int n_im
                       ? "a move of " + result.named_group + " explains the residuals"
                       : "no single group explains the residuals; " + result.named_group +
                             " comes closest";
+  if (!EnoughMatches(result, options)) {
+    result.reason += " (few ring-to-ring matches: the lips, measured from the calibration "
+                     "photos', moved)";
+  }
   return result;
 }
 

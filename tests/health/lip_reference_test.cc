@@ -101,6 +101,26 @@ TEST_F(LipReferenceTest, CheckMeasuresChangeSinceCalibrationNotTheDetectorsBias)
   }
 }
 
+// Too few matches to tell (60, under min_matches): unreferenced lips cannot tell a move from
+// their bias (CheckTest.TooFewMatchesCannotTell), referenced ones can say it moved, never OK.
+TEST_F(LipReferenceTest, FewMatchesTheReferencedLipsAloneMaySayDriftedNotOk) {
+  RigParams stored = stored_;
+  stored.calibration->lip_reference = LearnLipReference(RigModel(stored_), Photos(stored_, 6, 10), {});
+  stored.calibration->lip_reference_sectors = CheckOptions{}.azimuth_bins;
+  const ImageEvidence same = Simulate(stored_, 60, 0.1, 0.15, 90, Bias);
+  const CheckResult unchanged = CheckRig(stored, {same});
+  EXPECT_EQ(unchanged.verdict, Verdict::kCannotTell) << unchanged.reason;
+  Eigen::VectorXd amount(1);
+  amount[0] = 0.2;
+  const RigParams knocked = ApplyDrift(stored_, {DriftCoordinateIndex("mirror2.tx")}, amount);
+  const ImageEvidence moved = Simulate(knocked, 60, 0.1, 0.15, 90, Bias);
+  const CheckResult referenced = CheckRig(stored, {moved});
+  EXPECT_EQ(referenced.verdict, Verdict::kDrifted) << referenced.reason;
+  EXPECT_NE(referenced.reason.find("few ring-to-ring matches"), std::string::npos)
+      << referenced.reason;
+  EXPECT_EQ(CheckRig(stored_, {moved}).verdict, Verdict::kCannotTell);
+}
+
 TEST_F(LipReferenceTest, AReferenceOfOtherSectorsIsNotUsed) {
   RigParams stored = stored_;
   stored.calibration->lip_reference = LearnLipReference(RigModel(stored_), Photos(stored_, 4, 10), {});
