@@ -162,10 +162,10 @@ std::map<int, Bin> BinSamples(int nb, const LipReference& reference, SampleSet* 
 // Robust bin means; bins too thin to estimate are dropped. Each bin's standard error comes
 // from the scatter about the bin means pooled over its kind (a bin of 15 lip points would
 // otherwise estimate its own spread badly: t-distributed, chi^2 17% high), widened by the kind's
-// floor; a bin measured from the calibration photos' (lip_reference.h) has instead the error of
-// a difference of two means of photos, tau^2 / photos + tau^2 / reference photos with tau the
+// floor; a bin measured from the calibration photos' (lip_reference.h) has the error of a
+// difference of two means of photos, tau^2 / photos + tau^2 / reference photos with tau the
 // scatter of one photo's mean (its points' own noise is in tau; the larger of the two counts
-// where this photo's points are fewer).
+// where this photo's points are fewer), and the floor.
 void EstimateBins(std::map<int, Bin>* bins_in, const CheckOptions& options, SampleSet* set) {
   std::map<int, Bin>& bins = *bins_in;
   std::vector<Sample>& samples = set->samples;
@@ -201,9 +201,11 @@ void EstimateBins(std::map<int, Bin>* bins_in, const CheckOptions& options, Samp
     const double points_se = sd / std::sqrt(static_cast<double>(bin.members.size()));
     bin.reference = used[b]->reference;
     if (bin.reference) {
+      // The floor stays: what the edge's bias owes to the scene behind it is not learnt from
+      // calibration photos of one room (a clean render's 8 photos scatter by 0.00 px).
       const double tau2 = bin.reference->scatter_px * bin.reference->scatter_px;
       bin.standard_error = std::sqrt(std::max(points_se * points_se, tau2 / bin.photos) +
-                                     tau2 / bin.reference->photos);
+                                     tau2 / bin.reference->photos + floor * floor);
     } else {
       bin.standard_error = std::hypot(points_se, floor);
     }
