@@ -139,7 +139,7 @@ Start SingleMirrorStart(io::Session* session) {
   for (const std::string& line : start->lines) std::printf("%s\n", line.c_str());
   session->estimate = start->estimate;
   for (const auto& [name, prior] : start->priors) session->priors[name] = prior;
-  session->use_lips = false;
+  session->use_lips = true;  // the rim's edge (detectors/lips/rim_edge.h): the scale's datum
   std::string about = "# model: the starting model (a single mirror found by its rim in the "
                       "photos, " + FLAGS_mirror + " mirror, " + FLAGS_lens +
                       " lens; calibrate refines it).\n";
@@ -199,7 +199,8 @@ int RunInit() {
       "# omnistereo-session/1 written by `omnistereo init` from " + FLAGS_images + ".\n" +
       start.about +
       "# images: the photos (globs allowed); targets: what was printed, exactly (mm).\n" +
-      std::string(single ? "# " : "# lips: use the coloured lips at the mirror rims; ") +
+      std::string(single ? "# lips: measure the mirror's rim in the photos (a circle of the measured diameter);\n# "
+                         : "# lips: use the coloured lips at the mirror rims; ") +
       "tone: srgb for colour cameras and JPEG,\n"
       "# linear for machine-vision cameras with gamma off; bayer: RGGB|... for raw frames.\n"
       "# Next: omnistereo detect --session " + FLAGS_out + " --out detections.yaml --overlay overlays/\n" +

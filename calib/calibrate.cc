@@ -23,7 +23,21 @@ Refinement RefinementOf(const CalibrationOptions& options) {
   return refined;
 }
 
-void RestrictToRig(const RigParams& rig, Refinement* refined, const CalibrationOptions& options) {
+bool RimObserved(const Observations& detections, const CalibrationOptions& options) {
+  if (!options.use_lips) return false;
+  for (const ImageObservations& image : detections.images) {
+    for (const LipEdgeObservation& e : image.lips) {
+      if (e.mirror == Mirror::kOne && e.path == LipPath::kDirect && e.circle == LipCircle::kOuter &&
+          !e.points.empty()) {
+        return true;
+      }
+    }
+  }
+  return false;
+}
+
+void RestrictToRig(const RigParams& rig, Refinement* refined, const CalibrationOptions& options,
+                   bool rim_observed) {
   if (!rig.Single()) return;
   // A single-mirror rig has mirror 1's path only: nothing else can be refined.
   for (RigBlockId block : {kShape2Block, kPose2Block, kReflexBlock, kProfile2Block}) {
@@ -35,8 +49,12 @@ void RestrictToRig(const RigParams& rig, Refinement* refined, const CalibrationO
   }
   refined->telecentric = rig.lens == LensKind::kTelecentric;
   const auto prior = refined->shape_priors.find(kRigBlocks[kShape1Block].name);
-  refined->hold_mirror_size =
-      prior == refined->shape_priors.end() || !(prior->second.sigma_c > 0);
+  const bool size_prior = prior != refined->shape_priors.end() && prior->second.sigma_c > 0;
+  refined->hold_mirror_size = !rim_observed && !size_prior;
+  if (rim_observed && refined->groups[kShape1Block]) {
+    Progress(options, "single-mirror rig: the rim's edge in the photos is observed: R is refined "
+                      "(the rim's measured diameter is the scale)");
+  }
 }
 
 RigState RigStateOf(const RigParams& params) {
@@ -97,10 +115,15 @@ StageReport Solve(const Stage& stage, const CalibrationOptions& options, Calibra
 void RunRobustStages(const CalibrationOptions& options, Calibration* c,
                      CalibrationResult* result) {
   SelectRobustStageCorners(&c->observations.corners);
+  // A single mirror's rim is in from the start: the corners alone let the focal length, the
+  // conic and the axial distance slide along one valley (and the rim end tens of pixels off,
+  // its points then left out as outliers); the rim is what holds them.
+  const bool rim = c->rig.params.Single() && !c->observations.lips.empty();
   RigBlockSet done;
-  for (const Stage& stage : kRobustStages) {
+  for (Stage stage : kRobustStages) {
     const RigBlockSet groups = StageGroups(stage, c->refined);
     if (groups.none() || groups == done) continue;
+    stage.selection.lips = stage.selection.lips || rim;
     result->solve.stages.push_back(Solve(stage, options, c));
     done = groups;
   }
@@ -346,7 +369,7 @@ CalibrationResult Calibrate(const RigParams& start, const std::vector<TargetSpec
   // The rig from the start (every mirror with a profile), what is refined, the observations.
   Calibration c;
   c.refined = RefinementOf(options);
-  RestrictToRig(start, &c.refined, options);
+  RestrictToRig(start, &c.refined, options, RimObserved(detections, options));
   c.refined.shape_mean[0] = start.mirror1_shape;
   c.refined.shape_mean[1] = start.mirror2_shape;
   RigParams params = start;
@@ -367,6 +390,10 @@ CalibrationResult Calibrate(const RigParams& start, const std::vector<TargetSpec
   }
 
   CalibrationResult result;
+  // A single mirror's rim is in the robust stages too (RunRobustStages): its azimuths first.
+  if (params.Single() && !c.observations.lips.empty()) {
+    InitialiseLipAzimuths(c.rig, &c.observations.lips);
+  }
   RunRobustStages(options, &c, &result);
   // Each mirror's profile: freed where the corners cover its radii (profiles.cc).
   DecideProfiles(c.observations, options, &c.rig, &c.profiles, &c.refined, &result);
