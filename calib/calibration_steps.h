@@ -89,6 +89,9 @@ bool ReprojectOnMirror(const RigState& rig, const ObservationSet& observations,
 bool ReprojectLip(const RigState& rig, const LipObservation& lip, Eigen::Vector2d* pixel);
 // The corners' reprojection RMS (mirror 0: both rings), and their count.
 double CornerRms(const RigState& rig, const ObservationSet& observations, int mirror, int* count);
+// A lip point's circle height at the rig's current values (a single mirror's rim: the conic's
+// sag at its radius, model/single_rim.h; otherwise the collected lip.z).
+double CurrentLipZ(const RigParams& rig, const LipObservation& lip);
 double LipRms(const RigState& rig, const std::vector<LipObservation>& lips, int* count);
 // The outermost used corner's radius in normalised image coordinates (at the current camera).
 double OuterRadius(const RigParams& rig, const std::vector<Observation>& corners);

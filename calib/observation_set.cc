@@ -148,7 +148,8 @@ void InitialiseLipAzimuths(const RigState& rig, std::vector<LipObservation>* lip
       for (int k = 0; k < kSamples; ++k) {
         const double phi = 2 * M_PI * k / kSamples;
         Eigen::Vector2d px;
-        if (ProjectLipEdge(blocks, *LipBounds(rig, l.path), l.path, l.radius, l.z, phi,
+        if (ProjectLipEdge(blocks, *LipBounds(rig, l.path), l.path, l.radius,
+                           CurrentLipZ(rig.params, l), phi,
                            rig.fixed->r_ref, &px) &&
             px.allFinite()) {
           curve.emplace_back(phi, px);
@@ -330,10 +331,15 @@ void SelectRobustStageCorners(std::vector<Observation>* corners) {
   }
 }
 
+double CurrentLipZ(const RigParams& rig, const LipObservation& lip) {
+  // A single mirror's rim moves with the refined conic (calib/lip_cost.h RimFollowsShape).
+  return rig.Single() && lip.path == LipPath::kDirect ? SingleRimZ(rig) : lip.z;
+}
+
 bool ReprojectLip(const RigState& rig, const LipObservation& lip, Eigen::Vector2d* pixel) {
   // The band edge with the occlusion by the disc's rim followed (model/lip.h ProjectLipEdge).
   return ProjectLipEdge(RigBlocksOf(rig.params), *LipBounds(rig, lip.path), lip.path, lip.radius,
-                        lip.z, lip.phi[0], rig.fixed->r_ref, pixel) &&
+                        CurrentLipZ(rig.params, lip), lip.phi[0], rig.fixed->r_ref, pixel) &&
          pixel->allFinite();
 }
 
