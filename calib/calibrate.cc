@@ -5,6 +5,7 @@
 #include <cstdio>
 
 #include "calib/calibration_steps.h"
+#include "model/single_rim.h"
 
 namespace omni::calib {
 
@@ -363,9 +364,10 @@ std::map<std::string, double> DefaultConsideredSigmas() {
   return sigmas;
 }
 
-CalibrationResult Calibrate(const RigParams& start, const std::vector<TargetSpec>& targets,
-                            const Observations& detections, const CalibrationOptions& options) {
-  if (const std::string error = options.Check(); !error.empty()) throw CalibrationError(error);
+namespace {
+
+CalibrationResult CalibrateOnce(const RigParams& start, const std::vector<TargetSpec>& targets,
+                                const Observations& detections, const CalibrationOptions& options) {
   // The rig from the start (every mirror with a profile), what is refined, the observations.
   Calibration c;
   c.refined = RefinementOf(options);
@@ -418,6 +420,34 @@ CalibrationResult Calibrate(const RigParams& start, const std::vector<TargetSpec
                           std::to_string(options.solver.max_iterations) + " iterations");
   }
   FillResult(targets, c, &result);
+  return result;
+}
+
+}  // namespace
+
+CalibrationResult Calibrate(const RigParams& start, const std::vector<TargetSpec>& targets,
+                            const Observations& detections, const CalibrationOptions& options) {
+  if (const std::string error = options.Check(); !error.empty()) throw CalibrationError(error);
+  CalibrationResult result = CalibrateOnce(start, targets, detections, options);
+  // A single mirror's rim is its image's edge only where the mirror's outer zone does not look
+  // back over the rim (model/single_rim.h): that is known once the mirror is (a bought mirror's
+  // start guesses its shape), so it is judged at the calibrated mirror.
+  if (!start.Single() || !RimObserved(detections, options) || options.estimate.empty()) {
+    return result;
+  }
+  double elevation = 0;
+  if (RimEdgeIsTheRim(RigModel(result.estimate.rig), &elevation)) return result;
+  char why[320];
+  std::snprintf(why, sizeof(why),
+                "the mirror's rim left out: at the calibrated mirror its outer zone reflects rays "
+                "%.1f deg past the rim's plane, where whatever holds the mirror at its rim is "
+                "seen, so the edge of its image need not be the rim (calibrated without it)",
+                elevation);
+  Progress(options, std::string(why) + "; calibrating again");
+  CalibrationOptions without = options;
+  without.use_lips = false;
+  result = CalibrateOnce(start, targets, detections, without);
+  result.solve.notes.push_back(why);
   return result;
 }
 

@@ -14,7 +14,8 @@
 // within +-band of it on the linear-light grey image (sub-pixel by a parabola), kept where the
 // drop is at least min_drop_fraction of the median drop (rays where the scene inside is as dark
 // as the housing, or a holder crosses the rim, give none); then points more than 3 robust sigmas
-// (MAD) from the curve's own offset, after removing the mean radial offset, are dropped. Edge
+// (MAD) from a fit of their offsets by the azimuth's harmonics up to the second (what a start
+// off in centre, scale or tilt makes of them) are dropped. Edge
 // points of a blurred step in linear light lie at its halfway level: no bias from the blur.
 #pragma once
 
