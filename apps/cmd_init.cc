@@ -201,8 +201,7 @@ int RunInit() {
       "# omnistereo-session/1 written by `omnistereo init` from " + FLAGS_images + ".\n" +
       start.about +
       "# images: the photos (globs allowed); targets: what was printed, exactly (mm).\n" +
-      std::string(single ? "# lips: measure the mirror's rim in the photos (a circle of the measured diameter);\n# "
-                         : "# lips: use the coloured lips at the mirror rims; ") +
+      std::string(single ? "# " : "# lips: use the coloured lips at the mirror rims; ") +
       "tone: srgb for colour cameras and JPEG,\n"
       "# linear for machine-vision cameras with gamma off; bayer: RGGB|... for raw frames.\n"
       "# Next: omnistereo detect --session " + FLAGS_out + " --out detections.yaml --overlay overlays/\n" +
