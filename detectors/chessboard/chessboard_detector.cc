@@ -177,6 +177,18 @@ std::optional<bool> IsXJunction(const RingView& view, const cv::Mat& trusted, co
   return asymmetric <= kMaxAsymmetric;
 }
 
+// IsXJunction on a circle of 0.35 squares; where that circle reaches the ring's dark rim band
+// (outside `trusted`, RingPixels), on one of 0.2 squares (2 px at least) that keeps clear of it.
+// The band adds dark sectors to the larger circle: a board whose top row of squares touches
+// the rim (a single mirror's render, parabolic 0012: the 3x10 board's 4 junctions nearest the
+// rim) lost those junctions, and with them the whole board, as the holes were not hidden.
+bool IsJunctionNearEdge(const RingView& view, const cv::Mat& in_ring, const cv::Mat& trusted,
+                        const cv::Point2f& p, double spacing, double min_contrast) {
+  if (IsXJunction(view, in_ring, p, 0.35 * spacing, min_contrast).value_or(false)) return true;
+  if (IsXJunction(view, trusted, p, 0.35 * spacing, min_contrast).has_value()) return false;
+  return IsXJunction(view, trusted, p, 0.2 * spacing, min_contrast, true).value_or(false);
+}
+
 // The junction grid as a rows x cols corner list in row-major order: the last resort where
 // both OpenCV finders fail on a board the saddle detector saw (demo image 0008: a board whose
 // white margin is cut by the ring's edge, lost by both finders on sharper renders), and the way
@@ -188,11 +200,17 @@ std::optional<bool> IsXJunction(const RingView& view, const cv::Mat& trusted, co
 // could hide it the ids are ambiguous and the board is refused. Missing points get the
 // prediction and `filled` marks them: they help check and orient the board and are never
 // reported (their refinement windows would take in the ring's edge). Ids are left to Orient and
-// the same whole-board and homography checks as the finders' grids.
-bool GridFromJunctions(const RingView& view, const cv::Mat& in_ring, const GridExtent& grid, double spacing, int rows,
+// the same whole-board and homography checks as the finders' grids. `trusted` (RingPixels with
+// the edge margin): a point whose circle reaches the ring's dark rim band is hidden, as the
+// junction test could not have seen it there (parabolic 0012: a 3x10 board's 4 junctions on
+// the rim band's edge, inside the ring as modelled, refused the board).
+bool GridFromJunctions(const RingView& view, const cv::Mat& trusted, const GridExtent& grid, double spacing, int rows,
                        int cols, std::vector<cv::Point2f>* corners, std::vector<bool>* filled) {
   const int n = rows * cols;
-  if (grid.count > n || 4 * grid.count < 3 * n) return false;
+  // Three quarters of the pattern, or all but its longest row or column: a narrow board's
+  // one hidden row is a third of it (spherical 0006: a 3x10 board whose top row lies on the
+  // ring's edge, 20 of 30 junctions, was refused whole). Holes must be hidden either way.
+  if (grid.count > n || (4 * grid.count < 3 * n && grid.count < n - std::max(rows, cols))) return false;
   int solutions = 0;
   for (int transpose = 0; transpose < 2; ++transpose) {
     const int extent_c = transpose ? grid.b : grid.a, extent_r = transpose ? grid.a : grid.b;
@@ -226,7 +244,7 @@ bool GridFromJunctions(const RingView& view, const cv::Mat& in_ring, const GridE
         for (int k = 0, j = 0; k < n && ok; ++k) {
           if (!missing[k]) continue;
           out[k] = predicted[j++];
-          ok = !IsXJunction(view, in_ring, out[k], 0.35 * spacing, 0).has_value();  // hidden
+          ok = !IsXJunction(view, trusted, out[k], 0.35 * spacing, 0).has_value();  // hidden
         }
       }
       if (!ok) continue;
@@ -530,6 +548,7 @@ std::optional<BoardDetection> MakeBoard(const cv::Mat& raw_grey, const RingView&
   std::vector<std::optional<Eigen::Vector2d>> refined(oriented.size());
   std::vector<int> halves(oriented.size(), 1);
   std::vector<double> sides(oriented.size(), 0);
+  int refused_refine = 0, refused_shift = 0;
   for (size_t i = 0; i < oriented.size(); ++i) {
     if (!raw[i]) continue;
     Eigen::Vector2d pixel = *raw[i];
@@ -552,13 +571,21 @@ std::optional<BoardDetection> MakeBoard(const cv::Mat& raw_grey, const RingView&
       // (inner-ring near boards, radially squeezed) 5x5 keeps them (realistic_scene 0011).
       const int raw_half = ChessboardHalfWindow(side, CameraPixelsPerDegree(model.params()));
       const Eigen::Vector2d before = pixel;
-      if (!RefineCornerInRaw(raw_grey, raw_half, &pixel)) continue;
+      if (!RefineCornerInRaw(raw_grey, raw_half, &pixel)) {
+        ++refused_refine;
+        continue;
+      }
       // The views are exact only for points at their distance_mm: on the non-central rig a
       // near board's mapped corner is off by a few pixels (1.5-3 px measured in ring 1 at
       // 0.6 m), while a wrong saddle would be a whole square away.
       const double max_shift =
           std::max(options.max_refine_shift_px, options.max_refine_shift_squares * side);
-      if ((pixel - before).norm() > max_shift) continue;
+      if ((pixel - before).norm() > max_shift) {
+        trace::Line("   corner %zu: refinement moved it %.2f px (max %.2f, half %d)", i,
+                    (pixel - before).norm(), max_shift, raw_half);
+        ++refused_shift;
+        continue;
+      }
       halves[i] = raw_half;
       sides[i] = side;
     }
@@ -568,10 +595,13 @@ std::optional<BoardDetection> MakeBoard(const cv::Mat& raw_grey, const RingView&
   // lip, its sheet's edge) pulled whole edge rows 0.5-0.9 px off, coherently, which the grid
   // check cannot see: such corners are refined again in a window that leaves the foreign edge
   // out, or dropped.
+  int refused_window = 0;
   if (options.refine_in_raw && options.clean_windows) {
-    KeepWindowsOnTheirSquares(raw_grey, spec.rows, spec.cols, sides, options.min_clean_half,
-                              &halves, &refined, view.RawBlurAt(centre));
+    refused_window = KeepWindowsOnTheirSquares(raw_grey, spec.rows, spec.cols, sides, options.min_clean_half,
+                                               &halves, &refined, view.RawBlurAt(centre));
   }
+  trace::Line("   raw refinement refused %d, moved too far %d, window not on its squares %d",
+              refused_refine, refused_shift, refused_window);
   // The board's lines from its refined corners, before any is corrected.
   if (options.refine_in_raw && options.fit_junctions) {
     FitBoardJunctions(raw_grey, spec.rows, spec.cols, sides, halves, options.junction_window_squares,
@@ -611,7 +641,7 @@ std::vector<BoardDetection> SearchRegion(const cv::Mat& raw_grey, const RingView
                                          int view_index) {
   std::vector<cv::Point2f> junctions;
   for (const auto& q : region.points) {
-    if (IsXJunction(view, in_ring, q, 0.35 * region.spacing, options.saddle_contrast_floor).value_or(false)) {
+    if (IsJunctionNearEdge(view, in_ring, trusted, q, region.spacing, options.saddle_contrast_floor)) {
       junctions.push_back(q);
     }
   }
@@ -696,7 +726,7 @@ std::vector<BoardDetection> SearchRegion(const cv::Mat& raw_grey, const RingView
         if (finder == kJunctions) {
           // Junctions are in view pixels; the crop's origin is added back in MakeBoard.
           if (found_here > 0 ||
-              !GridFromJunctions(view, in_ring, grid, region.spacing, spec.rows, spec.cols, &corners, &filled)) {
+              !GridFromJunctions(view, trusted, grid, region.spacing, spec.rows, spec.cols, &corners, &filled)) {
             break;
           }
           for (auto& c : corners) c -= cv::Point2f(region.full.tl());

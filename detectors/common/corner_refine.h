@@ -80,7 +80,8 @@ void RemoveCurvatureBias(int rows, int cols, const std::vector<int>& halves,
 // dark and two bright quadrants (levels: the median of each pair); a pixel more than b px from
 // both lines and less than `side` - b px from them (b = max(1.5, 1.3 blur_px): a blurred
 // junction's product of two edges is within 35% of its quadrant's level from there on) (inside the four squares, not on a blurred
-// edge) must match its quadrant's level to within 35% of the contrast. One that does not (the
+// edge) must match its quadrant's level to within 35% of the contrast, or be on a slope under 0.7
+// times the board's own edges' (shading, a glossy sheet's sheen). One that does not (the
 // ring's rim or lip, a board sheet's edge, an occluder) is an edge cornerSubPix would take as one
 // of the corner's: the window is bounded to leave it out. `half` if nothing is found or nothing
 // can be judged (squares too small, no contrast).
