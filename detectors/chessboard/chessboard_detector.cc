@@ -299,7 +299,8 @@ std::optional<BoardDetection> MakeBoard(const cv::Mat& raw_grey, const RingView&
   int refused_window = 0;
   if (options.refine_in_raw && options.clean_windows) {
     refused_window = KeepWindowsOnTheirSquares(raw_grey, spec.rows, spec.cols, sides, options.min_clean_half,
-                                               &halves, &refined, view.RawBlurAt(centre));
+                                               &halves, &refined, view.RawBlurAt(centre),
+                                               options.foreign_edge_slope);
   }
   trace::Line("   raw refinement refused %d, moved too far %d, window not on its squares %d",
               refused_refine, refused_shift, refused_window);
@@ -361,28 +362,15 @@ std::vector<BoardDetection> SearchRegion(const cv::Mat& raw_grey, const RingView
     return found;
   }
   const auto near = [&](int t, int tolerance) {
-    const int r = targets[t].rows, c = targets[t].cols;
-    return (std::abs(r - grid.a) <= tolerance && std::abs(c - grid.b) <= tolerance) ||
-           (std::abs(r - grid.b) <= tolerance && std::abs(c - grid.a) <= tolerance);
+    return GridNearPattern(grid, targets[t].rows, targets[t].cols, tolerance);
   };
   const auto matches = [&](int t) { return near(t, 0); };
-  // Whether the grid fits in the pattern with at most two extra rows or columns: junctions
-  // beyond the board's sides where its sheet's narrow white margin meets a dark background
-  // (its outer squares' corners then read as X-junctions: Mei's photo 1, an 8x10 grid of a 6x8
-  // board, one junk row or column on each of two sides); beyond that the grid cannot be this
-  // pattern's board. The whole-board test decides.
-  const auto holds = [&](int t) {
-    const int r = targets[t].rows, c = targets[t].cols;
-    return (grid.a <= r + 2 && grid.b <= c + 2) || (grid.b <= r + 2 && grid.a <= c + 2);
-  };
+  // At most two junk rows or columns (GridFitsInPattern); the whole-board test decides.
+  const auto holds = [&](int t) { return GridFitsInPattern(grid, targets[t].rows, targets[t].cols, 2); };
   // The patterns nearest the grid's extent go first (larger first among equals, as
   // `patterns`): a failed classic search costs 10-25 ms per pattern.
   std::vector<int> order = patterns;
-  const auto distance = [&](int t) {
-    const int r = targets[t].rows, c = targets[t].cols;
-    return std::min(std::abs(r - grid.a) + std::abs(c - grid.b),
-                    std::abs(r - grid.b) + std::abs(c - grid.a));
-  };
+  const auto distance = [&](int t) { return PatternDistance(grid, targets[t].rows, targets[t].cols); };
   std::stable_sort(order.begin(), order.end(),
                    [&](int a, int b) { return distance(a) < distance(b); });
   cv::Mat crop = RegionCrop(view, region.full);
@@ -563,6 +551,9 @@ std::string ChessboardOptions::Check() const {
   if (max_boards_per_region < 1) return OptionError("max_boards_per_region", "at least 1", max_boards_per_region);
   if (!(edge_margin_rad >= 0)) return OptionError("edge_margin_rad", "an angle >= 0 rad", edge_margin_rad);
   if (min_clean_half < 1) return OptionError("min_clean_half", "a half-window of at least 1 px", min_clean_half);
+  if (!(foreign_edge_slope > 0 && foreign_edge_slope <= 1)) {
+    return OptionError("foreign_edge_slope", "a fraction in (0, 1]", foreign_edge_slope);
+  }
   if (!(junction_window_squares > 0)) {
     return OptionError("junction_window_squares", "a half-window > 0 squares", junction_window_squares);
   }
