@@ -115,6 +115,8 @@ void DetectorContext::SetSingleMirrorOptions() {
   chessboard.smooth_grid_correction = model.params().Single();
   // Dim boards' junctions (chessboard_detector.h, saddle_relative_contrast).
   chessboard.saddle_relative_contrast = model.params().Single() ? 0.4 : 0.0;
+  // No painted lips beside a single mirror's boards (ChessboardOptions::foreign_edge_slope).
+  chessboard.foreign_edge_slope = model.params().Single() ? 0.7 : 0.5;
 }
 
 void DetectorContext::SetModel(const RigParams& rig) {
