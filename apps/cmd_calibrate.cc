@@ -6,6 +6,8 @@
 // --truth (a synthetic session's omnistereo-truth/1) also the reprojection RMS per ring against
 // the detector's true corner error over the same corners; the calibrated model, with its
 // `calibration:` section, written atomically to --out only if the solve succeeded.
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <ctime>
 #include <filesystem>
@@ -18,8 +20,10 @@
 #include "apps/command.h"
 #include "apps/common_flags.h"
 #include "apps/detect_cli.h"
+#include "apps/health_cli.h"
 #include "calib/calibrate.h"
 #include "calib/single_mirror_summary.h"
+#include "health/check.h"
 #include "calib/calibration_checks.h"
 #include "calib/projection_uncertainty.h"
 #include "io/detections_file.h"
@@ -47,6 +51,34 @@ std::string UtcNow() {
   return buf;
 }
 
+// The calibration photos' lip bins under the calibrated model, kept in its `calibration:` so
+// that `check` measures change from them (health/lip_reference.h); one line says what they hold.
+void StoreLipReference(const io::Session& session, RigParams* rig) {
+  CalibrationInfo& info = *rig->calibration;
+  int photos = 0;
+  info.lip_reference =
+      LearnLipReference(*rig, session.images, session.bayer, session.tone, &photos);
+  info.lip_reference_sectors = health::CheckOptions{}.azimuth_bins;
+  if (info.lip_reference.empty()) {
+    std::printf("lip reference for `check`: none (%d of the session's %zu photos read, with lips "
+                "needed in 3 or more): check will measure the lips from zero\n",
+                photos, session.images.size());
+    return;
+  }
+  const LipReferenceBin* worst = &info.lip_reference[0];
+  double scatter_min = 1e9, scatter_max = 0;
+  for (const LipReferenceBin& bin : info.lip_reference) {
+    if (std::abs(bin.mean_px) > std::abs(worst->mean_px)) worst = &bin;
+    scatter_min = std::min(scatter_min, bin.scatter_px);
+    scatter_max = std::max(scatter_max, bin.scatter_px);
+  }
+  std::printf("lip reference for `check`: %zu lip bins (edge x %d deg of azimuth) over %d photos; "
+              "the edges' detected bias there up to %+.2f px (%s at %.1f deg), one photo's scatter "
+              "%.2f-%.2f px\n",
+              info.lip_reference.size(), 360 / info.lip_reference_sectors, photos,
+              worst->mean_px, worst->edge.c_str(), worst->azimuth_deg, scatter_min, scatter_max);
+}
+
 }  // namespace
 
 int RunCalibrate() {
@@ -72,6 +104,9 @@ int RunCalibrate() {
 
   result.estimate.rig.calibration = calib::CalibrationInfoOf(
       result, {FLAGS_session, std::string("omnistereo ") + OMNISTEREO_VERSION, UtcNow()});
+  if (session.use_lips && !result.estimate.rig.Single()) {
+    StoreLipReference(session, &result.estimate.rig);
+  }
 
   std::optional<RigParams> truth;
   if (!FLAGS_truth_model.empty()) truth = io::ReadModelFile(FLAGS_truth_model);

@@ -66,8 +66,12 @@ int RunCheck() {
               "(rms %.3f px), %.1f s\n",
               r.n_images, r.n_images == 1 ? "" : "s", r.n_matches, r.gap_rms_px, r.n_lip_points,
               r.lip_rms_px, seconds);
-  std::printf("  bins: %d of matches over %d of 24 azimuth sectors, %d of lip edges\n",
+  std::printf("  bins: %d of matches over %d of 24 azimuth sectors, %d of lip edges",
               r.match_bins, r.covered_azimuth_bins, r.lip_bins);
+  if (r.referenced_lip_bins > 0) {
+    std::printf(" (%d measured from the calibration photos' lips)", r.referenced_lip_bins);
+  }
+  std::printf("\n");
   if (r.dof > 0) {
     std::printf("  chi^2 %.1f for %d bins (expected %d +- %.0f if the model still holds%s); "
                 "p-value %.3g\n",

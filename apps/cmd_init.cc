@@ -139,7 +139,9 @@ Start SingleMirrorStart(io::Session* session) {
   for (const std::string& line : start->lines) std::printf("%s\n", line.c_str());
   session->estimate = start->estimate;
   for (const auto& [name, prior] : start->priors) session->priors[name] = prior;
-  session->use_lips = false;
+  // The rim's edge (detectors/lips/rim_edge.h): the scale's datum, where it is the rim (calibrate
+  // judges that at the calibrated mirror: model/single_rim.h RimEdgeIsTheRim).
+  session->use_lips = true;
   std::string about = "# model: the starting model (a single mirror found by its rim in the "
                       "photos, " + FLAGS_mirror + " mirror, " + FLAGS_lens +
                       " lens; calibrate refines it).\n";

@@ -36,6 +36,9 @@ const std::vector<Command>& Commands() {
        RunTriangulate,
        {{"out", "the CSV to write: one row per corner seen in both rings, image,target,id,x_mm,"
                 "y_mm,z_mm and the covariance"},
+        {"sigma_px", "each corner's pixel noise (px per axis) for the points' covariance; not "
+                     "given: a calibrated model's measured corner noise per ring (its calibration "
+                     "block's per-ring 2-D RMS / sqrt 2), else the default"},
         {"frame", "frame of the output points and covariances: cam (C) | mirror1 (M1, mirror 1's "
                   "body; --truth then compares in the true rig's M1)"}}},
       {"tolerance", "check a (calibrated) rig against assembly tolerances; simulate their image effect", {"model", "config"},

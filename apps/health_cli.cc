@@ -8,6 +8,7 @@
 #include "apps/progress.h"
 #include "apps/stereo_cli.h"
 #include "health/evidence.h"
+#include "health/lip_reference.h"
 #include "health/ring_matches.h"
 #include "io/model_file.h"
 
@@ -77,6 +78,29 @@ std::vector<health::ImageEvidence> CollectEvidenceFromFlags(const RigParams& sto
   }
   progress.Finish();
   return evidence;
+}
+
+std::vector<LipReferenceBin> LearnLipReference(const RigParams& calibrated,
+                                               const std::vector<std::string>& photos,
+                                               io::BayerPattern bayer, io::ToneCurve tone,
+                                               int* photos_used) {
+  const RigModel model(calibrated);
+  std::vector<health::ImageEvidence> evidence;
+  for (const std::string& path : photos) {
+    cv::Mat image;
+    try {
+      image = io::ReadImage(path, bayer);
+    } catch (const io::InputError&) {
+      continue;
+    }
+    if (image.cols != calibrated.image_width || image.rows != calibrated.image_height) continue;
+    health::ImageEvidence one;
+    one.file = path;
+    one.lips = health::LipsUnderModel(image, path, model, tone, io::HasHalvedChroma(path));
+    evidence.push_back(std::move(one));
+  }
+  *photos_used = static_cast<int>(evidence.size());
+  return health::LearnLipReference(model, evidence, health::CheckOptions{});
 }
 
 }  // namespace omni::apps

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "health/check.h"
+#include "io/image_file.h"
 #include "model/rig_params.h"
 
 namespace omni::apps {
@@ -18,5 +19,13 @@ RigParams ReadStoredModel(const char* command);
 // for a photo that cannot be read or is not the model's size.
 std::vector<health::ImageEvidence> CollectEvidenceFromFlags(const RigParams& stored,
                                                             const char* command);
+
+// The calibration photos' lip bins under the calibrated model (health/lip_reference.h), for its
+// `calibration:` section. Photos that cannot be read (a calibration from a detections file whose
+// images are elsewhere) or are not the model's size are left out; *photos_used counts the rest.
+std::vector<LipReferenceBin> LearnLipReference(const RigParams& calibrated,
+                                               const std::vector<std::string>& photos,
+                                               io::BayerPattern bayer, io::ToneCurve tone,
+                                               int* photos_used);
 
 }  // namespace omni::apps

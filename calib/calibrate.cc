@@ -5,6 +5,7 @@
 #include <cstdio>
 
 #include "calib/calibration_steps.h"
+#include "model/single_rim.h"
 
 namespace omni::calib {
 
@@ -23,7 +24,21 @@ Refinement RefinementOf(const CalibrationOptions& options) {
   return refined;
 }
 
-void RestrictToRig(const RigParams& rig, Refinement* refined, const CalibrationOptions& options) {
+bool RimObserved(const Observations& detections, const CalibrationOptions& options) {
+  if (!options.use_lips) return false;
+  for (const ImageObservations& image : detections.images) {
+    for (const LipEdgeObservation& e : image.lips) {
+      if (e.mirror == Mirror::kOne && e.path == LipPath::kDirect && e.circle == LipCircle::kOuter &&
+          !e.points.empty()) {
+        return true;
+      }
+    }
+  }
+  return false;
+}
+
+void RestrictToRig(const RigParams& rig, Refinement* refined, const CalibrationOptions& options,
+                   bool rim_observed) {
   if (!rig.Single()) return;
   // A single-mirror rig has mirror 1's path only: nothing else can be refined.
   for (RigBlockId block : {kShape2Block, kPose2Block, kReflexBlock, kProfile2Block}) {
@@ -35,8 +50,12 @@ void RestrictToRig(const RigParams& rig, Refinement* refined, const CalibrationO
   }
   refined->telecentric = rig.lens == LensKind::kTelecentric;
   const auto prior = refined->shape_priors.find(kRigBlocks[kShape1Block].name);
-  refined->hold_mirror_size =
-      prior == refined->shape_priors.end() || !(prior->second.sigma_c > 0);
+  const bool size_prior = prior != refined->shape_priors.end() && prior->second.sigma_c > 0;
+  refined->hold_mirror_size = !rim_observed && !size_prior;
+  if (rim_observed && refined->groups[kShape1Block]) {
+    Progress(options, "single-mirror rig: the rim's edge in the photos is observed: R is refined "
+                      "(the rim's measured diameter is the scale)");
+  }
 }
 
 RigState RigStateOf(const RigParams& params) {
@@ -97,10 +116,15 @@ StageReport Solve(const Stage& stage, const CalibrationOptions& options, Calibra
 void RunRobustStages(const CalibrationOptions& options, Calibration* c,
                      CalibrationResult* result) {
   SelectRobustStageCorners(&c->observations.corners);
+  // A single mirror's rim is in from the start: the corners alone let the focal length, the
+  // conic and the axial distance slide along one valley (and the rim end tens of pixels off,
+  // its points then left out as outliers); the rim is what holds them.
+  const bool rim = c->rig.params.Single() && !c->observations.lips.empty();
   RigBlockSet done;
-  for (const Stage& stage : kRobustStages) {
+  for (Stage stage : kRobustStages) {
     const RigBlockSet groups = StageGroups(stage, c->refined);
     if (groups.none() || groups == done) continue;
+    stage.selection.lips = stage.selection.lips || rim;
     result->solve.stages.push_back(Solve(stage, options, c));
     done = groups;
   }
@@ -340,13 +364,14 @@ std::map<std::string, double> DefaultConsideredSigmas() {
   return sigmas;
 }
 
-CalibrationResult Calibrate(const RigParams& start, const std::vector<TargetSpec>& targets,
-                            const Observations& detections, const CalibrationOptions& options) {
-  if (const std::string error = options.Check(); !error.empty()) throw CalibrationError(error);
+namespace {
+
+CalibrationResult CalibrateOnce(const RigParams& start, const std::vector<TargetSpec>& targets,
+                                const Observations& detections, const CalibrationOptions& options) {
   // The rig from the start (every mirror with a profile), what is refined, the observations.
   Calibration c;
   c.refined = RefinementOf(options);
-  RestrictToRig(start, &c.refined, options);
+  RestrictToRig(start, &c.refined, options, RimObserved(detections, options));
   c.refined.shape_mean[0] = start.mirror1_shape;
   c.refined.shape_mean[1] = start.mirror2_shape;
   RigParams params = start;
@@ -367,6 +392,10 @@ CalibrationResult Calibrate(const RigParams& start, const std::vector<TargetSpec
   }
 
   CalibrationResult result;
+  // A single mirror's rim is in the robust stages too (RunRobustStages): its azimuths first.
+  if (params.Single() && !c.observations.lips.empty()) {
+    InitialiseLipAzimuths(c.rig, &c.observations.lips);
+  }
   RunRobustStages(options, &c, &result);
   // Each mirror's profile: freed where the corners cover its radii (profiles.cc).
   DecideProfiles(c.observations, options, &c.rig, &c.profiles, &c.refined, &result);
@@ -391,6 +420,34 @@ CalibrationResult Calibrate(const RigParams& start, const std::vector<TargetSpec
                           std::to_string(options.solver.max_iterations) + " iterations");
   }
   FillResult(targets, c, &result);
+  return result;
+}
+
+}  // namespace
+
+CalibrationResult Calibrate(const RigParams& start, const std::vector<TargetSpec>& targets,
+                            const Observations& detections, const CalibrationOptions& options) {
+  if (const std::string error = options.Check(); !error.empty()) throw CalibrationError(error);
+  CalibrationResult result = CalibrateOnce(start, targets, detections, options);
+  // A single mirror's rim is its image's edge only where the mirror's outer zone does not look
+  // back over the rim (model/single_rim.h): that is known once the mirror is (a bought mirror's
+  // start guesses its shape), so it is judged at the calibrated mirror.
+  if (!start.Single() || !RimObserved(detections, options) || options.estimate.empty()) {
+    return result;
+  }
+  double elevation = 0;
+  if (RimEdgeIsTheRim(RigModel(result.estimate.rig), &elevation)) return result;
+  char why[320];
+  std::snprintf(why, sizeof(why),
+                "the mirror's rim left out: at the calibrated mirror its outer zone reflects rays "
+                "%.1f deg past the rim's plane, where whatever holds the mirror at its rim is "
+                "seen, so the edge of its image need not be the rim (calibrated without it)",
+                elevation);
+  Progress(options, std::string(why) + "; calibrating again");
+  CalibrationOptions without = options;
+  without.use_lips = false;
+  result = CalibrateOnce(start, targets, detections, without);
+  result.solve.notes.push_back(why);
   return result;
 }
 

@@ -182,7 +182,9 @@ struct StageReport {
   std::string name;
   int iterations = 0;
   double initial_rms_px = 0, final_rms_px = 0;
-  int n_observations = 0;
+  // The lip points' RMS (px) where the stage has them (n_lip_points > 0).
+  double initial_lip_rms_px = 0, final_lip_rms_px = 0;
+  int n_observations = 0, n_lip_points = 0;
   bool converged = false;
   // The stage ended worse than it began (its cost rose, or the corners' RMS rose by more than
   // 2%) and was undone: the parameters are those it started from.

@@ -140,14 +140,15 @@ struct Refinement {
   std::array<double, kProfileTerms> profile_mean[2] = {};
   double profile_sigma_mm = 0;
   std::optional<Eigen::Matrix<double, kProfileTerms, kProfileTerms>> profile_covariance[2];
-  // A telecentric lens (single-mirror rigs): the camera's position along its axis is no datum,
-  // a lateral shift of the mirror is the principal point's and the mirror's size trades with the
-  // lens's magnification (fx: px per mm), so mirror 1's tx, ty, tz and R stay (R: the rim's
-  // measured size sets it).
+  // A telecentric lens (single-mirror rigs): the camera's position along its axis is no datum and
+  // a lateral shift of the mirror is the principal point's, so mirror 1's tx, ty, tz stay.
   bool telecentric = false;
   // A single-mirror rig's scale datum: R held at the start's (the rim's measured diameter set
-  // it) unless a prior on mirror1_shape's R says how well it is known. From corners alone a
-  // mirror twice the size twice as far looks the same to a nearly central camera.
+  // it) unless a prior on mirror1_shape's R says how well it is known or the rim is observed.
+  // From corners alone a mirror twice the size twice as far looks the same to a nearly central
+  // camera (and behind a telecentric lens the size trades with the magnification, fx in px per
+  // mm); the rim's edge in the photos is a circle of the measured radius on the mirror itself,
+  // which fixes the size against the focal length or the magnification.
   bool hold_mirror_size = false;
 };
 

@@ -41,8 +41,12 @@ inline void Status(const CalibrationOptions& options, const std::string& now) {
 Refinement RefinementOf(const CalibrationOptions& options);
 // A single-mirror rig: mirror 2, the reflex and mirror 2's profile left out of the groups (said
 // in the progress), a telecentric lens's mirror translation held, and R (the scale) held unless
-// a prior on mirror1_shape gives its sigma.
-void RestrictToRig(const RigParams& rig, Refinement* refined, const CalibrationOptions& options);
+// a prior on mirror1_shape gives its sigma or the rim is observed (`rim_observed`: RimObserved).
+void RestrictToRig(const RigParams& rig, Refinement* refined, const CalibrationOptions& options,
+                   bool rim_observed = false);
+// Whether the detections hold a single mirror's rim (mirror 1's r_outer circle seen directly:
+// detectors/lips/rim_edge.h) and the options use the lips.
+bool RimObserved(const Observations& detections, const CalibrationOptions& options);
 // The rig's blocks from `params` and the fixed data of its costs with the relaxed bounds.
 RigState RigStateOf(const RigParams& params);
 // The profiles in the problem from the start: a mirror without one gets the zero profile over its
@@ -85,6 +89,9 @@ bool ReprojectOnMirror(const RigState& rig, const ObservationSet& observations,
 bool ReprojectLip(const RigState& rig, const LipObservation& lip, Eigen::Vector2d* pixel);
 // The corners' reprojection RMS (mirror 0: both rings), and their count.
 double CornerRms(const RigState& rig, const ObservationSet& observations, int mirror, int* count);
+// A lip point's circle height at the rig's current values (a single mirror's rim: the conic's
+// sag at its radius, model/single_rim.h; otherwise the collected lip.z).
+double CurrentLipZ(const RigParams& rig, const LipObservation& lip);
 double LipRms(const RigState& rig, const std::vector<LipObservation>& lips, int* count);
 // The outermost used corner's radius in normalised image coordinates (at the current camera).
 double OuterRadius(const RigParams& rig, const std::vector<Observation>& corners);

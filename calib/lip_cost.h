@@ -26,6 +26,7 @@
 
 #include "calib/rig_cost.h"
 #include "calib/slot_autodiff.h"
+#include "model/conic.h"
 #include "model/lip.h"
 
 namespace omni::calib {
@@ -45,18 +46,33 @@ struct LipPointCost {
   template <typename T>
   bool operator()(T const* const* blocks, T* residual) const {
     const T* phi = blocks[kBlocks.size()];
-    return LipEdgeResidual(RigBlocks<T>(kBlocks, blocks), *fixed, path, T(radius), T(lip_z),
-                           phi[0], disc_radius_mm, observed, residual);
+    const RigBlocks<T> b(kBlocks, blocks);
+    T z = T(lip_z);
+    if (RimFollowsShape(*fixed, path)) {  // a single mirror's rim: the conic's own edge
+      const T* shape = b[kShape1Block];
+      z = T(fixed->vertex_z) + Conic<T>{shape[kShapeC], shape[kShapeK]}.Sag(T(radius * radius));
+    }
+    return LipEdgeResidual(b, *fixed, path, T(radius), z, phi[0], disc_radius_mm, observed,
+                           residual);
+  }
+
+  // A single mirror's rim seen directly is the edge of the conic itself: its height above the
+  // vertex is the sag at its radius, which moves with R and K (0.15 mm for a K 0.1 off on a 60 mm
+  // hyperboloid: ~1 px), so it follows the refined shape. (The profile's few microns there are
+  // left out.) A folded rig's lips are flat rings at fixed heights.
+  static bool RimFollowsShape(const RigFixed& fixed, LipPath path) {
+    return fixed.rig == RigKind::kSingle && path == LipPath::kDirect;
   }
 
   using CostFunction = RigSlotCost<LipPointCost, 2, 1>;
 
   // The blocks a path's pixel depends on differentiably: not the unused ones, nor the reflex
   // plane where it only decides validity (direct: the disc's back; via_mirror1: its occlusion).
-  static RigBlockSet Differentiable(LipPath path) {
+  static RigBlockSet Differentiable(LipPath path, bool single = false) {
     switch (path) {
-      case LipPath::kDirect:  // the lip's place
-        return BlockSetOf({kCameraBlock, kDistortionBlock, kPose1Block});
+      case LipPath::kDirect:  // the lip's place (a single mirror's rim: and its height, the shape)
+        return single ? BlockSetOf({kCameraBlock, kDistortionBlock, kPose1Block, kShape1Block})
+                      : BlockSetOf({kCameraBlock, kDistortionBlock, kPose1Block});
       case LipPath::kViaMirror1:
         return BlockSetOf(
             {kCameraBlock, kDistortionBlock, kShape1Block, kPose1Block, kProfile1Block});
@@ -74,9 +90,10 @@ struct LipPointCost {
                                      double lip_z, std::shared_ptr<const RigFixed> fixed,
                                      const BlockMasks& held = {}, double disc_radius_mm = 0) {
     constexpr size_t kAll = kBlocks.size() + 1;
+    const bool single = fixed->rig == RigKind::kSingle;
     return new CostFunction(
         LipPointCost{observed, path, radius, lip_z, std::move(fixed), disc_radius_mm},
-        InListOrder<kAll>(kBlocks, NoDerivativeOutside(Differentiable(path))),
+        InListOrder<kAll>(kBlocks, NoDerivativeOutside(Differentiable(path, single))),
         InListOrder<kAll>(kBlocks, held));
   }
 };

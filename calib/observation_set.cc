@@ -8,6 +8,7 @@
 
 #include "calib/calibration_steps.h"
 #include "calib/corner_cost.h"
+#include "model/single_rim.h"
 #include "model/triangulation.h"
 #include "pose/initial_pose.h"
 
@@ -99,7 +100,10 @@ void CollectLips(const Observations& detections, const RigParams& rig,
                              std::to_string(MirrorIndex(edge.mirror)));
       }
       const Lip& lip = LipOf(rig, path);
-      if (!(lip.r_outer > lip.r_inner && lip.r_inner >= 0)) {
+      // A single mirror's rim: a circle (r_inner = r_outer = r_sys) seen directly, no band.
+      const bool rim = rig.Single() && path == LipPath::kDirect && circle == LipCircle::kOuter &&
+                       lip.r_outer > 0;
+      if (!rim && !(lip.r_outer > lip.r_inner && lip.r_inner >= 0)) {
         throw InputError(where + ": the starting model has no lip on mirror " +
                              std::to_string(MirrorIndex(edge.mirror)) + " (lip r_inner < r_outer expected)");
       }
@@ -109,7 +113,7 @@ void CollectLips(const Observations& detections, const RigParams& rig,
         l.image = static_cast<int>(i);
         l.path = path;
         l.radius = circle == LipCircle::kInner ? lip.r_inner : lip.r_outer;
-        l.z = lip.z;
+        l.z = rim ? SingleRimZ(rig) : lip.z;
         l.pixel = p;
         lips->push_back(l);
       }
@@ -144,7 +148,8 @@ void InitialiseLipAzimuths(const RigState& rig, std::vector<LipObservation>* lip
       for (int k = 0; k < kSamples; ++k) {
         const double phi = 2 * M_PI * k / kSamples;
         Eigen::Vector2d px;
-        if (ProjectLipEdge(blocks, *LipBounds(rig, l.path), l.path, l.radius, l.z, phi,
+        if (ProjectLipEdge(blocks, *LipBounds(rig, l.path), l.path, l.radius,
+                           CurrentLipZ(rig.params, l), phi,
                            rig.fixed->r_ref, &px) &&
             px.allFinite()) {
           curve.emplace_back(phi, px);
@@ -326,10 +331,15 @@ void SelectRobustStageCorners(std::vector<Observation>* corners) {
   }
 }
 
+double CurrentLipZ(const RigParams& rig, const LipObservation& lip) {
+  // A single mirror's rim moves with the refined conic (calib/lip_cost.h RimFollowsShape).
+  return rig.Single() && lip.path == LipPath::kDirect ? SingleRimZ(rig) : lip.z;
+}
+
 bool ReprojectLip(const RigState& rig, const LipObservation& lip, Eigen::Vector2d* pixel) {
   // The band edge with the occlusion by the disc's rim followed (model/lip.h ProjectLipEdge).
   return ProjectLipEdge(RigBlocksOf(rig.params), *LipBounds(rig, lip.path), lip.path, lip.radius,
-                        lip.z, lip.phi[0], rig.fixed->r_ref, pixel) &&
+                        CurrentLipZ(rig.params, lip), lip.phi[0], rig.fixed->r_ref, pixel) &&
          pixel->allFinite();
 }
 

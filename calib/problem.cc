@@ -22,7 +22,7 @@ std::vector<int> HeldCoordinates(const Refinement& refined, RigBlockId group) {
   if (!refined.tangential) hold(SolveRole::kTangential);
   if (!refined.dist_k3) hold(SolveRole::kHighRadial);
   if (refined.telecentric && group == kPose1Block) held.insert(held.end(), {kTx, kTy, kTz});
-  if ((refined.telecentric || refined.hold_mirror_size) && group == kShape1Block) {
+  if (refined.hold_mirror_size && group == kShape1Block) {
     held.push_back(kShapeC);
   }
   for (int m = 0; m < 2; ++m) {

@@ -168,7 +168,13 @@ std::string StageLine(const Stage& stage, const StageReport& report,
                 report.iterations, stage_status.c_str(), report.seconds,
                 summary.residual_evaluation_time_in_seconds,
                 summary.jacobian_evaluation_time_in_seconds, summary.linear_solver_time_in_seconds);
-  return buf;
+  std::string line = buf;
+  if (report.n_lip_points > 0) {
+    std::snprintf(buf, sizeof(buf), "; %d lip points rms %.3f -> %.3f px", report.n_lip_points,
+                  report.initial_lip_rms_px, report.final_lip_rms_px);
+    line += buf;
+  }
+  return line;
 }
 
 }  // namespace
@@ -195,6 +201,8 @@ StageReport SolveStage(const Stage& stage, const CalibrationOptions& options,
   report.name = stage.name;
   report.n_observations = built->n_corners;
   report.initial_rms_px = CornerRms(*rig, *observations, 0, nullptr);
+  report.n_lip_points = stage.selection.lips ? built->n_lips : 0;
+  if (report.n_lip_points) report.initial_lip_rms_px = LipRms(*rig, observations->lips, nullptr);
 
   ceres::Solver::Options so = SolverOptions(stage, options, &rig->params, observations, problem);
   StatusCallback status(options.status, stage.name);
@@ -208,6 +216,7 @@ StageReport SolveStage(const Stage& stage, const CalibrationOptions& options,
   report.converged = summary.termination_type == ceres::CONVERGENCE;
   report.termination = summary.message;
   report.final_rms_px = CornerRms(*rig, *observations, 0, nullptr);
+  if (report.n_lip_points) report.final_lip_rms_px = LipRms(*rig, observations->lips, nullptr);
   // Worse: the solver's own cost rose (it never accepts such a step; a cost that fails to
   // evaluate at the end would show here), or the corners' RMS rose by more than 2%: the corners
   // are what the rig is calibrated from, and a stage that trades them for other residuals has

@@ -10,6 +10,7 @@
 
 #include "detectors/apriltag/apriltag_detector.h"
 #include "detectors/lips/lip_detector.h"
+#include "detectors/lips/rim_edge.h"
 #include "io/file_util.h"
 
 namespace omni::detectors {
@@ -114,6 +115,8 @@ void DetectorContext::SetSingleMirrorOptions() {
   chessboard.smooth_grid_correction = model.params().Single();
   // Dim boards' junctions (chessboard_detector.h, saddle_relative_contrast).
   chessboard.saddle_relative_contrast = model.params().Single() ? 0.4 : 0.0;
+  // No painted lips beside a single mirror's boards (ChessboardOptions::foreign_edge_slope).
+  chessboard.foreign_edge_slope = model.params().Single() ? 0.7 : 0.5;
 }
 
 void DetectorContext::SetModel(const RigParams& rig) {
@@ -164,8 +167,15 @@ ImageObservations DetectImage(const cv::Mat& image, DetectorContext* ctx,
     guided->assign(out.corners.size(), false);
     std::fill(guided->begin() + per_ring, guided->end(), true);
   }
-  // A single mirror's rim is no painted lip: its lips are looked for only where the model paints one.
-  if (ctx->use_lips && (!rig.Single() || HasLip(rig, Mirror::kOne))) {
+  // A single mirror without a painted lip: its rim's edge is the observation (rim_edge.h).
+  if (ctx->use_lips && rig.Single() && !HasLip(rig, Mirror::kOne)) {
+    std::string why;
+    if (auto rim = DetectRimEdge(grey, ctx->model, RimEdgeOptions{}, &why)) {
+      out.lips.push_back(std::move(*rim));
+    } else if (warnings) {
+      warnings->push_back("the mirror's rim: " + why);
+    }
+  } else if (ctx->use_lips) {
     if (image.channels() >= 3) {
       out.lips = DetectLips(LipInput(linear), ctx->model, LipOptionsFor(image, ctx->chroma_halved, ctx->luma),
                            &ctx->lip_prediction);

@@ -172,7 +172,9 @@ void ChooseEstimate(const SingleMirrorKnowledge& know, SingleMirrorStart* out) {
                                         "declared ") + MirrorKnowledgeName(know.mirror) +
                             "), the photos decide the conic.");
   }
-  out->comments.push_back("lips: false: a bought mirror has no painted lips; its rim placed the start.");
+  out->comments.push_back("lips: true: the mirror's rim is measured in every photo (a circle of "
+                          "the given diameter; calibrate leaves it out where the mirror's outer "
+                          "zone looks back over it). false: the rim only placed the start.");
 }
 
 std::string ConicLine(const RigParams& rig) {

@@ -10,6 +10,7 @@
 
 #include "health/consistency.h"
 #include "health/drift.h"
+#include "health/lip_reference.h"
 #include "health/residuals.h"
 #include "model/rig_model.h"
 #include "model/rig_parameters.h"
@@ -66,7 +67,8 @@ double ChiSquareSurvival(double x, int dof) {
 
 CheckResult CheckRig(const RigParams& stored, const std::vector<ImageEvidence>& images,
                      const CheckOptions& options) {
-  return CheckSamples(stored, CollectSamples(RigModel(stored), images, options),
+  const LipReference reference(stored, options.azimuth_bins);
+  return CheckSamples(stored, CollectSamples(RigModel(stored), images, options, reference),
                       static_cast<int>(images.size()), options);
 }
 
@@ -85,6 +87,8 @@ void SummariseBins(const SampleSet& set, const CheckOptions& options, CheckResul
     r.count = static_cast<int>(bin.members.size());
     r.mean = bin.mean;
     r.standard_error = bin.standard_error;
+    r.referenced = bin.reference.has_value();
+    result->referenced_lip_bins += r.referenced;
     result->bins.push_back(r);
     if (is_match) {
       ++result->match_bins;
@@ -148,9 +152,10 @@ Eigen::MatrixXd BinJacobian(const RigParams& stored, const SampleSet& set,
 }
 
 // J Sigma J^T: the stored calibration's covariance carried into the bins, over the coordinates
-// it has (false, nothing added, without one).
-bool AddModelCovariance(const RigParams& stored, const Eigen::MatrixXd& jacobian,
-                        Eigen::MatrixXd* bin_covariance) {
+// it has (false, nothing added, without one). Not into bins measured from the calibration
+// photos' own: the stored parameters' error is in that reference as much as in the bin.
+bool AddModelCovariance(const RigParams& stored, const std::vector<ResidualBin>& bins,
+                        const Eigen::MatrixXd& jacobian, Eigen::MatrixXd* bin_covariance) {
   if (!stored.calibration || stored.calibration->covariance.empty()) return false;
   const auto& coordinates = DriftCoordinates();
   const int nc = static_cast<int>(coordinates.size());
@@ -167,10 +172,35 @@ bool AddModelCovariance(const RigParams& stored, const Eigen::MatrixXd& jacobian
   for (int p = 0; p < np; ++p) {
     if (column[p] >= 0) J_stored.col(p) = jacobian.col(column[p]);
   }
+  for (size_t b = 0; b < bins.size(); ++b) {
+    if (bins[b].referenced) J_stored.row(static_cast<int>(b)).setZero();
+  }
   const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>
       sigma(info.covariance.data(), np, np);
   *bin_covariance += J_stored * sigma * J_stored.transpose();
   return true;
+}
+
+// Texture enough for the matches to tell: min_matches over min_match_coverage of the sectors.
+bool EnoughMatches(const CheckResult& result, const CheckOptions& options) {
+  return result.n_matches >= options.min_matches &&
+         result.covered_azimuth_bins >= options.min_match_coverage * options.azimuth_bins;
+}
+
+// Whether the lip bins measured from the calibration photos' own reject the stored model by
+// themselves. Too few matches leave a check CANNOT TELL because unreferenced lips cannot tell a
+// moved rig from their detector's bias; referenced ones can: what they show is change since
+// calibration, so they alone may say DRIFTED (not OK: a move the lips do not see needs the
+// matches). Their bins carry no model covariance, so their chi^2 is a sum over them.
+bool LipsMovedSinceCalibration(const CheckResult& result, const CheckOptions& options) {
+  double chi2 = 0;
+  int bins = 0;
+  for (const ResidualBin& bin : result.bins) {
+    if (!bin.referenced) continue;
+    chi2 += bin.mean * bin.mean / (bin.standard_error * bin.standard_error);
+    ++bins;
+  }
+  return bins > 0 && ChiSquareSurvival(chi2, bins) < options.significance;
 }
 
 // Sets the verdict where the evidence decides without naming a group: too little texture (or a
@@ -178,8 +208,7 @@ bool AddModelCovariance(const RigParams& stored, const Eigen::MatrixXd& jacobian
 bool DecidedWithoutGroups(const RigParams& stored, const CheckOptions& options,
                           CheckResult* result) {
   const int nb = options.azimuth_bins;
-  const bool enough = result->n_matches >= options.min_matches &&
-                      result->covered_azimuth_bins >= options.min_match_coverage * nb;
+  const bool enough = EnoughMatches(*result, options);
   const double f = 0.5 * (stored.camera[kFx] + stored.camera[kFy]);
   if (!enough && result->n_lip_points > 0 && result->lip_rms_px > options.lip_misfit_per_f * f) {
     result->verdict = Verdict::kCannotTell;
@@ -194,6 +223,7 @@ bool DecidedWithoutGroups(const RigParams& stored, const CheckOptions& options,
     result->reason = buf;
     return true;
   }
+  if (!enough && LipsMovedSinceCalibration(*result, options)) return false;
   if (!enough) {
     result->verdict = Verdict::kCannotTell;
     result->reason = "too little texture seen by both rings: " + std::to_string(result->n_matches) +
@@ -201,7 +231,11 @@ bool DecidedWithoutGroups(const RigParams& stored, const CheckOptions& options,
                      std::to_string(nb) + " azimuth sectors (needs " +
                      std::to_string(options.min_matches) + " over " +
                      std::to_string(static_cast<int>(std::ceil(options.min_match_coverage * nb))) +
-                     "); the lips alone cannot tell a moved rig from their own bias";
+                     ")";
+    result->reason += result->referenced_lip_bins > 0
+                          ? "; the lips have not moved since calibration, but a move they do not "
+                            "show needs the matches"
+                          : "; the lips alone cannot tell a moved rig from their own bias";
     return true;
   }
   if (result->p_value >= options.significance) {
@@ -277,7 +311,8 @@ CheckResult CheckSamples(const RigParams& stored, const SampleSet& set, int n_im
     se2[b] = result.bins[b].standard_error * result.bins[b].standard_error;
   }
   result.bin_covariance = se2.asDiagonal();
-  result.model_covariance = AddModelCovariance(stored, result.jacobian, &result.bin_covariance);
+  result.model_covariance = AddModelCovariance(stored, result.bins, result.jacobian,
+                                                &result.bin_covariance);
   const Eigen::LLT<Eigen::MatrixXd> llt(result.bin_covariance);
   const Eigen::MatrixXd L = llt.matrixL();
   const Eigen::VectorXd r_white = L.triangularView<Eigen::Lower>().solve(result.residual);
@@ -308,6 +343,10 @@ CheckResult CheckSamples(const RigParams& stored, const SampleSet& set, int n_im
                       ? "a move of " + result.named_group + " explains the residuals"
                       : "no single group explains the residuals; " + result.named_group +
                             " comes closest";
+  if (!EnoughMatches(result, options)) {
+    result.reason += " (few ring-to-ring matches: the lips, measured from the calibration "
+                     "photos', moved)";
+  }
   return result;
 }
 

@@ -10,7 +10,10 @@
 //   per bin a robust mean (3-sigma clipped about the median) and its standard error from the
 //   scatter pooled over the bin's kind (residuals.h), widened by a floor (what stays correlated
 //   inside a bin: the lips' texture-dependent bias along an arc, docs/experiments.md; the
-//   tracker's bias); bins with fewer than min_bin_count are dropped.
+//   tracker's bias); bins with fewer than min_bin_count are dropped. Where the stored model
+//   carries the calibration photos' lip bins (lip_reference.h), a lip bin is measured from
+//   their mean and its error is the photos' scatter: the check then tests whether the lips
+//   moved since calibration, not whether the edge detector is unbiased.
 // Under the stored model the bin means are zero up to their errors and the model's own
 // uncertainty: r ~ N(0, C), C = diag(se^2) + J Sigma J^T, with Sigma the stored covariance over
 // the drift coordinates that are rig parameters and J the bins' derivatives by the drift
@@ -80,6 +83,7 @@ struct ResidualBin {
   double azimuth_deg = 0;
   int count = 0;
   double mean = 0, standard_error = 0;
+  bool referenced = false;  // measured from the calibration photos' mean (lip_reference.h)
 };
 
 struct CheckResult {
@@ -88,6 +92,7 @@ struct CheckResult {
   bool model_misfit = false;  // CANNOT TELL because the model does not fit the photos at all
   int n_images = 0, n_matches = 0, n_lip_points = 0;
   int match_bins = 0, lip_bins = 0, covered_azimuth_bins = 0;
+  int referenced_lip_bins = 0;  // of lip_bins, those measured from the calibration photos'
   double gap_rms_px = 0, lip_rms_px = 0;  // of the (clipped) samples
   double chi2 = 0, p_value = 1;
   int dof = 0;

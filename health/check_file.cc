@@ -20,6 +20,8 @@ std::string CheckResultYaml(const CheckResult& r, const std::string& model) {
     << "gap_rms_px: " << io::FormatDouble(r.gap_rms_px) << "\n"
     << "lip_rms_px: " << io::FormatDouble(r.lip_rms_px) << "\n"
     << "covered_azimuth_sectors: " << r.covered_azimuth_bins << "\n"
+    << "referenced_lip_bins: " << r.referenced_lip_bins
+    << "  # lip bins measured from the calibration photos' own\n"
     << "chi2: " << io::FormatDouble(r.chi2) << "\n"
     << "dof: " << r.dof << "\n"
     << "p_value: " << io::FormatDouble(r.p_value) << "\n"

@@ -18,18 +18,24 @@ ImageEvidence CollectEvidence(const cv::Mat& image, const std::string& file,
   else image8 = image;
   if (image8.channels() == 4) cv::cvtColor(image8, image8, cv::COLOR_BGRA2BGR);
   evidence.matches = matcher.Match(image8);
-  // Lips on the linear image, as detection does (detectors/detect_image.cc).
-  if (image.channels() >= 3) {
-    detectors::LipDetectorOptions lip_options;
-    lip_options.chroma_halved = chroma_halved;
-    if (chroma_halved) {
-      lip_options.luma = io::ReadStoredLuma(file);
-      if (lip_options.luma.size() != image.size()) lip_options.luma = cv::Mat();
-    }
-    evidence.lips = detectors::DetectLips(detectors::LipInput(io::LinearImage(image, tone)), model,
-                                          lip_options);
-  }
+  evidence.lips = LipsUnderModel(image, file, model, tone, chroma_halved);
   return evidence;
+}
+
+std::vector<LipEdgeObservation> LipsUnderModel(const cv::Mat& image, const std::string& file,
+                                               const RigModel& model, io::ToneCurve tone,
+                                               bool chroma_halved) {
+  // Grey images have no colours to tell the lips by.
+  if (image.channels() < 3) return {};
+  // On the linear image, as detection does (detectors/detect_image.cc).
+  detectors::LipDetectorOptions lip_options;
+  lip_options.chroma_halved = chroma_halved;
+  if (chroma_halved) {
+    lip_options.luma = io::ReadStoredLuma(file);
+    if (lip_options.luma.size() != image.size()) lip_options.luma = cv::Mat();
+  }
+  return detectors::DetectLips(detectors::LipInput(io::LinearImage(image, tone)), model,
+                               lip_options);
 }
 
 }  // namespace omni::health

@@ -20,4 +20,9 @@ ImageEvidence CollectEvidence(const cv::Mat& image, const std::string& file,
                               const RingMatcher& matcher, const RigModel& model,
                               io::ToneCurve tone, bool chroma_halved);
 
+// The lips alone (the calibration's reference of them, lip_reference.h), found as above.
+std::vector<LipEdgeObservation> LipsUnderModel(const cv::Mat& image, const std::string& file,
+                                               const RigModel& model, io::ToneCurve tone,
+                                               bool chroma_halved);
+
 }  // namespace omni::health

@@ -264,8 +264,11 @@ RefineResult RefineRig(const RigParams& stored, const std::vector<ImageEvidence>
   };
   RefineResult result;
   status("the check under the stored model");
-  // The samples under the stored model serve the check and the first solve.
-  SampleSet set = CollectSamples(RigModel(stored), images, options.check);
+  // The samples under the stored model serve the check and the first solve. The lips are
+  // measured from the calibration photos' (lip_reference.h) in every round: the solve then finds
+  // the move since calibration, not the edge detector's bias.
+  const LipReference reference(stored, options.check.azimuth_bins);
+  SampleSet set = CollectSamples(RigModel(stored), images, options.check, reference);
   result.before = CheckSamples(stored, set, static_cast<int>(images.size()), options.check);
   if (result.before.verdict == Verdict::kCannotTell) {
     throw RefineError("refine: " + result.before.reason +
@@ -302,7 +305,7 @@ RefineResult RefineRig(const RigParams& stored, const std::vector<ImageEvidence>
   Eigen::VectorXd x = Eigen::VectorXd::Zero(static_cast<int>(free.size()));
   RigParams current = stored;
   for (int round = 0; round < options.rounds; ++round) {
-    if (round > 0) set = CollectSamples(RigModel(current), images, options.check);
+    if (round > 0) set = CollectSamples(RigModel(current), images, options.check, reference);
     result.iterations += SolveRound(stored, free, set, round, options, &x);
     current = ApplyDrift(stored, free, x);
   }

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <set>
 
 #include <opencv2/core.hpp>
 
@@ -16,6 +17,7 @@ struct Bin {
   std::string kind;
   double azimuth_deg = 0;
   std::vector<int> members;  // indices into the samples
+  std::optional<LipReferenceBin> reference;
 };
 
 // The mean of a bin's samples within 3 robust sigmas of their median, and its standard error;
@@ -61,7 +63,9 @@ std::optional<double> ResidualUnder(const RigModel& model, const Sample& s) {
     double w = s.w;
     return EpipolarGap(model, s.pixel1, s.pixel2, &w);
   }
-  return LipResidualUnder(model, s.lip);
+  const auto lip = LipResidualUnder(model, s.lip);
+  if (!lip) return std::nullopt;
+  return *lip - s.reference;
 }
 
 namespace {
@@ -72,9 +76,10 @@ void AddMatchSamples(const std::vector<ImageEvidence>& images, int nb,
                      std::vector<Sample>* samples) {
   const size_t first = samples->size();
   std::vector<double> elevations;
-  for (const ImageEvidence& image : images) {
-    for (const RingMatch& m : image.matches) {
+  for (size_t k = 0; k < images.size(); ++k) {
+    for (const RingMatch& m : images[k].matches) {
       Sample s;
+      s.image = static_cast<int>(k);
       s.pixel1 = m.pixel1;
       s.pixel2 = m.pixel2;
       s.bin = AzimuthBin(m.azimuth, nb) * 2;
@@ -100,8 +105,8 @@ void AddMatchSamples(const std::vector<ImageEvidence>& images, int nb,
 void AddLipSamples(const std::vector<ImageEvidence>& images, const CheckOptions& options,
                    std::vector<Sample>* samples) {
   std::map<std::pair<LipPath, LipCircle>, int> edge_ids;
-  for (const ImageEvidence& image : images) {
-    for (const LipEdgeObservation& edge : image.lips) {
+  for (size_t image = 0; image < images.size(); ++image) {
+    for (const LipEdgeObservation& edge : images[image].lips) {
       if (!edge.path || !edge.circle || edge.points.empty()) continue;
       const auto key = std::make_pair(*edge.path, *edge.circle);
       const int id = edge_ids.emplace(key, static_cast<int>(edge_ids.size())).first->second;
@@ -110,6 +115,7 @@ void AddLipSamples(const std::vector<ImageEvidence>& images, const CheckOptions&
       for (size_t k = 0; k < edge.points.size(); k += stride) {
         Sample s;
         s.is_match = false;
+        s.image = static_cast<int>(image);
         s.lip.path = key.first;
         s.lip.circle = key.second;
         s.lip.pixel = edge.points[k];
@@ -120,8 +126,9 @@ void AddLipSamples(const std::vector<ImageEvidence>& images, const CheckOptions&
   }
 }
 
-// The valid samples in their bins (lip samples' bins get their azimuth here); counts in `set`.
-std::map<int, Bin> BinSamples(int nb, SampleSet* set) {
+// The valid samples in their bins (lip samples' bins get their azimuth here, and their
+// reference); counts in `set`.
+std::map<int, Bin> BinSamples(int nb, const LipReference& reference, SampleSet* set) {
   std::vector<Sample>& samples = set->samples;
   std::map<int, Bin> bins;
   for (size_t i = 0; i < samples.size(); ++i) {
@@ -141,6 +148,11 @@ std::map<int, Bin> BinSamples(int nb, SampleSet* set) {
       b.kind = std::string(LipPathName(s.lip.path)) + " " + LipCircleName(s.lip.circle);
       b.azimuth_deg = (AzimuthBin(s.lip.phi, nb) + 0.5) * 360.0 / nb;
       b.members.push_back(static_cast<int>(i));
+      if (const LipReferenceBin* r = reference.Find(b.kind, AzimuthBin(s.lip.phi, nb))) {
+        s.reference = r->mean_px;
+        s.value -= s.reference;
+        b.reference = *r;
+      }
     }
   }
 
@@ -149,7 +161,11 @@ std::map<int, Bin> BinSamples(int nb, SampleSet* set) {
 
 // Robust bin means; bins too thin to estimate are dropped. Each bin's standard error comes
 // from the scatter about the bin means pooled over its kind (a bin of 15 lip points would
-// otherwise estimate its own spread badly: t-distributed, chi^2 17% high).
+// otherwise estimate its own spread badly: t-distributed, chi^2 17% high), widened by the kind's
+// floor; a bin measured from the calibration photos' (lip_reference.h) has the error of a
+// difference of two means of photos, tau^2 / photos + tau^2 / reference photos with tau the
+// scatter of one photo's mean (its points' own noise is in tau; the larger of the two counts
+// where this photo's points are fewer), and the floor.
 void EstimateBins(std::map<int, Bin>* bins_in, const CheckOptions& options, SampleSet* set) {
   std::map<int, Bin>& bins = *bins_in;
   std::vector<Sample>& samples = set->samples;
@@ -179,7 +195,20 @@ void EstimateBins(std::map<int, Bin>* bins_in, const CheckOptions& options, Samp
     bin.azimuth_deg = used[b]->azimuth_deg;
     bin.members = used[b]->members;
     bin.mean = means[b];
-    bin.standard_error = std::hypot(sd / std::sqrt(static_cast<double>(bin.members.size())), floor);
+    std::set<int> photos;
+    for (int i : bin.members) photos.insert(samples[i].image);
+    bin.photos = static_cast<int>(photos.size());
+    const double points_se = sd / std::sqrt(static_cast<double>(bin.members.size()));
+    bin.reference = used[b]->reference;
+    if (bin.reference) {
+      // The floor stays: what the edge's bias owes to the scene behind it is not learnt from
+      // calibration photos of one room (a clean render's 8 photos scatter by 0.00 px).
+      const double tau2 = bin.reference->scatter_px * bin.reference->scatter_px;
+      bin.standard_error = std::sqrt(std::max(points_se * points_se, tau2 / bin.photos) +
+                                     tau2 / bin.reference->photos + floor * floor);
+    } else {
+      bin.standard_error = std::hypot(points_se, floor);
+    }
     set->bins.push_back(bin);
   }
   // Samples of dropped bins are not kept.
@@ -193,7 +222,7 @@ void EstimateBins(std::map<int, Bin>* bins_in, const CheckOptions& options, Samp
 }  // namespace
 
 SampleSet CollectSamples(const RigModel& model, const std::vector<ImageEvidence>& images,
-                         const CheckOptions& options) {
+                         const CheckOptions& options, const LipReference& reference) {
   SampleSet set;
   const int nb = options.azimuth_bins;
   // Samples: every match, a spread subsample of each lip edge's points.
@@ -213,7 +242,7 @@ SampleSet CollectSamples(const RigModel& model, const std::vector<ImageEvidence>
       }
     }
   });
-  std::map<int, Bin> bins = BinSamples(nb, &set);
+  std::map<int, Bin> bins = BinSamples(nb, reference, &set);
   EstimateBins(&bins, options, &set);
   return set;
 }

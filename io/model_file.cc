@@ -296,6 +296,35 @@ std::vector<HeldProfileInfo> ReadHeldProfiles(const Reader& in, const YAML::Node
   return out;
 }
 
+// `calibration.lip_reference` (optional): the check's lip bins on the calibration photos.
+void ReadLipReference(const Reader& in, const YAML::Node& cal, const std::string& cal_path,
+                      CalibrationInfo* info) {
+  const std::string path = Join(cal_path, "lip_reference");
+  const YAML::Node ref = in.Map(cal, path, "lip_reference");
+  info->lip_reference_sectors = in.Integer(ref, path, "azimuth_bins", 1);
+  const std::string bins_path = Join(path, "bins");
+  const YAML::Node bins = ref["bins"];
+  if (!IsSequence(bins)) in.Fail(bins_path, "expected a list of bins", Describe(bins));
+  for (std::size_t i = 0; i < bins.size(); ++i) {
+    const std::string item = bins_path + "[" + std::to_string(i) + "]";
+    if (!IsMap(bins[i])) {
+      in.Fail(item, "expected {edge, azimuth_deg, photos, mean_px, scatter_px}",
+              Describe(bins[i]));
+    }
+    LipReferenceBin bin;
+    bin.edge = in.String(bins[i], item, "edge");
+    bin.azimuth_deg = in.Number(bins[i], item, "azimuth_deg");
+    bin.photos = in.Integer(bins[i], item, "photos", 1);
+    bin.mean_px = in.Number(bins[i], item, "mean_px");
+    bin.scatter_px = in.Number(bins[i], item, "scatter_px");
+    if (bin.scatter_px < 0) {
+      in.Fail(Join(item, "scatter_px"), "expected a standard deviation >= 0",
+              FormatDouble(bin.scatter_px));
+    }
+    info->lip_reference.push_back(bin);
+  }
+}
+
 CalibrationInfo ReadCalibration(const Reader& in, const YAML::Node& root) {
   const std::string path = "calibration";
   const YAML::Node cal = in.Map(root, path, "calibration");
@@ -361,6 +390,7 @@ CalibrationInfo ReadCalibration(const Reader& in, const YAML::Node& root) {
   }
 
   if (cal["held_profiles"].IsDefined()) info.held_profiles = ReadHeldProfiles(in, cal, path);
+  if (cal["lip_reference"].IsDefined()) ReadLipReference(in, cal, path, &info);
 
   const std::string data_path = Join(path, "dataset");
   const YAML::Node data = in.Map(cal, data_path, "dataset");
@@ -865,6 +895,18 @@ void WriteCalibration(const CalibrationInfo& cal, std::string* out_text) {
         item += ",\n      data_information: " + FlowList(Nums(held.data_information), 6, 6);
       }
       Line(&out, 4, item + "}");
+    }
+  }
+  if (!cal.lip_reference.empty()) {
+    Line(&out, 2, "lip_reference:",
+         "the health check's lip bins on the calibration photos under this model: `check` "
+         "measures change from them");
+    Line(&out, 4, "azimuth_bins: " + std::to_string(cal.lip_reference_sectors));
+    Line(&out, 4, "bins:", "mean_px: the edge detector's bias there; scatter_px: of one photo's");
+    for (const LipReferenceBin& bin : cal.lip_reference) {
+      Line(&out, 6, "- {edge: " + Text(bin.edge) + ", azimuth_deg: " + Num(bin.azimuth_deg) +
+                        ", photos: " + std::to_string(bin.photos) + ", mean_px: " +
+                        Num(bin.mean_px) + ", scatter_px: " + Num(bin.scatter_px) + "}");
     }
   }
   Line(&out, 2, "dataset: {session: " + Text(cal.session) + ", images: " +

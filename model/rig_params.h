@@ -45,6 +45,19 @@ struct HeldProfileInfo {
   std::vector<double> data_information;
 };
 
+// One lip bin of the health check (health/check.h: an edge's points in one azimuth sector) as
+// the calibration photos showed it under the calibrated model: the edge detector's bias there (a
+// thin band's blurred edges pull on each other, a post's shadow, the JPEG's chroma), which is the
+// same in every photo of that camera, and how much the bin's mean scattered from photo to photo.
+// The check measures change from it (health/lip_reference.h).
+struct LipReferenceBin {
+  std::string edge;        // "via_mirror2 r_outer" (path, circle)
+  double azimuth_deg = 0;  // the sector's centre
+  int photos = 0;          // calibration photos with this bin
+  double mean_px = 0;      // the bin's mean over them, signed across the edge
+  double scatter_px = 0;   // standard deviation of one photo's bin mean about it
+};
+
 // What a calibration adds to a model file (`calibration:` section).
 struct CalibrationInfo {
   std::vector<std::string> parameters;  // names in the order of the covariance, e.g. mirror1.tx
@@ -66,6 +79,10 @@ struct CalibrationInfo {
   int n_lip_points = 0;      // lip edge points used
   double lip_rms_px = 0;
   std::vector<HeldProfileInfo> held_profiles;  // optional (absent in older files)
+  // The lip bins of the calibration photos (absent in older files, and for sessions of fewer
+  // than three photos or without lips); lip_reference_sectors: their number of azimuth sectors.
+  std::vector<LipReferenceBin> lip_reference;
+  int lip_reference_sectors = 0;
   std::string session;
   int images = 0;
   std::string targets;

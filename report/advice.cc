@@ -4,9 +4,11 @@
 #include <cmath>
 #include <cstdio>
 #include <map>
+#include <array>
 #include <optional>
 
 #include "model/model_compare.h"
+#include "model/rig_frames.h"
 #include "model/rig_model.h"
 #include "report/report.h"
 
@@ -230,6 +232,75 @@ void SessionAdvice(const ReportInput& in, std::vector<std::string>* out) {
   }
 }
 
+// Boards lost beside a post: a target found in one ring of a photo and lost (or mostly lost) in the
+// other, whose azimuths in the ring that found it meet a post's sector (the model's mount, in its
+// body's frame): the post hides that board's other view. Said per photo and target, with how far
+// to turn the board away; at most kMaxPostLines lines.
+constexpr int kMinBoardCorners = 6;       // the ring that found the board: at least this many
+constexpr double kPostMarginDeg = 1.0;    // a post's sector widened by this on each side
+constexpr int kMaxPostLines = 5;
+
+void PostAdvice(const ReportInput& in, std::vector<std::string>* out) {
+  const RigParams& rig = in.result->estimate.rig;
+  if (!rig.mount.present || rig.Single() || !in.observations || !(rig.mount.radius > 0)) return;
+  const RigModel model(rig);
+  const auto& pose = rig.mount.body == Mirror::kOne ? rig.mirror1_pose : rig.mirror2_pose;
+  const Eigen::Matrix3d body_from_cam = PoseFromBlock(pose.data()).rotation.transpose();
+  std::vector<std::string> lines;
+  for (size_t i = 0; i < in.observations->images.size(); ++i) {
+    std::map<int, std::array<std::vector<double>, 2>> azimuths;  // target -> per ring (rad)
+    for (const CornerObservation& c : in.observations->images[i].corners) {
+      const auto ray = model.Unproject(c.pixel);
+      if (!ray) continue;
+      const Eigen::Vector3d d = body_from_cam * ray->ray.direction;
+      azimuths[c.target][c.mirror == Mirror::kOne ? 0 : 1].push_back(std::atan2(d.y(), d.x()));
+    }
+    for (const auto& [target, rings] : azimuths) {
+      for (int found = 0; found < 2; ++found) {
+        const std::vector<double>& az = rings[found];
+        const size_t other = rings[1 - found].size();
+        if (static_cast<int>(az.size()) < kMinBoardCorners || 2 * other >= az.size()) continue;
+        // The board's azimuth span about its circular mean.
+        double sx = 0, sy = 0;
+        for (double a : az) sx += std::cos(a), sy += std::sin(a);
+        const double mean = std::atan2(sy, sx);
+        double lo = 0, hi = 0;
+        for (double a : az) {
+          const double off = std::remainder(a - mean, 2 * M_PI);
+          lo = std::min(lo, off), hi = std::max(hi, off);
+        }
+        for (size_t k = 0; k < rig.mount.azimuths.size(); ++k) {
+          const double half = rig.mount.WidthOf(k) / (2 * rig.mount.radius) + kPostMarginDeg * M_PI / 180;
+          const double at = std::remainder(rig.mount.azimuths[k] - mean, 2 * M_PI);
+          if (at + half < lo || at - half > hi) continue;
+          // Turned so that the whole board clears the post's sector on its nearer side.
+          const double turn = std::min(at + half - lo, hi - (at - half)) * 180 / M_PI;
+          const std::string photo = i < in.image_paths.size() && !in.image_paths[i].empty()
+                                        ? in.image_paths[i] : "photo " + std::to_string(i + 1);
+          const std::string name =
+              target < static_cast<int>(in.targets.size()) ? TargetName(in.targets[target]) : "?";
+          char line[480];
+          std::snprintf(line, sizeof(line),
+                        "%s: target %d (%s) is found in %s (%zu corners) but %s in %s: it lies "
+                        "across post %zu (azimuth %.0f deg), which hides it there; reshoot it "
+                        "turned %.0f deg or more away from the post",
+                        photo.c_str(), target, name.c_str(), RingName(found + 1), az.size(),
+                        other == 0 ? "lost" : "mostly lost", RingName(2 - found), k + 1,
+                        rig.mount.azimuths[k] * 180 / M_PI, std::ceil(turn));
+          lines.push_back(line);
+          break;
+        }
+      }
+    }
+  }
+  const size_t shown = std::min<size_t>(lines.size(), kMaxPostLines);
+  out->insert(out->end(), lines.begin(), lines.begin() + static_cast<long>(shown));
+  if (lines.size() > shown) {
+    out->push_back("and " + std::to_string(lines.size() - shown) +
+                   " more boards lost beside a post (the overlays show them)");
+  }
+}
+
 std::vector<std::string> Advice(const ReportInput& in) {
   std::vector<std::string> out;
   if (!in.result->solve.converged) {
@@ -243,6 +314,7 @@ std::vector<std::string> Advice(const ReportInput& in) {
   }
   ProfileAdvice(*in.result, &out);
   SessionAdvice(in, &out);
+  PostAdvice(in, &out);
   return out;
 }
 

@@ -1,7 +1,10 @@
 #include "detectors/chessboard/chessboard_detector.h"
 
 #include "detectors/chessboard/chessboard_trace.h"
+#include "detectors/chessboard/grid_check.h"
+#include "detectors/chessboard/junction_board.h"
 #include "detectors/chessboard/junction_grid.h"
+#include "detectors/chessboard/region_crop.h"
 
 #include <algorithm>
 #include <array>
@@ -133,111 +136,6 @@ cv::Mat RingPixels(const RingView& view, double edge_margin_rad) {
   return trusted;
 }
 
-// Whether the view shows an X-junction (two dark and two bright sectors alternating) at `p`,
-// read on a circle of `radius` pixels; nullopt if part of the circle is outside the `trusted`
-// pixels (RingPixels) or the view (the dark invalid area and the rim would add sectors). The Hessian saddle test cannot tell this from
-// the corner of a single square (an L-corner has the same balanced Hessian at its tip), the
-// circle can: an L-corner has one dark sector, an X-junction two.
-// With `point_symmetric`, the two dark sectors must also face each other: two straight lines
-// crossing at p make opposite sectors point-symmetric, so each sample must match the one
-// opposite (all but kMaxAsymmetric of the 12 pairs: the samples on the blurred edges). An
-// L-corner whose circle reaches another edge (a narrow white margin and the dark frame or
-// shadow beyond it: Mei's photos, where it refused whole boards) also changes 4 times, but not
-// symmetrically.
-std::optional<bool> IsXJunction(const RingView& view, const cv::Mat& trusted, const cv::Point2f& p,
-                                double radius, double min_contrast, bool point_symmetric = false) {
-  constexpr int kSamples = 24;
-  radius = std::max(2.0, radius);
-  const cv::Mat& grey = view.image;
-  std::array<float, kSamples> v;
-  for (int k = 0; k < kSamples; ++k) {
-    const double a = 2 * M_PI * k / kSamples;
-    const float x = p.x + static_cast<float>(radius * std::cos(a));
-    const float y = p.y + static_cast<float>(radius * std::sin(a));
-    if (x < 0 || y < 0 || x > grey.cols - 2 || y > grey.rows - 2) return std::nullopt;
-    const int x0 = static_cast<int>(x), y0 = static_cast<int>(y);
-    for (int dy = 0; dy <= 1; ++dy) {
-      for (int dx = 0; dx <= 1; ++dx) {
-        if (!trusted.at<uchar>(y0 + dy, x0 + dx)) return std::nullopt;
-      }
-    }
-    const float fx = x - x0, fy = y - y0;
-    v[k] = (1 - fy) * ((1 - fx) * grey.at<uchar>(y0, x0) + fx * grey.at<uchar>(y0, x0 + 1)) +
-           fy * ((1 - fx) * grey.at<uchar>(y0 + 1, x0) + fx * grey.at<uchar>(y0 + 1, x0 + 1));
-  }
-  const auto [lo, hi] = std::minmax_element(v.begin(), v.end());
-  if (*hi - *lo < min_contrast) return false;
-  const float mid = 0.5f * (*lo + *hi);
-  int changes = 0;
-  for (int k = 0; k < kSamples; ++k) changes += (v[k] > mid) != (v[(k + 1) % kSamples] > mid);
-  if (changes != 4 || !point_symmetric) return changes == 4;
-  constexpr int kMaxAsymmetric = 3;
-  int asymmetric = 0;
-  for (int k = 0; k < kSamples / 2; ++k) asymmetric += (v[k] > mid) != (v[k + kSamples / 2] > mid);
-  return asymmetric <= kMaxAsymmetric;
-}
-
-// The junction grid as a rows x cols corner list in row-major order: the last resort where
-// both OpenCV finders fail on a board the saddle detector saw (demo image 0008: a board whose
-// white margin is cut by the ring's edge, lost by both finders on sharper renders), and the way
-// a board cut by a ring boundary still gives its visible corners. Grid points may be missing
-// only where the ring or the view hides them: their place, predicted by the homography of the
-// grid found, must be too near the edge for the X-junction test (a missing point that the view
-// shows whole means an occlusion or a miss, and the board is refused). So the grid's extents may
-// fall short of the pattern's by one row or column, hidden along one side; when either side
-// could hide it the ids are ambiguous and the board is refused. Missing points get the
-// prediction and `filled` marks them: they help check and orient the board and are never
-// reported (their refinement windows would take in the ring's edge). Ids are left to Orient and
-// the same whole-board and homography checks as the finders' grids.
-bool GridFromJunctions(const RingView& view, const cv::Mat& in_ring, const GridExtent& grid, double spacing, int rows,
-                       int cols, std::vector<cv::Point2f>* corners, std::vector<bool>* filled) {
-  const int n = rows * cols;
-  if (grid.count > n || 4 * grid.count < 3 * n) return false;
-  int solutions = 0;
-  for (int transpose = 0; transpose < 2; ++transpose) {
-    const int extent_c = transpose ? grid.b : grid.a, extent_r = transpose ? grid.a : grid.b;
-    const int short_c = cols - extent_c, short_r = rows - extent_r;
-    if (short_c < 0 || short_r < 0 || short_c + short_r > 1) continue;
-    // The hidden row or column before (shift 1) or after (shift 0) the grid found.
-    for (int shift = 0; shift <= short_c + short_r; ++shift) {
-      std::vector<cv::Point2f> out(n, cv::Point2f(0, 0));
-      std::vector<bool> missing(n, true);
-      std::vector<cv::Point2f> at_grid, at_view;
-      bool ok = true;
-      for (size_t i = 0; i < grid.points.size() && ok; ++i) {
-        const int c = (transpose ? grid.coords[i].y : grid.coords[i].x) + (short_c ? shift : 0);
-        const int r = (transpose ? grid.coords[i].x : grid.coords[i].y) + (short_r ? shift : 0);
-        const int k = r * cols + c;
-        ok = missing[k];
-        missing[k] = false;
-        out[k] = grid.points[i];
-        at_grid.emplace_back(static_cast<float>(c), static_cast<float>(r));
-        at_view.push_back(grid.points[i]);
-      }
-      if (!ok) continue;
-      if (grid.count < n) {
-        const cv::Mat h = cv::findHomography(at_grid, at_view, 0);
-        if (h.empty()) continue;
-        std::vector<cv::Point2f> at, predicted;
-        for (int k = 0; k < n; ++k) {
-          if (missing[k]) at.emplace_back(static_cast<float>(k % cols), static_cast<float>(k / cols));
-        }
-        cv::perspectiveTransform(at, predicted, h);
-        for (int k = 0, j = 0; k < n && ok; ++k) {
-          if (!missing[k]) continue;
-          out[k] = predicted[j++];
-          ok = !IsXJunction(view, in_ring, out[k], 0.35 * spacing, 0).has_value();  // hidden
-        }
-      }
-      if (!ok) continue;
-      ++solutions;
-      *corners = out;
-      *filled = missing;
-    }
-  }
-  return solutions == 1;
-}
-
 // True if a grid of rows x cols corners found in a view (`corners` row-major in view pixels) is
 // a whole board and not part of a larger one: one grid step beyond each side lies the board's
 // outer square corners, which must not be X-junctions: where most of a side's extrapolated
@@ -274,185 +172,6 @@ bool GridIsWholeBoard(const RingView& view, const cv::Mat& trusted,
     if (junctions >= 2 && 2 * junctions > seen) return false;
   }
   return true;
-}
-
-// The homography's residuals over the board (`grid_in` -> `view_in`, in view px) fitted by a
-// cubic in the grid coordinates (a quadratic with under 20 corners), added to its predictions of
-// `grid`: what a smooth error of the model bends the board's image by (GridFitsBoard). Cubic:
-// a single mirror's start model bends a large board near the rim by more than a quadratic
-// takes (Mei's photo 1: 48 corners, residuals to 2.5 raw px after the quadratic, 45 kept of 48;
-// all 48 within 0.5 px after the cubic). Left as it is with too few corners for the terms to be
-// measured twice over.
-void AddSmoothCorrection(const std::vector<cv::Point2f>& grid_in, const std::vector<cv::Point2f>& view_in,
-                         const cv::Mat& h, const std::vector<cv::Point2f>& grid,
-                         std::vector<cv::Point2f>* predicted) {
-  constexpr int kQuadratic = 6, kCubic = 10;
-  const int terms_used = grid_in.size() >= 2 * kCubic ? kCubic : kQuadratic;
-  if (grid_in.size() < 2 * static_cast<size_t>(terms_used)) return;
-  const auto terms = [terms_used](const cv::Point2f& g) {
-    Eigen::VectorXd t(terms_used);
-    const double x = g.x, y = g.y;
-    t.head<kQuadratic>() << 1, x, y, x * x, x * y, y * y;
-    if (terms_used == kCubic) t.tail<kCubic - kQuadratic>() << x * x * x, x * x * y, x * y * y, y * y * y;
-    return t;
-  };
-  std::vector<cv::Point2f> fitted;
-  cv::perspectiveTransform(grid_in, fitted, h);
-  Eigen::MatrixXd a(grid_in.size(), terms_used);
-  Eigen::MatrixXd b(grid_in.size(), 2);
-  for (size_t i = 0; i < grid_in.size(); ++i) {
-    a.row(static_cast<Eigen::Index>(i)) = terms(grid_in[i]).transpose();
-    b(static_cast<Eigen::Index>(i), 0) = view_in[i].x - fitted[i].x;
-    b(static_cast<Eigen::Index>(i), 1) = view_in[i].y - fitted[i].y;
-  }
-  const Eigen::MatrixXd coeffs = a.colPivHouseholderQr().solve(b);
-  for (size_t i = 0; i < grid.size(); ++i) {
-    const Eigen::Vector2d d = coeffs.transpose() * terms(grid[i]);
-    (*predicted)[i] += cv::Point2f(static_cast<float>(d.x()), static_cast<float>(d.y()));
-  }
-}
-
-// The refined corners of one board must lie on the board's image: in a view the board is a
-// plane seen by a pinhole (a homography of the target's grid, exact to 0.01 px for the views'
-// rays at 0.5-2 m, measured on ComputeTruth corners), and every corner must sit on its own grid
-// point. The corner finders can return a grid in which some rows or columns are mis-ordered (on
-// the inner ring's 2-3 px squares near 2 m: neighbouring ids swapped, each ~1 px from a true
-// corner); such corners are a large fraction of a square off the grid's homography. Refined raw
-// corners are taken back into the view (exact back-projection), a homography is fitted to them
-// by RANSAC and the board is refused unless (nearly) all corners fit it: a detector that
-// guesses gives wrong ids, which the calibration cannot tell from data. Single outliers in a
-// board that otherwise fits are dropped. Returns false to refuse the whole board.
-bool GridFitsBoard(const RingView& view, const RigModel& model, int cols,
-                   const ChessboardOptions& options, BoardDetection* board) {
-  const size_t n = board->ids.size();
-  if (n < 4) return false;
-  std::vector<cv::Point2f> grid, in_view;
-  for (size_t i = 0; i < n; ++i) {
-    const auto p = view.RawToView(model, board->raw_pixels[i]);
-    if (!p) return false;
-    grid.emplace_back(static_cast<float>(board->ids[i] % cols), static_cast<float>(board->ids[i] / cols));
-    in_view.emplace_back(static_cast<float>(p->x()), static_cast<float>(p->y()));
-  }
-  // The square side in the view from the corners' grid neighbours (median), and each corner's
-  // shortest side in the raw image.
-  std::vector<double> sides, raw_side(n, 1e9);
-  for (size_t i = 0; i < n; ++i) {
-    for (size_t j = i + 1; j < n; ++j) {
-      if (std::abs(grid[i].x - grid[j].x) + std::abs(grid[i].y - grid[j].y) == 1) {
-        sides.push_back(cv::norm(in_view[i] - in_view[j]));
-        const double raw = (board->raw_pixels[i] - board->raw_pixels[j]).norm();
-        raw_side[i] = std::min(raw_side[i], raw);
-        raw_side[j] = std::min(raw_side[j], raw);
-      }
-    }
-  }
-  // The test's tolerance per corner: with the smooth correction (a start model's error), also
-  // a fraction of the corner's square: the model's error over a board grows with the board's
-  // image, a mis-ordered corner is a third of a square off or more.
-  const auto tolerance = [&](size_t i) {
-    return options.smooth_grid_correction
-               ? std::max(options.max_grid_residual_px, options.max_grid_residual_squares * raw_side[i])
-               : options.max_grid_residual_px;
-  };
-  if (sides.empty()) return false;
-  std::nth_element(sides.begin(), sides.begin() + sides.size() / 2, sides.end());
-  const double side = sides[sides.size() / 2];
-  // RANSAC with a loose tolerance finds the board's homography among mis-ordered corners; the
-  // test itself is in raw pixels (the views magnify the inner ring 2-3 times): the homography's
-  // prediction mapped to the raw image must lie within max_grid_residual_px of the refined
-  // corner. A corner on a neighbouring saddle is a square (>= 2.5 raw px) off, a mis-ordered
-  // one ~1 px, one pulled by the ring's edge 0.7-1 px; good ones < 0.3 px.
-  cv::Mat inlier_mask;
-  cv::Mat h = cv::findHomography(grid, in_view, cv::RANSAC, options.max_grid_ransac_squares * side,
-                                 inlier_mask, 500, 0.999);
-  if (h.empty()) return false;
-  std::vector<cv::Point2f> grid_in, view_in;
-  for (size_t i = 0; i < n; ++i) {
-    if (inlier_mask.at<uchar>(static_cast<int>(i))) {
-      grid_in.push_back(grid[i]);
-      view_in.push_back(in_view[i]);
-    }
-  }
-  // Least squares on the inliers, then again on the corners within the test's tolerance (corners
-  // biased by the ring's edge pull a fit that includes them).
-  std::vector<bool> keep(n);
-  size_t kept = 0;
-  for (int round = 0; round < 3; ++round) {
-    if (grid_in.size() < 4) return false;
-    h = cv::findHomography(grid_in, view_in, 0);
-    if (h.empty()) return false;
-    std::vector<cv::Point2f> predicted;
-    cv::perspectiveTransform(grid, predicted, h);
-    if (options.smooth_grid_correction) AddSmoothCorrection(grid_in, view_in, h, grid, &predicted);
-    kept = 0;
-    grid_in.clear();
-    view_in.clear();
-    std::vector<double> residuals;  // for the trace
-    for (size_t i = 0; i < n; ++i) {
-      const auto raw = view.ViewToRaw(Eigen::Vector2d(predicted[i].x, predicted[i].y));
-      residuals.push_back(raw ? (*raw - board->raw_pixels[i]).norm() : -1);
-      keep[i] = raw && (*raw - board->raw_pixels[i]).norm() <= tolerance(i);
-      if (!keep[i]) continue;
-      ++kept;
-      grid_in.push_back(grid[i]);
-      view_in.push_back(in_view[i]);
-    }
-    if (trace::On()) {
-      std::string line;
-      for (double r : residuals) line += cv::format("%.2f ", r);
-      trace::Line("   round %d: kept %zu of %zu; residuals %s", round, kept, n, line.c_str());
-    }
-  }
-  if (kept < 4 || static_cast<double>(kept) < options.min_grid_inlier_fraction * n) return false;
-  BoardDetection out = *board;
-  out.ids.clear();
-  out.view_pixels.clear();
-  out.raw_pixels.clear();
-  for (size_t i = 0; i < n; ++i) {
-    if (!keep[i]) continue;
-    out.ids.push_back(board->ids[i]);
-    out.view_pixels.push_back(board->view_pixels[i]);
-    out.raw_pixels.push_back(board->raw_pixels[i]);
-  }
-  *board = std::move(out);
-  return true;
-}
-
-// The region of a view as a crop for the corner finders, padded to the region's full size
-// where it runs off the view and with the view's invalid pixels (outside the ring) set to the
-// crop's paper white (its 90th percentile): a board whose white margin is cut by the ring's edge
-// then still has separable outer squares (against black they merge, and the finders fail near
-// a crop border), and the padding reads as more of the sheet's margin. Mid grey, the fill
-// before, sits at both finders' binarisation level: a band of it along a crop's side (a region
-// by the view's edge, the camera's own hole) made both fail on clear boards (Mei's photo 2: the
-// classic and the sector finder each found the board in the crop filled white or black, neither
-// in it filled at 128).
-cv::Mat RegionCrop(const RingView& view, const Region& region) {
-  const cv::Rect inside = region.full & cv::Rect(0, 0, view.width, view.height);
-  const cv::Mat valid = view.map_x(inside) >= 0;
-  int histogram[256] = {0}, total = 0;
-  for (int y = 0; y < inside.height; ++y) {
-    const uchar* g = view.image.ptr<uchar>(inside.y + y) + inside.x;
-    const uchar* ok = valid.ptr<uchar>(y);
-    for (int x = 0; x < inside.width; ++x) {
-      if (!ok[x]) continue;
-      ++histogram[g[x]];
-      ++total;
-    }
-  }
-  int white = 255;
-  for (int level = 0, below = 0; level < 256; ++level) {
-    below += histogram[level];
-    if (total > 0 && below >= 0.9 * total) {
-      white = level;
-      break;
-    }
-  }
-  cv::Mat crop(region.full.size(), CV_8U, cv::Scalar(white));
-  const cv::Rect dst(inside.tl() - region.full.tl(), inside.size());
-  view.image(inside).copyTo(crop(dst));
-  crop(dst).setTo(white, ~valid);
-  return crop;
 }
 
 // One rows x cols grid in a crop by finder 0 or 1. The classic finder (quadrilaterals of a
@@ -530,6 +249,7 @@ std::optional<BoardDetection> MakeBoard(const cv::Mat& raw_grey, const RingView&
   std::vector<std::optional<Eigen::Vector2d>> refined(oriented.size());
   std::vector<int> halves(oriented.size(), 1);
   std::vector<double> sides(oriented.size(), 0);
+  int refused_refine = 0, refused_shift = 0;
   for (size_t i = 0; i < oriented.size(); ++i) {
     if (!raw[i]) continue;
     Eigen::Vector2d pixel = *raw[i];
@@ -552,13 +272,21 @@ std::optional<BoardDetection> MakeBoard(const cv::Mat& raw_grey, const RingView&
       // (inner-ring near boards, radially squeezed) 5x5 keeps them (realistic_scene 0011).
       const int raw_half = ChessboardHalfWindow(side, CameraPixelsPerDegree(model.params()));
       const Eigen::Vector2d before = pixel;
-      if (!RefineCornerInRaw(raw_grey, raw_half, &pixel)) continue;
+      if (!RefineCornerInRaw(raw_grey, raw_half, &pixel)) {
+        ++refused_refine;
+        continue;
+      }
       // The views are exact only for points at their distance_mm: on the non-central rig a
       // near board's mapped corner is off by a few pixels (1.5-3 px measured in ring 1 at
       // 0.6 m), while a wrong saddle would be a whole square away.
       const double max_shift =
           std::max(options.max_refine_shift_px, options.max_refine_shift_squares * side);
-      if ((pixel - before).norm() > max_shift) continue;
+      if ((pixel - before).norm() > max_shift) {
+        trace::Line("   corner %zu: refinement moved it %.2f px (max %.2f, half %d)", i,
+                    (pixel - before).norm(), max_shift, raw_half);
+        ++refused_shift;
+        continue;
+      }
       halves[i] = raw_half;
       sides[i] = side;
     }
@@ -568,10 +296,14 @@ std::optional<BoardDetection> MakeBoard(const cv::Mat& raw_grey, const RingView&
   // lip, its sheet's edge) pulled whole edge rows 0.5-0.9 px off, coherently, which the grid
   // check cannot see: such corners are refined again in a window that leaves the foreign edge
   // out, or dropped.
+  int refused_window = 0;
   if (options.refine_in_raw && options.clean_windows) {
-    KeepWindowsOnTheirSquares(raw_grey, spec.rows, spec.cols, sides, options.min_clean_half,
-                              &halves, &refined, view.RawBlurAt(centre));
+    refused_window = KeepWindowsOnTheirSquares(raw_grey, spec.rows, spec.cols, sides, options.min_clean_half,
+                                               &halves, &refined, view.RawBlurAt(centre),
+                                               options.foreign_edge_slope);
   }
+  trace::Line("   raw refinement refused %d, moved too far %d, window not on its squares %d",
+              refused_refine, refused_shift, refused_window);
   // The board's lines from its refined corners, before any is corrected.
   if (options.refine_in_raw && options.fit_junctions) {
     FitBoardJunctions(raw_grey, spec.rows, spec.cols, sides, halves, options.junction_window_squares,
@@ -611,7 +343,7 @@ std::vector<BoardDetection> SearchRegion(const cv::Mat& raw_grey, const RingView
                                          int view_index) {
   std::vector<cv::Point2f> junctions;
   for (const auto& q : region.points) {
-    if (IsXJunction(view, in_ring, q, 0.35 * region.spacing, options.saddle_contrast_floor).value_or(false)) {
+    if (IsJunctionNearEdge(view, in_ring, trusted, q, region.spacing, options.saddle_contrast_floor)) {
       junctions.push_back(q);
     }
   }
@@ -630,31 +362,18 @@ std::vector<BoardDetection> SearchRegion(const cv::Mat& raw_grey, const RingView
     return found;
   }
   const auto near = [&](int t, int tolerance) {
-    const int r = targets[t].rows, c = targets[t].cols;
-    return (std::abs(r - grid.a) <= tolerance && std::abs(c - grid.b) <= tolerance) ||
-           (std::abs(r - grid.b) <= tolerance && std::abs(c - grid.a) <= tolerance);
+    return GridNearPattern(grid, targets[t].rows, targets[t].cols, tolerance);
   };
   const auto matches = [&](int t) { return near(t, 0); };
-  // Whether the grid fits in the pattern with at most two extra rows or columns: junctions
-  // beyond the board's sides where its sheet's narrow white margin meets a dark background
-  // (its outer squares' corners then read as X-junctions: Mei's photo 1, an 8x10 grid of a 6x8
-  // board, one junk row or column on each of two sides); beyond that the grid cannot be this
-  // pattern's board. The whole-board test decides.
-  const auto holds = [&](int t) {
-    const int r = targets[t].rows, c = targets[t].cols;
-    return (grid.a <= r + 2 && grid.b <= c + 2) || (grid.b <= r + 2 && grid.a <= c + 2);
-  };
+  // At most two junk rows or columns (GridFitsInPattern); the whole-board test decides.
+  const auto holds = [&](int t) { return GridFitsInPattern(grid, targets[t].rows, targets[t].cols, 2); };
   // The patterns nearest the grid's extent go first (larger first among equals, as
   // `patterns`): a failed classic search costs 10-25 ms per pattern.
   std::vector<int> order = patterns;
-  const auto distance = [&](int t) {
-    const int r = targets[t].rows, c = targets[t].cols;
-    return std::min(std::abs(r - grid.a) + std::abs(c - grid.b),
-                    std::abs(r - grid.b) + std::abs(c - grid.a));
-  };
+  const auto distance = [&](int t) { return PatternDistance(grid, targets[t].rows, targets[t].cols); };
   std::stable_sort(order.begin(), order.end(),
                    [&](int a, int b) { return distance(a) < distance(b); });
-  cv::Mat crop = RegionCrop(view, region);
+  cv::Mat crop = RegionCrop(view, region.full);
   int found_here = 0;
   // The searches, cheapest first: per pattern the classic finder, then the region's own
   // X-junction grid (~1 ms; it finds the boards cut by a ring's edge that both OpenCV finders
@@ -696,7 +415,7 @@ std::vector<BoardDetection> SearchRegion(const cv::Mat& raw_grey, const RingView
         if (finder == kJunctions) {
           // Junctions are in view pixels; the crop's origin is added back in MakeBoard.
           if (found_here > 0 ||
-              !GridFromJunctions(view, in_ring, grid, region.spacing, spec.rows, spec.cols, &corners, &filled)) {
+              !GridFromJunctions(view, trusted, grid, region.spacing, spec.rows, spec.cols, &corners, &filled)) {
             break;
           }
           for (auto& c : corners) c -= cv::Point2f(region.full.tl());
@@ -832,6 +551,9 @@ std::string ChessboardOptions::Check() const {
   if (max_boards_per_region < 1) return OptionError("max_boards_per_region", "at least 1", max_boards_per_region);
   if (!(edge_margin_rad >= 0)) return OptionError("edge_margin_rad", "an angle >= 0 rad", edge_margin_rad);
   if (min_clean_half < 1) return OptionError("min_clean_half", "a half-window of at least 1 px", min_clean_half);
+  if (!(foreign_edge_slope > 0 && foreign_edge_slope <= 1)) {
+    return OptionError("foreign_edge_slope", "a fraction in (0, 1]", foreign_edge_slope);
+  }
   if (!(junction_window_squares > 0)) {
     return OptionError("junction_window_squares", "a half-window > 0 squares", junction_window_squares);
   }

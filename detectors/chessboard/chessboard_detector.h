@@ -76,6 +76,10 @@ struct ChessboardOptions {
   // would be under min_clean_half (corner_refine.h KeepWindowsOnTheirSquares).
   bool clean_windows = true;
   int min_clean_half = 2;
+  // A foreign edge must be this fraction of the board's own edges' slope (corner_refine.h
+  // CleanHalfWindow): 0.5 catches the folded rig's painted lips; DetectorContext sets 0.7 for
+  // single rigs (no lips; their rim is black; boards' sheen in linear light let through).
+  double foreign_edge_slope = 0.5;
   // After the raw refinement: subtract cornerSubPix's bias on the curved images of the board's
   // lines, predicted from the refined neighbours (detectors/common/corner_refine.h).
   bool remove_curvature_bias = true;
@@ -105,7 +109,7 @@ struct ChessboardOptions {
   double max_grid_residual_squares = 0.05;
 
   // Empty if the options are usable, else "<field>: expected ...": a smoothing, window, shift
-  // or tolerance <= 0, a count under 1, a fraction outside [0, 1].
+  // or tolerance <= 0, a count under 1, a fraction outside [0, 1] (foreign_edge_slope: (0, 1]).
   std::string Check() const;
 };
 

@@ -143,4 +143,17 @@ GridExtent MeasureGrid(const cv::Mat& grey, const std::vector<cv::Point2f>& p, d
   return best;
 }
 
+bool GridNearPattern(const GridExtent& grid, int rows, int cols, int tolerance) {
+  return (std::abs(rows - grid.a) <= tolerance && std::abs(cols - grid.b) <= tolerance) ||
+         (std::abs(rows - grid.b) <= tolerance && std::abs(cols - grid.a) <= tolerance);
+}
+
+bool GridFitsInPattern(const GridExtent& grid, int rows, int cols, int extra) {
+  return (grid.a <= rows + extra && grid.b <= cols + extra) || (grid.b <= rows + extra && grid.a <= cols + extra);
+}
+
+int PatternDistance(const GridExtent& grid, int rows, int cols) {
+  return std::min(std::abs(rows - grid.a) + std::abs(cols - grid.b), std::abs(rows - grid.b) + std::abs(cols - grid.a));
+}
+
 }  // namespace omni::detectors

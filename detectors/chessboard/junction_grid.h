@@ -40,4 +40,18 @@ bool IsEdgeStep(const cv::Mat& grey, const cv::Point2f& p, const cv::Point2f& q,
 GridExtent MeasureGrid(const cv::Mat& grey, const std::vector<cv::Point2f>& p, double spacing,
                        double min_contrast);
 
+// Whether the grid's extents are within `tolerance` rows and columns of a rows x cols pattern's
+// (either way round).
+bool GridNearPattern(const GridExtent& grid, int rows, int cols, int tolerance);
+
+// Whether the grid fits in a rows x cols pattern with at most `extra` rows and columns more than
+// the pattern (either way round): junctions beyond the board's sides where its sheet's narrow
+// white margin meets a dark background (its outer squares' corners then read as X-junctions:
+// Mei's photo 1, an 8x10 grid of a 6x8 board, one junk row or column on each of two sides).
+// The session's patterns are searched in such a grid (chessboard_detector.cc SearchRegion).
+bool GridFitsInPattern(const GridExtent& grid, int rows, int cols, int extra);
+
+// Rows plus columns between the grid's extents and the pattern's, the nearer way round.
+int PatternDistance(const GridExtent& grid, int rows, int cols);
+
 }  // namespace omni::detectors

@@ -80,13 +80,21 @@ void RemoveCurvatureBias(int rows, int cols, const std::vector<int>& halves,
 // dark and two bright quadrants (levels: the median of each pair); a pixel more than b px from
 // both lines and less than `side` - b px from them (b = max(1.5, 1.3 blur_px): a blurred
 // junction's product of two edges is within 35% of its quadrant's level from there on) (inside the four squares, not on a blurred
-// edge) must match its quadrant's level to within 35% of the contrast. One that does not (the
+// edge) must match its quadrant's level to within 35% of the contrast, or be on a slope under
+// `min_foreign_slope` times the board's own edges' (shading, a glossy sheet's sheen). One that does not (the
 // ring's rim or lip, a board sheet's edge, an occluder) is an edge cornerSubPix would take as one
 // of the corner's: the window is bounded to leave it out. `half` if nothing is found or nothing
 // can be judged (squares too small, no contrast).
 // `grey`: CV_8U or CV_32F.
+// `min_foreign_slope`: where the board's contrast is at 93% of its peak slope off its level, a
+// step of c times the contrast is at 0.93 c: 0.5 takes steps of over 0.54 of the board's contrast
+// for foreign (the folded rig's painted lips beside ring 1's boards: at 0.6 they were let in
+// and moved corners by up to 0.06 px), 0.7 those over 0.75 (a single mirror's dark rim band is
+// the whole contrast, and its boards' sheen in linear light is steeper: Mei's photos, 458 of 480
+// corners kept at 0.5, 471 at 0.7).
 int CleanHalfWindow(const cv::Mat& grey, const Eigen::Vector2d& corner, const LocalLine& row,
-                    const LocalLine& col, double side, int half, double blur_px = 0);
+                    const LocalLine& col, double side, int half, double blur_px = 0,
+                    double min_foreign_slope = 0.5);
 
 // Every known corner of a board refined by RefineCornerInRaw (half-windows `halves`, local
 // square sides `sides`, per id) whose window takes in something besides its own four squares
@@ -132,9 +140,11 @@ int FitBoardJunctions(const cv::Mat& grey, int rows, int cols, const std::vector
                       const std::vector<int>& halves, double window_squares,
                       std::vector<std::optional<Eigen::Vector2d>>* corners);
 
-// `blur_px`: the image's blur sigma there in pixels (RingView::RawBlurAt; 0: sharp).
+// `blur_px`: the image's blur sigma there in pixels (RingView::RawBlurAt; 0: sharp);
+// `min_foreign_slope`: as CleanHalfWindow.
 int KeepWindowsOnTheirSquares(const cv::Mat& grey, int rows, int cols, const std::vector<double>& sides,
                               int min_half, std::vector<int>* halves,
-                              std::vector<std::optional<Eigen::Vector2d>>* corners, double blur_px = 0);
+                              std::vector<std::optional<Eigen::Vector2d>>* corners, double blur_px = 0,
+                              double min_foreign_slope = 0.5);
 
 }  // namespace omni::detectors

@@ -171,6 +171,28 @@ TEST_F(CalibrateCli, SessionWithoutImagesCalibratesFromDetections) {
   ASSERT_EQ(Run(Files(session, *detections_), &err, &out), 0) << err;
   EXPECT_EQ(testing::ReadText(dir_ / "session.yaml").find("images:"), std::string::npos);
   EXPECT_NE(out.find("calibrated model written to"), std::string::npos) << out;
+  // No photos to find the lips in: no lip reference for `check`, said, and none written.
+  EXPECT_NE(out.find("lip reference for `check`: none (0 of the session's 0 photos read"),
+            std::string::npos)
+      << out;
+  EXPECT_TRUE(io::ReadModelFile((dir_ / "out.yaml").string()).calibration->lip_reference.empty());
+}
+
+// The session names photos that are not there (detections made elsewhere): the calibration is
+// written all the same, without a lip reference.
+TEST_F(CalibrateCli, PhotosThatCannotBeReadLeaveNoLipReference) {
+  const io::Session session = SessionWith(session_->targets);
+  ASSERT_FALSE(session.images.empty());
+  ASSERT_FALSE(fs::exists(session.images[0]));
+  std::string err, out;
+  ASSERT_EQ(Run(Files(session, *detections_), &err, &out), 0) << err;
+  EXPECT_NE(out.find("lip reference for `check`: none (0 of the session's " +
+                     std::to_string(session.images.size()) + " photos read"),
+            std::string::npos)
+      << out;
+  const RigParams written = io::ReadModelFile((dir_ / "out.yaml").string());
+  ASSERT_TRUE(written.calibration.has_value());
+  EXPECT_TRUE(written.calibration->lip_reference.empty());
 }
 
 // `report` on a calibrated model and its detections: the page of the calibration that wrote it

@@ -109,7 +109,7 @@ TEST_F(InitCli, TelecentricParaboloidFromItsRim) {
   EXPECT_EQ(rig.lens, LensKind::kTelecentric);
   EXPECT_EQ(rig.kind, ModelKind::kIdeal);
   const io::Session session = io::ReadSessionFile((dir_ / "session.yaml").string());
-  EXPECT_FALSE(session.use_lips);
+  EXPECT_TRUE(session.use_lips);  // the rim measured in the photos (detectors/lips/rim_edge.h)
   EXPECT_EQ(session.estimate, (std::vector<std::string>{"camera", "distortion", "mirror1_shape",
                                                         "mirror1_pose"}));
   ASSERT_EQ(session.priors.count("mirror1_shape"), 1u);

@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <random>
 
 #include <Eigen/SVD>
 
@@ -16,7 +17,9 @@
 #include "model/central_mirror.h"
 #include "model/model_derived.h"
 #include "model/rig_frames.h"
+#include "model/lip.h"
 #include "model/rig_model.h"
+#include "model/single_rim.h"
 #include "tests/calib/calib_test_util.h"
 
 namespace omni::calib {
@@ -207,6 +210,69 @@ TEST(CalibSingle, HeldOutScoreWithTheModelHeld) {
   off.mirror1_shape[kShapeK] = -1.8;
   const CalibrationResult worse = Calibrate(off, session.targets, detections, options);
   EXPECT_GT(worse.residuals.rms_px, 3 * held.residuals.rms_px);
+}
+
+// The rim as the scale (detectors/lips/rim_edge.h's observation: mirror 1's r_outer circle seen
+// directly, at the conic's sag): no prior on R, the start's mirror 4% too large and its camera
+// 3% off; corners with 0.1 px noise. The rim's points, 0.3 px noise in every photo, make R a
+// measured quantity; its height
+// follows the refined conic (a rim reprojected at the start's height was pixels off and its
+// points left out: R then stayed at the start).
+TEST(CalibSingle, TheRimGivesTheMirrorsSize) {
+  // The sample hyperboloid (its rim's reflected rays level with the rim: the rim is seen).
+  CentralMirror central{Conic<double>{30.0, -1.8}, LensKind::kPerspective, 1600, 0};
+  RigParams truth = MakeSingleRig(central.mirror, central.lens, central.CameraBelowVertexMm(), 30,
+                                  6, Pinhole<double>{1600, 1600, 640, 512, 0}, 1280, 1024);
+  truth.kind = ModelKind::kNoncentral;
+  truth.mirror1_pose = {0.006, -0.004, 0.4, -0.3, 0.5};
+  double elevation = 0;
+  ASSERT_TRUE(RimEdgeIsTheRim(RigModel(truth), &elevation)) << elevation;
+  RigParams start = truth;
+  start.kind = ModelKind::kIdeal;
+  start.mirror1_shape = {31.2, -1.75};
+  start.mirror1_pose = {0, 0, 0, 0, 0};
+  start.camera = {1552, 1552, 630, 520, 0};
+  const auto session = testing::MakeSession(truth, Placement(12, 21), kBoards);
+  Observations detections = testing::NoisyDetections(session, 0.1, 7);
+  std::mt19937 rng(5);
+  std::normal_distribution<double> noise(0, 0.3);
+  const RigModel model(truth);
+  for (ImageObservations& image : detections.images) {
+    LipEdgeObservation rim;
+    rim.mirror = Mirror::kOne;
+    rim.edge = BandEdge::kOuter;
+    rim.circle = LipCircle::kOuter;
+    rim.path = LipPath::kDirect;
+    for (int k = 0; k < 360; ++k) {
+      Eigen::Vector2d px;
+      if (ProjectLipPoint(RigBlocksOf(truth), model.fixed(), LipPath::kDirect, truth.r_sys,
+                          SingleRimZ(truth), 2 * M_PI * (k + 0.5) / 360, &px)) {
+        rim.points.push_back(px + Eigen::Vector2d(noise(rng), noise(rng)));
+      }
+    }
+    image.lips.push_back(rim);
+  }
+  CalibrationOptions options;
+  options.estimate = {"camera", "distortion", "mirror1_shape", "mirror1_pose"};
+  options.profile = "off";
+  options.use_lips = true;
+  options.progress = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
+  const CalibrationResult result = Calibrate(start, session.targets, detections, options);
+  std::fprintf(stderr, "%s", ResultTable(result, &truth).c_str());
+  EXPECT_LT(result.residuals.lip_rms_px, 0.5);
+  const auto& names = result.estimate.names;
+  const auto at = std::find(names.begin(), names.end(), "mirror1.R");
+  ASSERT_NE(at, names.end());
+  const int i = static_cast<int>(at - names.begin());
+  // The start's 4% is 1.2 mm; this session's boards leave fx, K and tz in their valley, so the
+  // rim's 0.1 px-level mean circle gives R to ~0.4 mm (without the rim R is not refined at all).
+  EXPECT_LT(result.uncertainty.sigma(i), 0.5);
+  EXPECT_LT(std::abs(result.estimate.values(i) - 30.0), 0.6);
+  for (size_t j = 0; j < names.size(); ++j) {
+    const double t = testing::TruthValue(truth, names[j]);
+    EXPECT_LT(std::abs(result.estimate.values(j) - t), 3 * result.uncertainty.sigma(j))
+        << names[j] << " = " << result.estimate.values(j) << " truth " << t;
+  }
 }
 
 }  // namespace

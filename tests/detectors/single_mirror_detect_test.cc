@@ -11,6 +11,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "detectors/detect_image.h"
+#include "tests/detectors/warped_board.h"
 #include "model/central_mirror.h"
 #include "model/model_derived.h"
 #include "synthetic/scene.h"
@@ -18,86 +19,9 @@
 namespace omni::detectors {
 namespace {
 
-RigParams Misaligned(RigParams rig) {
-  rig.mirror1_pose = {0.004, -0.003, 0.3, -0.2, 0.4};  // rx, ry (rad), tx, ty, tz (mm)
-  return rig;
-}
-
-RigParams Parabolic() {
-  return Misaligned(MakeSingleRig(Conic<double>{30.0, -1.0}, LensKind::kTelecentric, 60, 30, 4.5,
-                                  Pinhole<double>{11.77, 11.77, 641.5, 521.2, 0}, 1280, 1024));
-}
-
-RigParams Hyperbolic() {
-  CentralMirror central;  // the camera at the hyperboloid's far focus
-  central.mirror = Conic<double>{20.0, -2.2};
-  central.lens = LensKind::kPerspective;
-  central.focal_px = 800;
-  return Misaligned(MakeSingleRig(central.mirror, central.lens, central.CameraBelowVertexMm(), 30, 5,
-                                  Pinhole<double>{800, 800, 640, 480, 0}, 1280, 960));
-}
-
-// A chessboard facing the axis at `azimuth`, `range` mm out and `elevation` from the mirror's
-// near focus, warped into the raw image: grey 90 around the sheet, its squares 30 / 220.
-cv::Mat WarpBoard(const RigModel& model, const TargetSpec& spec, const synthetic::Placement& place) {
-  const RigParams& rig = model.params();
-  cv::Mat raw(rig.image_height, rig.image_width, CV_8U, cv::Scalar(90));
-  const Eigen::Vector3d origin = CornerInTarget(spec, 0);
-  const Eigen::Vector3d ex = (CornerInTarget(spec, 1) - origin).normalized();
-  const Eigen::Vector3d ey = (CornerInTarget(spec, spec.cols) - origin).normalized();
-  const Eigen::Vector4d sheet = SheetBounds(spec);
-  const Eigen::Matrix3d& R = place.cam_from_target_rotation;
-  const Eigen::Vector3d& t = place.cam_from_target_translation;
-  // The board's pixels: the box of its sheet's projected outline (sampled), plus a margin.
-  cv::Rect box;
-  for (int k = 0; k <= 40; ++k) {
-    const double s = k / 40.0;
-    for (const Eigen::Vector2d q : {Eigen::Vector2d(sheet[0] + s * (sheet[2] - sheet[0]), sheet[1]),
-                                    Eigen::Vector2d(sheet[0] + s * (sheet[2] - sheet[0]), sheet[3]),
-                                    Eigen::Vector2d(sheet[0], sheet[1] + s * (sheet[3] - sheet[1])),
-                                    Eigen::Vector2d(sheet[2], sheet[1] + s * (sheet[3] - sheet[1]))}) {
-      const auto px = model.Project(R * Eigen::Vector3d(q.x(), q.y(), 0) + t, Mirror::kOne);
-      if (px) box |= cv::Rect(static_cast<int>(px->x()) - 4, static_cast<int>(px->y()) - 4, 9, 9);
-    }
-  }
-  box &= cv::Rect(0, 0, raw.cols, raw.rows);
-  for (int v = box.y; v < box.br().y; ++v) {
-    for (int u = box.x; u < box.br().x; ++u) {
-      double sum = 0;
-      int n = 0;
-      for (int j = 0; j < 3; ++j) {
-        for (int i = 0; i < 3; ++i) {
-          const auto ray = model.Unproject(Eigen::Vector2d(u + (i - 1) / 3.0, v + (j - 1) / 3.0));
-          ++n;
-          if (!ray) {
-            sum += 90;
-            continue;
-          }
-          // The ray in the target frame, met with its plane z = 0.
-          const Eigen::Vector3d o = R.transpose() * (ray->ray.origin - t);
-          const Eigen::Vector3d d = R.transpose() * ray->ray.direction;
-          const double s = -o.z() / d.z();
-          if (!(s > 0)) {
-            sum += 90;
-            continue;
-          }
-          const Eigen::Vector3d p = o + s * d;
-          if (p.x() < sheet[0] || p.x() > sheet[2] || p.y() < sheet[1] || p.y() > sheet[3]) {
-            sum += 90;
-            continue;
-          }
-          const double a = (p - origin).dot(ex) / spec.square_mm, b = (p - origin).dot(ey) / spec.square_mm;
-          const bool in_squares = a > -1 && b > -1 && a < spec.cols && b < spec.rows;
-          const bool dark = in_squares && (static_cast<int>(std::floor(a)) + static_cast<int>(std::floor(b))) % 2 == 0;
-          sum += dark ? 30 : 220;
-        }
-      }
-      raw.at<uchar>(v, u) = static_cast<uchar>(std::lround(sum / n));
-    }
-  }
-  cv::GaussianBlur(raw, raw, cv::Size(0, 0), 0.6);
-  return raw;
-}
+using testing::Hyperbolic;
+using testing::Parabolic;
+using testing::WarpBoard;
 
 struct Score {
   int truth = 0, found = 0, wrong = 0;

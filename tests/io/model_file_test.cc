@@ -95,6 +95,16 @@ void ExpectSameRig(const RigParams& a, const RigParams& b) {
   EXPECT_EQ(ca.n_observations, cb.n_observations);
   EXPECT_EQ(ca.n_outliers, cb.n_outliers);
   ExpectBitEqual(ca.per_mirror_rms_px, cb.per_mirror_rms_px, "per_mirror_rms_px");
+  EXPECT_EQ(ca.lip_reference_sectors, cb.lip_reference_sectors);
+  ASSERT_EQ(ca.lip_reference.size(), cb.lip_reference.size());
+  for (std::size_t i = 0; i < ca.lip_reference.size(); ++i) {
+    const LipReferenceBin &ra = ca.lip_reference[i], &rb = cb.lip_reference[i];
+    EXPECT_EQ(ra.edge, rb.edge);
+    EXPECT_BIT_EQ(ra.azimuth_deg, rb.azimuth_deg);
+    EXPECT_EQ(ra.photos, rb.photos);
+    EXPECT_BIT_EQ(ra.mean_px, rb.mean_px);
+    EXPECT_BIT_EQ(ra.scatter_px, rb.scatter_px);
+  }
   EXPECT_EQ(ca.session, cb.session);
   EXPECT_EQ(ca.images, cb.images);
   EXPECT_EQ(ca.targets, cb.targets);
@@ -167,6 +177,14 @@ RigParams RandomNoncentralRig(std::uint64_t seed) {
   cal.targets = "aprilgrid 6x6, chessboard 9x6 (µm-flat)";
   cal.tool_version = "0.1.0";
   cal.date = "2024-05-01T12:34:56Z";
+  if (seed % 2) {  // the check's lip bins of the calibration photos (optional)
+    cal.lip_reference_sectors = 24;
+    for (const char* edge : {"direct r_outer", "via_mirror2 r_outer"}) {
+      cal.lip_reference.push_back({edge, 7.5 + 15 * static_cast<int>(rng() % 24),
+                                   static_cast<int>(2 + rng() % 20), uniform(-2, 2),
+                                   uniform(0, 0.5)});
+    }
+  }
   rig.calibration = cal;
   return rig;
 }
@@ -476,6 +494,20 @@ INSTANTIATE_TEST_SUITE_P(
                                                              std::string(kHeldProfiles).find("data_information: [1,"),
                                                              21, "data_information: [") + "  dataset:")}},
                   "calibration.held_profiles[0].data_information", "expected 36 numbers"},
+        Malformed{"lip_reference_negative_scatter",
+                  {{"", CalibrationWith("  dataset:", "  lip_reference:\n    azimuth_bins: 24\n"
+                                        "    bins:\n      - {edge: direct r_outer, azimuth_deg: 7.5, "
+                                        "photos: 8, mean_px: 0.1, scatter_px: -0.1}\n  dataset:")}},
+                  "calibration.lip_reference.bins[0].scatter_px", "standard deviation >= 0"},
+        Malformed{"lip_reference_bins_not_a_list",
+                  {{"", CalibrationWith("  dataset:", "  lip_reference: {azimuth_bins: 24, bins: 3}\n"
+                                        "  dataset:")}},
+                  "calibration.lip_reference.bins", "expected a list of bins"},
+        Malformed{"lip_reference_no_photos",
+                  {{"", CalibrationWith("  dataset:", "  lip_reference:\n    azimuth_bins: 24\n"
+                                        "    bins:\n      - {edge: direct r_outer, azimuth_deg: 7.5, "
+                                        "photos: 0, mean_px: 0.1, scatter_px: 0.1}\n  dataset:")}},
+                  "calibration.lip_reference.bins[0].photos", "integer >= 1"},
         // Mirror profiles (issue 40).
         Malformed{"profile_beyond_rim", {{kLip1, kLip1 + "\n  profile: {r_max: 40.0, sag_p1: 0.003}"}},
                   "mirror1.profile.r_max", "(r_min, r_sys]"},

@@ -8,10 +8,13 @@
 //   removed is told to add targets higher in ring 1.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <regex>
 #include <sstream>
 
@@ -19,6 +22,7 @@
 #include "design/tolerance_file.h"
 #include "io/model_file.h"
 #include "model/model_compare.h"
+#include "model/rig_frames.h"
 #include "model/rig_model.h"
 #include "report/report.h"
 #include "tests/calib/calib_test_util.h"
@@ -187,6 +191,60 @@ TEST(Report, AdviceNamesWhatThePageShows) {
   EXPECT_NE(all.find("target 0 ("), std::string::npos) << all;
   if (s.detections.images.size() < 20) {
     EXPECT_NE(all.find(std::to_string(s.detections.images.size()) + " photos: 20-40"), std::string::npos) << all;
+  }
+}
+
+// A board crossed by a post (issue 48 item 7): one board's inner-ring corners removed from one
+// photo, a post put at its azimuth (from its outer-ring corners through the true rig) in the
+// calibrated model's mount: the advice names the photo, the board, the post and a turn; the post
+// turned 180 deg away: nothing about that board.
+TEST(Report, AdviceNamesABoardLostBesideAPost) {
+  Solved s = Solve([](const RigModel&, const CornerObservation&) { return true; });
+  const RigModel model(s.truth);
+  int image = -1, target = -1;
+  double azimuth = 0;
+  for (size_t i = 0; i < s.detections.images.size() && image < 0; ++i) {
+    std::map<int, std::array<int, 2>> counts;
+    for (const auto& c : s.detections.images[i].corners) ++counts[c.target][c.mirror == Mirror::kOne ? 0 : 1];
+    for (const auto& [t, n] : counts) {
+      if (n[0] >= 10 && n[1] >= 10) { image = static_cast<int>(i), target = t; break; }
+    }
+  }
+  ASSERT_GE(image, 0) << "no board seen in both rings";
+  auto& corners = s.detections.images[image].corners;
+  double sx = 0, sy = 0;
+  for (const auto& c : corners) {
+    if (c.target != target || c.mirror != Mirror::kOne) continue;
+    const Eigen::Vector3d d = PoseFromBlock(s.truth.mirror1_pose.data()).rotation.transpose() *
+                              model.Unproject(c.pixel)->ray.direction;
+    sx += std::cos(std::atan2(d.y(), d.x())), sy += std::sin(std::atan2(d.y(), d.x()));
+  }
+  azimuth = std::atan2(sy, sx);
+  corners.erase(std::remove_if(corners.begin(), corners.end(), [&](const CornerObservation& c) {
+                  return c.target == target && c.mirror == Mirror::kTwo;
+                }), corners.end());
+  const std::string named = "photo " + std::to_string(image + 1) + ": target " + std::to_string(target) + " (";
+  for (const double post : {azimuth, azimuth + M_PI}) {
+    calib::CalibrationResult mounted = s.result;
+    Mount& mount = mounted.estimate.rig.mount;
+    mount.present = true;
+    mount.radius = 45, mount.width = 3, mount.z_min = 0, mount.z_max = 100;
+    mount.azimuths = {post};
+    ReportInput in = InputOf(s);
+    in.result = &mounted;
+    std::string all;
+    for (const auto& a : Advice(in)) all += a + "\n";
+    std::fprintf(stderr, "post at %.1f deg:\n%s", post * 180 / M_PI, all.c_str());
+    const size_t at = all.find(named);
+    if (post == azimuth) {
+      ASSERT_NE(at, std::string::npos) << all;
+      const std::string line = all.substr(at, all.find('\n', at) - at);
+      EXPECT_NE(line.find("lost in the inner ring"), std::string::npos) << line;
+      EXPECT_NE(line.find("across post 1"), std::string::npos) << line;
+      EXPECT_NE(line.find("reshoot it turned"), std::string::npos) << line;
+    } else {
+      EXPECT_EQ(at, std::string::npos) << all;
+    }
   }
 }
 

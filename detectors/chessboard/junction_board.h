@@ -1,0 +1,56 @@
+// A region's X-junctions as a board (chessboard_detector.cc): the circle test that tells an
+// X-junction from a square's corner, and the junction grid taken as the board where the corner
+// finders fail or a ring boundary cuts the board.
+#pragma once
+
+#include <optional>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "detectors/chessboard/junction_grid.h"
+#include "detectors/common/views.h"
+
+namespace omni::detectors {
+
+// Whether the view shows an X-junction (two dark and two bright sectors alternating) at `p`,
+// read on a circle of `radius` pixels; nullopt if part of the circle is outside the `trusted`
+// pixels (RingPixels) or the view (the dark invalid area and the rim would add sectors). The Hessian saddle test cannot tell this from
+// the corner of a single square (an L-corner has the same balanced Hessian at its tip), the
+// circle can: an L-corner has one dark sector, an X-junction two.
+// With `point_symmetric`, the two dark sectors must also face each other: two straight lines
+// crossing at p make opposite sectors point-symmetric, so each sample must match the one
+// opposite (all but kMaxAsymmetric of the 12 pairs: the samples on the blurred edges). An
+// L-corner whose circle reaches another edge (a narrow white margin and the dark frame or
+// shadow beyond it: Mei's photos, where it refused whole boards) also changes 4 times, but not
+// symmetrically.
+std::optional<bool> IsXJunction(const RingView& view, const cv::Mat& trusted, const cv::Point2f& p,
+                                double radius, double min_contrast, bool point_symmetric = false);
+
+// IsXJunction on a circle of 0.35 squares; where that circle reaches the ring's dark rim band
+// (outside `trusted`, RingPixels), on one of 0.2 squares (2 px at least) that keeps clear of it.
+// The band adds dark sectors to the larger circle: a board whose top row of squares touches
+// the rim (a single mirror's render, parabolic 0012: the 3x10 board's 4 junctions nearest the
+// rim) lost those junctions, and with them the whole board, as the holes were not hidden.
+bool IsJunctionNearEdge(const RingView& view, const cv::Mat& in_ring, const cv::Mat& trusted,
+                        const cv::Point2f& p, double spacing, double min_contrast);
+
+// The junction grid as a rows x cols corner list in row-major order: the last resort where
+// both OpenCV finders fail on a board the saddle detector saw (demo image 0008: a board whose
+// white margin is cut by the ring's edge, lost by both finders on sharper renders), and the way
+// a board cut by a ring boundary still gives its visible corners. Grid points may be missing
+// only where the ring or the view hides them: their place, predicted by the homography of the
+// grid found, must be too near the edge for the X-junction test (a missing point that the view
+// shows whole means an occlusion or a miss, and the board is refused). So the grid's extents may
+// fall short of the pattern's by one row or column, hidden along one side; when either side
+// could hide it the ids are ambiguous and the board is refused. Missing points get the
+// prediction and `filled` marks them: they help check and orient the board and are never
+// reported (their refinement windows would take in the ring's edge). Ids are left to Orient and
+// the same whole-board and homography checks as the finders' grids. `trusted` (RingPixels with
+// the edge margin): a point whose circle reaches the ring's dark rim band is hidden, as the
+// junction test could not have seen it there (parabolic 0012: a 3x10 board's 4 junctions on
+// the rim band's edge, inside the ring as modelled, refused the board).
+bool GridFromJunctions(const RingView& view, const cv::Mat& trusted, const GridExtent& grid, double spacing, int rows,
+                       int cols, std::vector<cv::Point2f>* corners, std::vector<bool>* filled);
+
+}  // namespace omni::detectors

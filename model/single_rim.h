@@ -1,0 +1,31 @@
+// A single-mirror rig's rim (RigParams::Single): the circle of radius r_sys where its conic ends,
+// the mark the photos show of it (detectors/lips/rim_edge.h) and the calibration's observation
+// of it (calib/lip_cost.h: path direct, mirror 1's r_outer circle).
+#pragma once
+
+#include "model/conic.h"
+#include "model/rig_model.h"
+#include "model/rig_params.h"
+
+namespace omni {
+
+// The rim circle's height in mirror 1's body frame at the rig's current conic: the sag at r_sys
+// above the vertex (MakeSingleRig's lip1.z at its own conic).
+inline double SingleRimZ(const RigParams& rig) {
+  const Conic<double> conic{rig.mirror1_shape[kShapeC], rig.mirror1_shape[kShapeK]};
+  return rig.vertex_z + conic.Sag(rig.r_sys * rig.r_sys);
+}
+
+// Whether the edge of the mirror's image is its rim. Just inside the rim the mirror shows what
+// its reflected rays meet: where they head past the rim's plane (away from the camera: a sphere,
+// a paraboloid behind a telecentric lens, whose outer zones look back over the rim), whatever
+// holds the mirror at its rim is seen in it, and the image's edge is that holder's reflection,
+// not the rim (POV-Ray renders with a 3 mm flange at the rim: 8.6-9.5 px inside the rim at
+// 1280x1024); where they head to the camera's side of the plane, nothing at the rim is seen in
+// the mirror and its edge is the rim. *elevation_deg: the steepest such ray over the rim's
+// azimuths, from the rim's plane (+: past it). A hyperboloid seen from its far focus: ~0 deg
+// (its reflected rays come from the near focus, which lies at the rim's height for the sample
+// mirror); the edge lay 0.12 px from the rim there.
+bool RimEdgeIsTheRim(const RigModel& model, double* elevation_deg = nullptr);
+
+}  // namespace omni
