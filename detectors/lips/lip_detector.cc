@@ -9,6 +9,7 @@
 
 #include <Eigen/Dense>
 
+#include "detectors/lips/grey_sampling.h"
 #include "detectors/lips/luma_edge.h"
 #include "io/file_util.h"
 
@@ -247,12 +248,6 @@ std::shared_ptr<const LipPrediction> PredictionFor(const RigModel& model, const 
   return cache->prediction;
 }
 
-double Median(std::vector<double> v) {
-  if (v.empty()) return 0;
-  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-  return v[v.size() / 2];
-}
-
 // An edge point on one profile and what it was found between.
 struct EdgeCandidate {
   Eigen::Vector2d pixel;
@@ -458,7 +453,7 @@ std::vector<int> ScreenCandidates(const std::vector<EdgeCandidate>& c,
   if (c.empty()) return kept;
   std::vector<double> noise;
   for (const EdgeCandidate& e : c) noise.push_back(e.noise);
-  const double floor = std::max(options.min_contrast, options.min_snr * Median(noise));
+  const double floor = std::max(options.min_contrast, options.min_snr * MedianOf(noise));
   const int n = static_cast<int>(c.size());
   for (int i = 0; i < n; ++i) {
     const double contrast = c[i].contrast;
@@ -469,8 +464,8 @@ std::vector<int> ScreenCandidates(const std::vector<EdgeCandidate>& c,
       contrasts.push_back(c[k].contrast);
       bands.push_back(c[k].band);
     }
-    if (!contrasts.empty() && (contrast < options.min_relative * Median(contrasts) ||
-                               c[i].band < options.min_relative * Median(bands))) {
+    if (!contrasts.empty() && (contrast < options.min_relative * MedianOf(contrasts) ||
+                               c[i].band < options.min_relative * MedianOf(bands))) {
       continue;
     }
     kept.push_back(i);
@@ -707,9 +702,9 @@ std::vector<LipEdgeFit> DetectLipEdges(const cv::Mat& raw_bgr, const RigModel& m
       contrast.push_back(c.contrast);
       noise.push_back(c.noise);
     }
-    fit.band = Median(band);
-    fit.contrast = Median(contrast);
-    fit.noise = Median(noise);
+    fit.band = MedianOf(band);
+    fit.contrast = MedianOf(contrast);
+    fit.noise = MedianOf(noise);
     out.push_back(std::move(fit));
   }
   return out;

@@ -7,6 +7,8 @@
 #include <Eigen/Dense>
 #include <opencv2/imgproc.hpp>
 
+#include "detectors/lips/grey_sampling.h"
+
 namespace omni::detectors {
 namespace {
 
@@ -36,19 +38,6 @@ cv::Mat MedianImage(const std::vector<cv::Mat>& images) {
   return median;
 }
 
-// Bilinear grey level at (x, y); false outside the image.
-bool Sample(const cv::Mat& img, double x, double y, double* value) {
-  if (!(x >= 0 && y >= 0 && x <= img.cols - 1 && y <= img.rows - 1)) return false;
-  const int x0 = std::min(static_cast<int>(x), img.cols - 2);
-  const int y0 = std::min(static_cast<int>(y), img.rows - 2);
-  const double fx = x - x0, fy = y - y0;
-  const float* r0 = img.ptr<float>(y0);
-  const float* r1 = img.ptr<float>(y0 + 1);
-  *value = (1 - fy) * ((1 - fx) * r0[x0] + fx * r0[x0 + 1]) +
-           fy * ((1 - fx) * r1[x0] + fx * r1[x0 + 1]);
-  return true;
-}
-
 struct Circle {
   double cx = 0, cy = 0, r = 0, score = -HUGE_VAL;
 };
@@ -68,8 +57,8 @@ double Score(const cv::Mat& img, double cx, double cy, double r, int samples, do
     const double a = 2 * M_PI * (k + 0.5) / samples;
     const double c = std::cos(a), s = std::sin(a);
     double in = 0, out = 0;
-    if (Sample(img, cx + (r - offset) * c, cy + (r - offset) * s, &in) &&
-        Sample(img, cx + (r + offset) * c, cy + (r + offset) * s, &out)) {
+    if (SampleBilinear(img, cx + (r - offset) * c, cy + (r - offset) * s, &in) &&
+        SampleBilinear(img, cx + (r + offset) * c, cy + (r + offset) * s, &out)) {
       drops->push_back(polarity * (in - out));
       outside.push_back(out);
     } else {
@@ -125,8 +114,8 @@ std::vector<EdgePoint> EdgePoints(const cv::Mat& img, const Circle& c, int rays,
     std::vector<double> d;
     for (double rho = c.r - band; rho <= c.r + band; rho += step) {
       double in = 0, out = 0;
-      if (!Sample(img, c.cx + (rho - 1) * dir.x(), c.cy + (rho - 1) * dir.y(), &in) ||
-          !Sample(img, c.cx + (rho + 1) * dir.x(), c.cy + (rho + 1) * dir.y(), &out)) {
+      if (!SampleBilinear(img, c.cx + (rho - 1) * dir.x(), c.cy + (rho - 1) * dir.y(), &in) ||
+          !SampleBilinear(img, c.cx + (rho + 1) * dir.x(), c.cy + (rho + 1) * dir.y(), &out)) {
         d.push_back(-HUGE_VAL);
       } else {
         d.push_back(polarity * (in - out) / 2);

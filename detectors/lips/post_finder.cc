@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <cstdio>
 
+#include "detectors/lips/grey_sampling.h"
 #include "detectors/lips/post_bands.h"
 #include "io/file_util.h"
 #include "model/ideal_analysis.h"
@@ -14,12 +15,6 @@
 
 namespace omni::detectors {
 namespace {
-
-double Median(std::vector<double> v) {
-  if (v.empty()) return 0;
-  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-  return v[v.size() / 2];
-}
 
 // Bilinear grey level at p; -1 outside the image.
 float GreyAt(const cv::Mat& grey, const Eigen::Vector2d& p) {
@@ -124,9 +119,9 @@ double Wrap2Pi(double a) {
 // The spread of values about their median (1.4826 MAD), 0 for fewer than 2.
 double Spread(std::vector<double> v) {
   if (v.size() < 2) return 0;
-  const double m = Median(v);
+  const double m = MedianOf(v);
   for (double& x : v) x = std::abs(x - m);
-  return 1.4826 * Median(v);
+  return 1.4826 * MedianOf(v);
 }
 
 // The post a band of the outer ring makes: its edges placed in each photo (PlaceBandEdges), the
@@ -152,7 +147,7 @@ FoundPost PlacePost(const std::vector<RingGrid>& outer, const Band& band, int ga
     post.sigma_azimuth = post.sigma_width = gap * bin;  // the band's ends are this uncertain
     return post;
   }
-  const double left = Median(lefts), right = Median(rights);
+  const double left = MedianOf(lefts), right = MedianOf(rights);
   const double n = static_cast<double>(lefts.size());
   post.azimuth = Wrap2Pi(0.5 * (left + right) * bin);
   post.width = (right - left) * bin;

@@ -6,31 +6,13 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "detectors/lips/grey_sampling.h"
 #include "model/conic.h"
 #include "model/lip.h"
 #include "model/single_rim.h"
 
 namespace omni::detectors {
 namespace {
-
-// Bilinear grey level at (x, y) of a CV_32F image; false outside.
-bool Sample(const cv::Mat& img, double x, double y, double* value) {
-  if (!(x >= 0 && y >= 0 && x <= img.cols - 1 && y <= img.rows - 1)) return false;
-  const int x0 = std::min(static_cast<int>(x), img.cols - 2);
-  const int y0 = std::min(static_cast<int>(y), img.rows - 2);
-  const double fx = x - x0, fy = y - y0;
-  const float* r0 = img.ptr<float>(y0);
-  const float* r1 = img.ptr<float>(y0 + 1);
-  *value = (1 - fy) * ((1 - fx) * r0[x0] + fx * r0[x0 + 1]) +
-           fy * ((1 - fx) * r1[x0] + fx * r1[x0 + 1]);
-  return true;
-}
-
-double Median(std::vector<double> v) {
-  if (v.empty()) return 0;
-  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-  return v[v.size() / 2];
-}
 
 struct RayEdge {
   Eigen::Vector2d point;
@@ -107,8 +89,8 @@ std::optional<LipEdgeObservation> DetectRimEdge(const cv::Mat& grey, const RigMo
     auto step = [&](double t, double half) {
       const Eigen::Vector2d p = curve[k] + t * dirs[k];
       double in = 0, out = 0;
-      return Sample(img, p.x() - half * dirs[k].x(), p.y() - half * dirs[k].y(), &in) &&
-                     Sample(img, p.x() + half * dirs[k].x(), p.y() + half * dirs[k].y(), &out)
+      return SampleBilinear(img, p.x() - half * dirs[k].x(), p.y() - half * dirs[k].y(), &in) &&
+                     SampleBilinear(img, p.x() + half * dirs[k].x(), p.y() + half * dirs[k].y(), &out)
                  ? (in - out) / 2
                  : std::nan("");
     };
@@ -152,7 +134,7 @@ std::optional<LipEdgeObservation> DetectRimEdge(const cv::Mat& grey, const RigMo
   }
   std::vector<double> drops;
   for (const RayEdge& e : edges) drops.push_back(e.drop);
-  const double median_drop = Median(drops);
+  const double median_drop = MedianOf(drops);
   std::vector<RayEdge> strong;
   for (const RayEdge& e : edges) {
     if (e.drop >= options.min_drop_fraction * median_drop) strong.push_back(e);
@@ -187,7 +169,7 @@ std::optional<LipEdgeObservation> DetectRimEdge(const cv::Mat& grey, const RigMo
     for (size_t i = 0; i < strong.size(); ++i) {
       if (keep[i]) deviations.push_back(std::abs(strong[i].offset - basis(strong[i]).dot(harmonics)));
     }
-    sigma = std::max(0.1, 1.4826 * Median(deviations));
+    sigma = std::max(0.1, 1.4826 * MedianOf(deviations));
     for (size_t i = 0; i < strong.size(); ++i) {
       keep[i] = std::abs(strong[i].offset - basis(strong[i]).dot(harmonics)) <= 3 * sigma;
     }
