@@ -212,6 +212,29 @@ TEST(CalibSingle, HeldOutScoreWithTheModelHeld) {
   EXPECT_GT(worse.residuals.rms_px, 3 * held.residuals.rms_px);
 }
 
+// The rim's edge as detectors/lips/rim_edge.h reports it, from the true rig: 360 points of mirror
+// 1's r_outer circle seen directly, `noise_px` per axis, in every image.
+void AddRimPoints(const RigParams& truth, double noise_px, Observations* detections) {
+  std::mt19937 rng(5);
+  std::normal_distribution<double> noise(0, noise_px);
+  const RigModel model(truth);
+  for (ImageObservations& image : detections->images) {
+    LipEdgeObservation rim;
+    rim.mirror = Mirror::kOne;
+    rim.edge = BandEdge::kOuter;
+    rim.circle = LipCircle::kOuter;
+    rim.path = LipPath::kDirect;
+    for (int k = 0; k < 360; ++k) {
+      Eigen::Vector2d px;
+      if (ProjectLipPoint(RigBlocksOf(truth), model.fixed(), LipPath::kDirect, truth.r_sys,
+                          SingleRimZ(truth), 2 * M_PI * (k + 0.5) / 360, &px)) {
+        rim.points.push_back(px + Eigen::Vector2d(noise(rng), noise(rng)));
+      }
+    }
+    image.lips.push_back(rim);
+  }
+}
+
 // The rim as the scale (detectors/lips/rim_edge.h's observation: mirror 1's r_outer circle seen
 // directly, at the conic's sag): no prior on R, the start's mirror 4% too large and its camera
 // 3% off; corners with 0.1 px noise. The rim's points, 0.3 px noise in every photo, make R a
@@ -234,24 +257,7 @@ TEST(CalibSingle, TheRimGivesTheMirrorsSize) {
   start.camera = {1552, 1552, 630, 520, 0};
   const auto session = testing::MakeSession(truth, Placement(12, 21), kBoards);
   Observations detections = testing::NoisyDetections(session, 0.1, 7);
-  std::mt19937 rng(5);
-  std::normal_distribution<double> noise(0, 0.3);
-  const RigModel model(truth);
-  for (ImageObservations& image : detections.images) {
-    LipEdgeObservation rim;
-    rim.mirror = Mirror::kOne;
-    rim.edge = BandEdge::kOuter;
-    rim.circle = LipCircle::kOuter;
-    rim.path = LipPath::kDirect;
-    for (int k = 0; k < 360; ++k) {
-      Eigen::Vector2d px;
-      if (ProjectLipPoint(RigBlocksOf(truth), model.fixed(), LipPath::kDirect, truth.r_sys,
-                          SingleRimZ(truth), 2 * M_PI * (k + 0.5) / 360, &px)) {
-        rim.points.push_back(px + Eigen::Vector2d(noise(rng), noise(rng)));
-      }
-    }
-    image.lips.push_back(rim);
-  }
+  AddRimPoints(truth, 0.3, &detections);
   CalibrationOptions options;
   options.estimate = {"camera", "distortion", "mirror1_shape", "mirror1_pose"};
   options.profile = "off";
@@ -273,6 +279,42 @@ TEST(CalibSingle, TheRimGivesTheMirrorsSize) {
     EXPECT_LT(std::abs(result.estimate.values(j) - t), 3 * result.uncertainty.sigma(j))
         << names[j] << " = " << result.estimate.values(j) << " truth " << t;
   }
+}
+
+// A paraboloid steeper than 45 deg at its rim behind a telecentric lens: its outer zone looks back
+// over the rim (model/single_rim.h), so whatever the photos' edge is, it is not taken for the rim:
+// calibrate says so and calibrates without it (R held: the scale is not observed), and its answer
+// is the one a session without lips gives.
+TEST(CalibSingle, ARimTheMirrorLooksBackOverIsLeftOut) {
+  RigParams truth = MakeSingleRig(Conic<double>{24.0, -1.0}, LensKind::kTelecentric, 60, 30, 4,
+                                  Pinhole<double>{16.0, 16.0, 640, 512, 0}, 1280, 1024);
+  truth.kind = ModelKind::kNoncentral;
+  truth.mirror1_pose = {0.006, -0.0065, 0, 0, 0};
+  double elevation = 0;
+  ASSERT_FALSE(RimEdgeIsTheRim(RigModel(truth), &elevation));
+  EXPECT_GT(elevation, 5);
+  RigParams start = truth;
+  start.kind = ModelKind::kIdeal;
+  start.mirror1_pose = {0, 0, 0, 0, 0};
+  start.camera = {15.6, 15.6, 645, 505, 0};
+  const auto session = testing::MakeSession(truth, Placement(8, 21), kBoards);
+  Observations detections = testing::NoisyDetections(session, 0.1, 7);
+  AddRimPoints(truth, 0.3, &detections);
+  CalibrationOptions options;
+  options.estimate = {"camera", "distortion", "mirror1_shape", "mirror1_pose"};
+  options.profile = "off";
+  options.use_lips = true;
+  const CalibrationResult with_rim = Calibrate(start, session.targets, detections, options);
+  bool said = false;
+  for (const std::string& note : with_rim.solve.notes) {
+    said |= note.find("the mirror's rim left out") != std::string::npos;
+  }
+  EXPECT_TRUE(said);
+  EXPECT_EQ(with_rim.residuals.n_lip_points, 0);
+  options.use_lips = false;
+  const CalibrationResult without = Calibrate(start, session.targets, detections, options);
+  ASSERT_EQ(with_rim.estimate.values.size(), without.estimate.values.size());
+  EXPECT_LT((with_rim.estimate.values - without.estimate.values).norm(), 1e-9);
 }
 
 }  // namespace
