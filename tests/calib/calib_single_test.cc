@@ -235,6 +235,15 @@ void AddRimPoints(const RigParams& truth, double noise_px, Observations* detecti
   }
 }
 
+// A single mirror's session with its rim: every single-rig group refined, profiles off, lips on.
+CalibrationOptions RimSessionOptions() {
+  CalibrationOptions options;
+  options.estimate = {"camera", "distortion", "mirror1_shape", "mirror1_pose"};
+  options.profile = "off";
+  options.use_lips = true;
+  return options;
+}
+
 // The rim as the scale (detectors/lips/rim_edge.h's observation: mirror 1's r_outer circle seen
 // directly, at the conic's sag): no prior on R, the start's mirror 4% too large and its camera
 // 3% off; corners with 0.1 px noise. The rim's points, 0.3 px noise in every photo, make R a
@@ -258,10 +267,7 @@ TEST(CalibSingle, TheRimGivesTheMirrorsSize) {
   const auto session = testing::MakeSession(truth, Placement(12, 21), kBoards);
   Observations detections = testing::NoisyDetections(session, 0.1, 7);
   AddRimPoints(truth, 0.3, &detections);
-  CalibrationOptions options;
-  options.estimate = {"camera", "distortion", "mirror1_shape", "mirror1_pose"};
-  options.profile = "off";
-  options.use_lips = true;
+  CalibrationOptions options = RimSessionOptions();
   options.progress = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
   const CalibrationResult result = Calibrate(start, session.targets, detections, options);
   std::fprintf(stderr, "%s", ResultTable(result, &truth).c_str());
@@ -300,10 +306,7 @@ TEST(CalibSingle, ARimTheMirrorLooksBackOverIsLeftOut) {
   const auto session = testing::MakeSession(truth, Placement(8, 21), kBoards);
   Observations detections = testing::NoisyDetections(session, 0.1, 7);
   AddRimPoints(truth, 0.3, &detections);
-  CalibrationOptions options;
-  options.estimate = {"camera", "distortion", "mirror1_shape", "mirror1_pose"};
-  options.profile = "off";
-  options.use_lips = true;
+  CalibrationOptions options = RimSessionOptions();
   const CalibrationResult with_rim = Calibrate(start, session.targets, detections, options);
   bool said = false;
   for (const std::string& note : with_rim.solve.notes) {
