@@ -23,13 +23,15 @@
 #include "apps/health_cli.h"
 #include "calib/calibrate.h"
 #include "calib/single_mirror_summary.h"
-#include "health/check.h"
 #include "calib/calibration_checks.h"
 #include "calib/projection_uncertainty.h"
+#include "health/check.h"
+#include "health/lip_reference.h"
 #include "io/detections_file.h"
 #include "io/model_file.h"
 #include "io/session_file.h"
 #include "io/truth_file.h"
+#include "model/single_rim.h"
 
 DEFINE_string(truth_model, "", "calibrate, refine: the true model file (synthetic sessions), to add a "
                                 "truth column to the table");
@@ -51,18 +53,48 @@ std::string UtcNow() {
   return buf;
 }
 
-// The calibration photos' lip bins under the calibrated model, kept in its `calibration:` so
-// that `check` measures change from them (health/lip_reference.h); one line says what they hold.
-void StoreLipReference(const io::Session& session, RigParams* rig) {
+// The calibration photos' lip bins under the calibrated model (a single mirror's: its rim's edge),
+// kept in its `calibration:` so that `check` measures change from them (health/lip_reference.h);
+// one line says what they hold. A single mirror whose image's edge is not its rim (`rim_left_out`)
+// is measured at the mirror circle that edge is, fitted to the detected edge points.
+void StoreLipReference(const io::Session& session, const Observations& detections,
+                       bool rim_left_out, RigParams* rig) {
   CalibrationInfo& info = *rig->calibration;
+  const char* what = rig->Single() ? "rim" : "lip";
+  RigParams observed = *rig;
+  if (rig->Single() && (rim_left_out || !RimEdgeIsTheRim(RigModel(*rig)))) {
+    std::vector<Eigen::Vector2d> edge;
+    for (const ImageObservations& image : detections.images) {
+      for (const LipEdgeObservation& lip : image.lips) {
+        if (lip.path != LipPath::kDirect) continue;
+        // A spread subsample: the radius is a median.
+        for (size_t k = 0; k < lip.points.size(); k += 4) edge.push_back(lip.points[k]);
+      }
+    }
+    const double radius = RimCircleRadiusOf(RigModel(*rig), edge);
+    if (!(radius > 0)) {
+      std::printf("rim reference for `check`: none (the edge of the mirror's image is not its rim, "
+                  "and no circle on the mirror fits the detected edge)\n");
+      return;
+    }
+    info.lip_reference_edge_radius = radius;
+    observed = WithRimCircleAt(*rig, radius);
+    std::printf("rim reference for `check`: the edge of the mirror's image is not its rim; it is "
+                "the mirror's circle of radius %.2f mm at this model's scale (the rim: %.2f mm), "
+                "which check follows\n",
+                radius, rig->r_sys);
+  }
   int photos = 0;
-  info.lip_reference =
-      LearnLipReference(*rig, session.images, session.bayer, session.tone, &photos);
+  info.lip_reference = LearnLipReference(observed, session.images, session.bayer, session.tone,
+                                         &photos, &info.lip_reference_rim_scene_px);
   info.lip_reference_sectors = health::CheckOptions{}.azimuth_bins;
   if (info.lip_reference.empty()) {
-    std::printf("lip reference for `check`: none (%d of the session's %zu photos read, with lips "
-                "needed in 3 or more): check will measure the lips from zero\n",
-                photos, session.images.size());
+    info.lip_reference_edge_radius = 0;
+    std::printf("%s reference for `check`: none (%d of the session's %zu photos read, with %s "
+                "needed in 3 or more): %s\n",
+                what, photos, session.images.size(), rig->Single() ? "the rim" : "lips",
+                rig->Single() ? "check cannot tell a move of the camera against the mirror"
+                              : "check will measure the lips from zero");
     return;
   }
   const LipReferenceBin* worst = &info.lip_reference[0];
@@ -72,11 +104,17 @@ void StoreLipReference(const io::Session& session, RigParams* rig) {
     scatter_min = std::min(scatter_min, bin.scatter_px);
     scatter_max = std::max(scatter_max, bin.scatter_px);
   }
-  std::printf("lip reference for `check`: %zu lip bins (edge x %d deg of azimuth) over %d photos; "
+  std::printf("%s reference for `check`: %zu %s bins (edge x %d deg of azimuth) over %d photos; "
               "the edges' detected bias there up to %+.2f px (%s at %.1f deg), one photo's scatter "
               "%.2f-%.2f px\n",
-              info.lip_reference.size(), 360 / info.lip_reference_sectors, photos,
+              what, info.lip_reference.size(), what, 360 / info.lip_reference_sectors, photos,
               worst->mean_px, worst->edge.c_str(), worst->azimuth_deg, scatter_min, scatter_max);
+  if (info.lip_reference_rim_scene_px > 0) {
+    std::printf("  what one photo's scene moves the rim's edge by as a whole: %.2f px (its scale, "
+                "shift and tilt; pooled with %.2f px as %g photos' worth): check allows for it\n",
+                info.lip_reference_rim_scene_px, health::CheckOptions{}.rim_scene_prior_px,
+                health::kPooledScatterPhotos);
+  }
 }
 
 }  // namespace
@@ -104,8 +142,8 @@ int RunCalibrate() {
 
   result.estimate.rig.calibration = calib::CalibrationInfoOf(
       result, {FLAGS_session, std::string("omnistereo ") + OMNISTEREO_VERSION, UtcNow()});
-  if (session.use_lips && !result.estimate.rig.Single()) {
-    StoreLipReference(session, &result.estimate.rig);
+  if (session.use_lips) {
+    StoreLipReference(session, detections, result.solve.rim_left_out, &result.estimate.rig);
   }
 
   std::optional<RigParams> truth;

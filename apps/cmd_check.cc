@@ -62,17 +62,34 @@ int RunCheck() {
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 
-  std::printf("check: %d image%s, %d ring-to-ring matches (ray gap rms %.3f px), %d lip points "
-              "(rms %.3f px), %.1f s\n",
-              r.n_images, r.n_images == 1 ? "" : "s", r.n_matches, r.gap_rms_px, r.n_lip_points,
-              r.lip_rms_px, seconds);
-  std::printf("  bins: %d of matches over %d of 24 azimuth sectors, %d of lip edges",
-              r.match_bins, r.covered_azimuth_bins, r.lip_bins);
-  if (r.referenced_lip_bins > 0) {
-    std::printf(" (%d measured from the calibration photos' lips)", r.referenced_lip_bins);
+  const bool one_ring = stored.Paths() < 2;
+  if (one_ring) {
+    // A single mirror: the rim's edge against the calibration photos' (health/check.h).
+    std::printf("check: %d image%s, %d points of the mirror's rim (rms %.3f px from the calibration "
+                "photos'), %.1f s\n",
+                r.n_images, r.n_images == 1 ? "" : "s", r.n_lip_points, r.lip_rms_px, seconds);
+    std::printf("  bins: %d of the rim's edge (%d deg of azimuth each) measured from the "
+                "calibration photos'",
+                r.lip_bins, 360 / health::CheckOptions{}.azimuth_bins);
+  } else {
+    std::printf("check: %d image%s, %d ring-to-ring matches (ray gap rms %.3f px), %d lip points "
+                "(rms %.3f px), %.1f s\n",
+                r.n_images, r.n_images == 1 ? "" : "s", r.n_matches, r.gap_rms_px, r.n_lip_points,
+                r.lip_rms_px, seconds);
+    std::printf("  bins: %d of matches over %d of 24 azimuth sectors, %d of lip edges",
+                r.match_bins, r.covered_azimuth_bins, r.lip_bins);
+    if (r.referenced_lip_bins > 0) {
+      std::printf(" (%d measured from the calibration photos' lips)", r.referenced_lip_bins);
+    }
   }
   std::printf("\n");
-  if (r.dof > 0) {
+  if (one_ring && r.rim_scatter_factor > 0) {
+    std::printf("  the rim's shift, scale and tilt: chi^2 %.1f for %d (expected %d +- %.0f if the rig "
+                "has not moved; its sectors scatter %.2f times as their calibration photos "
+                "did%s); p-value %.3g\n",
+                r.chi2, r.dof, r.dof, std::sqrt(2.0 * r.dof), std::sqrt(r.rim_scatter_factor),
+                r.rim_scatter_factor > 1 ? ", allowed for" : "", r.p_value);
+  } else if (r.dof > 0) {
     std::printf("  chi^2 %.1f for %d bins (expected %d +- %.0f if the model still holds%s); "
                 "p-value %.3g\n",
                 r.chi2, r.dof, r.dof, std::sqrt(2.0 * r.dof),
@@ -86,12 +103,25 @@ int RunCheck() {
       std::printf("  %s explains it nearly as well: the photos cannot tell the two apart\n",
                   r.runner_up.c_str());
     }
-    std::printf("next: re-estimate what moved from these photos with `omnistereo refine --model "
-                "%s --images ...`, or recalibrate with targets\n",
-                FLAGS_model.c_str());
+    if (one_ring) {
+      std::printf("next: calibrate again from new photos of the target (`refine` needs two rings' "
+                  "views of the scene)\n");
+    } else {
+      std::printf("next: re-estimate what moved from these photos with `omnistereo refine --model "
+                  "%s --images ...`, or recalibrate with targets\n",
+                  FLAGS_model.c_str());
+    }
   } else if (r.verdict == health::Verdict::kCannotTell && r.model_misfit) {
     std::printf("next: check that --model is this rig's calibrated model; if it is, the rig moved "
                 "too far for `refine`: calibrate again with targets\n");
+  } else if (r.verdict == health::Verdict::kCannotTell && one_ring) {
+    const bool has_reference = stored.calibration && !stored.calibration->lip_reference.empty();
+    std::printf("next: %s\n",
+                has_reference
+                    ? "photograph with the mirror's rim in view, nothing held across it"
+                    : "calibrate with this version, which records the rim; where calibrate left "
+                      "the rim out, score new photos of the target instead (a session of them "
+                      "with `estimate: []` through `calibrate`: RMS per photo)");
   } else if (r.verdict == health::Verdict::kCannotTell) {
     std::printf("next: photograph a textured scene (shelves, posters, a patterned floor) that "
                 "fills most of the view around the rig\n");

@@ -1,6 +1,7 @@
 #include "apps/health_cli.h"
 
 #include <cstdio>
+#include <optional>
 
 #include <gflags/gflags.h>
 
@@ -24,10 +25,15 @@ RigParams ReadStoredModel(const char* command) {
     throw io::InputError("--model: expected the calibrated model file to " + std::string(command));
   }
   RigParams rig = io::ReadModelFile(FLAGS_model);
-  RequireTwoRings(rig, FLAGS_model, std::string(command) +
-                  " compares the two rings' views of the scene and the painted lips' edges; "
-                  "score new photos of the target instead (a session of them with `estimate: []` "
-                  "through `calibrate`: RMS per photo)");
+  // check reads a single mirror's rim against the calibration photos'; refine re-estimates the
+  // rig from the two rings' matches, which one ring does not have.
+  if (std::string(command) != "check") {
+    RequireTwoRings(rig, FLAGS_model, std::string(command) +
+                    " re-estimates the rig from the two rings' views of the scene; calibrate again "
+                    "from new photos of the target instead (`calibrate` with this model as the "
+                    "session's start), or score them (a session with `estimate: []`: RMS per "
+                    "photo)");
+  }
   if (!rig.calibration) {
     std::fprintf(stderr,
                  "%s: warning: %s has no calibration: section, so its own uncertainty is not "
@@ -59,21 +65,31 @@ std::vector<health::ImageEvidence> CollectEvidenceFromFlags(const RigParams& sto
     }
     images.push_back(image);
   }
-  const RigModel model(stored);
+  const RigModel model(health::AsObserved(stored));
   ProgressLine progress(command, static_cast<int>(paths.size()));
-  progress.Status("panorama maps of the stored model");
-  const health::RingMatcher matcher(model);
+  // A single mirror has one ring: its evidence is the rim's edge alone (health/evidence.h).
+  const bool one_ring = stored.Paths() < 2;
+  std::optional<health::RingMatcher> matcher;
+  if (!one_ring) {
+    progress.Status("panorama maps of the stored model");
+    matcher.emplace(model);
+  }
   std::vector<health::ImageEvidence> evidence;
   for (size_t i = 0; i < paths.size(); ++i) {
-    progress.Status("matching the rings and finding the lips in " + paths[i]);
-    evidence.push_back(health::CollectEvidence(images[i], paths[i], matcher, model, *tone,
-                                               io::HasHalvedChroma(paths[i])));
+    progress.Status((one_ring ? "finding the mirror's rim in " : "matching the rings and finding the lips in ") + paths[i]);
+    evidence.push_back(health::CollectEvidence(images[i], paths[i], matcher ? &*matcher : nullptr,
+                                               model, *tone, io::HasHalvedChroma(paths[i])));
     int lip_points = 0;
     for (const auto& edge : evidence.back().lips) lip_points += static_cast<int>(edge.points.size());
     char line[512];
-    std::snprintf(line, sizeof(line), "%s: %zu ring-to-ring matches, %zu lip edges (%d points)",
-                  paths[i].c_str(), evidence.back().matches.size(), evidence.back().lips.size(),
-                  lip_points);
+    if (one_ring) {
+      std::snprintf(line, sizeof(line), "%s: %s (%d points)", paths[i].c_str(),
+                    lip_points ? "the rim's edge" : "the rim's edge not found", lip_points);
+    } else {
+      std::snprintf(line, sizeof(line), "%s: %zu ring-to-ring matches, %zu lip edges (%d points)",
+                    paths[i].c_str(), evidence.back().matches.size(), evidence.back().lips.size(),
+                    lip_points);
+    }
     progress.Done(line);
   }
   progress.Finish();
@@ -83,7 +99,7 @@ std::vector<health::ImageEvidence> CollectEvidenceFromFlags(const RigParams& sto
 std::vector<LipReferenceBin> LearnLipReference(const RigParams& calibrated,
                                                const std::vector<std::string>& photos,
                                                io::BayerPattern bayer, io::ToneCurve tone,
-                                               int* photos_used) {
+                                               int* photos_used, double* rim_scene_px) {
   const RigModel model(calibrated);
   std::vector<health::ImageEvidence> evidence;
   for (const std::string& path : photos) {
@@ -100,7 +116,18 @@ std::vector<LipReferenceBin> LearnLipReference(const RigParams& calibrated,
     evidence.push_back(std::move(one));
   }
   *photos_used = static_cast<int>(evidence.size());
-  return health::LearnLipReference(model, evidence, health::CheckOptions{});
+  const health::CheckOptions options;
+  std::vector<LipReferenceBin> reference = health::LearnLipReference(model, evidence, options);
+  *rim_scene_px = 0;
+  if (calibrated.Single() && !reference.empty()) {
+    RigParams stored = calibrated;
+    if (!stored.calibration) stored.calibration = CalibrationInfo{};
+    stored.calibration->lip_reference = reference;
+    stored.calibration->lip_reference_sectors = options.azimuth_bins;
+    stored.calibration->lip_reference_rim_scene_px = 0;
+    *rim_scene_px = health::RimSceneSigma(stored, evidence, options);
+  }
+  return reference;
 }
 
 }  // namespace omni::apps

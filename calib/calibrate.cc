@@ -322,6 +322,10 @@ void FillResult(const std::vector<TargetSpec>& targets, const Calibration& c,
   result->solve.images = obs.n_images;
   result->solve.targets = TargetsDescription(targets);
   result->estimate.rig = c.rig.params;
+  // A single mirror's rim lies where its refined conic ends (SingleRimZ), as the model file puts it
+  // when read back: the rim's reference for `check` is learnt on this rig (apps/cmd_calibrate.cc).
+  RigParams& rig = result->estimate.rig;
+  if (rig.Single() && !HasLip(rig, Mirror::kOne)) rig.lip1.z = SingleRimZ(rig);
   result->estimate.rig.calibration = CalibrationInfoOf(*result);
 }
 
@@ -448,6 +452,7 @@ CalibrationResult Calibrate(const RigParams& start, const std::vector<TargetSpec
   without.use_lips = false;
   result = CalibrateOnce(start, targets, detections, without);
   result.solve.notes.push_back(why);
+  result.solve.rim_left_out = true;
   return result;
 }
 

@@ -292,6 +292,9 @@ struct SolveReport {
   // under the table): dist_k3 held or refined and why, the camera's pointing against the mirror
   // bodies, the lips' considered bias.
   std::vector<std::string> notes;
+  // A single mirror's rim was observed but left out: the edge of its image is not its rim
+  // (Calibrate; model/single_rim.h RimEdgeIsTheRim at the mirror calibrated with it).
+  bool rim_left_out = false;
   // The data solved: the detections' image count and the session's targets in words
   // (TargetsDescription), as the model file's dataset records them.
   int images = 0;

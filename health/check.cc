@@ -14,6 +14,7 @@
 #include "health/residuals.h"
 #include "model/rig_model.h"
 #include "model/rig_parameters.h"
+#include "model/single_rim.h"
 
 namespace omni::health {
 namespace {
@@ -67,8 +68,9 @@ double ChiSquareSurvival(double x, int dof) {
 
 CheckResult CheckRig(const RigParams& stored, const std::vector<ImageEvidence>& images,
                      const CheckOptions& options) {
-  const LipReference reference(stored, options.azimuth_bins);
-  return CheckSamples(stored, CollectSamples(RigModel(stored), images, options, reference),
+  const RigParams observed = AsObserved(stored);
+  const LipReference reference(observed, options.azimuth_bins);
+  return CheckSamples(observed, CollectSamples(RigModel(observed), images, options, reference),
                       static_cast<int>(images.size()), options);
 }
 
@@ -88,6 +90,7 @@ void SummariseBins(const SampleSet& set, const CheckOptions& options, CheckResul
     r.mean = bin.mean;
     r.standard_error = bin.standard_error;
     r.referenced = bin.reference.has_value();
+    r.reference_photos = bin.reference ? bin.reference->photos : 0;
     result->referenced_lip_bins += r.referenced;
     result->bins.push_back(r);
     if (is_match) {
@@ -246,6 +249,108 @@ bool DecidedWithoutGroups(const RigParams& stored, const CheckOptions& options,
   return false;
 }
 
+// A single mirror's evidence is its rim's edge, whose offset from the model's rim the calibration
+// photos measured (lip_reference.h): the edge the photos show need not be the rim itself (a
+// holder seen in the mirror's outer zone, model/single_rim.h RimEdgeIsTheRim), so only the bins
+// they measured can tell a move. The set with the others' samples left out.
+SampleSet ReferencedBinsOnly(const SampleSet& set) {
+  SampleSet out = set;
+  out.bins.clear();
+  for (const SampleBin& bin : set.bins) {
+    if (bin.reference) {
+      out.bins.push_back(bin);
+    } else {
+      for (int member : bin.members) out.samples[member].kept = false;
+    }
+  }
+  return out;
+}
+
+// A single mirror whose image's edge is not its rim, checked at the circle that edge is
+// (lip_reference.h AsObserved).
+bool FollowsItsEdge(const RigParams& stored) {
+  return stored.calibration && stored.calibration->lip_reference_edge_radius > 0;
+}
+
+// The verdicts a single mirror's rim decides without naming a group (DecidedWithoutGroups for two
+// rings): no usable bin, or bins within their scatter about the calibration photos'. False:
+// DRIFTED.
+bool DecidedOneRing(const RigParams& stored, const CheckOptions& options, CheckResult* result) {
+  double elevation_deg = 0;
+  if (!FollowsItsEdge(stored) && !RimEdgeIsTheRim(RigModel(stored), &elevation_deg)) {
+    result->verdict = Verdict::kCannotTell;
+    char buf[400];
+    std::snprintf(buf, sizeof(buf),
+                  "the edge of the mirror's image is not its rim (the mirror's outer zone "
+                  "reflects rays %.1f deg past the rim's plane: whatever holds the mirror is seen "
+                  "there), and the rim is all a single mirror's check measures",
+                  elevation_deg);
+    result->reason = buf;
+    return true;
+  }
+  const int bins = static_cast<int>(result->bins.size());
+  if (bins < kRimHarmonics + options.min_rim_bins_beyond_harmonics) {
+    result->verdict = Verdict::kCannotTell;
+    const bool has_reference = stored.calibration && !stored.calibration->lip_reference.empty();
+    result->reason =
+        !has_reference ? "the model holds no record of the mirror's rim as its calibration photos "
+                         "showed it (calibration.lip_reference): calibrate with this version to "
+                         "check a single mirror (none is kept where calibrate left the rim out: "
+                         "the edge of the mirror's image was not its rim)"
+        : result->n_lip_points == 0 ? "the mirror's rim was not found in these photos"
+                                    : "the rim was found in too few of the sectors the "
+                                      "calibration photos showed (" +
+                                          std::to_string(bins) + ")";
+    return true;
+  }
+  if (result->p_value >= options.significance) {
+    result->verdict = Verdict::kOk;
+    result->reason = "the mirror's rim is where the calibration photos showed it: no shift, "
+                     "scale or tilt of it beyond its sectors' scatter (what the rim cannot show: "
+                     "a change of the lens's distortion, or a turn of the camera that a shift of "
+                     "its principal point undoes)";
+    return true;
+  }
+  return false;
+}
+
+// A single mirror's rim moves as a whole when the camera and the mirror move against each other:
+// its image scales (the zeroth harmonic of the azimuth), shifts (the first) and, tilted, turns
+// elliptic (the second). Those five coefficients are fitted to the bins (weighted by their
+// errors) and tested against their covariance: the fit's, widened by the bins' scatter about it
+// where that exceeds their errors (as a refinement scales its covariance by chi^2 / dof), plus
+// what the scene behind the rim moves them by, independently in each photo (a dark sleeve along
+// one side: the edge's blurred step moves with what lies inside it): sigma_s^2 / k for the k
+// photos checked and sigma_s^2 / n for the n calibration photos' mean. Sets chi2, dof, p_value,
+// rim_move and rim_scatter_factor.
+void RimHarmonicsTest(const RigParams& stored, CheckResult* result) {
+  const int m = static_cast<int>(result->bins.size());
+  Eigen::MatrixXd X(m, kRimHarmonics);
+  Eigen::VectorXd y(m);
+  int reference_photos = 0;
+  for (int b = 0; b < m; ++b) {
+    const ResidualBin& bin = result->bins[b];
+    const double phi = bin.azimuth_deg * M_PI / 180;
+    const double w = 1 / bin.standard_error;
+    X.row(b) << w, w * std::cos(phi), w * std::sin(phi), w * std::cos(2 * phi), w * std::sin(2 * phi);
+    y[b] = w * bin.mean;
+    reference_photos = std::max(reference_photos, bin.reference_photos);
+  }
+  const Eigen::MatrixXd normal = X.transpose() * X;
+  const Eigen::VectorXd move = normal.ldlt().solve(X.transpose() * y);
+  result->rim_move = move;
+  result->rim_scatter_factor = (y - X * move).squaredNorm() / (m - kRimHarmonics);
+  Eigen::MatrixXd covariance =
+      normal.inverse() * std::max(1.0, result->rim_scatter_factor);
+  const double scene = stored.calibration ? stored.calibration->lip_reference_rim_scene_px : 0;
+  const int photos = std::max(1, result->n_images);
+  covariance.diagonal().array() +=
+      scene * scene * (1.0 / photos + (reference_photos > 0 ? 1.0 / reference_photos : 0.0));
+  result->chi2 = move.dot(covariance.ldlt().solve(move));
+  result->dof = kRimHarmonics;
+  result->p_value = ChiSquareSurvival(result->chi2, kRimHarmonics);
+}
+
 // One group's generalised least-squares fit of the whitened residuals.
 GroupFit FitGroup(const std::string& group, const Eigen::MatrixXd& J_white,
                   const Eigen::VectorXd& r_white) {
@@ -287,8 +392,11 @@ GroupFit FitGroup(const std::string& group, const Eigen::MatrixXd& J_white,
 
 }  // namespace
 
-CheckResult CheckSamples(const RigParams& stored, const SampleSet& set, int n_images,
+CheckResult CheckSamples(const RigParams& stored, const SampleSet& all, int n_images,
                          const CheckOptions& options) {
+  const bool one_ring = stored.Paths() < 2;
+  const SampleSet referenced = one_ring ? ReferencedBinsOnly(all) : SampleSet{};
+  const SampleSet& set = one_ring ? referenced : all;
   CheckResult result;
   result.n_images = n_images;
   result.n_matches = set.n_matches;
@@ -296,6 +404,11 @@ CheckResult CheckSamples(const RigParams& stored, const SampleSet& set, int n_im
   SummariseBins(set, options, &result);
   const int m = static_cast<int>(set.bins.size());
   result.dof = m;
+  if (one_ring && (m < kRimHarmonics + options.min_rim_bins_beyond_harmonics ||
+                   (!FollowsItsEdge(stored) && !RimEdgeIsTheRim(RigModel(stored))))) {
+    DecidedOneRing(stored, options, &result);
+    return result;
+  }
   if (m == 0) {
     result.verdict = Verdict::kCannotTell;
     result.reason = "no ring-to-ring matches and no lip edges were found";
@@ -318,12 +431,18 @@ CheckResult CheckSamples(const RigParams& stored, const SampleSet& set, int n_im
   const Eigen::VectorXd r_white = L.triangularView<Eigen::Lower>().solve(result.residual);
   result.chi2 = r_white.squaredNorm();
   result.p_value = ChiSquareSurvival(result.chi2, m);
-  if (DecidedWithoutGroups(stored, options, &result)) return result;
+  if (one_ring) RimHarmonicsTest(stored, &result);
+  if (one_ring ? DecidedOneRing(stored, options, &result)
+               : DecidedWithoutGroups(stored, options, &result)) {
+    return result;
+  }
   result.verdict = Verdict::kDrifted;
 
-  // Which group explains the residuals: generalised least squares per group.
+  // Which group explains the residuals: generalised least squares per group (a single mirror's
+  // rim sees the camera and the mirror only).
   const Eigen::MatrixXd J_white = L.triangularView<Eigen::Lower>().solve(result.jacobian);
   for (const std::string& group : DriftGroups()) {
+    if (one_ring && group != "camera" && group != "mirror1") continue;
     result.groups.push_back(FitGroup(group, J_white, r_white));
   }
   // Ranked by Schwarz's Bayesian criterion, chi^2 + rank ln(bins): a group with more coordinates
@@ -343,7 +462,12 @@ CheckResult CheckSamples(const RigParams& stored, const SampleSet& set, int n_im
                       ? "a move of " + result.named_group + " explains the residuals"
                       : "no single group explains the residuals; " + result.named_group +
                             " comes closest";
-  if (!EnoughMatches(result, options)) {
+  if (one_ring) {
+    // The groups' chi^2 is against the reference's scatter, which the rim's scene-bound bias
+    // exceeds (RimHarmonicsTest): the harmonics decided, the groups only say what moved.
+    result.reason = "the mirror's rim shifted, scaled or tilted since calibration: the camera "
+                    "moved against the mirror (the rim cannot tell which of the two moved)";
+  } else if (!EnoughMatches(result, options)) {
     result.reason += " (few ring-to-ring matches: the lips, measured from the calibration "
                      "photos', moved)";
   }

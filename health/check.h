@@ -26,6 +26,16 @@
 // group cost nothing); the group with the lowest chi^2 + rank ln(bins) (Schwarz's Bayesian
 // criterion: the camera's ten coordinates must earn their freedom) is named, with the fitted
 // amounts, and a second group within 4 of it is named as one the data cannot tell apart.
+// A single mirror (one ring, RigParams::Single) has no second view to match: its evidence is the
+// rim's edge (detectors/lips/rim_edge.h), measured from the calibration photos' (lip_reference.h);
+// where the edge of the mirror's image is not its rim (model/single_rim.h), at the mirror circle
+// the edge is (lip_reference.h AsObserved). The verdict tests the rim's move, its scale, shift
+// and tilt (harmonics 0-2 of the azimuth fitted to the bins): chi^2 with 5 dof against the fit's
+// covariance (widened where the bins scatter about it by more than their errors) plus what the
+// scene moves the edge by in k photos and in the n calibration photos' mean (sigma_s^2 (1/k +
+// 1/n) per coefficient; sigma_s from the calibration photos, calibration.lip_reference.rim_scene_px).
+// DRIFTED names the camera or mirror 1, which the rim cannot tell apart. No reference or too few
+// bins: CANNOT TELL, saying which.
 #pragma once
 
 #include <algorithm>
@@ -52,6 +62,12 @@ struct CheckOptions {
   int min_bin_count = 6;
   double match_floor_px = 0.02;  // per match bin, added in quadrature to its standard error
   double lip_floor_px = 0.08;    // per lip bin
+  // A single mirror's rim: what one photo's scene moves the rim's edge by as a whole (each of its
+  // shift, scale and tilt coefficients, px), the prior the calibration photos' own scatter is
+  // pooled with (kPooledScatterPhotos photos' worth; lip_reference.h RimSceneSigma): a dark
+  // sleeve along a side of the rim against the holder's dark moved the edge of Mei's held-out
+  // photos by 0.6-0.8 px with the rig untouched.
+  double rim_scene_prior_px = 0.4;
   int jacobian_samples = 6;      // per bin
   int max_lip_points_per_edge = 360;  // per image (a subsample spread along the edge)
   double significance = 1e-3;    // p-value below which the rig has drifted
@@ -60,7 +76,13 @@ struct CheckOptions {
   // a calibrated rig's are 0.2-0.5 px) say the model does not fit the photos at all.
   double lip_misfit_per_f = 0.001;
   double min_match_coverage = 0.5;  // share of azimuth bins with a usable match bin
+  // A single mirror's rim: bins needed beyond its harmonics' five (RimHarmonicsTest, check.cc).
+  int min_rim_bins_beyond_harmonics = 5;
 };
+
+// A single mirror's rim bins are tested for its move's harmonics of the azimuth (0, 1, 2: scale,
+// shift, tilt) against their scatter about them.
+constexpr int kRimHarmonics = 5;
 
 enum class Verdict { kOk, kDrifted, kCannotTell };
 const char* VerdictName(Verdict verdict);  // "OK", "DRIFTED", "CANNOT TELL"
@@ -84,6 +106,7 @@ struct ResidualBin {
   int count = 0;
   double mean = 0, standard_error = 0;
   bool referenced = false;  // measured from the calibration photos' mean (lip_reference.h)
+  int reference_photos = 0;  // the calibration photos that mean is over
 };
 
 struct CheckResult {
@@ -96,6 +119,11 @@ struct CheckResult {
   double gap_rms_px = 0, lip_rms_px = 0;  // of the (clipped) samples
   double chi2 = 0, p_value = 1;
   int dof = 0;
+  // A single mirror (one ring): chi2 and dof are its rim's move against its uncertainty and 5
+  // (RimHarmonicsTest, check.cc); the move's coefficients (px: scale, shift x, y, tilt's cos 2,
+  // sin 2 of the azimuth) and the bins' scatter about them against their errors (per dof).
+  Eigen::VectorXd rim_move;
+  double rim_scatter_factor = 0;
   bool model_covariance = false;  // the stored model's covariance entered C
   std::vector<GroupFit> groups;   // best explanation first (GroupFit::Score; when DRIFTED)
   std::string named_group;        // DRIFTED: the group named ("" otherwise)
@@ -111,5 +139,6 @@ CheckResult CheckRig(const RigParams& stored, const std::vector<ImageEvidence>& 
 
 // Upper tail of the chi-square distribution with `dof` degrees of freedom: P(X >= x).
 double ChiSquareSurvival(double x, int dof);
+
 
 }  // namespace omni::health

@@ -24,8 +24,12 @@ std::string CheckResultYaml(const CheckResult& r, const std::string& model) {
     << "  # lip bins measured from the calibration photos' own\n"
     << "chi2: " << io::FormatDouble(r.chi2) << "\n"
     << "dof: " << r.dof << "\n"
-    << "p_value: " << io::FormatDouble(r.p_value) << "\n"
-    << "model_covariance: " << (r.model_covariance ? "true" : "false") << "\n"
+    << "p_value: " << io::FormatDouble(r.p_value) << "\n";
+  if (r.rim_scatter_factor > 0) {
+    y << "rim_scatter_factor: " << io::FormatDouble(r.rim_scatter_factor)
+      << "  # a single mirror: its rim bins' scatter about the move's harmonics per dof\n";
+  }
+  y << "model_covariance: " << (r.model_covariance ? "true" : "false") << "\n"
     << "groups:\n";
   for (const GroupFit& g : r.groups) {
     y << "  - {group: " << g.group << ", chi2: " << io::FormatDouble(g.chi2) << ", dof: " << g.dof

@@ -1,5 +1,9 @@
 #include "health/lip_reference.h"
 
+#include <algorithm>
+
+#include "model/single_rim.h"
+
 #include <cmath>
 
 #include "health/residuals.h"
@@ -17,6 +21,13 @@ LipReference::LipReference(const RigParams& stored, int azimuth_bins) {
 const LipReferenceBin* LipReference::Find(const std::string& edge, int sector) const {
   const auto it = bins_.find({edge, sector});
   return it == bins_.end() ? nullptr : &it->second;
+}
+
+RigParams AsObserved(const RigParams& stored) {
+  if (!stored.Single() || !stored.calibration || !(stored.calibration->lip_reference_edge_radius > 0)) {
+    return stored;
+  }
+  return WithRimCircleAt(stored, stored.calibration->lip_reference_edge_radius);
 }
 
 std::vector<LipReferenceBin> LearnLipReference(const RigModel& model,
@@ -71,6 +82,25 @@ std::vector<LipReferenceBin> LearnLipReference(const RigModel& model,
     reference.push_back(r);
   }
   return reference;
+}
+
+double RimSceneSigma(const RigParams& stored, const std::vector<ImageEvidence>& images,
+                     const CheckOptions& options) {
+  const double prior = options.rim_scene_prior_px;
+  const int n = static_cast<int>(images.size());
+  double ss = 0;
+  int dof = 0;
+  if (n >= 2) {
+    for (const ImageEvidence& image : images) {
+      const CheckResult one = CheckRig(stored, {image}, options);
+      if (one.rim_move.size() != kRimHarmonics) continue;
+      // Each photo's move is about the reference's mean, itself over these photos.
+      ss += one.rim_move.squaredNorm() * n / (n - 1.0);
+      dof += kRimHarmonics;
+    }
+  }
+  const double prior_dof = kPooledScatterPhotos * kRimHarmonics;
+  return std::sqrt((ss + prior_dof * prior * prior) / (dof + prior_dof));
 }
 
 }  // namespace omni::health

@@ -24,6 +24,12 @@
 
 namespace omni::health {
 
+// The stored model as its lips are measured: a single mirror whose image's edge is not its rim
+// has its rim observation moved to the mirror circle its edge is
+// (calibration.lip_reference_edge_radius, model/single_rim.h WithRimCircleAt); any other model as
+// it is. The check, its evidence and calibrate's reference all measure under it.
+RigParams AsObserved(const RigParams& stored);
+
 // The stored calibration's lip bins by (edge, sector); empty for a model without them, or whose
 // bins were cut into another number of sectors than the check's.
 class LipReference {
@@ -48,5 +54,13 @@ constexpr double kPooledScatterPhotos = 4;
 std::vector<LipReferenceBin> LearnLipReference(const RigModel& model,
                                                const std::vector<ImageEvidence>& images,
                                                const CheckOptions& options, int min_photos = 3);
+
+// A single mirror's rim: what one photo's scene moves the edge by as a whole, per coefficient of
+// its scale, shift and tilt (px; check.h), from the calibration photos one at a time against
+// `stored`'s reference: their coefficients' scatter (widened by n / (n - 1), as each photo is in
+// the reference's mean), pooled with options.rim_scene_prior_px as kPooledScatterPhotos photos'
+// worth: a few photos of one room cannot show the side of the rim a dark sleeve will cover.
+double RimSceneSigma(const RigParams& stored, const std::vector<ImageEvidence>& images,
+                     const CheckOptions& options);
 
 }  // namespace omni::health

@@ -302,6 +302,20 @@ void ReadLipReference(const Reader& in, const YAML::Node& cal, const std::string
   const std::string path = Join(cal_path, "lip_reference");
   const YAML::Node ref = in.Map(cal, path, "lip_reference");
   info->lip_reference_sectors = in.Integer(ref, path, "azimuth_bins", 1);
+  if (ref["rim_scene_px"].IsDefined()) {
+    info->lip_reference_rim_scene_px = in.Number(ref, path, "rim_scene_px");
+    if (!(info->lip_reference_rim_scene_px >= 0)) {
+      in.Fail(Join(path, "rim_scene_px"), "expected a standard deviation >= 0 px",
+              FormatDouble(info->lip_reference_rim_scene_px));
+    }
+  }
+  if (ref["edge_radius"].IsDefined()) {
+    info->lip_reference_edge_radius = in.Number(ref, path, "edge_radius");
+    if (!(info->lip_reference_edge_radius > 0)) {
+      in.Fail(Join(path, "edge_radius"), "expected a radius > 0 mm",
+              FormatDouble(info->lip_reference_edge_radius));
+    }
+  }
   const std::string bins_path = Join(path, "bins");
   const YAML::Node bins = ref["bins"];
   if (!IsSequence(bins)) in.Fail(bins_path, "expected a list of bins", Describe(bins));
@@ -902,6 +916,14 @@ void WriteCalibration(const CalibrationInfo& cal, std::string* out_text) {
          "the health check's lip bins on the calibration photos under this model: `check` "
          "measures change from them");
     Line(&out, 4, "azimuth_bins: " + std::to_string(cal.lip_reference_sectors));
+    if (cal.lip_reference_rim_scene_px > 0) {
+      Line(&out, 4, "rim_scene_px: " + Num(cal.lip_reference_rim_scene_px),
+           "what one photo's scene moves the rim's edge by as a whole (its scale, shift, tilt)");
+    }
+    if (cal.lip_reference_edge_radius > 0) {
+      Line(&out, 4, "edge_radius: " + Num(cal.lip_reference_edge_radius),
+           "mm: the mirror circle the image's edge is (not its rim), at this model's scale");
+    }
     Line(&out, 4, "bins:", "mean_px: the edge detector's bias there; scatter_px: of one photo's");
     for (const LipReferenceBin& bin : cal.lip_reference) {
       Line(&out, 6, "- {edge: " + Text(bin.edge) + ", azimuth_deg: " + Num(bin.azimuth_deg) +

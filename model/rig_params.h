@@ -83,6 +83,13 @@ struct CalibrationInfo {
   // than three photos or without lips); lip_reference_sectors: their number of azimuth sectors.
   std::vector<LipReferenceBin> lip_reference;
   int lip_reference_sectors = 0;
+  // A single mirror whose image's edge is not its rim (model/single_rim.h RimEdgeIsTheRim): the
+  // radius (mm, at this model's scale) of the mirror's circle that the edge is, about which the
+  // reference's bins were measured; 0: the rim itself (absent in older files).
+  double lip_reference_edge_radius = 0;
+  // A single mirror: what one photo's scene moves its rim's edge by as a whole, per coefficient of
+  // its scale, shift and tilt (px; health/lip_reference.h RimSceneSigma; 0: not measured).
+  double lip_reference_rim_scene_px = 0;
   std::string session;
   int images = 0;
   std::string targets;

@@ -3,6 +3,10 @@
 // of it (calib/lip_cost.h: path direct, mirror 1's r_outer circle).
 #pragma once
 
+#include <vector>
+
+#include <Eigen/Core>
+
 #include "model/conic.h"
 #include "model/rig_model.h"
 #include "model/rig_params.h"
@@ -27,5 +31,16 @@ inline double SingleRimZ(const RigParams& rig) {
 // (its reflected rays come from the near focus, which lies at the rim's height for the sample
 // mirror); the edge lay 0.12 px from the rim there.
 bool RimEdgeIsTheRim(const RigModel& model, double* elevation_deg = nullptr);
+
+// The mirror circle of radius `radius_mm` (at the conic's sag there) as the rig's rim observation:
+// lip1 = {radius, radius, its height}. Where the image's edge is not the rim, the edge is still
+// the image of one such circle (the mirror point whose reflected ray grazes the holder), fixed on
+// the mirror: what `check` follows (health/lip_reference.h).
+RigParams WithRimCircleAt(const RigParams& rig, double radius_mm);
+
+// The radius (mm) of the mirror circle whose image the edge points lie on (the median of their
+// radial offsets from it zero, by bisection over 0.2-2 r_sys); 0 if the points are fewer than 20
+// or no radius in that span brackets them.
+double RimCircleRadiusOf(const RigModel& model, const std::vector<Eigen::Vector2d>& edge_points);
 
 }  // namespace omni

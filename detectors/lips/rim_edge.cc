@@ -45,7 +45,10 @@ std::optional<LipEdgeObservation> DetectRimEdge(const cv::Mat& grey, const RigMo
 
   // The model's rim curve and its centre.
   const RigBlocks<double> blocks = RigBlocksOf(rig);
-  const double z = SingleRimZ(rig);
+  // The rim circle (lip1: r_sys at the conic's sag; or, for `check`, the mirror circle that the
+  // edge is where it is not the rim, model/single_rim.h WithRimCircleAt).
+  const double z = rig.lip1.z;
+  const double rim_radius = rig.lip1.r_outer;
   std::vector<Eigen::Vector2d> curve(options.rays);
   std::vector<bool> seen(options.rays, false);
   Eigen::Vector2d centre = Eigen::Vector2d::Zero();
@@ -53,7 +56,7 @@ std::optional<LipEdgeObservation> DetectRimEdge(const cv::Mat& grey, const RigMo
   for (int k = 0; k < options.rays; ++k) {
     const double phi = 2 * M_PI * (k + 0.5) / options.rays;
     Eigen::Vector2d px;
-    if (!ProjectLipPoint(blocks, model.fixed(), LipPath::kDirect, rig.r_sys, z, phi, &px)) continue;
+    if (!ProjectLipPoint(blocks, model.fixed(), LipPath::kDirect, rim_radius, z, phi, &px)) continue;
     curve[k] = px;
     seen[k] = true;
     centre += px;

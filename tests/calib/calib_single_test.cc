@@ -272,6 +272,8 @@ TEST(CalibSingle, TheRimGivesTheMirrorsSize) {
   const CalibrationResult result = Calibrate(start, session.targets, detections, options);
   std::fprintf(stderr, "%s", ResultTable(result, &truth).c_str());
   EXPECT_LT(result.residuals.lip_rms_px, 0.5);
+  // The rim where the refined conic ends, as the model file puts it when read back.
+  EXPECT_DOUBLE_EQ(result.estimate.rig.lip1.z, SingleRimZ(result.estimate.rig));
   const auto& names = result.estimate.names;
   const auto at = std::find(names.begin(), names.end(), "mirror1.R");
   ASSERT_NE(at, names.end());
