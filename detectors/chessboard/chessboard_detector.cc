@@ -339,6 +339,7 @@ std::vector<BoardDetection> SearchRegion(const cv::Mat& raw_grey, const RingView
                                          const cv::Mat& in_ring, const cv::Mat& trusted,
                                          const RigModel& model, const std::vector<TargetSpec>& targets,
                                          const std::vector<int>& patterns, const Region& region,
+                                         const std::vector<cv::Point2f>& view_saddles,
                                          size_t sectors, const ChessboardOptions& options,
                                          int view_index) {
   std::vector<cv::Point2f> junctions;
@@ -353,6 +354,22 @@ std::vector<BoardDetection> SearchRegion(const cv::Mat& raw_grey, const RingView
   trace::Line(" region %d,%d %dx%d: %d saddles, spacing %.1f, %zu junctions, grid %dx%d (%d)",
               region.rect.x, region.rect.y, region.rect.width, region.rect.height, region.saddles,
               region.spacing, junctions.size(), grid.a, grid.b, grid.count);
+  // The view's X-junctions outside the grid, for the junction grid to take across a gap (a
+  // post's band splits a board's junctions into two grids, often two regions): computed once,
+  // when the grid falls short of a pattern.
+  std::optional<std::vector<cv::Point2f>> loose;
+  const auto loose_junctions = [&]() -> const std::vector<cv::Point2f>& {
+    if (loose) return *loose;
+    loose.emplace();
+    for (const cv::Point2f& q : view_saddles) {
+      const bool in_grid = std::any_of(grid.points.begin(), grid.points.end(),
+                                       [&](const cv::Point2f& g) { return cv::norm(g - q) < 0.5; });
+      if (!in_grid && IsJunctionNearEdge(view, in_ring, trusted, q, region.spacing, options.saddle_contrast_floor)) {
+        loose->push_back(q);
+      }
+    }
+    return *loose;
+  };
   std::vector<BoardDetection> found;
   // A board cut by the view's side lies whole in the neighbouring view and is searched there
   // (the region's box may be too large to tell, when background saddles join it; the grid's
@@ -415,7 +432,9 @@ std::vector<BoardDetection> SearchRegion(const cv::Mat& raw_grey, const RingView
         if (finder == kJunctions) {
           // Junctions are in view pixels; the crop's origin is added back in MakeBoard.
           if (found_here > 0 ||
-              !GridFromJunctions(view, trusted, grid, region.spacing, spec.rows, spec.cols, &corners, &filled)) {
+              !GridFromJunctions(view, trusted, grid, region.spacing, spec.rows, spec.cols,
+                                grid.count < n ? loose_junctions() : std::vector<cv::Point2f>{},
+                                options.saddle_contrast_floor, &corners, &filled)) {
             break;
           }
           for (auto& c : corners) c -= cv::Point2f(region.full.tl());
@@ -619,7 +638,7 @@ std::vector<BoardDetection> DetectChessboardBoards(const cv::Mat& raw_grey,
                     region.rect.width, region.rect.height);
         continue;
       }
-      for (BoardDetection& board : SearchRegion(raw_grey, view, in_ring, trusted, model, targets, patterns, region,
+      for (BoardDetection& board : SearchRegion(raw_grey, view, in_ring, trusted, model, targets, patterns, region, saddles,
                                                 views.size() / 2, options, static_cast<int>(vi))) {
         board.view = static_cast<int>(vi);
         boards.push_back(std::move(board));

@@ -6,6 +6,8 @@
 
 #include <opencv2/calib3d.hpp>
 
+#include "detectors/chessboard/chessboard_trace.h"
+
 namespace omni::detectors {
 
 std::optional<bool> IsXJunction(const RingView& view, const cv::Mat& trusted, const cv::Point2f& p,
@@ -48,53 +50,118 @@ bool IsJunctionNearEdge(const RingView& view, const cv::Mat& in_ring, const cv::
   return IsXJunction(view, trusted, p, 0.2 * spacing, min_contrast, true).value_or(false);
 }
 
-bool GridFromJunctions(const RingView& view, const cv::Mat& trusted, const GridExtent& grid, double spacing, int rows,
-                       int cols, std::vector<cv::Point2f>* corners, std::vector<bool>* filled) {
+namespace {
+
+// One placement of the grid found inside the rows x cols pattern: the grid's point with grid
+// coordinates (x, y) is the pattern's corner (row y + off_r, col x + off_c), or (x + off_r,
+// y + off_c) transposed. Missing corners are taken from `loose` where the homography of the
+// corners placed so far predicts one there (a cluster beyond a post's band), the rest must be
+// hidden. False if a missing corner is in plain sight with no junction at it.
+bool Place(const RingView& view, const cv::Mat& trusted, const GridExtent& grid,
+           const std::vector<cv::Point2f>& loose, double spacing, double min_contrast, int rows, int cols,
+           bool transpose,
+           int off_r, int off_c, std::vector<cv::Point2f>* out, std::vector<bool>* missing) {
   const int n = rows * cols;
-  // Three quarters of the pattern, or all but its longest row or column: a narrow board's
-  // one hidden row is a third of it (spherical 0006: a 3x10 board whose top row lies on the
-  // ring's edge, 20 of 30 junctions, was refused whole). Holes must be hidden either way.
-  if (grid.count > n || (4 * grid.count < 3 * n && grid.count < n - std::max(rows, cols))) return false;
+  out->assign(n, cv::Point2f(0, 0));
+  missing->assign(n, true);
+  std::vector<cv::Point2f> at_grid, at_view;
+  for (size_t i = 0; i < grid.points.size(); ++i) {
+    const int c = (transpose ? grid.coords[i].y : grid.coords[i].x) + off_c;
+    const int r = (transpose ? grid.coords[i].x : grid.coords[i].y) + off_r;
+    const int k = r * cols + c;
+    if (!(*missing)[k]) return false;
+    (*missing)[k] = false;
+    (*out)[k] = grid.points[i];
+    at_grid.emplace_back(static_cast<float>(c), static_cast<float>(r));
+    at_view.push_back(grid.points[i]);
+  }
+  if (static_cast<int>(at_grid.size()) == n) return true;
+  std::vector<bool> used(loose.size(), false);
+  // Junctions across a gap are taken a few at a time: each round's homography includes the
+  // previous rounds' (a post's band is 1-3 squares wide; the prediction across it from one side's
+  // grid is within a tenth of a square in a perspective view).
+  for (int round = 0; round < 4; ++round) {
+    const cv::Mat h = cv::findHomography(at_grid, at_view, 0);
+    if (h.empty()) return false;
+    std::vector<cv::Point2f> at, predicted;
+    std::vector<int> which;
+    for (int k = 0; k < n; ++k) {
+      if (!(*missing)[k]) continue;
+      at.emplace_back(static_cast<float>(k % cols), static_cast<float>(k / cols));
+      which.push_back(k);
+    }
+    cv::perspectiveTransform(at, predicted, h);
+    bool taken = false;
+    for (size_t j = 0; j < which.size(); ++j) {
+      (*out)[which[j]] = predicted[j];
+      int best = -1;
+      double best_d = 0.3 * spacing;
+      for (size_t q = 0; q < loose.size(); ++q) {
+        const double d = cv::norm(loose[q] - predicted[j]);
+        if (!used[q] && d < best_d) {
+          best = static_cast<int>(q);
+          best_d = d;
+        }
+      }
+      if (best < 0) continue;
+      used[best] = true;
+      (*missing)[which[j]] = false;
+      (*out)[which[j]] = loose[best];
+      at_grid.push_back(at[j]);
+      at_view.push_back(loose[best]);
+      taken = true;
+    }
+    if (!taken) break;
+  }
+  // Every corner still missing must be hidden: its circle reaches past the trusted pixels (the
+  // ring's edge, a post's band: both are outside the view's map, with the edge margin) or the
+  // view. Or the view shows an X-junction at the prediction (point-symmetric, as two lines
+  // crossing): a corner the saddle detector missed (a blurred inner ring: under its contrast),
+  // taken at the prediction for the refinement.
+  for (int k = 0; k < n; ++k) {
+    if (!(*missing)[k]) continue;
+    const std::optional<bool> x = IsXJunction(view, trusted, (*out)[k], 0.35 * spacing, min_contrast, true);
+    if (!x) continue;
+    if (*x) {
+      (*missing)[k] = false;
+      continue;
+    }
+    trace::Line("    placement %s+%d+%d: corner (%d, %d) at %.1f,%.1f in plain sight, no junction",
+                transpose ? "T" : "", off_r, off_c, k / cols, k % cols, (*out)[k].x, (*out)[k].y);
+    return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+bool GridFromJunctions(const RingView& view, const cv::Mat& trusted, const GridExtent& grid, double spacing, int rows,
+                       int cols, const std::vector<cv::Point2f>& loose, double min_contrast,
+                       std::vector<cv::Point2f>* corners, std::vector<bool>* filled) {
+  const int n = rows * cols;
+  if (grid.count < 4 || grid.count > n) return false;
   int solutions = 0;
-  for (int transpose = 0; transpose < 2; ++transpose) {
+  // A square pattern's transposed placements are its placements relabelled (Orient's 90-degree
+  // turns and its handedness): only one way round.
+  for (int transpose = 0; transpose < (rows == cols ? 1 : 2); ++transpose) {
     const int extent_c = transpose ? grid.b : grid.a, extent_r = transpose ? grid.a : grid.b;
-    const int short_c = cols - extent_c, short_r = rows - extent_r;
-    if (short_c < 0 || short_r < 0 || short_c + short_r > 1) continue;
-    // The hidden row or column before (shift 1) or after (shift 0) the grid found.
-    for (int shift = 0; shift <= short_c + short_r; ++shift) {
-      std::vector<cv::Point2f> out(n, cv::Point2f(0, 0));
-      std::vector<bool> missing(n, true);
-      std::vector<cv::Point2f> at_grid, at_view;
-      bool ok = true;
-      for (size_t i = 0; i < grid.points.size() && ok; ++i) {
-        const int c = (transpose ? grid.coords[i].y : grid.coords[i].x) + (short_c ? shift : 0);
-        const int r = (transpose ? grid.coords[i].x : grid.coords[i].y) + (short_r ? shift : 0);
-        const int k = r * cols + c;
-        ok = missing[k];
-        missing[k] = false;
-        out[k] = grid.points[i];
-        at_grid.emplace_back(static_cast<float>(c), static_cast<float>(r));
-        at_view.push_back(grid.points[i]);
-      }
-      if (!ok) continue;
-      if (grid.count < n) {
-        const cv::Mat h = cv::findHomography(at_grid, at_view, 0);
-        if (h.empty()) continue;
-        std::vector<cv::Point2f> at, predicted;
-        for (int k = 0; k < n; ++k) {
-          if (missing[k]) at.emplace_back(static_cast<float>(k % cols), static_cast<float>(k / cols));
+    if (extent_c > cols || extent_r > rows) continue;
+    for (int off_r = 0; off_r <= rows - extent_r; ++off_r) {
+      for (int off_c = 0; off_c <= cols - extent_c; ++off_c) {
+        std::vector<cv::Point2f> out;
+        std::vector<bool> missing;
+        if (!Place(view, trusted, grid, loose, spacing, min_contrast, rows, cols, transpose, off_r, off_c, &out,
+                   &missing)) {
+          continue;
         }
-        cv::perspectiveTransform(at, predicted, h);
-        for (int k = 0, j = 0; k < n && ok; ++k) {
-          if (!missing[k]) continue;
-          out[k] = predicted[j++];
-          ok = !IsXJunction(view, trusted, out[k], 0.35 * spacing, 0).has_value();  // hidden
-        }
+        // Half the pattern in plain sight at least (three quarters, or all but the longest row or
+        // column, before posts were allowed for; a narrow board's one hidden row is a third of it).
+        const int seen = n - static_cast<int>(std::count(missing.begin(), missing.end(), true));
+        if (2 * seen < n) continue;
+        ++solutions;
+        *corners = out;
+        *filled = missing;
       }
-      if (!ok) continue;
-      ++solutions;
-      *corners = out;
-      *filled = missing;
     }
   }
   return solutions == 1;

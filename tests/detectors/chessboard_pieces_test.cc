@@ -164,7 +164,7 @@ TEST(GridFromJunctionsTest, ANarrowBoardOneRowShort) {
   ASSERT_EQ(grid.count, 20);
   std::vector<cv::Point2f> out;
   std::vector<bool> filled;
-  ASSERT_TRUE(GridFromJunctions(view, trusted, grid, side, 3, 10, &out, &filled));
+  ASSERT_TRUE(GridFromJunctions(view, trusted, grid, side, 3, 10, {}, 10, &out, &filled));
   ASSERT_EQ(out.size(), 30u);
   EXPECT_EQ(std::count(filled.begin(), filled.end(), true), 10);
   // The grid's order is its own (ids are Orient's); each point must be a drawn corner.
@@ -174,7 +174,7 @@ TEST(GridFromJunctionsTest, ANarrowBoardOneRowShort) {
     EXPECT_LT(nearest, 0.05);
   }
   const cv::Mat all(image.size(), CV_8U, cv::Scalar(255));
-  EXPECT_FALSE(GridFromJunctions(view, all, grid, side, 3, 10, &out, &filled));
+  EXPECT_FALSE(GridFromJunctions(view, all, grid, side, 3, 10, {}, 10, &out, &filled));
 }
 
 }  // namespace
