@@ -1,7 +1,8 @@
 // Pieces of the chessboard detector on drawn boards whose corners are known: the region's crop
 // (region_crop.h: padded with the paper's white, never the finders' binarisation level), the
 // pattern gate (junction_grid.h: a 6x8 board read with junk rows and columns is still searched
-// as 6x8) and a narrow board one row short (junction_board.h GridFromJunctions).
+// as 6x8), a narrow board one row short, a board crossed by a post's band and an ambiguous
+// partial grid (junction_board.h GridFromJunctions).
 #include <algorithm>
 #include <vector>
 
@@ -147,8 +148,7 @@ TEST(PatternGateTest, AGridWithJunkRowsStillSearchesItsPattern) {
 
 // A 3x10 board whose top row of corners lies on the ring's edge: 20 of its 30 junctions, the
 // missing row hidden (its circles leave the trusted pixels). It is taken as the board (all but
-// its longest row), the hidden row filled at the homography's prediction of the drawn corners;
-// shown whole instead (the same junctions, the ring not cutting it), it is refused.
+// its longest row), the hidden row filled at the homography's prediction of the drawn corners.
 TEST(GridFromJunctionsTest, ANarrowBoardOneRowShort) {
   std::vector<cv::Point2f> corners;
   const float side = 14;
@@ -173,8 +173,109 @@ TEST(GridFromJunctionsTest, ANarrowBoardOneRowShort) {
     for (const cv::Point2f& c : corners) nearest = std::min(nearest, cv::norm(p - c));
     EXPECT_LT(nearest, 0.05);
   }
+  // Shown whole (the ring not cutting it), the missing row's corners are X-junctions at their
+  // predictions: taken, none filled. Hidden by an occluder instead (a grey patch over the row),
+  // the row is in plain sight with no junction: refused.
   const cv::Mat all(image.size(), CV_8U, cv::Scalar(255));
-  EXPECT_FALSE(GridFromJunctions(view, all, grid, side, 3, 10, {}, 10, &out, &filled));
+  ASSERT_TRUE(GridFromJunctions(view, all, grid, side, 3, 10, {}, 10, &out, &filled));
+  EXPECT_EQ(std::count(filled.begin(), filled.end(), true), 0);
+  RingView occluded = view;
+  occluded.image = view.image.clone();
+  occluded.image(cv::Rect(0, 10, image.cols, 17)).setTo(128);
+  EXPECT_FALSE(GridFromJunctions(occluded, all, grid, side, 3, 10, {}, 10, &out, &filled));
+}
+
+// A post of the mount crossing a 3x8 board: the view's map is -1 over the post's band (as
+// RigModel's projection blocks a path through a post), columns 2-3 of the corners lie in it and
+// column 1's circles reach its margin. The junctions right of the band form the grid (3x4);
+// column 0's three, left of it, are loose. The one placement whose missing corners are all hidden
+// takes the loose junctions across the band (at the homography's prediction): 15 corners at the
+// drawn ones, the 9 of columns 1-3 filled (never reported).
+TEST(GridFromJunctionsTest, ABoardCrossedByAPostIsFitAcrossTheBand) {
+  std::vector<cv::Point2f> corners;
+  const float side = 14;
+  const cv::Point2f first(30, 30);
+  cv::Mat image = DrawBoard({200, 100}, 3, 8, first, side, 6, 90, &corners);
+  // The band: x in [first.x + 1.5 side, first.x + 3.5 side) = [51, 79), black like RenderViews
+  // leaves invalid pixels; trusted pixels 3 px clear of it (the edge margin). Corners: x = 30 + 14 col.
+  RingView view = ViewOf(image, image.cols);
+  cv::Mat trusted(image.size(), CV_8U, cv::Scalar(255));
+  for (int y = 0; y < image.rows; ++y) {
+    for (int x = 51; x < 79; ++x) {
+      view.map_x.at<float>(y, x) = view.map_y.at<float>(y, x) = -1.f;
+      view.image.at<uchar>(y, x) = 0;
+    }
+  }
+  trusted.colRange(48, 82).setTo(0);
+  std::vector<cv::Point2f> right, left;
+  for (int k = 0; k < 24; ++k) {
+    if (k % 8 >= 4) right.push_back(corners[k]);
+    if (k % 8 == 0) left.push_back(corners[k]);
+  }
+  const GridExtent grid = MeasureGrid(view.image, right, side, 10);
+  ASSERT_EQ(grid.count, 12);
+  std::vector<cv::Point2f> out;
+  std::vector<bool> filled;
+  ASSERT_TRUE(GridFromJunctions(view, trusted, grid, side, 3, 8, left, 10, &out, &filled));
+  ASSERT_EQ(out.size(), 24u);
+  int seen = 0;
+  for (size_t k = 0; k < out.size(); ++k) {
+    double nearest = 1e9;
+    int at = -1;
+    for (size_t c = 0; c < corners.size(); ++c) {
+      if (cv::norm(out[k] - corners[c]) < nearest) {
+        nearest = cv::norm(out[k] - corners[c]);
+        at = static_cast<int>(c);
+      }
+    }
+    EXPECT_LT(nearest, 0.05) << k;
+    const bool in_band = at % 8 == 1 || at % 8 == 2 || at % 8 == 3;
+    // Column 1 (x = 44) is 7 px from the band: its 0.35-square circle reaches the margin, hidden
+    // like the band's own columns.
+    EXPECT_EQ(filled[k], in_band) << "corner " << at;
+    seen += filled[k] ? 0 : 1;
+  }
+  EXPECT_EQ(seen, 15);
+  // Column 0 covered (an occluder, not the post: a grey patch): in plain sight with no junction,
+  // the board is refused.
+  RingView occluded = view;
+  occluded.image = view.image.clone();
+  occluded.image(cv::Rect(22, 0, 16, image.rows)).setTo(128);
+  EXPECT_FALSE(GridFromJunctions(occluded, trusted, grid, side, 3, 8, {}, 10, &out, &filled));
+}
+
+// A 3x10 board whose two end columns on each side are hidden (the trusted pixels stop short of
+// columns 2 and 7): the 3x6 grid of its middle fits the pattern in five places whose missing
+// corners are all hidden, so its ids are ambiguous and it is refused.
+TEST(GridFromJunctionsTest, AGridThatFitsSeveralWaysIsRefused) {
+  std::vector<cv::Point2f> corners;
+  const float side = 14;
+  const cv::Point2f first(30, 30);
+  const cv::Mat image = DrawBoard({220, 100}, 3, 10, first, side, 6, 90, &corners);
+  const RingView view = ViewOf(image, image.cols);
+  cv::Mat trusted(image.size(), CV_8U, cv::Scalar(255));
+  // Corners at x = 30 + 14 col, circles of 4.9 px: columns 0-1 and 8-9 (and beyond) hidden.
+  trusted.colRange(0, 68).setTo(0);
+  trusted.colRange(140, 220).setTo(0);
+  std::vector<cv::Point2f> middle;
+  for (int k = 0; k < 30; ++k) {
+    if (k % 10 >= 2 && k % 10 <= 7) middle.push_back(corners[k]);
+  }
+  const GridExtent grid = MeasureGrid(image, middle, side, 10);
+  ASSERT_EQ(grid.count, 18);
+  std::vector<cv::Point2f> out;
+  std::vector<bool> filled;
+  EXPECT_FALSE(GridFromJunctions(view, trusted, grid, side, 3, 10, {}, 10, &out, &filled));
+  // One end in plain sight (the right one trusted): one placement, the board is taken.
+  cv::Mat one_end = trusted.clone();
+  one_end.colRange(140, 220).setTo(255);
+  std::vector<cv::Point2f> with_right = middle;
+  for (int k = 0; k < 30; ++k) {
+    if (k % 10 >= 8) with_right.push_back(corners[k]);
+  }
+  ASSERT_TRUE(GridFromJunctions(view, one_end, MeasureGrid(image, with_right, side, 10), side, 3, 10, {}, 10,
+                                &out, &filled));
+  EXPECT_EQ(std::count(filled.begin(), filled.end(), true), 6);
 }
 
 }  // namespace
