@@ -90,6 +90,7 @@ bool Place(const RingView& view, const cv::Mat& trusted, const GridExtent& grid,
       at.emplace_back(static_cast<float>(k % cols), static_cast<float>(k / cols));
       which.push_back(k);
     }
+    if (at.empty()) break;  // every corner taken
     cv::perspectiveTransform(at, predicted, h);
     bool taken = false;
     for (size_t j = 0; j < which.size(); ++j) {
@@ -139,7 +140,8 @@ bool GridFromJunctions(const RingView& view, const cv::Mat& trusted, const GridE
                        int cols, const std::vector<cv::Point2f>& loose, double min_contrast,
                        std::vector<cv::Point2f>* corners, std::vector<bool>* filled) {
   const int n = rows * cols;
-  if (grid.count < 4 || grid.count > n) return false;
+  // A grid of one row or column fixes no homography.
+  if (grid.count < 4 || grid.count > n || grid.a < 2 || grid.b < 2) return false;
   int solutions = 0;
   // A square pattern's transposed placements are its placements relabelled (Orient's 90-degree
   // turns and its handedness): only one way round.
