@@ -354,21 +354,21 @@ std::vector<BoardDetection> SearchRegion(const cv::Mat& raw_grey, const RingView
   trace::Line(" region %d,%d %dx%d: %d saddles, spacing %.1f, %zu junctions, grid %dx%d (%d)",
               region.rect.x, region.rect.y, region.rect.width, region.rect.height, region.saddles,
               region.spacing, junctions.size(), grid.a, grid.b, grid.count);
-  // The view's X-junctions outside the grid, for the junction grid to take across a gap (a
-  // post's band splits a board's junctions into two grids, often two regions): computed once,
-  // when the grid falls short of a pattern.
-  std::optional<std::vector<cv::Point2f>> loose;
-  const auto loose_junctions = [&]() -> const std::vector<cv::Point2f>& {
-    if (loose) return *loose;
-    loose.emplace();
+  // The view's X-junctions outside the grid, for the junction grid across gaps (a post's band
+  // splits a board's junctions into two grids, often two regions): computed once, when needed.
+  std::optional<JunctionGaps> gaps;
+  const auto junction_gaps = [&]() -> const JunctionGaps* {
+    if (gaps) return &*gaps;
+    gaps.emplace();
+    gaps->min_contrast = options.saddle_contrast_floor;
     for (const cv::Point2f& q : view_saddles) {
       const bool in_grid = std::any_of(grid.points.begin(), grid.points.end(),
                                        [&](const cv::Point2f& g) { return cv::norm(g - q) < 0.5; });
       if (!in_grid && IsJunctionNearEdge(view, in_ring, trusted, q, region.spacing, options.saddle_contrast_floor)) {
-        loose->push_back(q);
+        gaps->loose.push_back(q);
       }
     }
-    return *loose;
+    return &*gaps;
   };
   std::vector<BoardDetection> found;
   // A board cut by the view's side lies whole in the neighbouring view and is searched there
@@ -396,7 +396,10 @@ std::vector<BoardDetection> SearchRegion(const cv::Mat& raw_grey, const RingView
   // X-junction grid (~1 ms; it finds the boards cut by a ring's edge that both OpenCV finders
   // lose: calibration_scene_tags 0006, where the failed sector searches and classic ones for
   // the other patterns cost 160 ms before it); the sector-based finder after all of them.
-  enum Finder { kClassic, kJunctions, kSector };
+  // Last, the junction grid across gaps (GridFromJunctions with JunctionGaps: a board crossed by
+  // a post, or cut by a ring's edge by more than a row or column), only where no finder found a
+  // board in the region: the boards the others find keep their corners as they were.
+  enum Finder { kClassic, kJunctions, kSector, kAcross };
   std::vector<std::pair<Finder, int>> searches;
   for (int t : order) {
     searches.emplace_back(kClassic, t);
@@ -404,6 +407,9 @@ std::vector<BoardDetection> SearchRegion(const cv::Mat& raw_grey, const RingView
   }
   for (int t : order) {
     if (options.sector_fallback) searches.emplace_back(kSector, t);
+  }
+  for (int t : order) {
+    if (options.sector_fallback) searches.emplace_back(kAcross, t);
   }
   for (const auto& [finder, t] : searches) {
     {
@@ -424,7 +430,11 @@ std::vector<BoardDetection> SearchRegion(const cv::Mat& raw_grey, const RingView
       // saddles at their sheet edges).
       const int expected = std::clamp(static_cast<int>(region.saddles / (1.5 * n) + 0.5), 1,
                                       options.max_boards_per_region);
-      trace::Line("  search %s %dx%d", finder == kClassic ? "classic" : finder == kJunctions ? "junctions" : "sector",
+      trace::Line("  search %s %dx%d",
+                  finder == kClassic     ? "classic"
+                  : finder == kJunctions ? "junctions"
+                  : finder == kSector    ? "sector"
+                                         : "junctions across gaps",
                   spec.rows, spec.cols);
       while (found_here < expected) {
         std::vector<cv::Point2f> corners;
@@ -432,9 +442,15 @@ std::vector<BoardDetection> SearchRegion(const cv::Mat& raw_grey, const RingView
         if (finder == kJunctions) {
           // Junctions are in view pixels; the crop's origin is added back in MakeBoard.
           if (found_here > 0 ||
-              !GridFromJunctions(view, trusted, grid, region.spacing, spec.rows, spec.cols,
-                                grid.count < n ? loose_junctions() : std::vector<cv::Point2f>{},
-                                options.saddle_contrast_floor, &corners, &filled)) {
+              !GridFromJunctions(view, trusted, grid, region.spacing, spec.rows, spec.cols, nullptr, &corners,
+                                 &filled)) {
+            break;
+          }
+          for (auto& c : corners) c -= cv::Point2f(region.full.tl());
+        } else if (finder == kAcross) {
+          if (found_here > 0 || grid.count >= n ||
+              !GridFromJunctions(view, trusted, grid, region.spacing, spec.rows, spec.cols, junction_gaps(),
+                                 &corners, &filled)) {
             break;
           }
           for (auto& c : corners) c -= cv::Point2f(region.full.tl());

@@ -56,7 +56,8 @@ namespace {
 // coordinates (x, y) is the pattern's corner (row y + off_r, col x + off_c), or (x + off_r,
 // y + off_c) transposed. Missing corners are taken from `loose` where the homography of the
 // corners placed so far predicts one there (a cluster beyond a post's band), the rest must be
-// hidden. False if a missing corner is in plain sight with no junction at it.
+// hidden, or (min_contrast >= 0) show an X-junction at the prediction, which is taken. False if
+// a missing corner is in plain sight otherwise.
 bool Place(const RingView& view, const cv::Mat& trusted, const GridExtent& grid,
            const std::vector<cv::Point2f>& loose, double spacing, double min_contrast, int rows, int cols,
            bool transpose,
@@ -121,9 +122,10 @@ bool Place(const RingView& view, const cv::Mat& trusted, const GridExtent& grid,
   // taken at the prediction for the refinement.
   for (int k = 0; k < n; ++k) {
     if (!(*missing)[k]) continue;
-    const std::optional<bool> x = IsXJunction(view, trusted, (*out)[k], 0.35 * spacing, min_contrast, true);
+    const std::optional<bool> x =
+        IsXJunction(view, trusted, (*out)[k], 0.35 * spacing, std::max(0.0, min_contrast), true);
     if (!x) continue;
-    if (*x) {
+    if (*x && min_contrast >= 0) {
       (*missing)[k] = false;
       continue;
     }
@@ -137,29 +139,40 @@ bool Place(const RingView& view, const cv::Mat& trusted, const GridExtent& grid,
 }  // namespace
 
 bool GridFromJunctions(const RingView& view, const cv::Mat& trusted, const GridExtent& grid, double spacing, int rows,
-                       int cols, const std::vector<cv::Point2f>& loose, double min_contrast,
-                       std::vector<cv::Point2f>* corners, std::vector<bool>* filled) {
+                       int cols, const JunctionGaps* gaps, std::vector<cv::Point2f>* corners,
+                       std::vector<bool>* filled) {
   const int n = rows * cols;
-  // A grid of one row or column fixes no homography.
-  if (grid.count < 4 || grid.count > n || grid.a < 2 || grid.b < 2) return false;
+  if (grid.count > n) return false;
+  if (gaps) {
+    // A grid of one row or column fixes no homography.
+    if (grid.count < 4 || grid.a < 2 || grid.b < 2) return false;
+  } else if (4 * grid.count < 3 * n && grid.count < n - std::max(rows, cols)) {
+    // Three quarters of the pattern, or all but its longest row or column: a narrow board's
+    // one hidden row is a third of it (spherical 0006: a 3x10 board whose top row lies on the
+    // ring's edge, 20 of 30 junctions, was refused whole). Holes must be hidden either way.
+    return false;
+  }
+  static const std::vector<cv::Point2f> kNone;
+  const std::vector<cv::Point2f>& loose = gaps ? gaps->loose : kNone;
+  const double min_contrast = gaps ? gaps->min_contrast : -1;
   int solutions = 0;
-  // A square pattern's transposed placements are its placements relabelled (Orient's 90-degree
-  // turns and its handedness): only one way round.
-  for (int transpose = 0; transpose < (rows == cols ? 1 : 2); ++transpose) {
+  // Across gaps, a square pattern's transposed placements are its placements relabelled
+  // (Orient's 90-degree turns and its handedness): only one way round.
+  for (int transpose = 0; transpose < (gaps && rows == cols ? 1 : 2); ++transpose) {
     const int extent_c = transpose ? grid.b : grid.a, extent_r = transpose ? grid.a : grid.b;
-    if (extent_c > cols || extent_r > rows) continue;
-    for (int off_r = 0; off_r <= rows - extent_r; ++off_r) {
-      for (int off_c = 0; off_c <= cols - extent_c; ++off_c) {
+    const int short_c = cols - extent_c, short_r = rows - extent_r;
+    if (short_c < 0 || short_r < 0 || (!gaps && short_c + short_r > 1)) continue;
+    for (int off_r = 0; off_r <= short_r; ++off_r) {
+      for (int off_c = 0; off_c <= short_c; ++off_c) {
         std::vector<cv::Point2f> out;
         std::vector<bool> missing;
         if (!Place(view, trusted, grid, loose, spacing, min_contrast, rows, cols, transpose, off_r, off_c, &out,
                    &missing)) {
           continue;
         }
-        // Half the pattern in plain sight at least (three quarters, or all but the longest row or
-        // column, before posts were allowed for; a narrow board's one hidden row is a third of it).
+        // Across gaps: half the pattern in plain sight at least.
         const int seen = n - static_cast<int>(std::count(missing.begin(), missing.end(), true));
-        if (2 * seen < n) continue;
+        if (gaps && 2 * seen < n) continue;
         ++solutions;
         *corners = out;
         *filled = missing;

@@ -35,6 +35,14 @@ std::optional<bool> IsXJunction(const RingView& view, const cv::Mat& trusted, co
 bool IsJunctionNearEdge(const RingView& view, const cv::Mat& in_ring, const cv::Mat& trusted,
                         const cv::Point2f& p, double spacing, double min_contrast);
 
+// Where a board's grid may be fit across gaps (GridFromJunctions): the view's X-junctions outside
+// the grid (the part of a board beyond a post's band, which the grid's growth cannot cross) and
+// the contrast an X-junction at a predicted corner must show (IsXJunction).
+struct JunctionGaps {
+  std::vector<cv::Point2f> loose;
+  double min_contrast = 10;
+};
+
 // The junction grid as a rows x cols corner list in row-major order: the last resort where
 // both OpenCV finders fail on a board the saddle detector saw (demo image 0008: a board whose
 // white margin is cut by the ring's edge, lost by both finders on sharper renders), and the way
@@ -44,21 +52,24 @@ bool IsJunctionNearEdge(const RingView& view, const cv::Mat& in_ring, const cv::
 // the X-junction test (both are outside the view's map: RigModel's projection blocks a path
 // through a post; `trusted`, RingPixels with the edge margin, keeps that margin from both). A
 // missing point that the view shows whole means an occlusion or a miss, and the placement is
-// refused. Any number of rows or columns may be missing, on any side or as a band across the
-// middle: the grid found is placed every way inside the pattern, and where a placement predicts
-// a corner at one of the `loose` junctions (the view's X-junctions outside the grid: the part
-// beyond a post's band, which the grid's growth cannot cross) that junction is taken and the
-// homography refitted; where the view shows an X-junction at a prediction (IsXJunction,
-// point-symmetric, `min_contrast`) the prediction is taken (a corner the saddle detector missed). Exactly one placement must hold, with half the pattern in plain sight;
-// where several do (a grid that either side could extend) the ids are ambiguous and the board
-// is refused. Missing points get the prediction and `filled` marks them: they help check and
-// orient the board and are never reported (their refinement windows would take in the ring's
-// edge or the post). Ids are left to Orient and the same whole-board and homography checks as
-// the finders' grids. A point whose circle reaches the ring's dark rim band is hidden, as the
-// junction test could not have seen it there (parabolic 0012: a 3x10 board's 4 junctions on
-// the rim band's edge, inside the ring as modelled, refused the board).
+// refused. A point whose circle reaches the ring's dark rim band is hidden, as the junction
+// test could not have seen it there (parabolic 0012: a 3x10 board's 4 junctions on the rim
+// band's edge, inside the ring as modelled, refused the board).
+// Without `gaps`: the grid's extents may fall short of the pattern's by one row or column,
+// hidden along one side, and it must hold three quarters of the pattern (or all but its longest
+// row or column). With `gaps`: any number of rows or columns may be missing, on any side or as
+// a band across the middle: the grid found is placed every way inside the pattern; where a
+// placement predicts a corner at one of the loose junctions that junction is taken and the
+// homography refitted, and where the view shows an X-junction at a prediction (point-symmetric,
+// gaps->min_contrast: a corner the saddle detector missed in a blurred ring) the prediction is
+// taken; half the pattern must be in plain sight.
+// Either way exactly one placement must hold: where several do (a grid that either side could
+// extend) the ids are ambiguous and the board is refused. Missing points get the prediction
+// and `filled` marks them: they help check and orient the board and are never reported (their
+// refinement windows would take in the ring's edge or the post). Ids are left to Orient and the
+// same whole-board and homography checks as the finders' grids.
 bool GridFromJunctions(const RingView& view, const cv::Mat& trusted, const GridExtent& grid, double spacing, int rows,
-                       int cols, const std::vector<cv::Point2f>& loose, double min_contrast,
-                       std::vector<cv::Point2f>* corners, std::vector<bool>* filled);
+                       int cols, const JunctionGaps* gaps, std::vector<cv::Point2f>* corners,
+                       std::vector<bool>* filled);
 
 }  // namespace omni::detectors

@@ -164,7 +164,7 @@ TEST(GridFromJunctionsTest, ANarrowBoardOneRowShort) {
   ASSERT_EQ(grid.count, 20);
   std::vector<cv::Point2f> out;
   std::vector<bool> filled;
-  ASSERT_TRUE(GridFromJunctions(view, trusted, grid, side, 3, 10, {}, 10, &out, &filled));
+  ASSERT_TRUE(GridFromJunctions(view, trusted, grid, side, 3, 10, nullptr, &out, &filled));
   ASSERT_EQ(out.size(), 30u);
   EXPECT_EQ(std::count(filled.begin(), filled.end(), true), 10);
   // The grid's order is its own (ids are Orient's); each point must be a drawn corner.
@@ -173,16 +173,18 @@ TEST(GridFromJunctionsTest, ANarrowBoardOneRowShort) {
     for (const cv::Point2f& c : corners) nearest = std::min(nearest, cv::norm(p - c));
     EXPECT_LT(nearest, 0.05);
   }
-  // Shown whole (the ring not cutting it), the missing row's corners are X-junctions at their
-  // predictions: taken, none filled. Hidden by an occluder instead (a grey patch over the row),
-  // the row is in plain sight with no junction: refused.
+  // Shown whole (the ring not cutting it), the missing row is in plain sight: refused. Across
+  // gaps (JunctionGaps), its corners are X-junctions at their predictions: taken, none filled;
+  // hidden by an occluder instead (a grey patch over the row) it is refused there too.
   const cv::Mat all(image.size(), CV_8U, cv::Scalar(255));
-  ASSERT_TRUE(GridFromJunctions(view, all, grid, side, 3, 10, {}, 10, &out, &filled));
+  EXPECT_FALSE(GridFromJunctions(view, all, grid, side, 3, 10, nullptr, &out, &filled));
+  const JunctionGaps gaps;
+  ASSERT_TRUE(GridFromJunctions(view, all, grid, side, 3, 10, &gaps, &out, &filled));
   EXPECT_EQ(std::count(filled.begin(), filled.end(), true), 0);
   RingView occluded = view;
   occluded.image = view.image.clone();
   occluded.image(cv::Rect(0, 10, image.cols, 17)).setTo(128);
-  EXPECT_FALSE(GridFromJunctions(occluded, all, grid, side, 3, 10, {}, 10, &out, &filled));
+  EXPECT_FALSE(GridFromJunctions(occluded, all, grid, side, 3, 10, &gaps, &out, &filled));
 }
 
 // A post of the mount crossing a 3x8 board: the view's map is -1 over the post's band (as
@@ -216,7 +218,11 @@ TEST(GridFromJunctionsTest, ABoardCrossedByAPostIsFitAcrossTheBand) {
   ASSERT_EQ(grid.count, 12);
   std::vector<cv::Point2f> out;
   std::vector<bool> filled;
-  ASSERT_TRUE(GridFromJunctions(view, trusted, grid, side, 3, 8, left, 10, &out, &filled));
+  JunctionGaps gaps;
+  gaps.loose = left;
+  // One column short at most, without gaps: refused.
+  EXPECT_FALSE(GridFromJunctions(view, trusted, grid, side, 3, 8, nullptr, &out, &filled));
+  ASSERT_TRUE(GridFromJunctions(view, trusted, grid, side, 3, 8, &gaps, &out, &filled));
   ASSERT_EQ(out.size(), 24u);
   int seen = 0;
   for (size_t k = 0; k < out.size(); ++k) {
@@ -241,7 +247,8 @@ TEST(GridFromJunctionsTest, ABoardCrossedByAPostIsFitAcrossTheBand) {
   RingView occluded = view;
   occluded.image = view.image.clone();
   occluded.image(cv::Rect(22, 0, 16, image.rows)).setTo(128);
-  EXPECT_FALSE(GridFromJunctions(occluded, trusted, grid, side, 3, 8, {}, 10, &out, &filled));
+  const JunctionGaps no_loose;  // the saddle detector would not find column 0 there either
+  EXPECT_FALSE(GridFromJunctions(occluded, trusted, grid, side, 3, 8, &no_loose, &out, &filled));
 }
 
 // A 3x10 board whose two end columns on each side are hidden (the trusted pixels stop short of
@@ -265,7 +272,8 @@ TEST(GridFromJunctionsTest, AGridThatFitsSeveralWaysIsRefused) {
   ASSERT_EQ(grid.count, 18);
   std::vector<cv::Point2f> out;
   std::vector<bool> filled;
-  EXPECT_FALSE(GridFromJunctions(view, trusted, grid, side, 3, 10, {}, 10, &out, &filled));
+  const JunctionGaps gaps;
+  EXPECT_FALSE(GridFromJunctions(view, trusted, grid, side, 3, 10, &gaps, &out, &filled));
   // One end in plain sight (the right one trusted): one placement, the board is taken.
   cv::Mat one_end = trusted.clone();
   one_end.colRange(140, 220).setTo(255);
@@ -273,7 +281,7 @@ TEST(GridFromJunctionsTest, AGridThatFitsSeveralWaysIsRefused) {
   for (int k = 0; k < 30; ++k) {
     if (k % 10 >= 8) with_right.push_back(corners[k]);
   }
-  ASSERT_TRUE(GridFromJunctions(view, one_end, MeasureGrid(image, with_right, side, 10), side, 3, 10, {}, 10,
+  ASSERT_TRUE(GridFromJunctions(view, one_end, MeasureGrid(image, with_right, side, 10), side, 3, 10, &gaps,
                                 &out, &filled));
   EXPECT_EQ(std::count(filled.begin(), filled.end(), true), 6);
 }
