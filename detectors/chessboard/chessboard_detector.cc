@@ -448,8 +448,11 @@ std::vector<BoardDetection> SearchRegion(const cv::Mat& raw_grey, const RingView
           }
           for (auto& c : corners) c -= cv::Point2f(region.full.tl());
         } else if (finder == kAcross) {
-          if (found_here > 0 || grid.count >= n ||
-              !GridFromJunctions(view, trusted, grid, region.spacing, spec.rows, spec.cols, junction_gaps(),
+          // A grid larger than the pattern: without its points on the ring's rim band (a junk row).
+          const bool fits = GridFitsInPattern(grid, spec.rows, spec.cols, 0);
+          const GridExtent placed = fits ? grid : TrustedPart(view, trusted, grid, region.spacing);
+          if (found_here > 0 || (fits && grid.count >= n) ||
+              !GridFromJunctions(view, trusted, placed, region.spacing, spec.rows, spec.cols, junction_gaps(),
                                  &corners, &filled)) {
             break;
           }

@@ -2,9 +2,11 @@
 
 #include <algorithm>
 #include <array>
+#include <climits>
 #include <cmath>
 
 #include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "detectors/chessboard/chessboard_trace.h"
 
@@ -137,6 +139,25 @@ bool Place(const RingView& view, const cv::Mat& trusted, const GridExtent& grid,
 }
 
 }  // namespace
+
+GridExtent TrustedPart(const RingView& view, const cv::Mat& trusted, const GridExtent& grid, double spacing) {
+  GridExtent out;
+  cv::Point low(INT_MAX, INT_MAX), high(INT_MIN, INT_MIN);
+  for (size_t i = 0; i < grid.points.size(); ++i) {
+    if (!IsXJunction(view, trusted, grid.points[i], 0.35 * spacing, 0).has_value()) continue;
+    out.points.push_back(grid.points[i]);
+    out.coords.push_back(grid.coords[i]);
+    low = cv::Point(std::min(low.x, grid.coords[i].x), std::min(low.y, grid.coords[i].y));
+    high = cv::Point(std::max(high.x, grid.coords[i].x), std::max(high.y, grid.coords[i].y));
+  }
+  out.count = static_cast<int>(out.points.size());
+  if (out.count == 0) return {};
+  for (cv::Point& c : out.coords) c -= low;
+  out.a = high.x - low.x + 1;
+  out.b = high.y - low.y + 1;
+  out.box = cv::boundingRect(out.points);
+  return out;
+}
 
 bool GridFromJunctions(const RingView& view, const cv::Mat& trusted, const GridExtent& grid, double spacing, int rows,
                        int cols, const JunctionGaps* gaps, std::vector<cv::Point2f>* corners,

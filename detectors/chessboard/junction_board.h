@@ -35,6 +35,13 @@ std::optional<bool> IsXJunction(const RingView& view, const cv::Mat& trusted, co
 bool IsJunctionNearEdge(const RingView& view, const cv::Mat& in_ring, const cv::Mat& trusted,
                         const cv::Point2f& p, double spacing, double min_contrast);
 
+// The grid's points whose X-junction circle (0.35 squares) lies in the `trusted` pixels, with
+// their grid coordinates shifted to start at (0, 0) and the extents recounted. A board whose
+// squares touch a ring's dark rim band grows a junk row there (its squares' corners against the
+// band read as X-junctions: a single mirror's paraboloid, h47m_fresh image 0005, a 3x10 board's
+// grid 10x4), which no placement in the pattern can hold; without it the grid fits.
+GridExtent TrustedPart(const RingView& view, const cv::Mat& trusted, const GridExtent& grid, double spacing);
+
 // Where a board's grid may be fit across gaps (GridFromJunctions): the view's X-junctions outside
 // the grid (the part of a board beyond a post's band, which the grid's growth cannot cross) and
 // the contrast an X-junction at a predicted corner must show (IsXJunction).

@@ -1,8 +1,8 @@
 // Pieces of the chessboard detector on drawn boards whose corners are known: the region's crop
 // (region_crop.h: padded with the paper's white, never the finders' binarisation level), the
 // pattern gate (junction_grid.h: a 6x8 board read with junk rows and columns is still searched
-// as 6x8), a narrow board one row short, a board crossed by a post's band and an ambiguous
-// partial grid (junction_board.h GridFromJunctions).
+// as 6x8), a narrow board one row short, a board crossed by a post's band, an ambiguous
+// partial grid and a junk row on the rim band (junction_board.h GridFromJunctions, TrustedPart).
 #include <algorithm>
 #include <vector>
 
@@ -284,6 +284,47 @@ TEST(GridFromJunctionsTest, AGridThatFitsSeveralWaysIsRefused) {
   ASSERT_TRUE(GridFromJunctions(view, one_end, MeasureGrid(image, with_right, side, 10), side, 3, 10, &gaps,
                                 &out, &filled));
   EXPECT_EQ(std::count(filled.begin(), filled.end(), true), 6);
+}
+
+// A 3x10 board whose squares touch the ring's dark rim band above its first row: the band beside
+// those squares reads as a junk row of X-junctions, and the grid (10x4) fits no placement in
+// the pattern. Its trusted part (TrustedPart: circles inside the trusted pixels) drops the junk
+// row and the first row, whose circles reach the band too; across gaps the two rows left are
+// placed where the missing row is hidden: the board, its first row filled.
+TEST(GridFromJunctionsTest, AJunkRowOnTheRimBandIsLeftOut) {
+  std::vector<cv::Point2f> corners;
+  const float side = 14;
+  const cv::Point2f first(30, 20);
+  const cv::Mat image = DrawBoard({220, 120}, 3, 10, first, side, 6, 90, &corners);
+  cv::Mat trusted(image.size(), CV_8U, cv::Scalar(255));
+  trusted.rowRange(0, 23).setTo(0);
+  const RingView view = ViewOf(image, image.cols);
+  GridExtent grid;
+  grid.a = 10;
+  grid.b = 4;
+  for (int c = 0; c < 10; ++c) {  // the junk row, one step above the first
+    grid.points.push_back(corners[c] - cv::Point2f(0, side));
+    grid.coords.emplace_back(c, 0);
+  }
+  for (int k = 0; k < 30; ++k) {
+    grid.points.push_back(corners[k]);
+    grid.coords.emplace_back(k % 10, k / 10 + 1);
+  }
+  grid.count = static_cast<int>(grid.points.size());
+  std::vector<cv::Point2f> out;
+  std::vector<bool> filled;
+  const JunctionGaps gaps;
+  EXPECT_FALSE(GridFromJunctions(view, trusted, grid, side, 3, 10, &gaps, &out, &filled));
+  const GridExtent part = TrustedPart(view, trusted, grid, side);
+  ASSERT_EQ(part.count, 20);
+  EXPECT_EQ(part.a, 10);
+  EXPECT_EQ(part.b, 2);
+  ASSERT_TRUE(GridFromJunctions(view, trusted, part, side, 3, 10, &gaps, &out, &filled));
+  ASSERT_EQ(out.size(), 30u);
+  for (size_t k = 0; k < out.size(); ++k) {
+    EXPECT_LT(cv::norm(out[k] - corners[k]), 0.05) << k;
+    EXPECT_EQ(filled[k], k < 10) << k;
+  }
 }
 
 }  // namespace
