@@ -370,6 +370,17 @@ std::vector<BoardDetection> SearchRegion(const cv::Mat& raw_grey, const RingView
     }
     return &*gaps;
   };
+  // Whether a grid point lies within 1.5 squares of pixels the view does not trust (a post's
+  // band, the ring's edge): only such a grid may be one side of a board crossed by a post.
+  std::optional<bool> by_gap;
+  const auto grid_by_gap = [&]() {
+    if (!by_gap) {
+      by_gap = std::any_of(grid.points.begin(), grid.points.end(), [&](const cv::Point2f& p) {
+        return !IsXJunction(view, trusted, p, 1.5 * region.spacing, 0).has_value();
+      });
+    }
+    return *by_gap;
+  };
   std::vector<BoardDetection> found;
   // A board cut by the view's side lies whole in the neighbouring view and is searched there
   // (the region's box may be too large to tell, when background saddles join it; the grid's
@@ -420,12 +431,17 @@ std::vector<BoardDetection> SearchRegion(const cv::Mat& raw_grey, const RingView
       // 1280x960 image) or more rows or columns than the pattern has (plus two), and the sector
       // finder only for patterns within two rows or columns of the grid (some junctions missed,
       // or extra ones from the background, see `holds`).
-      if (!matches(t) && (2 * grid.count < n || !holds(t))) continue;
+      // Across gaps on a rig with posts, a grid under half the pattern may be one side of a
+      // post's band (the rest beyond it, often another region): GridFromJunctions asks for half
+      // in plain sight after taking the junctions across. (On the demo's rig without posts this
+      // found a ring-2 board directly that guided detection gave before, one corner apart.)
+      const bool beside_posts = finder == kAcross && model.params().mount.present && grid_by_gap();
+      if (!matches(t) && ((!beside_posts && 2 * grid.count < n) || !holds(t))) continue;
       if (finder == kSector && !matches(t) && !near(t, 2)) continue;
       // Too few saddles for the pattern, unless half its junctions already form a grid it holds
       // (an underexposed, vignetted board loses a third of its saddles under the threshold:
       // the harsh preset's 0.55 m board at 1280x960; the classic finder reads its squares).
-      if (n > 1.3 * region.saddles + 2 && 2 * grid.count < n) continue;
+      if (!beside_posts && n > 1.3 * region.saddles + 2 && 2 * grid.count < n) continue;
       // Stop at the number of boards the region's saddle points allow (boards bring some extra
       // saddles at their sheet edges).
       const int expected = std::clamp(static_cast<int>(region.saddles / (1.5 * n) + 0.5), 1,

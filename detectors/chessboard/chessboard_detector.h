@@ -26,7 +26,8 @@
 // view's map is invalid over a post: RigModel's projection blocks the path), gives the corners
 // it shows through its junction grid (GridFromJunctions): cut by one row or column along one
 // side, among the finders; cut by more, on any side, or crossed by a post's band (its junctions
-// in two grids, fit across the band), last, where no finder found a board in the region. The
+// in two grids, fit across the band; on a rig with posts a grid beside untrusted pixels may
+// then hold under half the pattern), last, where no finder found a board in the region. The
 // corners it lacks must be hidden (by the ring's edge or a post, with the edge margin), half the
 // pattern must show, and where the grid fits the pattern in more than one place the ids are
 // ambiguous and the board is refused. Hidden corners and corners whose junction circle reaches
