@@ -62,8 +62,7 @@ namespace {
 // a missing corner is in plain sight otherwise.
 bool Place(const RingView& view, const cv::Mat& trusted, const GridExtent& grid,
            const std::vector<cv::Point2f>& loose, double spacing, double min_contrast, int rows, int cols,
-           bool transpose,
-           int off_r, int off_c, std::vector<cv::Point2f>* out, std::vector<bool>* missing) {
+           bool transpose, int off_r, int off_c, std::vector<cv::Point2f>* out, std::vector<bool>* missing) {
   const int n = rows * cols;
   out->assign(n, cv::Point2f(0, 0));
   missing->assign(n, true);
