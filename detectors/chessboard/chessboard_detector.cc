@@ -472,6 +472,26 @@ std::vector<BoardDetection> SearchRegion(const cv::Mat& raw_grey, const RingView
                                  &corners, &filled)) {
             break;
           }
+          // With its rows or columns hidden, the grid may be part of another of the session's
+          // patterns just as well (a 3x6 grid: a 3x8 board two columns short, a 5x6 one two rows
+          // short; post_sessions' 1mp_webcam_plain_4light 0002 took the 3x8 board's corners as the
+          // 5x6's): ambiguous, refused.
+          const bool elsewhere = std::any_of(patterns.begin(), patterns.end(), [&](int p) {
+            const TargetSpec& other = targets[p];
+            if (other.rows == spec.rows && other.cols == spec.cols) return false;
+            std::vector<cv::Point2f> other_corners;
+            std::vector<bool> other_filled;
+            int held = 0;
+            const bool fits_other = GridFitsInPattern(grid, other.rows, other.cols, 0);
+            GridFromJunctions(view, trusted, fits_other ? grid : TrustedPart(view, trusted, grid, region.spacing),
+                              region.spacing, other.rows, other.cols, junction_gaps(), &other_corners,
+                              &other_filled, &held);
+            return held > 0;
+          });
+          if (elsewhere) {
+            trace::Line("   the grid fits another pattern too: ambiguous");
+            break;
+          }
           for (auto& c : corners) c -= cv::Point2f(region.full.tl());
         } else if (!FindGrid(crop, spec, finder == kClassic ? 0 : 1, &corners)) {
           trace::Line("   the finder found no grid in the %dx%d crop", crop.cols, crop.rows);

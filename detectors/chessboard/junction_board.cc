@@ -160,7 +160,8 @@ GridExtent TrustedPart(const RingView& view, const cv::Mat& trusted, const GridE
 
 bool GridFromJunctions(const RingView& view, const cv::Mat& trusted, const GridExtent& grid, double spacing, int rows,
                        int cols, const JunctionGaps* gaps, std::vector<cv::Point2f>* corners,
-                       std::vector<bool>* filled) {
+                       std::vector<bool>* filled, int* placements) {
+  if (placements) *placements = 0;
   const int n = rows * cols;
   if (grid.count > n) return false;
   if (gaps) {
@@ -199,6 +200,7 @@ bool GridFromJunctions(const RingView& view, const cv::Mat& trusted, const GridE
       }
     }
   }
+  if (placements) *placements = solutions;
   return solutions == 1;
 }
 

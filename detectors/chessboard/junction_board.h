@@ -71,12 +71,13 @@ struct JunctionGaps {
 // gaps->min_contrast: a corner the saddle detector missed in a blurred ring) the prediction is
 // taken; half the pattern must be in plain sight.
 // Either way exactly one placement must hold: where several do (a grid that either side could
-// extend) the ids are ambiguous and the board is refused. Missing points get the prediction
+// extend) the ids are ambiguous and the board is refused. *placements (may be null): how many
+// held (the caller refuses a grid that another of the session's patterns holds too). Missing points get the prediction
 // and `filled` marks them: they help check and orient the board and are never reported (their
 // refinement windows would take in the ring's edge or the post). Ids are left to Orient and the
 // same whole-board and homography checks as the finders' grids.
 bool GridFromJunctions(const RingView& view, const cv::Mat& trusted, const GridExtent& grid, double spacing, int rows,
                        int cols, const JunctionGaps* gaps, std::vector<cv::Point2f>* corners,
-                       std::vector<bool>* filled);
+                       std::vector<bool>* filled, int* placements = nullptr);
 
 }  // namespace omni::detectors

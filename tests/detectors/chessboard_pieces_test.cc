@@ -2,7 +2,8 @@
 // (region_crop.h: padded with the paper's white, never the finders' binarisation level), the
 // pattern gate (junction_grid.h: a 6x8 board read with junk rows and columns is still searched
 // as 6x8), a narrow board one row short, a board crossed by a post's band, an ambiguous
-// partial grid and a junk row on the rim band (junction_board.h GridFromJunctions, TrustedPart).
+// partial grid, a grid two patterns hold and a junk row on the rim band (junction_board.h
+// GridFromJunctions, TrustedPart).
 #include <algorithm>
 #include <vector>
 
@@ -325,6 +326,39 @@ TEST(GridFromJunctionsTest, AJunkRowOnTheRimBandIsLeftOut) {
     EXPECT_LT(cv::norm(out[k] - corners[k]), 0.05) << k;
     EXPECT_EQ(filled[k], k < 10) << k;
   }
+}
+
+// A 3x8 board whose two right columns are hidden and whose top lies at the ring's edge: its
+// 3x6 grid holds one placement in the 3x8 pattern (the two columns hidden) and one in a 5x6
+// pattern (two rows hidden above it). In a session with both patterns the detector refuses such
+// a grid (chessboard_detector.cc, the search across gaps): GridFromJunctions counts the
+// placements each pattern holds.
+TEST(GridFromJunctionsTest, AGridTwoPatternsHoldCountsForBoth) {
+  std::vector<cv::Point2f> corners;
+  const float side = 14;
+  const cv::Mat image = DrawBoard({220, 120}, 3, 8, {30, 50}, side, 6, 90, &corners);
+  const RingView view = ViewOf(image, image.cols);
+  cv::Mat trusted(image.size(), CV_8U, cv::Scalar(255));
+  trusted.rowRange(0, 45).setTo(0);     // rows above y = 50 hidden
+  trusted.colRange(110, 220).setTo(0);  // columns 6-7 (x = 114, 128) hidden
+  std::vector<cv::Point2f> seen;
+  for (int k = 0; k < 24; ++k) {
+    if (k % 8 <= 5) seen.push_back(corners[k]);
+  }
+  const GridExtent grid = MeasureGrid(image, seen, side, 10);
+  ASSERT_EQ(grid.count, 18);
+  std::vector<cv::Point2f> out;
+  std::vector<bool> filled;
+  const JunctionGaps gaps;
+  int placements = 0;
+  EXPECT_TRUE(GridFromJunctions(view, trusted, grid, side, 3, 8, &gaps, &out, &filled, &placements));
+  EXPECT_EQ(placements, 1);
+  EXPECT_TRUE(GridFromJunctions(view, trusted, grid, side, 5, 6, &gaps, &out, &filled, &placements));
+  EXPECT_EQ(placements, 1);
+  // With the rows above in plain sight, the 5x6 pattern holds none.
+  trusted.rowRange(0, 45).setTo(255);
+  EXPECT_FALSE(GridFromJunctions(view, trusted, grid, side, 5, 6, &gaps, &out, &filled, &placements));
+  EXPECT_EQ(placements, 0);
 }
 
 }  // namespace
