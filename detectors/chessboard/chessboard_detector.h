@@ -29,8 +29,9 @@
 // in two grids, fit across the band; on a rig with posts a grid beside untrusted pixels may
 // then hold under half the pattern), last, where no finder found a board in the region. The
 // corners it lacks must be hidden (by the ring's edge or a post, with the edge margin), half the
-// pattern must show, and where the grid fits the pattern in more than one place the ids are
-// ambiguous and the board is refused. Hidden corners and corners whose junction circle reaches
+// pattern must show, and where the grid fits the pattern in more than one place (or, across
+// gaps, fits another of the session's patterns too) the ids are ambiguous and the board is
+// refused. Hidden corners and corners whose junction circle reaches
 // the edge margin (beside a post's band: ~0.35 squares + edge_margin_rad) are left out, as are
 // those whose refinement window would take in the ring's edge. Boards showing less than half
 // their corners are found from the other ring's view of them (guided_detection.h).
