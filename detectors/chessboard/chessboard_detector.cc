@@ -339,6 +339,7 @@ std::vector<BoardDetection> SearchRegion(const cv::Mat& raw_grey, const RingView
                                          const cv::Mat& in_ring, const cv::Mat& trusted,
                                          const RigModel& model, const std::vector<TargetSpec>& targets,
                                          const std::vector<int>& patterns, const Region& region,
+                                         const std::vector<cv::Point2f>& view_saddles,
                                          size_t sectors, const ChessboardOptions& options,
                                          int view_index) {
   std::vector<cv::Point2f> junctions;
@@ -353,6 +354,33 @@ std::vector<BoardDetection> SearchRegion(const cv::Mat& raw_grey, const RingView
   trace::Line(" region %d,%d %dx%d: %d saddles, spacing %.1f, %zu junctions, grid %dx%d (%d)",
               region.rect.x, region.rect.y, region.rect.width, region.rect.height, region.saddles,
               region.spacing, junctions.size(), grid.a, grid.b, grid.count);
+  // The view's X-junctions outside the grid, for the junction grid across gaps (a post's band
+  // splits a board's junctions into two grids, often two regions): computed once, when needed.
+  std::optional<JunctionGaps> gaps;
+  const auto junction_gaps = [&]() -> const JunctionGaps* {
+    if (gaps) return &*gaps;
+    gaps.emplace();
+    gaps->min_contrast = options.saddle_contrast_floor;
+    for (const cv::Point2f& q : view_saddles) {
+      const bool in_grid = std::any_of(grid.points.begin(), grid.points.end(),
+                                       [&](const cv::Point2f& g) { return cv::norm(g - q) < 0.5; });
+      if (!in_grid && IsJunctionNearEdge(view, in_ring, trusted, q, region.spacing, options.saddle_contrast_floor)) {
+        gaps->loose.push_back(q);
+      }
+    }
+    return &*gaps;
+  };
+  // Whether a grid point lies within 1.5 squares of pixels the view does not trust (a post's
+  // band, the ring's edge): only such a grid may be one side of a board crossed by a post.
+  std::optional<bool> by_gap;
+  const auto grid_by_gap = [&]() {
+    if (!by_gap) {
+      by_gap = std::any_of(grid.points.begin(), grid.points.end(), [&](const cv::Point2f& p) {
+        return !IsXJunction(view, trusted, p, 1.5 * region.spacing, 0).has_value();
+      });
+    }
+    return *by_gap;
+  };
   std::vector<BoardDetection> found;
   // A board cut by the view's side lies whole in the neighbouring view and is searched there
   // (the region's box may be too large to tell, when background saddles join it; the grid's
@@ -379,7 +407,10 @@ std::vector<BoardDetection> SearchRegion(const cv::Mat& raw_grey, const RingView
   // X-junction grid (~1 ms; it finds the boards cut by a ring's edge that both OpenCV finders
   // lose: calibration_scene_tags 0006, where the failed sector searches and classic ones for
   // the other patterns cost 160 ms before it); the sector-based finder after all of them.
-  enum Finder { kClassic, kJunctions, kSector };
+  // Last, the junction grid across gaps (GridFromJunctions with JunctionGaps: a board crossed by
+  // a post, or cut by a ring's edge by more than a row or column), only where no finder found a
+  // board in the region: the boards the others find keep their corners as they were.
+  enum Finder { kClassic, kJunctions, kSector, kAcross };
   std::vector<std::pair<Finder, int>> searches;
   for (int t : order) {
     searches.emplace_back(kClassic, t);
@@ -387,6 +418,9 @@ std::vector<BoardDetection> SearchRegion(const cv::Mat& raw_grey, const RingView
   }
   for (int t : order) {
     if (options.sector_fallback) searches.emplace_back(kSector, t);
+  }
+  for (int t : order) {
+    if (options.sector_fallback) searches.emplace_back(kAcross, t);
   }
   for (const auto& [finder, t] : searches) {
     {
@@ -397,17 +431,26 @@ std::vector<BoardDetection> SearchRegion(const cv::Mat& raw_grey, const RingView
       // 1280x960 image) or more rows or columns than the pattern has (plus two), and the sector
       // finder only for patterns within two rows or columns of the grid (some junctions missed,
       // or extra ones from the background, see `holds`).
-      if (!matches(t) && (2 * grid.count < n || !holds(t))) continue;
+      // Across gaps on a rig with posts, a grid under half the pattern may be one side of a
+      // post's band (the rest beyond it, often another region): GridFromJunctions asks for half
+      // in plain sight after taking the junctions across. (On the demo's rig without posts this
+      // found a ring-2 board directly that guided detection gave before, one corner apart.)
+      const bool beside_posts = finder == kAcross && model.params().mount.present && grid_by_gap();
+      if (!matches(t) && ((!beside_posts && 2 * grid.count < n) || !holds(t))) continue;
       if (finder == kSector && !matches(t) && !near(t, 2)) continue;
       // Too few saddles for the pattern, unless half its junctions already form a grid it holds
       // (an underexposed, vignetted board loses a third of its saddles under the threshold:
       // the harsh preset's 0.55 m board at 1280x960; the classic finder reads its squares).
-      if (n > 1.3 * region.saddles + 2 && 2 * grid.count < n) continue;
+      if (!beside_posts && n > 1.3 * region.saddles + 2 && 2 * grid.count < n) continue;
       // Stop at the number of boards the region's saddle points allow (boards bring some extra
       // saddles at their sheet edges).
       const int expected = std::clamp(static_cast<int>(region.saddles / (1.5 * n) + 0.5), 1,
                                       options.max_boards_per_region);
-      trace::Line("  search %s %dx%d", finder == kClassic ? "classic" : finder == kJunctions ? "junctions" : "sector",
+      trace::Line("  search %s %dx%d",
+                  finder == kClassic     ? "classic"
+                  : finder == kJunctions ? "junctions"
+                  : finder == kSector    ? "sector"
+                                         : "junctions across gaps",
                   spec.rows, spec.cols);
       while (found_here < expected) {
         std::vector<cv::Point2f> corners;
@@ -415,7 +458,38 @@ std::vector<BoardDetection> SearchRegion(const cv::Mat& raw_grey, const RingView
         if (finder == kJunctions) {
           // Junctions are in view pixels; the crop's origin is added back in MakeBoard.
           if (found_here > 0 ||
-              !GridFromJunctions(view, trusted, grid, region.spacing, spec.rows, spec.cols, &corners, &filled)) {
+              !GridFromJunctions(view, trusted, grid, region.spacing, spec.rows, spec.cols, nullptr, &corners,
+                                 &filled)) {
+            break;
+          }
+          for (auto& c : corners) c -= cv::Point2f(region.full.tl());
+        } else if (finder == kAcross) {
+          // A grid larger than the pattern: without its points on the ring's rim band (a junk row).
+          const bool fits = GridFitsInPattern(grid, spec.rows, spec.cols, 0);
+          const GridExtent placed = fits ? grid : TrustedPart(view, trusted, grid, region.spacing);
+          if (found_here > 0 || (fits && grid.count >= n) ||
+              !GridFromJunctions(view, trusted, placed, region.spacing, spec.rows, spec.cols, junction_gaps(),
+                                 &corners, &filled)) {
+            break;
+          }
+          // With its rows or columns hidden, the grid may be part of another of the session's
+          // patterns just as well (a 3x6 grid: a 3x8 board two columns short, a 5x6 one two rows
+          // short; post_sessions' 1mp_webcam_plain_4light 0002 took the 3x8 board's corners as the
+          // 5x6's): ambiguous, refused.
+          const bool elsewhere = std::any_of(patterns.begin(), patterns.end(), [&](int p) {
+            const TargetSpec& other = targets[p];
+            if (other.rows == spec.rows && other.cols == spec.cols) return false;
+            std::vector<cv::Point2f> other_corners;
+            std::vector<bool> other_filled;
+            int held = 0;
+            const bool fits_other = GridFitsInPattern(grid, other.rows, other.cols, 0);
+            GridFromJunctions(view, trusted, fits_other ? grid : TrustedPart(view, trusted, grid, region.spacing),
+                              region.spacing, other.rows, other.cols, junction_gaps(), &other_corners,
+                              &other_filled, &held);
+            return held > 0;
+          });
+          if (elsewhere) {
+            trace::Line("   the grid fits another pattern too: ambiguous");
             break;
           }
           for (auto& c : corners) c -= cv::Point2f(region.full.tl());
@@ -619,7 +693,7 @@ std::vector<BoardDetection> DetectChessboardBoards(const cv::Mat& raw_grey,
                     region.rect.width, region.rect.height);
         continue;
       }
-      for (BoardDetection& board : SearchRegion(raw_grey, view, in_ring, trusted, model, targets, patterns, region,
+      for (BoardDetection& board : SearchRegion(raw_grey, view, in_ring, trusted, model, targets, patterns, region, saddles,
                                                 views.size() / 2, options, static_cast<int>(vi))) {
         board.view = static_cast<int>(vi);
         boards.push_back(std::move(board));

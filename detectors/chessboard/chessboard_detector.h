@@ -22,18 +22,26 @@
 // degrees away from that attitude gets rotated ids (consistently in both rings).
 //
 // Limits: two chessboard targets with the same rows x cols cannot be told apart (the first in
-// the list is reported). A board that a ring boundary cuts by at most one row or column, along
-// one side, gives the corners it shows (GridFromJunctions; where either side could hide the row
-// the ids are ambiguous and the board is refused); corners whose refinement window would take in
-// the ring's edge are left out. Boards cut further are found from the other ring's view of them
-// (guided_detection.h).
+// the list is reported). A board that a ring boundary cuts, or a post of the mount crosses (the
+// view's map is invalid over a post: RigModel's projection blocks the path), gives the corners
+// it shows through its junction grid (GridFromJunctions): cut by one row or column along one
+// side, among the finders; cut by more, on any side, or crossed by a post's band (its junctions
+// in two grids, fit across the band; on a rig with posts a grid beside untrusted pixels may
+// then hold under half the pattern), last, where no finder found a board in the region. The
+// corners it lacks must be hidden (by the ring's edge or a post, with the edge margin), half the
+// pattern must show, and where the grid fits the pattern in more than one place (or, across
+// gaps, fits another of the session's patterns too) the ids are ambiguous and the board is
+// refused. Hidden corners and corners whose junction circle reaches
+// the edge margin (beside a post's band: ~0.35 squares + edge_margin_rad) are left out, as are
+// those whose refinement window would take in the ring's edge. Boards showing less than half
+// their corners are found from the other ring's view of them (guided_detection.h).
 //
 // Scale and failure modes, in short: OpenCV's finders need squares of several view pixels, and
 // the saddle regions a contrast of saddle_min_contrast (125 grey levels across a corner at the
 // view's blur); the raw refinement window is 0.55 squares (2-8 px half-width), so raw squares
 // under ~3 px get a 1 px window. Boards are refused whole where the grid fails the homography test
 // (0.5 raw px, 90% inliers), corners whose refinement moves them more than max(1.5 px, 0.3 squares)
-// are left out, and boards cut beyond one row or column give nothing here (see Limits above).
+// are left out, and boards showing under half their corners give nothing here (see Limits above).
 #pragma once
 
 #include <string>
