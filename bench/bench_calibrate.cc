@@ -46,6 +46,43 @@ using namespace omni;
 
 namespace {
 
+// Per parameter named in `list` (comma-separated): its noise-alone and considered sigma, then the
+// considered columns' shares |d value / d column| * sigma_column, the five largest.
+void PrintConsideredShares(const calib::CalibrationResult& result, const std::string& list) {
+  const calib::CalibrationUncertainty& u = result.uncertainty;
+  const auto& names = result.estimate.names;
+  if (u.considered_sensitivity.rows() != static_cast<int>(names.size()) ||
+      u.considered_sensitivity.cols() != u.considered_column_sigma.size()) {
+    std::printf("considered shares: not available (%d x %d sensitivity, %d names)\n",
+                static_cast<int>(u.considered_sensitivity.rows()),
+                static_cast<int>(u.considered_sensitivity.cols()), static_cast<int>(names.size()));
+    return;
+  }
+  size_t start = 0;
+  while (start <= list.size()) {
+    const size_t end = std::min(list.find(',', start), list.size());
+    const std::string name = list.substr(start, end - start);
+    start = end + 1;
+    const auto it = std::find(names.begin(), names.end(), name);
+    if (it == names.end()) continue;
+    const int i = static_cast<int>(it - names.begin());
+    std::vector<std::pair<double, std::string>> shares;
+    for (int c = 0; c < u.considered_sensitivity.cols(); ++c) {
+      const std::string column = c < static_cast<int>(u.considered_column_names.size())
+                                     ? u.considered_column_names[c] : "column " + std::to_string(c);
+      shares.push_back({std::abs(u.considered_sensitivity(i, c)) * u.considered_column_sigma(c), column});
+    }
+    std::sort(shares.rbegin(), shares.rend());
+    const double total = std::sqrt(u.covariance(i, i)), noise = std::sqrt(u.noise_covariance(i, i));
+    std::printf("considered share of %s: sigma %.4g, noise alone %.4g, considered %.4g:", name.c_str(),
+                total, noise, std::sqrt(std::max(0.0, total * total - noise * noise)));
+    for (size_t k = 0; k < shares.size() && k < 5; ++k) {
+      std::printf("%s %s %.3g", k ? "," : "", shares[k].second.c_str(), shares[k].first);
+    }
+    std::printf("\n");
+  }
+}
+
 // Solves from `start` (its stages' lines on stdout), then its report against the truth;
 // values_out (may be null): "name value sigma" per refined parameter.
 void SolveAndReport(const RigParams& start, const std::vector<TargetSpec>& targets,
@@ -58,6 +95,9 @@ void SolveAndReport(const RigParams& start, const std::vector<TargetSpec>& targe
   std::printf("%s", calib::TimedSolveReport(solve, detections, images, options.solver.threads,
                                             usage.ru_maxrss / 1024.0, truth).c_str());
   if (values_out) std::ofstream(values_out) << calib::ValuesText(solve.result);
+  // OMNI_CONSIDERED_OF=name,name...: each named parameter's considered share by column (sigma
+  // times sensitivity), largest first: which held coordinate or detector bias sets its floor.
+  if (const char* of = std::getenv("OMNI_CONSIDERED_OF")) PrintConsideredShares(solve.result, of);
   // OMNI_MODEL_OUT: the calibrated model file (with its covariance), e.g. for `omnistereo
   // tolerance` (bench/tolerance_acceptance.py).
   if (const char* model_out = std::getenv("OMNI_MODEL_OUT")) {
@@ -80,6 +120,9 @@ int RunScene(int argc, char** argv) {
   // OMNI_PROFILE=off|hold|free|auto, OMNI_PROFILE_SIGMA_MM: as in the default mode.
   if (const char* profile = std::getenv("OMNI_PROFILE")) options.profile = profile;
   if (const char* sigma = std::getenv("OMNI_PROFILE_SIGMA_MM")) options.profile_sigma_mm = std::atof(sigma);
+  // OMNI_LIP_BIAS_PX, OMNI_CORNER_OFFSET_PX: the detectors' considered biases (calibrate.h).
+  if (const char* px = std::getenv("OMNI_LIP_BIAS_PX")) options.lip_edge_bias_sigma_px = std::atof(px);
+  if (const char* px = std::getenv("OMNI_CORNER_OFFSET_PX")) options.corner_offset_sigma_px = std::atof(px);
   RigParams start =
       start_file ? io::ReadModelFile(start_file)
                  : testing::IdealDesignOf(truth, session.scene.width, session.scene.height);
@@ -143,6 +186,9 @@ int main(int argc, char** argv) {
   // session's).
   if (const char* profile = std::getenv("OMNI_PROFILE")) options.profile = profile;
   if (const char* sigma = std::getenv("OMNI_PROFILE_SIGMA_MM")) options.profile_sigma_mm = std::atof(sigma);
+  // OMNI_LIP_BIAS_PX, OMNI_CORNER_OFFSET_PX: the detectors' considered biases (calibrate.h).
+  if (const char* px = std::getenv("OMNI_LIP_BIAS_PX")) options.lip_edge_bias_sigma_px = std::atof(px);
+  if (const char* px = std::getenv("OMNI_CORNER_OFFSET_PX")) options.corner_offset_sigma_px = std::atof(px);
   SolveAndReport(testing::IdealRig(), session.targets, detections, options,
                  testing::MisalignedRig(), random.images, argc > 3 ? argv[3] : nullptr);
   return 0;

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <map>
 #include <optional>
+#include <tuple>
 
 #include <Eigen/Dense>
 
@@ -39,6 +40,20 @@ std::vector<Eigen::Vector3d> Corners(const CandidatePhoto& c, const Eigen::Vecto
       w.norm() > 0 ? Eigen::AngleAxisd(w.norm(), w.normalized()).toRotationMatrix()
                    : Eigen::Matrix3d::Identity();
   std::vector<Eigen::Vector3d> corners;
+  if (c.tag_grid) {  // each tag's 4 corners, tags 1.3 sides apart (Kalibr's spacing 0.3)
+    const double pitch = 1.3 * c.square_mm;
+    const double w = (c.cols * 1.3 - 0.3) * c.square_mm, h = (c.rows * 1.3 - 0.3) * c.square_mm;
+    for (int j = 0; j < c.rows; ++j) {
+      for (int i = 0; i < c.cols; ++i) {
+        for (int k = 0; k < 4; ++k) {
+          const double u = i * pitch + (k == 1 || k == 2 ? c.square_mm : 0) - w / 2;
+          const double v = j * pitch + (k >= 2 ? c.square_mm : 0) - h / 2;
+          corners.push_back(centre + r * (u * x + v * y) + t);
+        }
+      }
+    }
+    return corners;
+  }
   for (int j = 0; j < c.rows; ++j) {
     for (int i = 0; i < c.cols; ++i) {
       const Eigen::Vector3d local =
@@ -141,7 +156,8 @@ std::vector<Simulated> Simulate(const RigParams& rig, const std::vector<std::str
   return out;
 }
 
-// The candidate photos: each range, three heights in the band both rings see there, azimuths.
+// The candidate photos: each board at each range it is made for, three heights in the band both
+// rings see there, azimuths.
 std::vector<CandidatePhoto> Candidates(const RigParams& rig, const DecidingPhotosOptions& o) {
   const RigModel model(rig);
   std::vector<CandidatePhoto> out;
@@ -152,15 +168,21 @@ std::vector<CandidatePhoto> Candidates(const RigParams& rig, const DecidingPhoto
       hi = std::max(hi, p.point_in_cam.z());
     }
     if (!(hi > lo)) continue;
-    for (int h = 0; h < 3; ++h) {
-      for (int a = 0; a < o.azimuths; ++a) {
-        CandidatePhoto c;
-        c.range_mm = range;
-        c.height_mm = lo + (hi - lo) * (0.2 + 0.3 * h);
-        c.height_name = kHeightNames[h];
-        c.azimuth_rad = 2 * M_PI * a / o.azimuths;
-        c.square_mm = o.square_mm_per_m * range / 1000;
-        out.push_back(c);
+    for (const CandidateBoard& board : o.boards) {
+      if (range > board.max_range_mm) continue;
+      for (int h = 0; h < 3; ++h) {
+        for (int a = 0; a < o.azimuths; ++a) {
+          CandidatePhoto c;
+          c.range_mm = range;
+          c.height_mm = lo + (hi - lo) * (0.2 + 0.3 * h);
+          c.height_name = kHeightNames[h];
+          c.azimuth_rad = 2 * M_PI * a / o.azimuths;
+          c.rows = board.rows;
+          c.cols = board.cols;
+          c.tag_grid = board.tag_grid;
+          c.square_mm = board.square_mm_per_m * range / 1000;
+          out.push_back(c);
+        }
       }
     }
   }
@@ -197,6 +219,13 @@ double Variance(const Eigen::MatrixXd& information, const Eigen::MatrixXd& consi
   return g.dot(x) + x.dot(considered * x);
 }
 
+// Of which the considered share: x' B x.
+double ConsideredVariance(const Eigen::MatrixXd& information, const Eigen::MatrixXd& considered,
+                          const Eigen::VectorXd& g) {
+  const Eigen::VectorXd x = information.ldlt().solve(g);
+  return x.dot(considered * x);
+}
+
 }  // namespace
 
 std::string DecidingPhotos::Describe(const std::string& unit, double scale) const {
@@ -205,27 +234,30 @@ std::string DecidingPhotos::Describe(const std::string& unit, double scale) cons
            "the camera's turn against the bodies); measure it mechanically";
   }
   // Grouped by range and height, in the order first chosen.
-  std::vector<std::pair<std::pair<double, std::string>, std::vector<double>>> groups;
-  std::vector<double> heights;  // per group: the board centre's height in C (z, mm)
+  // range, height, the board's rows, cols, kind
+  using Key = std::tuple<double, std::string, int, int, bool>;
+  std::vector<std::pair<Key, std::vector<double>>> groups;
+  std::vector<const CandidatePhoto*> firsts;  // per group: its first photo (height, square)
   for (const CandidatePhoto& p : photos) {
-    const auto key = std::make_pair(p.range_mm, std::string(p.height_name));
+    const Key key{p.range_mm, std::string(p.height_name), p.rows, p.cols, p.tag_grid};
     auto it = std::find_if(groups.begin(), groups.end(), [&](const auto& g) { return g.first == key; });
     if (it == groups.end()) {
       groups.push_back({key, {}});
-      heights.push_back(p.height_mm);
+      firsts.push_back(&p);
       it = groups.end() - 1;
     }
     it->second.push_back(p.azimuth_rad * 180 / M_PI);
   }
   std::string text = std::to_string(photos.size()) + (photos.size() == 1 ? " photo: " : " photos: ");
   for (size_t g = 0; g < groups.size(); ++g) {
-    const double range = groups[g].first.first;
-    char part[240];
-    std::snprintf(part, sizeof part, "%sa %dx%d board of %.0f mm squares at %.1f m, %s in the "
+    const CandidatePhoto& board = *firsts[g];
+    char part[280];
+    std::snprintf(part, sizeof part, "%sa %dx%d %s of %.0f mm %s at %.1f m, %s in the "
                   "band (its centre %.0f mm up the axis from the camera), azimuth%s",
-                  g ? "; " : "", photos.front().rows, photos.front().cols,
-                  photos.front().square_mm * range / photos.front().range_mm, range / 1000,
-                  groups[g].first.second.c_str(), heights[g], groups[g].second.size() > 1 ? "s" : "");
+                  g ? "; " : "", board.rows, board.cols,
+                  board.tag_grid ? "Kalibr AprilGrid (spacing 0.3)" : "board", board.square_mm,
+                  board.tag_grid ? "tags" : "squares", board.range_mm / 1000, board.height_name,
+                  board.height_mm, groups[g].second.size() > 1 ? "s" : "");
     text += part;
     // Each azimuth once, with how many photos there ("315 x5").
     std::map<long, int> az;
@@ -242,7 +274,16 @@ std::string DecidingPhotos::Describe(const std::string& unit, double scale) cons
   std::snprintf(tail, sizeof tail, "; sigma %.3g -> %.3g %s (%.3g %s decides)%s",
                 sigma_now * scale, sigma_after * scale, unit.c_str(), sigma_needed * scale,
                 unit.c_str(), decides ? "" : ": not enough, the check needs other data");
-  return text + tail;
+  text += tail;
+  // What photos leave: the detectors' biases and held coordinates carried into the sigma.
+  if (!decides && considered_after >= sigma_needed) {
+    char floor[240];
+    std::snprintf(floor, sizeof floor, " (%.3g %s of it is the detectors' biases and held "
+                  "coordinates carried in, e.g. the lips' bias across the edge, which photos do "
+                  "not average)", considered_after * scale, unit.c_str());
+    text += floor;
+  }
+  return text;
 }
 
 std::vector<DecidingPhotos> PhotosThatDecide(const RigParams& rig,
@@ -341,6 +382,7 @@ std::vector<DecidingPhotos> PhotosThatDecide(const RigParams& rig,
       d.sigma_after = std::sqrt(std::max(0.0, best));
     }
     d.decides = d.sigma_after <= d.sigma_needed;
+    d.considered_after = std::sqrt(std::max(0.0, ConsideredVariance(current, known.considered, g)));
     out.push_back(std::move(d));
   }
   return out;
