@@ -276,11 +276,11 @@ std::string DecidingPhotos::Describe(const std::string& unit, double scale) cons
                 unit.c_str(), decides ? "" : ": not enough, the check needs other data");
   text += tail;
   // What photos leave: the detectors' biases and held coordinates carried into the sigma.
-  if (!decides && considered_after >= sigma_needed) {
+  if (!decides && considered_after > 0) {
     char floor[240];
-    std::snprintf(floor, sizeof floor, " (%.3g %s of it is the detectors' biases and held "
-                  "coordinates carried in, e.g. the lips' bias across the edge, which photos do "
-                  "not average)", considered_after * scale, unit.c_str());
+    std::snprintf(floor, sizeof floor, " (of it %.3g %s in quadrature: the detectors' biases and "
+                  "held coordinates carried in, e.g. the lips' bias across the edge, which photos "
+                  "do not average)", considered_after * scale, unit.c_str());
     text += floor;
   }
   return text;
