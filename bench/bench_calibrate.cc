@@ -20,6 +20,12 @@
 // RIG's ideal design (every pose, the reflex plane and the distortion zero, the principal point
 // at the image centre, fx = fy = 1450 px as in the design files), or from the model file
 // OMNI_START_MODEL names (e.g. with measured profiles: bench/measured_profile_scans.py).
+//
+// Predict mode (a list of photos' predicted effect, design/decide_photos.h SigmaAfterPhotos):
+//   bench_calibrate predict MODEL.yaml TOLERANCES.yaml PHOTOS.txt
+// each check of TOLERANCES against the calibrated MODEL: its sigma now and after the photos, one
+// per line of PHOTOS.txt: "chessboard|grid rows cols square_or_tag_mm range_mm height_mm
+// azimuth_deg" (the board's centre in C, facing the axis, as `tolerance` prints them).
 // OMNI_PROFILE (off|hold|free|auto) sets the session's profile mode; OMNI_MODEL_OUT writes the
 // calibrated model file.
 #include <sys/resource.h>
@@ -36,6 +42,8 @@
 #include "calib/calibration_checks.h"
 #include "calib/monte_carlo.h"
 #include "calib/solve_benchmark.h"
+#include "design/decide_photos.h"
+#include "design/tolerance_file.h"
 #include "calib/session_options.h"
 #include "io/detections_file.h"
 #include "io/model_file.h"
@@ -142,6 +150,44 @@ int RunScene(int argc, char** argv) {
   return 0;
 }
 
+int RunPredict(int argc, char** argv) {
+  if (argc < 5) {
+    std::fprintf(stderr, "usage: bench_calibrate predict MODEL.yaml TOLERANCES.yaml PHOTOS.txt\n");
+    return 2;
+  }
+  const RigParams rig = io::ReadModelFile(argv[2]);
+  const design::ToleranceFile tol = design::ReadToleranceFile(argv[3]);
+  std::vector<design::CandidatePhoto> photos;
+  std::ifstream in(argv[4]);
+  std::string kind;
+  double azimuth_deg = 0;
+  design::CandidatePhoto p;
+  while (in >> kind >> p.rows >> p.cols >> p.square_mm >> p.range_mm >> p.height_mm >> azimuth_deg) {
+    if (kind != "chessboard" && kind != "grid") {
+      std::fprintf(stderr, "%s: expected chessboard or grid first on each line, got '%s'\n", argv[4],
+                   kind.c_str());
+      return 2;
+    }
+    p.tag_grid = kind == "grid";
+    p.azimuth_rad = azimuth_deg * M_PI / 180;
+    photos.push_back(p);
+  }
+  // The pixel noise's part alone: the same rig with its noise covariance as the whole.
+  RigParams noise_only = rig;
+  if (noise_only.calibration && !noise_only.calibration->noise_covariance.empty()) {
+    noise_only.calibration->covariance = noise_only.calibration->noise_covariance;
+  }
+  std::printf("%zu photos\n", photos.size());
+  for (const design::ToleranceCheck& c : design::CheckTolerances(rig, tol.spec)) {
+    const auto after = design::SigmaAfterPhotos(rig, c, photos);
+    const auto noise = design::SigmaAfterPhotos(noise_only, c, photos);
+    if (!c.sigma || !after || !noise) continue;
+    std::printf("%-28s sigma %.4g -> predicted %.4g (noise alone %.4g)\n", c.name.c_str(), *c.sigma,
+                *after, *noise);
+  }
+  return 0;
+}
+
 int RunMonteCarlo(int argc, char** argv) {
   if (argc < 4) {
     std::fprintf(stderr, "usage: bench_calibrate montecarlo SESSION.yaml DETECTIONS.yaml "
@@ -164,6 +210,7 @@ int RunMonteCarlo(int argc, char** argv) {
 int main(int argc, char** argv) {
   FLAGS_minloglevel = 2;  // Ceres's per-trial-step warnings, as in the CLI
   if (argc > 1 && std::string(argv[1]) == "montecarlo") return RunMonteCarlo(argc, argv);
+  if (argc > 1 && std::string(argv[1]) == "predict") return RunPredict(argc, argv);
   if (argc > 2 && std::string(argv[1]).size() > 5 &&
       std::string(argv[1]).substr(std::string(argv[1]).size() - 5) == ".yaml") {
     return RunScene(argc, argv);

@@ -14,6 +14,7 @@
 #pragma once
 
 #include <cmath>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -82,5 +83,11 @@ std::vector<DecidingPhotos> PhotosThatDecide(const RigParams& rig,
                                              const std::vector<ToleranceCheck>& checks,
                                              double confidence_sigmas,
                                              const DecidingPhotosOptions& options = {});
+
+// The check's sigma once the given photos are added to the calibration's data (the same first-order
+// model as PhotosThatDecide's, photos skipped that show fewer than 6 corners); nullopt without a
+// calibration with a covariance or a check without a gradient.
+std::optional<double> SigmaAfterPhotos(const RigParams& rig, const ToleranceCheck& check,
+                                       const std::vector<CandidatePhoto>& photos);
 
 }  // namespace omni::design
