@@ -20,6 +20,12 @@
 // RIG's ideal design (every pose, the reflex plane and the distortion zero, the principal point
 // at the image centre, fx = fy = 1450 px as in the design files), or from the model file
 // OMNI_START_MODEL names (e.g. with measured profiles: bench/measured_profile_scans.py).
+//
+// Predict mode (a list of photos' predicted effect, design/decide_photos.h SigmaAfterPhotos):
+//   bench_calibrate predict MODEL.yaml TOLERANCES.yaml PHOTOS.txt
+// each check of TOLERANCES against the calibrated MODEL: its sigma now and after the photos, one
+// per line of PHOTOS.txt: "chessboard|grid rows cols square_or_tag_mm range_mm height_mm
+// azimuth_deg" (the board's centre in C, facing the axis, as `tolerance` prints them).
 // OMNI_PROFILE (off|hold|free|auto) sets the session's profile mode; OMNI_MODEL_OUT writes the
 // calibrated model file.
 #include <sys/resource.h>
@@ -36,6 +42,8 @@
 #include "calib/calibration_checks.h"
 #include "calib/monte_carlo.h"
 #include "calib/solve_benchmark.h"
+#include "design/decide_photos.h"
+#include "design/tolerance_file.h"
 #include "calib/session_options.h"
 #include "io/detections_file.h"
 #include "io/model_file.h"
@@ -45,6 +53,43 @@
 using namespace omni;
 
 namespace {
+
+// Per parameter named in `list` (comma-separated): its noise-alone and considered sigma, then the
+// considered columns' shares |d value / d column| * sigma_column, the five largest.
+void PrintConsideredShares(const calib::CalibrationResult& result, const std::string& list) {
+  const calib::CalibrationUncertainty& u = result.uncertainty;
+  const auto& names = result.estimate.names;
+  if (u.considered_sensitivity.rows() != static_cast<int>(names.size()) ||
+      u.considered_sensitivity.cols() != u.considered_column_sigma.size()) {
+    std::printf("considered shares: not available (%d x %d sensitivity, %d names)\n",
+                static_cast<int>(u.considered_sensitivity.rows()),
+                static_cast<int>(u.considered_sensitivity.cols()), static_cast<int>(names.size()));
+    return;
+  }
+  size_t start = 0;
+  while (start <= list.size()) {
+    const size_t end = std::min(list.find(',', start), list.size());
+    const std::string name = list.substr(start, end - start);
+    start = end + 1;
+    const auto it = std::find(names.begin(), names.end(), name);
+    if (it == names.end()) continue;
+    const int i = static_cast<int>(it - names.begin());
+    std::vector<std::pair<double, std::string>> shares;
+    for (int c = 0; c < u.considered_sensitivity.cols(); ++c) {
+      const std::string column = c < static_cast<int>(u.considered_column_names.size())
+                                     ? u.considered_column_names[c] : "column " + std::to_string(c);
+      shares.push_back({std::abs(u.considered_sensitivity(i, c)) * u.considered_column_sigma(c), column});
+    }
+    std::sort(shares.rbegin(), shares.rend());
+    const double total = std::sqrt(u.covariance(i, i)), noise = std::sqrt(u.noise_covariance(i, i));
+    std::printf("considered share of %s: sigma %.4g, noise alone %.4g, considered %.4g:", name.c_str(),
+                total, noise, std::sqrt(std::max(0.0, total * total - noise * noise)));
+    for (size_t k = 0; k < shares.size() && k < 5; ++k) {
+      std::printf("%s %s %.3g", k ? "," : "", shares[k].second.c_str(), shares[k].first);
+    }
+    std::printf("\n");
+  }
+}
 
 // Solves from `start` (its stages' lines on stdout), then its report against the truth;
 // values_out (may be null): "name value sigma" per refined parameter.
@@ -58,6 +103,9 @@ void SolveAndReport(const RigParams& start, const std::vector<TargetSpec>& targe
   std::printf("%s", calib::TimedSolveReport(solve, detections, images, options.solver.threads,
                                             usage.ru_maxrss / 1024.0, truth).c_str());
   if (values_out) std::ofstream(values_out) << calib::ValuesText(solve.result);
+  // OMNI_CONSIDERED_OF=name,name...: each named parameter's considered share by column (sigma
+  // times sensitivity), largest first: which held coordinate or detector bias sets its floor.
+  if (const char* of = std::getenv("OMNI_CONSIDERED_OF")) PrintConsideredShares(solve.result, of);
   // OMNI_MODEL_OUT: the calibrated model file (with its covariance), e.g. for `omnistereo
   // tolerance` (bench/tolerance_acceptance.py).
   if (const char* model_out = std::getenv("OMNI_MODEL_OUT")) {
@@ -80,6 +128,9 @@ int RunScene(int argc, char** argv) {
   // OMNI_PROFILE=off|hold|free|auto, OMNI_PROFILE_SIGMA_MM: as in the default mode.
   if (const char* profile = std::getenv("OMNI_PROFILE")) options.profile = profile;
   if (const char* sigma = std::getenv("OMNI_PROFILE_SIGMA_MM")) options.profile_sigma_mm = std::atof(sigma);
+  // OMNI_LIP_BIAS_PX, OMNI_CORNER_OFFSET_PX: the detectors' considered biases (calibrate.h).
+  if (const char* px = std::getenv("OMNI_LIP_BIAS_PX")) options.lip_edge_bias_sigma_px = std::atof(px);
+  if (const char* px = std::getenv("OMNI_CORNER_OFFSET_PX")) options.corner_offset_sigma_px = std::atof(px);
   RigParams start =
       start_file ? io::ReadModelFile(start_file)
                  : testing::IdealDesignOf(truth, session.scene.width, session.scene.height);
@@ -96,6 +147,44 @@ int RunScene(int argc, char** argv) {
   }
   SolveAndReport(start, session.targets, detections, options, truth,
                  static_cast<int>(detections.images.size()), argc > 5 ? argv[5] : nullptr);
+  return 0;
+}
+
+int RunPredict(int argc, char** argv) {
+  if (argc < 5) {
+    std::fprintf(stderr, "usage: bench_calibrate predict MODEL.yaml TOLERANCES.yaml PHOTOS.txt\n");
+    return 2;
+  }
+  const RigParams rig = io::ReadModelFile(argv[2]);
+  const design::ToleranceFile tol = design::ReadToleranceFile(argv[3]);
+  std::vector<design::CandidatePhoto> photos;
+  std::ifstream in(argv[4]);
+  std::string kind;
+  double azimuth_deg = 0;
+  design::CandidatePhoto p;
+  while (in >> kind >> p.rows >> p.cols >> p.square_mm >> p.range_mm >> p.height_mm >> azimuth_deg) {
+    if (kind != "chessboard" && kind != "grid") {
+      std::fprintf(stderr, "%s: expected chessboard or grid first on each line, got '%s'\n", argv[4],
+                   kind.c_str());
+      return 2;
+    }
+    p.tag_grid = kind == "grid";
+    p.azimuth_rad = azimuth_deg * M_PI / 180;
+    photos.push_back(p);
+  }
+  // The pixel noise's part alone: the same rig with its noise covariance as the whole.
+  RigParams noise_only = rig;
+  if (noise_only.calibration && !noise_only.calibration->noise_covariance.empty()) {
+    noise_only.calibration->covariance = noise_only.calibration->noise_covariance;
+  }
+  std::printf("%zu photos\n", photos.size());
+  for (const design::ToleranceCheck& c : design::CheckTolerances(rig, tol.spec)) {
+    const auto after = design::SigmaAfterPhotos(rig, c, photos);
+    const auto noise = design::SigmaAfterPhotos(noise_only, c, photos);
+    if (!c.sigma || !after || !noise) continue;
+    std::printf("%-28s sigma %.4g -> predicted %.4g (noise alone %.4g)\n", c.name.c_str(), *c.sigma,
+                *after, *noise);
+  }
   return 0;
 }
 
@@ -121,6 +210,7 @@ int RunMonteCarlo(int argc, char** argv) {
 int main(int argc, char** argv) {
   FLAGS_minloglevel = 2;  // Ceres's per-trial-step warnings, as in the CLI
   if (argc > 1 && std::string(argv[1]) == "montecarlo") return RunMonteCarlo(argc, argv);
+  if (argc > 1 && std::string(argv[1]) == "predict") return RunPredict(argc, argv);
   if (argc > 2 && std::string(argv[1]).size() > 5 &&
       std::string(argv[1]).substr(std::string(argv[1]).size() - 5) == ".yaml") {
     return RunScene(argc, argv);
@@ -143,6 +233,9 @@ int main(int argc, char** argv) {
   // session's).
   if (const char* profile = std::getenv("OMNI_PROFILE")) options.profile = profile;
   if (const char* sigma = std::getenv("OMNI_PROFILE_SIGMA_MM")) options.profile_sigma_mm = std::atof(sigma);
+  // OMNI_LIP_BIAS_PX, OMNI_CORNER_OFFSET_PX: the detectors' considered biases (calibrate.h).
+  if (const char* px = std::getenv("OMNI_LIP_BIAS_PX")) options.lip_edge_bias_sigma_px = std::atof(px);
+  if (const char* px = std::getenv("OMNI_CORNER_OFFSET_PX")) options.corner_offset_sigma_px = std::atof(px);
   SolveAndReport(testing::IdealRig(), session.targets, detections, options,
                  testing::MisalignedRig(), random.images, argc > 3 ? argv[3] : nullptr);
   return 0;

@@ -58,7 +58,8 @@ BODY_PARTS = {"mirror2": ("decentre_to_mirror1", "tilt_to_mirror1", "spacing"),
 LINE = re.compile(r"^\s+(\S+)\s+(-?[0-9.]+) (mm|deg)\s+(\S+)\s+(-?[0-9.]+)\s+(PASS|FAIL|UNDECIDED)")
 PHOTOS = re.compile(r"^\s+(\S+): (\d+) photos?: (.*); sigma ([0-9.e+-]+) -> ([0-9.e+-]+) (mm|deg) "
                     r"\(([0-9.e+-]+) (?:mm|deg) decides\)")
-GROUP = re.compile(r"a (\d+)x(\d+) board of ([0-9.]+) mm squares at ([0-9.]+) m, (\w+) in the band "
+GROUP = re.compile(r"a (\d+)x(\d+) (board|Kalibr AprilGrid \(spacing 0.3\)) of ([0-9.]+) mm (?:squares|tags) "
+                   r"at ([0-9.]+) m, (\w+) in the band "
                    r"\(its centre (-?[0-9.]+) mm up the axis from the camera\), azimuths? (.*) deg")
 
 
@@ -88,12 +89,13 @@ def tolerance(omni, model, config):
                 g = GROUP.match(part)
                 if not g:
                     sys.exit("cannot read the photos of: %s" % part)
-                for item in g.group(7).split(", "):
+                for item in g.group(8).split(", "):
                     deg, _, count = item.partition(" x")
                     for _ in range(int(count or 1)):
                         boards.append({"rows": int(g.group(1)), "cols": int(g.group(2)),
-                                       "square": float(g.group(3)), "range": 1000 * float(g.group(4)),
-                                       "height": float(g.group(6)), "azimuth_deg": float(deg)})
+                                       "grid": g.group(3) != "board",
+                                       "square": float(g.group(4)), "range": 1000 * float(g.group(5)),
+                                       "height": float(g.group(7)), "azimuth_deg": float(deg)})
             assert len(boards) == int(m.group(2)), line
             photos[m.group(1)] = {"boards": boards, "now": float(m.group(4)) * k,
                                   "after": float(m.group(5)) * k, "needed": float(m.group(7)) * k}
@@ -129,7 +131,11 @@ def placement(board, target):
     z = [math.cos(a), math.sin(a), 0.0]
     r = [[x[i], y[i], z[i]] for i in range(3)]
     centre = [board["range"] * math.cos(a), board["range"] * math.sin(a), board["height"]]
-    pattern = [(board["cols"] - 1) / 2 * board["square"], (board["rows"] - 1) / 2 * board["square"], 0]
+    if board.get("grid"):  # a tag grid's origin: its first tag's corner; n tags span (1.3 n - 0.3) T
+        pattern = [(1.3 * board["cols"] - 0.3) / 2 * board["square"],
+                   (1.3 * board["rows"] - 0.3) / 2 * board["square"], 0]
+    else:
+        pattern = [(board["cols"] - 1) / 2 * board["square"], (board["rows"] - 1) / 2 * board["square"], 0]
     t = [centre[i] - sum(r[i][j] * pattern[j] for j in range(3)) for i in range(3)]
     return {"target": target, "rotation": rotation_vector(r), "translation": t}
 
@@ -138,11 +144,19 @@ def board_targets(boards, first):
     """One target per distinct board, indexed from `first`; each board's target index."""
     kinds, index = [], []
     for b in boards:
-        key = (b["rows"], b["cols"], b["square"])
+        key = (b["rows"], b["cols"], b["square"], b.get("grid", False))
         if key not in kinds:
             kinds.append(key)
         index.append(first + kinds.index(key))
-    targets = [{"type": "chessboard", "rows": r, "cols": c, "square": s} for r, c, s in kinds]
+    # Tag grids' ids after the session's (which stay below 100 in sample_configs' scenes).
+    targets, next_id = [], 100
+    for r, c, s, grid in kinds:
+        if grid:
+            targets.append({"type": "kalibr_aprilgrid", "rows": r, "cols": c, "tag_size": s,
+                            "spacing": 0.3, "first_id": next_id})
+            next_id += r * c
+        else:
+            targets.append({"type": "chessboard", "rows": r, "cols": c, "square": s})
     return targets, index
 
 

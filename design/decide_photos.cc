@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <map>
 #include <optional>
+#include <tuple>
 
 #include <Eigen/Dense>
 
@@ -39,6 +40,20 @@ std::vector<Eigen::Vector3d> Corners(const CandidatePhoto& c, const Eigen::Vecto
       w.norm() > 0 ? Eigen::AngleAxisd(w.norm(), w.normalized()).toRotationMatrix()
                    : Eigen::Matrix3d::Identity();
   std::vector<Eigen::Vector3d> corners;
+  if (c.tag_grid) {  // each tag's 4 corners, tags 1.3 sides apart (Kalibr's spacing 0.3)
+    const double pitch = 1.3 * c.square_mm;
+    const double w = (c.cols * 1.3 - 0.3) * c.square_mm, h = (c.rows * 1.3 - 0.3) * c.square_mm;
+    for (int j = 0; j < c.rows; ++j) {
+      for (int i = 0; i < c.cols; ++i) {
+        for (int k = 0; k < 4; ++k) {
+          const double u = i * pitch + (k == 1 || k == 2 ? c.square_mm : 0) - w / 2;
+          const double v = j * pitch + (k >= 2 ? c.square_mm : 0) - h / 2;
+          corners.push_back(centre + r * (u * x + v * y) + t);
+        }
+      }
+    }
+    return corners;
+  }
   for (int j = 0; j < c.rows; ++j) {
     for (int i = 0; i < c.cols; ++i) {
       const Eigen::Vector3d local =
@@ -141,7 +156,8 @@ std::vector<Simulated> Simulate(const RigParams& rig, const std::vector<std::str
   return out;
 }
 
-// The candidate photos: each range, three heights in the band both rings see there, azimuths.
+// The candidate photos: each board at each range it is made for, three heights in the band both
+// rings see there, azimuths.
 std::vector<CandidatePhoto> Candidates(const RigParams& rig, const DecidingPhotosOptions& o) {
   const RigModel model(rig);
   std::vector<CandidatePhoto> out;
@@ -152,15 +168,21 @@ std::vector<CandidatePhoto> Candidates(const RigParams& rig, const DecidingPhoto
       hi = std::max(hi, p.point_in_cam.z());
     }
     if (!(hi > lo)) continue;
-    for (int h = 0; h < 3; ++h) {
-      for (int a = 0; a < o.azimuths; ++a) {
-        CandidatePhoto c;
-        c.range_mm = range;
-        c.height_mm = lo + (hi - lo) * (0.2 + 0.3 * h);
-        c.height_name = kHeightNames[h];
-        c.azimuth_rad = 2 * M_PI * a / o.azimuths;
-        c.square_mm = o.square_mm_per_m * range / 1000;
-        out.push_back(c);
+    for (const CandidateBoard& board : o.boards) {
+      if (range > board.max_range_mm) continue;
+      for (int h = 0; h < 3; ++h) {
+        for (int a = 0; a < o.azimuths; ++a) {
+          CandidatePhoto c;
+          c.range_mm = range;
+          c.height_mm = lo + (hi - lo) * (0.2 + 0.3 * h);
+          c.height_name = kHeightNames[h];
+          c.azimuth_rad = 2 * M_PI * a / o.azimuths;
+          c.rows = board.rows;
+          c.cols = board.cols;
+          c.tag_grid = board.tag_grid;
+          c.square_mm = board.square_mm_per_m * range / 1000;
+          out.push_back(c);
+        }
       }
     }
   }
@@ -197,6 +219,13 @@ double Variance(const Eigen::MatrixXd& information, const Eigen::MatrixXd& consi
   return g.dot(x) + x.dot(considered * x);
 }
 
+// Of which the considered share: x' B x.
+double ConsideredVariance(const Eigen::MatrixXd& information, const Eigen::MatrixXd& considered,
+                          const Eigen::VectorXd& g) {
+  const Eigen::VectorXd x = information.ldlt().solve(g);
+  return x.dot(considered * x);
+}
+
 }  // namespace
 
 std::string DecidingPhotos::Describe(const std::string& unit, double scale) const {
@@ -205,27 +234,30 @@ std::string DecidingPhotos::Describe(const std::string& unit, double scale) cons
            "the camera's turn against the bodies); measure it mechanically";
   }
   // Grouped by range and height, in the order first chosen.
-  std::vector<std::pair<std::pair<double, std::string>, std::vector<double>>> groups;
-  std::vector<double> heights;  // per group: the board centre's height in C (z, mm)
+  // range, height, the board's rows, cols, kind
+  using Key = std::tuple<double, std::string, int, int, bool>;
+  std::vector<std::pair<Key, std::vector<double>>> groups;
+  std::vector<const CandidatePhoto*> firsts;  // per group: its first photo (height, square)
   for (const CandidatePhoto& p : photos) {
-    const auto key = std::make_pair(p.range_mm, std::string(p.height_name));
+    const Key key{p.range_mm, std::string(p.height_name), p.rows, p.cols, p.tag_grid};
     auto it = std::find_if(groups.begin(), groups.end(), [&](const auto& g) { return g.first == key; });
     if (it == groups.end()) {
       groups.push_back({key, {}});
-      heights.push_back(p.height_mm);
+      firsts.push_back(&p);
       it = groups.end() - 1;
     }
     it->second.push_back(p.azimuth_rad * 180 / M_PI);
   }
   std::string text = std::to_string(photos.size()) + (photos.size() == 1 ? " photo: " : " photos: ");
   for (size_t g = 0; g < groups.size(); ++g) {
-    const double range = groups[g].first.first;
-    char part[240];
-    std::snprintf(part, sizeof part, "%sa %dx%d board of %.0f mm squares at %.1f m, %s in the "
+    const CandidatePhoto& board = *firsts[g];
+    char part[280];
+    std::snprintf(part, sizeof part, "%sa %dx%d %s of %.0f mm %s at %.1f m, %s in the "
                   "band (its centre %.0f mm up the axis from the camera), azimuth%s",
-                  g ? "; " : "", photos.front().rows, photos.front().cols,
-                  photos.front().square_mm * range / photos.front().range_mm, range / 1000,
-                  groups[g].first.second.c_str(), heights[g], groups[g].second.size() > 1 ? "s" : "");
+                  g ? "; " : "", board.rows, board.cols,
+                  board.tag_grid ? "Kalibr AprilGrid (spacing 0.3)" : "board", board.square_mm,
+                  board.tag_grid ? "tags" : "squares", board.range_mm / 1000, board.height_name,
+                  board.height_mm, groups[g].second.size() > 1 ? "s" : "");
     text += part;
     // Each azimuth once, with how many photos there ("315 x5").
     std::map<long, int> az;
@@ -242,30 +274,32 @@ std::string DecidingPhotos::Describe(const std::string& unit, double scale) cons
   std::snprintf(tail, sizeof tail, "; sigma %.3g -> %.3g %s (%.3g %s decides)%s",
                 sigma_now * scale, sigma_after * scale, unit.c_str(), sigma_needed * scale,
                 unit.c_str(), decides ? "" : ": not enough, the check needs other data");
-  return text + tail;
+  text += tail;
+  // What photos leave: the detectors' biases and held coordinates carried into the sigma.
+  if (!decides && considered_after > 0) {
+    char floor[240];
+    std::snprintf(floor, sizeof floor, " (of it %.3g %s in quadrature: the detectors' biases and "
+                  "held coordinates carried in, e.g. the lips' bias across the edge, which photos "
+                  "do not average)", considered_after * scale, unit.c_str());
+    text += floor;
+  }
+  return text;
 }
 
-std::vector<DecidingPhotos> PhotosThatDecide(const RigParams& rig,
-                                             const std::vector<ToleranceCheck>& checks,
-                                             double confidence_sigmas,
-                                             const DecidingPhotosOptions& options) {
-  std::vector<DecidingPhotos> out;
-  if (!rig.calibration) return out;
+namespace {
+
+// The photos' information on the calibration's parameters (rig.calibration: parameters, each
+// ring's residual RMS as its corners' sigma), each board's pose and the held profiles' terms
+// eliminated.
+std::vector<Simulated> SimulateOnRig(const RigParams& rig, std::vector<CandidatePhoto> photos) {
   const CalibrationInfo& info = *rig.calibration;
   const size_t n = info.parameters.size();
-  if (n == 0 || info.covariance.size() != n * n) return out;
-  std::vector<const ToleranceCheck*> undecided;
-  for (const ToleranceCheck& c : checks) {
-    if (c.verdict == Verdict::kUndecided && c.sigma && !c.gradient_names.empty() &&
-        std::abs(c.value - c.limit) > 0) {
-      undecided.push_back(&c);
-    }
-  }
-  if (undecided.empty()) return out;
-  const Knowledge known = KnowledgeOf(info, n);
+  // Each ring's corner sigma per image axis: its residuals' RMS is over the 2D residual (both
+  // axes, calib/observation_set.cc CornerRms), sqrt(2) times the per-axis sigma (taken as the
+  // sigma, it halved the photos' information: predicted / reached 0.67-0.70 on the axial positions).
   double sigma_px[2] = {0.1, 0.1};
   for (int m = 0; m < 2 && m < static_cast<int>(info.per_mirror_rms_px.size()); ++m) {
-    if (info.per_mirror_rms_px[m] > 0) sigma_px[m] = info.per_mirror_rms_px[m];
+    if (info.per_mirror_rms_px[m] > 0) sigma_px[m] = info.per_mirror_rms_px[m] / std::sqrt(2.0);
   }
   // The held profiles (calibration.held_profiles): their terms move the new photos' corners too,
   // so each photo's information on the rig is taken with them free under what is known of them
@@ -293,9 +327,7 @@ std::vector<DecidingPhotos> PhotosThatDecide(const RigParams& rig,
     }
     held_information.push_back(0.5 * (held + held.transpose()));
   }
-  std::vector<Simulated> simulated =
-      Simulate(simulated_rig, names, Candidates(rig, options), sigma_px);
-  if (simulated.empty()) return out;
+  std::vector<Simulated> simulated = Simulate(simulated_rig, names, std::move(photos), sigma_px);
   if (!held_information.empty()) {
     const int h = static_cast<int>(names.size() - n);
     Eigen::MatrixXd prior = Eigen::MatrixXd::Zero(h, h);
@@ -309,12 +341,55 @@ std::vector<DecidingPhotos> PhotosThatDecide(const RigParams& rig,
       s.information = a.topLeftCorner(n, n) - a_xc * a_cc.ldlt().solve(a_xc.transpose());
     }
   }
-  for (const ToleranceCheck* c : undecided) {
-    Eigen::VectorXd g = Eigen::VectorXd::Zero(n);
-    for (size_t i = 0; i < c->gradient_names.size(); ++i) {
-      const auto it = std::find(info.parameters.begin(), info.parameters.end(), c->gradient_names[i]);
-      if (it != info.parameters.end()) g(it - info.parameters.begin()) = c->gradient[i];
+  return simulated;
+}
+
+// The check's gradient over the calibration's parameters.
+Eigen::VectorXd GradientOf(const CalibrationInfo& info, const ToleranceCheck& c) {
+  Eigen::VectorXd g = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(info.parameters.size()));
+  for (size_t i = 0; i < c.gradient_names.size(); ++i) {
+    const auto it = std::find(info.parameters.begin(), info.parameters.end(), c.gradient_names[i]);
+    if (it != info.parameters.end()) g(it - info.parameters.begin()) = c.gradient[i];
+  }
+  return g;
+}
+
+}  // namespace
+
+std::optional<double> SigmaAfterPhotos(const RigParams& rig, const ToleranceCheck& check,
+                                       const std::vector<CandidatePhoto>& photos) {
+  if (!rig.calibration || !check.sigma || check.gradient_names.empty()) return std::nullopt;
+  const CalibrationInfo& info = *rig.calibration;
+  const size_t n = info.parameters.size();
+  if (n == 0 || info.covariance.size() != n * n) return std::nullopt;
+  const Knowledge known = KnowledgeOf(info, n);
+  Eigen::MatrixXd information = known.information;
+  for (const Simulated& s : SimulateOnRig(rig, photos)) information += s.information;
+  return std::sqrt(std::max(0.0, Variance(information, known.considered, GradientOf(info, check))));
+}
+
+std::vector<DecidingPhotos> PhotosThatDecide(const RigParams& rig,
+                                             const std::vector<ToleranceCheck>& checks,
+                                             double confidence_sigmas,
+                                             const DecidingPhotosOptions& options) {
+  std::vector<DecidingPhotos> out;
+  if (!rig.calibration) return out;
+  const CalibrationInfo& info = *rig.calibration;
+  const size_t n = info.parameters.size();
+  if (n == 0 || info.covariance.size() != n * n) return out;
+  std::vector<const ToleranceCheck*> undecided;
+  for (const ToleranceCheck& c : checks) {
+    if (c.verdict == Verdict::kUndecided && c.sigma && !c.gradient_names.empty() &&
+        std::abs(c.value - c.limit) > 0) {
+      undecided.push_back(&c);
     }
+  }
+  if (undecided.empty()) return out;
+  const Knowledge known = KnowledgeOf(info, n);
+  std::vector<Simulated> simulated = SimulateOnRig(rig, Candidates(rig, options));
+  if (simulated.empty()) return out;
+  for (const ToleranceCheck* c : undecided) {
+    const Eigen::VectorXd g = GradientOf(info, *c);
     DecidingPhotos d;
     d.check = c->name;
     if (std::abs(c->valley_correlation) > kRotationValleyCorrelation) {
@@ -341,6 +416,7 @@ std::vector<DecidingPhotos> PhotosThatDecide(const RigParams& rig,
       d.sigma_after = std::sqrt(std::max(0.0, best));
     }
     d.decides = d.sigma_after <= d.sigma_needed;
+    d.considered_after = std::sqrt(std::max(0.0, ConsideredVariance(current, known.considered, g)));
     out.push_back(std::move(d));
   }
   return out;
