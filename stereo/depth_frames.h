@@ -25,6 +25,10 @@ struct FramesReport {
   size_t computed = 0;
   std::string first_error;  // the first frame's read error (what() of its InputError)
   double remap = 0, sgbm = 0, triangulation = 0, read = 0, write = 0, loop = 0;
+  // The process's CPU time (all threads: computing, reading, writing) over the loop: the figure a
+  // machine shared with other work does not inflate the way it does the wall time; frames/s on
+  // N idle cores is at most N / (cpu / computed).
+  double cpu = 0;
   size_t points = 0;
 };
 
@@ -48,7 +52,8 @@ std::string FrameLine(const std::string& name, const DepthFrame& frame);
 std::string FrameSummary(const DepthFrame& frame, double sigma_px, double setup_s,
                          const std::string& cloud_path);
 // The loop's summary (`depth --images`): frames computed (and skipped of `count`), panorama
-// size, points per frame, the set-up's time, the stages' mean times and the frame rates.
+// size, points per frame, the set-up's time, the stages' mean times, the frame rates and the
+// process CPU per frame.
 std::string FramesSummary(const FramesReport& report, size_t count, const DenseStereo& dense,
                           double setup_s);
 
