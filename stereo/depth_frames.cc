@@ -54,7 +54,8 @@ double MedianSigma(const DepthFrame& frame) {
 FramesReport ComputeFrames(const DenseStereo& dense, size_t count,
                            const std::function<cv::Mat(size_t i)>& read,
                            const std::function<std::function<void()>(size_t i, const DepthFrame&)>& done,
-                           const std::function<void(size_t i, const std::string& what)>& skipped) {
+                           const std::function<void(size_t i, const std::string& what)>& skipped,
+                           std::future<cv::Mat> first) {
   FramesReport report;
   if (count == 0) return report;
   auto timed_read = [&](size_t i) {
@@ -65,7 +66,8 @@ FramesReport ComputeFrames(const DenseStereo& dense, size_t count,
   };
   const auto t0 = std::chrono::steady_clock::now();
   const double cpu0 = ProcessCpuSeconds();
-  std::future<cv::Mat> next = std::async(std::launch::async, timed_read, size_t{0});
+  std::future<cv::Mat> next =
+      first.valid() ? std::move(first) : std::async(std::launch::async, timed_read, size_t{0});
   std::future<void> writing;  // the last frame's
   for (size_t i = 0; i < count; ++i) {
     cv::Mat image;
@@ -96,6 +98,10 @@ FramesReport ComputeFrames(const DenseStereo& dense, size_t count,
   report.loop = SecondsSince(t0);
   report.cpu = ProcessCpuSeconds() - cpu0;
   return report;
+}
+
+std::future<cv::Mat> StartReading(const std::function<cv::Mat(size_t i)>& read) {
+  return std::async(std::launch::async, read, size_t{0});
 }
 
 std::string FrameLine(const std::string& name, const DepthFrame& frame) {
