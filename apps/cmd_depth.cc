@@ -95,7 +95,8 @@ int RunDepthFrames(const RigModel& model) {
   ProgressLine progress("depth", static_cast<int>(frames.size()));
   const auto t0 = std::chrono::steady_clock::now();
   const auto read = [&](size_t i) { return ReadModelImage(model, frames[i].first); };
-  std::future<cv::Mat> first = stereo::StartReading(read);  // alongside the set-up
+  std::future<cv::Mat> first;  // frame 0, read alongside the set-up
+  if (!frames.empty()) first = stereo::StartReading(read);
   progress.Status("panorama maps and ray tables");
   const stereo::DenseStereo dense(model, panorama, options);
   const double setup_s = SecondsSince(t0);
