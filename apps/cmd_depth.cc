@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <functional>
+#include <future>
 #include <map>
 #include <string>
 #include <vector>
@@ -93,18 +94,22 @@ int RunDepthFrames(const RigModel& model) {
 
   ProgressLine progress("depth", static_cast<int>(frames.size()));
   const auto t0 = std::chrono::steady_clock::now();
+  const auto read = [&](size_t i) { return ReadModelImage(model, frames[i].first); };
+  std::future<cv::Mat> first;  // frame 0, read alongside the set-up
+  if (!frames.empty()) first = stereo::StartReading(read);
   progress.Status("panorama maps and ray tables");
   const stereo::DenseStereo dense(model, panorama, options);
   const double setup_s = SecondsSince(t0);
   const stereo::FramesReport report = stereo::ComputeFrames(
-      dense, frames.size(), [&](size_t i) { return ReadModelImage(model, frames[i].first); },
+      dense, frames.size(), read,
       [&](size_t i, const stereo::DepthFrame& frame) -> std::function<void()> {
         progress.Done(stereo::FrameLine(frames[i].second, frame));
         return [path = dir + "/" + frames[i].second, cloud = Cloud(frame)] {
           io::WritePlyFile(path, cloud, !FLAGS_ply_ascii);
         };
       },
-      [&](size_t, const std::string& what) { progress.Done("warning: " + what + "; skipped"); });
+      [&](size_t, const std::string& what) { progress.Done("warning: " + what + "; skipped"); },
+      std::move(first));
   progress.Finish();
   if (report.computed == 0) {
     throw io::InputError("none of the " + std::to_string(frames.size()) +

@@ -11,6 +11,7 @@
 
 #include "apps/common_flags.h"
 #include "io/file_util.h"
+#include "io/png_fast.h"
 
 namespace omni::apps {
 
@@ -31,7 +32,7 @@ cv::Mat ReadModelImage(const RigModel& model) {
 }
 
 cv::Mat ReadModelImage(const RigModel& model, const std::string& path) {
-  const cv::Mat image = cv::imread(path, cv::IMREAD_COLOR);
+  const cv::Mat image = io::ReadColorImage(path);  // cv::imread's pixels, PNGs faster
   if (image.empty()) throw io::InputError(path + ": expected a readable image");
   const RigParams& rig = model.params();
   if (image.cols != rig.image_width || image.rows != rig.image_height) {

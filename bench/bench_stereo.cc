@@ -1,9 +1,11 @@
 // 3D sensing speed: dense depth per frame (remap, SGBM, sub-pixel refinement + triangulation),
-// set-up excluded (DenseStereo built once), in three configurations, on 1 and 2 threads:
+// set-up excluded (DenseStereo built once), in four configurations, on 1 and 2 threads:
 //   BM_DepthFrame/0: a 1280x960 frame, 1280-wide panoramas (1280 x 435), 64 disparities;
 //   BM_DepthFrame/1: the same frame, 2048-wide panoramas, 64 disparities;
 //   BM_DepthFrame/2: a 5 MP webcam frame (2592x1944) at its full angular resolution (2592-wide
 //                    panoramas), 128 disparities.
+//   BM_DepthFrame/3: the same 5 MP frame on the CLI's defaults, `depth --images ... --panorama_width
+//                    2592` (DepthOptions{} and PanoramaOptions{} but the width: 64 disparities).
 // The panoramas are remapped over the rows matching reads only, as `depth --images` does
 // (DepthOptions::full_panoramas = false; before 2026-11-28 the whole panoramas, ~2.5x the remap).
 // Counters: remap_ms, sgbm_ms, triangulation_ms (refinement included) as DepthFrame times them,
@@ -71,7 +73,7 @@ struct Config {
 };
 
 const Config& GetConfig(int index) {
-  static const Config configs[3] = {
+  static const Config configs[4] = {
       [] {
         const RigParams& rig = Rig1280();
         Config c{RigModel(rig), LoadOrNoise("OMNI_BENCH_IMAGE", rig.image_width, rig.image_height),
@@ -93,6 +95,12 @@ const Config& GetConfig(int index) {
         c.depth.num_disparities = 128;
         return c;
       }(),
+      [] {
+        const RigParams rig = synthetic::RigAtImageSize(Rig1280(), 2592, 1944);
+        Config c{RigModel(rig), LoadOrNoise("OMNI_BENCH_IMAGE_5MP", 2592, 1944), {}, {}};
+        c.panorama.width = 2592;  // the CLI's other defaults (apps/cmd_depth.cc's flags)
+        return c;
+      }(),
   };
   return configs[index];
 }
@@ -101,7 +109,7 @@ void BM_DepthFrame(benchmark::State& state) {
   const int index = static_cast<int>(state.range(0));
   cv::setNumThreads(static_cast<int>(state.range(1)));
   const Config& config = GetConfig(index);
-  static const DenseStereo* dense[3] = {nullptr, nullptr, nullptr};  // set-up: once, not timed
+  static const DenseStereo* dense[4] = {nullptr, nullptr, nullptr, nullptr};  // set-up: once, not timed
   if (!dense[index]) {
     DepthOptions options = config.depth;
     options.full_panoramas = false;  // as `depth --images` (the points do not depend on it)
@@ -133,6 +141,7 @@ void BM_DepthFrame(benchmark::State& state) {
 BENCHMARK(BM_DepthFrame)
     ->ArgNames({"config", "threads"})
     ->Args({0, 1})->Args({0, 2})->Args({1, 2})->Args({2, 1})->Args({2, 2})
+    ->Args({3, 1})->Args({3, 2})
     ->Unit(benchmark::kMillisecond)->UseRealTime();
 
 }  // namespace

@@ -5,7 +5,7 @@ set -euo pipefail
 packages=(cmake g++ make pkg-config libeigen3-dev libceres-dev libopencv-dev libopencv-contrib-dev
   libapriltag-dev libgflags-dev libgoogle-glog-dev libnlopt-cxx-dev libyaml-cpp-dev povray
   googletest libgtest-dev libbenchmark-dev gnuplot-nox chromium pybind11-dev python3-dev
-  python3-numpy python3-yaml libcairo2-dev
+  python3-numpy python3-yaml libcairo2-dev libdeflate-dev
   poppler-utils "$@")
 missing=()
 for p in "${packages[@]}"; do

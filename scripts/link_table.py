@@ -42,6 +42,7 @@ THIRD_PARTY = {
     "apriltag": "libapriltag",
     "opencv_aruco": "opencv_aruco",
     "ZLIB::ZLIB": "zlib",
+    "${LIBDEFLATE_LIBRARY}": "libdeflate",
     "PkgConfig::CAIRO": "cairo",
     "gflags": "gflags",
     "glog::glog": "glog",

@@ -6,6 +6,8 @@
 #include <future>
 #include <vector>
 
+#include <sys/resource.h>
+
 #include "model/input_error.h"
 
 namespace omni::stereo {
@@ -13,6 +15,13 @@ namespace {
 
 double SecondsSince(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+double ProcessCpuSeconds() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  return usage.ru_utime.tv_sec + usage.ru_stime.tv_sec +
+         1e-6 * (usage.ru_utime.tv_usec + usage.ru_stime.tv_usec);
 }
 
 }  // namespace
@@ -45,7 +54,8 @@ double MedianSigma(const DepthFrame& frame) {
 FramesReport ComputeFrames(const DenseStereo& dense, size_t count,
                            const std::function<cv::Mat(size_t i)>& read,
                            const std::function<std::function<void()>(size_t i, const DepthFrame&)>& done,
-                           const std::function<void(size_t i, const std::string& what)>& skipped) {
+                           const std::function<void(size_t i, const std::string& what)>& skipped,
+                           std::future<cv::Mat> first) {
   FramesReport report;
   if (count == 0) return report;
   auto timed_read = [&](size_t i) {
@@ -55,7 +65,9 @@ FramesReport ComputeFrames(const DenseStereo& dense, size_t count,
     return image;
   };
   const auto t0 = std::chrono::steady_clock::now();
-  std::future<cv::Mat> next = std::async(std::launch::async, timed_read, size_t{0});
+  const double cpu0 = ProcessCpuSeconds();
+  std::future<cv::Mat> next =
+      first.valid() ? std::move(first) : std::async(std::launch::async, timed_read, size_t{0});
   std::future<void> writing;  // the last frame's
   for (size_t i = 0; i < count; ++i) {
     cv::Mat image;
@@ -84,7 +96,12 @@ FramesReport ComputeFrames(const DenseStereo& dense, size_t count,
   }
   if (writing.valid()) writing.get();
   report.loop = SecondsSince(t0);
+  report.cpu = ProcessCpuSeconds() - cpu0;
   return report;
+}
+
+std::future<cv::Mat> StartReading(const std::function<cv::Mat(size_t i)>& read) {
+  return std::async(std::launch::async, read, size_t{0});
 }
 
 std::string FrameLine(const std::string& name, const DepthFrame& frame) {
@@ -120,12 +137,13 @@ std::string FramesSummary(const FramesReport& r, size_t count, const DenseStereo
   std::snprintf(line, sizeof(line),
                 "depth: %zu frames%s, panoramas %dx%d, %.0f points per frame; set-up %.2f s; per "
                 "frame: remap %.1f, SGBM %.1f, triangulation %.1f ms (%.1f frames/s computing), "
-                "reading %.1f and writing %.1f ms alongside; %.1f frames/s in all",
+                "reading %.1f and writing %.1f ms alongside; %.1f frames/s in all; process CPU "
+                "%.0f ms per frame",
                 r.computed, skipped ? (" (" + std::to_string(skipped) + " skipped)").c_str() : "",
                 dense.luts().geometry.width, dense.luts().geometry.height, r.points / n, setup_s,
                 1e3 * r.remap / n, 1e3 * r.sgbm / n, 1e3 * r.triangulation / n,
                 n / (r.remap + r.sgbm + r.triangulation), 1e3 * r.read / n, 1e3 * r.write / n,
-                n / r.loop);
+                n / r.loop, 1e3 * r.cpu / n);
   return line;
 }
 

@@ -15,7 +15,8 @@
 //    of the 8-bit panoramas: sums of Xi_2 taps (S_j), of tap products (Q_jl, a product of two
 //    rows L = l - j apart) and of Xi_1 times a tap (C_j). S, Q and the Xi_1 sum depend only on
 //    (column, row): they are tabulated once per frame (window sums, CV_32S); C is summed per
-//    integer row of the shifted window. All moments are integers, exact; the quadratic forms
+//    integer row of the shifted window (SSE2 pmaddwd for the default 7 rows, on copies of the
+//    panoramas whose rows have 8 bytes of slack, so that no 8-byte load leaves the image). All moments are integers, exact; the quadratic forms
 //    differ from the oracle's sample-by-sample sums by rounding only. An iteration that stays in
 //    the same integer row costs a few dozen flops.
 #pragma once

@@ -46,8 +46,8 @@ const SmallFrame& Frame() {
   return frame;
 }
 
-// The default 5 x 7 refinement window (its unrolled cross sums) and a 3 x 5 one (the generic
-// loop).
+// The default 5 x 7 refinement window (its SSE2 cross sums, CrossSums7Columns), a 9 x 7 one (the
+// same with 9 columns) and a 3 x 5 one (the generic loop).
 class DenseFastPathWindow : public ::testing::TestWithParam<std::pair<int, int>> {};
 
 TEST_P(DenseFastPathWindow, SamePointsAndSigmasAsTheReferencePath) {
@@ -84,7 +84,8 @@ TEST_P(DenseFastPathWindow, SamePointsAndSigmasAsTheReferencePath) {
   EXPECT_LT(max_sigma, 1e-6);
 }
 INSTANTIATE_TEST_SUITE_P(Windows, DenseFastPathWindow,
-                         ::testing::Values(std::make_pair(2, 3), std::make_pair(1, 2)));
+                         ::testing::Values(std::make_pair(2, 3), std::make_pair(4, 3),
+                                           std::make_pair(1, 2)));
 
 TEST(DenseFastPath, TablesAgreeWithTheModelTriangulation) {
   const SmallFrame& f = Frame();
