@@ -119,9 +119,9 @@ int RunCheck() {
     std::printf("next: %s\n",
                 has_reference
                     ? "photograph with the mirror's rim in view, nothing held across it"
-                    : "calibrate with this version, which records the rim; where calibrate left "
-                      "the rim out, score new photos of the target instead (a session of them "
-                      "with `estimate: []` through `calibrate`: RMS per photo)");
+                    : "calibrate with this version, which records the rim (or score new photos "
+                      "of the target: a session of them with `estimate: []` through `calibrate`, "
+                      "RMS per photo)");
   } else if (r.verdict == health::Verdict::kCannotTell) {
     std::printf("next: photograph a textured scene (shelves, posters, a patterned floor) that "
                 "fills most of the view around the rig\n");

@@ -14,7 +14,6 @@
 #include "health/residuals.h"
 #include "model/rig_model.h"
 #include "model/rig_parameters.h"
-#include "model/single_rim.h"
 
 namespace omni::health {
 namespace {
@@ -266,28 +265,10 @@ SampleSet ReferencedBinsOnly(const SampleSet& set) {
   return out;
 }
 
-// A single mirror whose image's edge is not its rim, checked at the circle that edge is
-// (lip_reference.h AsObserved).
-bool FollowsItsEdge(const RigParams& stored) {
-  return stored.calibration && stored.calibration->lip_reference_edge_radius > 0;
-}
-
 // The verdicts a single mirror's rim decides without naming a group (DecidedWithoutGroups for two
 // rings): no usable bin, or bins within their scatter about the calibration photos'. False:
 // DRIFTED.
 bool DecidedOneRing(const RigParams& stored, const CheckOptions& options, CheckResult* result) {
-  double elevation_deg = 0;
-  if (!FollowsItsEdge(stored) && !RimEdgeIsTheRim(RigModel(stored), &elevation_deg)) {
-    result->verdict = Verdict::kCannotTell;
-    char buf[400];
-    std::snprintf(buf, sizeof(buf),
-                  "the edge of the mirror's image is not its rim (the mirror's outer zone "
-                  "reflects rays %.1f deg past the rim's plane: whatever holds the mirror is seen "
-                  "there), and the rim is all a single mirror's check measures",
-                  elevation_deg);
-    result->reason = buf;
-    return true;
-  }
   const int bins = static_cast<int>(result->bins.size());
   if (bins < kRimHarmonics + options.min_rim_bins_beyond_harmonics) {
     result->verdict = Verdict::kCannotTell;
@@ -295,8 +276,7 @@ bool DecidedOneRing(const RigParams& stored, const CheckOptions& options, CheckR
     result->reason =
         !has_reference ? "the model holds no record of the mirror's rim as its calibration photos "
                          "showed it (calibration.lip_reference): calibrate with this version to "
-                         "check a single mirror (none is kept where calibrate left the rim out: "
-                         "the edge of the mirror's image was not its rim)"
+                         "check a single mirror"
         : result->n_lip_points == 0 ? "the mirror's rim was not found in these photos"
                                     : "the rim was found in too few of the sectors the "
                                       "calibration photos showed (" +
@@ -404,8 +384,7 @@ CheckResult CheckSamples(const RigParams& stored, const SampleSet& all, int n_im
   SummariseBins(set, options, &result);
   const int m = static_cast<int>(set.bins.size());
   result.dof = m;
-  if (one_ring && (m < kRimHarmonics + options.min_rim_bins_beyond_harmonics ||
-                   (!FollowsItsEdge(stored) && !RimEdgeIsTheRim(RigModel(stored))))) {
+  if (one_ring && m < kRimHarmonics + options.min_rim_bins_beyond_harmonics) {
     DecidedOneRing(stored, options, &result);
     return result;
   }

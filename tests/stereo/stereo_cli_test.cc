@@ -252,8 +252,9 @@ TEST_F(StereoCli, PanoramaAndDepthWriteTheirFiles) {
   }
 }
 
-// A single-mirror rig: `panorama` writes its one panorama; `depth`, `triangulate`, `check` and
-// `refine` need two rings and refuse it in one line naming the model file, exit 2, no output.
+// A single-mirror rig: `panorama` writes its one panorama; `depth`, `triangulate` and `refine` need
+// two rings and refuse it in one line naming the model file, exit 2, no output; `check` reads its
+// rim, and on a model with no rim reference from calibration it cannot tell (exit 4) and says why.
 TEST_F(StereoCli, SingleRigHasOnePanoramaAndNoStereo) {
   CentralMirror central;
   central.mirror = Conic<double>{20.0, -2.2};
@@ -275,7 +276,6 @@ TEST_F(StereoCli, SingleRigHasOnePanoramaAndNoStereo) {
   const std::string refused[] = {
       "depth" + model + image + " --out=" + Path("d"),
       "triangulate" + model + " --detections=" + Path("none.yaml") + " --out=" + Path("t.csv"),
-      "check" + model + image,
       "refine" + model + image + " --out=" + Path("r.yaml")};
   for (const std::string& command : refused) {
     EXPECT_EQ(RunOmnistereo(command, Path("e"), &err), 2) << command;
@@ -286,6 +286,9 @@ TEST_F(StereoCli, SingleRigHasOnePanoramaAndNoStereo) {
   }
   EXPECT_FALSE(fs::exists(Path("d/cloud.ply")) || fs::exists(Path("t.csv")) ||
                fs::exists(Path("r.yaml")));
+  EXPECT_EQ(RunOmnistereo("check" + model + image, Path("e"), &err, Path("o"), &out), 4) << err;
+  EXPECT_NE(out.find("CANNOT TELL"), std::string::npos) << out;
+  EXPECT_NE(out.find("calibration.lip_reference"), std::string::npos) << out;
 }
 
 // `depth --images`: one set-up for a glob of frames, DIR/<name>.ply per frame, the same cloud as
