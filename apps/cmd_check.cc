@@ -98,14 +98,25 @@ int RunCheck() {
   std::printf("verdict: %s: %s\n", health::VerdictName(r.verdict), r.reason.c_str());
   if (r.verdict == health::Verdict::kDrifted) {
     std::printf("groups fitted to the residuals, best first (internal coordinates: drift.h):\n");
-    for (const health::GroupFit& g : r.groups) std::printf("%s\n", GroupLine(g).c_str());
+    for (const health::GroupFit& g : r.groups) {
+      // A single mirror's rim shows five numbers; a group's ten coordinates fitted to them are
+      // a degenerate mix (a shift read as a tilt), so only how well each group fits is shown.
+      if (one_ring) {
+        std::printf("  %-8s chi^2 %.1f for %d (p %.2g)\n", g.group.c_str(), g.chi2, g.dof,
+                    g.p_value);
+      } else {
+        std::printf("%s\n", GroupLine(g).c_str());
+      }
+    }
     if (!r.runner_up.empty()) {
       std::printf("  %s explains it nearly as well: the photos cannot tell the two apart\n",
                   r.runner_up.c_str());
     }
     if (one_ring) {
-      std::printf("next: calibrate again from new photos of the target (`refine` needs two rings' "
-                  "views of the scene)\n");
+      std::printf("next: re-estimate the move from the rim with `omnistereo refine --model %s "
+                  "--images ...` (it takes the move up with the group named; to know whether the "
+                  "camera or the mirror moved, calibrate again from photos of the target)\n",
+                  FLAGS_model.c_str());
     } else {
       std::printf("next: re-estimate what moved from these photos with `omnistereo refine --model "
                   "%s --images ...`, or recalibrate with targets\n",

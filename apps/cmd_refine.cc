@@ -27,7 +27,8 @@ DECLARE_string(truth_model);
 DEFINE_string(estimate, "auto",
               "refine: the groups whose parameters may be refined, comma separated (camera: fx, "
               "fy, cx, cy; mirror1, mirror2: their poses; reflex: the disc's tilt and offset), or "
-              "auto: the group the check names as moved");
+              "auto: the group the check names as moved (a single mirror: camera or mirror1, "
+              "from its rim)");
 
 namespace omni::apps {
 namespace {
@@ -85,6 +86,11 @@ int RunRefine() {
   for (const std::string& g : r.groups) groups += (groups.empty() ? "" : ", ") + g;
   std::printf("refining %s%s\n", groups.c_str(),
               FLAGS_estimate == "auto" ? " (named by the check)" : "");
+  if (stored.Paths() < 2) {
+    std::printf("  from the mirror's rim alone, which cannot tell a move of the camera from one of "
+                "the mirror: either group takes up the rim's move (--estimate camera or mirror1); "
+                "recalibrate from photos of the target to tell them apart\n");
+  }
   std::printf("refined %zu parameters from %zu image(s) in %.1f s (%d iterations):\n",
               r.refined.size(), evidence.size(), r.seconds, r.iterations);
   std::printf("  %-12s %12s %12s %10s %9s%s\n", "parameter", "stored", "refined", "change",
@@ -116,9 +122,14 @@ int RunRefine() {
         CompareProjectionsInMirror1(true_model, RigModel(stored), 1000);
     const ProjectionDifference after =
         CompareProjectionsInMirror1(true_model, RigModel(r.rig), 1000);
-    std::printf("projection vs the true rig at 1 m in mirror 1's body: ring 1 %.3f -> %.3f px, "
-                "ring 2 %.3f -> %.3f px RMS\n",
-                before.rms_px[0], after.rms_px[0], before.rms_px[1], after.rms_px[1]);
+    if (stored.Paths() < 2) {
+      std::printf("projection vs the true rig at 1 m in the mirror's body: %.3f -> %.3f px RMS\n",
+                  before.rms_px[0], after.rms_px[0]);
+    } else {
+      std::printf("projection vs the true rig at 1 m in mirror 1's body: ring 1 %.3f -> %.3f px, "
+                  "ring 2 %.3f -> %.3f px RMS\n",
+                  before.rms_px[0], after.rms_px[0], before.rms_px[1], after.rms_px[1]);
+    }
   }
   io::WriteModelFile(FLAGS_out, r.rig);
   std::printf("wrote %s\n", FLAGS_out.c_str());

@@ -25,14 +25,13 @@ RigParams ReadStoredModel(const char* command) {
     throw io::InputError("--model: expected the calibrated model file to " + std::string(command));
   }
   RigParams rig = io::ReadModelFile(FLAGS_model);
-  // check reads a single mirror's rim against the calibration photos'; refine re-estimates the
-  // rig from the two rings' matches, which one ring does not have.
-  if (std::string(command) != "check") {
-    RequireTwoRings(rig, FLAGS_model, std::string(command) +
-                    " re-estimates the rig from the two rings' views of the scene; calibrate again "
-                    "from new photos of the target instead (`calibrate` with this model as the "
-                    "session's start), or score them (a session with `estimate: []`: RMS per "
-                    "photo)");
+  // A single mirror's check and refine read its rim against the calibration photos' (health/
+  // check.h); a folded rig's read the two rings' matches and the lips.
+  if (std::string(command) == "refine" && rig.Single() &&
+      (!rig.calibration || rig.calibration->lip_reference.empty())) {
+    throw io::InputError(FLAGS_model + ": calibration.lip_reference: expected the mirror's rim as "
+                         "its calibration photos showed it (a single mirror is refined from its "
+                         "rim); calibrate with this version first");
   }
   if (!rig.calibration) {
     std::fprintf(stderr,

@@ -248,22 +248,6 @@ bool DecidedWithoutGroups(const RigParams& stored, const CheckOptions& options,
   return false;
 }
 
-// A single mirror's evidence is its rim's edge, whose offset from the model's rim the calibration
-// photos measured (lip_reference.h): the edge the photos show need not be the rim itself (a
-// holder seen in the mirror's outer zone, model/single_rim.h RimEdgeIsTheRim), so only the bins
-// they measured can tell a move. The set with the others' samples left out.
-SampleSet ReferencedBinsOnly(const SampleSet& set) {
-  SampleSet out = set;
-  out.bins.clear();
-  for (const SampleBin& bin : set.bins) {
-    if (bin.reference) {
-      out.bins.push_back(bin);
-    } else {
-      for (int member : bin.members) out.samples[member].kept = false;
-    }
-  }
-  return out;
-}
 
 // The verdicts a single mirror's rim decides without naming a group (DecidedWithoutGroups for two
 // rings): no usable bin, or bins within their scatter about the calibration photos'. False:
@@ -307,14 +291,11 @@ void RimHarmonicsTest(const RigParams& stored, CheckResult* result) {
   const int m = static_cast<int>(result->bins.size());
   Eigen::MatrixXd X(m, kRimHarmonics);
   Eigen::VectorXd y(m);
-  int reference_photos = 0;
   for (int b = 0; b < m; ++b) {
     const ResidualBin& bin = result->bins[b];
-    const double phi = bin.azimuth_deg * M_PI / 180;
     const double w = 1 / bin.standard_error;
-    X.row(b) << w, w * std::cos(phi), w * std::sin(phi), w * std::cos(2 * phi), w * std::sin(2 * phi);
+    X.row(b) = w * RimHarmonicsRow(bin.azimuth_deg).transpose();
     y[b] = w * bin.mean;
-    reference_photos = std::max(reference_photos, bin.reference_photos);
   }
   const Eigen::MatrixXd normal = X.transpose() * X;
   const Eigen::VectorXd move = normal.ldlt().solve(X.transpose() * y);
@@ -322,10 +303,7 @@ void RimHarmonicsTest(const RigParams& stored, CheckResult* result) {
   result->rim_scatter_factor = (y - X * move).squaredNorm() / (m - kRimHarmonics);
   Eigen::MatrixXd covariance =
       normal.inverse() * std::max(1.0, result->rim_scatter_factor);
-  const double scene = stored.calibration ? stored.calibration->lip_reference_rim_scene_px : 0;
-  const int photos = std::max(1, result->n_images);
-  covariance.diagonal().array() +=
-      scene * scene * (1.0 / photos + (reference_photos > 0 ? 1.0 / reference_photos : 0.0));
+  covariance.diagonal().array() += RimSceneVariance(stored, *result);
   result->chi2 = move.dot(covariance.ldlt().solve(move));
   result->dof = kRimHarmonics;
   result->p_value = ChiSquareSurvival(result->chi2, kRimHarmonics);
@@ -371,6 +349,36 @@ GroupFit FitGroup(const std::string& group, const Eigen::MatrixXd& J_white,
 }
 
 }  // namespace
+
+SampleSet ReferencedBinsOnly(const SampleSet& set) {
+  SampleSet out = set;
+  out.bins.clear();
+  for (const SampleBin& bin : set.bins) {
+    if (bin.reference) {
+      out.bins.push_back(bin);
+    } else {
+      for (int member : bin.members) out.samples[member].kept = false;
+    }
+  }
+  return out;
+}
+
+Eigen::Matrix<double, kRimHarmonics, 1> RimHarmonicsRow(double azimuth_deg) {
+  const double phi = azimuth_deg * M_PI / 180;
+  Eigen::Matrix<double, kRimHarmonics, 1> row;
+  row << 1, std::cos(phi), std::sin(phi), std::cos(2 * phi), std::sin(2 * phi);
+  return row;
+}
+
+double RimSceneVariance(const RigParams& stored, const CheckResult& result) {
+  int reference_photos = 0;
+  for (const ResidualBin& bin : result.bins) {
+    reference_photos = std::max(reference_photos, bin.reference_photos);
+  }
+  const double scene = stored.calibration ? stored.calibration->lip_reference_rim_scene_px : 0;
+  const int photos = std::max(1, result.n_images);
+  return scene * scene * (1.0 / photos + (reference_photos > 0 ? 1.0 / reference_photos : 0.0));
+}
 
 CheckResult CheckSamples(const RigParams& stored, const SampleSet& all, int n_images,
                          const CheckOptions& options) {

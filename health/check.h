@@ -137,6 +137,12 @@ struct CheckResult {
 CheckResult CheckRig(const RigParams& stored, const std::vector<ImageEvidence>& images,
                      const CheckOptions& options = {});
 
+// A single mirror's rim bin's row of the harmonics (1, cos, sin of the azimuth and of twice it).
+Eigen::Matrix<double, kRimHarmonics, 1> RimHarmonicsRow(double azimuth_deg);
+// The variance (px^2) the scene behind the rim adds to each harmonic's coefficient of a check of
+// result.n_images photos against the reference's mean: rim_scene_px^2 (1/k + 1/n).
+double RimSceneVariance(const RigParams& stored, const CheckResult& result);
+
 // Upper tail of the chi-square distribution with `dof` degrees of freedom: P(X >= x).
 double ChiSquareSurvival(double x, int dof);
 

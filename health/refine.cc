@@ -11,6 +11,7 @@
 
 #include "calib/covariance.h"
 #include "health/drift.h"
+#include "health/lip_reference.h"
 #include "health/residuals.h"
 #include "model/rig_model.h"
 #include "model/rig_parameters.h"
@@ -90,16 +91,29 @@ std::string KindOf(const Sample& s) {
                     : std::string(LipPathName(s.lip.path)) + " " + LipCircleName(s.lip.circle);
 }
 
-// The bins' whitened Jacobian by `coordinates` (columns of result.jacobian), data errors only.
-Eigen::MatrixXd WhitenedBinJacobian(const CheckResult& check, const std::vector<int>& coordinates) {
+// The bins' Jacobian by `coordinates` (columns of check.jacobian), whitened by the bins' data
+// errors (scaled by variance_factor); a single mirror's rim bins also by what the scene behind
+// the rim moves its harmonics by (check.h RimSceneVariance: the same in every bin of a photo, so
+// it does not average down over the bins as their errors do).
+Eigen::MatrixXd WhitenedBinJacobian(const RigParams& stored, const CheckResult& check,
+                                    const std::vector<int>& coordinates,
+                                    double variance_factor = 1) {
   const int m = static_cast<int>(check.bins.size());
   Eigen::MatrixXd J(m, coordinates.size());
   for (int b = 0; b < m; ++b) {
-    for (size_t k = 0; k < coordinates.size(); ++k) {
-      J(b, k) = check.jacobian(b, coordinates[k]) / check.bins[b].standard_error;
-    }
+    for (size_t k = 0; k < coordinates.size(); ++k) J(b, k) = check.jacobian(b, coordinates[k]);
   }
-  return J;
+  Eigen::MatrixXd C = Eigen::MatrixXd::Zero(m, m);
+  for (int b = 0; b < m; ++b) {
+    C(b, b) = variance_factor * check.bins[b].standard_error * check.bins[b].standard_error;
+  }
+  if (stored.Paths() < 2) {
+    Eigen::MatrixXd H(m, kRimHarmonics);
+    for (int b = 0; b < m; ++b) H.row(b) = RimHarmonicsRow(check.bins[b].azimuth_deg).transpose();
+    C += RimSceneVariance(stored, check) * H * H.transpose();
+  }
+  const Eigen::LLT<Eigen::MatrixXd> llt(C);
+  return llt.matrixL().solve(J);
 }
 
 // chi^2 per degree of freedom of the bins against their data errors alone (the check's own chi^2
@@ -114,11 +128,47 @@ double DataChi2PerDof(const CheckResult& check, int n_parameters) {
   return chi2 / dof;
 }
 
+// A single mirror's rim shows five numbers (harmonics.h: scale, shift, tilt), and a shift of the
+// mirror and its tilt move it nearly alike: of a group's candidates, the one whose sigma exceeds
+// its bound (the parameter table's unobservable_sigma) by the most is held, and the rest tried
+// again, until every one left is determined (holding both of a degenerate pair, as the analysis
+// of all at once does, would leave the rim's shift to nothing).
+std::vector<int> RimDeterminedCoordinates(const RigParams& stored, std::vector<int> candidates,
+                                          RefineResult* result) {
+  const auto& all = DriftCoordinates();
+  while (!candidates.empty()) {
+    const Eigen::MatrixXd J = WhitenedBinJacobian(stored, result->before, candidates);
+    Eigen::MatrixXd information = J.transpose() * J;
+    const double ridge = 1e-12 * std::max(information.diagonal().maxCoeff(), 1e-300);
+    information.diagonal().array() += ridge;
+    const Eigen::MatrixXd covariance = information.ldlt().solve(
+        Eigen::MatrixXd::Identity(information.rows(), information.cols()));
+    int worst = -1;
+    double worst_ratio = 1;
+    for (size_t k = 0; k < candidates.size(); ++k) {
+      const double bound = FindRigParameter(all[candidates[k]].name)->unobservable_sigma;
+      const double ratio = std::sqrt(std::max(0.0, covariance(k, k))) / bound;
+      if (!(ratio <= worst_ratio)) {
+        worst = static_cast<int>(k);
+        worst_ratio = ratio;
+      }
+    }
+    if (worst < 0) break;
+    const RigParameter* p = FindRigParameter(all[candidates[worst]].name);
+    result->held.push_back({p->name, "the rim moves nearly alike under it and the group's other "
+                                     "parameters; photos of the target (calibrate) separate them"});
+    candidates.erase(candidates.begin() + worst);
+  }
+  return candidates;
+}
+
 // The candidates' coordinates the photos determine (calib/covariance.h on the bins' whitened
 // Jacobian); the others go to result->held with the data that would determine them.
-std::vector<int> DeterminedCoordinates(const std::vector<int>& candidates, RefineResult* result) {
+std::vector<int> DeterminedCoordinates(const RigParams& stored, const std::vector<int>& candidates,
+                                       RefineResult* result) {
   const auto& all = DriftCoordinates();
-  const Eigen::MatrixXd J_candidates = WhitenedBinJacobian(result->before, candidates);
+  if (stored.Paths() < 2) return RimDeterminedCoordinates(stored, candidates, result);
+  const Eigen::MatrixXd J_candidates = WhitenedBinJacobian(stored, result->before, candidates);
   calib::RigCovarianceOptions cov_options;
   for (int c : candidates) {
     cov_options.nearly_unobservable_sigma.push_back(FindRigParameter(all[c].name)->unobservable_sigma);
@@ -186,10 +236,10 @@ int SolveRound(const RigParams& stored, const std::vector<int>& free, const Samp
 void RefinedCovariance(const RigParams& stored, const RigParams& current,
                        const std::vector<int>& free, RefineResult* result) {
   const auto& all = DriftCoordinates();
-  const Eigen::MatrixXd J_free = WhitenedBinJacobian(result->after, free);
-  calib::RigCovarianceOptions free_options;
   result->variance_factor = DataChi2PerDof(result->after, static_cast<int>(free.size()));
-  free_options.variance_factor = std::max(1.0, result->variance_factor);
+  const Eigen::MatrixXd J_free = WhitenedBinJacobian(stored, result->after, free,
+                                                     std::max(1.0, result->variance_factor));
+  calib::RigCovarianceOptions free_options;
   const calib::RigCovariance cov = calib::RigCovarianceFromSchur(
       J_free.transpose() * J_free, static_cast<int>(free.size()), free_options);
   result->covariance = Eigen::MatrixXd::Zero(free.size(), free.size());
@@ -253,8 +303,11 @@ CalibrationInfo RefinedCalibration(const RigParams& stored, const RigParams& cur
 
 }  // namespace
 
-RefineResult RefineRig(const RigParams& stored, const std::vector<ImageEvidence>& images,
+RefineResult RefineRig(const RigParams& stored_model, const std::vector<ImageEvidence>& images,
                        const RefineOptions& options) {
+  // The check's model: a single mirror's rim where its photos show the edge (lip_reference.h
+  // AsObserved); the refined values go back into the model as stored.
+  const RigParams stored = AsObserved(stored_model);
   const auto t0 = std::chrono::steady_clock::now();
   auto status = [&](const std::string& now) {
     if (options.status) options.status(now);
@@ -267,25 +320,37 @@ RefineResult RefineRig(const RigParams& stored, const std::vector<ImageEvidence>
   // The samples under the stored model serve the check and the first solve. The lips are
   // measured from the calibration photos' (lip_reference.h) in every round: the solve then finds
   // the move since calibration, not the edge detector's bias.
+  // A single mirror's evidence is its rim where the calibration photos measured it (check.h).
+  const bool one_ring = stored.Paths() < 2;
   const LipReference reference(stored, options.check.azimuth_bins);
-  SampleSet set = CollectSamples(RigModel(stored), images, options.check, reference);
+  auto collect = [&](const RigParams& rig) {
+    SampleSet set = CollectSamples(RigModel(rig), images, options.check, reference);
+    return one_ring ? ReferencedBinsOnly(set) : set;
+  };
+  SampleSet set = collect(stored);
   result.before = CheckSamples(stored, set, static_cast<int>(images.size()), options.check);
   if (result.before.verdict == Verdict::kCannotTell) {
     throw RefineError("refine: " + result.before.reason +
-                      "; photograph a textured scene that fills most of the view around the rig");
+                      (one_ring ? "; photograph the mirror with its rim in plain sight all round"
+                                : "; photograph a textured scene that fills most of the view "
+                                  "around the rig"));
   }
 
   // Candidates: the rig parameters of the chosen groups.
   result.groups = options.groups;
   if (result.groups.empty()) {
     if (result.before.verdict == Verdict::kOk) {
-      result.rig = stored;
+      result.rig = stored_model;
       result.after = result.before;
       result.seconds = elapsed();
       return result;  // nothing moved: nothing refined
     }
     result.groups.push_back(result.before.named_group);
-    if (!result.before.runner_up.empty()) result.groups.push_back(result.before.runner_up);
+    // A single mirror's rim cannot tell the camera's move from the mirror's (the runner-up is
+    // always the other, and the two together are degenerate): the named group alone.
+    if (!one_ring && !result.before.runner_up.empty()) {
+      result.groups.push_back(result.before.runner_up);
+    }
   }
   const auto& all = DriftCoordinates();
   std::vector<int> candidates;
@@ -295,7 +360,7 @@ RefineResult RefineRig(const RigParams& stored, const std::vector<ImageEvidence>
     }
   }
   if (candidates.empty()) throw RefineError("refine: no parameter group to refine");
-  const std::vector<int> free = DeterminedCoordinates(candidates, &result);
+  const std::vector<int> free = DeterminedCoordinates(stored, candidates, &result);
   if (free.empty()) {
     throw RefineError("refine: these photos determine none of the parameters of " +
                       std::to_string(candidates.size()) + " candidates");
@@ -305,7 +370,7 @@ RefineResult RefineRig(const RigParams& stored, const std::vector<ImageEvidence>
   Eigen::VectorXd x = Eigen::VectorXd::Zero(static_cast<int>(free.size()));
   RigParams current = stored;
   for (int round = 0; round < options.rounds; ++round) {
-    if (round > 0) set = CollectSamples(RigModel(current), images, options.check, reference);
+    if (round > 0) set = collect(current);
     result.iterations += SolveRound(stored, free, set, round, options, &x);
     current = ApplyDrift(stored, free, x);
   }
@@ -313,8 +378,8 @@ RefineResult RefineRig(const RigParams& stored, const std::vector<ImageEvidence>
   status("the check under the refined model");
   result.after = CheckRig(current, images, options.check);
   RefinedCovariance(stored, current, free, &result);
-  result.rig = current;
-  result.rig.calibration = RefinedCalibration(stored, current, result, images.size());
+  result.rig = ApplyDrift(stored_model, free, x);
+  result.rig.calibration = RefinedCalibration(stored_model, result.rig, result, images.size());
   result.seconds = elapsed();
   return result;
 }

@@ -19,6 +19,12 @@
 // is found again (the lips re-linearised) between `rounds` solves. The covariance comes from the
 // check's bins at the solution (their errors include the floors for what stays correlated along
 // an arc), scaled up by their chi^2 per degree of freedom where that exceeds 1.
+//
+// A single mirror (one ring): the evidence is the rim's edge where the calibration photos
+// measured it (check.h); the rim shows five numbers (its scale, shift and tilt), so the named
+// group alone is refined (camera or mirror1: the rim cannot tell them apart), its determinable
+// coordinates picked greedily (a shift and a tilt move the rim nearly alike: one is held), and the
+// bins' covariance includes what the scene behind the rim moves its harmonics by in each photo.
 #pragma once
 
 #include <functional>

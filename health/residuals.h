@@ -54,6 +54,12 @@ struct SampleSet {
 SampleSet CollectSamples(const RigModel& model, const std::vector<ImageEvidence>& images,
                          const CheckOptions& options, const LipReference& reference = {});
 
+// A single mirror's evidence is its rim's edge, whose offset from the model's rim the calibration
+// photos measured (lip_reference.h): the edge the photos show need not be the rim itself (a
+// holder seen in the mirror's outer zone, model/single_rim.h RimEdgeIsTheRim), so only the bins
+// they measured can tell a move. The set with the others' samples left out (kept false).
+SampleSet ReferencedBinsOnly(const SampleSet& set);
+
 // The check (check.h CheckRig) on samples already collected under `stored`.
 CheckResult CheckSamples(const RigParams& stored, const SampleSet& set, int n_images,
                          const CheckOptions& options);

@@ -252,9 +252,10 @@ TEST_F(StereoCli, PanoramaAndDepthWriteTheirFiles) {
   }
 }
 
-// A single-mirror rig: `panorama` writes its one panorama; `depth`, `triangulate` and `refine` need
-// two rings and refuse it in one line naming the model file, exit 2, no output; `check` reads its
-// rim, and on a model with no rim reference from calibration it cannot tell (exit 4) and says why.
+// A single-mirror rig: `panorama` writes its one panorama; `depth` and `triangulate` need two
+// rings and refuse it in one line naming the model file, exit 2, no output; `check` and `refine`
+// read its rim, and on a model with no rim reference from calibration check cannot tell (exit 4)
+// and says why, refine refuses in one line naming it (exit 2, nothing written).
 TEST_F(StereoCli, SingleRigHasOnePanoramaAndNoStereo) {
   CentralMirror central;
   central.mirror = Conic<double>{20.0, -2.2};
@@ -275,8 +276,7 @@ TEST_F(StereoCli, SingleRigHasOnePanoramaAndNoStereo) {
   EXPECT_EQ(out.find("panorama2"), std::string::npos) << out;
   const std::string refused[] = {
       "depth" + model + image + " --out=" + Path("d"),
-      "triangulate" + model + " --detections=" + Path("none.yaml") + " --out=" + Path("t.csv"),
-      "refine" + model + image + " --out=" + Path("r.yaml")};
+      "triangulate" + model + " --detections=" + Path("none.yaml") + " --out=" + Path("t.csv")};
   for (const std::string& command : refused) {
     EXPECT_EQ(RunOmnistereo(command, Path("e"), &err), 2) << command;
     EXPECT_NE(err.find(Path("single.yaml") + ": a single-mirror rig (rig: single) has one ring; "),
@@ -289,6 +289,11 @@ TEST_F(StereoCli, SingleRigHasOnePanoramaAndNoStereo) {
   EXPECT_EQ(RunOmnistereo("check" + model + image, Path("e"), &err, Path("o"), &out), 4) << err;
   EXPECT_NE(out.find("CANNOT TELL"), std::string::npos) << out;
   EXPECT_NE(out.find("calibration.lip_reference"), std::string::npos) << out;
+  EXPECT_EQ(RunOmnistereo("refine" + model + image + " --out=" + Path("r.yaml"), Path("e"), &err),
+            2);
+  EXPECT_NE(err.find("calibration.lip_reference"), std::string::npos) << err;
+  EXPECT_EQ(std::count(err.begin(), err.end(), '\n'), 1) << err;
+  EXPECT_FALSE(fs::exists(Path("r.yaml")));
 }
 
 // `depth --images`: one set-up for a glob of frames, DIR/<name>.ply per frame, the same cloud as
