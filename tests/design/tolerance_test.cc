@@ -164,14 +164,26 @@ TEST(ToleranceTest, ProfileSensitivityIsLinearInThePeakToValley) {
 // A FAIL says which way to move the part and by how much; a parameter correlated beyond 0.99
 // with cx or cy is said to lie in the camera-rotation valley; a PASS says neither.
 TEST(ToleranceTest, FailSaysWhichWayAndTheValleyIsNamed) {
-  ToleranceCheck decentre{"mirror2.decentre", "mm", 0.5, 0.01, 0.3, Verdict::kFail, {}, {}, 0, ""};
+  ToleranceCheck decentre;
+  decentre.name = "mirror2.decentre";
+  decentre.unit = "mm";
+  decentre.value = 0.5;
+  decentre.sigma = 0.01;
+  decentre.limit = 0.3;
+  decentre.verdict = Verdict::kFail;
   decentre.parameters = {"mirror2.tx", "mirror2.ty"};
   decentre.components = {0.3, -0.4};
   EXPECT_EQ(Correction(decentre),
             "(mirror2.tx, mirror2.ty) is (+0.300, -0.400) mm, |.| 0.500 beyond 0.300 by 0.200: "
             "move mirror2 by (-0.120, +0.160) mm in C's x, y (x image right, y image down), "
             "towards the axis");
-  ToleranceCheck axial{"mirror1.axial", "mm", 0.41, 0.02, 0.2, Verdict::kFail, {}, {}, 0, ""};
+  ToleranceCheck axial;
+  axial.name = "mirror1.axial";
+  axial.unit = "mm";
+  axial.value = 0.41;
+  axial.sigma = 0.02;
+  axial.limit = 0.2;
+  axial.verdict = Verdict::kFail;
   axial.parameters = {"mirror1.tz"};
   axial.components = {0.41};
   EXPECT_EQ(Correction(axial), "mirror1.tz is +0.410 mm, 0.210 mm beyond +-0.200: move mirror1 "

@@ -21,7 +21,7 @@
 #include "model/single_rim.h"
 #include "synthetic/pov_scene.h"
 #include "synthetic/scene.h"
-#include "tests/temp_dir.h"
+#include "tests/render_room.h"
 
 namespace omni::detectors {
 namespace {
@@ -88,20 +88,9 @@ Offsets OffsetsFromCurve(const std::vector<Eigen::Vector2d>& points,
 }
 
 cv::Mat RenderGrey(const RigParams& rig, const std::string& tag) {
-  synthetic::SceneContent content;
-  content.room = true;
-  const std::filesystem::path dir = testing::UniqueTempDir("rim_edge_" + tag);
-  std::filesystem::create_directories(dir);
-  const std::string png = (dir / "rim.png").string();
-  synthetic::RenderOptions options;
-  options.width = rig.image_width;
-  options.height = rig.image_height;
-  std::string error;
-  EXPECT_TRUE(synthetic::RenderScene(synthetic::PovSceneText(rig, content), png, options, &error))
-      << error;
-  // As DetectImage gives it: linear light (the renders are sRGB), grey.
-  const cv::Mat colour = cv::imread(png, cv::IMREAD_COLOR);
+  const cv::Mat colour = testing::RenderRoom(rig, "rim_edge_" + tag);
   if (colour.empty()) return colour;
+  // As DetectImage gives it: linear light (the renders are sRGB), grey.
   return ToGrey(io::LinearImage(colour, io::ToneCurve::kSrgb));
 }
 

@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -25,7 +26,7 @@
 #include "model/single_rim.h"
 #include "synthetic/pov_scene.h"
 #include "synthetic/scene.h"
-#include "tests/temp_dir.h"
+#include "tests/render_room.h"
 
 namespace omni::health {
 namespace {
@@ -43,23 +44,16 @@ RigParams Hyperbolic() {
 
 // One render of `rig` in the textured room, its texture shifted by `shift_mm` (another room for
 // each photo), as the rim's evidence under `model`.
+// Renders are kept by tag: the tests share the moved rig's photo (same rig, room and model).
 ImageEvidence RimEvidence(const RigParams& rig, double shift_mm, const RigModel& model,
                           const std::string& tag) {
-  synthetic::SceneContent content;
-  content.room = true;
-  content.room_texture_offset_mm = Eigen::Vector3d(shift_mm, 0.7 * shift_mm, 0);
-  const std::filesystem::path dir = testing::UniqueTempDir("check_single_" + tag);
-  std::filesystem::create_directories(dir);
-  const std::string png = (dir / "photo.png").string();
-  synthetic::RenderOptions options;
-  options.width = rig.image_width;
-  options.height = rig.image_height;
-  std::string error;
-  EXPECT_TRUE(synthetic::RenderScene(synthetic::PovSceneText(rig, content), png, options, &error))
-      << error;
-  const cv::Mat image = cv::imread(png, cv::IMREAD_COLOR);
-  EXPECT_FALSE(image.empty());
-  return CollectEvidence(image, png, /*matcher=*/nullptr, model, io::ToneCurve::kSrgb, false);
+  static std::map<std::string, ImageEvidence> rendered;
+  if (const auto it = rendered.find(tag); it != rendered.end()) return it->second;
+  std::string png;
+  const cv::Mat image = testing::RenderRoom(
+      rig, "check_single_" + tag, Eigen::Vector3d(shift_mm, 0.7 * shift_mm, 0), &png);
+  return rendered[tag] =
+             CollectEvidence(image, png, /*matcher=*/nullptr, model, io::ToneCurve::kSrgb, false);
 }
 
 // The calibration photos' rim, as calibrate records it (four rooms), shared by the tests.
@@ -144,7 +138,7 @@ TEST_F(CheckSingle, RefineFromTheRimBringsTheModelBackToTheMovedRig) {
   RigParams moved = *truth_;
   moved.mirror1_pose[kTx] += 0.4;
   const RigModel model(*truth_);
-  const std::vector<ImageEvidence> knocked = {RimEvidence(moved, 9100, model, "refine_a"),
+  const std::vector<ImageEvidence> knocked = {RimEvidence(moved, 9100, model, "moved"),
                                               RimEvidence(moved, 5300, model, "refine_b")};
   // The check's choice, and the camera instead (the rim cannot tell which moved; either group
   // takes up its move).
