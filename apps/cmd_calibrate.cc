@@ -83,6 +83,17 @@ void StoreLipReference(const io::Session& session, const Observations& detection
                 "the mirror's circle of radius %.2f mm at this model's scale (the rim: %.2f mm), "
                 "which check follows\n",
                 radius, rig->r_sys);
+    if (radius > rig->r_sys) {
+      // The photos show the mirror out to that circle, so at this model's scale its rim lies at
+      // least there: the model's mirror (r_sys bounds every ray it images) must reach it, or
+      // detect, panorama and a scoring session with this model lose the outer zone.
+      std::printf("the model's mirror extended from %.2f to %.2f mm (r_sys): the photos show it "
+                  "out to there at this model's scale, which they do not fix (the image's edge "
+                  "is not the rim)\n",
+                  rig->r_sys, radius);
+      rig->r_sys = radius;
+      rig->lip1 = observed.lip1;
+    }
   }
   int photos = 0;
   info.lip_reference = LearnLipReference(observed, session.images, session.bayer, session.tone,

@@ -688,13 +688,13 @@ std::vector<BoardDetection> DetectChessboardBoards(const cv::Mat& raw_grey,
       trace::View(static_cast<int>(vi), view.image, saddles, boxes);
     }
     for (const Region& region : regions) {
-      if (BetterInNeighbour(view, region.rect, views.size() / 2)) {
+      if (BetterInNeighbour(view, region.rect, view.sectors)) {
         trace::Line(" region %d,%d %dx%d: better in the neighbouring view", region.rect.x, region.rect.y,
                     region.rect.width, region.rect.height);
         continue;
       }
       for (BoardDetection& board : SearchRegion(raw_grey, view, in_ring, trusted, model, targets, patterns, region, saddles,
-                                                views.size() / 2, options, static_cast<int>(vi))) {
+                                                view.sectors, options, static_cast<int>(vi))) {
         board.view = static_cast<int>(vi);
         boards.push_back(std::move(board));
       }

@@ -115,6 +115,7 @@ RingView MakeView(const RigModel& model, const PathField& field, double azimuth,
   RingView v;
   v.mirror = field.mirror;
   v.azimuth = azimuth;
+  v.sectors = options.sectors;
   v.elevation = 0.5 * (elevation_lo + elevation_hi);
   v.distance_mm = options.distance_mm;
   const RigParams& rig = model.params();
@@ -272,10 +273,22 @@ std::vector<RingView> MakeRingViews(const RigModel& model, const ViewOptions& op
     double lo = field.elevation_lo - margin;
     double hi = field.elevation_hi + margin;
     const double cap = Deg(options.max_vertical_fov_deg);
-    if (hi - lo > cap) {  // keep the part nearest the horizon, where targets are
+    // Where the ring's field fits within the cap only the margins beyond it are cut (the part
+    // nearest the horizon is kept, where targets are); a field taller than the cap (a wide single
+    // mirror: a paraboloid's ring spans 70-110 deg) is covered whole by taller views, since a
+    // board anywhere in it must fit one (cutting it lost the boards nearest the mirror's centre).
+    const double field_height = field.elevation_hi - field.elevation_lo;
+    if (hi - lo > cap && field_height <= cap) {
       const double centre = std::clamp(0.0, lo + 0.5 * cap, hi - 0.5 * cap);
       lo = centre - 0.5 * cap;
       hi = centre + 0.5 * cap;
+    }
+    // A pinhole view's height grows as the tangent of its half-angle: at most 150 degrees.
+    constexpr double kTallest = 150 * M_PI / 180;
+    if (hi - lo > kTallest) {
+      const double centre = 0.5 * (field.elevation_lo + field.elevation_hi);
+      lo = centre - 0.5 * kTallest;
+      hi = centre + 0.5 * kTallest;
     }
     for (int k = 0; k < options.sectors; ++k) {
       views.push_back(MakeView(model, field, 2 * M_PI * k / options.sectors, lo, hi,

@@ -12,7 +12,9 @@
 //
 // Enough sectors with overlap are made that every target in a ring's field of view fits whole
 // in some view: with `sectors` views of `horizontal_fov_deg` each, anything narrower than
-// horizontal_fov - 360/sectors degrees does.
+// horizontal_fov - 360/sectors degrees does. Vertically a view covers the ring's field plus
+// margins up to max_vertical_fov_deg (the margins cut first); a field taller than that is
+// covered whole (a wide single mirror).
 //
 // Pixel scales: a view pixel is not a raw pixel. By default a view has the outer ring's
 // tangential resolution at its middle radius, so the inner ring's views are upsampled (~1.7-3
@@ -37,7 +39,8 @@ namespace omni::detectors {
 struct ViewOptions {
   int sectors = 8;                  // views per ring, evenly spaced in azimuth
   double horizontal_fov_deg = 90;   // per view
-  double max_vertical_fov_deg = 80; // cap on the elevation range a view covers
+  double max_vertical_fov_deg = 80; // cap on the elevation range a view covers with its margins
+                                    // (a field taller than this is covered whole, up to 150)
   double elevation_margin_deg = 4;  // added above and below each ring's elevation range
   // View resolution in pixels per radian; 0: the outer ring's tangential resolution at its
   // middle radius (so the inner ring is upsampled and boards look alike in both rings).
@@ -53,6 +56,8 @@ struct ViewOptions {
 struct RingView {
   Mirror mirror = Mirror::kOne;
   double azimuth = 0, elevation = 0;  // of the optical axis (rad)
+  // Views of this ring (ViewOptions::sectors): the azimuth between neighbours is 2 pi / sectors.
+  int sectors = 0;
   Eigen::Vector3d viewpoint_in_cam = Eigen::Vector3d::Zero();
   Eigen::Matrix3d cam_from_view = Eigen::Matrix3d::Identity();  // columns: right, down, forward
   double f = 0, cx = 0, cy = 0;  // pinhole of the view (pixels)

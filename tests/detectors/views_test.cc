@@ -8,6 +8,7 @@
 #include "detectors/common/ring_layout.h"
 #include "detectors/common/views.h"
 #include "io/model_file.h"
+#include "model/rig_params.h"
 
 namespace omni::detectors {
 namespace {
@@ -122,6 +123,52 @@ TEST_F(ViewsTest, ViewsAreNotMirrored) {
     EXPECT_GT(r.x() - o.x(), 5) << "mirror " << MirrorIndex(view.mirror);
     EXPECT_LT(up.y() - o.y(), -5) << "mirror " << MirrorIndex(view.mirror);
   }
+}
+
+}  // namespace
+}  // namespace omni::detectors
+
+namespace omni::detectors {
+namespace {
+
+// A wide single mirror (the sample paraboloid behind a telecentric lens: its ring spans ~90 deg
+// of elevation, more than a view's 80): every direction the ring sees lies inside some view, so
+// a board anywhere in the field can be found (a view cut to 80 deg about the horizon had lost
+// the boards nearest the mirror's centre). The oracle: the model's exact back-projection of
+// pixels across the ring, each ray's direction tested against every view's pinhole.
+TEST(WideSingleMirrorViews, CoverTheWholeField) {
+  // 8 px per mm: the 30 mm rim at 240 px; the hole 2 mm.
+  const RigModel model(MakeSingleRig(Conic<double>{24.0, -1.0}, LensKind::kTelecentric, 80.0, 30.0,
+                                     2.0, Pinhole<double>{8, 8, 319.5, 255.5, 0}, 640, 512));
+  const std::vector<RingView> views = MakeRingViews(model);
+  ASSERT_EQ(views.size(), 8u);
+  double lo = 1e9, hi = -1e9;
+  int rays = 0, outside = 0;
+  for (double radius = 1; radius < 256; radius += 3) {
+    for (int k = 0; k < 36; ++k) {
+      const double t = 2 * M_PI * k / 36;
+      const auto ray = model.Unproject(Eigen::Vector2d(319.5 + radius * std::cos(t),
+                                                       255.5 + radius * std::sin(t)));
+      if (!ray) continue;
+      ++rays;
+      const Eigen::Vector3d d = ray->ray.direction.normalized();
+      lo = std::min(lo, std::asin(d.z()));
+      hi = std::max(hi, std::asin(d.z()));
+      bool inside = false;
+      for (const RingView& view : views) {
+        const Eigen::Vector3d in_view = view.cam_from_view.transpose() * d;
+        if (in_view.z() <= 0) continue;
+        const double u = view.cx + view.f * in_view.x() / in_view.z();
+        const double v = view.cy + view.f * in_view.y() / in_view.z();
+        inside = inside || (u >= 0 && v >= 0 && u <= view.width - 1 && v <= view.height - 1);
+      }
+      outside += !inside;
+    }
+  }
+  ASSERT_GT(rays, 500);
+  EXPECT_GT((hi - lo) * 180 / M_PI, 85) << "the field is not wider than a view's cap";
+  EXPECT_EQ(outside, 0) << "of " << rays << " rays, elevations " << lo * 180 / M_PI << ".."
+                        << hi * 180 / M_PI << " deg";
 }
 
 }  // namespace
