@@ -876,21 +876,28 @@ bool AlignBySaddles(const GuideInputs& in, const Prediction& prediction, cv::Mat
                     std::map<int, Eigen::Vector2d>* refined) {
   const Lattice& lattice = in.lattice;
   const bool l_corners = lattice.corners.front().quadrant >= 0;
+  // The trace names the step that refuses a chessboard (OMNI_CHESSBOARD_TRACE).
+  const auto refused = [&](const char* why) {
+    if (in.target.type == TargetType::kChessboard && trace::On()) {
+      trace::Line("guided target %d -> ring %d: not aligned: %s", in.ti, static_cast<int>(in.dest), why);
+    }
+    return false;
+  };
   const std::optional<int> source_sign = SourcePolarity(in, l_corners);
-  if (!source_sign) return false;
+  if (!source_sign) return refused("polarity disagrees in the seed ring");
   // 2. The lattice in the view and the saddle points around it.
   const std::optional<LatticeInView> lv = PredictLattice(lattice, prediction, in.options);
-  if (!lv) return false;
+  if (!lv) return refused("no lattice in the view");
   const std::optional<SaddleMatcher> saddles = ClassifiedSaddles(in, prediction, *lv, l_corners, *source_sign);
-  if (!saddles) return false;
+  if (!saddles) return refused("no saddles round the lattice");
   // The translation most junctions agree on, against every other.
   const auto starts = BestShifts(lattice, *lv, *saddles, in.options);
-  if (!starts) return false;
+  if (!starts) return refused("no translation with enough matched junctions");
   // 3. The best translations, each refined to a homography; the best must beat every other.
   const std::optional<Alignment> best = DistinctBestAlignment(prediction, lattice, *saddles, *starts, in.options);
-  if (!best) return false;
+  if (!best) return refused("no alignment beats the others by the margin");
   *h = best->h;
-  if (best->ext > in.options.max_extension_fraction * best->matched) return false;
+  if (best->ext > in.options.max_extension_fraction * best->matched) return refused("the lattice's extension matched");
   AlignedTarget aligned{in.views[prediction.v], *h, {}, {}};
   aligned.match.assign(lattice.corners.size(), -1);
   for (size_t i = 0; i < lattice.corners.size(); ++i) {
