@@ -14,8 +14,11 @@
 //   I = a + b Q_row(d1) Q_col(d2) + |b| (1 - M_row(d1) M_col(d2)),
 // Q the blurred (square wave x board extent), M the blurred board extent, d1, d2 the signed
 // offsets from the corner's two lines (parabolas, curvature held as FitBlurredJunction's).
-// Exact for a Gaussian blur of a board whose lines are perpendicular, and with the junction's
-// symmetry otherwise (perspective skews them by a few degrees in a window).
+// Exact for a Gaussian blur of a board whose lines are perpendicular (a drawn board: border
+// corners 0.168 -> 0.005 px); with perspective the lines' skew and convergence are approximated
+// (0.230 -> 0.135 px with noise; board_junction_fit_test). Assumes the sheet's margin is as bright
+// as the light squares and at least ~1.2 squares wide beyond the 0.8-square window's reach
+// (the rendered targets': one square); a board cut at its squares would need its surround.
 #pragma once
 
 #include <optional>
@@ -47,7 +50,7 @@ struct BoardAround {
 
 // The BoardAround of corner (r, c) of a rows x cols grid that is the whole pattern (ids from a
 // target's lattice, not a partial grid): sides from its measured neighbours (nullopt where
-// neither neighbour across a line is known), the margins on the sides where r or c is the first
+// neither neighbour across a line is known or both lie on one side), the margins on the sides where r or c is the first
 // or last.
 std::optional<BoardAround> BoardAroundCorner(const std::vector<std::optional<Eigen::Vector2d>>& corners,
                                              int rows, int cols, int id, const LocalLine& row,
@@ -59,10 +62,6 @@ std::optional<BoardAround> BoardAroundCorner(const std::vector<std::optional<Eig
 std::optional<JunctionFit> FitBlurredBoardJunction(const cv::Mat& grey, const Eigen::Vector2d& start,
                                                    const LocalLine& row, const LocalLine& col,
                                                    const BoardAround& board, double half, double sigma0);
-
-}  // namespace omni::detectors
-
-namespace omni::detectors {
 
 // A board whose measured blur sigma (RingView::RawBlurAt) exceeds this fraction of its square
 // side has its far edges within 3 sigmas of the 0.55-square window FitBlurredJunction reads.
