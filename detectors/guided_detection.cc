@@ -15,6 +15,8 @@
 #include "detectors/apriltag/kalibr_detector.h"
 #include "detectors/apriltag/tag_pattern_fit.h"
 #include "detectors/chessboard/chessboard_detector.h"
+#include "detectors/chessboard/chessboard_trace.h"
+#include "detectors/common/board_junction_fit.h"
 #include "detectors/common/corner_refine.h"
 #include "detectors/common/corner_window.h"
 #include "detectors/common/option_check.h"
@@ -687,10 +689,15 @@ std::map<int, Eigen::Vector2d> RefineChessboardCorners(const GuideInputs& in, Al
   std::vector<double> sides(n, 0);
   std::map<int, Eigen::Vector2d> own_raw;
   for (size_t i = 0; i < in.own.ids.size(); ++i) own_raw[in.own.ids[i]] = in.own.raw[i];
+  int unmatched = 0, unrefined = 0, moved = 0;  // the trace's counts of junctions lost
+  const double blur = a.view.RawBlurAt(Apply(a.h, LatticeCentre(in.lattice)));
   for (int id = 0; id < n; ++id) {
     const size_t i = a.index_of[id];
     const bool is_own = own_raw.count(id) > 0;
-    if (a.match[i] < 0 && !is_own) continue;
+    if (a.match[i] < 0 && !is_own) {
+      ++unmatched;
+      continue;
+    }
     const auto start = is_own ? std::optional<Eigen::Vector2d>(own_raw[id]) : a.RawOf(in.lattice, id);
     if (!start) continue;
     const int r = id / target.cols, c = id % target.cols;
@@ -702,19 +709,54 @@ std::map<int, Eigen::Vector2d> RefineChessboardCorners(const GuideInputs& in, Al
     }
     if (side > 1e8) continue;
     // The per-ring detector's window (corner_window.h): 0.55 squares.
-    const int half = ChessboardHalfWindow(side, CameraPixelsPerDegree(in.model.params()));
+    int half = ChessboardHalfWindow(side, CameraPixelsPerDegree(in.model.params()));
+    // Squares small against the blur (the webcam's inner ring): on the board's outer rows and
+    // columns the margin's blurred step would reach cornerSubPix's window and pull the corner
+    // (or get it refused as a foreign edge): the window kept 3 sigmas inside the square.
+    const bool border = r == 0 || c == 0 || r == target.rows - 1 || c == target.cols - 1;
+    if (blur > kBlurredBoardFraction * side && border) {
+      half = std::min(half, std::max(2, static_cast<int>(std::floor(side - 3 * blur))));
+    }
     Eigen::Vector2d pixel = *start;
-    if (!is_own && !RefineCornerInRaw(in.raw_grey, half, &pixel)) continue;
-    if ((pixel - *start).norm() > std::max(1.5, 0.3 * side)) continue;
+    if (!is_own && !RefineCornerInRaw(in.raw_grey, half, &pixel)) {
+      ++unrefined;
+      continue;
+    }
+    if ((pixel - *start).norm() > std::max(1.5, 0.3 * side)) {
+      ++moved;
+      continue;
+    }
     corners[id] = pixel;
     halves[id] = half;
     sides[id] = side;
   }
-  KeepWindowsOnTheirSquares(in.raw_grey, target.rows, target.cols, sides, 2, &halves, &corners,
-                            a.view.RawBlurAt(Apply(a.h, LatticeCentre(in.lattice))));
+  const std::vector<int> start_halves = halves;
+  const int unclean = KeepWindowsOnTheirSquares(in.raw_grey, target.rows, target.cols, sides, 2, &halves, &corners, blur);
+  if (trace::On()) {
+    double side_sum = 0;
+    int side_n = 0;
+    for (const double s : sides) {
+      if (s > 0) side_sum += s, ++side_n;
+    }
+    trace::Line("guided target %d -> ring %d: %d junctions, %d unmatched, %d unrefined, %d moved, %d windows "
+                "unclean; square %.1f raw px, blur %.2f raw px",
+                in.ti, static_cast<int>(in.dest), n, unmatched, unrefined, moved, unclean,
+                side_n ? side_sum / side_n : 0.0, blur);
+  }
   // The junction fit the chessboard detector runs (the curvature correction where it cannot).
   FitBoardJunctions(in.raw_grey, target.rows, target.cols, sides, halves, ChessboardOptions().junction_window_squares,
                     &corners);
+  // Where the squares are small against the blur, the board's own far edges and its margin
+  // reach that fit's window: the corners fitted again as the blurred board (board_junction_fit.h).
+  double side_sum = 0;
+  int side_count = 0;
+  for (int id = 0; id < n; ++id) {
+    if (corners[id]) side_sum += sides[id], ++side_count;
+  }
+  if (side_count && blur > kBlurredBoardFraction * side_sum / side_count) {
+    FitBlurredBoard(in.raw_grey, target.rows, target.cols, sides, start_halves, halves,
+                    kBlurredBoardWindowSquares, blur, &corners);
+  }
   for (int id = 0; id < n; ++id) {
     if (corners[id] && !in.have.count(id)) refined[id] = *corners[id];
   }
@@ -834,21 +876,28 @@ bool AlignBySaddles(const GuideInputs& in, const Prediction& prediction, cv::Mat
                     std::map<int, Eigen::Vector2d>* refined) {
   const Lattice& lattice = in.lattice;
   const bool l_corners = lattice.corners.front().quadrant >= 0;
+  // The trace names the step that refuses a chessboard (OMNI_CHESSBOARD_TRACE).
+  const auto refused = [&](const char* why) {
+    if (in.target.type == TargetType::kChessboard && trace::On()) {
+      trace::Line("guided target %d -> ring %d: not aligned: %s", in.ti, static_cast<int>(in.dest), why);
+    }
+    return false;
+  };
   const std::optional<int> source_sign = SourcePolarity(in, l_corners);
-  if (!source_sign) return false;
+  if (!source_sign) return refused("polarity disagrees in the seed ring");
   // 2. The lattice in the view and the saddle points around it.
   const std::optional<LatticeInView> lv = PredictLattice(lattice, prediction, in.options);
-  if (!lv) return false;
+  if (!lv) return refused("no lattice in the view");
   const std::optional<SaddleMatcher> saddles = ClassifiedSaddles(in, prediction, *lv, l_corners, *source_sign);
-  if (!saddles) return false;
+  if (!saddles) return refused("no saddles round the lattice");
   // The translation most junctions agree on, against every other.
   const auto starts = BestShifts(lattice, *lv, *saddles, in.options);
-  if (!starts) return false;
+  if (!starts) return refused("no translation with enough matched junctions");
   // 3. The best translations, each refined to a homography; the best must beat every other.
   const std::optional<Alignment> best = DistinctBestAlignment(prediction, lattice, *saddles, *starts, in.options);
-  if (!best) return false;
+  if (!best) return refused("no alignment beats the others by the margin");
   *h = best->h;
-  if (best->ext > in.options.max_extension_fraction * best->matched) return false;
+  if (best->ext > in.options.max_extension_fraction * best->matched) return refused("the lattice's extension matched");
   AlignedTarget aligned{in.views[prediction.v], *h, {}, {}};
   aligned.match.assign(lattice.corners.size(), -1);
   for (size_t i = 0; i < lattice.corners.size(); ++i) {
@@ -935,6 +984,10 @@ std::vector<CornerObservation> CheckAgainstGrid(const GuideInputs& in, int v, co
     kept.push_back(o);
   }
   if (own.ids.empty() && static_cast<int>(kept.size()) < options.min_kept) kept.clear();
+  if (trace::On() && in.target.type == TargetType::kChessboard) {
+    trace::Line("guided target %d -> ring %d: %zu refined, %zu kept by the grid check", in.ti,
+                static_cast<int>(in.dest), refined.size(), kept.size());
+  }
   if (!kept.empty() && in.target.type == TargetType::kKalibrAprilGrid) {
     for (CornerObservation o :
          KalibrBeyondTheView(in.raw_grey, in.views[v], in.target, in.lattice, h, own, kept, options)) {

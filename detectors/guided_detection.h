@@ -33,7 +33,8 @@
 //     ring already has the target, only for a small one; the better of the two is kept.
 //  4. Each matched junction refined as the per-ring detector refines its kind: chessboards by
 //     cornerSubPix in the raw image (corner_refine.h, windows kept on their squares, curvature
-//     bias removed), Kalibr corners by cornerSubPix in the view mapped to raw, checked to be
+//     bias removed; where the blur exceeds 0.15 squares the border corners' windows kept 3 sigmas
+//     off the margin and every corner fitted as the blurred board, board_junction_fit.h), Kalibr corners by cornerSubPix in the view mapped to raw, checked to be
 //     whole X-junctions in the raw image and fitted as blurred junctions over the Kalibr
 //     detector's window (FitBlurredJunction; a corner it cannot fit is left out; junctions
 //     beyond the view's map, at the ring's edge through an ideal model, from a quadratic of their
