@@ -29,6 +29,14 @@
 namespace omni::detectors {
 namespace {
 
+// A grey frame (no lips in it) as the lip guide reads an image.
+GuideImage GreyGuideImage() {
+  GuideImage image;
+  image.image = cv::Mat(960, 1280, CV_16UC1, cv::Scalar(0));
+  return image;
+}
+
+
 RigParams ReadSample(const std::string& name) {
   return io::ReadModelFile(std::string(OMNISTEREO_SOURCE_DIR) + "/sample_configs/" + name);
 }
@@ -421,7 +429,7 @@ TEST_F(LipDetectorOnPaintedRealisticRender, TheLipGuideCorrectsTheDesignAndLeave
   }
   // A grey image has no lips: the model stays.
   DetectorContext ctx(ReadSample("big_rig_ideal.yaml"), {});
-  EXPECT_FALSE(GuideByLips({{cv::Mat(960, 1280, CV_16UC1, cv::Scalar(0))}}, &ctx).applied);
+  EXPECT_FALSE(GuideByLips({GreyGuideImage()}, &ctx).applied);
 }
 
 // A start whose focal length is 10% off (another camera's f, a wrong design) predicts the lips
@@ -459,7 +467,7 @@ TEST_F(LipDetectorOnPaintedRealisticRender, TheLipGuideFindsTheLipsFromAFocalLen
 
 TEST_F(LipDetectorOnPaintedRealisticRender, TheLipGuideLeavesGreyImagesAlone) {
   DetectorContext ctx(ReadSample("big_rig_ideal.yaml"), {});
-  EXPECT_FALSE(GuideByLips({{cv::Mat(960, 1280, CV_16UC1, cv::Scalar(0))}}, &ctx).applied);
+  EXPECT_FALSE(GuideByLips({GreyGuideImage()}, &ctx).applied);
 }
 
 TEST(LipDetector, OptionsAreChecked) {

@@ -52,7 +52,7 @@ inline cv::Mat WarpBoard(const RigModel& model, const TargetSpec& spec, const sy
   cv::Rect box;
   for (int k = 0; k <= 40; ++k) {
     const double s = k / 40.0;
-    for (const Eigen::Vector2d q : {Eigen::Vector2d(sheet[0] + s * (sheet[2] - sheet[0]), sheet[1]),
+    for (const Eigen::Vector2d& q : {Eigen::Vector2d(sheet[0] + s * (sheet[2] - sheet[0]), sheet[1]),
                                     Eigen::Vector2d(sheet[0] + s * (sheet[2] - sheet[0]), sheet[3]),
                                     Eigen::Vector2d(sheet[0], sheet[1] + s * (sheet[3] - sheet[1])),
                                     Eigen::Vector2d(sheet[2], sheet[1] + s * (sheet[3] - sheet[1]))}) {
