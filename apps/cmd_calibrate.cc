@@ -91,8 +91,7 @@ void StoreLipReference(const io::Session& session, const Observations& detection
                   "out to there at this model's scale, which they do not fix (the image's edge "
                   "is not the rim)\n",
                   rig->r_sys, radius);
-      rig->r_sys = radius;
-      rig->lip1 = observed.lip1;
+      *rig = WithMirrorReaching(*rig, radius);
     }
   }
   int photos = 0;

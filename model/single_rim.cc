@@ -46,6 +46,13 @@ RigParams WithRimCircleAt(const RigParams& rig, double radius_mm) {
   return out;
 }
 
+RigParams WithMirrorReaching(const RigParams& rig, double radius_mm) {
+  if (!(radius_mm > rig.r_sys)) return rig;
+  RigParams out = WithRimCircleAt(rig, radius_mm);
+  out.r_sys = radius_mm;
+  return out;
+}
+
 namespace {
 
 // The median radial offset (px, + outside) of the points from the image of the mirror circle of

@@ -38,6 +38,12 @@ bool RimEdgeIsTheRim(const RigModel& model, double* elevation_deg = nullptr);
 // the mirror: what `check` follows (health/lip_reference.h).
 RigParams WithRimCircleAt(const RigParams& rig, double radius_mm);
 
+// The rig with its mirror reaching `radius_mm` (r_sys and the rim circle lip1 there) where that is
+// beyond r_sys, else unchanged. Where the photos show the mirror out to a circle beyond the
+// model's rim (a telecentric paraboloid, whose size the photos do not fix: its rim at the model's
+// scale is at least there), so that every ray the photos show has an image in the model.
+RigParams WithMirrorReaching(const RigParams& rig, double radius_mm);
+
 // The radius (mm) of the mirror circle whose image the edge points lie on (the median of their
 // radial offsets from it zero, by bisection over 0.2-2 r_sys); 0 if the points are fewer than 20
 // or no radius in that span brackets them.

@@ -14,6 +14,7 @@
 #include "model/central_mirror.h"
 #include "model/rig_model.h"
 #include "model/rig_params.h"
+#include "model/single_rim.h"
 
 namespace omni {
 namespace {
@@ -157,6 +158,24 @@ TEST(SingleRig, CentreAndBeyondTheRimSeeNothing) {
   const RigModel model(Hyperbolic());
   EXPECT_FALSE(model.Unproject(Eigen::Vector2d(640, 480)));
   EXPECT_FALSE(model.Unproject(Eigen::Vector2d(5, 5)));
+}
+
+// A mirror reaching beyond its rim (WithMirrorReaching): the pixel of a mirror point 4 mm past the
+// rim has no ray in the model as it was, and in the extended one its ray is that point's (the
+// oracle: the ray's origin on the mirror, RigModel's own reflection point); a radius inside the
+// rim changes nothing.
+TEST(SingleRig, AMirrorReachingBeyondItsRimImagesWhatLiesThere) {
+  const RigParams rig = Parabolic();
+  const RigParams wider = WithMirrorReaching(rig, 36.0);
+  EXPECT_EQ(wider.r_sys, 36.0);
+  EXPECT_EQ(wider.lip1.r_outer, 36.0);
+  EXPECT_EQ(WithMirrorReaching(rig, 25.0).r_sys, rig.r_sys);
+  // Telecentric along the axis: the mirror point at radius 34 is imaged at fx * 34 from the centre.
+  const Eigen::Vector2d pixel(640 + 13.3 * 34, 512);
+  EXPECT_FALSE(RigModel(rig).Unproject(pixel));
+  const auto ray = RigModel(wider).Unproject(pixel);
+  ASSERT_TRUE(ray);
+  EXPECT_NEAR(ray->ray.origin.head<2>().norm(), 34.0, 1e-6);
 }
 
 // Jets: all of mirror 1's blocks and the point, against central differences.
