@@ -101,18 +101,38 @@ std::string GuideLine(const LipGuide& guide) {
 
 namespace {
 
-// A warning where this photo shows the model's posts turned (MountTurnInPhoto).
+// Warnings where this photo's posts disagree with the model's mount (CompareMountWithPhoto): the
+// mount turned, a post where the model has none, a model post not seen. Detection goes on with
+// the model's mount either way: the sectors it names are where corners are expected hidden.
 void CheckPosts(const cv::Mat& image, const RigModel& model, std::vector<std::string>* warnings) {
   const Mount& mount = model.params().mount;
   if (!mount.present || mount.azimuths.empty()) return;
-  const std::optional<double> turn = MountTurnInPhoto(ToGrey(image), model);
-  if (!turn) return;
-  char line[220];
-  std::snprintf(line, sizeof line,
-                "the mount's posts show %+.1f deg from where the model puts them (mount.azimuths_deg): "
-                "another rig's model, or a mount turned since; `omnistereo init --posts %zu` finds them",
-                *turn * 180 / M_PI, mount.azimuths.size());
-  warnings->push_back(line);
+  const MountInPhoto compared = CompareMountWithPhoto(ToGrey(image), model);
+  char line[320];
+  if (compared.turn) {
+    std::snprintf(line, sizeof line,
+                  "the mount's posts show %+.1f deg from where the model puts them (mount.azimuths_deg): "
+                  "another rig's model, or a mount turned since; `omnistereo init --posts %zu` finds them",
+                  *compared.turn * 180 / M_PI, mount.azimuths.size());
+    warnings->push_back(line);
+    return;
+  }
+  for (const FoundPost& post : compared.unexpected) {
+    std::snprintf(line, sizeof line,
+                  "a post at %.1f deg (a band %.1f deg wide) where the model's mount has none "
+                  "(mount.azimuths_deg): boards it crosses there are not expected to be cut; "
+                  "`omnistereo init --posts %zu` puts it in the model",
+                  post.azimuth * 180 / M_PI, post.width * 180 / M_PI, mount.azimuths.size() + 1);
+    warnings->push_back(line);
+  }
+  for (int i : compared.unseen) {
+    std::snprintf(line, sizeof line,
+                  "the model's post at %.1f deg (mount.azimuths_deg) is not seen in this photo: a "
+                  "target in front of it, or a mount without it (its sector is still taken to hide "
+                  "what lies behind it)",
+                  mount.azimuths[i] * 180 / M_PI);
+    warnings->push_back(line);
+  }
 }
 
 }  // namespace

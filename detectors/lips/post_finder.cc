@@ -255,17 +255,19 @@ std::vector<FoundPost> FindPosts(const std::vector<cv::Mat>& grey_images, const 
   return SearchPosts(grey_images, model, count, options).found;
 }
 
-std::optional<double> MountTurnInPhoto(const cv::Mat& grey, const RigModel& model, double min_turn_deg) {
-  const Mount& mount = model.params().mount;
-  if (!mount.present || mount.azimuths.empty()) return std::nullopt;
+namespace {
+
+// The mount turned as a whole: the model's n posts each matched to the nearest of `found` (the
+// n best), all offsets within 0.5 deg of each other and their mean at least min_turn_deg.
+std::optional<double> TurnOf(const Mount& mount, const std::vector<FoundPost>& found,
+                             double min_turn_deg) {
   const int n = static_cast<int>(mount.azimuths.size());
-  const std::vector<FoundPost> found = FindPosts({grey}, model, n);
   if (static_cast<int>(found.size()) < n) return std::nullopt;
   std::vector<double> offsets;
   for (double a : mount.azimuths) {
     double best = M_PI;
-    for (const FoundPost& post : found) {
-      const double d = std::remainder(post.azimuth - a, 2 * M_PI);
+    for (int k = 0; k < n; ++k) {
+      const double d = std::remainder(found[k].azimuth - a, 2 * M_PI);
       if (std::abs(d) < std::abs(best)) best = d;
     }
     offsets.push_back(best);
@@ -276,6 +278,43 @@ std::optional<double> MountTurnInPhoto(const cv::Mat& grey, const RigModel& mode
   constexpr double kDeg = M_PI / 180;
   if (*hi - *lo > 0.5 * kDeg || std::abs(mean) < min_turn_deg * kDeg) return std::nullopt;
   return mean;
+}
+
+}  // namespace
+
+std::optional<double> MountTurnInPhoto(const cv::Mat& grey, const RigModel& model, double min_turn_deg) {
+  const Mount& mount = model.params().mount;
+  if (!mount.present || mount.azimuths.empty()) return std::nullopt;
+  return TurnOf(mount, FindPosts({grey}, model, static_cast<int>(mount.azimuths.size())),
+                min_turn_deg);
+}
+
+MountInPhoto CompareMountWithPhoto(const cv::Mat& grey, const RigModel& model, double tolerance_deg,
+                                   double min_turn_deg) {
+  MountInPhoto out;
+  const Mount& mount = model.params().mount;
+  if (!mount.present || mount.azimuths.empty()) return out;
+  const int n = static_cast<int>(mount.azimuths.size());
+  // Best first: the n best are MountTurnInPhoto's.
+  const std::vector<FoundPost> found = FindPosts({grey}, model, n + 2);
+  out.turn = TurnOf(mount, found, min_turn_deg);
+  if (out.turn) return out;
+  const double tolerance = tolerance_deg * M_PI / 180;
+  auto near = [&](const FoundPost& post, double azimuth) {
+    return std::abs(std::remainder(post.azimuth - azimuth, 2 * M_PI)) <=
+           tolerance + 0.5 * post.width;
+  };
+  for (const FoundPost& post : found) {
+    bool in_model = false;
+    for (double a : mount.azimuths) in_model = in_model || near(post, a);
+    if (!in_model) out.unexpected.push_back(post);
+  }
+  for (int i = 0; i < n; ++i) {
+    bool seen = false;
+    for (const FoundPost& post : found) seen = seen || near(post, mount.azimuths[i]);
+    if (!seen) out.unseen.push_back(i);
+  }
+  return out;
 }
 
 }  // namespace omni::detectors

@@ -88,4 +88,17 @@ double PostSideFromBand(double band_width, double radius);
 std::optional<double> MountTurnInPhoto(const cv::Mat& grey, const RigModel& model,
                                        double min_turn_deg = 1.0);
 
+// The photo's posts against the model's mount, one search (FindPosts for two more than the
+// model has): the mount turned (MountTurnInPhoto's answer; then nothing else is said), posts the
+// photo shows where the model has none (farther than `tolerance_deg` plus half the band from
+// every model post) and the model's posts the photo shows none at (within the same reach; a
+// target in front of a post hides it too, so this is said, not acted on).
+struct MountInPhoto {
+  std::optional<double> turn;             // rad
+  std::vector<FoundPost> unexpected;      // best first
+  std::vector<int> unseen;                // indices into mount.azimuths
+};
+MountInPhoto CompareMountWithPhoto(const cv::Mat& grey, const RigModel& model,
+                                   double tolerance_deg = 2.0, double min_turn_deg = 1.0);
+
 }  // namespace omni::detectors

@@ -111,6 +111,30 @@ TEST(PostFinder, FindsThePrototypesPostsFromTheDesign) {
     EXPECT_NEAR(*turn * 180 / M_PI, -5.0, 0.5);
     EXPECT_FALSE(MountTurnInPhoto(grey, RigModel(prototype)));
   }
+  // A model that lacks one of the photo's posts, and one with a post the photo does not show
+  // (half-way between two real ones): each photo names them; the true mount: nothing.
+  RigParams lacking = prototype;
+  const double dropped = lacking.mount.azimuths.back();
+  lacking.mount.azimuths.pop_back();
+  if (!lacking.mount.widths.empty()) lacking.mount.widths.pop_back();
+  RigParams extra = prototype;
+  const double ghost = 0.5 * (prototype.mount.azimuths[0] + prototype.mount.azimuths[1]);
+  extra.mount.azimuths.push_back(ghost);
+  if (!extra.mount.widths.empty()) extra.mount.widths.push_back(extra.mount.widths.back());
+  for (const cv::Mat& grey : Grey(photos)) {
+    const MountInPhoto truth = CompareMountWithPhoto(grey, RigModel(prototype));
+    EXPECT_FALSE(truth.turn);
+    EXPECT_TRUE(truth.unexpected.empty());
+    EXPECT_TRUE(truth.unseen.empty());
+    const MountInPhoto without = CompareMountWithPhoto(grey, RigModel(lacking));
+    ASSERT_EQ(without.unexpected.size(), 1u);
+    EXPECT_LT(AngleBetween(without.unexpected[0].azimuth, dropped) * 180 / M_PI, 1.0);
+    EXPECT_TRUE(without.unseen.empty());
+    const MountInPhoto with_ghost = CompareMountWithPhoto(grey, RigModel(extra));
+    EXPECT_TRUE(with_ghost.unexpected.empty());
+    ASSERT_EQ(with_ghost.unseen.size(), 1u);
+    EXPECT_EQ(with_ghost.unseen[0], 3);
+  }
   // The same rig and room without its mount: nothing is taken for a post.
   RigParams bare = prototype;
   bare.mount = Mount();
