@@ -77,8 +77,8 @@ struct CalibrationOptions {
   std::map<std::string, double> considered_sigma = DefaultConsideredSigmas();
   // Likewise each lip edge's detector bias (px), the same in every image (the rig does not
   // move): many images average the lips' noise but not their bias. Across the edge: the larger of
-  // this and the RMS of the edge's residuals across it; the whole edge moved along u and along v:
-  // this. 0: none.
+  // this and the constant part of the edge's residual pattern along it (calib/lip_edge_bias.h);
+  // the whole edge moved along u and along v: this. 0: none.
   double lip_edge_bias_sigma_px = 0.03;
   // Likewise a common detector offset of each ring's corners (px, per image axis): thousands of
   // corners average their noise to ~0.001 px but not an offset the detector makes everywhere
