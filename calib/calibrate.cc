@@ -225,7 +225,7 @@ void FinalCovariance(const CalibrationOptions& options, Calibration* c,
   if (result->uncertainty.lip_edges_considered > 0) {
     std::string sigmas;
     for (size_t e = 0; e < findings.lip_edge_sigma.size(); ++e) {
-      const AlongEdgePattern& p = findings.lip_edge_pattern[e];
+      const AlongEdgePattern& p = result->uncertainty.lip_edge_patterns[e];
       char one[96];
       std::snprintf(one, sizeof(one), "%s%.3g (rms %.3g over %.0f deg, correlated over %.1f)",
                     e ? ", " : "", findings.lip_edge_sigma[e], p.rms_px, p.coverage_deg,

@@ -29,6 +29,7 @@
 
 #include <Eigen/Core>
 
+#include "calib/lip_edge_bias.h"
 #include "calib/variance_components.h"
 #include "model/calibration_settings.h"
 #include "model/input_error.h"
@@ -233,6 +234,9 @@ struct CalibrationUncertainty {
   // file's calibration.held_profiles; design/tolerance.h decides its peak-to-valley from them).
   std::vector<HeldProfileInfo> held_profiles;
   int lip_edges_considered = 0;
+  // Per considered lip edge (in the order of its columns): its residuals' pattern along it, from
+  // which its bias across it is sized (calib/lip_edge_bias.h).
+  std::vector<AlongEdgePattern> lip_edge_patterns;
   // Rings x axes whose corners' common offset is considered: the last considered columns, ring 1
   // u, v then ring 2 u, v (a ring without corners left out).
   int corner_offsets_considered = 0;

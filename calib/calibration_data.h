@@ -28,7 +28,6 @@
 
 #include <Eigen/Core>
 
-#include "calib/lip_edge_bias.h"
 #include "calib/rig_cost.h"
 #include "calib/variance_components.h"
 #include "model/lip.h"
@@ -209,12 +208,11 @@ struct CalibrationProblem {
 
 // What a covariance found besides the result's sigmas: for a held dist_k3, its sigma if it were
 // freed and the largest factor by which dist_k1's and dist_k2's sigmas would grow (DecideDistK3);
-// the lip edges' considered bias sigmas (px) and the residual patterns along them they came from.
+// the lip edges' considered bias sigmas (px).
 struct CovarianceFindings {
   bool k3_evaluated = false;
   double k3_sigma = HUGE_VAL, k3_growth = 0;
   std::vector<double> lip_edge_sigma;
-  std::vector<AlongEdgePattern> lip_edge_pattern;
 };
 
 }  // namespace omni::calib

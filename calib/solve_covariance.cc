@@ -503,7 +503,7 @@ CovarianceFindings ComputeCovariance(const Weights& weights, const Refinement& r
     const int edges = LipEdgeColumns(*observations, rig->params, options, residuals, row_weight,
                                      2 * n_obs, c.n_rig + c.n_probe + c.n_considered, &triplets,
                                      &c, &findings.lip_edge_sigma,
-                                     &findings.lip_edge_pattern, result);
+                                     &result->uncertainty.lip_edge_patterns, result);
     result->uncertainty.lip_edges_considered = edges;
     n_edges = 3 * edges;
   }
