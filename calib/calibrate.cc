@@ -240,7 +240,7 @@ void FinalCovariance(const CalibrationOptions& options, Calibration* c,
                   "sqrt(correlation length / azimuth covered)), the whole edge's move along u "
                   "and v %.3g px",
                   result->uncertainty.lip_edges_considered, sigmas.c_str(),
-                  options.lip_edge_bias_sigma_px, options.lip_edge_bias_sigma_px);
+                  options.lip_edge_offset_floor_px, options.lip_edge_bias_sigma_px);
     result->solve.notes.push_back(buf);
   }
   if (result->uncertainty.corner_offsets_considered > 0) {

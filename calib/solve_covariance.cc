@@ -207,9 +207,9 @@ int LipEdgeColumns(const ObservationSet& observations, const RigParams& rig,
     edge_across[e].push_back(residuals[row] * across.x() + residuals[row + 1] * across.y());
     row += 2;
   }
-  // Each edge's bias sigma across it: the option's (a floor: the detector's constant offset on
-  // renders, 0.004-0.07 px against the exact lip images, docs/experiments.md 2026-11-29 night), or
-  // the constant part of the edge's residual pattern along it if larger
+  // Each edge's bias sigma across it: lip_edge_offset_floor_px (the detector's constant offset,
+  // which no pattern shows: 0.004-0.07 px on renders against the exact lip images), or the
+  // constant part of the edge's residual pattern along it if larger
   // (CommonPartOfAlongEdgePattern). The residuals are means over the images (normal points), so
   // what remains of them is mostly the detector's systematic error along the edge; its constant
   // part is absorbed by the rig parameters and cannot show. It was taken as large as the whole
@@ -229,7 +229,7 @@ int LipEdgeColumns(const ObservationSet& observations, const RigParams& rig,
   for (size_t e = 0; e < edge_azimuth.size(); ++e) {
     edge_pattern->push_back(CommonPartOfAlongEdgePattern(edge_azimuth[e], edge_across[e]));
     edge_sigma->push_back(
-        std::max(options.lip_edge_bias_sigma_px, edge_pattern->back().common_sigma_px));
+        std::max(options.lip_edge_offset_floor_px, edge_pattern->back().common_sigma_px));
     columns->considered_sigma.push_back(edge_sigma->back());
     columns->considered_sigma.push_back(options.lip_edge_bias_sigma_px);
     columns->considered_sigma.push_back(options.lip_edge_bias_sigma_px);
