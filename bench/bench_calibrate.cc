@@ -129,7 +129,9 @@ int RunScene(int argc, char** argv) {
   if (const char* profile = std::getenv("OMNI_PROFILE")) options.profile = profile;
   if (const char* sigma = std::getenv("OMNI_PROFILE_SIGMA_MM")) options.profile_sigma_mm = std::atof(sigma);
   // OMNI_LIP_BIAS_PX, OMNI_CORNER_OFFSET_PX: the detectors' considered biases (calibrate.h).
-  if (const char* px = std::getenv("OMNI_LIP_BIAS_PX")) options.lip_edge_bias_sigma_px = std::atof(px);
+  if (const char* px = std::getenv("OMNI_LIP_BIAS_PX")) {
+    options.lip_edge_bias_sigma_px = options.lip_edge_offset_floor_px = std::atof(px);
+  }
   if (const char* px = std::getenv("OMNI_CORNER_OFFSET_PX")) options.corner_offset_sigma_px = std::atof(px);
   RigParams start =
       start_file ? io::ReadModelFile(start_file)
@@ -234,7 +236,9 @@ int main(int argc, char** argv) {
   if (const char* profile = std::getenv("OMNI_PROFILE")) options.profile = profile;
   if (const char* sigma = std::getenv("OMNI_PROFILE_SIGMA_MM")) options.profile_sigma_mm = std::atof(sigma);
   // OMNI_LIP_BIAS_PX, OMNI_CORNER_OFFSET_PX: the detectors' considered biases (calibrate.h).
-  if (const char* px = std::getenv("OMNI_LIP_BIAS_PX")) options.lip_edge_bias_sigma_px = std::atof(px);
+  if (const char* px = std::getenv("OMNI_LIP_BIAS_PX")) {
+    options.lip_edge_bias_sigma_px = options.lip_edge_offset_floor_px = std::atof(px);
+  }
   if (const char* px = std::getenv("OMNI_CORNER_OFFSET_PX")) options.corner_offset_sigma_px = std::atof(px);
   SolveAndReport(testing::IdealRig(), session.targets, detections, options,
                  testing::MisalignedRig(), random.images, argc > 3 ? argv[3] : nullptr);

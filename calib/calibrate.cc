@@ -224,19 +224,23 @@ void FinalCovariance(const CalibrationOptions& options, Calibration* c,
   FinishProfiles(c->observations, c->profiles, options, &c->rig, result);
   if (result->uncertainty.lip_edges_considered > 0) {
     std::string sigmas;
-    for (double s : findings.lip_edge_sigma) {
-      char one[32];
-      std::snprintf(one, sizeof(one), "%s%.3g", sigmas.empty() ? "" : ", ", s);
+    for (size_t e = 0; e < findings.lip_edge_sigma.size(); ++e) {
+      const AlongEdgePattern& p = result->uncertainty.lip_edge_patterns[e];
+      char one[96];
+      std::snprintf(one, sizeof(one), "%s%.3g (rms %.3g over %.0f deg, correlated over %.1f)",
+                    e ? ", " : "", findings.lip_edge_sigma[e], p.rms_px, p.coverage_deg,
+                    p.correlation_deg);
       sigmas += one;
     }
-    char buf[512];
+    char buf[768];
     std::snprintf(buf, sizeof(buf),
                   "lips: a detector bias on each of the %d lip edges, the same in every image, is "
-                  "carried into the sigmas: across the edge sigma %s px (at least %.3g, or the RMS "
-                  "of the edge's residuals across it if larger), the whole edge's move along u and "
-                  "v %.3g px",
+                  "carried into the sigmas: across the edge sigma %s px (at least %.3g, or the "
+                  "constant part of the edge's residual pattern along it if larger: rms x "
+                  "sqrt(correlation length / azimuth covered)), the whole edge's move along u "
+                  "and v %.3g px",
                   result->uncertainty.lip_edges_considered, sigmas.c_str(),
-                  options.lip_edge_bias_sigma_px, options.lip_edge_bias_sigma_px);
+                  options.lip_edge_offset_floor_px, options.lip_edge_bias_sigma_px);
     result->solve.notes.push_back(buf);
   }
   if (result->uncertainty.corner_offsets_considered > 0) {

@@ -29,6 +29,7 @@
 
 #include <Eigen/Core>
 
+#include "calib/lip_edge_bias.h"
 #include "calib/variance_components.h"
 #include "model/calibration_settings.h"
 #include "model/input_error.h"
@@ -76,10 +77,15 @@ struct CalibrationOptions {
   // covariance (calib/covariance.h). Default: DefaultConsideredSigmas().
   std::map<std::string, double> considered_sigma = DefaultConsideredSigmas();
   // Likewise each lip edge's detector bias (px), the same in every image (the rig does not
-  // move): many images average the lips' noise but not their bias. Across the edge: the larger of
-  // this and the RMS of the edge's residuals across it; the whole edge moved along u and along v:
-  // this. 0: none.
+  // move): many images average the lips' noise but not their bias. The whole edge moved along u
+  // and along v: this. 0: no lip bias considered at all.
   double lip_edge_bias_sigma_px = 0.03;
+  // Across the edge: the larger of this floor and the constant part of the edge's residual pattern
+  // along it (calib/lip_edge_bias.h). The floor is the detector's own constant offset, which no
+  // pattern shows: against the exact lip images of 6 rendered rigs it was 0.004-0.052 px under the
+  // realistic camera, 0.045-0.070 px on the webcam's blue edges (docs/experiments.md 2026-11-29
+  // night); at 0.05 their offsets / sigma have an RMS of 0.9, at 0.03 of 1.4 (2.3 on the webcam).
+  double lip_edge_offset_floor_px = 0.05;
   // Likewise a common detector offset of each ring's corners (px, per image axis): thousands of
   // corners average their noise to ~0.001 px but not an offset the detector makes everywhere
   // (measured on renders under the realistic camera's blur: tag corners 0.001-0.008 px per axis,
@@ -233,6 +239,9 @@ struct CalibrationUncertainty {
   // file's calibration.held_profiles; design/tolerance.h decides its peak-to-valley from them).
   std::vector<HeldProfileInfo> held_profiles;
   int lip_edges_considered = 0;
+  // Per considered lip edge (in the order of its columns): its residuals' pattern along it, from
+  // which its bias across it is sized (calib/lip_edge_bias.h).
+  std::vector<AlongEdgePattern> lip_edge_patterns;
   // Rings x axes whose corners' common offset is considered: the last considered columns, ring 1
   // u, v then ring 2 u, v (a ring without corners left out).
   int corner_offsets_considered = 0;

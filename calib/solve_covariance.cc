@@ -175,14 +175,17 @@ std::vector<double> RowWeights(const ObservationSet& observations, const Weights
 // `first`: each of the edge's points moved across the edge, and the whole edge moved along u and
 // along v (a bias that differs round the edge, from the light's side or the raster's order: the
 // demo's reflex tilt read 2.6 / 2.8 sigma off without them, 1.7 / 2.1 with them at
-// lip_edge_bias_sigma_px). Returns the number of edges; their sigmas in *edge_sigma.
+// lip_edge_bias_sigma_px). Returns the number of edges; their sigmas in *edge_sigma, the residual
+// patterns along them in *edge_pattern.
 int LipEdgeColumns(const ObservationSet& observations, const RigParams& rig,
                    const CalibrationOptions& options, const std::vector<double>& residuals,
                    const std::vector<double>& row_weight, int first_row, int first,
                    std::vector<Eigen::Triplet<double>>* triplets, Columns* columns,
-                   std::vector<double>* edge_sigma, CalibrationResult* result) {
+                   std::vector<double>* edge_sigma, std::vector<AlongEdgePattern>* edge_pattern,
+                   CalibrationResult* result) {
   std::map<std::pair<int, double>, int> edge_column;  // (path, circle radius) -> column
-  std::vector<std::pair<double, int>> edge_ssr;         // per column: across-edge SSR, count
+  // Per edge: its points' azimuths about the principal point and residuals across the edge.
+  std::vector<std::vector<double>> edge_azimuth, edge_across;
   const Eigen::Vector2d centre(rig.camera[kCx], rig.camera[kCy]);
   int row = first_row;
   for (const auto& l : observations.lips) {
@@ -190,28 +193,32 @@ int LipEdgeColumns(const ObservationSet& observations, const RigParams& rig,
     const auto key = std::make_pair(static_cast<int>(l.path), l.radius);
     const int e = edge_column.emplace(key, static_cast<int>(edge_column.size())).first->second;
     const int c = first + 3 * e;
-    const Eigen::Vector2d across = (l.pixel - centre).normalized();
+    const Eigen::Vector2d outward = l.pixel - centre;
+    const Eigen::Vector2d across = outward.normalized();
     triplets->emplace_back(row, c, row_weight[row] * across.x());
     triplets->emplace_back(row + 1, c, row_weight[row + 1] * across.y());
     // The whole edge's move, as the detector reports it (observed = true + move: the residual,
     // predicted - observed, moves by minus it).
     triplets->emplace_back(row, c + 1, -row_weight[row]);
     triplets->emplace_back(row + 1, c + 2, -row_weight[row + 1]);
-    const double r = residuals[row] * across.x() + residuals[row + 1] * across.y();
-    edge_ssr.resize(edge_column.size(), {0.0, 0});
-    edge_ssr[e].first += r * r;
-    ++edge_ssr[e].second;
+    edge_azimuth.resize(edge_column.size());
+    edge_across.resize(edge_column.size());
+    edge_azimuth[e].push_back(std::atan2(outward.y(), outward.x()));
+    edge_across[e].push_back(residuals[row] * across.x() + residuals[row + 1] * across.y());
     row += 2;
   }
-  // Each edge's bias sigma: the option's, or the RMS of the edge's residuals across it if
-  // larger. The lips' residuals are means over the images (normal points), so what remains of
-  // them is mostly the detector's systematic error along the edge (a band edge reported on the
-  // wrong curve over part of the azimuths, a colour-dependent offset); its constant part is
-  // absorbed by the rig parameters and cannot show, and is taken to be as large as the part
-  // that shows.
+  // Each edge's bias sigma across it: lip_edge_offset_floor_px (the detector's constant offset,
+  // which no pattern shows: 0.004-0.07 px on renders against the exact lip images), or the
+  // constant part of the edge's residual pattern along it if larger
+  // (CommonPartOfAlongEdgePattern). The residuals are means over the images (normal points), so
+  // what remains of them is mostly the detector's systematic error along the edge; its constant
+  // part is absorbed by the rig parameters and cannot show. It was taken as large as the whole
+  // pattern's RMS (0.10-0.12 px on renders), which overstated it 3-30x: a pattern correlated
+  // over a few degrees averages round the edge.
   // The whole edge's move: the option's sigma (the residuals' spread along the edge is mostly
   // local, e.g. a room's texture beside the band, and averages down round the edge).
   edge_sigma->clear();
+  edge_pattern->clear();
   std::vector<std::string> edge_names(edge_column.size());
   for (const auto& [key, e] : edge_column) {
     char name[64];
@@ -219,10 +226,10 @@ int LipEdgeColumns(const ObservationSet& observations, const RigParams& rig,
                   key.second);
     edge_names[e] = name;
   }
-  for (size_t e = 0; e < edge_ssr.size(); ++e) {
-    const auto& [ssr, count] = edge_ssr[e];
+  for (size_t e = 0; e < edge_azimuth.size(); ++e) {
+    edge_pattern->push_back(CommonPartOfAlongEdgePattern(edge_azimuth[e], edge_across[e]));
     edge_sigma->push_back(
-        std::max(options.lip_edge_bias_sigma_px, count ? std::sqrt(ssr / count) : 0.0));
+        std::max(options.lip_edge_offset_floor_px, edge_pattern->back().common_sigma_px));
     columns->considered_sigma.push_back(edge_sigma->back());
     columns->considered_sigma.push_back(options.lip_edge_bias_sigma_px);
     columns->considered_sigma.push_back(options.lip_edge_bias_sigma_px);
@@ -495,7 +502,8 @@ CovarianceFindings ComputeCovariance(const Weights& weights, const Refinement& r
   if (options.lip_edge_bias_sigma_px > 0) {
     const int edges = LipEdgeColumns(*observations, rig->params, options, residuals, row_weight,
                                      2 * n_obs, c.n_rig + c.n_probe + c.n_considered, &triplets,
-                                     &c, &findings.lip_edge_sigma, result);
+                                     &c, &findings.lip_edge_sigma,
+                                     &result->uncertainty.lip_edge_patterns, result);
     result->uncertainty.lip_edges_considered = edges;
     n_edges = 3 * edges;
   }
