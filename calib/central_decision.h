@@ -1,0 +1,37 @@
+// A single-mirror camera's non-central part kept only where the photos decide it.
+//
+// mirror1_pose is the mirror's tilt against the lens and, with a perspective lens, the camera's
+// offset from the mirror's focus: the part that makes the camera non-central. A few photos of
+// one board in one sector leave it in a valley with the principal point and the conic (Mei's
+// 7-photo folds: the tilt's sigma 0.6 deg, a fit 0.02 px better on its own photos and 0.26 px
+// worse on the held-out ones; a free perspective camera walked to 22 deg and diverged). The
+// non-central fit is tested against the central assembly (the start's pose) by the Wald
+// statistic of its determined pose coordinates with its own covariance (the considered
+// parameters' share in it: the held tangential distortion trades with the tilt); it stands only
+// where that is beyond chance at the 1% level and beyond Schwarz's k ln n (coordinates the
+// covariance names undetermined carry no number and no evidence: with none determined there is
+// nothing to test and the fit stands). Otherwise the calibration holds the start's pose and
+// says so, with the non-central fit's offset and sigma.
+#pragma once
+
+#include <string>
+
+#include "calib/calibrate.h"
+
+namespace omni::calib {
+
+// Whether `options` ask for the test: a single rig, mirror1_pose estimated, noncentral: auto.
+bool TestsNonCentral(const RigParams& start, const CalibrationOptions& options);
+
+// The Wald test of `fit`'s refined mirror1_pose coordinates against `start`'s: fills chi2,
+// dof, threshold, open and decided of `decision`.
+void TestNonCentral(const RigParams& start, const CalibrationResult& fit,
+                    NonCentralDecision* decision);
+
+// The decision in words, for the result's notes (the offset itself: single_mirror_summary.h).
+std::string NonCentralNote(const NonCentralDecision& decision);
+
+// `options` with mirror1_pose held (the central model).
+CalibrationOptions CentralOptions(const CalibrationOptions& options);
+
+}  // namespace omni::calib
