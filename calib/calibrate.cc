@@ -476,6 +476,12 @@ CalibrationResult Calibrate(const RigParams& start, const std::vector<TargetSpec
     fit = std::make_shared<CalibrationResult>(
         CalibrateJudgingRim(start, targets, detections, options));
     TestNonCentral(start, *fit, &decision);
+    if (NeedsCrossValidation(decision)) {
+      Progress(options, "non-central part (mirror1_pose): decided by the pixel noise alone, not "
+                        "with the held tangential distortion: 3-fold cross-validation");
+      CrossValidateNonCentral(start, targets, detections, options, CalibrateJudgingRim,
+                              &decision);
+    }
   } catch (const CalibrationError& e) {
     decision.failure = e.what();
   }

@@ -200,6 +200,14 @@ struct NonCentralDecision {
   // threshold (the larger of its 99% quantile and k ln n).
   double chi2 = 0, threshold = 0;
   int dof = 0;
+  // The same statistic with the pixel noise alone (the considered parameters left out). Where it
+  // decides and the full one does not (the tilt in the camera-rotation valley that the held
+  // tangential distortion opens), the photos arbitrate: 3-fold cross-validation, every photo
+  // held out once, both models fit on the rest and scored on it (2-D RMS per corner, poses
+  // solved); the non-central fit stands where it predicts the held-out photos better.
+  double chi2_noise = 0;
+  bool cross_validated = false;
+  double cv_rms_noncentral_px = 0, cv_rms_central_px = 0;
   std::vector<std::string> open;  // pose coordinates the non-central fit left undetermined
   std::string failure;            // the non-central solve's error (it diverged), else empty
   // The non-central fit where it solved (its offset and sigmas are reported either way).

@@ -14,7 +14,9 @@
 // says so, with the non-central fit's offset and sigma.
 #pragma once
 
+#include <functional>
 #include <string>
+#include <vector>
 
 #include "calib/calibrate.h"
 
@@ -27,6 +29,20 @@ bool TestsNonCentral(const RigParams& start, const CalibrationOptions& options);
 // dof, threshold, open and decided of `decision`.
 void TestNonCentral(const RigParams& start, const CalibrationResult& fit,
                     NonCentralDecision* decision);
+
+// Where the noise alone decides and the full covariance does not (NonCentralDecision).
+bool NeedsCrossValidation(const NonCentralDecision& decision);
+
+// The calibration (Calibrate without this decision) that the cross-validation runs.
+using CalibrateFunction = std::function<CalibrationResult(
+    const RigParams&, const std::vector<TargetSpec>&, const Observations&,
+    const CalibrationOptions&)>;
+
+// 3-fold cross-validation of the non-central against the central model on the detections'
+// photos (image i in fold i % 3): fills cross_validated, cv_rms_*, decided.
+void CrossValidateNonCentral(const RigParams& start, const std::vector<TargetSpec>& targets,
+                             const Observations& detections, const CalibrationOptions& options,
+                             const CalibrateFunction& calibrate, NonCentralDecision* decision);
 
 // The decision in words, for the result's notes (the offset itself: single_mirror_summary.h).
 std::string NonCentralNote(const NonCentralDecision& decision);
