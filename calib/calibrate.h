@@ -103,7 +103,9 @@ struct CalibrationOptions {
   // A single mirror's non-central part (mirror1_pose in `estimate`: the mirror's tilt against the
   // lens and, with a perspective lens, the camera's offset from the mirror's focus). "auto": kept
   // only where the photos decide it (calib/central_decision.h: its departure from the start's
-  // pose beyond chance at the 1% level and Schwarz's k ln n, the solve not diverged);
+  // pose beyond chance at the 1% level and Schwarz's k ln n, or, where only the pixel noise
+  // says so, better predictions of photos held out in a 3-fold cross-validation; the solve not
+  // diverged);
   // otherwise the calibration holds the start's pose (the central model) and reports the
   // non-central fit's offset with its sigma. On Mei's 7-photo folds the free tilt (sigma 0.6
   // deg) fit the training photos and missed the held-out ones by 0.61 px against the central

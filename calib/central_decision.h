@@ -10,8 +10,12 @@
 // parameters' share in it: the held tangential distortion trades with the tilt); it stands only
 // where that is beyond chance at the 1% level and beyond Schwarz's k ln n (coordinates the
 // covariance names undetermined carry no number and no evidence: with none determined there is
-// nothing to test and the fit stands). Otherwise the calibration holds the start's pose and
-// says so, with the non-central fit's offset and sigma.
+// nothing to test and the fit stands). Where the same statistic with the pixel noise alone
+// exceeds the threshold and the full one does not (the tilt in the camera-rotation valley the
+// held tangential distortion opens), 3-fold cross-validation on the photos arbitrates: a true
+// 0.7 deg tilt seen by 20 synthetic photos had chi^2 0.8 (73.6 from the noise alone), and held
+// it predicted new photos at 0.72 px against the truth's 0.40. Otherwise the calibration holds
+// the start's pose and says so, with the non-central fit's offset and sigma.
 #pragma once
 
 #include <functional>
