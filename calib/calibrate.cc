@@ -5,6 +5,7 @@
 #include <cstdio>
 
 #include "calib/calibration_steps.h"
+#include "calib/central_decision.h"
 #include "model/single_rim.h"
 
 namespace omni::calib {
@@ -360,6 +361,9 @@ std::string CalibrationOptions::Check() const {
   if (profile != "auto" && profile != "free" && profile != "hold" && profile != "off") {
     return "profile: expected auto, free, hold or off, got '" + profile + "'";
   }
+  if (noncentral != "auto" && noncentral != "free") {
+    return "noncentral: expected auto or free, got '" + noncentral + "'";
+  }
   if (profile != "off" && !(profile_sigma_mm > 0)) {
     return "profile_sigma_mm: expected a tolerance > 0 mm, got " + std::to_string(profile_sigma_mm);
   }
@@ -431,11 +435,10 @@ CalibrationResult CalibrateOnce(const RigParams& start, const std::vector<Target
   return result;
 }
 
-}  // namespace
-
-CalibrationResult Calibrate(const RigParams& start, const std::vector<TargetSpec>& targets,
-                            const Observations& detections, const CalibrationOptions& options) {
-  if (const std::string error = options.Check(); !error.empty()) throw CalibrationError(error);
+// CalibrateOnce, and again without a single mirror's rim where its image's edge is not the rim.
+CalibrationResult CalibrateJudgingRim(const RigParams& start, const std::vector<TargetSpec>& targets,
+                                      const Observations& detections,
+                                      const CalibrationOptions& options) {
   CalibrationResult result = CalibrateOnce(start, targets, detections, options);
   // A single mirror's rim is its image's edge only where the mirror's outer zone does not look
   // back over the rim (model/single_rim.h): that is known once the mirror is (a bought mirror's
@@ -457,6 +460,45 @@ CalibrationResult Calibrate(const RigParams& start, const std::vector<TargetSpec
   result = CalibrateOnce(start, targets, detections, without);
   result.solve.notes.push_back(why);
   result.solve.rim_left_out = true;
+  return result;
+}
+
+}  // namespace
+
+CalibrationResult Calibrate(const RigParams& start, const std::vector<TargetSpec>& targets,
+                            const Observations& detections, const CalibrationOptions& options) {
+  if (const std::string error = options.Check(); !error.empty()) throw CalibrationError(error);
+  if (!TestsNonCentral(start, options)) {
+    return CalibrateJudgingRim(start, targets, detections, options);
+  }
+  // A single mirror's non-central part stands only where the photos decide it
+  // (central_decision.h); a diverged non-central solve is never the calibration.
+  NonCentralDecision decision;
+  decision.tested = true;
+  std::shared_ptr<CalibrationResult> fit;
+  try {
+    fit = std::make_shared<CalibrationResult>(
+        CalibrateJudgingRim(start, targets, detections, options));
+    TestNonCentral(start, *fit, &decision);
+    if (NeedsCrossValidation(decision)) {
+      Progress(options, "non-central part (mirror1_pose): decided by the pixel noise alone, not "
+                        "with the held tangential distortion: 3-fold cross-validation");
+      CrossValidateNonCentral(start, targets, detections, options, CalibrateJudgingRim,
+                              &decision);
+    }
+  } catch (const CalibrationError& e) {
+    decision.failure = e.what();
+  }
+  if (decision.decided) {
+    fit->solve.noncentral = decision;
+    fit->solve.notes.push_back(NonCentralNote(decision));
+    return *fit;
+  }
+  Progress(options, NonCentralNote(decision) + "; calibrating again with mirror1_pose held");
+  CalibrationResult result = CalibrateJudgingRim(start, targets, detections, CentralOptions(options));
+  decision.fit = fit;
+  result.solve.noncentral = decision;
+  result.solve.notes.push_back(NonCentralNote(decision));
   return result;
 }
 

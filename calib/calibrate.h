@@ -23,6 +23,7 @@
 
 #include <functional>
 #include <map>
+#include <memory>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -105,6 +106,18 @@ struct CalibrationOptions {
   // milliradians: held at the conic, it hides in the mirrors' heights and the focal length while
   // the residuals stay at the noise (10 um moved both tz by 3 mm at 10 sigma).
   std::string profile = "auto";
+  // A single mirror's non-central part (mirror1_pose in `estimate`: the mirror's tilt against the
+  // lens and, with a perspective lens, the camera's offset from the mirror's focus). "auto": kept
+  // only where the photos decide it (calib/central_decision.h: its departure from the start's
+  // pose beyond chance at the 1% level and Schwarz's k ln n, or, where only the pixel noise
+  // says so, better predictions of photos held out in a 3-fold cross-validation; the solve not
+  // diverged);
+  // otherwise the calibration holds the start's pose (the central model) and reports the
+  // non-central fit's offset with its sigma. On Mei's 7-photo folds the free tilt (sigma 0.6
+  // deg) fit the training photos and missed the held-out ones by 0.61 px against the central
+  // model's 0.35, and the free perspective camera diverged (docs/experiments.md 2026-11-29
+  // (night)). "free": the non-central fit whatever the test says.
+  std::string noncentral = "auto";
   // A machined mirror's profile tolerance: the sigma of each term (half its peak-to-valley), mm.
   double profile_sigma_mm = 0.002;
   // Degeneracy checks on the target placements (horizontal range and azimuth of each target's
@@ -182,6 +195,31 @@ struct ProfileDecision {
   // Held for want of evidence (auto): considered with its tolerance updated by the data
   // (Refinement::profile_updated).
   bool updated = false;
+};
+
+struct CalibrationResult;
+
+// A single mirror's non-central part decided (CalibrationOptions::noncentral; central_decision.h).
+struct NonCentralDecision {
+  bool tested = false;   // a single rig with mirror1_pose in estimate, noncentral: auto
+  bool decided = false;  // the photos decide the non-central part: the non-central fit stands
+  // The Wald statistic of the determined pose coordinates' departure from the start's (the
+  // central assembly) with the non-central fit's covariance, its degrees of freedom and the
+  // threshold (the larger of its 99% quantile and k ln n).
+  double chi2 = 0, threshold = 0;
+  int dof = 0;
+  // The same statistic with the pixel noise alone (the considered parameters left out). Where it
+  // decides and the full one does not (the tilt in the camera-rotation valley that the held
+  // tangential distortion opens), the photos arbitrate: 3-fold cross-validation, every photo
+  // held out once, both models fit on the rest and scored on it (2-D RMS per corner, poses
+  // solved); the non-central fit stands where it predicts the held-out photos better.
+  double chi2_noise = 0;
+  bool cross_validated = false;
+  double cv_rms_noncentral_px = 0, cv_rms_central_px = 0;
+  std::vector<std::string> open;  // pose coordinates the non-central fit left undetermined
+  std::string failure;            // the non-central solve's error (it diverged), else empty
+  // The non-central fit where it solved (its offset and sigmas are reported either way).
+  std::shared_ptr<const CalibrationResult> fit;
 };
 
 struct StageReport {
@@ -304,6 +342,8 @@ struct SolveReport {
   // A single mirror's rim was observed but left out: the edge of its image is not its rim
   // (Calibrate; model/single_rim.h RimEdgeIsTheRim at the mirror calibrated with it).
   bool rim_left_out = false;
+  // A single mirror's non-central part: tested, and kept or not (CalibrationOptions::noncentral).
+  NonCentralDecision noncentral;
   // The data solved: the detections' image count and the session's targets in words
   // (TargetsDescription), as the model file's dataset records them.
   int images = 0;

@@ -4,6 +4,7 @@
 #include <algorithm>
 
 #include "calib/calibration_steps.h"
+#include "calib/chi2_quantile.h"
 #include "calib/profile_comparison.h"
 
 namespace omni::calib {
@@ -143,17 +144,6 @@ void FitProfileRadiiToCorners(int m, const ObservationSet& observations, RigStat
     (m == 0 ? changed->profile1 : changed->profile2) = shape;
     *f = std::move(changed);
   }
-}
-
-}  // namespace
-
-namespace {
-
-// The 99% quantile of chi^2 with k degrees of freedom (Wilson-Hilferty; within 1% for k >= 2).
-double Chi2Quantile99(int k) {
-  const double z = 2.3263;  // the standard normal's 99% quantile
-  const double a = 2.0 / (9.0 * k);
-  return k * std::pow(1 - a + z * std::sqrt(a), 3);
 }
 
 }  // namespace

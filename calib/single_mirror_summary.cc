@@ -98,6 +98,20 @@ SingleMirrorSummary SummariseSingleMirror(const CalibrationResult& result) {
     s.offset_mm = offset(rig);
     s.offset_sigma_mm = PropagatedSigma<3>(result, offset);
   }
+  const NonCentralDecision& decision = result.solve.noncentral;
+  if (decision.tested && !decision.decided) {
+    s.central_kept = true;
+    s.fit_failure = decision.failure;
+    if (decision.fit) {
+      const SingleMirrorSummary fit = SummariseSingleMirror(*decision.fit);
+      s.has_fit = true;
+      s.fit_axis_tilt_rad = fit.axis_tilt_rad;
+      s.fit_axis_tilt_sigma_rad = fit.axis_tilt_sigma_rad;
+      s.fit_has_offset = fit.has_offset;
+      s.fit_offset_mm = fit.offset_mm;
+      s.fit_offset_sigma_mm = fit.offset_sigma_mm;
+    }
+  }
   // What the photos leave open.
   if (rig.lens == LensKind::kTelecentric) {
     s.open.push_back("the camera's distance along its axis (a telecentric lens has no centre) and "
@@ -139,6 +153,22 @@ std::string SingleMirrorText(const SingleMirrorSummary& s) {
             "mirror's frame: x " + pm(s.offset_mm.x(), s.offset_sigma_mm.x(), " mm") + ", y " +
             pm(s.offset_mm.y(), s.offset_sigma_mm.y(), " mm") + ", z (along the axis) " +
             pm(s.offset_mm.z(), s.offset_sigma_mm.z(), " mm") + "\n";
+  }
+  if (s.central_kept && s.has_fit) {
+    text += "  the non-central fit, not decided by these photos (the central model above "
+            "stands): the mirror's axis against the camera's " +
+            pm(s.fit_axis_tilt_rad * 180 / M_PI, s.fit_axis_tilt_sigma_rad * 180 / M_PI, " deg");
+    if (s.fit_has_offset) {
+      text += "; the camera's centre from the mirror's far focus x " +
+              pm(s.fit_offset_mm.x(), s.fit_offset_sigma_mm.x(), " mm") + ", y " +
+              pm(s.fit_offset_mm.y(), s.fit_offset_sigma_mm.y(), " mm") + ", z " +
+              pm(s.fit_offset_mm.z(), s.fit_offset_sigma_mm.z(), " mm");
+    }
+    text += "\n";
+  } else if (s.central_kept) {
+    text += "  the non-central fit failed (" + s.fit_failure +
+            "): the camera's offset from the mirror's focus is not determined by these photos; "
+            "the central model above stands\n";
   }
   for (const std::string& o : s.open) text += "  left open by these photos: " + o + "\n";
   return text;

@@ -24,6 +24,15 @@ struct SingleMirrorSummary {
   // The mirror's axis against the camera's (rad) and its sigma.
   double axis_tilt_rad = 0, axis_tilt_sigma_rad = 0;
   std::vector<std::string> open;  // what the photos leave open, in words
+  // The non-central part was tested and not decided (NonCentralDecision): the pose above is held
+  // at the start's (central), and this is the non-central fit's offset and tilt with their
+  // sigmas (has_fit false where that solve failed: `fit_failure`).
+  bool central_kept = false, has_fit = false;
+  std::string fit_failure;
+  double fit_axis_tilt_rad = 0, fit_axis_tilt_sigma_rad = 0;
+  bool fit_has_offset = false;
+  Eigen::Vector3d fit_offset_mm = Eigen::Vector3d::Zero();
+  Eigen::Vector3d fit_offset_sigma_mm = Eigen::Vector3d::Zero();
 };
 
 // From a calibration of a single-mirror rig (result.estimate.rig.Single()).

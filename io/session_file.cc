@@ -292,6 +292,12 @@ Session ReadSessionFile(const std::string& path) {
       in.Fail("profile", "expected auto, free, hold or off", Describe(root["profile"]));
     }
   }
+  if (root["noncentral"].IsDefined()) {
+    session.noncentral = in.String(root, "", "noncentral");
+    if (session.noncentral != "auto" && session.noncentral != "free") {
+      in.Fail("noncentral", "expected auto or free", Describe(root["noncentral"]));
+    }
+  }
   if (root["profile_sigma_mm"].IsDefined()) {
     session.profile_sigma_mm = in.Positive(root, "", "profile_sigma_mm");
   }
@@ -336,6 +342,7 @@ std::string SessionText(const Session& session, const std::string& base_dir) {
   }
   out << "]\n";
   if (!session.profile.empty()) out << "profile: " << session.profile << "\n";
+  if (!session.noncentral.empty()) out << "noncentral: " << session.noncentral << "\n";
   if (session.profile_sigma_mm > 0) {
     out << "profile_sigma_mm: " << FormatDouble(session.profile_sigma_mm) << "\n";
   }

@@ -15,6 +15,7 @@
 //                                                  # into the covariance ({} for none)
 //   profile: auto                     # optional: each mirror's profile: auto | free | hold | off
 //   profile_sigma_mm: 0.002           # optional: the machining tolerance per profile term (mm)
+//   noncentral: auto                  # optional, a single mirror's mirror1_pose: auto | free
 //   solver: {max_iterations: 100, loss: huber, loss_scale_px: 1.0, outlier_px: 3.0, threads: 2}
 #pragma once
 
@@ -50,6 +51,8 @@ struct Session {
   // Each mirror's profile (calib::CalibrationOptions::profile, profile_sigma_mm); empty / 0: the
   // calibration's default.
   std::string profile;
+  // A single mirror's non-central part (calib::CalibrationOptions::noncentral); empty: the default.
+  std::string noncentral;
   double profile_sigma_mm = 0;
   SolverOptions solver;
 };

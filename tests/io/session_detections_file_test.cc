@@ -59,6 +59,7 @@ priors: {mirror1_shape: {sigma_c: 0.05, sigma_k: 0.01}}
 consider: {dist_p1: 0.0004, dist_p2: 0}
 profile: free
 profile_sigma_mm: 0.003
+noncentral: free
 solver: {max_iterations: 50, loss: cauchy, outlier_px: 2.5}
 )";
 
@@ -103,6 +104,8 @@ TEST_F(SessionFileTest, WrittenTextReadsBackTheSame) {
   EXPECT_EQ(s.profile, "free");
   EXPECT_EQ(t.profile, "free");
   EXPECT_EQ(t.profile_sigma_mm, 0.003);
+  EXPECT_EQ(s.noncentral, "free");
+  EXPECT_EQ(t.noncentral, "free");
   EXPECT_EQ(t.solver.loss, "cauchy");
 }
 
@@ -190,6 +193,7 @@ TEST_F(SessionFileTest, MalformedInputNamesTheKey) {
       {"{dist_p1: 0.0004, dist_p2: 0}", "[dist_p1]", "consider"},
       {"profile: free", "profile: maybe", "profile"},
       {"profile_sigma_mm: 0.003", "profile_sigma_mm: 0", "profile_sigma_mm"},
+      {"noncentral: free", "noncentral: maybe", "noncentral"},
       // Found by scripts/fuzz.sh: a key that is not a name (was a yaml-cpp bad-conversion error).
       {"{dist_p1: 0.0004, dist_p2: 0}", "{[dist_p1]: 0.0004}", "consider"},
   };
