@@ -6,6 +6,8 @@
 
 #include <Eigen/Cholesky>
 
+#include "detectors/common/junction_lm.h"
+
 namespace omni::detectors {
 namespace {
 
@@ -186,47 +188,23 @@ std::optional<JunctionFit> FitBlurredBoardJunction(const cv::Mat& grey, const Ei
   }
   if (best_cost > 1e299) return std::nullopt;
   q = best;
-  double cost = best_cost;
   // Levenberg-Marquardt on a forward-difference Jacobian (7 parameters, ~50-100 pixels).
   const double steps[7] = {1e-4, 1e-4, 1e-5, 1e-5, 1e-3, 1e-3, 1e-4};
-  double lambda = 1e-3;
-  for (int iteration = 0; iteration < 30; ++iteration) {
-    const Eigen::VectorXd r0 = model.Residuals(q);
-    Jac j(pixels.size(), 7);
-    for (int i = 0; i < 7; ++i) {
-      Vec7 qi = q;
-      qi[i] += steps[i];
-      j.col(i) = (model.Residuals(qi) - r0) / steps[i];
-    }
-    const Mat7 jtj = j.transpose() * j;
-    const Vec7 jtr = j.transpose() * r0;
-    bool accepted = false, converged = false;
-    for (int attempt = 0; attempt < 8 && !accepted; ++attempt) {
-      Mat7 damped = jtj;
-      damped.diagonal() *= 1 + lambda;
-      const Vec7 step = -damped.ldlt().solve(jtr);
-      Vec7 next = q + step;
-      next[6] = std::clamp(next[6], 0.3, 0.5 * half + 0.5);  // a blur, not the window's width
-      const double next_cost = model.Residuals(next).squaredNorm();
-      if (next_cost < cost) {
-        converged = step.head<2>().norm() < 1e-3;
-        q = next;
-        cost = next_cost;
-        lambda = std::max(0.1 * lambda, 1e-7);
-        accepted = true;
-      } else {
-        lambda *= 10;
-      }
-    }
-    if (!accepted || converged) break;
-  }
-  if (std::abs(q[0] - start.x()) > half || std::abs(q[1] - start.y()) > half) return std::nullopt;
-  JunctionFit fit;
-  fit.corner = q.head<2>();
-  fit.sigma = q[6];
-  fit.contrast = std::abs(q[5]);
-  fit.rms = std::sqrt(cost / pixels.size());
-  return fit;
+  const double cost = JunctionLevenbergMarquardt(
+      half, best_cost,
+      [&](const Vec7& at, Mat7* jtj, Vec7* jtr) {
+        const Eigen::VectorXd r0 = model.Residuals(at);
+        Jac j(pixels.size(), 7);
+        for (int i = 0; i < 7; ++i) {
+          Vec7 ai = at;
+          ai[i] += steps[i];
+          j.col(i) = (model.Residuals(ai) - r0) / steps[i];
+        }
+        *jtj = j.transpose() * j;
+        *jtr = j.transpose() * r0;
+      },
+      [&](const Vec7& at) { return model.Residuals(at).squaredNorm(); }, &q);
+  return JunctionFitOf(q, cost, pixels.size(), start, half);
 }
 
 int FitBlurredBoard(const cv::Mat& grey, int rows, int cols, const std::vector<double>& sides,

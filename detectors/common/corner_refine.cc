@@ -6,6 +6,8 @@
 #include <Eigen/Cholesky>
 #include <opencv2/imgproc.hpp>
 
+#include "detectors/common/junction_lm.h"
+
 namespace omni::detectors {
 namespace {
 
@@ -340,40 +342,16 @@ std::optional<JunctionFit> FitBlurredJunction(const cv::Mat& grey, const Eigen::
   InitialLevels(*pixels, start, sigma0, &q);
   // Levenberg-Marquardt; the blur is held between 0.3 px and half the window (a blur, not the
   // window's width).
-  double cost = model.Evaluate(q, nullptr, nullptr);
-  double lambda = 1e-3;
-  for (int iteration = 0; iteration < 30; ++iteration) {
-    Mat7 jtj = Mat7::Zero();
-    Vec7 jtr = Vec7::Zero();
-    model.Evaluate(q, &jtj, &jtr);
-    jtj = jtj.selfadjointView<Eigen::Lower>();
-    bool accepted = false, converged = false;
-    for (int attempt = 0; attempt < 8 && !accepted; ++attempt) {
-      Mat7 damped = jtj;
-      damped.diagonal() *= 1 + lambda;
-      const Vec7 step = -damped.ldlt().solve(jtr);
-      Vec7 next = q + step;
-      next[6] = std::clamp(next[6], 0.3, 0.5 * half + 0.5);  // a blur, not the window's width
-      const double next_cost = model.Evaluate(next, nullptr, nullptr);
-      if (next_cost < cost) {
-        converged = step.head<2>().norm() < 1e-3;
-        q = next;
-        cost = next_cost;
-        lambda = std::max(0.1 * lambda, 1e-7);
-        accepted = true;
-      } else {
-        lambda *= 10;
-      }
-    }
-    if (!accepted || converged) break;
-  }
-  if (std::abs(q[0] - start.x()) > half || std::abs(q[1] - start.y()) > half) return std::nullopt;
-  JunctionFit fit;
-  fit.corner = q.head<2>();
-  fit.sigma = q[6];
-  fit.contrast = std::abs(q[5]);
-  fit.rms = std::sqrt(cost / pixels->size());
-  return fit;
+  const double cost = JunctionLevenbergMarquardt(
+      half, model.Evaluate(q, nullptr, nullptr),
+      [&](const Vec7& at, Mat7* jtj, Vec7* jtr) {
+        jtj->setZero();
+        jtr->setZero();
+        model.Evaluate(at, jtj, jtr);
+        *jtj = jtj->selfadjointView<Eigen::Lower>();
+      },
+      [&](const Vec7& at) { return model.Evaluate(at, nullptr, nullptr); }, &q);
+  return JunctionFitOf(q, cost, pixels->size(), start, half);
 }
 
 int FitBoardJunctions(const cv::Mat& grey, int rows, int cols, const std::vector<double>& sides,
