@@ -7,7 +7,6 @@
 
 #include "apps/common_flags.h"
 #include "apps/progress.h"
-#include "apps/stereo_cli.h"
 #include "health/evidence.h"
 #include "health/lip_reference.h"
 #include "health/ring_matches.h"
