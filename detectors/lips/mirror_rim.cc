@@ -131,8 +131,10 @@ std::vector<EdgePoint> EdgePoints(const cv::Mat& img, const Circle& c, int rays,
     if (at < 0) continue;
     prev = d[at - 1];
     next = d[at + 1];
+    // A neighbour off the image (the rim leaving the photo) has no level: no sub-pixel step.
     const double curvature = prev - 2 * best + next;
-    const double shift = curvature < 0 ? 0.5 * (prev - next) / curvature : 0;
+    const double shift =
+        std::isfinite(prev) && std::isfinite(next) && curvature < 0 ? 0.5 * (prev - next) / curvature : 0;
     best_rho = c.r - band + (at + std::clamp(shift, -0.5, 0.5)) * step;
     points.push_back({Eigen::Vector2d(c.cx, c.cy) + best_rho * dir, best});
   }
@@ -252,6 +254,11 @@ MirrorRim FindMirrorRim(const std::vector<cv::Mat>& grey_images, const MirrorRim
   }
   rim.centre = Eigen::Vector2d(full.cx, full.cy);
   rim.radius_px = full.r;
+  if (!std::isfinite(full.cx) || !std::isfinite(full.cy) || !std::isfinite(full.r) ||
+      !std::isfinite(rim.rms_px)) {
+    rim.why = "the rim's circle fit did not converge";
+    return rim;
+  }
   if (rim.coverage < options.min_coverage) {
     rim.why = "the rim's edge was found on " + std::to_string(static_cast<int>(100 * rim.coverage)) +
               "% of its circle (needed " + std::to_string(static_cast<int>(100 * options.min_coverage)) +

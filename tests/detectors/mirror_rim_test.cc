@@ -30,6 +30,24 @@ TEST(MirrorRim, FindsTheDrawnRimInOnePhotoAndInSeveral) {
   EXPECT_NEAR(several.radius_px, d.r, 0.1);
 }
 
+// A mirror whose image is taller than the photo (a public hyperbolic-mirror set at 1024x768 shows
+// its rim 452 px from the centre): the rays where the rim leaves the photo have no edge; their
+// neighbours' sub-pixel step once read a level off the image and the fit came out NaN but "found".
+TEST(MirrorRim, ARimLeavingThePhotoAtTopAndBottom) {
+  Drawn d;
+  d.width = 700;
+  d.height = 480;
+  d.cx = 351.4;
+  d.cy = 238.7;
+  d.r = 268.3;  // beyond the photo over about a third of its circle
+  const MirrorRim rim = FindMirrorRim({Photo(d, 1), Photo(d, 2), Photo(d, 3)});
+  ASSERT_TRUE(rim.found) << rim.why;
+  EXPECT_NEAR(rim.centre.x(), d.cx, 0.15);
+  EXPECT_NEAR(rim.centre.y(), d.cy, 0.15);
+  EXPECT_NEAR(rim.radius_px, d.r, 0.15);
+  EXPECT_LT(rim.coverage, 0.7);
+}
+
 TEST(MirrorRim, ADarkerMirrorIsFoundWithItsPolarity) {
   const Drawn d;
   cv::Mat inverted = 255 - Photo(d, 5);
