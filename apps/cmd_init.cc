@@ -41,7 +41,9 @@ DEFINE_double(post_width, 3.0, "init: with --posts and a design without a mount:
                                "in the photos, this side (mm) only seeds their distance from the axis");
 
 DEFINE_double(mirror_diameter, 0, "init, single_mirror: the mirror rim's measured diameter (mm): "
-                                  "the model's scale");
+                                  "the model's scale (not given: from --magnification or "
+                                  "--camera_distance, else a nominal 50 mm, and the absolute "
+                                  "size is left undetermined)");
 DEFINE_string(mirror, "unknown", "init, single_mirror: hyperbolic | parabolic | spherical | unknown "
                                  "(its shape is estimated either way; a declared paraboloid or "
                                  "sphere keeps its K)");

@@ -120,7 +120,8 @@ SingleMirrorSummary SummariseSingleMirror(const CalibrationResult& result) {
   if (SigmaOf(result, "mirror1.R") == 0) {
     s.open.push_back("the mirror's absolute size: R is held at the start's " +
                      std::to_string(s.R).substr(0, 7) +
-                     " mm (set by the rim's measured diameter); distances scale with it");
+                     " mm (set by the start's rim diameter: measured, or init's nominal one "
+                     "where none was given); distances scale with it");
   } else if (IsOpen(result, "mirror1.R")) {
     s.open.push_back("the mirror's absolute size (R): the photos fix its shape, not its scale; a "
                      "measured length (the rim's diameter, a prior on R) would");

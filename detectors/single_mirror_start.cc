@@ -80,9 +80,9 @@ const char* MirrorKnowledgeName(MirrorKnowledge kind) {
 
 std::string SingleMirrorKnowledge::Check() const {
   const bool telecentric = lens == LensKind::kTelecentric;
-  if (!(mirror_diameter > 0)) {
-    return "mirror_diameter: expected the mirror rim's measured diameter in mm (> 0): it sets the "
-           "model's scale";
+  if (!(mirror_diameter >= 0)) {
+    return "mirror_diameter: expected the mirror rim's measured diameter in mm (> 0; 0: not "
+           "measured): it sets the model's scale";
   }
   if (!(camera_distance >= 0)) return "camera_distance: expected a distance in mm (> 0)";
   if (!(focal_px >= 0)) return "focal_px: expected the lens's focal length in px (> 0)";
@@ -346,28 +346,73 @@ std::optional<StartShape> ShapeFromUnified(const SingleMirrorKnowledge& know, do
   return shape;
 }
 
+// The knowledge with a diameter where none was measured (mirror_diameter 0), and its lines:
+// from what else is known where that fixes the scale (a telecentric lens's magnification; a
+// perspective lens's rough distance, through the start's own rule for the rest), else the nominal
+// kNominalDiameterMm, said to leave the absolute size open. Unchanged where it was measured.
+SingleMirrorKnowledge WithDiameter(const SingleMirrorKnowledge& know, double rho,
+                                   std::vector<std::string>* lines, std::string* why) {
+  if (know.mirror_diameter > 0) return know;
+  SingleMirrorKnowledge out = know;
+  if (know.lens == LensKind::kTelecentric && know.magnification > 0) {
+    out.mirror_diameter = 2 * rho / know.magnification;
+    lines->push_back(Format("mirror diameter not given: %.2f mm from the rim's %.2f px radius and "
+                            "--magnification %g px per mm (the model's scale)",
+                            out.mirror_diameter, rho, know.magnification));
+    return out;
+  }
+  out.mirror_diameter = kNominalDiameterMm;
+  if (know.lens == LensKind::kPerspective && know.camera_distance > 0) {
+    // The start's geometry without the distance scales with the diameter: the distance it
+    // implies at the nominal size gives the size at the given distance.
+    SingleMirrorKnowledge trial = out;
+    trial.camera_distance = 0;
+    std::vector<std::string> ignored;
+    const auto shape = know.unified_xi > 0 ? ShapeFromUnified(trial, rho, &ignored, why)
+                                           : ShapeFromRimAngle(trial, rho, &ignored, why);
+    if (!shape) return out;
+    out.mirror_diameter = kNominalDiameterMm * know.camera_distance / shape->vertex_z;
+    lines->push_back(Format(
+        "mirror diameter not given: %.1f mm, where the start's rim geometry (below) puts the "
+        "vertex --camera_distance %g mm from the lens; the model's scale is as rough as that "
+        "distance (--mirror_diameter would fix it)",
+        out.mirror_diameter, know.camera_distance));
+    out.camera_distance = 0;  // used: it set the scale
+    return out;
+  }
+  lines->push_back(Format(
+      "mirror diameter not given: the model is drawn at a nominal %g mm rim, so its absolute "
+      "size is not determined: directions and far points are not affected, but R, the lens's "
+      "distance and its offset from the focus are in units of that nominal size "
+      "(--mirror_diameter or --camera_distance would fix it)",
+      kNominalDiameterMm));
+  return out;
+}
+
 }  // namespace
 
 std::optional<SingleMirrorStart> SingleMirrorStartFromRim(const MirrorRim& rim,
-                                                          const SingleMirrorKnowledge& know,
+                                                          const SingleMirrorKnowledge& know_in,
                                                           int width, int height,
                                                           std::string* why) {
   auto fail = [&](const std::string& text) {
     if (why) *why = text;
     return std::nullopt;
   };
-  if (const std::string bad = know.Check(); !bad.empty()) return fail(bad);
+  if (const std::string bad = know_in.Check(); !bad.empty()) return fail(bad);
   if (!rim.found || !(rim.radius_px > 0)) return fail("images: no mirror rim given");
   SingleMirrorStart out;
   out.rim = rim;
-  const double r = know.mirror_diameter / 2, rho = rim.radius_px;
-  const bool telecentric = know.lens == LensKind::kTelecentric;
-  const bool unified = know.unified_xi > 0;
+  const double rho = rim.radius_px;
+  const bool telecentric = know_in.lens == LensKind::kTelecentric;
+  const bool unified = know_in.unified_xi > 0;
   out.lines.push_back(Format("mirror rim: centre (%.2f, %.2f) px, radius %.2f px, rms %.2f px over "
                              "%d edge points (coverage %.2f)",
                              rim.centre.x(), rim.centre.y(), rho, rim.rms_px, rim.edge_points,
                              rim.coverage));
   std::string reason;
+  const SingleMirrorKnowledge know = WithDiameter(know_in, rho, &out.lines, &reason);
+  const double r = know.mirror_diameter / 2;
   const auto shape = unified ? ShapeFromUnified(know, rho, &out.lines, &reason)
                              : ShapeFromRimAngle(know, rho, &out.lines, &reason);
   if (!shape) return fail(reason);
@@ -393,8 +438,8 @@ std::optional<SingleMirrorStart> SingleMirrorStartFromRim(const MirrorRim& rim,
                     vertex_z, f, alpha * kDeg)) +
       "; " + shape->basis);
   const double given_d = know.camera_distance;
-  if (!(telecentric ? know.magnification > 0
-                    : given_d > 0 && (know.focal_px > 0 || unified))) {
+  if (know_in.mirror_diameter > 0 && !(telecentric ? know.magnification > 0
+                                                   : given_d > 0 && (know.focal_px > 0 || unified))) {
     out.lines.push_back(
         telecentric ? "diameter not checked: the rim's px per mm is the magnification; "
                       "--magnification (px per mm) would check it"
@@ -402,6 +447,13 @@ std::optional<SingleMirrorStart> SingleMirrorStartFromRim(const MirrorRim& rim,
                       "diameter; --camera_distance with --focal_px or --unified would check it");
   }
   ChooseEstimate(know, &out);
+  if (!(know_in.mirror_diameter > 0)) {
+    out.comments.push_back(Format(
+        "scale: no rim diameter was given; the model's is %.2f mm (%s).", know.mirror_diameter,
+        know.mirror_diameter == kNominalDiameterMm
+            ? "nominal: the absolute size is not determined; directions are not affected"
+            : "from what was given; see init's output"));
+  }
   return out;
 }
 

@@ -46,10 +46,16 @@ enum class MirrorKnowledge { kHyperbolic, kParabolic, kSpherical, kUnknown };
 bool ParseMirrorKnowledge(const std::string& name, MirrorKnowledge* kind);
 const char* MirrorKnowledgeName(MirrorKnowledge kind);
 
+// The rim's diameter a start is drawn at when nothing known fixes the scale (mm).
+constexpr double kNominalDiameterMm = 50;
+
 // What the builder knows. Field names are the command's flag names: the reasons below start
 // with them.
 struct SingleMirrorKnowledge {
-  double mirror_diameter = 0;  // mm, the rim's measured diameter: the model's scale; > 0
+  // mm, the rim's measured diameter: the model's scale. 0: not measured: the scale from the
+  // magnification or the camera distance where given, else kNominalDiameterMm (the start's
+  // lines say the absolute size is then not determined).
+  double mirror_diameter = 0;
   MirrorKnowledge mirror = MirrorKnowledge::kUnknown;
   LensKind lens = LensKind::kPerspective;
   double camera_distance = 0;  // mm, rough, the lens's centre to the mirror's vertex; 0: unknown

@@ -161,7 +161,7 @@ TEST_F(InitCli, BadInputIsNamedAndNothingWritten) {
                  "--mirror_diameter: ");
   ExpectRejected("--mirror_diameter 40 --mirror hyperbolic --lens telecentric", "--lens: ");
   ExpectRejected("--mirror_diameter 40 --mirror spherical", "--camera_distance: ");
-  ExpectRejected("--mirror parabolic", "--mirror_diameter: ");
+  ExpectRejected("--mirror parabolic --mirror_diameter=-40", "--mirror_diameter: ");
   ExpectRejected("--mirror_diameter 40 --mirror conic", "--mirror: ");
   ExpectRejected("--mirror_diameter 40 --lens fisheye", "--lens: ");
   ExpectRejected("--mirror_diameter 40 --unified 0.9", "--unified: ");

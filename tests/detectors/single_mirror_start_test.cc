@@ -261,6 +261,8 @@ TEST(SingleMirrorStart, FromAUnifiedFitTheCentralCameraItself) {
 
 TEST(SingleMirrorStart, BadKnowledgeIsNamed) {
   SingleMirrorKnowledge know;
+  EXPECT_EQ(know.Check(), "");  // no diameter: the scale is nominal (below)
+  know.mirror_diameter = -60;
   EXPECT_EQ(know.Check().rfind("mirror_diameter: ", 0), 0u);
   know.mirror_diameter = 60;
   EXPECT_EQ(know.Check(), "");
@@ -310,6 +312,52 @@ TEST(SingleMirrorStart, DrawnPhotosThroughTheRimFinder) {
   EXPECT_FALSE(SingleMirrorStartFromPhotos({noise}, know, &why));
   EXPECT_EQ(why.rfind("images: no mirror rim found in the 1 photos: ", 0), 0u) << why;
   EXPECT_GT(why.size(), std::string("images: no mirror rim found in the 1 photos: ").size());
+}
+
+// No diameter measured (the public sample sets come without one): the scale from what else is
+// known, else a nominal rim, said to leave the absolute size open. Against the closed forms: a
+// telecentric lens's magnification m gives the diameter 2 rho / m; a perspective lens's distance
+// is kept and the rim still projects where the photos show it.
+TEST(SingleMirrorStart, WithoutADiameterTheScaleComesFromWhatIsKnownOrIsNominal) {
+  const MirrorRim rim = Rim(400, 300, 250);
+  std::string why;
+  auto said = [](const SingleMirrorStart& start, const std::string& text) {
+    for (const std::string& line : start.lines) {
+      if (line.find(text) != std::string::npos) return true;
+    }
+    return false;
+  };
+  SingleMirrorKnowledge know;
+  know.mirror = MirrorKnowledge::kHyperbolic;
+  const auto nominal = SingleMirrorStartFromRim(rim, know, 800, 600, &why);
+  ASSERT_TRUE(nominal) << why;
+  EXPECT_EQ(nominal->rig.r_sys, kNominalDiameterMm / 2);
+  EXPECT_TRUE(said(*nominal, "absolute size is not determined"));
+  EXPECT_LT(WorstRimRadiusError(nominal->rig, rim.centre, rim.radius_px), 1.0);
+
+  know.lens = LensKind::kTelecentric;
+  know.mirror = MirrorKnowledge::kParabolic;
+  know.magnification = 10;  // 250 px over 10 px per mm: a 25 mm radius
+  const auto telecentric = SingleMirrorStartFromRim(rim, know, 800, 600, &why);
+  ASSERT_TRUE(telecentric) << why;
+  EXPECT_NEAR(telecentric->rig.r_sys, 25, 1e-9);
+  EXPECT_NEAR(telecentric->rig.camera[kFx], 10, 1e-9);
+  EXPECT_FALSE(said(*telecentric, "not determined"));
+
+  for (MirrorKnowledge mirror : {MirrorKnowledge::kHyperbolic, MirrorKnowledge::kParabolic,
+                                 MirrorKnowledge::kSpherical}) {
+    know = SingleMirrorKnowledge();
+    know.mirror = mirror;
+    know.camera_distance = 90;
+    const auto placed = SingleMirrorStartFromRim(rim, know, 800, 600, &why);
+    ASSERT_TRUE(placed) << MirrorKnowledgeName(mirror) << ": " << why;
+    EXPECT_NEAR(placed->rig.vertex_z, 90, 1e-6) << MirrorKnowledgeName(mirror);
+    EXPECT_LT(WorstRimRadiusError(placed->rig, rim.centre, rim.radius_px), 1.0);
+    EXPECT_NEAR(ReflectedRimAngle(placed->rig), 90, 1e-6) << MirrorKnowledgeName(mirror);
+    EXPECT_TRUE(said(*placed, "as rough as that distance"));
+  }
+  know.mirror_diameter = -1;
+  EXPECT_EQ(know.Check().rfind("mirror_diameter: ", 0), 0u);
 }
 
 }  // namespace
