@@ -55,7 +55,7 @@ void RestrictToRig(const RigParams& rig, Refinement* refined, const CalibrationO
   refined->hold_mirror_size = !rim_observed && !size_prior;
   if (rim_observed && refined->groups[kShape1Block]) {
     Progress(options, "single-mirror rig: the rim's edge in the photos is observed: R is refined "
-                      "(the rim's measured diameter is the scale)");
+                      "(the rim's diameter in the start is the scale: measured, or init's nominal one)");
   }
 }
 
@@ -480,11 +480,16 @@ CalibrationResult Calibrate(const RigParams& start, const std::vector<TargetSpec
     fit = std::make_shared<CalibrationResult>(
         CalibrateJudgingRim(start, targets, detections, options));
     TestNonCentral(start, *fit, &decision);
-    if (NeedsCrossValidation(decision)) {
-      Progress(options, "non-central part (mirror1_pose): decided by the pixel noise alone, not "
-                        "with the held tangential distortion: 3-fold cross-validation");
-      CrossValidateNonCentral(start, targets, detections, options, CalibrateJudgingRim,
-                              &decision);
+    if (NeedsCrossValidation(decision, detections.images.size())) {
+      Progress(options, decision.dof == 0
+                            ? "non-central part (mirror1_pose): no coordinate determined: 3-fold "
+                              "cross-validation"
+                            : "non-central part (mirror1_pose): decided by the pixel noise alone, "
+                              "not with the held tangential distortion: 3-fold cross-validation");
+      // Where the fit left the rim out, each fold would find that again after a solve with it.
+      CalibrationOptions folds = options;
+      if (fit->solve.rim_left_out) folds.use_lips = false;
+      CrossValidateNonCentral(start, targets, detections, folds, CalibrateJudgingRim, &decision);
     }
   } catch (const CalibrationError& e) {
     decision.failure = e.what();

@@ -10,6 +10,15 @@
 #include "calib/chi2_quantile.h"
 
 namespace omni::calib {
+namespace {
+
+std::string Fixed1(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof(buf), "%.1f", v);
+  return buf;
+}
+
+}  // namespace
 
 bool TestsNonCentral(const RigParams& start, const CalibrationOptions& options) {
   const std::string pose = kRigBlocks[kPose1Block].name;
@@ -69,8 +78,9 @@ void TestNonCentral(const RigParams& start, const CalibrationResult& fit,
   decision->decided = decision->chi2 > decision->threshold;
 }
 
-bool NeedsCrossValidation(const NonCentralDecision& decision) {
-  return !decision.decided && decision.dof > 0 && decision.chi2_noise > decision.threshold;
+bool NeedsCrossValidation(const NonCentralDecision& decision, size_t photos) {
+  if (decision.dof == 0) return !decision.open.empty() && photos >= 3;
+  return !decision.decided && decision.chi2_noise > decision.threshold;
 }
 
 namespace {
@@ -148,11 +158,16 @@ std::string NonCentralNote(const NonCentralDecision& d) {
                   d.chi2, d.dof, d.chi2 > d.threshold ? "beyond" : "within", d.threshold);
   }
   std::string text = "non-central part (mirror1_pose) " +
-                     std::string(d.decided && d.dof > 0 ? "decided" : "not decided") +
+                     std::string(d.decided && (d.dof > 0 || d.cross_validated) ? "decided" : "not decided") +
                      " by these photos: " +
                      chi2;
   if (!open.empty()) text += std::string(d.dof > 0 ? "; " : "") + open + " not determined";
   if (d.cross_validated) {
+    const std::string why =
+        d.dof == 0 ? "; with no coordinate determined the photos arbitrate"
+                   : "; with the pixel noise alone it would be (chi^2 " + Fixed1(d.chi2_noise) +
+                         "): the tilt lies in the valley the held tangential distortion opens, so "
+                         "the photos arbitrate";
     const auto rms = [](double px) {
       if (!std::isfinite(px)) return std::string("(a fold's solve failed)");
       char one[32];
@@ -161,15 +176,12 @@ std::string NonCentralNote(const NonCentralDecision& d) {
     };
     char cv[360];
     std::snprintf(cv, sizeof(cv),
-                  "; with the pixel noise alone it would be (chi^2 %.1f): the tilt lies in the "
-                  "valley the held tangential distortion opens, so the photos arbitrate: 3-fold "
-                  "cross-validation, every photo held out once, predicts them at %s "
+                  ": 3-fold cross-validation, every photo held out once, predicts them at %s "
                   "non-central against %s central",
-                  d.chi2_noise, rms(d.cv_rms_noncentral_px).c_str(),
-                  rms(d.cv_rms_central_px).c_str());
-    text += cv;
+                  rms(d.cv_rms_noncentral_px).c_str(), rms(d.cv_rms_central_px).c_str());
+    text += why + cv;
   }
-  if (d.decided && d.dof == 0) {
+  if (d.decided && d.dof == 0 && !d.cross_validated) {
     return text + ": nothing to test; the non-central fit stands (its pose where the fit put it "
                   "in the valley those coordinates lie in)";
   }
