@@ -212,10 +212,15 @@ struct NonCentralDecision {
   // decides and the full one does not (the tilt in the camera-rotation valley that the held
   // tangential distortion opens), the photos arbitrate: 3-fold cross-validation, every photo
   // held out once, both models fit on the rest and scored on it (2-D RMS per corner, poses
-  // solved); the non-central fit stands where it predicts the held-out photos better.
+  // solved); the non-central fit stands where it predicts the held-out photos better by more
+  // than one standard error (below).
   double chi2_noise = 0;
   bool cross_validated = false;
   double cv_rms_noncentral_px = 0, cv_rms_central_px = 0;
+  // The central model's held-out squared error less the non-central's, summed over the photos
+  // (px^2), and its standard error from the photos' spread: the non-central fit stands only where
+  // the gain exceeds its standard error (the one-standard-error rule).
+  double cv_gain_px2 = 0, cv_gain_se_px2 = 0;
   std::vector<std::string> open;  // pose coordinates the non-central fit left undetermined
   std::string failure;            // the non-central solve's error (it diverged), else empty
   // The non-central fit where it solved (its offset and sigmas are reported either way).

@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <limits>
+#include <map>
 
 #include <Eigen/Cholesky>
 
@@ -110,6 +112,7 @@ void CrossValidateNonCentral(const RigParams& start, const std::vector<TargetSpe
   double ssr[2] = {0, 0};
   int count[2] = {0, 0};
   bool failed[2] = {false, false};
+  std::map<int, double> photo_ssr[2];  // per held-out photo (fold * 100000 + image)
   for (int fold = 0; fold < kFolds; ++fold) {
     const Observations train = FoldOf(detections, fold, kFolds, false);
     const Observations held = FoldOf(detections, fold, kFolds, true);
@@ -123,6 +126,9 @@ void CrossValidateNonCentral(const RigParams& start, const std::vector<TargetSpe
         const double rms = scored.residuals.rms_px;
         ssr[m] += rms * rms * scored.residuals.n_observations;
         count[m] += scored.residuals.n_observations;
+        for (const CornerResidual& c : scored.residuals.corners) {
+          photo_ssr[m][fold * 100000 + c.image] += c.residual.squaredNorm();
+        }
       } catch (const CalibrationError&) {
         failed[m] = true;  // a fold that diverges or is refused: that model loses
       }
@@ -134,7 +140,32 @@ void CrossValidateNonCentral(const RigParams& start, const std::vector<TargetSpe
                                                   : std::sqrt(ssr[m] / count[m]);
     (m == 0 ? decision->cv_rms_noncentral_px : decision->cv_rms_central_px) = rms;
   }
-  decision->decided = decision->cv_rms_noncentral_px < decision->cv_rms_central_px;
+  // The one-standard-error rule (the simpler model unless the other predicts better by more
+  // than the spread of the photos says): the non-central model's held-out squared error less the
+  // central's, photo by photo, must fall below minus its standard error. On the public VMR set a
+  // fold of 6 training photos preferred the non-central fit by 0.353 against 0.366 px within
+  // them, and it then predicted its 3 held-out photos at 0.468 px against 0.315.
+  double sum = 0, sum2 = 0;
+  int photos = 0;
+  if (!failed[0] && !failed[1]) {
+    for (const auto& [key, ssr_noncentral] : photo_ssr[0]) {
+      const auto it = photo_ssr[1].find(key);
+      if (it == photo_ssr[1].end()) continue;
+      const double d = ssr_noncentral - it->second;
+      sum += d;
+      sum2 += d * d;
+      ++photos;
+    }
+  }
+  if (photos >= 2) {
+    const double mean = sum / photos;
+    const double variance = std::max(0.0, (sum2 - photos * mean * mean) / (photos - 1));
+    decision->cv_gain_px2 = -sum;
+    decision->cv_gain_se_px2 = std::sqrt(photos * variance);
+    decision->decided = -sum > decision->cv_gain_se_px2;
+  } else {
+    decision->decided = decision->cv_rms_noncentral_px < decision->cv_rms_central_px;
+  }
 }
 
 std::string NonCentralNote(const NonCentralDecision& d) {
@@ -174,11 +205,19 @@ std::string NonCentralNote(const NonCentralDecision& d) {
       std::snprintf(one, sizeof(one), "%.4f px", px);
       return std::string(one);
     };
-    char cv[360];
+    char cv[520];
     std::snprintf(cv, sizeof(cv),
                   ": 3-fold cross-validation, every photo held out once, predicts them at %s "
                   "non-central against %s central",
                   rms(d.cv_rms_noncentral_px).c_str(), rms(d.cv_rms_central_px).c_str());
+    if (std::isfinite(d.cv_rms_noncentral_px) && std::isfinite(d.cv_rms_central_px)) {
+      char gain[200];
+      std::snprintf(gain, sizeof(gain),
+                    " (its squared error %.3g px^2 lower over the photos, where it must beat the "
+                    "photos' standard error %.3g)",
+                    d.cv_gain_px2, d.cv_gain_se_px2);
+      std::strncat(cv, gain, sizeof(cv) - std::strlen(cv) - 1);
+    }
     text += why + cv;
   }
   if (d.decided && d.dof == 0 && !d.cross_validated) {
