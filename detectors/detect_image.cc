@@ -9,6 +9,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "detectors/apriltag/apriltag_detector.h"
+#include "detectors/chessboard/raw_board.h"
 #include "detectors/lips/lip_detector.h"
 #include "detectors/lips/rim_edge.h"
 #include "io/file_util.h"
@@ -50,6 +51,48 @@ std::vector<CornerObservation> ChessboardsBrightThenDim(const cv::Mat& grey,
     }
   }
   return corners;
+}
+
+// A single mirror's chessboard of which the views found less than the whole board in this
+// photo: searched in the photo itself (raw_board.h); where that finds more of it, its corners
+// replace the views' (the same ids: one rule).
+void ChessboardsInThePhoto(const cv::Mat& image, const cv::Mat& grey, const DetectorContext& ctx,
+                           std::vector<CornerObservation>* corners) {
+  cv::Mat photo;
+  double blur = -1;
+  for (size_t t = 0; t < ctx.targets.size(); ++t) {
+    const TargetSpec& spec = ctx.targets[t];
+    if (spec.type != TargetType::kChessboard) continue;
+    const auto seen = std::count_if(corners->begin(), corners->end(), [&](const CornerObservation& c) {
+      return c.target == static_cast<int>(t);
+    });
+    if (seen >= CornerCount(spec)) continue;
+    if (photo.empty()) {
+      photo = ToGrey(image);
+      if (photo.depth() != CV_8U) photo.convertTo(photo, CV_8U, photo.depth() == CV_16U ? 1.0 / 257 : 1.0);
+      blur = 0;
+      for (const RingView& v : ctx.views) {
+        if (v.blur_sigma) {
+          blur = v.RawBlurAt(Eigen::Vector2d(v.cx, v.cy));
+          break;
+        }
+      }
+    }
+    const auto board = FindBoardInPhoto(photo, grey, ctx.model, spec, static_cast<int>(t), blur,
+                                        ctx.chessboard);
+    if (!board || static_cast<long>(board->ids.size()) <= seen) continue;
+    corners->erase(std::remove_if(corners->begin(), corners->end(),
+                                  [&](const CornerObservation& c) { return c.target == static_cast<int>(t); }),
+                   corners->end());
+    for (size_t i = 0; i < board->ids.size(); ++i) {
+      CornerObservation o;
+      o.target = board->target;
+      o.id = board->ids[i];
+      o.mirror = board->mirror;
+      o.pixel = board->raw_pixels[i];
+      corners->push_back(o);
+    }
+  }
 }
 
 }  // namespace
@@ -144,6 +187,7 @@ ImageObservations DetectImage(const cv::Mat& image, DetectorContext* ctx,
   const cv::Mat grey = ToGrey(linear);
   RenderViews(grey, &ctx->views);
   out.corners = ChessboardsBrightThenDim(grey, *ctx, repeated);
+  if (rig.Single()) ChessboardsInThePhoto(image, grey, *ctx, &out.corners);
   // Tag grids (plain tag36h11 and Kalibr AprilGrids) in the same, already rendered views.
   bool any_tags = false;
   for (const TargetSpec& t : ctx->targets) any_tags = any_tags || t.type != TargetType::kChessboard;

@@ -197,6 +197,82 @@ bool FindGrid(const cv::Mat& crop, const TargetSpec& spec, int finder,
 // board's homography. nullopt if any check refuses it. `filled` (empty: none) marks grid points
 // that the ring or view hides (GridFromJunctions): they take part in the whole-board test and
 // the orientation only.
+}  // namespace
+
+RawRefinement RefineBoardInRaw(const cv::Mat& raw_grey, const RigModel& model, const TargetSpec& spec,
+                               const std::vector<std::optional<Eigen::Vector2d>>& raw,
+                               double blur_px, const ChessboardOptions& options) {
+  const size_t n = raw.size();
+  RawRefinement out;
+  std::vector<std::optional<Eigen::Vector2d>>& refined = out.refined;
+  refined.resize(n);
+  std::vector<int> halves(n, 1);
+  std::vector<double> sides(n, 0);
+  int& refused_refine = out.refused_refine;
+  int& refused_shift = out.refused_shift;
+  for (size_t i = 0; i < n; ++i) {
+    if (!raw[i]) continue;
+    Eigen::Vector2d pixel = *raw[i];
+    if (options.refine_in_raw) {
+      // The local square side in the raw image from the grid neighbours.
+      const int r = static_cast<int>(i) / spec.cols, c = static_cast<int>(i) % spec.cols;
+      double side = 1e9;
+      for (auto [dr, dc] : {std::pair{0, 1}, {0, -1}, {1, 0}, {-1, 0}}) {
+        const int rr = r + dr, cc = c + dc;
+        if (rr < 0 || cc < 0 || rr >= spec.rows || cc >= spec.cols) continue;
+        const auto& q = raw[rr * spec.cols + cc];
+        if (q) side = std::min(side, (*q - *raw[i]).norm());
+      }
+      // A window of 0.55 squares (half-width, corner_window.h): the more of the four squares' edges it holds, the
+      // less the demosaicing's phase-dependent errors and the noise move the corner
+      // (realistic_scene ring 2 chessboards: 0.4 squares 0.140 px mean, 0.55: 0.099; clean
+      // 0.058 -> 0.049; 0.7 reaches the next corners: 0.17). 3x3 on squares under 3 px (the inner
+      // ring near 2 m at 960x720): a 5x5 one there spans neighbouring corners and pulled a third
+      // of them about 1 px off (demo image 0007), which the grid check then refused; at 3-3.75 px
+      // (inner-ring near boards, radially squeezed) 5x5 keeps them (realistic_scene 0011).
+      const int raw_half = ChessboardHalfWindow(side, CameraPixelsPerDegree(model.params()));
+      const Eigen::Vector2d before = pixel;
+      if (!RefineCornerInRaw(raw_grey, raw_half, &pixel)) {
+        ++refused_refine;
+        continue;
+      }
+      // The views are exact only for points at their distance_mm: on the non-central rig a
+      // near board's mapped corner is off by a few pixels (1.5-3 px measured in ring 1 at
+      // 0.6 m), while a wrong saddle would be a whole square away.
+      const double max_shift =
+          std::max(options.max_refine_shift_px, options.max_refine_shift_squares * side);
+      if ((pixel - before).norm() > max_shift) {
+        trace::Line("   corner %zu: refinement moved it %.2f px (max %.2f, half %d)", i,
+                    (pixel - before).norm(), max_shift, raw_half);
+        ++refused_shift;
+        continue;
+      }
+      halves[i] = raw_half;
+      sides[i] = side;
+    }
+    refined[i] = pixel;
+  }
+  // Windows that reach past the corner's own four squares (a board cut by the ring's rim or
+  // lip, its sheet's edge) pulled whole edge rows 0.5-0.9 px off, coherently, which the grid
+  // check cannot see: such corners are refined again in a window that leaves the foreign edge
+  // out, or dropped.
+  if (options.refine_in_raw && options.clean_windows) {
+    out.refused_window = KeepWindowsOnTheirSquares(raw_grey, spec.rows, spec.cols, sides,
+                                                   options.min_clean_half, &halves, &refined,
+                                                   blur_px, options.foreign_edge_slope);
+  }
+  // The board's lines from its refined corners, before any is corrected.
+  if (options.refine_in_raw && options.fit_junctions) {
+    FitBoardJunctions(raw_grey, spec.rows, spec.cols, sides, halves, options.junction_window_squares,
+                      &refined);
+  } else if (options.refine_in_raw && options.remove_curvature_bias) {
+    RemoveCurvatureBias(spec.rows, spec.cols, halves, &refined);
+  }
+  return out;
+}
+
+namespace {
+
 std::optional<BoardDetection> MakeBoard(const cv::Mat& raw_grey, const RingView& view,
                                         const cv::Mat& trusted,
                                         const RigModel& model, const TargetSpec& spec,
@@ -245,72 +321,11 @@ std::optional<BoardDetection> MakeBoard(const cv::Mat& raw_grey, const RingView&
     if (!filled[perm[i]]) raw[i] = view.ViewToRawExact(model, vp);
   }
   board.off_centre = (centre - Eigen::Vector2d(view.cx, view.cy)).norm();
-  // Refined raw corners by id (nullopt: hidden, or refused by the refinement) and their windows.
-  std::vector<std::optional<Eigen::Vector2d>> refined(oriented.size());
-  std::vector<int> halves(oriented.size(), 1);
-  std::vector<double> sides(oriented.size(), 0);
-  int refused_refine = 0, refused_shift = 0;
-  for (size_t i = 0; i < oriented.size(); ++i) {
-    if (!raw[i]) continue;
-    Eigen::Vector2d pixel = *raw[i];
-    if (options.refine_in_raw) {
-      // The local square side in the raw image from the grid neighbours.
-      const int r = static_cast<int>(i) / spec.cols, c = static_cast<int>(i) % spec.cols;
-      double side = 1e9;
-      for (auto [dr, dc] : {std::pair{0, 1}, {0, -1}, {1, 0}, {-1, 0}}) {
-        const int rr = r + dr, cc = c + dc;
-        if (rr < 0 || cc < 0 || rr >= spec.rows || cc >= spec.cols) continue;
-        const auto& q = raw[rr * spec.cols + cc];
-        if (q) side = std::min(side, (*q - *raw[i]).norm());
-      }
-      // A window of 0.55 squares (half-width, corner_window.h): the more of the four squares' edges it holds, the
-      // less the demosaicing's phase-dependent errors and the noise move the corner
-      // (realistic_scene ring 2 chessboards: 0.4 squares 0.140 px mean, 0.55: 0.099; clean
-      // 0.058 -> 0.049; 0.7 reaches the next corners: 0.17). 3x3 on squares under 3 px (the inner
-      // ring near 2 m at 960x720): a 5x5 one there spans neighbouring corners and pulled a third
-      // of them about 1 px off (demo image 0007), which the grid check then refused; at 3-3.75 px
-      // (inner-ring near boards, radially squeezed) 5x5 keeps them (realistic_scene 0011).
-      const int raw_half = ChessboardHalfWindow(side, CameraPixelsPerDegree(model.params()));
-      const Eigen::Vector2d before = pixel;
-      if (!RefineCornerInRaw(raw_grey, raw_half, &pixel)) {
-        ++refused_refine;
-        continue;
-      }
-      // The views are exact only for points at their distance_mm: on the non-central rig a
-      // near board's mapped corner is off by a few pixels (1.5-3 px measured in ring 1 at
-      // 0.6 m), while a wrong saddle would be a whole square away.
-      const double max_shift =
-          std::max(options.max_refine_shift_px, options.max_refine_shift_squares * side);
-      if ((pixel - before).norm() > max_shift) {
-        trace::Line("   corner %zu: refinement moved it %.2f px (max %.2f, half %d)", i,
-                    (pixel - before).norm(), max_shift, raw_half);
-        ++refused_shift;
-        continue;
-      }
-      halves[i] = raw_half;
-      sides[i] = side;
-    }
-    refined[i] = pixel;
-  }
-  // Windows that reach past the corner's own four squares (a board cut by the ring's rim or
-  // lip, its sheet's edge) pulled whole edge rows 0.5-0.9 px off, coherently, which the grid
-  // check cannot see: such corners are refined again in a window that leaves the foreign edge
-  // out, or dropped.
-  int refused_window = 0;
-  if (options.refine_in_raw && options.clean_windows) {
-    refused_window = KeepWindowsOnTheirSquares(raw_grey, spec.rows, spec.cols, sides, options.min_clean_half,
-                                               &halves, &refined, view.RawBlurAt(centre),
-                                               options.foreign_edge_slope);
-  }
+  const RawRefinement refinement =
+      RefineBoardInRaw(raw_grey, model, spec, raw, view.RawBlurAt(centre), options);
+  const std::vector<std::optional<Eigen::Vector2d>>& refined = refinement.refined;
   trace::Line("   raw refinement refused %d, moved too far %d, window not on its squares %d",
-              refused_refine, refused_shift, refused_window);
-  // The board's lines from its refined corners, before any is corrected.
-  if (options.refine_in_raw && options.fit_junctions) {
-    FitBoardJunctions(raw_grey, spec.rows, spec.cols, sides, halves, options.junction_window_squares,
-                      &refined);
-  } else if (options.refine_in_raw && options.remove_curvature_bias) {
-    RemoveCurvatureBias(spec.rows, spec.cols, halves, &refined);
-  }
+              refinement.refused_refine, refinement.refused_shift, refinement.refused_window);
   for (size_t i = 0; i < oriented.size(); ++i) {
     if (!refined[i]) continue;
     board.ids.push_back(static_cast<int>(i));

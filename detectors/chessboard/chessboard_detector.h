@@ -44,6 +44,7 @@
 // are left out, and boards showing under half their corners give nothing here (see Limits above).
 #pragma once
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -130,6 +131,19 @@ struct BoardDetection {
   std::vector<Eigen::Vector2d> view_pixels, raw_pixels;
   double off_centre = 0;            // distance of the board's centre from the view's centre (px)
 };
+
+// A board's corners refined in the raw image as every chessboard's are (raw[id]: the start, from
+// a view or a finder; nullopt: hidden): cv::cornerSubPix in a window of 0.55 squares
+// (corner_window.h), a move beyond max(max_refine_shift_px, max_refine_shift_squares) refused,
+// windows kept on their own four squares (blur_px: the image's blur there), the blurred
+// junction fitted (FitBoardJunctions). refined[id]: nullopt where refused.
+struct RawRefinement {
+  std::vector<std::optional<Eigen::Vector2d>> refined;
+  int refused_refine = 0, refused_shift = 0, refused_window = 0;
+};
+RawRefinement RefineBoardInRaw(const cv::Mat& raw_grey, const RigModel& model, const TargetSpec& spec,
+                               const std::vector<std::optional<Eigen::Vector2d>>& raw,
+                               double blur_px, const ChessboardOptions& options);
 
 // Of boards found in one image, drops a placement (the smaller first) that
 // repeats ids of larger ones of its target in its ring beyond the number of sheets printed with
