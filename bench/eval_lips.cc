@@ -4,7 +4,11 @@
 // Images are RENDER_DIR/NNNN.png or .jpg (not the kept *.pinhole.png); TONE (srgb | linear;
 // default srgb for JPEG, linear for PNG) says how they encode light: they are decoded to 16-bit
 // linear before detection, as DetectImage does (EVAL_LIPS_BITS=8: then scaled to 8 bit); JPEGs
-// come with their own luma plane (EVAL_LIPS_NO_LUMA=1: without). The
+// come with their own luma plane (EVAL_LIPS_NO_LUMA=1: without); EVAL_LIPS_COLOUR=1 places every
+// point on the colour (no luma placement), EVAL_LIPS_LUMA=1 on the luma even for an image with
+// full chroma (a PNG: Y' from its colours), to tell the placements' own biases apart. With
+// EVAL_CAMERA, EVAL_LIPS_EXACT=colour takes the colours from the camera's image before its JPEG
+// (the luma still the file's), EVAL_LIPS_EXACT=luma the luma (the colours the file's). The
 // detector's prior is NOMINAL (default MODEL). EVAL_CAMERA=PRESET (or a camera_effects map in
 // YAML): the camera applied to the kept linear renders RENDER_DIR/NNNN.pinhole.png (render
 // --keep_pinhole) instead, as eval_detectors does; EVAL_LIPS_POINTS=1 prints every point.
@@ -29,6 +33,7 @@
 
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "detectors/lip_evaluation.h"
 #include "detectors/lips/lip_detector.h"
@@ -74,12 +79,21 @@ int main(int argc, char** argv) {
       synthetic::EncodeCameraImage(image, *camera, &bytes);
       options.chroma_halved = io::HasHalvedChroma(bytes);
       options.luma = io::ReadStoredLuma(bytes);
+      const cv::Mat before_file = image;
       image = cv::imdecode(bytes, cv::IMREAD_COLOR | cv::IMREAD_ANYDEPTH);
+      // Which of the JPEG's two parts moves the edges: its colours or its luma.
+      const char* exact = std::getenv("EVAL_LIPS_EXACT");
+      if (exact && std::string(exact) == "colour") image = before_file;
+      if (exact && std::string(exact) == "luma" && before_file.depth() == CV_8U) {
+        cv::cvtColor(before_file, options.luma, cv::COLOR_BGR2GRAY);  // Rec. 601, as JPEG's Y'
+      }
       srgb = camera->tone == synthetic::ToneCurve::kSrgb;
     }
     cv::Mat linear = io::LinearImage(image, srgb ? io::ToneCurve::kSrgb : io::ToneCurve::kLinear);
     if (eight_bit) linear.convertTo(linear, CV_8U, 1.0 / 257.0);
     if (std::getenv("EVAL_LIPS_NO_LUMA")) options.luma = cv::Mat();
+    if (std::getenv("EVAL_LIPS_COLOUR")) options.chroma_halved = false;
+    if (std::getenv("EVAL_LIPS_LUMA")) options.chroma_halved = true;
     std::string points;
     evaluation.DetectAndAdd(linear, nominal, options, print_points ? &points : nullptr);
     std::printf("%s", points.c_str());

@@ -138,6 +138,79 @@ TEST(LumaEdge, DarkBandEdgePlacedWithoutTheNoiseBias) {
   EXPECT_GT(std::abs(noise_free), std::abs(modelled) + 0.03);
 }
 
+// A band (linear BGR `band`) outward of a circle against `outside`, blurred by a Gaussian of
+// sigma `sigma` px, no noise, 8-bit sRGB, Y' from those values: the mean signed error (px, + into
+// the band) of the luma placement from starts up to 0.5 px off, over the points placed.
+double DrawnEdgeError(double sigma, const Eigen::Vector3d& band, const Eigen::Vector3d& outside,
+                      int* placed = nullptr) {
+  constexpr double kRadius = 380.0;
+  const Eigen::Vector2d centre(-300.0, 150.0);
+  cv::Mat encoded(300, 120, CV_8UC3), luma(300, 120, CV_8U);
+  for (int v = 0; v < encoded.rows; ++v) {
+    for (int u = 0; u < encoded.cols; ++u) {
+      const double r = (Eigen::Vector2d(u, v) - centre).norm();
+      const double alpha = 0.5 * std::erfc(-(r - kRadius) / (sigma * std::sqrt(2.0)));
+      double y = 0;
+      cv::Vec3b& out = encoded.at<cv::Vec3b>(v, u);
+      for (int c = 0; c < 3; ++c) {
+        out[c] = cv::saturate_cast<uchar>(
+            std::round(Srgb(outside[c] + alpha * (band[c] - outside[c]))));
+        y += Eigen::Vector3d(0.114, 0.587, 0.299)[c] * out[c];
+      }
+      luma.at<uchar>(v, u) = cv::saturate_cast<uchar>(std::round(y));
+    }
+  }
+  const cv::Mat linear = io::LinearImage(encoded, io::ToneCurve::kSrgb);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> start(-0.5, 0.5);
+  double sum = 0;
+  int n = 0;
+  for (double v = 20; v <= 280; v += 1.7) {
+    const double dv = v - centre.y();
+    const double u = centre.x() + std::sqrt(kRadius * kRadius - dv * dv);
+    const Eigen::Vector2d outward = (Eigen::Vector2d(u, v) - centre).normalized();
+    const double rho = kRadius + start(rng);
+    const std::optional<double> offset = LumaEdgeOffset(
+        GatherLumaProfile(linear, luma, centre, outward, rho, +1, 6), NoisyLevels(0), 4);
+    if (!offset) continue;
+    sum += rho + *offset - kRadius;
+    ++n;
+  }
+  if (placed) *placed = n;
+  return sum / std::max(1, n);
+}
+
+// The luma placement's own constant offset on drawn edges under the cameras' blurs (sigma 0.4-1.8
+// px: the realistic preset's 0.6 / 0.9, the webcam's 1.8): the blue lip (linear BGR 204, 0, 0,
+// as POV-Ray renders the prototype's) against the grey (32) beyond its outer edge, or a lighter
+// grey (100), and the red lip against the grey. Exact Y', no noise, no JPEG: what is left is the
+// estimator's, a line alpha(d) fitted over +-1.25 px while the blurred step saturates there (small
+// blur) or its sides are not yet flat 1.5-3 px out (large blur), weighted by Y''s asymmetric bends:
+// up to 0.04 px either way, the sign with the blur (docs/experiments.md, 2026-11-30, where the
+// lips' constant offsets are traced; a blurred-step model fitted instead was within 0.011 px on
+// the blue-on-grey edges here but worse on the renders, whose sides are not flat). A bound, not
+// a claim of accuracy: the calibration's floor lip_edge_offset_floor_px (0.05) covers it.
+TEST(LumaEdge, DrawnEdgesConstantOffsetUnderTheCamerasBlurs) {
+  struct Case {
+    Eigen::Vector3d band, outside;
+  };
+  const Case cases[] = {{{204, 0, 0}, {32, 32, 32}}, {{204, 0, 0}, {100, 100, 100}},
+                        {{10, 30, 204}, {32, 32, 32}}};
+  double worst = 0;
+  for (double sigma : {0.4, 0.6, 0.9, 1.8}) {
+    for (const Case& c : cases) {
+      int placed = 0;
+      const double error = DrawnEdgeError(sigma, c.band, c.outside, &placed);
+      std::printf("blur %.1f px, band BGR %g/%g/%g against %g: mean signed error %+.4f px (%d "
+                  "of 153 placed)\n", sigma, c.band[0], c.band[1], c.band[2], c.outside[0], error,
+                  placed);
+      EXPECT_GE(placed, 150);
+      worst = std::max(worst, std::abs(error));
+    }
+  }
+  EXPECT_LT(worst, 0.05);
+}
+
 TEST(LumaEdge, NoContrastNoPlacement) {
   LumaProfile flat;
   flat.d = {-1, -0.5, 0, 0.5, 1, -1, -0.5, 0, 0.5, 1};
