@@ -4,6 +4,10 @@
 // of target, for well-spaced corners, for resolved targets and for the corners guided detection
 // found; and the lip-only intrinsics against the true rig. The truth is each image's true corners
 // (model/truth.h, synthetic::ComputeTruth), matched by pixels alone (NearestTrueCorner).
+// Beside the geometric count (every corner the model shows in a ring), a "readable" count leaves
+// out chessboard corners whose squares the ring's blur flattens (Readability): what no detector
+// can read is not in plain sight; the tables say how many it leaves out and how many of those
+// were found anyway.
 #pragma once
 
 #include <array>
@@ -23,13 +27,27 @@
 
 namespace omni::detectors {
 
+// Which visible chessboard corners count as readable: the board's modulation there
+// (board_modulation.h, from the true local square sides in raw pixels) at the ring's blur is at
+// least min_modulation. Other kinds of target are all readable; blur 0: all readable.
+// Why 10%: the guided saddle search's contrast floor is 10 grey levels (chessboard_detector.h
+// saddle_contrast_floor) and a board spans ~100-200 levels in these renders (webcam preset: JPEG
+// 80 with 2-3 levels of noise); below a tenth, a junction's 10-20 levels are its noise's size at
+// the few pixels a 5 px square offers, where the acceptance asks 0.1 px.
+struct Readability {
+  std::array<double, 2> blur_sigma_px = {0, 0};  // [0] ring 1, [1] ring 2; raw pixels
+  double min_modulation = 0.10;
+};
+
 class DetectorEvaluation {
  public:
-  explicit DetectorEvaluation(std::vector<TargetSpec> targets) : targets_(std::move(targets)) {}
+  explicit DetectorEvaluation(std::vector<TargetSpec> targets, Readability readability = {})
+      : targets_(std::move(targets)), readability_(readability) {}
 
   // One image's detections (`guided`: per corner, found by guided detection) against its true
   // corners. Returns the lines worth a look, one each: wrong ids, right ids far off (> 0.5 px)
-  // and the boards missed in part. *csv_rows (may be null) gets every matched corner and every
+  // and the boards missed in part (with how many of their visible corners are readable, where
+  // not all). *csv_rows (may be null) gets every matched corner and every
   // missed visible one (CsvHeader's columns).
   std::vector<std::string> AddImage(const std::string& name, const ImageObservations& detections,
                                     const std::vector<bool>& guided,
@@ -44,8 +62,14 @@ class DetectorEvaluation {
   struct Bin {
     std::vector<double> errors;
     int visible = 0, found = 0, wrong = 0;
+    int readable = 0, readable_found = 0;  // Readability's subset of visible, found
   };
+  // Per truth corner and ring (index 2 i + ring - 1): its board's modulation (1: not a
+  // chessboard, no blur, or not visible).
+  std::vector<double> Modulations(const std::vector<TruthCorner>& truth) const;
+
   std::vector<TargetSpec> targets_;
+  Readability readability_;
   std::map<std::pair<int, int>, Bin> bins_;            // (mirror, range bin)
   std::map<std::pair<int, int>, Bin> by_kind_;         // (target type, mirror), all ranges
   std::map<std::pair<int, int>, Bin> guided_by_kind_;  // the same, guided corners only
