@@ -30,10 +30,11 @@ namespace omni::detectors {
 // Which visible chessboard corners count as readable: the board's modulation there
 // (board_modulation.h, from the true local square sides in raw pixels) at the ring's blur is at
 // least min_modulation. Other kinds of target are all readable; blur 0: all readable.
-// Why 10%: the guided saddle search's contrast floor is 10 grey levels (chessboard_detector.h
-// saddle_contrast_floor) and a board spans ~100-200 levels in these renders (webcam preset: JPEG
-// 80 with 2-3 levels of noise); below a tenth, a junction's 10-20 levels are its noise's size at
-// the few pixels a 5 px square offers, where the acceptance asks 0.1 px.
+// Why 10%: a board spans ~100-200 grey levels in the renders, so a tenth is 10-20 levels: the
+// chessboard detector's X-junction test floor (ChessboardOptions::saddle_contrast_floor, 10),
+// and a few times the webcam preset's noise over the few pixels of a 3-4 px square, where the
+// acceptance asks 0.1 px. (10% and 15% count the same on the sessions measured: corners' values
+// lie well above or far below; docs/experiments.md 2026-11-30.)
 struct Readability {
   std::array<double, 2> blur_sigma_px = {0, 0};  // [0] ring 1, [1] ring 2; raw pixels
   double min_modulation = 0.10;
