@@ -17,6 +17,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "detectors/common/board_junction_fit.h"
 #include "detectors/common/corner_refine.h"
 #include "detectors/common/corner_window.h"
 #include "detectors/common/option_check.h"
@@ -245,6 +246,7 @@ std::optional<BoardDetection> MakeBoard(const cv::Mat& raw_grey, const RingView&
     if (!filled[perm[i]]) raw[i] = view.ViewToRawExact(model, vp);
   }
   board.off_centre = (centre - Eigen::Vector2d(view.cx, view.cy)).norm();
+  const double blur = view.RawBlurAt(centre);  // raw px (0: not measured)
   // Refined raw corners by id (nullopt: hidden, or refused by the refinement) and their windows.
   std::vector<std::optional<Eigen::Vector2d>> refined(oriented.size());
   std::vector<int> halves(oriented.size(), 1);
@@ -297,9 +299,10 @@ std::optional<BoardDetection> MakeBoard(const cv::Mat& raw_grey, const RingView&
   // check cannot see: such corners are refined again in a window that leaves the foreign edge
   // out, or dropped.
   int refused_window = 0;
+  const std::vector<int> start_halves = halves;
   if (options.refine_in_raw && options.clean_windows) {
     refused_window = KeepWindowsOnTheirSquares(raw_grey, spec.rows, spec.cols, sides, options.min_clean_half,
-                                               &halves, &refined, view.RawBlurAt(centre),
+                                               &halves, &refined, blur,
                                                options.foreign_edge_slope);
   }
   trace::Line("   raw refinement refused %d, moved too far %d, window not on its squares %d",
@@ -308,6 +311,17 @@ std::optional<BoardDetection> MakeBoard(const cv::Mat& raw_grey, const RingView&
   if (options.refine_in_raw && options.fit_junctions) {
     FitBoardJunctions(raw_grey, spec.rows, spec.cols, sides, halves, options.junction_window_squares,
                       &refined);
+    // Squares small against the blur: fitted again as the blurred board, as guided detection's
+    // (board_junction_fit.h).
+    double side_sum = 0;
+    int side_count = 0;
+    for (size_t i = 0; i < refined.size(); ++i) {
+      if (refined[i]) side_sum += sides[i], ++side_count;
+    }
+    if (side_count && blur > kBlurredBoardFraction * side_sum / side_count) {
+      FitBlurredBoard(raw_grey, spec.rows, spec.cols, sides, start_halves, halves, kBlurredBoardWindowSquares,
+                      blur, &refined);
+    }
   } else if (options.refine_in_raw && options.remove_curvature_bias) {
     RemoveCurvatureBias(spec.rows, spec.cols, halves, &refined);
   }
