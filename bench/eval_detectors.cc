@@ -14,7 +14,10 @@
 // with the image points that the mirror bodies' poses fix. The evaluation itself is
 // detectors/detector_evaluation.h; EVAL_DETECTORS_CSV=FILE writes every matched corner and every
 // missed visible one; EVAL_SAVE_DIR=DIR the images as EVAL_CAMERA's camera wrote them.
+// Readable corners (DetectorEvaluation's Readability) are judged at the camera's defocus per ring
+// with the pixel's box (variance 1/12 px^2) added; EVAL_READABLE_MODULATION=F sets the threshold.
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <optional>
@@ -81,7 +84,13 @@ int main(int argc, char** argv) {
         &ctx);
     std::printf("%s\n", detectors::Describe(guide).c_str());
   }
-  detectors::DetectorEvaluation evaluation(scene.targets);
+  detectors::Readability readability;
+  const synthetic::CameraEffects& wrote = camera ? *camera : scene.camera;
+  for (int r = 0; r < 2; ++r) {
+    readability.blur_sigma_px[r] = std::sqrt(std::pow(wrote.defocus_sigma_px[r], 2) + 1.0 / 12);
+  }
+  if (const char* m = std::getenv("EVAL_READABLE_MODULATION")) readability.min_modulation = std::atof(m);
+  detectors::DetectorEvaluation evaluation(scene.targets, readability);
   detectors::DetectionRun run;
   for (size_t i = 0; i < scene.images.size(); ++i) {
     const cv::Mat raw = load(i);

@@ -7,6 +7,7 @@
 #include <ctime>
 #include <numeric>
 
+#include "detectors/common/board_modulation.h"
 #include "detectors/lips/lip_intrinsics.h"
 #include "io/text_append.h"
 #include "model/rig_model.h"
@@ -46,7 +47,42 @@ double Percentile(std::vector<double> v, double p) {
 }
 
 const char* DetectorEvaluation::CsvHeader() {
-  return "image,target,kind,id,mirror,range_mm,u,v,true_u,true_v,guided,found\n";
+  return "image,target,kind,id,mirror,range_mm,u,v,true_u,true_v,guided,found,modulation\n";
+}
+
+std::vector<double> DetectorEvaluation::Modulations(const std::vector<TruthCorner>& truth) const {
+  std::vector<double> modulation(truth.size() * 2, 1.0);
+  // (placement, id) -> index, for each corner's lattice neighbours on the same board.
+  std::map<std::pair<int, int>, size_t> index;
+  for (size_t i = 0; i < truth.size(); ++i) index[{truth[i].placement, truth[i].id}] = i;
+  for (size_t i = 0; i < truth.size(); ++i) {
+    const TargetSpec& spec = targets_[truth[i].target];
+    if (spec.type != TargetType::kChessboard) continue;
+    const int row = truth[i].id / spec.cols, col = truth[i].id % spec.cols;
+    for (int m = 1; m <= 2; ++m) {
+      const double sigma = readability_.blur_sigma_px[m - 1];
+      if (!truth[i].pixel[m - 1] || !(sigma > 0)) continue;
+      // The local square side along each of the board's directions: the nearer visible neighbour
+      // on that line (0: none visible).
+      const auto side = [&](int dr, int dc) {
+        double best = 0;
+        for (int sign : {-1, 1}) {
+          const int r = row + sign * dr, c = col + sign * dc;
+          if (r < 0 || c < 0 || r >= spec.rows || c >= spec.cols) continue;
+          const auto it = index.find({truth[i].placement, r * spec.cols + c});
+          if (it == index.end() || !truth[it->second].pixel[m - 1]) continue;
+          const double d = (*truth[it->second].pixel[m - 1] - *truth[i].pixel[m - 1]).norm();
+          if (best == 0 || d < best) best = d;
+        }
+        return best;
+      };
+      double s1 = side(0, 1), s2 = side(1, 0);
+      if (s1 == 0) s1 = s2;
+      if (s2 == 0) s2 = s1;
+      if (s1 > 0) modulation[2 * i + m - 1] = ChessboardModulation(s1, s2, sigma);
+    }
+  }
+  return modulation;
 }
 
 std::vector<std::string> DetectorEvaluation::AddImage(const std::string& name,
@@ -58,6 +94,7 @@ std::vector<std::string> DetectorEvaluation::AddImage(const std::string& name,
   std::string line;
   const auto kind_of = [&](int target) { return static_cast<int>(targets_[target].type); };
   std::vector<bool> truth_found(truth.size() * 2, false);
+  const std::vector<double> modulation = Modulations(truth);
   for (size_t k = 0; k < det.corners.size(); ++k) {
     const CornerObservation& o = det.corners[k];
     Bin* guided_bin = guided[k] ? &guided_by_kind_[{kind_of(o.target), MirrorIndex(o.mirror)}] : nullptr;
@@ -88,9 +125,10 @@ std::vector<std::string> DetectorEvaluation::AddImage(const std::string& name,
     if (guided_bin) guided_bin->errors.push_back(best);
     if (csv) {
       const Eigen::Vector2d& t = *truth[best_i].pixel[MirrorIndex(o.mirror) - 1];
-      io::AppendFormat(csv, "%s,%d,%s,%d,%d,%.1f,%.4f,%.4f,%.4f,%.4f,%d,1\n", name.c_str(), o.target,
-             kKindNames[kind_of(o.target)], o.id, MirrorIndex(o.mirror), range, o.pixel.x(),
-             o.pixel.y(), t.x(), t.y(), guided_bin ? 1 : 0);
+      io::AppendFormat(csv, "%s,%d,%s,%d,%d,%.1f,%.4f,%.4f,%.4f,%.4f,%d,1,%.4f\n", name.c_str(),
+             o.target, kKindNames[kind_of(o.target)], o.id, MirrorIndex(o.mirror), range,
+             o.pixel.x(), o.pixel.y(), t.x(), t.y(), guided_bin ? 1 : 0,
+             modulation[2 * best_i + MirrorIndex(o.mirror) - 1]);
     }
     if (best > 0.5) {  // right id but far off: named, like wrong ids, to find the cause
       line.clear();
@@ -101,25 +139,30 @@ std::vector<std::string> DetectorEvaluation::AddImage(const std::string& name,
     by_kind_[{kind_of(o.target), MirrorIndex(o.mirror)}].errors.push_back(best);
     truth_found[2 * best_i + MirrorIndex(o.mirror) - 1] = true;
   }
-  // (target, mirror) -> visible, found, range: to name the boards that were missed.
-  std::map<std::pair<int, int>, std::array<double, 3>> boards;
+  // (target, mirror) -> visible, found, range, readable: to name the boards that were missed.
+  std::map<std::pair<int, int>, std::array<double, 4>> boards;
   std::map<std::pair<int, int>, std::vector<double>> nearest_by_board;
   for (size_t i = 0; i < truth.size(); ++i) {
     for (int m = 1; m <= 2; ++m) {
       if (!truth[i].pixel[m - 1]) continue;
       const bool found = truth_found[2 * i + m - 1];
+      const bool readable = modulation[2 * i + m - 1] >= readability_.min_modulation;
       Bin& bin = bins_[{m, RangeBin(truth[i].point_in_cam.head<2>().norm())}];
       ++bin.visible;
       if (found) ++bin.found;
+      if (readable) ++bin.readable;
+      if (readable && found) ++bin.readable_found;
       if (csv && !found) {  // a missed corner: its true pixel only
         const Eigen::Vector2d& t = *truth[i].pixel[m - 1];
-        io::AppendFormat(csv, "%s,%d,%s,%d,%d,%.1f,,,%.4f,%.4f,0,0\n", name.c_str(), truth[i].target,
-               kKindNames[kind_of(truth[i].target)], truth[i].id, m,
-               truth[i].point_in_cam.head<2>().norm(), t.x(), t.y());
+        io::AppendFormat(csv, "%s,%d,%s,%d,%d,%.1f,,,%.4f,%.4f,0,0,%.4f\n", name.c_str(),
+               truth[i].target, kKindNames[kind_of(truth[i].target)], truth[i].id, m,
+               truth[i].point_in_cam.head<2>().norm(), t.x(), t.y(), modulation[2 * i + m - 1]);
       }
       Bin& kind = by_kind_[{kind_of(truth[i].target), m}];
       ++kind.visible;
       if (found) ++kind.found;
+      if (readable) ++kind.readable;
+      if (readable && found) ++kind.readable_found;
       double nearest = 1e9;
       for (size_t j = 0; j < truth.size(); ++j) {
         if (j != i && truth[j].target == truth[i].target && truth[j].pixel[m - 1]) {
@@ -136,6 +179,7 @@ std::vector<std::string> DetectorEvaluation::AddImage(const std::string& name,
       b[0] += 1;
       b[1] += found ? 1 : 0;
       b[2] = truth[i].point_in_cam.head<2>().norm();
+      b[3] += readable ? 1 : 0;
     }
   }
   for (const auto& [key, b] : boards) {
@@ -147,6 +191,7 @@ std::vector<std::string> DetectorEvaluation::AddImage(const std::string& name,
       line.clear();
       io::AppendFormat(&line, "%s: missed: target %d ring %d at %.2f m: %.0f of %.0f visible corners found",
              name.c_str(), key.first, key.second, b[2] / 1000, b[1], b[0]);
+      if (b[3] < b[0]) io::AppendFormat(&line, " (%.0f readable)", b[3]);
       lines.push_back(line);
     }
   }
@@ -180,6 +225,29 @@ std::string DetectorEvaluation::Tables() const {
     row(std::to_string(m), "all", ring);
   }
   row("both", "all", all);
+  // The same visible corners less those no detector can read (Readability): recall of those.
+  io::AppendFormat(&out, "readable: chessboard modulation >= %.0f%% at blur sigma %.2f / %.2f raw px "
+         "(rings 1 / 2):\n%-6s %-10s %8s %8s %8s %8s %8s\n", 100 * readability_.min_modulation,
+         readability_.blur_sigma_px[0], readability_.blur_sigma_px[1], "ring", "kind", "visible",
+         "readable", "found", "found%", "unread_f");
+  const auto readable_row = [&](const std::string& ring, const char* what, const Bin& t) {
+    // unread_f: corners found although not counted readable.
+    io::AppendFormat(&out, "%-6s %-10s %8d %8d %8d %7.1f%% %8d\n", ring.c_str(), what, t.visible,
+           t.readable, t.readable_found, 100.0 * t.readable_found / std::max(1, t.readable),
+           t.found - t.readable_found);
+  };
+  for (int m : {1, 2, 0}) {
+    Bin t;
+    for (const auto& [key, bin] : bins_) {
+      if (m != 0 && key.first != m) continue;
+      t.visible += bin.visible;
+      t.readable += bin.readable;
+      t.readable_found += bin.readable_found;
+      t.found += bin.found;
+    }
+    readable_row(m ? std::to_string(m) : "both", "all", t);
+  }
+  for (const auto& [key, bin] : by_kind_) readable_row(std::to_string(key.second), kKindNames[key.first], bin);
   // The same per kind of target (wrong ids are counted in the range table only).
   for (const auto& [key, bin] : by_kind_) {
     io::AppendFormat(&out, "%-6d %-10s %8d %8zu %7.1f%% %8.4f %8.4f\n", key.second, kKindNames[key.first],

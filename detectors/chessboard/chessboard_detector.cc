@@ -17,6 +17,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "detectors/common/board_junction_fit.h"
 #include "detectors/common/corner_refine.h"
 #include "detectors/common/corner_window.h"
 #include "detectors/common/option_check.h"
@@ -256,6 +257,7 @@ RawRefinement RefineBoardInRaw(const cv::Mat& raw_grey, const RigModel& model, c
   // lip, its sheet's edge) pulled whole edge rows 0.5-0.9 px off, coherently, which the grid
   // check cannot see: such corners are refined again in a window that leaves the foreign edge
   // out, or dropped.
+  const std::vector<int> start_halves = halves;
   if (options.refine_in_raw && options.clean_windows) {
     out.refused_window = KeepWindowsOnTheirSquares(raw_grey, spec.rows, spec.cols, sides,
                                                    options.min_clean_half, &halves, &refined,
@@ -265,6 +267,17 @@ RawRefinement RefineBoardInRaw(const cv::Mat& raw_grey, const RigModel& model, c
   if (options.refine_in_raw && options.fit_junctions) {
     FitBoardJunctions(raw_grey, spec.rows, spec.cols, sides, halves, options.junction_window_squares,
                       &refined);
+    // Squares small against the blur: fitted again as the blurred board, as guided detection's
+    // (board_junction_fit.h).
+    double side_sum = 0;
+    int side_count = 0;
+    for (size_t i = 0; i < refined.size(); ++i) {
+      if (refined[i]) side_sum += sides[i], ++side_count;
+    }
+    if (side_count && blur_px > kBlurredBoardFraction * side_sum / side_count) {
+      FitBlurredBoard(raw_grey, spec.rows, spec.cols, sides, start_halves, halves,
+                      kBlurredBoardWindowSquares, blur_px, &refined);
+    }
   } else if (options.refine_in_raw && options.remove_curvature_bias) {
     RemoveCurvatureBias(spec.rows, spec.cols, halves, &refined);
   }

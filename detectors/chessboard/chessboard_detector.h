@@ -94,7 +94,9 @@ struct ChessboardOptions {
   bool remove_curvature_bias = true;
   // After the raw refinement: each corner fitted by a blurred X-junction model
   // (corner_refine.h FitBoardJunctions; the curvature correction where it cannot be), in a
-  // window of this many squares (half-width).
+  // window of this many squares (half-width); where the ring's measured blur exceeds
+  // kBlurredBoardFraction of the squares, fitted again as the blurred board, as guided
+  // detection does (board_junction_fit.h).
   bool fit_junctions = true;
   double junction_window_squares = 0.55;
   // Raw refinement moving a corner further than the larger of these rejects it.
