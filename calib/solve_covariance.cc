@@ -455,13 +455,7 @@ RigCovariance CovarianceOf(const Eigen::SparseMatrix<double, Eigen::RowMajor>& j
   Eigen::VectorXd radius_coupling;  // S_front,radius / S_radius,radius
   double radius_information = 0;
   if (c.rim_radius) {
-    radius_information = schur_all(n_front, n_front);
-    const Eigen::VectorXd s_fr = schur_all.col(n_front).head(n_front);
-    schur_all = schur_all.topLeftCorner(n_front, n_front).eval();
-    if (radius_information > 0) {
-      radius_coupling = s_fr / radius_information;
-      schur_all.noalias() -= s_fr * radius_coupling.transpose();
-    }
+    schur_all = EliminateLastColumn(schur_all, &radius_coupling, &radius_information);
   }
   // Held dist_k3: the probe's row and column left out.
   std::vector<int> kept;
