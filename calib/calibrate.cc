@@ -25,8 +25,10 @@ Refinement RefinementOf(const CalibrationOptions& options) {
   return refined;
 }
 
+// Whether a single mirror's rim, of its measured diameter, is observed (a scale); not where its
+// edge is fitted as a circle of free radius (CalibrationOptions::rim_radius_free).
 bool RimObserved(const Observations& detections, const CalibrationOptions& options) {
-  if (!options.use_lips) return false;
+  if (!options.use_lips || options.rim_radius_free) return false;
   for (const ImageObservations& image : detections.images) {
     for (const LipEdgeObservation& e : image.lips) {
       if (e.mirror == Mirror::kOne && e.path == LipPath::kDirect && e.circle == LipCircle::kOuter &&
@@ -222,6 +224,10 @@ void FinalCovariance(const CalibrationOptions& options, Calibration* c,
     findings = covariance();
   }
   AddPointingNote(c->rig.params.rig, result);
+  if (c->observations.rim_radius_free) {
+    result->solve.rim_edge_radius_mm = c->observations.rim_radius[0];
+    result->solve.rim_edge_radius_sigma_mm = findings.rim_radius_sigma;
+  }
   FinishProfiles(c->observations, c->profiles, options, &c->rig, result);
   if (result->uncertainty.lip_edges_considered > 0) {
     std::string sigmas;
@@ -435,7 +441,8 @@ CalibrationResult CalibrateOnce(const RigParams& start, const std::vector<Target
   return result;
 }
 
-// CalibrateOnce, and again without a single mirror's rim where its image's edge is not the rim.
+// CalibrateOnce, and again with a single mirror's rim points as a mirror circle of free radius
+// where its image's edge is not the rim.
 CalibrationResult CalibrateJudgingRim(const RigParams& start, const std::vector<TargetSpec>& targets,
                                       const Observations& detections,
                                       const CalibrationOptions& options) {
@@ -448,17 +455,51 @@ CalibrationResult CalibrateJudgingRim(const RigParams& start, const std::vector<
   }
   double elevation = 0;
   if (RimEdgeIsTheRim(RigModel(result.estimate.rig), &elevation)) return result;
-  char why[320];
+  // The edge is then what the holder at the rim makes of the mirror: still a circle on the mirror
+  // (its reflected rays graze the holder's edge), of unknown radius, so through a perspective
+  // lens its centre and ellipse still place the mirror against the camera (the circle's near and
+  // far sides seen at different distances tell its tilt from its decentre); its size, not being
+  // the rim's, sets no scale. Through a telecentric lens a tilted circle's image is the untilted
+  // one shifted (its ellipse differs by cos(tilt): 0.02 px at 0.5 deg), which the principal
+  // point does as well: the edge decides nothing there (the sample paraboloid's tilt stayed
+  // undetermined with it, and its points at 1 m were no closer), so the rim is left out.
+  if (start.lens == LensKind::kTelecentric) {
+    char why[480];
+    std::snprintf(why, sizeof(why),
+                  "the mirror's rim left out: at the calibrated mirror its outer zone reflects rays "
+                  "%.1f deg past the rim's plane, where whatever holds the mirror at its rim is "
+                  "seen, so the edge of its image need not be the rim; through a telecentric lens "
+                  "a circle inside it would place nothing the principal point does not "
+                  "(calibrated without it)",
+                  elevation);
+    Progress(options, std::string(why) + "; calibrating again");
+    CalibrationOptions without = options;
+    without.use_lips = false;
+    result = CalibrateOnce(start, targets, detections, without);
+    result.solve.notes.push_back(why);
+    result.solve.rim_left_out = true;
+    return result;
+  }
+  char why[480];
   std::snprintf(why, sizeof(why),
-                "the mirror's rim left out: at the calibrated mirror its outer zone reflects rays "
-                "%.1f deg past the rim's plane, where whatever holds the mirror at its rim is "
-                "seen, so the edge of its image need not be the rim (calibrated without it)",
+                "the mirror's rim diameter left out: at the calibrated mirror its outer zone "
+                "reflects rays %.1f deg past the rim's plane, where whatever holds the mirror at "
+                "its rim is seen, so the edge of its image need not be the rim; the edge is "
+                "fitted as a circle on the mirror of free radius (its centre and shape place the "
+                "mirror; its size sets no scale)",
                 elevation);
   Progress(options, std::string(why) + "; calibrating again");
-  CalibrationOptions without = options;
-  without.use_lips = false;
-  result = CalibrateOnce(start, targets, detections, without);
+  CalibrationOptions as_circle = options;
+  as_circle.rim_radius_free = true;
+  result = CalibrateOnce(start, targets, detections, as_circle);
+  char radius[200];
+  std::snprintf(radius, sizeof(radius),
+                "the edge of the mirror's image: the mirror circle of radius %.3f mm (sigma %.3f "
+                "mm at the calibrated mirror's scale; the rim: %.3f mm)",
+                result.solve.rim_edge_radius_mm, result.solve.rim_edge_radius_sigma_mm,
+                start.r_sys);
   result.solve.notes.push_back(why);
+  result.solve.notes.push_back(radius);
   result.solve.rim_left_out = true;
   return result;
 }

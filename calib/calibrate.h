@@ -134,6 +134,10 @@ struct CalibrationOptions {
   // Lip edge points (detections' lips, calib/lip_cost.h) as residuals besides the corners
   // (session `lips:`, default true).
   bool use_lips = true;
+  // A single mirror's rim points as the image of a mirror circle of unknown radius (its measured
+  // diameter not used: calib/lip_cost.h RimCirclePointCost); Calibrate sets it where the edge of
+  // the mirror's image is not its rim.
+  bool rim_radius_free = false;
   // Progress, one line per stage (the CLI prints it to stderr); may be empty.
   std::function<void(const std::string&)> progress;
   // What the solve is doing now ("stage alignment, iteration 12, rms 0.412 px"), called per
@@ -347,6 +351,9 @@ struct SolveReport {
   // A single mirror's rim was observed but left out: the edge of its image is not its rim
   // (Calibrate; model/single_rim.h RimEdgeIsTheRim at the mirror calibrated with it).
   bool rim_left_out = false;
+  // Then: the radius (mm, at the calibrated scale) of the mirror circle the edge was fitted as
+  // (CalibrationOptions::rim_radius_free), with its sigma; 0 where not.
+  double rim_edge_radius_mm = 0, rim_edge_radius_sigma_mm = 0;
   // A single mirror's non-central part: tested, and kept or not (CalibrationOptions::noncentral).
   NonCentralDecision noncentral;
   // The data solved: the detections' image count and the session's targets in words

@@ -109,6 +109,14 @@ struct ObservationSet {
   std::vector<Placement> placements;
   std::vector<RejectedObservation> rejected;
   int n_images = 0;
+  // A single mirror's edge that is not its rim (calib/lip_cost.h RimCirclePointCost): the radius
+  // (mm, mirror 1's body) of the mirror circle it is, one block refined with the rig; each such
+  // lip point's `radius` is kept equal to it (SyncRimRadius).
+  bool rim_radius_free = false;
+  std::array<double, 1> rim_radius{};
+  bool RimRadiusFree(const LipObservation& l) const {
+    return rim_radius_free && l.path == LipPath::kDirect;
+  }
 };
 
 // Which observations a problem or a residual statistic takes.
@@ -213,6 +221,7 @@ struct CovarianceFindings {
   bool k3_evaluated = false;
   double k3_sigma = HUGE_VAL, k3_growth = 0;
   std::vector<double> lip_edge_sigma;
+  double rim_radius_sigma = 0;  // a free rim circle radius's (mm; 0: none)
 };
 
 }  // namespace omni::calib

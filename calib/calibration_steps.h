@@ -92,6 +92,8 @@ double CornerRms(const RigState& rig, const ObservationSet& observations, int mi
 // A lip point's circle height at the rig's current values (a single mirror's rim: the conic's
 // sag at its radius, model/single_rim.h; otherwise the collected lip.z).
 double CurrentLipZ(const RigParams& rig, const LipObservation& lip);
+// Each free-radius rim point's radius set to the session's rim circle radius block.
+void SyncRimRadius(ObservationSet* observations);
 double LipRms(const RigState& rig, const std::vector<LipObservation>& lips, int* count);
 // The outermost used corner's radius in normalised image coordinates (at the current camera).
 double OuterRadius(const RigParams& rig, const std::vector<Observation>& corners);
@@ -106,7 +108,7 @@ BlockMasks HeldColumns(const RigBlockSet& groups, const Refinement& refined);
 ceres::CostFunction* CornerCost(const RigState& rig, const Observation& corner, size_t i,
                                 const BlockMasks& held, CostCache* costs);
 ceres::CostFunction* LipCost(const RigState& rig, const LipObservation& lip, size_t i,
-                             const BlockMasks& held, CostCache* costs);
+                             const BlockMasks& held, CostCache* costs, bool radius_free = false);
 // Corner i's residual over the rig's blocks and its placement's pose.
 ceres::ResidualBlockId AddCornerResidual(size_t i, ceres::LossFunction* loss,
                                          const BlockMasks& held, RigState* rig,

@@ -56,6 +56,19 @@ Eigen::MatrixXd RigSchurComplement(const Eigen::SparseMatrix<double, Eigen::RowM
   return 0.5 * (schur + schur.transpose());
 }
 
+Eigen::MatrixXd EliminateLastColumn(const Eigen::MatrixXd& schur, Eigen::VectorXd* coupling,
+                                    double* information) {
+  const int n = static_cast<int>(schur.rows()) - 1;
+  *information = schur(n, n);
+  const Eigen::VectorXd s_ab = schur.col(n).head(n);
+  Eigen::MatrixXd out = schur.topLeftCorner(n, n);
+  *coupling = Eigen::VectorXd::Zero(n);
+  if (!(*information > 0)) return out;
+  *coupling = s_ab / *information;
+  out.noalias() -= s_ab * coupling->transpose();
+  return 0.5 * (out + out.transpose());
+}
+
 RigCovariance ComputeRigCovariance(const Eigen::SparseMatrix<double, Eigen::RowMajor>& jacobian,
                                    int n_rig, const RigCovarianceOptions& options) {
   const int n_considered = static_cast<int>(options.considered_sigma.size());

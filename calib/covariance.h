@@ -87,6 +87,15 @@ RigCovariance ComputeRigCovariance(const Eigen::SparseMatrix<double, Eigen::RowM
 RigCovariance RigCovarianceFromSchur(const Eigen::MatrixXd& schur_all, int n_rig,
                                      const RigCovarianceOptions& options);
 
+// The Schur complement of `schur`'s last row and column, a nuisance parameter shared by the
+// nuisance blocks RigSchurComplement eliminates one by one (a single mirror's edge circle radius,
+// which couples its points' azimuths), so kept as a front column and eliminated here, densely:
+// S_aa - S_ab S_ab^T / S_bb. *coupling = S_ab / S_bb, *information = S_bb (the last dropped, with
+// no coupling, where S_bb is not positive). The parameter's variance is then
+// 1 / S_bb + coupling^T Cov coupling, Cov the inverse of the result (block inverse).
+Eigen::MatrixXd EliminateLastColumn(const Eigen::MatrixXd& schur, Eigen::VectorXd* coupling,
+                                    double* information);
+
 // Schur complement of the pose blocks in J^T J.
 Eigen::MatrixXd RigSchurComplement(const Eigen::SparseMatrix<double, Eigen::RowMajor>& jacobian,
                                    int n_rig, const std::vector<int>& nuisance_sizes = {});

@@ -98,4 +98,42 @@ struct LipPointCost {
   }
 };
 
+// A single mirror's edge where it is not the rim (model/single_rim.h RimEdgeIsTheRim: the
+// holder at the rim is seen in the mirror's outer zone): still the image of one circle on the
+// mirror (the points whose reflected rays graze the holder's edge; fixed on the mirror, since the
+// camera is), but of unknown radius. The radius is one more block, shared by every such point of
+// the session; its height follows the conic (the sag at that radius). So the edge's centre and
+// ellipse decide the mirror's decentre and tilt against the camera, while its size, spent on the
+// radius, sets no scale (the rim's measured diameter is not used).
+struct RimCirclePointCost {
+  static constexpr auto kBlocks = LipPointCost::kBlocks;
+  LipPointCost lip;  // its radius and lip_z unused: the radius block's
+
+  template <typename T>
+  bool operator()(T const* const* blocks, T* residual) const {
+    const T* phi = blocks[kBlocks.size()];
+    const T radius = blocks[kBlocks.size() + 1][0];
+    const RigBlocks<T> b(kBlocks, blocks);
+    const T* shape = b[kShape1Block];
+    const T z = T(lip.fixed->vertex_z) +
+                Conic<T>{shape[kShapeC], shape[kShapeK]}.Sag(radius * radius);
+    return LipEdgeResidual(b, *lip.fixed, LipPath::kDirect, radius, z, phi[0],
+                           lip.disc_radius_mm, lip.observed, residual);
+  }
+
+  using CostFunction = RigSlotCost<RimCirclePointCost, 2, 1, 1>;
+
+  static ceres::CostFunction* Create(const Eigen::Vector2d& observed,
+                                     std::shared_ptr<const RigFixed> fixed,
+                                     const BlockMasks& held = {}, double disc_radius_mm = 0) {
+    constexpr size_t kAll = kBlocks.size() + 2;
+    return new CostFunction(
+        RimCirclePointCost{
+            LipPointCost{observed, LipPath::kDirect, 0, 0, std::move(fixed), disc_radius_mm}},
+        InListOrder<kAll>(kBlocks,
+                          NoDerivativeOutside(LipPointCost::Differentiable(LipPath::kDirect, true))),
+        InListOrder<kAll>(kBlocks, held));
+  }
+};
+
 }  // namespace omni::calib

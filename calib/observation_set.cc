@@ -129,6 +129,11 @@ ObservationSet CollectObservations(const Observations& detections,
   ObservationSet set;
   CollectCorners(detections, targets, options, &set);
   if (options.use_lips) CollectLips(detections, rig, &set.lips);
+  if (options.use_lips && options.rim_radius_free && rig.Single()) {
+    set.rim_radius_free = true;
+    set.rim_radius[0] = rig.r_sys;  // the points were labelled with the rim's circle
+    SyncRimRadius(&set);
+  }
   return set;
 }
 
@@ -332,8 +337,18 @@ void SelectRobustStageCorners(std::vector<Observation>* corners) {
 }
 
 double CurrentLipZ(const RigParams& rig, const LipObservation& lip) {
-  // A single mirror's rim moves with the refined conic (calib/lip_cost.h RimFollowsShape).
-  return rig.Single() && lip.path == LipPath::kDirect ? SingleRimZ(rig) : lip.z;
+  // A single mirror's rim moves with the refined conic (calib/lip_cost.h RimFollowsShape); so
+  // does the circle its edge is where that is not the rim (RimCirclePointCost): the sag at the
+  // point's radius (r_sys for the rim).
+  if (!rig.Single() || lip.path != LipPath::kDirect) return lip.z;
+  const Conic<double> conic{rig.mirror1_shape[kShapeC], rig.mirror1_shape[kShapeK]};
+  return rig.vertex_z + conic.Sag(lip.radius * lip.radius);
+}
+
+void SyncRimRadius(ObservationSet* observations) {
+  for (LipObservation& l : observations->lips) {
+    if (observations->RimRadiusFree(l)) l.radius = observations->rim_radius[0];
+  }
 }
 
 bool ReprojectLip(const RigState& rig, const LipObservation& lip, Eigen::Vector2d* pixel) {

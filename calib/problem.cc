@@ -79,9 +79,10 @@ ceres::CostFunction* CornerCost(const RigState& rig, const Observation& o, size_
 }
 
 ceres::CostFunction* LipCost(const RigState& rig, const LipObservation& l, size_t i,
-                             const BlockMasks& held, CostCache* costs) {
+                             const BlockMasks& held, CostCache* costs, bool radius_free) {
   const std::shared_ptr<const RigFixed>& fixed = LipBounds(rig, l.path);
-  return CachedCost(&CostsFor(held, costs).lips, i, fixed, [&] {
+  return CachedCost(&CostsFor(held, costs).lips, i, fixed, [&]() -> ceres::CostFunction* {
+    if (radius_free) return RimCirclePointCost::Create(l.pixel, fixed, held, rig.fixed->r_ref);
     return LipPointCost::Create(l.pixel, l.path, l.radius, l.z, fixed, held, rig.fixed->r_ref);
   });
 }
@@ -229,16 +230,30 @@ std::unique_ptr<CalibrationProblem> BuildProblem(RigState* rig, ObservationSet* 
                                                observations, costs, &p.problem));
     ++p.n_corners;
   }
-  // The lip points: each over the rig's blocks and its azimuth (calib/lip_cost.h's order).
+  // The lip points: each over the rig's blocks and its azimuth (calib/lip_cost.h's order), and
+  // a free-radius rim point over the session's rim radius too.
   RigParams& r = rig->params;
   for (size_t i = 0; i < (options.selection.lips ? observations->lips.size() : 0); ++i) {
     LipObservation& l = observations->lips[i];
     if (!l.Used() || !l.projectable) continue;
-    auto blocks = ParameterBlocks(LipPointCost::kBlocks, &r, l.phi.data());
-    p.pixel_blocks.push_back(p.problem.AddResidualBlock(LipCost(*rig, l, i, held, costs),
-                                                        lip_loss(l.members), blocks.data(),
-                                                        static_cast<int>(blocks.size())));
+    const bool radius_free = observations->RimRadiusFree(l);
+    ceres::CostFunction* cost = LipCost(*rig, l, i, held, costs, radius_free);
+    if (radius_free) {
+      auto blocks = ParameterBlocks(RimCirclePointCost::kBlocks, &r, l.phi.data(),
+                                    observations->rim_radius.data());
+      p.pixel_blocks.push_back(p.problem.AddResidualBlock(
+          cost, lip_loss(l.members), blocks.data(), static_cast<int>(blocks.size())));
+    } else {
+      auto blocks = ParameterBlocks(LipPointCost::kBlocks, &r, l.phi.data());
+      p.pixel_blocks.push_back(p.problem.AddResidualBlock(
+          cost, lip_loss(l.members), blocks.data(), static_cast<int>(blocks.size())));
+    }
     ++p.n_lips;
+  }
+  // The rim circle's radius stays inside the mirror (a positive radius below r_sys's reach).
+  if (p.problem.HasParameterBlock(observations->rim_radius.data())) {
+    p.problem.SetParameterLowerBound(observations->rim_radius.data(), 0, 0.2 * r.r_sys);
+    p.problem.SetParameterUpperBound(observations->rim_radius.data(), 0, 2.0 * r.r_sys);
   }
   AddPriors(options.groups, refined, &r, &p);
   HoldRigCoordinates(options.groups, refined, &r, &p.problem);

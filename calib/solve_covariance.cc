@@ -79,6 +79,9 @@ struct Columns {
   // tolerance the data update (Refinement::profile_updated).
   std::vector<int> updated_considered;
   int n_poses = 0;  // the pose blocks among the nuisance blocks after these columns (Evaluate)
+  // A free rim circle radius (ObservationSet::rim_radius_free): one column after all these,
+  // before the nuisance blocks (it is shared by the azimuths, so not eliminated with them).
+  bool rim_radius = false;
 };
 
 // The refined rig blocks (tangent coordinates) in kRigBlocks order. Held coordinates with a
@@ -400,6 +403,10 @@ Columns Evaluate(const Refinement& refined, const CalibrationOptions& options, R
   ceres::Problem& problem = built->problem;
   ceres::Problem::EvaluateOptions eo;
   Columns c = RigColumns(refined, options, rig, &problem, &eo.parameter_blocks, result);
+  if (problem.HasParameterBlock(observations->rim_radius.data())) {
+    eo.parameter_blocks.push_back(observations->rim_radius.data());
+    c.rim_radius = true;
+  }
   int n_poses = 0;
   for (auto& p : observations->placements) {
     if (problem.HasParameterBlock(p.cam_from_target.data())) {
@@ -442,7 +449,14 @@ RigCovariance CovarianceOf(const Eigen::SparseMatrix<double, Eigen::RowMajor>& j
         NearlyUnobservableSigma(name, rig.camera[kFx], outer_radius));
   }
   const int n_front = c.n_rig + c.n_probe + static_cast<int>(c.considered_sigma.size());
-  const Eigen::MatrixXd schur_all = RigSchurComplement(jacobian, n_front, nuisance_sizes);
+  Eigen::MatrixXd schur_all =
+      RigSchurComplement(jacobian, n_front + (c.rim_radius ? 1 : 0), nuisance_sizes);
+  // The rim circle's radius, a nuisance shared by the azimuths: eliminated last, densely.
+  Eigen::VectorXd radius_coupling;  // S_front,radius / S_radius,radius
+  double radius_information = 0;
+  if (c.rim_radius) {
+    schur_all = EliminateLastColumn(schur_all, &radius_coupling, &radius_information);
+  }
   // Held dist_k3: the probe's row and column left out.
   std::vector<int> kept;
   for (int i = 0; i < n_front; ++i) {
@@ -454,6 +468,15 @@ RigCovariance CovarianceOf(const Eigen::SparseMatrix<double, Eigen::RowMajor>& j
   }
   const RigCovariance cov = RigCovarianceFromSchur(schur_held, c.n_rig, co);
   if (c.n_probe) ProbeDistK3(schur_all, c, cov, co, rig, outer_radius, findings);
+  if (c.rim_radius && radius_information > 0) {
+    // Var(radius) = 1/S_rr + g^T Cov g, g = S_rr^-1 S_r,rig (block inverse; the considered
+    // columns' share left out). Over the determined coordinates only: where the scale (R, fx,
+    // tz) is not determined, this is the radius at the calibrated scale.
+    Eigen::VectorXd g(cov.observable.size());
+    for (size_t i = 0; i < cov.observable.size(); ++i) g(i) = radius_coupling(cov.observable[i]);
+    findings->rim_radius_sigma =
+        std::sqrt(1.0 / radius_information + g.dot(cov.covariance * g));
+  }
   return cov;
 }
 
@@ -490,7 +513,7 @@ CovarianceFindings ComputeCovariance(const Weights& weights, const Refinement& r
     ssr_weighted += r * r;
   }
   const int n_prior = static_cast<int>(built->prior_blocks.size());
-  const int n_params = c.n_rig + 6 * c.n_poses + n_lips;
+  const int n_params = c.n_rig + 6 * c.n_poses + n_lips + (c.rim_radius ? 1 : 0);
   const int dof = 2 * (n_obs + n_lips) + n_prior - n_params;
   result->solve.n_parameters = n_params;
   result->uncertainty.variance_factor = dof > 0 ? ssr_weighted / dof : 1.0;

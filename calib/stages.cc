@@ -80,10 +80,11 @@ struct Snapshot {
   RigParams rig;
   std::vector<std::array<double, 6>> poses;
   std::vector<double> phi;
+  double rim_radius = 0;
 };
 
 Snapshot TakeSnapshot(const RigState& rig, const ObservationSet& observations) {
-  Snapshot s{rig.params, {}, {}};
+  Snapshot s{rig.params, {}, {}, observations.rim_radius[0]};
   for (const auto& p : observations.placements) s.poses.push_back(p.cam_from_target);
   for (const auto& l : observations.lips) s.phi.push_back(l.phi[0]);
   return s;
@@ -95,6 +96,8 @@ void Restore(const Snapshot& s, RigState* rig, ObservationSet* observations) {
     observations->placements[p].cam_from_target = s.poses[p];
   }
   for (size_t i = 0; i < observations->lips.size(); ++i) observations->lips[i].phi[0] = s.phi[i];
+  observations->rim_radius[0] = s.rim_radius;
+  SyncRimRadius(observations);
 }
 
 // The solver's options for `stage` on `problem`: Schur elimination of the poses and azimuths, the
@@ -116,6 +119,10 @@ ceres::Solver::Options SolverOptions(const Stage& stage, const CalibrationOption
   for (int b = 0; b < kRigBlockCount; ++b) {
     double* block = BlockIn(rig, static_cast<RigBlockId>(b));
     if (problem.HasParameterBlock(block)) ordering->AddElementToGroup(block, 1);
+  }
+  // The rim circle's radius is shared by many azimuths: eliminated with the rig, not before it.
+  if (problem.HasParameterBlock(observations->rim_radius.data())) {
+    ordering->AddElementToGroup(observations->rim_radius.data(), 1);
   }
   so.linear_solver_ordering.reset(ordering);
   so.num_threads = std::max(1, options.solver.threads);
@@ -212,6 +219,7 @@ StageReport SolveStage(const Stage& stage, const CalibrationOptions& options,
   }
   ceres::Solver::Summary summary;
   ceres::Solve(so, &problem, &summary);
+  SyncRimRadius(observations);
   report.iterations = static_cast<int>(summary.iterations.size()) - 1;
   report.converged = summary.termination_type == ceres::CONVERGENCE;
   report.termination = summary.message;

@@ -53,12 +53,8 @@ RigParams WithMirrorReaching(const RigParams& rig, double radius_mm) {
   return out;
 }
 
-namespace {
-
-// The median radial offset (px, + outside) of the points from the image of the mirror circle of
-// radius r, about that image's centre; NaN where the circle does not project all round.
-double MedianOffsetFromCircle(const RigModel& model, double r,
-                              const std::vector<Eigen::Vector2d>& points) {
+std::vector<double> RadialOffsetsFromCircle(const RigModel& model, double r,
+                                           const std::vector<Eigen::Vector2d>& points) {
   const RigParams circle_rig = WithRimCircleAt(model.params(), r);
   const RigBlocks<double> blocks = RigBlocksOf(circle_rig);
   constexpr int kAzimuths = 720;
@@ -67,7 +63,7 @@ double MedianOffsetFromCircle(const RigModel& model, double r,
     Eigen::Vector2d px;
     if (!ProjectLipPoint(blocks, model.fixed(), LipPath::kDirect, r, circle_rig.lip1.z,
                          2 * M_PI * (k + 0.5) / kAzimuths, &px)) {
-      return std::nan("");
+      return {};
     }
     curve.push_back(px);
   }
@@ -90,6 +86,15 @@ double MedianOffsetFromCircle(const RigModel& model, double r,
     if (std::isnan(radius_at[sector])) continue;
     offsets.push_back((p - centre).norm() - radius_at[sector]);
   }
+  return offsets;
+}
+
+namespace {
+
+// The median of RadialOffsetsFromCircle; NaN where there is none.
+double MedianOffsetFromCircle(const RigModel& model, double r,
+                              const std::vector<Eigen::Vector2d>& points) {
+  std::vector<double> offsets = RadialOffsetsFromCircle(model, r, points);
   if (offsets.empty()) return std::nan("");
   std::nth_element(offsets.begin(), offsets.begin() + offsets.size() / 2, offsets.end());
   return offsets[offsets.size() / 2];

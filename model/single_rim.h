@@ -44,6 +44,12 @@ RigParams WithRimCircleAt(const RigParams& rig, double radius_mm);
 // scale is at least there), so that every ray the photos show has an image in the model.
 RigParams WithMirrorReaching(const RigParams& rig, double radius_mm);
 
+// Each point's radial offset (px, + outside) from the image of the mirror circle of radius
+// `radius_mm` (at the conic's sag there), about that image's centre; empty where the circle does
+// not project all round. Points whose direction finds no part of the image are skipped.
+std::vector<double> RadialOffsetsFromCircle(const RigModel& model, double radius_mm,
+                                           const std::vector<Eigen::Vector2d>& points);
+
 // The radius (mm) of the mirror circle whose image the edge points lie on (the median of their
 // radial offsets from it zero, by bisection over 0.2-2 r_sys); 0 if the points are fewer than 20
 // or no radius in that span brackets them.

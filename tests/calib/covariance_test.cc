@@ -147,5 +147,28 @@ TEST(RigCovariance, UpdatedConsideredColumnsGiveTheFreedMarginalCovariance) {
             std::vector<int>{0});
 }
 
+// A nuisance parameter shared by everything (a single mirror's edge circle radius) eliminated
+// last, densely: the remaining block's inverse is the full inverse's block, and the parameter's
+// variance from the coupling is the full inverse's diagonal entry.
+TEST(RigCovariance, ASharedNuisanceColumnEliminatedLastMatchesTheFullInverse) {
+  std::mt19937 rng(11);
+  std::normal_distribution<double> g(0.0, 1.0);
+  const int n = 6;
+  Eigen::MatrixXd j(60, n + 1);
+  for (int r = 0; r < j.rows(); ++r) {
+    for (int c = 0; c <= n; ++c) j(r, c) = g(rng);
+    j(r, n) += 0.7 * j(r, 0) - 0.4 * j(r, 3);  // coupled with the others
+  }
+  const Eigen::MatrixXd full = j.transpose() * j;
+  Eigen::VectorXd coupling;
+  double information = 0;
+  const Eigen::MatrixXd reduced = EliminateLastColumn(full, &coupling, &information);
+  const Eigen::MatrixXd full_inverse = full.inverse();
+  const Eigen::MatrixXd cov = reduced.inverse();
+  EXPECT_LT((cov - full_inverse.topLeftCorner(n, n)).norm(), 1e-12 * full_inverse.norm());
+  const double variance = 1.0 / information + coupling.dot(cov * coupling);
+  EXPECT_NEAR(variance, full_inverse(n, n), 1e-12 * full_inverse(n, n));
+}
+
 }  // namespace
 }  // namespace omni::calib

@@ -205,5 +205,57 @@ TEST_F(SlotAutoDiffTest, LipCostsMatchPlainAutoDiffOnEveryPath) {
   }
 }
 
+// A single mirror's edge as a mirror circle of free radius (RimCirclePointCost, on a tilted,
+// offset sphere): the same Jacobians as plain automatic differentiation, the radius block's
+// included; at any radius the same residual as the fixed circle's cost at that radius and its sag.
+TEST(SlotAutoDiffSingle, RimCircleCostMatchesPlainAutoDiffAndTheFixedCircle) {
+  RigParams rig = MakeSingleRig(Conic<double>{40.0, 0.0}, LensKind::kPerspective, 100, 30, 5,
+                                Pinhole<double>{1800, 1800, 644.7, 508.1, 0}, 1280, 1024);
+  rig.kind = ModelKind::kNoncentral;
+  rig.mirror1_pose = {0.006, -0.0065, 0.4, -0.3, 0.2};
+  rig.distortion = {-0.02, 0.004, 1e-4, 2e-4, 0};
+  RigFixed relaxed = FixedOf(rig);
+  relaxed.r_sys += 30;
+  relaxed.r_ref = 0;
+  const auto fixed = std::make_shared<const RigFixed>(relaxed);
+  const Conic<double> conic{rig.mirror1_shape[kShapeC], rig.mirror1_shape[kShapeK]};
+  int checked = 0;
+  for (double radius : {28.85, 30.0}) {
+    const double z = rig.vertex_z + conic.Sag(radius * radius);
+    for (double phi0 = 0.1; phi0 < 2 * M_PI; phi0 += 0.7) {
+      Eigen::Vector2d pixel;
+      ASSERT_TRUE(ProjectLipPoint(RigBlocksOf(rig), *fixed, LipPath::kDirect, radius, z, phi0,
+                                  &pixel));
+      const Eigen::Vector2d observed = pixel + Eigen::Vector2d(-0.2, 0.25);
+      double phi[1] = {phi0};
+      double radius_block[1] = {radius};
+      const std::unique_ptr<ceres::CostFunction> plain = Plain(
+          new RimCirclePointCost{LipPointCost{observed, LipPath::kDirect, 0, 0, fixed, 0}}, {1, 1});
+      std::unique_ptr<ceres::CostFunction> slot(RimCirclePointCost::Create(observed, fixed));
+      const std::vector<double*> blocks = {
+          rig.camera.data(),        rig.distortion.data(),   rig.mirror1_shape.data(),
+          rig.mirror1_pose.data(),  rig.reflex.data(),       rig.mirror2_shape.data(),
+          rig.mirror2_pose.data(), rig.mirror1_profile.data(), rig.mirror2_profile.data(),
+          phi,                      radius_block};
+      int n_nonzero = 0;
+      ExpectSame(*plain, *slot, blocks, std::vector<bool>(11, true), std::vector<uint32_t>(11, 0),
+                 &n_nonzero);
+      EXPECT_GT(n_nonzero, 20);
+      // The radius moves the point across the edge: a non-zero column.
+      const Evaluation e = Evaluate(*slot, blocks, std::vector<bool>(11, true));
+      EXPECT_GT(std::hypot(e.jacobians[10][0], e.jacobians[10][1]), 1.0);
+      // The fixed circle at that radius (LipPointCost follows the conic's sag there too).
+      std::unique_ptr<ceres::CostFunction> fixed_circle(
+          LipPointCost::Create(observed, LipPath::kDirect, radius, z, fixed));
+      const std::vector<double*> lip_blocks(blocks.begin(), blocks.end() - 1);
+      const Evaluation f = Evaluate(*fixed_circle, lip_blocks, std::vector<bool>(10, false));
+      ASSERT_TRUE(f.ok);
+      for (int r = 0; r < 2; ++r) EXPECT_NEAR(e.residuals[r], f.residuals[r], 1e-12);
+      ++checked;
+    }
+  }
+  EXPECT_GE(checked, 10);
+}
+
 }  // namespace
 }  // namespace omni::calib
