@@ -491,7 +491,28 @@ CalibrationResult CalibrateJudgingRim(const RigParams& start, const std::vector<
   Progress(options, std::string(why) + "; calibrating again");
   CalibrationOptions as_circle = options;
   as_circle.rim_radius_free = true;
-  result = CalibrateOnce(start, targets, detections, as_circle);
+  CalibrationResult circle = CalibrateOnce(start, targets, detections, as_circle);
+  // The flange seen in the outer zone puts the edge inside the rim (the sample renders: 29.4 and
+  // 28.85 of 30 mm). A circle at or beyond the rim (OCamCalib's VMR set: at its bound, twice the
+  // rim, the corners' rms 0.30 -> 0.47 px) is no such edge: the rim is left out instead.
+  const double fitted = circle.solve.rim_edge_radius_mm;
+  if (!(fitted < start.r_sys && fitted > 0.25 * start.r_sys)) {
+    char none[640];
+    std::snprintf(none, sizeof(none),
+                  "the mirror's rim left out: at the calibrated mirror its outer zone reflects "
+                  "rays %.1f deg past the rim's plane, so the edge of its image need not be the "
+                  "rim, and it fits no circle inside the rim either (radius %.2f mm against the "
+                  "rim's %.2f) (calibrated without it)",
+                  elevation, fitted, start.r_sys);
+    Progress(options, std::string(none) + "; calibrating again");
+    CalibrationOptions without = options;
+    without.use_lips = false;
+    result = CalibrateOnce(start, targets, detections, without);
+    result.solve.notes.push_back(none);
+    result.solve.rim_left_out = true;
+    return result;
+  }
+  result = std::move(circle);
   char radius[200];
   std::snprintf(radius, sizeof(radius),
                 "the edge of the mirror's image: the mirror circle of radius %.3f mm (sigma %.3f "
