@@ -160,6 +160,8 @@ void DetectorContext::SetSingleMirrorOptions() {
   chessboard.saddle_relative_contrast = model.params().Single() ? 0.4 : 0.0;
   // No painted lips beside a single mirror's boards (ChessboardOptions::foreign_edge_slope).
   chessboard.foreign_edge_slope = model.params().Single() ? 0.7 : 0.5;
+  // Boards no view holds whole (a large board held close; a start far from an unknown mirror).
+  chessboard.search_photo = model.params().Single();
 }
 
 void DetectorContext::SetModel(const RigParams& rig) {
@@ -187,7 +189,7 @@ ImageObservations DetectImage(const cv::Mat& image, DetectorContext* ctx,
   const cv::Mat grey = ToGrey(linear);
   RenderViews(grey, &ctx->views);
   out.corners = ChessboardsBrightThenDim(grey, *ctx, repeated);
-  if (rig.Single()) ChessboardsInThePhoto(image, grey, *ctx, &out.corners);
+  if (rig.Single() && ctx->chessboard.search_photo) ChessboardsInThePhoto(image, grey, *ctx, &out.corners);
   // Tag grids (plain tag36h11 and Kalibr AprilGrids) in the same, already rendered views.
   bool any_tags = false;
   for (const TargetSpec& t : ctx->targets) any_tags = any_tags || t.type != TargetType::kChessboard;

@@ -89,6 +89,9 @@ struct ChessboardOptions {
   // CleanHalfWindow): 0.5 catches the folded rig's painted lips; DetectorContext sets 0.7 for
   // single rigs (no lips; their rim is black; boards' sheen in linear light let through).
   double foreign_edge_slope = 0.5;
+  // A board the views find less than whole searched in the photo itself (raw_board.h);
+  // DetectorContext sets it for single rigs.
+  bool search_photo = false;
   // After the raw refinement: subtract cornerSubPix's bias on the curved images of the board's
   // lines, predicted from the refined neighbours (detectors/common/corner_refine.h).
   bool remove_curvature_bias = true;
